@@ -1,0 +1,88 @@
+"""Planar Delaunay triangulation of scan points, trimmed to the scanned outline."""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from scanmesh import _core
+from scanmesh._checks import as_points
+from scanmesh.errors import CoincidentPointsWarning, ParameterError
+from scanmesh.projection import PlaneSpec, project
+from scanmesh.surface import Surface
+
+#: Default ``max_edge`` in multiples of the median nearest-neighbour spacing (planar).
+MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
+
+
+def resolve_max_edge(uv: np.ndarray, faces: np.ndarray, max_edge: float | None) -> float:
+    """The trimming length: ``max_edge`` itself, or MAX_EDGE_FACTOR x median spacing for None."""
+    if max_edge is None:
+        return MAX_EDGE_FACTOR * _core.median_spacing(uv, faces)
+    value = float(max_edge)
+    if math.isnan(value) or value <= 0:
+        raise ParameterError(f"max_edge must be positive (or math.inf), got {max_edge!r}")
+    return value
+
+
+def delaunay(
+    points: ArrayLike, *, plane: PlaneSpec = None, max_edge: float | None = None
+) -> Surface:
+    """Delaunay triangulation of the points projected onto a plane.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        Scan points; any real dtype and memory layout.
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane (see :func:`scanmesh.projection.project`).
+    max_edge : float, optional
+        Triangles with a longer planar edge (input units) are dropped, so holes and concave
+        outlines stay open. Default: ``MAX_EDGE_FACTOR`` (5) x the median nearest-neighbour
+        spacing. ``math.inf`` keeps the whole convex hull.
+
+    Returns
+    -------
+    Surface
+        Faces over the input points. Points that coincide in the plane with an earlier point
+        are not used; ``Surface.duplicates`` lists them and a ``CoincidentPointsWarning`` says
+        how many.
+
+    Raises
+    ------
+    ScanmeshError
+        Wrong shape, non-finite values, fewer than 3 distinct points, or collinear points.
+    """
+    t0 = time.perf_counter()
+    pts = as_points(points)
+    uv, frame = project(pts, plane)
+    t1 = time.perf_counter()
+    faces, duplicate_of = _core.delaunay(uv)
+    t2 = time.perf_counter()
+    limit = resolve_max_edge(uv, faces, max_edge)
+    if math.isfinite(limit):
+        faces = _core.trim_long_edges(uv, faces, limit)
+    t3 = time.perf_counter()
+    dropped = np.flatnonzero(duplicate_of >= 0)
+    duplicates = np.column_stack([dropped, duplicate_of[dropped]]).astype(np.int64)
+    if len(dropped):
+        shown = ", ".join(f"{a}->{b}" for a, b in duplicates[:5])
+        warnings.warn(
+            f"{len(dropped)} point(s) coincide in the projection plane with an earlier point and"
+            f" are left out (first: {shown}); see Surface.duplicates",
+            CoincidentPointsWarning,
+            stacklevel=2,
+        )
+    return Surface(
+        vertices=pts,
+        faces=faces,
+        method="delaunay",
+        options={"plane": plane, "max_edge": limit},
+        frame=frame,
+        duplicates=duplicates,
+        timings={"project": t1 - t0, "triangulate": t2 - t1, "trim": t3 - t2},
+    )

@@ -1,0 +1,34 @@
+"""Exception and warning classes: every input problem is a ``ScanmeshError`` (a ``ValueError``)."""
+
+from scanmesh._core import (
+    DegenerateInputError,
+    InvalidMeshError,
+    ParameterError,
+    ScanmeshError,
+)
+
+
+class FileFormatError(ScanmeshError):
+    """A file that cannot be read: unknown format, malformed content, truncated data.
+
+    The message names the file and, for text formats, the line.
+    """
+
+
+class ScanmeshWarning(UserWarning):
+    """Base of scanmesh's warnings: the result is honest but the input deserves a look."""
+
+
+class CoincidentPointsWarning(ScanmeshWarning):
+    """Points that coincide in the projection plane; all but one of each group are unused."""
+
+
+__all__ = [
+    "ScanmeshError",
+    "DegenerateInputError",
+    "ParameterError",
+    "InvalidMeshError",
+    "FileFormatError",
+    "ScanmeshWarning",
+    "CoincidentPointsWarning",
+]

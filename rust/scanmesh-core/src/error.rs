@@ -1,0 +1,81 @@
+//! The one error type of the core: every variant names the offending value.
+
+use std::fmt;
+
+/// Everything that can go wrong in `scanmesh-core`. Bindings map each variant to an exception.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Error {
+    /// A coordinate is NaN or infinite (`index` is the point, `axis` 0..3).
+    NonFinite {
+        /// The point.
+        index: usize,
+        /// 0, 1 or 2 for x, y, z.
+        axis: usize,
+        /// The offending value.
+        value: f64,
+    },
+    /// Fewer than three distinct points (after merging exact duplicates in the plane).
+    TooFewPoints {
+        /// How many distinct points there are.
+        distinct: usize,
+    },
+    /// All points lie on one line: in 3-D, or only after projection onto the plane.
+    Collinear {
+        /// False when collinear in 3-D, true when only their projection is.
+        after_projection: bool,
+    },
+    /// A parameter outside its valid range.
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// Its value, printed.
+        value: String,
+        /// What was expected instead.
+        expected: &'static str,
+    },
+    /// A face refers to a vertex that does not exist, repeats a vertex, or is degenerate.
+    InvalidFace {
+        /// Index of the face.
+        face: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A mesh invariant does not hold (see `HalfEdgeMesh::validate`).
+    Invariant(String),
+    /// The caller asked the computation to stop.
+    Interrupted,
+}
+
+/// Result alias of the core.
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::NonFinite { index, axis, value } => write!(
+                f,
+                "point {index} has a non-finite coordinate {}={value}",
+                ["x", "y", "z"].get(*axis).copied().unwrap_or("?")
+            ),
+            Error::TooFewPoints { distinct } => write!(
+                f,
+                "need at least 3 distinct points to triangulate, got {distinct}"
+            ),
+            Error::Collinear { after_projection: false } => {
+                write!(f, "all points are collinear: they span no surface")
+            }
+            Error::Collinear { after_projection: true } => write!(
+                f,
+                "all points are collinear after projection onto the plane: choose another plane"
+            ),
+            Error::InvalidParameter { name, value, expected } => {
+                write!(f, "invalid {name}={value}: expected {expected}")
+            }
+            Error::InvalidFace { face, reason } => write!(f, "face {face}: {reason}"),
+            Error::Invariant(what) => write!(f, "mesh invariant violated: {what}"),
+            Error::Interrupted => write!(f, "interrupted"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}

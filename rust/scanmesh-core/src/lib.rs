@@ -1,0 +1,22 @@
+//! scanmesh-core: triangulated surfaces from digitized scan-line points.
+//!
+//! Pure Rust, no Python. Modules, one concept each:
+//! - [`geometry`]: corner angles (atan2 form), areas, exact orientation, normalization;
+//! - [`projection`]: points to a plane (least squares, an axis, a normal);
+//! - [`delaunay`]: planar Delaunay through spade, with the map back to input indices;
+//! - [`mesh`]: flat half-edge triangulation with flips and `validate()`;
+//! - [`criteria`]: max-min angle and tac (total absolute curvature) with p-norms;
+//! - [`trim`]: removing long hull triangles so outlines and holes stay open.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod criteria;
+pub mod delaunay;
+mod error;
+pub mod geometry;
+pub mod mesh;
+pub mod projection;
+pub mod trim;
+
+pub use error::{Error, Result};
+pub use glam;

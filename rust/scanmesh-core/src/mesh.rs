@@ -1,0 +1,567 @@
+//! A flat half-edge triangulation that supports edge flips; positions are kept apart.
+//!
+//! Layout (as delaunator): triangle `t` owns half-edges `3t`, `3t + 1`, `3t + 2` in
+//! counter-clockwise order, so `next` and `prev` are arithmetic and only two arrays are
+//! stored: `start[h]` (the vertex the half-edge leaves) and `twin[h]` (the opposite
+//! half-edge, `NONE` on the boundary). A flip rewrites the six slots of its two triangles
+//! in place; nothing is allocated.
+
+use crate::delaunay::NONE;
+use crate::geometry::{orient2d, planar_corner_angle};
+use crate::{Error, Result};
+
+/// Connectivity of a triangulation of `n_vertices` points.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct HalfEdgeMesh {
+    start: Vec<u32>,
+    twin: Vec<u32>,
+    /// For each vertex, one half-edge leaving it: on a boundary vertex, the one without a
+    /// twin (the most clockwise), so that a counter-clockwise walk covers the whole fan.
+    vertex_edge: Vec<u32>,
+    on_boundary: Vec<bool>,
+}
+
+/// The next half-edge in the same triangle (counter-clockwise). O(1).
+#[inline]
+pub fn next(h: u32) -> u32 {
+    if h % 3 == 2 {
+        h - 2
+    } else {
+        h + 1
+    }
+}
+
+/// The previous half-edge in the same triangle. O(1).
+#[inline]
+pub fn prev(h: u32) -> u32 {
+    if h % 3 == 0 {
+        h + 2
+    } else {
+        h - 1
+    }
+}
+
+impl HalfEdgeMesh {
+    /// Builds the mesh from consistently oriented triangles over vertices `0..n_vertices`.
+    ///
+    /// Errors: an index out of range, a repeated vertex in a triangle, or a directed edge
+    /// used twice (two triangles on the same side of an edge: inconsistent orientation or
+    /// a non-manifold edge). O(m log m) for m triangles.
+    pub fn from_triangles(n_vertices: usize, triangles: &[[u32; 3]]) -> Result<Self> {
+        let m = triangles.len();
+        if 3 * m >= NONE as usize {
+            return Err(Error::InvalidParameter {
+                name: "faces",
+                value: m.to_string(),
+                expected: "fewer than 2^32 / 3 triangles",
+            });
+        }
+        let mut start = Vec::with_capacity(3 * m);
+        for (f, t) in triangles.iter().enumerate() {
+            for &v in t {
+                if v as usize >= n_vertices {
+                    return Err(Error::InvalidFace {
+                        face: f,
+                        reason: format!("vertex index {v} out of range (there are {n_vertices} vertices)"),
+                    });
+                }
+            }
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                return Err(Error::InvalidFace { face: f, reason: format!("repeats a vertex: {t:?}") });
+            }
+            start.extend_from_slice(t);
+        }
+        // Directed edge keys (from << 32 | to), sorted, to pair each half-edge with its twin.
+        let key = |h: u32| ((start[h as usize] as u64) << 32) | start[next(h) as usize] as u64;
+        let mut keyed: Vec<(u64, u32)> = (0..3 * m as u32).map(|h| (key(h), h)).collect();
+        keyed.sort_unstable();
+        for w in keyed.windows(2) {
+            if w[0].0 == w[1].0 {
+                let (a, b) = ((w[0].0 >> 32) as u32, w[0].0 as u32);
+                return Err(Error::InvalidFace {
+                    face: (w[1].1 / 3) as usize,
+                    reason: format!(
+                        "edge {a}->{b} is also used in the same direction by face {}: faces must be consistently oriented and each edge shared by at most two faces",
+                        w[0].1 / 3
+                    ),
+                });
+            }
+        }
+        let mut twin = vec![NONE; 3 * m];
+        for h in 0..3 * m as u32 {
+            let reverse = ((start[next(h) as usize] as u64) << 32) | start[h as usize] as u64;
+            if let Ok(k) = keyed.binary_search_by_key(&reverse, |&(k, _)| k) {
+                twin[h as usize] = keyed[k].1;
+            }
+        }
+        let mut mesh = HalfEdgeMesh { start, twin, vertex_edge: vec![NONE; n_vertices], on_boundary: vec![false; n_vertices] };
+        mesh.index_vertices();
+        Ok(mesh)
+    }
+
+    /// Recomputes `vertex_edge` and `on_boundary` from the half-edges. O(m).
+    fn index_vertices(&mut self) {
+        for h in 0..self.start.len() as u32 {
+            let v = self.start[h as usize] as usize;
+            if self.twin[h as usize] == NONE {
+                self.vertex_edge[v] = h;
+                self.on_boundary[v] = true;
+                self.on_boundary[self.start[next(h) as usize] as usize] = true;
+            } else if self.vertex_edge[v] == NONE {
+                self.vertex_edge[v] = h;
+            }
+        }
+    }
+
+    /// Number of vertices (used or not). O(1).
+    pub fn n_vertices(&self) -> usize {
+        self.vertex_edge.len()
+    }
+
+    /// Number of triangles. O(1).
+    pub fn n_triangles(&self) -> usize {
+        self.start.len() / 3
+    }
+
+    /// Number of half-edges (three per triangle). O(1).
+    pub fn n_half_edges(&self) -> usize {
+        self.start.len()
+    }
+
+    /// The vertex half-edge `h` leaves. O(1).
+    #[inline]
+    pub fn start(&self, h: u32) -> u32 {
+        self.start[h as usize]
+    }
+
+    /// The vertex half-edge `h` arrives at. O(1).
+    #[inline]
+    pub fn end(&self, h: u32) -> u32 {
+        self.start[next(h) as usize]
+    }
+
+    /// The opposite half-edge, or `NONE` on the boundary. O(1).
+    #[inline]
+    pub fn twin(&self, h: u32) -> u32 {
+        self.twin[h as usize]
+    }
+
+    /// The three vertices of triangle `t`, counter-clockwise. O(1).
+    #[inline]
+    pub fn triangle(&self, t: usize) -> [u32; 3] {
+        [self.start[3 * t], self.start[3 * t + 1], self.start[3 * t + 2]]
+    }
+
+    /// All triangles, counter-clockwise. O(m).
+    pub fn triangles(&self) -> Vec<[u32; 3]> {
+        (0..self.n_triangles()).map(|t| self.triangle(t)).collect()
+    }
+
+    /// One half-edge per undirected edge (the lower of a twin pair; every boundary half-edge). O(m).
+    pub fn edges(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.start.len() as u32).filter(move |&h| {
+            let t = self.twin[h as usize];
+            t == NONE || h < t
+        })
+    }
+
+    /// One half-edge per interior edge (both sides have a triangle). O(m).
+    pub fn interior_edges(&self) -> Vec<u32> {
+        (0..self.start.len() as u32).filter(|&h| h < self.twin[h as usize]).collect()
+    }
+
+    /// True when `v` is used and no boundary edge touches it: its triangles form a closed fan. O(1).
+    #[inline]
+    pub fn is_interior(&self, v: u32) -> bool {
+        self.vertex_edge[v as usize] != NONE && !self.on_boundary[v as usize]
+    }
+
+    /// True when `v` belongs to at least one triangle. O(1).
+    #[inline]
+    pub fn is_used(&self, v: u32) -> bool {
+        self.vertex_edge[v as usize] != NONE
+    }
+
+    /// The half-edges leaving `v`, counter-clockwise, starting from the most clockwise one on
+    /// a boundary vertex. O(degree).
+    pub fn fan(&self, v: u32) -> Fan<'_> {
+        let first = self.vertex_edge[v as usize];
+        Fan { mesh: self, first, current: first }
+    }
+
+    /// True when flipping `h` is allowed: it is interior and its two triangles form a
+    /// strictly convex quadrilateral in the plane, with no three of its corners collinear.
+    ///
+    /// With the quadrilateral (a, d, b, c) around diagonal a→b, the old triangles are strictly
+    /// counter-clockwise by invariant, so strict convexity is exactly that both new triangles
+    /// (d, c, a) and (c, d, b) are strictly counter-clockwise (exact predicate). O(1).
+    pub fn can_flip(&self, h: u32, uv: &[[f64; 2]]) -> bool {
+        let t = self.twin[h as usize];
+        if t == NONE {
+            return false;
+        }
+        let [a, b, c, d] = self.quad(h, t).map(|v| uv[v as usize]);
+        orient2d(d, c, a) > 0.0 && orient2d(c, d, b) > 0.0
+    }
+
+    /// The four corners (a, b, c, d) around interior half-edge `h` = a→b with twin `t`:
+    /// c is opposite h, d opposite t. O(1).
+    #[inline]
+    pub fn quad(&self, h: u32, t: u32) -> [u32; 4] {
+        [self.start(h), self.start(t), self.start(prev(h)), self.start(prev(t))]
+    }
+
+    /// Flips interior half-edge `h` (a→b) to the other diagonal (c→d) without checking
+    /// convexity (see [`can_flip`](Self::can_flip)). O(1).
+    ///
+    /// ```text
+    ///        c                      c
+    ///      / ^ \                  / | \
+    ///   h2/  |h0\h1    flip     h1/  |  \t2
+    ///    v   |   \    ----->    v  h0|t0 \
+    ///   a    |    b            a     |    b
+    ///    \ t0|   ^              \    |   ^
+    ///   t1\  v  /t2           h2 \   v  / t1
+    ///      v   /                  v  /
+    ///        d                      d
+    /// ```
+    /// Before: triangle h = (a, b, c) in slots h0 = a→b, h1 = b→c, h2 = c→a and twin
+    /// triangle (b, a, d) in t0 = b→a, t1 = a→d, t2 = d→b. After: (d, c, a) in h0 = d→c,
+    /// h1 = c→a, h2 = a→d and (c, d, b) in t0 = c→d, t1 = d→b, t2 = b→c. Returns the new
+    /// diagonal's half-edge (still `h`). Flipping it again restores the connectivity up to
+    /// slot rotation; the caller's caches indexed by slot must follow the same rewrite.
+    pub fn flip(&mut self, h: u32) -> u32 {
+        let t = self.twin[h as usize];
+        debug_assert!(t != NONE, "flip of boundary half-edge {h}");
+        let (h0, h1, h2) = (h, next(h), prev(h));
+        let (t0, t1, t2) = (t, next(t), prev(t));
+        let [a, b, c, d] = self.quad(h, t);
+        let (tw_ca, tw_ad, tw_db, tw_bc) =
+            (self.twin[h2 as usize], self.twin[t1 as usize], self.twin[t2 as usize], self.twin[h1 as usize]);
+        let s = &mut self.start;
+        s[h0 as usize] = d;
+        s[h1 as usize] = c;
+        s[h2 as usize] = a;
+        s[t0 as usize] = c;
+        s[t1 as usize] = d;
+        s[t2 as usize] = b;
+        self.link(h1, tw_ca);
+        self.link(h2, tw_ad);
+        self.link(t1, tw_db);
+        self.link(t2, tw_bc);
+        // Boundary vertices must keep their twin-less outgoing half-edge, which may have
+        // moved slot; an interior vertex may point anywhere it still leaves from.
+        let moved = |e: u32| -> u32 {
+            match e {
+                x if x == h1 => t2, // b→c
+                x if x == h2 => h1, // c→a
+                x if x == t1 => h2, // a→d
+                x if x == t2 => t1, // d→b
+                x if x == h0 => h2, // a's a→b is gone: a→d
+                x if x == t0 => t2, // b's b→a is gone: b→c
+                x => x,
+            }
+        };
+        for v in [a, b, c, d] {
+            let e = self.vertex_edge[v as usize];
+            self.vertex_edge[v as usize] = moved(e);
+        }
+        h
+    }
+
+    #[inline]
+    fn link(&mut self, h: u32, t: u32) {
+        self.twin[h as usize] = t;
+        if t != NONE {
+            self.twin[t as usize] = h;
+        }
+    }
+
+    /// Checks every invariant against the planar positions `uv`; the error says which failed.
+    ///
+    /// Twins are mutual and reversed; each triangle is strictly counter-clockwise (exact
+    /// predicate); no directed edge repeats; every used vertex has a single fan (at most one
+    /// boundary half-edge leaves it, and the walk from `vertex_edge` visits all its
+    /// half-edges); the planar angles around each interior vertex sum to 2π (no fold);
+    /// and the Euler characteristic V − E + F equals 2C − B for C components and B boundary
+    /// loops (each component a disc with holes). O(m log m).
+    pub fn validate(&self, uv: &[[f64; 2]]) -> Result<()> {
+        let fail = |s: String| Err(Error::Invariant(s));
+        if uv.len() != self.n_vertices() {
+            return fail(format!("{} positions for {} vertices", uv.len(), self.n_vertices()));
+        }
+        if self.start.len() % 3 != 0 || self.twin.len() != self.start.len() {
+            return fail("half-edge arrays of inconsistent length".into());
+        }
+        let n_he = self.start.len() as u32;
+        for h in 0..n_he {
+            if self.start(h) as usize >= self.n_vertices() {
+                return fail(format!("half-edge {h} starts at vertex {} out of range", self.start(h)));
+            }
+            let t = self.twin(h);
+            if t != NONE {
+                if t >= n_he || self.twin(t) != h {
+                    return fail(format!("twin of half-edge {h} is not mutual"));
+                }
+                if self.start(t) != self.end(h) || self.end(t) != self.start(h) {
+                    return fail(format!("half-edge {h} and its twin {t} do not join the same vertices"));
+                }
+            }
+        }
+        for tri in 0..self.n_triangles() {
+            let [a, b, c] = self.triangle(tri);
+            if orient2d(uv[a as usize], uv[b as usize], uv[c as usize]) <= 0.0 {
+                return fail(format!("triangle {tri} ({a}, {b}, {c}) is not strictly counter-clockwise in the plane"));
+            }
+        }
+        let mut keys: Vec<u64> =
+            (0..n_he).map(|h| ((self.start(h) as u64) << 32) | self.end(h) as u64).collect();
+        keys.sort_unstable();
+        if let Some(w) = keys.windows(2).find(|w| w[0] == w[1]) {
+            return fail(format!("directed edge {}->{} appears twice", w[0] >> 32, w[0] as u32));
+        }
+        let mut degree = vec![0u32; self.n_vertices()];
+        let mut boundary_out = vec![0u32; self.n_vertices()];
+        for h in 0..n_he {
+            degree[self.start(h) as usize] += 1;
+            if self.twin(h) == NONE {
+                boundary_out[self.start(h) as usize] += 1;
+            }
+        }
+        for v in 0..self.n_vertices() as u32 {
+            let e = self.vertex_edge[v as usize];
+            let vi = v as usize;
+            if degree[vi] == 0 {
+                if e != NONE {
+                    return fail(format!("unused vertex {v} has an outgoing half-edge"));
+                }
+                continue;
+            }
+            if e == NONE || self.start(e) != v {
+                return fail(format!("vertex {v} does not point at a half-edge leaving it"));
+            }
+            if boundary_out[vi] > 1 {
+                return fail(format!("vertex {v} joins {} separate fans (a pinch)", boundary_out[vi]));
+            }
+            if self.on_boundary[vi] != (boundary_out[vi] == 1) {
+                return fail(format!("boundary flag of vertex {v} is stale"));
+            }
+            if boundary_out[vi] == 1 && self.twin(e) != NONE {
+                return fail(format!("boundary vertex {v} does not point at its boundary half-edge"));
+            }
+            let fan: Vec<u32> = self.fan(v).collect();
+            if fan.len() != degree[vi] as usize {
+                return fail(format!("the fan of vertex {v} reaches {} of its {} half-edges", fan.len(), degree[vi]));
+            }
+            if self.is_interior(v) {
+                let total: f64 = fan
+                    .iter()
+                    .map(|&h| planar_corner_angle(uv[vi], uv[self.end(h) as usize], uv[self.start(prev(h)) as usize]))
+                    .sum();
+                if (total - std::f64::consts::TAU).abs() > 1e-6 {
+                    return fail(format!("planar angles around interior vertex {v} sum to {total}, not 2π (a fold)"));
+                }
+            }
+        }
+        let (components, loops) = self.count_components_and_loops();
+        let v_used = degree.iter().filter(|&&d| d > 0).count() as i64;
+        let e = self.edges().count() as i64;
+        let f = self.n_triangles() as i64;
+        if v_used - e + f != 2 * components - loops {
+            return fail(format!(
+                "Euler characteristic V - E + F = {} but {components} components with {loops} boundary loops need {}",
+                v_used - e + f,
+                2 * components - loops
+            ));
+        }
+        Ok(())
+    }
+
+    /// Connected components of triangles (through twins) and boundary loops. O(m α(m)).
+    fn count_components_and_loops(&self) -> (i64, i64) {
+        let m = self.n_triangles();
+        let mut parent: Vec<u32> = (0..m as u32).collect();
+        fn find(p: &mut [u32], mut x: u32) -> u32 {
+            while p[x as usize] != x {
+                p[x as usize] = p[p[x as usize] as usize];
+                x = p[x as usize];
+            }
+            x
+        }
+        for h in 0..self.start.len() as u32 {
+            let t = self.twin(h);
+            if t != NONE {
+                let (x, y) = (find(&mut parent, h / 3), find(&mut parent, t / 3));
+                if x != y {
+                    parent[x as usize] = y;
+                }
+            }
+        }
+        let components = (0..m as u32).filter(|&x| find(&mut parent, x) == x).count() as i64;
+        let mut seen = vec![false; self.start.len()];
+        let mut loops = 0;
+        for h0 in 0..self.start.len() as u32 {
+            if self.twin(h0) != NONE || seen[h0 as usize] {
+                continue;
+            }
+            loops += 1;
+            let mut h = h0;
+            // The boundary half-edge leaving end(h) is that vertex's vertex_edge (one fan each).
+            while !seen[h as usize] {
+                seen[h as usize] = true;
+                h = self.vertex_edge[self.end(h) as usize];
+            }
+        }
+        (components, loops)
+    }
+}
+
+/// Iterator over the half-edges leaving one vertex, counter-clockwise. See [`HalfEdgeMesh::fan`].
+pub struct Fan<'a> {
+    mesh: &'a HalfEdgeMesh,
+    first: u32,
+    current: u32,
+}
+
+impl Iterator for Fan<'_> {
+    type Item = u32;
+    fn next(&mut self) -> Option<u32> {
+        let h = self.current;
+        if h == NONE {
+            return None;
+        }
+        let following = self.mesh.twin(prev(h));
+        self.current = if following == self.first { NONE } else { following };
+        Some(h)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::delaunay::delaunay;
+
+    pub(crate) fn random_points(n: usize, seed: u64) -> Vec<[f64; 2]> {
+        let mut s = seed;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n).map(|_| [next(), next()]).collect()
+    }
+
+    fn canonical(mut t: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
+        for tri in t.iter_mut() {
+            let k = (0..3).min_by_key(|&k| tri[k]).unwrap();
+            tri.rotate_left(k);
+        }
+        t.sort();
+        t
+    }
+
+    fn delaunay_mesh(n: usize, seed: u64) -> (Vec<[f64; 2]>, HalfEdgeMesh) {
+        let uv = random_points(n, seed);
+        let d = delaunay(&uv).unwrap();
+        (uv.clone(), HalfEdgeMesh::from_triangles(uv.len(), &d.triangles).unwrap())
+    }
+
+    #[test]
+    fn delaunay_mesh_is_valid() {
+        let (uv, mesh) = delaunay_mesh(300, 1);
+        mesh.validate(&uv).unwrap();
+        let interior = (0..300).filter(|&v| mesh.is_interior(v)).count();
+        assert!(interior > 200 && interior < 300);
+    }
+
+    #[test]
+    fn flipping_twice_restores_the_mesh() {
+        let (uv, mut mesh) = delaunay_mesh(100, 2);
+        let before = canonical(mesh.triangles());
+        for h in mesh.interior_edges() {
+            if mesh.can_flip(h, &uv) {
+                let copy = mesh.clone();
+                mesh.flip(h);
+                mesh.validate(&uv).unwrap();
+                assert_ne!(canonical(mesh.triangles()), before);
+                assert!(mesh.can_flip(h, &uv), "the flipped quad is still convex");
+                mesh.flip(h);
+                assert_eq!(canonical(mesh.triangles()), before);
+                mesh.validate(&uv).unwrap();
+                mesh = copy;
+            }
+        }
+    }
+
+    #[test]
+    fn ten_thousand_random_flips_keep_every_invariant() {
+        let (uv, mut mesh) = delaunay_mesh(400, 3);
+        let edges = mesh.interior_edges();
+        let mut s = 99u64;
+        let mut flips = 0;
+        for step in 0..10_000 {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
+            let h = edges[((s >> 33) as usize) % edges.len()];
+            if mesh.can_flip(h, &uv) {
+                mesh.flip(h);
+                flips += 1;
+            }
+            if step % 2_500 == 0 {
+                mesh.validate(&uv).unwrap();
+            }
+        }
+        mesh.validate(&uv).unwrap();
+        assert!(flips > 3_000, "only {flips} flips were legal");
+    }
+
+    #[test]
+    fn nonconvex_quads_are_refused() {
+        // A convex kite (a, d, b, c) = (0, 3, 1, 2): flippable.
+        let uv = vec![[0.0, 0.0], [2.0, 0.0], [1.0, 3.0], [1.0, -0.2]];
+        let mesh = HalfEdgeMesh::from_triangles(4, &[[0, 1, 2], [1, 0, 3]]).unwrap();
+        assert!(mesh.can_flip(0, &uv));
+        // Move c so that the turn d -> b -> c is clockwise: a reflex corner at b.
+        let uv2 = vec![[0.0, 0.0], [2.0, 0.0], [3.0, 0.5], [1.0, -1.0]];
+        assert!(!mesh.can_flip(0, &uv2));
+        // Collinear: c, b, d in a line makes the quad degenerate at b.
+        let uv3 = vec![[0.0, 0.0], [2.0, 0.0], [3.0, 1.0], [1.0, -1.0]];
+        let mesh3 = HalfEdgeMesh::from_triangles(4, &[[0, 1, 2], [1, 0, 3]]).unwrap();
+        assert!(!mesh3.can_flip(0, &uv3));
+        assert!(!mesh3.can_flip(1, &uv3), "boundary edge");
+    }
+
+    #[test]
+    fn bad_triangles_are_rejected() {
+        assert!(HalfEdgeMesh::from_triangles(3, &[[0, 1, 3]]).is_err());
+        assert!(HalfEdgeMesh::from_triangles(3, &[[0, 1, 1]]).is_err());
+        // Same orientation of a shared edge: inconsistent.
+        assert!(HalfEdgeMesh::from_triangles(4, &[[0, 1, 2], [0, 1, 3]]).is_err());
+    }
+
+    #[test]
+    fn validate_catches_clockwise_and_pinches() {
+        let uv = vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        let cw = HalfEdgeMesh::from_triangles(3, &[[0, 2, 1]]).unwrap();
+        assert!(cw.validate(&uv).is_err());
+        // Two triangles sharing only vertex 0: a pinch.
+        let uv = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [-1.0, 0.0], [-1.0, -1.0]];
+        let bow = HalfEdgeMesh::from_triangles(5, &[[0, 1, 2], [0, 3, 4]]).unwrap();
+        let err = bow.validate(&uv).unwrap_err();
+        assert!(format!("{err}").contains("pinch"), "{err}");
+    }
+
+    #[test]
+    fn fans_go_counter_clockwise() {
+        let (uv, mesh) = delaunay_mesh(200, 5);
+        for v in 0..200u32 {
+            if !mesh.is_interior(v) {
+                continue;
+            }
+            let ends: Vec<[f64; 2]> = mesh.fan(v).map(|h| uv[mesh.end(h) as usize]).collect();
+            let p = uv[v as usize];
+            for k in 0..ends.len() {
+                let (a, b) = (ends[k], ends[(k + 1) % ends.len()]);
+                assert!(orient2d(p, a, b) > 0.0);
+            }
+        }
+    }
+}

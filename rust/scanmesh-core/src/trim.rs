@@ -1,0 +1,138 @@
+//! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps.
+
+use crate::delaunay::NONE;
+use crate::geometry::planar_distance;
+use crate::mesh::{prev, HalfEdgeMesh};
+use crate::Result;
+
+/// Default `max_edge` as a multiple of the median nearest-neighbour spacing. Five spacings
+/// keep scans whose lines are up to about 4.5 times farther apart than their points, and
+/// still open a bore or a missed region a few lines wide.
+pub const DEFAULT_MAX_EDGE_FACTOR: f64 = 5.0;
+
+/// Median over used vertices of the planar distance to the nearest neighbour, taken along
+/// triangulation edges (the nearest-neighbour graph is a subgraph of Delaunay's). 0 when
+/// there are no triangles. O(m + n log n).
+pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
+    let mut nearest = vec![f64::INFINITY; uv.len()];
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            let d = planar_distance(uv[a], uv[b]);
+            nearest[a] = nearest[a].min(d);
+            nearest[b] = nearest[b].min(d);
+        }
+    }
+    let mut finite: Vec<f64> = nearest.into_iter().filter(|d| d.is_finite()).collect();
+    if finite.is_empty() {
+        return 0.0;
+    }
+    let mid = finite.len() / 2;
+    *finite.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Drops triangles whose longest planar edge exceeds `max_edge`, then resolves pinches.
+///
+/// A pinch is a vertex where two fans touch only at a point; there the triangles of all
+/// fans but the largest are dropped (repeatedly, as a drop can pinch a neighbour), so the
+/// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` keeps everything. Input triangles must
+/// form a valid planar triangulation. O(m log m).
+pub fn trim_long_edges(uv: &[[f64; 2]], triangles: &[[u32; 3]], max_edge: f64) -> Result<Vec<[u32; 3]>> {
+    let longest = |t: &[u32; 3]| {
+        (0..3).map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize])).fold(0.0, f64::max)
+    };
+    let mut kept: Vec<[u32; 3]> = triangles.iter().copied().filter(|t| longest(t) <= max_edge).collect();
+    loop {
+        let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept)?;
+        let drop = pinched_fans_to_drop(&mesh);
+        if drop.is_empty() {
+            return Ok(kept);
+        }
+        let mut keep_flag = vec![true; kept.len()];
+        for t in drop {
+            keep_flag[t as usize] = false;
+        }
+        kept = kept.into_iter().zip(keep_flag).filter(|(_, k)| *k).map(|(t, _)| t).collect();
+    }
+}
+
+/// Triangles of the smaller fans at every pinched vertex. O(m).
+fn pinched_fans_to_drop(mesh: &HalfEdgeMesh) -> Vec<u32> {
+    let mut boundary_out: Vec<Vec<u32>> = vec![Vec::new(); mesh.n_vertices()];
+    for h in 0..mesh.n_half_edges() as u32 {
+        if mesh.twin(h) == NONE {
+            boundary_out[mesh.start(h) as usize].push(h);
+        }
+    }
+    let mut drop = Vec::new();
+    for starts in boundary_out.iter().filter(|s| s.len() > 1) {
+        // Each boundary half-edge leaving the vertex begins one fan; walk it counter-clockwise.
+        let mut fans: Vec<Vec<u32>> = starts
+            .iter()
+            .map(|&first| {
+                let mut tris = vec![first / 3];
+                let mut h = first;
+                while mesh.twin(prev(h)) != NONE {
+                    h = mesh.twin(prev(h));
+                    tris.push(h / 3);
+                }
+                tris
+            })
+            .collect();
+        fans.sort_by_key(|f| (std::cmp::Reverse(f.len()), f.iter().min().copied()));
+        drop.extend(fans.into_iter().skip(1).flatten());
+    }
+    drop.sort_unstable();
+    drop.dedup();
+    drop
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::delaunay::delaunay;
+
+    /// A grid with the middle cells missing (a bore), triangulated over its convex hull.
+    fn grid_with_hole() -> Vec<[f64; 2]> {
+        let mut pts = Vec::new();
+        for j in 0..20 {
+            for i in 0..20 {
+                let inside = (7..13).contains(&i) && (7..13).contains(&j);
+                if !inside {
+                    pts.push([i as f64 + 0.01 * ((i * j) % 3) as f64, j as f64]);
+                }
+            }
+        }
+        pts
+    }
+
+    #[test]
+    fn hole_stays_open_and_mesh_is_valid() {
+        let uv = grid_with_hole();
+        let d = delaunay(&uv).unwrap();
+        let s = median_spacing(&uv, &d.triangles);
+        assert!((s - 1.0).abs() < 0.05, "{s}");
+        let kept = trim_long_edges(&uv, &d.triangles, DEFAULT_MAX_EDGE_FACTOR * s * 0.5).unwrap();
+        let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept).unwrap();
+        mesh.validate(&uv).unwrap();
+        // The centre of the hole is covered by no triangle.
+        let centre = [9.5, 9.5];
+        let covers = |t: &[u32; 3]| {
+            (0..3).all(|k| crate::geometry::orient2d(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize], centre) > 0.0)
+        };
+        assert!(!kept.iter().any(covers));
+        assert!(d.triangles.iter().any(covers));
+        let untrimmed = trim_long_edges(&uv, &d.triangles, f64::INFINITY).unwrap();
+        assert_eq!(untrimmed.len(), d.triangles.len());
+    }
+
+    #[test]
+    fn pinches_are_resolved() {
+        // Two squares touching at one corner; trimming the long diagonals leaves a bow tie.
+        let uv = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [2.0, 1.0], [2.0, 2.0], [1.0, 2.0], [1.0, 1.0 + 1e-9]];
+        let tris = vec![[0, 1, 2], [0, 2, 3], [2, 4, 5], [2, 5, 6]];
+        let kept = trim_long_edges(&uv, &tris, f64::INFINITY).unwrap();
+        assert_eq!(kept.len(), 2);
+        HalfEdgeMesh::from_triangles(uv.len(), &kept).unwrap().validate(&uv).unwrap();
+    }
+}
