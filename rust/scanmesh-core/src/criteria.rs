@@ -283,7 +283,6 @@ mod tests {
     #[test]
     fn pinched_double_fan_is_not_interior() {
         // Two closed fans (two tents) glued at vertex 0 only: 0 has two cycles in its link.
-        let pts: Vec<DVec3> = (0..7).map(|i| DVec3::new(i as f64, (i * i) as f64, 0.0)).collect();
         let faces = vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [0, 4, 5], [0, 5, 6], [0, 6, 4]];
         let interior = interior_vertices(7, &faces).unwrap();
         assert!(!interior[0]);

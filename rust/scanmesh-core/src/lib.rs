@@ -6,16 +6,24 @@
 //! - [`delaunay`]: planar Delaunay through spade, with the map back to input indices;
 //! - [`mesh`]: flat half-edge triangulation with flips and `validate()`;
 //! - [`criteria`]: max-min angle and tac (total absolute curvature) with p-norms;
-//! - [`trim`]: removing long hull triangles so outlines and holes stay open.
+//! - [`trim`]: removing long hull triangles so outlines and holes stay open;
+//! - [`tac_state`]: incremental tac energy under flips;
+//! - [`lop`]: Lawson's greedy flipping for any criterion;
+//! - [`anneal`]: simulated annealing on tac;
+//! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod anneal;
 pub mod criteria;
 pub mod delaunay;
+pub mod enumerate;
 mod error;
 pub mod geometry;
+pub mod lop;
 pub mod mesh;
 pub mod projection;
+pub mod tac_state;
 pub mod trim;
 
 pub use error::{Error, Result};

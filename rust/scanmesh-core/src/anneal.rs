@@ -1,0 +1,470 @@
+//! Simulated annealing of a planar triangulation by random edge flips, minimizing tac.
+//!
+//! Move: a uniformly random interior edge, flipped when its quadrilateral is strictly convex.
+//! Energy: Σ tac^p ([`TacState`]). Selection: Metropolis. Schedule: T0 calibrated from the
+//! uphill energy changes of sampled proposals, geometric cooling per sweep (a sweep is as
+//! many proposals as interior edges), early stop once frozen, the best state kept, then a
+//! greedy polish (LOP) under the order (tac first, then smallest angle).
+
+use crate::delaunay::NONE;
+use crate::lop::{lop, TacLop, TacOrder};
+use crate::mesh::HalfEdgeMesh;
+use crate::tac_state::TacState;
+use crate::{Error, Result};
+use rand_core::{RngCore, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// Annealing parameters; `Default` gives the measured defaults (see BENCHMARKS.md).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnnealParams {
+    /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per interior edge.
+    pub sweeps: usize,
+    /// Energy exponent p ≥ 1: the energy is Σ tac^p.
+    pub p: f64,
+    /// Seed of the PCG-64 (MCG) generator: the same seed gives the same faces everywhere.
+    pub seed: u64,
+    /// Probability with which the median uphill move of the initial state is accepted at T0.
+    pub initial_acceptance: f64,
+    /// Final temperature as a fraction of T0; the per-sweep cooling factor follows from it.
+    pub final_temperature_ratio: f64,
+    /// Stop after this many sweeps without a new best once frozen (0: never stop early).
+    pub patience: usize,
+    /// Break energy ties toward the larger smallest 3-D angle (see [`TacOrder`]).
+    pub sliver_guard: bool,
+    /// Energy changes of at most this size (radians^p) are ties.
+    pub tie_tolerance: f64,
+    /// Run LOP from the best state at the end.
+    pub polish: bool,
+    /// Proposals sampled to calibrate T0.
+    pub calibration_samples: usize,
+}
+
+impl Default for AnnealParams {
+    fn default() -> Self {
+        AnnealParams {
+            sweeps: 1000,
+            p: 1.0,
+            seed: 0,
+            initial_acceptance: 0.3,
+            final_temperature_ratio: 1e-4,
+            patience: 50,
+            sliver_guard: true,
+            tie_tolerance: 1e-10,
+            polish: true,
+            calibration_samples: 2000,
+        }
+    }
+}
+
+impl AnnealParams {
+    /// Checks every field's range; the error names the field.
+    pub fn check(&self) -> Result<()> {
+        let bad = |name, value: String, expected| Err(Error::InvalidParameter { name, value, expected });
+        if !(self.p.is_finite() && self.p >= 1.0) {
+            return bad("p", self.p.to_string(), "a finite p >= 1");
+        }
+        if !(self.initial_acceptance > 0.0 && self.initial_acceptance < 1.0) {
+            return bad("initial_acceptance", self.initial_acceptance.to_string(), "a probability strictly between 0 and 1");
+        }
+        if !(self.final_temperature_ratio > 0.0 && self.final_temperature_ratio <= 1.0) {
+            return bad("final_temperature_ratio", self.final_temperature_ratio.to_string(), "a ratio in (0, 1]");
+        }
+        if !(self.tie_tolerance >= 0.0 && self.tie_tolerance.is_finite()) {
+            return bad("tie_tolerance", self.tie_tolerance.to_string(), "a finite value >= 0");
+        }
+        Ok(())
+    }
+
+    /// The ordering used for ties and the polish.
+    pub fn order(&self) -> TacOrder {
+        TacOrder { tie_tolerance: self.tie_tolerance, sliver_guard: self.sliver_guard }
+    }
+}
+
+/// What one sweep did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepRecord {
+    /// Temperature during the sweep.
+    pub temperature: f64,
+    /// Energy at the end of the sweep.
+    pub energy: f64,
+    /// Best energy seen so far.
+    pub best: f64,
+    /// Accepted flips / proposals in the sweep.
+    pub acceptance: f64,
+}
+
+/// The outcome of a run.
+#[derive(Debug, Clone)]
+pub struct AnnealResult {
+    /// The best triangulation found (after the polish).
+    pub mesh: HalfEdgeMesh,
+    /// Energy of the initial triangulation.
+    pub initial_energy: f64,
+    /// Energy of the returned triangulation.
+    pub energy: f64,
+    /// T0 after calibration.
+    pub initial_temperature: f64,
+    /// One record per sweep run.
+    pub trace: Vec<SweepRecord>,
+    /// Flips made by the final polish.
+    pub polish_flips: usize,
+    /// True when the run stopped before `sweeps` because it was frozen.
+    pub stopped_early: bool,
+}
+
+/// A resumable annealing run: [`advance`](Annealer::advance) a bounded number of proposals
+/// at a time, so that a caller can report progress and honour interruption between chunks.
+pub struct Annealer {
+    state: TacState,
+    params: AnnealParams,
+    order: TacOrder,
+    rng: Pcg64Mcg,
+    initial_energy: f64,
+    initial_temperature: f64,
+    temperature: f64,
+    cooling: f64,
+    sweep_len: usize,
+    n_half_edges: u64,
+    // Counters of the sweep in progress.
+    proposed: usize,
+    accepted: usize,
+    uphill_proposed: usize,
+    uphill_accepted: usize,
+    found_best: bool,
+    since_best: usize,
+    trace: Vec<SweepRecord>,
+    stopped_early: bool,
+    // The best state is `best` advanced by `log[..pending]`; see `note_best`.
+    best: HalfEdgeMesh,
+    best_energy: f64,
+    log: Vec<u32>,
+    pending: usize,
+    detached: bool,
+}
+
+impl Annealer {
+    /// Starts a run from `state`; calibrates T0 from `calibration_samples` random proposals.
+    /// O(calibration_samples + m).
+    pub fn new(state: TacState, params: AnnealParams) -> Result<Self> {
+        params.check()?;
+        if state.p() != params.p {
+            return Err(Error::InvalidParameter { name: "p", value: state.p().to_string(), expected: "the state's p to equal the parameters' p" });
+        }
+        let n_interior_half_edges = state.count_interior_half_edges();
+        let mut rng = Pcg64Mcg::seed_from_u64(params.seed);
+        let n_half_edges = state.mesh().n_half_edges() as u64;
+        let order = params.order();
+        let mut uphill = Vec::new();
+        if n_interior_half_edges > 0 {
+            for _ in 0..params.calibration_samples {
+                let h = random_interior_half_edge(&mut rng, &state, n_half_edges);
+                if let Some(mv) = state.evaluate(h) {
+                    if !order.is_tie(&mv) && mv.delta_energy > 0.0 {
+                        uphill.push(mv.delta_energy);
+                    }
+                }
+            }
+        }
+        let initial_temperature = if uphill.is_empty() {
+            0.0
+        } else {
+            let mid = uphill.len() / 2;
+            let median = *uphill.select_nth_unstable_by(mid, f64::total_cmp).1;
+            -median / params.initial_acceptance.ln()
+        };
+        let cooling = params.final_temperature_ratio.powf(1.0 / params.sweeps.max(1) as f64);
+        let energy = state.energy();
+        Ok(Annealer {
+            best: state.mesh().clone(),
+            best_energy: energy,
+            initial_energy: energy,
+            sweep_len: n_interior_half_edges / 2,
+            n_half_edges,
+            state,
+            order,
+            params,
+            rng,
+            initial_temperature,
+            temperature: initial_temperature,
+            cooling,
+            proposed: 0,
+            accepted: 0,
+            uphill_proposed: 0,
+            uphill_accepted: 0,
+            found_best: false,
+            since_best: 0,
+            trace: Vec::new(),
+            stopped_early: false,
+            log: Vec::new(),
+            pending: 0,
+            detached: false,
+        })
+    }
+
+    /// True when every sweep has run or the run stopped early.
+    pub fn is_done(&self) -> bool {
+        self.sweep_len == 0 || self.stopped_early || self.trace.len() >= self.params.sweeps
+    }
+
+    /// Sweep records so far.
+    pub fn trace(&self) -> &[SweepRecord] {
+        &self.trace
+    }
+
+    /// Proposals per sweep (the number of interior edges).
+    pub fn sweep_len(&self) -> usize {
+        self.sweep_len
+    }
+
+    /// The current state (for tests and progress reports).
+    pub fn state(&self) -> &TacState {
+        &self.state
+    }
+
+    /// Runs at most `max_proposals` proposals, stopping early at the end of the run.
+    /// Returns how many ran. O(max_proposals) plus O(n) per completed sweep.
+    pub fn advance(&mut self, max_proposals: usize) -> usize {
+        let mut ran = 0;
+        while ran < max_proposals && !self.is_done() {
+            let budget = (self.sweep_len - self.proposed).min(max_proposals - ran);
+            for _ in 0..budget {
+                self.propose();
+            }
+            ran += budget;
+            if self.proposed == self.sweep_len {
+                self.end_sweep();
+            }
+        }
+        ran
+    }
+
+    /// One Metropolis step. O(1) amortized.
+    #[inline]
+    fn propose(&mut self) {
+        self.proposed += 1;
+        let h = random_interior_half_edge(&mut self.rng, &self.state, self.n_half_edges);
+        let Some(mv) = self.state.evaluate(h) else { return };
+        let accept = if self.order.is_tie(&mv) {
+            if self.order.sliver_guard {
+                self.order.improves(&mv)
+            } else {
+                true
+            }
+        } else if mv.delta_energy < 0.0 {
+            true
+        } else {
+            self.uphill_proposed += 1;
+            let u = unit_f64(&mut self.rng);
+            let ok = self.temperature > 0.0 && u < (-mv.delta_energy / self.temperature).exp();
+            self.uphill_accepted += ok as usize;
+            ok
+        };
+        if accept {
+            self.state.apply(&mv);
+            self.accepted += 1;
+            self.log.push(mv.h);
+            if self.state.energy() < self.best_energy {
+                self.note_best();
+            }
+        }
+    }
+
+    /// Records that the current state is the best seen. Cheap: only a log position, unless
+    /// the log was dropped for length, in which case the state is copied. O(1) or O(m).
+    fn note_best(&mut self) {
+        self.best_energy = self.state.energy();
+        self.found_best = true;
+        if self.detached {
+            self.best = self.state.mesh().clone();
+            self.log.clear();
+            self.pending = 0;
+            self.detached = false;
+        } else {
+            self.pending = self.log.len();
+        }
+    }
+
+    /// Replays the flips up to the best state onto the `best` copy (flips rewrite slots
+    /// deterministically, so the replay reproduces it exactly). O(flips replayed).
+    fn sync_best(&mut self) {
+        for &h in &self.log[..self.pending] {
+            self.best.flip(h);
+        }
+        self.log.drain(..self.pending);
+        self.pending = 0;
+        // A log far longer than a sweep with no best ahead would only grow: drop it and copy
+        // the state at the next best instead.
+        if self.log.len() > 2 * self.sweep_len {
+            self.log.clear();
+            self.detached = true;
+        }
+    }
+
+    fn end_sweep(&mut self) {
+        let energy = self.state.resync_energy();
+        if energy < self.best_energy {
+            self.note_best();
+        }
+        self.sync_best();
+        self.trace.push(SweepRecord {
+            temperature: self.temperature,
+            energy,
+            best: self.best_energy,
+            acceptance: self.accepted as f64 / self.proposed.max(1) as f64,
+        });
+        let frozen = self.uphill_accepted * 1000 <= self.uphill_proposed;
+        self.since_best = if self.found_best { 0 } else { self.since_best + 1 };
+        if self.params.patience > 0 && frozen && self.since_best >= self.params.patience {
+            self.stopped_early = true;
+        }
+        self.temperature *= self.cooling;
+        self.proposed = 0;
+        self.accepted = 0;
+        self.uphill_proposed = 0;
+        self.uphill_accepted = 0;
+        self.found_best = false;
+    }
+
+    /// Ends the run: takes the best state, polishes it with LOP under the tac-then-angle
+    /// order when asked, and returns it. O(m + polish flips).
+    pub fn finish(mut self) -> Result<AnnealResult> {
+        self.sync_best();
+        let mut best = TacState::new(self.best, self.state.uv().to_vec(), self.state.xyz().to_vec(), self.params.p)?;
+        let max_flips = 1_000 * best.mesh().n_half_edges().max(1);
+        let polish_flips = if self.params.polish {
+            lop(&mut TacLop { state: &mut best, order: self.order }, max_flips)
+        } else {
+            0
+        };
+        let energy = best.resync_energy();
+        Ok(AnnealResult {
+            mesh: best.into_mesh(),
+            initial_energy: self.initial_energy,
+            energy,
+            initial_temperature: self.initial_temperature,
+            trace: self.trace,
+            polish_flips,
+            stopped_early: self.stopped_early,
+        })
+    }
+}
+
+/// Runs a whole annealing in one call (no interruption). O(sweeps × m).
+pub fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
+    let mut annealer = Annealer::new(state, params)?;
+    while !annealer.is_done() {
+        annealer.advance(usize::MAX);
+    }
+    annealer.finish()
+}
+
+/// A uniformly random half-edge that has a twin: uniform over interior edges, since each
+/// has exactly two. Rejection sampling over all slots; boundary slots are a small share.
+#[inline]
+fn random_interior_half_edge(rng: &mut Pcg64Mcg, state: &TacState, n_half_edges: u64) -> u32 {
+    loop {
+        let h = below(rng, n_half_edges) as u32;
+        if state.mesh().twin(h) != NONE {
+            return h;
+        }
+    }
+}
+
+/// Uniform integer in 0..n by Lemire's multiply-shift (bias below 2^-32 for n < 2^32),
+/// written out so results never depend on a library's sampling algorithm. O(1).
+#[inline]
+fn below(rng: &mut Pcg64Mcg, n: u64) -> u64 {
+    ((rng.next_u64() as u128 * n as u128) >> 64) as u64
+}
+
+/// Uniform f64 in [0, 1) from the top 53 bits. O(1).
+#[inline]
+fn unit_f64(rng: &mut Pcg64Mcg) -> f64 {
+    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tac_state::tests::bumpy_state;
+
+    fn quick(seed: u64) -> AnnealParams {
+        AnnealParams { sweeps: 60, seed, ..AnnealParams::default() }
+    }
+
+    #[test]
+    fn annealing_beats_lop_and_keeps_invariants() {
+        let st = bumpy_state(600, 21, 1.0);
+        let e0 = st.energy();
+        let mut lop_state = st.clone();
+        lop(&mut TacLop { state: &mut lop_state, order: AnnealParams::default().order() }, usize::MAX);
+        let r = anneal(st.clone(), quick(1)).unwrap();
+        r.mesh.validate(st.uv()).unwrap();
+        assert!(r.energy <= e0);
+        assert!(r.energy < lop_state.energy(), "anneal {} vs lop {}", r.energy, lop_state.energy());
+        assert_eq!(r.trace.len(), 60);
+        assert!(r.trace.windows(2).all(|w| w[1].best <= w[0].best && w[1].temperature < w[0].temperature));
+    }
+
+    #[test]
+    fn same_seed_same_faces_other_seed_other_faces() {
+        let st = bumpy_state(300, 22, 1.0);
+        let a = anneal(st.clone(), quick(7)).unwrap();
+        let b = anneal(st.clone(), quick(7)).unwrap();
+        let c = anneal(st, quick(8)).unwrap();
+        assert_eq!(a.mesh.triangles(), b.mesh.triangles());
+        assert_ne!(a.mesh.triangles(), c.mesh.triangles());
+    }
+
+    #[test]
+    fn incremental_energy_tracks_full_recomputation_during_a_run() {
+        let st = bumpy_state(400, 23, 1.5);
+        let mut ann = Annealer::new(st, AnnealParams { p: 1.5, sweeps: 30, ..quick(3) }).unwrap();
+        while !ann.is_done() {
+            ann.advance(1_000);
+            let scratch = ann.state().energy_from_scratch();
+            let inc = ann.state().energy();
+            assert!((inc - scratch).abs() <= 1e-9 * scratch, "{inc} vs {scratch}");
+        }
+        let best = ann.trace().last().unwrap().best;
+        let r = ann.finish().unwrap();
+        assert!(r.energy <= best + 1e-12);
+    }
+
+    #[test]
+    fn chunked_run_equals_one_shot_run() {
+        let st = bumpy_state(250, 24, 1.0);
+        let one = anneal(st.clone(), quick(5)).unwrap();
+        let mut ann = Annealer::new(st, quick(5)).unwrap();
+        while !ann.is_done() {
+            ann.advance(37);
+        }
+        assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
+    }
+
+    #[test]
+    fn best_state_survives_a_detached_log() {
+        // A long hot run detaches the log; the returned state must still be the best seen.
+        let st = bumpy_state(200, 25, 1.0);
+        let params = AnnealParams { sweeps: 40, initial_acceptance: 0.9, final_temperature_ratio: 0.5, polish: false, patience: 0, ..quick(9) };
+        let r = anneal(st.clone(), params).unwrap();
+        let recomputed = TacState::new(r.mesh.clone(), st.uv().to_vec(), st.xyz().to_vec(), 1.0).unwrap().energy_from_scratch();
+        let best_seen = r.trace.iter().map(|s| s.best).fold(f64::INFINITY, f64::min);
+        assert!((recomputed - best_seen).abs() <= 1e-9 * best_seen, "{recomputed} vs {best_seen}");
+        r.mesh.validate(st.uv()).unwrap();
+    }
+
+    #[test]
+    fn invalid_parameters_are_refused() {
+        let st = bumpy_state(50, 1, 1.0);
+        for bad in [
+            AnnealParams { initial_acceptance: 1.0, ..Default::default() },
+            AnnealParams { final_temperature_ratio: 0.0, ..Default::default() },
+            AnnealParams { p: 0.5, ..Default::default() },
+            AnnealParams { tie_tolerance: -1.0, ..Default::default() },
+        ] {
+            assert!(Annealer::new(st.clone(), bad).is_err());
+        }
+    }
+}

@@ -1,0 +1,207 @@
+//! Lawson's local optimization procedure (LOP): flip while a flip improves the criterion.
+//!
+//! The deterministic baseline of the paper's annealing (annealing at T = 0). One queue
+//! loop serves every criterion; a criterion only says whether flipping an edge improves.
+
+use crate::delaunay::NONE;
+use crate::geometry::planar_smallest_angle;
+use crate::mesh::{next, prev, HalfEdgeMesh};
+use crate::tac_state::{FlipMove, TacState};
+
+/// Smallest improvement in a smallest angle (radians) that counts: below it, rounding could
+/// make both diagonals of a cocircular quadrilateral look better than the other, and loop.
+pub const ANGLE_EPSILON: f64 = 1e-12;
+
+/// How a tac move is judged: a lower energy wins; within `tie_tolerance` of no change,
+/// the larger smallest angle wins when `sliver_guard` is on (the lexicographic order
+/// "tac energy first, then smallest angle").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TacOrder {
+    /// Energy changes of at most this size count as ties.
+    pub tie_tolerance: f64,
+    /// Break ties toward the larger smallest 3-D angle (else ties are not improvements).
+    pub sliver_guard: bool,
+}
+
+impl TacOrder {
+    /// True when `mv` is a tie under this order. O(1).
+    #[inline]
+    pub fn is_tie(&self, mv: &FlipMove) -> bool {
+        mv.delta_energy.abs() <= self.tie_tolerance
+    }
+
+    /// True when applying `mv` strictly improves the order. O(1).
+    #[inline]
+    pub fn improves(&self, mv: &FlipMove) -> bool {
+        if self.is_tie(mv) {
+            self.sliver_guard && mv.new_min_angle > mv.old_min_angle + ANGLE_EPSILON
+        } else {
+            mv.delta_energy < 0.0
+        }
+    }
+}
+
+/// Something LOP can drive: a triangulation and a rule that flips an edge when that improves.
+pub trait FlipSearch {
+    /// The current triangulation.
+    fn mesh(&self) -> &HalfEdgeMesh;
+    /// Flips `h` if that strictly improves the criterion; returns whether it flipped.
+    fn flip_if_better(&mut self, h: u32) -> bool;
+    /// After `h` was flipped (its twin is `t`), pushes every edge whose verdict may have
+    /// changed. Default: the four outer edges of the quadrilateral, right for criteria
+    /// that look only at an edge's two triangles.
+    fn push_affected(&self, h: u32, t: u32, stack: &mut Vec<u32>) {
+        stack.extend([next(h), prev(h), next(t), prev(t)]);
+    }
+}
+
+/// Runs LOP to a local optimum: every interior edge is examined; after a flip the edges
+/// the criterion names as affected are examined again. Returns the number of flips.
+///
+/// Terminates for criteria that strictly improve a bounded potential (Delaunay's max-min
+/// angle vector, tac energy); `max_flips` guards against rounding cycles. O(flips + m).
+pub fn lop<S: FlipSearch>(search: &mut S, max_flips: usize) -> usize {
+    let mut stack: Vec<u32> = search.mesh().interior_edges();
+    stack.reverse();
+    let mut flips = 0;
+    while let Some(h) = stack.pop() {
+        if flips >= max_flips {
+            break;
+        }
+        let t = search.mesh().twin(h);
+        if t == NONE || !search.flip_if_better(h) {
+            continue;
+        }
+        flips += 1;
+        search.push_affected(h, t, &mut stack);
+    }
+    flips
+}
+
+/// LOP for the tac energy of a [`TacState`] under a [`TacOrder`].
+pub struct TacLop<'a> {
+    /// The state flipped in place.
+    pub state: &'a mut TacState,
+    /// The order judged by.
+    pub order: TacOrder,
+}
+
+impl FlipSearch for TacLop<'_> {
+    fn mesh(&self) -> &HalfEdgeMesh {
+        self.state.mesh()
+    }
+    fn flip_if_better(&mut self, h: u32) -> bool {
+        match self.state.evaluate(h) {
+            Some(mv) if self.order.improves(&mv) => {
+                self.state.apply(&mv);
+                true
+            }
+            _ => false,
+        }
+    }
+    /// A flip changes the angle sums of its four corners, and with them the energy change
+    /// of every edge in their fans (incident or opposite): those are re-examined.
+    fn push_affected(&self, h: u32, t: u32, stack: &mut Vec<u32>) {
+        let mesh = self.state.mesh();
+        for v in mesh.quad(h, t) {
+            for e in mesh.fan(v) {
+                stack.extend([e, next(e)]);
+            }
+        }
+    }
+}
+
+/// LOP for the max-min angle measured in the plane: a flip improves when the smallest
+/// planar angle of the two triangles grows. Its optimum is the Delaunay triangulation.
+pub struct PlanarMaxMinLop<'a> {
+    /// The triangulation flipped in place.
+    pub mesh: &'a mut HalfEdgeMesh,
+    /// Planar positions.
+    pub uv: &'a [[f64; 2]],
+}
+
+impl FlipSearch for PlanarMaxMinLop<'_> {
+    fn mesh(&self) -> &HalfEdgeMesh {
+        self.mesh
+    }
+    fn flip_if_better(&mut self, h: u32) -> bool {
+        if !self.mesh.can_flip(h, self.uv) {
+            return false;
+        }
+        let t = self.mesh.twin(h);
+        let [a, b, c, d] = self.mesh.quad(h, t).map(|v| self.uv[v as usize]);
+        let old = planar_smallest_angle(a, b, c).min(planar_smallest_angle(b, a, d));
+        let new = planar_smallest_angle(d, c, a).min(planar_smallest_angle(c, d, b));
+        if new > old + ANGLE_EPSILON {
+            self.mesh.flip(h);
+            true
+        } else {
+            false
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::delaunay::delaunay;
+    use crate::tac_state::tests::bumpy_state;
+
+    fn canonical(mut t: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
+        for tri in t.iter_mut() {
+            let k = (0..3).min_by_key(|&k| tri[k]).unwrap();
+            tri.rotate_left(k);
+        }
+        t.sort();
+        t
+    }
+
+    #[test]
+    fn planar_max_min_lop_reproduces_delaunay() {
+        let st = bumpy_state(400, 8, 1.0);
+        let uv = st.uv().to_vec();
+        let dt = canonical(delaunay(&uv).unwrap().triangles);
+        let mut mesh = st.mesh().clone();
+        // Scramble with random legal flips first.
+        let edges = mesh.interior_edges();
+        let mut s = 5u64;
+        for _ in 0..5000 {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
+            let h = edges[(s >> 33) as usize % edges.len()];
+            if mesh.can_flip(h, &uv) {
+                mesh.flip(h);
+            }
+        }
+        assert_ne!(canonical(mesh.triangles()), dt);
+        let flips = lop(&mut PlanarMaxMinLop { mesh: &mut mesh, uv: &uv }, usize::MAX);
+        assert!(flips > 0);
+        mesh.validate(&uv).unwrap();
+        assert_eq!(canonical(mesh.triangles()), dt);
+    }
+
+    #[test]
+    fn no_single_flip_of_delaunay_raises_its_planar_smallest_angle() {
+        let st = bumpy_state(300, 9, 1.0);
+        let uv = st.uv().to_vec();
+        let mut mesh = st.mesh().clone();
+        let flips = lop(&mut PlanarMaxMinLop { mesh: &mut mesh, uv: &uv }, usize::MAX);
+        assert_eq!(flips, 0, "Delaunay is already max-min optimal");
+    }
+
+    #[test]
+    fn tac_lop_descends_to_a_local_optimum() {
+        let mut st = bumpy_state(500, 10, 1.0);
+        let e0 = st.energy();
+        let order = TacOrder { tie_tolerance: 1e-12, sliver_guard: true };
+        let flips = lop(&mut TacLop { state: &mut st, order }, usize::MAX);
+        assert!(flips > 0 && st.energy() < e0);
+        st.mesh().validate(st.uv()).unwrap();
+        let scratch = st.energy_from_scratch();
+        assert!((st.energy() - scratch).abs() < 1e-9 * scratch);
+        for h in st.mesh().interior_edges() {
+            if let Some(mv) = st.evaluate(h) {
+                assert!(!order.improves(&mv), "edge {h} still improves: {mv:?}");
+            }
+        }
+    }
+}
