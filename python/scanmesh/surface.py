@@ -39,6 +39,16 @@ class Surface:
     duplicates: np.ndarray = field(default_factory=lambda: np.empty((0, 2), dtype=np.int64))
     #: seconds per stage
     timings: dict[str, float] = field(default_factory=dict)
+    #: annealing trace, per sweep: "temperature", "energy", "best", "acceptance" (S,) arrays
+    trace: dict[str, np.ndarray] | None = None
+    #: (N,) int64 scan line of each point, when known
+    line_ids: np.ndarray | None = None
+    #: exact methods: True when optimality was proven, False when a limit stopped the search;
+    #: None for heuristics
+    certified: bool | None = None
+    #: exact methods: remaining relative gap (objective - lower bound) / objective, 0 when
+    #: proven; None for heuristics
+    gap: float | None = None
 
     @cached_property
     def quality(self) -> Quality:
