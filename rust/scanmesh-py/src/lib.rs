@@ -185,6 +185,33 @@ fn tac_norm(values: PyReadonlyArray1<'_, f64>, p: f64) -> PyResult<f64> {
     Ok(norm.of(values.as_slice()?))
 }
 
+/// Every empty triangle of (N, 2) pairwise distinct points: no other point in the closed
+/// triangle, corners not collinear (exact predicates). Returns (T, 3) int64, counter-clockwise.
+#[pyfunction]
+fn empty_triangles<'py>(py: Python<'py>, uv: PyReadonlyArray2<'py, f64>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+    let pts = points2(&uv)?;
+    let t = py.detach(|| scanmesh_core::enumerate::empty_triangles(&pts)).map_err(to_py)?;
+    Ok(faces_out(py, &t))
+}
+
+/// Every triangulation of the convex hull of (N, 2) distinct points, by flips from `faces_`
+/// (a triangulation using every point). Returns (K, M, 3) int64, each canonical; raises
+/// ParameterError when there are more than `max_count`.
+#[pyfunction]
+fn triangulations<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+    faces_: PyReadonlyArray2<'py, i64>,
+    max_count: usize,
+) -> PyResult<Bound<'py, numpy::PyArray3<i64>>> {
+    let pts = points2(&uv)?;
+    let t = faces(&faces_, pts.len())?;
+    let all = py.detach(|| scanmesh_core::enumerate::triangulations(&pts, &t, max_count)).map_err(to_py)?;
+    let flat: Vec<i64> = all.iter().flatten().flat_map(|f| f.map(i64::from)).collect();
+    let shape = (all.len(), t.len(), 3);
+    Ok(numpy::ndarray::Array3::from_shape_vec(shape, flat).expect("M per triangulation").into_pyarray(py))
+}
+
 /// The native core of scanmesh.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -202,5 +229,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_quality, m)?)?;
     m.add_function(wrap_pyfunction!(tac_norm, m)?)?;
+    m.add_function(wrap_pyfunction!(empty_triangles, m)?)?;
+    m.add_function(wrap_pyfunction!(triangulations, m)?)?;
     Ok(())
 }
