@@ -2,13 +2,18 @@
 
 The public API:
 
+- :func:`reconstruct` - every method behind one call;
 - :func:`delaunay` - planar Delaunay of projected points, trimmed to the outline;
 - :func:`quality` - tac norms and the max-min angle of any mesh;
+- :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
+- :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
 - :class:`Surface`, :class:`Quality`, :class:`Frame` - the results;
 - :class:`ScanmeshError` - base of every input error (a ``ValueError``).
 """
 
 from scanmesh.delaunay import delaunay
+from scanmesh.demo import load_demo
+from scanmesh.digitizer import simulate_scan
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -20,12 +25,17 @@ from scanmesh.errors import (
 )
 from scanmesh.projection import Frame, project
 from scanmesh.quality import Quality, quality
+from scanmesh.reconstruct import METHODS, reconstruct
 from scanmesh.surface import Surface
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "reconstruct",
+    "METHODS",
     "delaunay",
+    "simulate_scan",
+    "load_demo",
     "quality",
     "project",
     "Surface",
