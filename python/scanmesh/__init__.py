@@ -2,6 +2,7 @@
 
 The public API:
 
+- :func:`reconstruct` - every method behind one call;
 - :func:`delaunay` - planar Delaunay of projected points, trimmed to the outline;
 - :func:`quality` - tac norms and the max-min angle of any mesh;
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
@@ -24,11 +25,14 @@ from scanmesh.errors import (
 )
 from scanmesh.projection import Frame, project
 from scanmesh.quality import Quality, quality
+from scanmesh.reconstruct import METHODS, reconstruct
 from scanmesh.surface import Surface
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "reconstruct",
+    "METHODS",
     "delaunay",
     "simulate_scan",
     "load_demo",

@@ -29,7 +29,8 @@ pub struct AnnealParams {
     pub final_temperature_ratio: f64,
     /// Stop after this many sweeps without a new best once frozen (0: never stop early).
     pub patience: usize,
-    /// Break energy ties toward the larger smallest 3-D angle (see [`TacOrder`]).
+    /// In the final polish, break energy ties toward the larger smallest 3-D angle (see
+    /// [`TacOrder`]), so flat regions end well shaped instead of where the walk left them.
     pub sliver_guard: bool,
     /// Energy changes of at most this size (radians^p) are ties.
     pub tie_tolerance: f64,
@@ -59,25 +60,46 @@ impl Default for AnnealParams {
 impl AnnealParams {
     /// Checks every field's range; the error names the field.
     pub fn check(&self) -> Result<()> {
-        let bad = |name, value: String, expected| Err(Error::InvalidParameter { name, value, expected });
+        let bad = |name, value: String, expected| {
+            Err(Error::InvalidParameter {
+                name,
+                value,
+                expected,
+            })
+        };
         if !(self.p.is_finite() && self.p >= 1.0) {
             return bad("p", self.p.to_string(), "a finite p >= 1");
         }
         if !(self.initial_acceptance > 0.0 && self.initial_acceptance < 1.0) {
-            return bad("initial_acceptance", self.initial_acceptance.to_string(), "a probability strictly between 0 and 1");
+            return bad(
+                "initial_acceptance",
+                self.initial_acceptance.to_string(),
+                "a probability strictly between 0 and 1",
+            );
         }
         if !(self.final_temperature_ratio > 0.0 && self.final_temperature_ratio <= 1.0) {
-            return bad("final_temperature_ratio", self.final_temperature_ratio.to_string(), "a ratio in (0, 1]");
+            return bad(
+                "final_temperature_ratio",
+                self.final_temperature_ratio.to_string(),
+                "a ratio in (0, 1]",
+            );
         }
         if !(self.tie_tolerance >= 0.0 && self.tie_tolerance.is_finite()) {
-            return bad("tie_tolerance", self.tie_tolerance.to_string(), "a finite value >= 0");
+            return bad(
+                "tie_tolerance",
+                self.tie_tolerance.to_string(),
+                "a finite value >= 0",
+            );
         }
         Ok(())
     }
 
     /// The ordering used for ties and the polish.
     pub fn order(&self) -> TacOrder {
-        TacOrder { tie_tolerance: self.tie_tolerance, sliver_guard: self.sliver_guard }
+        TacOrder {
+            tie_tolerance: self.tie_tolerance,
+            sliver_guard: self.sliver_guard,
+        }
     }
 }
 
@@ -149,7 +171,11 @@ impl Annealer {
     pub fn new(state: TacState, params: AnnealParams) -> Result<Self> {
         params.check()?;
         if state.p() != params.p {
-            return Err(Error::InvalidParameter { name: "p", value: state.p().to_string(), expected: "the state's p to equal the parameters' p" });
+            return Err(Error::InvalidParameter {
+                name: "p",
+                value: state.p().to_string(),
+                expected: "the state's p to equal the parameters' p",
+            });
         }
         let n_interior_half_edges = state.count_interior_half_edges();
         let mut rng = Pcg64Mcg::seed_from_u64(params.seed);
@@ -173,7 +199,9 @@ impl Annealer {
             let median = *uphill.select_nth_unstable_by(mid, f64::total_cmp).1;
             -median / params.initial_acceptance.ln()
         };
-        let cooling = params.final_temperature_ratio.powf(1.0 / params.sweeps.max(1) as f64);
+        let cooling = params
+            .final_temperature_ratio
+            .powf(1.0 / params.sweeps.max(1) as f64);
         let energy = state.energy();
         Ok(Annealer {
             best: state.mesh().clone(),
@@ -244,14 +272,13 @@ impl Annealer {
     fn propose(&mut self) {
         self.proposed += 1;
         let h = random_interior_half_edge(&mut self.rng, &self.state, self.n_half_edges);
-        let Some(mv) = self.state.evaluate(h) else { return };
-        let accept = if self.order.is_tie(&mv) {
-            if self.order.sliver_guard {
-                self.order.improves(&mv)
-            } else {
-                true
-            }
-        } else if mv.delta_energy < 0.0 {
+        let Some(mv) = self.state.evaluate(h) else {
+            return;
+        };
+        // Ties are accepted freely: tac is blind on flat and developable parts, and the
+        // better optima are reached through long neutral walks there. The sliver guard acts
+        // in the final polish, which makes the result a local optimum of (tac, angle).
+        let accept = if self.order.is_tie(&mv) || mv.delta_energy < 0.0 {
             true
         } else {
             self.uphill_proposed += 1;
@@ -314,7 +341,11 @@ impl Annealer {
             acceptance: self.accepted as f64 / self.proposed.max(1) as f64,
         });
         let frozen = self.uphill_accepted * 1000 <= self.uphill_proposed;
-        self.since_best = if self.found_best { 0 } else { self.since_best + 1 };
+        self.since_best = if self.found_best {
+            0
+        } else {
+            self.since_best + 1
+        };
         if self.params.patience > 0 && frozen && self.since_best >= self.params.patience {
             self.stopped_early = true;
         }
@@ -330,10 +361,21 @@ impl Annealer {
     /// order when asked, and returns it. O(m + polish flips).
     pub fn finish(mut self) -> Result<AnnealResult> {
         self.sync_best();
-        let mut best = TacState::new(self.best, self.state.uv().to_vec(), self.state.xyz().to_vec(), self.params.p)?;
+        let mut best = TacState::new(
+            self.best,
+            self.state.uv().to_vec(),
+            self.state.xyz().to_vec(),
+            self.params.p,
+        )?;
         let max_flips = 1_000 * best.mesh().n_half_edges().max(1);
         let polish_flips = if self.params.polish {
-            lop(&mut TacLop { state: &mut best, order: self.order }, max_flips)
+            lop(
+                &mut TacLop {
+                    state: &mut best,
+                    order: self.order,
+                },
+                max_flips,
+            )
         } else {
             0
         };
@@ -390,7 +432,11 @@ mod tests {
     use crate::tac_state::tests::bumpy_state;
 
     fn quick(seed: u64) -> AnnealParams {
-        AnnealParams { sweeps: 60, seed, ..AnnealParams::default() }
+        AnnealParams {
+            sweeps: 60,
+            seed,
+            ..AnnealParams::default()
+        }
     }
 
     #[test]
@@ -398,13 +444,27 @@ mod tests {
         let st = bumpy_state(600, 21, 1.0);
         let e0 = st.energy();
         let mut lop_state = st.clone();
-        lop(&mut TacLop { state: &mut lop_state, order: AnnealParams::default().order() }, usize::MAX);
+        lop(
+            &mut TacLop {
+                state: &mut lop_state,
+                order: AnnealParams::default().order(),
+            },
+            usize::MAX,
+        );
         let r = anneal(st.clone(), quick(1)).unwrap();
         r.mesh.validate(st.uv()).unwrap();
         assert!(r.energy <= e0);
-        assert!(r.energy < lop_state.energy(), "anneal {} vs lop {}", r.energy, lop_state.energy());
+        assert!(
+            r.energy < lop_state.energy(),
+            "anneal {} vs lop {}",
+            r.energy,
+            lop_state.energy()
+        );
         assert_eq!(r.trace.len(), 60);
-        assert!(r.trace.windows(2).all(|w| w[1].best <= w[0].best && w[1].temperature < w[0].temperature));
+        assert!(r
+            .trace
+            .windows(2)
+            .all(|w| w[1].best <= w[0].best && w[1].temperature < w[0].temperature));
     }
 
     #[test]
@@ -420,12 +480,23 @@ mod tests {
     #[test]
     fn incremental_energy_tracks_full_recomputation_during_a_run() {
         let st = bumpy_state(400, 23, 1.5);
-        let mut ann = Annealer::new(st, AnnealParams { p: 1.5, sweeps: 30, ..quick(3) }).unwrap();
+        let mut ann = Annealer::new(
+            st,
+            AnnealParams {
+                p: 1.5,
+                sweeps: 30,
+                ..quick(3)
+            },
+        )
+        .unwrap();
         while !ann.is_done() {
             ann.advance(1_000);
             let scratch = ann.state().energy_from_scratch();
             let inc = ann.state().energy();
-            assert!((inc - scratch).abs() <= 1e-9 * scratch, "{inc} vs {scratch}");
+            assert!(
+                (inc - scratch).abs() <= 1e-9 * scratch,
+                "{inc} vs {scratch}"
+            );
         }
         let best = ann.trace().last().unwrap().best;
         let r = ann.finish().unwrap();
@@ -447,11 +518,23 @@ mod tests {
     fn best_state_survives_a_detached_log() {
         // A long hot run detaches the log; the returned state must still be the best seen.
         let st = bumpy_state(200, 25, 1.0);
-        let params = AnnealParams { sweeps: 40, initial_acceptance: 0.9, final_temperature_ratio: 0.5, polish: false, patience: 0, ..quick(9) };
+        let params = AnnealParams {
+            sweeps: 40,
+            initial_acceptance: 0.9,
+            final_temperature_ratio: 0.5,
+            polish: false,
+            patience: 0,
+            ..quick(9)
+        };
         let r = anneal(st.clone(), params).unwrap();
-        let recomputed = TacState::new(r.mesh.clone(), st.uv().to_vec(), st.xyz().to_vec(), 1.0).unwrap().energy_from_scratch();
+        let recomputed = TacState::new(r.mesh.clone(), st.uv().to_vec(), st.xyz().to_vec(), 1.0)
+            .unwrap()
+            .energy_from_scratch();
         let best_seen = r.trace.iter().map(|s| s.best).fold(f64::INFINITY, f64::min);
-        assert!((recomputed - best_seen).abs() <= 1e-9 * best_seen, "{recomputed} vs {best_seen}");
+        assert!(
+            (recomputed - best_seen).abs() <= 1e-9 * best_seen,
+            "{recomputed} vs {best_seen}"
+        );
         r.mesh.validate(st.uv()).unwrap();
     }
 
@@ -459,10 +542,22 @@ mod tests {
     fn invalid_parameters_are_refused() {
         let st = bumpy_state(50, 1, 1.0);
         for bad in [
-            AnnealParams { initial_acceptance: 1.0, ..Default::default() },
-            AnnealParams { final_temperature_ratio: 0.0, ..Default::default() },
-            AnnealParams { p: 0.5, ..Default::default() },
-            AnnealParams { tie_tolerance: -1.0, ..Default::default() },
+            AnnealParams {
+                initial_acceptance: 1.0,
+                ..Default::default()
+            },
+            AnnealParams {
+                final_temperature_ratio: 0.0,
+                ..Default::default()
+            },
+            AnnealParams {
+                p: 0.5,
+                ..Default::default()
+            },
+            AnnealParams {
+                tie_tolerance: -1.0,
+                ..Default::default()
+            },
         ] {
             assert!(Annealer::new(st.clone(), bad).is_err());
         }

@@ -173,7 +173,13 @@ mod tests {
             }
         }
         assert_ne!(canonical(mesh.triangles()), dt);
-        let flips = lop(&mut PlanarMaxMinLop { mesh: &mut mesh, uv: &uv }, usize::MAX);
+        let flips = lop(
+            &mut PlanarMaxMinLop {
+                mesh: &mut mesh,
+                uv: &uv,
+            },
+            usize::MAX,
+        );
         assert!(flips > 0);
         mesh.validate(&uv).unwrap();
         assert_eq!(canonical(mesh.triangles()), dt);
@@ -184,7 +190,13 @@ mod tests {
         let st = bumpy_state(300, 9, 1.0);
         let uv = st.uv().to_vec();
         let mut mesh = st.mesh().clone();
-        let flips = lop(&mut PlanarMaxMinLop { mesh: &mut mesh, uv: &uv }, usize::MAX);
+        let flips = lop(
+            &mut PlanarMaxMinLop {
+                mesh: &mut mesh,
+                uv: &uv,
+            },
+            usize::MAX,
+        );
         assert_eq!(flips, 0, "Delaunay is already max-min optimal");
     }
 
@@ -192,8 +204,17 @@ mod tests {
     fn tac_lop_descends_to_a_local_optimum() {
         let mut st = bumpy_state(500, 10, 1.0);
         let e0 = st.energy();
-        let order = TacOrder { tie_tolerance: 1e-12, sliver_guard: true };
-        let flips = lop(&mut TacLop { state: &mut st, order }, usize::MAX);
+        let order = TacOrder {
+            tie_tolerance: 1e-12,
+            sliver_guard: true,
+        };
+        let flips = lop(
+            &mut TacLop {
+                state: &mut st,
+                order,
+            },
+            usize::MAX,
+        );
         assert!(flips > 0 && st.energy() < e0);
         st.mesh().validate(st.uv()).unwrap();
         let scratch = st.energy_from_scratch();

@@ -10,6 +10,25 @@ use crate::delaunay::NONE;
 use crate::geometry::{orient2d, planar_corner_angle};
 use crate::{Error, Result};
 
+/// Triples whose triangle has a smallest angle with sine below about this count as collinear
+/// for flips. Scan grids put many points on lines (grid diagonals) that are straight in the
+/// reals but not in floating point; exact predicates call those triangles valid, and a
+/// flip into one (angles near 1e-13 degrees) cannot be undone by any convex flip later.
+pub const COLLINEAR_SINE: f64 = 1e-10;
+
+/// True when planar triangle (a, b, c) is counter-clockwise and not numerically collinear:
+/// twice its area exceeds `COLLINEAR_SINE` times its longest edge squared, which bounds the
+/// sine of its smallest angle from below. O(1).
+#[inline]
+pub fn well_formed(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
+    let area2 = orient2d(a, b, c);
+    if area2 <= 0.0 {
+        return false;
+    }
+    let sq = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
+    area2 > COLLINEAR_SINE * sq(a, b).max(sq(b, c)).max(sq(c, a))
+}
+
 /// Connectivity of a triangulation of `n_vertices` points.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HalfEdgeMesh {
@@ -62,12 +81,17 @@ impl HalfEdgeMesh {
                 if v as usize >= n_vertices {
                     return Err(Error::InvalidFace {
                         face: f,
-                        reason: format!("vertex index {v} out of range (there are {n_vertices} vertices)"),
+                        reason: format!(
+                            "vertex index {v} out of range (there are {n_vertices} vertices)"
+                        ),
                     });
                 }
             }
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                return Err(Error::InvalidFace { face: f, reason: format!("repeats a vertex: {t:?}") });
+                return Err(Error::InvalidFace {
+                    face: f,
+                    reason: format!("repeats a vertex: {t:?}"),
+                });
             }
             start.extend_from_slice(t);
         }
@@ -94,7 +118,12 @@ impl HalfEdgeMesh {
                 twin[h as usize] = keyed[k].1;
             }
         }
-        let mut mesh = HalfEdgeMesh { start, twin, vertex_edge: vec![NONE; n_vertices], on_boundary: vec![false; n_vertices] };
+        let mut mesh = HalfEdgeMesh {
+            start,
+            twin,
+            vertex_edge: vec![NONE; n_vertices],
+            on_boundary: vec![false; n_vertices],
+        };
         mesh.index_vertices();
         Ok(mesh)
     }
@@ -149,7 +178,11 @@ impl HalfEdgeMesh {
     /// The three vertices of triangle `t`, counter-clockwise. O(1).
     #[inline]
     pub fn triangle(&self, t: usize) -> [u32; 3] {
-        [self.start[3 * t], self.start[3 * t + 1], self.start[3 * t + 2]]
+        [
+            self.start[3 * t],
+            self.start[3 * t + 1],
+            self.start[3 * t + 2],
+        ]
     }
 
     /// All triangles, counter-clockwise. O(m).
@@ -167,7 +200,9 @@ impl HalfEdgeMesh {
 
     /// One half-edge per interior edge (both sides have a triangle). O(m).
     pub fn interior_edges(&self) -> Vec<u32> {
-        (0..self.start.len() as u32).filter(|&h| h < self.twin[h as usize]).collect()
+        (0..self.start.len() as u32)
+            .filter(|&h| h < self.twin[h as usize])
+            .collect()
     }
 
     /// True when `v` is used and no boundary edge touches it: its triangles form a closed fan. O(1).
@@ -186,7 +221,11 @@ impl HalfEdgeMesh {
     /// a boundary vertex. O(degree).
     pub fn fan(&self, v: u32) -> Fan<'_> {
         let first = self.vertex_edge[v as usize];
-        Fan { mesh: self, first, current: first }
+        Fan {
+            mesh: self,
+            first,
+            current: first,
+        }
     }
 
     /// True when flipping `h` is allowed: it is interior and its two triangles form a
@@ -194,21 +233,27 @@ impl HalfEdgeMesh {
     ///
     /// With the quadrilateral (a, d, b, c) around diagonal a→b, the old triangles are strictly
     /// counter-clockwise by invariant, so strict convexity is exactly that both new triangles
-    /// (d, c, a) and (c, d, b) are strictly counter-clockwise (exact predicate). O(1).
+    /// (d, c, a) and (c, d, b) are strictly counter-clockwise (exact predicate). "Collinear"
+    /// includes numerically collinear: see [`COLLINEAR_SINE`]. O(1).
     pub fn can_flip(&self, h: u32, uv: &[[f64; 2]]) -> bool {
         let t = self.twin[h as usize];
         if t == NONE {
             return false;
         }
         let [a, b, c, d] = self.quad(h, t).map(|v| uv[v as usize]);
-        orient2d(d, c, a) > 0.0 && orient2d(c, d, b) > 0.0
+        well_formed(d, c, a) && well_formed(c, d, b)
     }
 
     /// The four corners (a, b, c, d) around interior half-edge `h` = a→b with twin `t`:
     /// c is opposite h, d opposite t. O(1).
     #[inline]
     pub fn quad(&self, h: u32, t: u32) -> [u32; 4] {
-        [self.start(h), self.start(t), self.start(prev(h)), self.start(prev(t))]
+        [
+            self.start(h),
+            self.start(t),
+            self.start(prev(h)),
+            self.start(prev(t)),
+        ]
     }
 
     /// Flips interior half-edge `h` (a→b) to the other diagonal (c→d) without checking
@@ -236,8 +281,12 @@ impl HalfEdgeMesh {
         let (h0, h1, h2) = (h, next(h), prev(h));
         let (t0, t1, t2) = (t, next(t), prev(t));
         let [a, b, c, d] = self.quad(h, t);
-        let (tw_ca, tw_ad, tw_db, tw_bc) =
-            (self.twin[h2 as usize], self.twin[t1 as usize], self.twin[t2 as usize], self.twin[h1 as usize]);
+        let (tw_ca, tw_ad, tw_db, tw_bc) = (
+            self.twin[h2 as usize],
+            self.twin[t1 as usize],
+            self.twin[t2 as usize],
+            self.twin[h1 as usize],
+        );
         let s = &mut self.start;
         s[h0 as usize] = d;
         s[h1 as usize] = c;
@@ -288,7 +337,11 @@ impl HalfEdgeMesh {
     pub fn validate(&self, uv: &[[f64; 2]]) -> Result<()> {
         let fail = |s: String| Err(Error::Invariant(s));
         if uv.len() != self.n_vertices() {
-            return fail(format!("{} positions for {} vertices", uv.len(), self.n_vertices()));
+            return fail(format!(
+                "{} positions for {} vertices",
+                uv.len(),
+                self.n_vertices()
+            ));
         }
         if self.start.len() % 3 != 0 || self.twin.len() != self.start.len() {
             return fail("half-edge arrays of inconsistent length".into());
@@ -296,7 +349,10 @@ impl HalfEdgeMesh {
         let n_he = self.start.len() as u32;
         for h in 0..n_he {
             if self.start(h) as usize >= self.n_vertices() {
-                return fail(format!("half-edge {h} starts at vertex {} out of range", self.start(h)));
+                return fail(format!(
+                    "half-edge {h} starts at vertex {} out of range",
+                    self.start(h)
+                ));
             }
             let t = self.twin(h);
             if t != NONE {
@@ -304,21 +360,30 @@ impl HalfEdgeMesh {
                     return fail(format!("twin of half-edge {h} is not mutual"));
                 }
                 if self.start(t) != self.end(h) || self.end(t) != self.start(h) {
-                    return fail(format!("half-edge {h} and its twin {t} do not join the same vertices"));
+                    return fail(format!(
+                        "half-edge {h} and its twin {t} do not join the same vertices"
+                    ));
                 }
             }
         }
         for tri in 0..self.n_triangles() {
             let [a, b, c] = self.triangle(tri);
             if orient2d(uv[a as usize], uv[b as usize], uv[c as usize]) <= 0.0 {
-                return fail(format!("triangle {tri} ({a}, {b}, {c}) is not strictly counter-clockwise in the plane"));
+                return fail(format!(
+                    "triangle {tri} ({a}, {b}, {c}) is not strictly counter-clockwise in the plane"
+                ));
             }
         }
-        let mut keys: Vec<u64> =
-            (0..n_he).map(|h| ((self.start(h) as u64) << 32) | self.end(h) as u64).collect();
+        let mut keys: Vec<u64> = (0..n_he)
+            .map(|h| ((self.start(h) as u64) << 32) | self.end(h) as u64)
+            .collect();
         keys.sort_unstable();
         if let Some(w) = keys.windows(2).find(|w| w[0] == w[1]) {
-            return fail(format!("directed edge {}->{} appears twice", w[0] >> 32, w[0] as u32));
+            return fail(format!(
+                "directed edge {}->{} appears twice",
+                w[0] >> 32,
+                w[0] as u32
+            ));
         }
         let mut degree = vec![0u32; self.n_vertices()];
         let mut boundary_out = vec![0u32; self.n_vertices()];
@@ -338,28 +403,47 @@ impl HalfEdgeMesh {
                 continue;
             }
             if e == NONE || self.start(e) != v {
-                return fail(format!("vertex {v} does not point at a half-edge leaving it"));
+                return fail(format!(
+                    "vertex {v} does not point at a half-edge leaving it"
+                ));
             }
             if boundary_out[vi] > 1 {
-                return fail(format!("vertex {v} joins {} separate fans (a pinch)", boundary_out[vi]));
+                return fail(format!(
+                    "vertex {v} joins {} separate fans (a pinch)",
+                    boundary_out[vi]
+                ));
             }
             if self.on_boundary[vi] != (boundary_out[vi] == 1) {
                 return fail(format!("boundary flag of vertex {v} is stale"));
             }
             if boundary_out[vi] == 1 && self.twin(e) != NONE {
-                return fail(format!("boundary vertex {v} does not point at its boundary half-edge"));
+                return fail(format!(
+                    "boundary vertex {v} does not point at its boundary half-edge"
+                ));
             }
             let fan: Vec<u32> = self.fan(v).collect();
             if fan.len() != degree[vi] as usize {
-                return fail(format!("the fan of vertex {v} reaches {} of its {} half-edges", fan.len(), degree[vi]));
+                return fail(format!(
+                    "the fan of vertex {v} reaches {} of its {} half-edges",
+                    fan.len(),
+                    degree[vi]
+                ));
             }
             if self.is_interior(v) {
                 let total: f64 = fan
                     .iter()
-                    .map(|&h| planar_corner_angle(uv[vi], uv[self.end(h) as usize], uv[self.start(prev(h)) as usize]))
+                    .map(|&h| {
+                        planar_corner_angle(
+                            uv[vi],
+                            uv[self.end(h) as usize],
+                            uv[self.start(prev(h)) as usize],
+                        )
+                    })
                     .sum();
                 if (total - std::f64::consts::TAU).abs() > 1e-6 {
-                    return fail(format!("planar angles around interior vertex {v} sum to {total}, not 2π (a fold)"));
+                    return fail(format!(
+                        "planar angles around interior vertex {v} sum to {total}, not 2π (a fold)"
+                    ));
                 }
             }
         }
@@ -431,7 +515,11 @@ impl Iterator for Fan<'_> {
             return None;
         }
         let following = self.mesh.twin(prev(h));
-        self.current = if following == self.first { NONE } else { following };
+        self.current = if following == self.first {
+            NONE
+        } else {
+            following
+        };
         Some(h)
     }
 }
@@ -444,7 +532,9 @@ mod tests {
     pub(crate) fn random_points(n: usize, seed: u64) -> Vec<[f64; 2]> {
         let mut s = seed;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64
         };
         (0..n).map(|_| [next(), next()]).collect()
@@ -462,7 +552,10 @@ mod tests {
     fn delaunay_mesh(n: usize, seed: u64) -> (Vec<[f64; 2]>, HalfEdgeMesh) {
         let uv = random_points(n, seed);
         let d = delaunay(&uv).unwrap();
-        (uv.clone(), HalfEdgeMesh::from_triangles(uv.len(), &d.triangles).unwrap())
+        (
+            uv.clone(),
+            HalfEdgeMesh::from_triangles(uv.len(), &d.triangles).unwrap(),
+        )
     }
 
     #[test]
@@ -526,6 +619,11 @@ mod tests {
         let uv3 = vec![[0.0, 0.0], [2.0, 0.0], [3.0, 1.0], [1.0, -1.0]];
         let mesh3 = HalfEdgeMesh::from_triangles(4, &[[0, 1, 2], [1, 0, 3]]).unwrap();
         assert!(!mesh3.can_flip(0, &uv3));
+        // Numerically collinear: d, b, c lie on x + y = 0.4 in the reals, but the rounded
+        // coordinates make (c, d, b) counter-clockwise by 5.6e-18: still not a legal flip.
+        let uv4 = vec![[0.0, 0.0], [0.2, 0.2], [0.1, 0.3], [0.3, 0.1]];
+        assert!(orient2d(uv4[2], uv4[3], uv4[1]) > 0.0);
+        assert!(!mesh3.can_flip(0, &uv4));
         assert!(!mesh3.can_flip(1, &uv3), "boundary edge");
     }
 
@@ -543,7 +641,13 @@ mod tests {
         let cw = HalfEdgeMesh::from_triangles(3, &[[0, 2, 1]]).unwrap();
         assert!(cw.validate(&uv).is_err());
         // Two triangles sharing only vertex 0: a pinch.
-        let uv = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [-1.0, 0.0], [-1.0, -1.0]];
+        let uv = vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [-1.0, 0.0],
+            [-1.0, -1.0],
+        ];
         let bow = HalfEdgeMesh::from_triangles(5, &[[0, 1, 2], [0, 3, 4]]).unwrap();
         let err = bow.validate(&uv).unwrap_err();
         assert!(format!("{err}").contains("pinch"), "{err}");

@@ -61,17 +61,37 @@ impl TacState {
     /// are measured on (normalize with [`crate::geometry::Normalizer`] to be scale-safe). O(m).
     pub fn new(mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
         if !(p.is_finite() && p >= 1.0) {
-            return Err(Error::InvalidParameter { name: "p", value: p.to_string(), expected: "a finite p >= 1" });
+            return Err(Error::InvalidParameter {
+                name: "p",
+                value: p.to_string(),
+                expected: "a finite p >= 1",
+            });
         }
         if uv.len() != mesh.n_vertices() || xyz.len() != mesh.n_vertices() {
             return Err(Error::InvalidParameter {
                 name: "positions",
-                value: format!("{} planar and {} 3-D for {} vertices", uv.len(), xyz.len(), mesh.n_vertices()),
+                value: format!(
+                    "{} planar and {} 3-D for {} vertices",
+                    uv.len(),
+                    xyz.len(),
+                    mesh.n_vertices()
+                ),
                 expected: "one of each per vertex",
             });
         }
-        let interior = (0..mesh.n_vertices() as u32).map(|v| mesh.is_interior(v)).collect();
-        let mut state = TacState { corner: vec![0.0; mesh.n_half_edges()], sum: vec![0.0; mesh.n_vertices()], mesh, uv, xyz, interior, p, energy: 0.0 };
+        let interior = (0..mesh.n_vertices() as u32)
+            .map(|v| mesh.is_interior(v))
+            .collect();
+        let mut state = TacState {
+            corner: vec![0.0; mesh.n_half_edges()],
+            sum: vec![0.0; mesh.n_vertices()],
+            mesh,
+            uv,
+            xyz,
+            interior,
+            p,
+            energy: 0.0,
+        };
         for t in 0..state.mesh.n_triangles() {
             let [a, b, c] = state.mesh.triangle(t).map(|v| state.xyz[v as usize]);
             let angles = triangle_angles(a, b, c);
@@ -137,12 +157,18 @@ impl TacState {
     /// reference the incremental value is tested against. O(m).
     pub fn energy_from_scratch(&self) -> f64 {
         let sums = crate::criteria::angle_sums(&self.xyz, &self.mesh.triangles());
-        sums.iter().zip(&self.interior).filter(|(_, &i)| i).map(|(&s, _)| vertex_energy(s, self.p)).sum()
+        sums.iter()
+            .zip(&self.interior)
+            .filter(|(_, &i)| i)
+            .map(|(&s, _)| vertex_energy(s, self.p))
+            .sum()
     }
 
     /// Number of half-edges that have a twin (twice the number of interior edges). O(m).
     pub fn count_interior_half_edges(&self) -> usize {
-        (0..self.mesh.n_half_edges() as u32).filter(|&h| self.mesh.twin(h) != NONE).count()
+        (0..self.mesh.n_half_edges() as u32)
+            .filter(|&h| self.mesh.twin(h) != NONE)
+            .count()
     }
 
     /// Evaluates flipping `h`: `None` when it is a boundary edge or its quadrilateral is not
@@ -160,7 +186,14 @@ impl TacState {
         let new_angles = [d0, c0, a0, c1, d1, b1];
         let (h1, h2, t1, t2) = (next(h), prev(h), next(t), prev(t));
         let k = &self.corner;
-        let old = [k[h as usize], k[h1 as usize], k[h2 as usize], k[t as usize], k[t1 as usize], k[t2 as usize]];
+        let old = [
+            k[h as usize],
+            k[h1 as usize],
+            k[h2 as usize],
+            k[t as usize],
+            k[t1 as usize],
+            k[t2 as usize],
+        ];
         let deltas = [
             (a, a0 - (old[0] + old[4])),
             (b, b1 - (old[1] + old[3])),
@@ -175,7 +208,13 @@ impl TacState {
             }
         }
         let min6 = |x: [f64; 6]| x.iter().copied().fold(f64::INFINITY, f64::min);
-        Some(FlipMove { h, delta_energy, new_angles, old_min_angle: min6(old), new_min_angle: min6(new_angles) })
+        Some(FlipMove {
+            h,
+            delta_energy,
+            new_angles,
+            old_min_angle: min6(old),
+            new_min_angle: min6(new_angles),
+        })
     }
 
     /// Applies an evaluated move: flips, writes the six new corner angles, re-sums the four
@@ -185,7 +224,10 @@ impl TacState {
         let t = self.mesh.twin(h);
         let quad = self.mesh.quad(h, t);
         self.mesh.flip(h);
-        for (slot, angle) in [h, next(h), prev(h), t, next(t), prev(t)].into_iter().zip(mv.new_angles) {
+        for (slot, angle) in [h, next(h), prev(h), t, next(t), prev(t)]
+            .into_iter()
+            .zip(mv.new_angles)
+        {
             self.corner[slot as usize] = angle;
         }
         for v in quad {
@@ -209,13 +251,21 @@ pub(crate) mod tests {
     pub(crate) fn bumpy_state(n: usize, seed: u64, p: f64) -> TacState {
         let mut s = seed;
         let mut rnd = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64
         };
         let uv: Vec<[f64; 2]> = (0..n).map(|_| [rnd(), rnd()]).collect();
         let xyz: Vec<DVec3> = uv
             .iter()
-            .map(|q| DVec3::new(q[0], q[1], 0.3 * (6.0 * q[0]).sin() * (4.0 * q[1]).cos() + 0.2 * q[0] * q[0]))
+            .map(|q| {
+                DVec3::new(
+                    q[0],
+                    q[1],
+                    0.3 * (6.0 * q[0]).sin() * (4.0 * q[1]).cos() + 0.2 * q[0] * q[0],
+                )
+            })
             .collect();
         let uv = unit_square(&uv);
         let d = delaunay(&uv).unwrap();
@@ -236,13 +286,20 @@ pub(crate) mod tests {
                     let before = st.energy_from_scratch();
                     st.apply(&mv);
                     let after = st.energy_from_scratch();
-                    assert!(((after - before) - mv.delta_energy).abs() <= 1e-10 * before.max(1.0), "p={p}");
+                    assert!(
+                        ((after - before) - mv.delta_energy).abs() <= 1e-10 * before.max(1.0),
+                        "p={p}"
+                    );
                     applied += 1;
                 }
             }
             assert!(applied > 100);
             let scratch = st.energy_from_scratch();
-            assert!((st.energy() - scratch).abs() <= 1e-9 * scratch, "{} vs {scratch}", st.energy());
+            assert!(
+                (st.energy() - scratch).abs() <= 1e-9 * scratch,
+                "{} vs {scratch}",
+                st.energy()
+            );
             st.mesh().validate(st.uv()).unwrap();
         }
     }

@@ -6,23 +6,48 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2}
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
+use scanmesh_core::anneal::{self as sa, AnnealParams};
 use scanmesh_core::criteria::{self, Norm};
 use scanmesh_core::delaunay::NONE;
 use scanmesh_core::glam::DVec3;
+use scanmesh_core::lop::{lop as run_lop, PlanarMaxMinLop, TacLop, TacOrder};
 use scanmesh_core::mesh::HalfEdgeMesh;
 use scanmesh_core::projection::{self, Plane};
+use scanmesh_core::tac_state::TacState;
 use scanmesh_core::{trim, Error};
 
-create_exception!(_core, ScanmeshError, PyValueError, "Base of every scanmesh input error (a ValueError).");
-create_exception!(_core, DegenerateInputError, ScanmeshError, "Points that span no surface: too few, identical, collinear or non-finite.");
-create_exception!(_core, ParameterError, ScanmeshError, "An option outside its valid range.");
-create_exception!(_core, InvalidMeshError, ScanmeshError, "Faces that do not form a valid triangulation.");
+create_exception!(
+    _core,
+    ScanmeshError,
+    PyValueError,
+    "Base of every scanmesh input error (a ValueError)."
+);
+create_exception!(
+    _core,
+    DegenerateInputError,
+    ScanmeshError,
+    "Points that span no surface: too few, identical, collinear or non-finite."
+);
+create_exception!(
+    _core,
+    ParameterError,
+    ScanmeshError,
+    "An option outside its valid range."
+);
+create_exception!(
+    _core,
+    InvalidMeshError,
+    ScanmeshError,
+    "Faces that do not form a valid triangulation."
+);
 
 /// The one place where core errors become Python exceptions.
 fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
     match e {
-        Error::NonFinite { .. } | Error::TooFewPoints { .. } | Error::Collinear { .. } => DegenerateInputError::new_err(msg),
+        Error::NonFinite { .. } | Error::TooFewPoints { .. } | Error::Collinear { .. } => {
+            DegenerateInputError::new_err(msg)
+        }
         Error::InvalidParameter { .. } => ParameterError::new_err(msg),
         Error::InvalidFace { .. } | Error::Invariant(_) => InvalidMeshError::new_err(msg),
         Error::Interrupted => PyKeyboardInterrupt::new_err(msg),
@@ -38,7 +63,10 @@ fn points3(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
     if v.ncols() != 3 {
         return Err(shape_error("points", "(N, 3)", v.shape()));
     }
-    Ok(v.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect())
+    Ok(v.rows()
+        .into_iter()
+        .map(|r| DVec3::new(r[0], r[1], r[2]))
+        .collect())
 }
 
 fn points2(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
@@ -73,12 +101,16 @@ fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResult<Vec<[u32;
 
 fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> Bound<'py, PyArray2<i64>> {
     let flat: Vec<i64> = t.iter().flat_map(|f| f.map(i64::from)).collect();
-    Array2::from_shape_vec((t.len(), 3), flat).expect("3 per face").into_pyarray(py)
+    Array2::from_shape_vec((t.len(), 3), flat)
+        .expect("3 per face")
+        .into_pyarray(py)
 }
 
 fn uv_out<'py>(py: Python<'py>, uv: &[[f64; 2]]) -> Bound<'py, PyArray2<f64>> {
     let flat: Vec<f64> = uv.iter().flatten().copied().collect();
-    Array2::from_shape_vec((uv.len(), 2), flat).expect("2 per point").into_pyarray(py)
+    Array2::from_shape_vec((uv.len(), 2), flat)
+        .expect("2 per point")
+        .into_pyarray(py)
 }
 
 /// Projects (N, 3) points onto a plane. `plane` is "best-fit", "x", "y" or "z", or None
@@ -110,10 +142,20 @@ fn project<'py>(
             )))
         }
     };
-    let p = py.detach(|| projection::project(&pts, plane)).map_err(to_py)?;
+    let p = py
+        .detach(|| projection::project(&pts, plane))
+        .map_err(to_py)?;
     let f = p.frame;
-    let frame: Vec<f64> = [f.origin, f.u, f.v, f.normal].iter().flat_map(|v| v.to_array()).collect();
-    Ok((uv_out(py, &p.uv), Array2::from_shape_vec((4, 3), frame).expect("4x3").into_pyarray(py)))
+    let frame: Vec<f64> = [f.origin, f.u, f.v, f.normal]
+        .iter()
+        .flat_map(|v| v.to_array())
+        .collect();
+    Ok((
+        uv_out(py, &p.uv),
+        Array2::from_shape_vec((4, 3), frame)
+            .expect("4x3")
+            .into_pyarray(py),
+    ))
 }
 
 /// Delaunay triangulation of (N, 2) points. Returns (faces (M, 3) int64 counter-clockwise,
@@ -124,14 +166,26 @@ fn delaunay<'py>(
     uv: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<(Bound<'py, PyArray2<i64>>, Bound<'py, PyArray1<i64>>)> {
     let pts = points2(&uv)?;
-    let d = py.detach(|| scanmesh_core::delaunay::delaunay(&pts)).map_err(to_py)?;
-    let dup: Vec<i64> = d.duplicate_of.iter().map(|&k| if k == NONE { -1 } else { i64::from(k) }).collect();
-    Ok((faces_out(py, &d.triangles), Array1::from_vec(dup).into_pyarray(py)))
+    let d = py
+        .detach(|| scanmesh_core::delaunay::delaunay(&pts))
+        .map_err(to_py)?;
+    let dup: Vec<i64> = d
+        .duplicate_of
+        .iter()
+        .map(|&k| if k == NONE { -1 } else { i64::from(k) })
+        .collect();
+    Ok((
+        faces_out(py, &d.triangles),
+        Array1::from_vec(dup).into_pyarray(py),
+    ))
 }
 
 /// Median nearest-neighbour spacing of (N, 2) points along the edges of `faces`.
 #[pyfunction]
-fn median_spacing(uv: PyReadonlyArray2<'_, f64>, faces_: PyReadonlyArray2<'_, i64>) -> PyResult<f64> {
+fn median_spacing(
+    uv: PyReadonlyArray2<'_, f64>,
+    faces_: PyReadonlyArray2<'_, i64>,
+) -> PyResult<f64> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
     Ok(trim::median_spacing(&pts, &t))
@@ -146,21 +200,30 @@ fn trim_long_edges<'py>(
     max_edge: f64,
 ) -> PyResult<Bound<'py, PyArray2<i64>>> {
     if max_edge.is_nan() || max_edge <= 0.0 {
-        return Err(ParameterError::new_err(format!("max_edge must be positive, got {max_edge}")));
+        return Err(ParameterError::new_err(format!(
+            "max_edge must be positive, got {max_edge}"
+        )));
     }
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    let kept = py.detach(|| trim::trim_long_edges(&pts, &t, max_edge)).map_err(to_py)?;
+    let kept = py
+        .detach(|| trim::trim_long_edges(&pts, &t, max_edge))
+        .map_err(to_py)?;
     Ok(faces_out(py, &kept))
 }
 
 /// Checks that `faces` form a valid planar triangulation of (N, 2) points; raises
 /// InvalidMeshError naming the broken invariant.
 #[pyfunction]
-fn validate(py: Python<'_>, uv: PyReadonlyArray2<'_, f64>, faces_: PyReadonlyArray2<'_, i64>) -> PyResult<()> {
-    let pts = points2(&uv)?;
+fn validate(
+    py: Python<'_>,
+    uv: PyReadonlyArray2<'_, f64>,
+    faces_: PyReadonlyArray2<'_, i64>,
+) -> PyResult<()> {
+    let pts = scanmesh_core::delaunay::unit_square(&points2(&uv)?);
     let t = faces(&faces_, pts.len())?;
-    py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts))).map_err(to_py)
+    py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts)))
+        .map_err(to_py)
 }
 
 /// 3-D quality of a mesh. Returns (tac (N,) with NaN off the interior, smallest angle per
@@ -175,7 +238,10 @@ fn mesh_quality<'py>(
     let t = faces(&faces_, pts.len())?;
     scanmesh_core::geometry::check_finite(&pts).map_err(to_py)?;
     let q = py.detach(|| criteria::quality(&pts, &t)).map_err(to_py)?;
-    Ok((Array1::from_vec(q.tac).into_pyarray(py), Array1::from_vec(q.min_angle).into_pyarray(py)))
+    Ok((
+        Array1::from_vec(q.tac).into_pyarray(py),
+        Array1::from_vec(q.min_angle).into_pyarray(py),
+    ))
 }
 
 /// p-norm (p ≥ 1, or inf for the maximum) of the non-NaN entries of a vector.
@@ -185,12 +251,235 @@ fn tac_norm(values: PyReadonlyArray1<'_, f64>, p: f64) -> PyResult<f64> {
     Ok(norm.of(values.as_slice()?))
 }
 
+/// The incremental tac state of `faces` over 3-D `points` with planar `uv`, both normalized
+/// (scale-free), checked to be a valid planar triangulation.
+fn tac_state(
+    points: &PyReadonlyArray2<'_, f64>,
+    uv: &PyReadonlyArray2<'_, f64>,
+    faces_: &PyReadonlyArray2<'_, i64>,
+    p: f64,
+) -> PyResult<TacState> {
+    let xyz = points3(points)?;
+    let plane = points2(uv)?;
+    if xyz.len() != plane.len() {
+        return Err(ScanmeshError::new_err(format!(
+            "{} points but {} planar positions",
+            xyz.len(),
+            plane.len()
+        )));
+    }
+    scanmesh_core::geometry::check_finite(&xyz).map_err(to_py)?;
+    let t = faces(faces_, xyz.len())?;
+    let unit_uv = scanmesh_core::delaunay::unit_square(&plane);
+    let unit_xyz = scanmesh_core::geometry::Normalizer::fit(&xyz).apply_all(&xyz);
+    let mesh = HalfEdgeMesh::from_triangles(xyz.len(), &t).map_err(to_py)?;
+    mesh.validate(&unit_uv).map_err(to_py)?;
+    TacState::new(mesh, unit_uv, unit_xyz, p).map_err(to_py)
+}
+
+/// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
+/// larger smallest angle when `sliver_guard`) or "max-min" (smallest angle in the plane;
+/// converges to Delaunay). Returns (faces, flips).
+#[pyfunction]
+#[pyo3(signature = (points, uv, faces_, criterion, p=1.0, sliver_guard=true, tie_tolerance=1e-10))]
+#[allow(clippy::too_many_arguments)]
+fn lop<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    uv: PyReadonlyArray2<'py, f64>,
+    faces_: PyReadonlyArray2<'py, i64>,
+    criterion: &str,
+    p: f64,
+    sliver_guard: bool,
+    tie_tolerance: f64,
+) -> PyResult<(Bound<'py, PyArray2<i64>>, usize)> {
+    let mut state = tac_state(&points, &uv, &faces_, p)?;
+    let (mesh, flips) = match criterion {
+        "tac" => {
+            if !(tie_tolerance >= 0.0 && tie_tolerance.is_finite()) {
+                return Err(ParameterError::new_err(format!(
+                    "tie_tolerance must be finite and >= 0, got {tie_tolerance}"
+                )));
+            }
+            let order = TacOrder {
+                tie_tolerance,
+                sliver_guard,
+            };
+            py.detach(|| {
+                let flips = run_lop(
+                    &mut TacLop {
+                        state: &mut state,
+                        order,
+                    },
+                    usize::MAX,
+                );
+                (state.into_mesh(), flips)
+            })
+        }
+        "max-min" => py.detach(|| {
+            let plane = state.uv().to_vec();
+            let mut mesh = state.into_mesh();
+            let flips = run_lop(
+                &mut PlanarMaxMinLop {
+                    mesh: &mut mesh,
+                    uv: &plane,
+                },
+                usize::MAX,
+            );
+            (mesh, flips)
+        }),
+        other => {
+            return Err(ParameterError::new_err(format!(
+                "unknown LOP criterion {other:?}: use 'tac' or 'max-min'"
+            )))
+        }
+    };
+    Ok((faces_out(py, &mesh.triangles()), flips))
+}
+
+/// A resumable simulated-annealing run (see `scanmesh_core::anneal`). Python drives it in
+/// chunks with `advance`, so progress is reported and Ctrl-C honoured between chunks.
+#[pyclass(module = "scanmesh._core")]
+struct Annealer {
+    inner: Option<sa::Annealer>,
+}
+
+impl Annealer {
+    fn running(&self) -> PyResult<&sa::Annealer> {
+        self.inner
+            .as_ref()
+            .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))
+    }
+}
+
+#[pymethods]
+impl Annealer {
+    #[new]
+    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        uv: PyReadonlyArray2<'_, f64>,
+        faces: PyReadonlyArray2<'_, i64>,
+        sweeps: usize,
+        p: f64,
+        seed: u64,
+        initial_acceptance: f64,
+        final_temperature_ratio: f64,
+        patience: usize,
+        sliver_guard: bool,
+        tie_tolerance: f64,
+        polish: bool,
+        calibration_samples: usize,
+    ) -> PyResult<Self> {
+        let params = AnnealParams {
+            sweeps,
+            p,
+            seed,
+            initial_acceptance,
+            final_temperature_ratio,
+            patience,
+            sliver_guard,
+            tie_tolerance,
+            polish,
+            calibration_samples,
+        };
+        params.check().map_err(to_py)?;
+        let state = tac_state(&points, &uv, &faces, p)?;
+        let inner = py
+            .detach(|| sa::Annealer::new(state, params))
+            .map_err(to_py)?;
+        Ok(Annealer { inner: Some(inner) })
+    }
+
+    /// Runs at most `max_proposals` proposals without the GIL; returns how many ran.
+    fn advance(&mut self, py: Python<'_>, max_proposals: usize) -> PyResult<usize> {
+        let inner = self
+            .inner
+            .as_mut()
+            .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
+        Ok(py.detach(|| inner.advance(max_proposals)))
+    }
+
+    /// True when all sweeps ran or the run froze and stopped early.
+    #[getter]
+    fn done(&self) -> PyResult<bool> {
+        Ok(self.running()?.is_done())
+    }
+
+    /// Proposals per sweep (interior edges).
+    #[getter]
+    fn sweep_len(&self) -> PyResult<usize> {
+        Ok(self.running()?.sweep_len())
+    }
+
+    /// Sweeps completed so far.
+    #[getter]
+    fn sweeps_done(&self) -> PyResult<usize> {
+        Ok(self.running()?.trace().len())
+    }
+
+    /// Current energy.
+    #[getter]
+    fn energy(&self) -> PyResult<f64> {
+        Ok(self.running()?.state().energy())
+    }
+
+    /// The trace so far: (temperature, energy, best, acceptance), one entry per sweep.
+    fn trace<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Ok(trace_out(py, self.running()?.trace()))
+    }
+
+    /// Ends the run: best state, polished. Returns (faces, trace (S, 4), summary dict).
+    fn finish<'py>(
+        &mut self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<i64>>,
+        Bound<'py, PyArray2<f64>>,
+        Bound<'py, pyo3::types::PyDict>,
+    )> {
+        let inner = self
+            .inner
+            .take()
+            .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
+        let r = py.detach(|| inner.finish()).map_err(to_py)?;
+        let summary = pyo3::types::PyDict::new(py);
+        summary.set_item("initial_energy", r.initial_energy)?;
+        summary.set_item("energy", r.energy)?;
+        summary.set_item("initial_temperature", r.initial_temperature)?;
+        summary.set_item("polish_flips", r.polish_flips)?;
+        summary.set_item("stopped_early", r.stopped_early)?;
+        Ok((
+            faces_out(py, &r.mesh.triangles()),
+            trace_out(py, &r.trace),
+            summary,
+        ))
+    }
+}
+
+fn trace_out<'py>(py: Python<'py>, trace: &[sa::SweepRecord]) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = trace
+        .iter()
+        .flat_map(|r| [r.temperature, r.energy, r.best, r.acceptance])
+        .collect();
+    Array2::from_shape_vec((trace.len(), 4), flat)
+        .expect("4 per sweep")
+        .into_pyarray(py)
+}
+
 /// Every empty triangle of (N, 2) pairwise distinct points: no other point in the closed
 /// triangle, corners not collinear (exact predicates). Returns (T, 3) int64, counter-clockwise.
 #[pyfunction]
-fn empty_triangles<'py>(py: Python<'py>, uv: PyReadonlyArray2<'py, f64>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+fn empty_triangles<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray2<i64>>> {
     let pts = points2(&uv)?;
-    let t = py.detach(|| scanmesh_core::enumerate::empty_triangles(&pts)).map_err(to_py)?;
+    let t = py
+        .detach(|| scanmesh_core::enumerate::empty_triangles(&pts))
+        .map_err(to_py)?;
     Ok(faces_out(py, &t))
 }
 
@@ -206,10 +495,18 @@ fn triangulations<'py>(
 ) -> PyResult<Bound<'py, numpy::PyArray3<i64>>> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    let all = py.detach(|| scanmesh_core::enumerate::triangulations(&pts, &t, max_count)).map_err(to_py)?;
-    let flat: Vec<i64> = all.iter().flatten().flat_map(|f| f.map(i64::from)).collect();
+    let all = py
+        .detach(|| scanmesh_core::enumerate::triangulations(&pts, &t, max_count))
+        .map_err(to_py)?;
+    let flat: Vec<i64> = all
+        .iter()
+        .flatten()
+        .flat_map(|f| f.map(i64::from))
+        .collect();
     let shape = (all.len(), t.len(), 3);
-    Ok(numpy::ndarray::Array3::from_shape_vec(shape, flat).expect("M per triangulation").into_pyarray(py))
+    Ok(numpy::ndarray::Array3::from_shape_vec(shape, flat)
+        .expect("M per triangulation")
+        .into_pyarray(py))
 }
 
 /// The native core of scanmesh.
@@ -217,11 +514,26 @@ fn triangulations<'py>(
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("ScanmeshError", py.get_type::<ScanmeshError>())?;
-    m.add("DegenerateInputError", py.get_type::<DegenerateInputError>())?;
+    m.add(
+        "DegenerateInputError",
+        py.get_type::<DegenerateInputError>(),
+    )?;
     m.add("ParameterError", py.get_type::<ParameterError>())?;
     m.add("InvalidMeshError", py.get_type::<InvalidMeshError>())?;
     m.add("SLIVER_ANGLE_DEG", criteria::SLIVER_ANGLE_DEG)?;
     m.add("DEFAULT_MAX_EDGE_FACTOR", trim::DEFAULT_MAX_EDGE_FACTOR)?;
+    let d = AnnealParams::default();
+    let defaults = pyo3::types::PyDict::new(py);
+    defaults.set_item("sweeps", d.sweeps)?;
+    defaults.set_item("p", d.p)?;
+    defaults.set_item("initial_acceptance", d.initial_acceptance)?;
+    defaults.set_item("final_temperature_ratio", d.final_temperature_ratio)?;
+    defaults.set_item("patience", d.patience)?;
+    defaults.set_item("sliver_guard", d.sliver_guard)?;
+    defaults.set_item("tie_tolerance", d.tie_tolerance)?;
+    defaults.set_item("polish", d.polish)?;
+    defaults.set_item("calibration_samples", d.calibration_samples)?;
+    m.add("ANNEAL_DEFAULTS", defaults)?;
     m.add_function(wrap_pyfunction!(project, m)?)?;
     m.add_function(wrap_pyfunction!(delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(median_spacing, m)?)?;
@@ -231,5 +543,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tac_norm, m)?)?;
     m.add_function(wrap_pyfunction!(empty_triangles, m)?)?;
     m.add_function(wrap_pyfunction!(triangulations, m)?)?;
+    m.add_function(wrap_pyfunction!(lop, m)?)?;
+    m.add_class::<Annealer>()?;
     Ok(())
 }
