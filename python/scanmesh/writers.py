@@ -1,24 +1,90 @@
-"""Writing meshes to disk atomically: a temporary file in the target folder, then a rename."""
+"""Writing meshes and points to disk atomically: a temporary file in the target folder, then a
+rename, so a failure or an interruption never leaves a half-written file."""
 
 from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from scanmesh.errors import ParameterError
 
 #: File endings we write, mapped to trimesh's export type.
 FORMATS = {".stl": "stl", ".ply": "ply", ".obj": "obj", ".off": "off"}
 
+#: Points per block when formatting XYZ text (bounds the temporary strings' memory).
+POINTS_PER_BLOCK: int = 1 << 18
 
-def save_mesh(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray) -> Path:
-    """Write a triangle mesh, choosing the format by the file ending (.stl binary, .ply, .obj, .off).
+PathSpec = str | os.PathLike
 
-    The data goes to a temporary file beside ``path`` which is renamed over it only when
-    complete, so a failure or an interruption never leaves a half-written file.
+
+def _same_file(a: Path, b: Path) -> bool:
+    """True when two paths name one file (existing or not)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
+
+
+def _check_protected(target: Path, protect: PathSpec | Iterable[PathSpec] | None) -> None:
+    """Refuse to write over any path in ``protect`` (the command's input files)."""
+    if protect is None:
+        return
+    paths = [protect] if isinstance(protect, str | os.PathLike) else list(protect)
+    for guarded in paths:
+        if _same_file(target, Path(guarded)):
+            raise ParameterError(
+                f"refusing to write {target}: it is the input file {guarded}; choose another"
+                " output path"
+            )
+
+
+def _write_atomic(target: Path, chunks: Iterable[bytes]) -> Path:
+    """Write byte chunks to a temporary file beside ``target``, then rename it over ``target``."""
+    folder = target.parent if str(target.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            for chunk in chunks:
+                handle.write(chunk)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def save_mesh(
+    path: PathSpec,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    *,
+    protect: PathSpec | Iterable[PathSpec] | None = None,
+) -> Path:
+    """Write a triangle mesh in the format of the file ending (.stl binary, .ply, .obj, .off).
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The output file.
+    vertices : (N, 3) float
+        Vertex positions.
+    faces : (M, 3) int
+        Triangles as vertex indices; vertex order and indices are kept (``process=False``).
+    protect : path or iterable of paths, optional
+        Files that must not be overwritten (the command's input): writing to one of them
+        raises ``ParameterError`` before anything is written.
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     import trimesh
 
@@ -28,19 +94,71 @@ def save_mesh(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray) 
         raise ParameterError(
             f"cannot write {target}: unknown ending {target.suffix!r}; use one of {sorted(FORMATS)}"
         )
+    _check_protected(target, protect)
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     data = mesh.export(file_type=kind)
     if isinstance(data, str):
         data = data.encode()
-    folder = target.parent if str(target.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
+    return _write_atomic(target, [data])
+
+
+def write_points(
+    path: PathSpec,
+    points: ArrayLike,
+    line_ids: ArrayLike | None = None,
+    *,
+    protect: PathSpec | Iterable[PathSpec] | None = None,
+) -> Path:
+    """Write points as XYZ text, one ``x y z`` (or ``x y z line_id``) row per point, atomically.
+
+    Coordinates are written with 17 significant digits, so :func:`scanmesh.readers.read_xyz`
+    reads back exactly the same float64 values.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The output file (any ending; ``.xyz`` is conventional).
+    points : (N, 3) float
+        The points.
+    line_ids : (N,) int, optional
+        Scan-line id per point, written as a 4th column.
+    protect : path or iterable of paths, optional
+        Files that must not be overwritten (see :func:`save_mesh`).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    target = Path(path)
+    pts = np.asarray(points)
+    if pts.ndim != 2 or pts.shape[1] != 3 or pts.dtype.kind not in "iuf":
+        raise ParameterError(f"points must be an (N, 3) real array, got {pts.dtype} {pts.shape}")
+    pts = pts.astype(np.float64)
+    if not np.isfinite(pts).all():
+        row = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
+        raise ParameterError(f"points[{row}] = {pts[row].tolist()} is not finite")
+    ids = None
+    if line_ids is not None:
+        ids = np.asarray(line_ids)
+        if ids.shape != (len(pts),) or (ids.size and ids.dtype.kind not in "iu"):
+            raise ParameterError(
+                f"line_ids must be ({len(pts)},) integers, one per point; got {ids.dtype}"
+                f" {ids.shape}"
+            )
+        ids = ids.astype(np.int64)
+    _check_protected(target, protect)
+
+    def blocks() -> Iterable[bytes]:
+        row = "%.17g %.17g %.17g" + (" %d" if ids is not None else "") + "\n"
+        for start in range(0, len(pts), POINTS_PER_BLOCK):
+            block = pts[start : start + POINTS_PER_BLOCK]
+            if ids is None:
+                values = block.ravel().tolist()
+            else:
+                cols = [block[:, 0].tolist(), block[:, 1].tolist(), block[:, 2].tolist()]
+                cols.append(ids[start : start + POINTS_PER_BLOCK].tolist())
+                values = [v for rec in zip(*cols, strict=True) for v in rec]
+            yield ((row * len(block)) % tuple(values)).encode("ascii")
+
+    return _write_atomic(target, blocks())
