@@ -6,6 +6,7 @@ The public API:
 - :func:`delaunay` - planar Delaunay of projected points, trimmed to the outline;
 - :func:`quality` - tac norms and the max-min angle of any mesh;
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
+- :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
 - :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
 - :class:`Surface`, :class:`Quality`, :class:`Frame` - the results;
 - :class:`ScanmeshError` - base of every input error (a ``ValueError``).
@@ -25,6 +26,7 @@ from scanmesh.errors import (
 )
 from scanmesh.projection import Frame, project
 from scanmesh.quality import Quality, quality
+from scanmesh.readers import ScanPoints, read
 from scanmesh.reconstruct import METHODS, reconstruct
 from scanmesh.surface import Surface
 
@@ -37,6 +39,8 @@ __all__ = [
     "simulate_scan",
     "load_demo",
     "quality",
+    "read",
+    "ScanPoints",
     "project",
     "Surface",
     "Quality",
