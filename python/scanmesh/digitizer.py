@@ -170,61 +170,109 @@ def cast_grid(
         return height, face
     p = np.asarray(tri_uv, dtype=np.float64)
     h = np.asarray(tri_h, dtype=np.float64)
+    # corner coordinates as contiguous columns (reductions over a length-3 axis are slow)
+    x = [np.ascontiguousarray(p[:, m, 0]) for m in range(3)]
+    y = [np.ascontiguousarray(p[:, m, 1]) for m in range(3)]
     # twice the signed projected area; triangles seen edge-on can not be hit
-    area2 = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 1, 1] - p[:, 0, 1]) * (
-        p[:, 2, 0] - p[:, 0, 0]
-    )
-    # node index ranges of each triangle's bounding box, widened by the tolerance
-    lo = (p.min(axis=1) - tol - np.asarray(origin)) / np.asarray(step)
-    hi = (p.max(axis=1) + tol - np.asarray(origin)) / np.asarray(step)
-    lo_i = np.clip(np.ceil(lo[:, 0]), 0, ni).astype(np.int64)
-    hi_i = np.clip(np.floor(hi[:, 0]), -1, ni - 1).astype(np.int64)
-    lo_j = np.clip(np.ceil(lo[:, 1]), 0, nj).astype(np.int64)
-    hi_j = np.clip(np.floor(hi[:, 1]), -1, nj - 1).astype(np.int64)
-    width = np.maximum(hi_i - lo_i + 1, 0)
-    count = width * np.maximum(hi_j - lo_j + 1, 0)
-    live = np.flatnonzero((count > 0) & (area2 != 0.0))
+    area2 = (x[1] - x[0]) * (y[2] - y[0]) - (y[1] - y[0]) * (x[2] - x[0])
+    # row ranges of each triangle, widened by the tolerance
+    y_lo = np.minimum(np.minimum(y[0], y[1]), y[2])
+    y_hi = np.maximum(np.maximum(y[0], y[1]), y[2])
+    lo_j = np.clip(np.ceil((y_lo - tol - origin[1]) / step[1]), 0, nj).astype(np.int64)
+    hi_j = np.clip(np.floor((y_hi + tol - origin[1]) / step[1]), -1, nj - 1).astype(np.int64)
+    x_lo = np.minimum(np.minimum(x[0], x[1]), x[2])
+    x_hi = np.maximum(np.maximum(x[0], x[1]), x[2])
+    in_i = (x_hi + tol >= origin[0]) & (x_lo - tol <= origin[0] + (ni - 1) * step[0])
+    rows = np.maximum(hi_j - lo_j + 1, 0)
+    live = np.flatnonzero((rows > 0) & in_i & (area2 != 0.0))
     if len(live) == 0:
         return height, face
-    # orient every live triangle counter-clockwise so inside means all edge functions >= 0
+    # orient every live triangle counter-clockwise (swap corners 1 and 2 of clockwise ones)
+    # so that inside means all three edge functions >= 0; arrays below are (3, L)
     flip = area2[live] < 0
-    corners = p[live].copy()
-    heights = h[live].copy()
-    corners[flip] = corners[flip][:, [0, 2, 1]]
-    heights[flip] = heights[flip][:, [0, 2, 1]]
-    # edge k runs from corner k+1 to corner k+2 (opposite corner k); its length scales tol
-    edge = np.roll(corners, -2, axis=1) - np.roll(corners, -1, axis=1)
-    slack = tol * np.hypot(edge[..., 0], edge[..., 1])  # (L, 3)
-    ends = np.cumsum(count[live])  # flat node numbering over all live boxes
-    starts = ends - count[live]
+    swap = ((0, 0), (1, 2), (2, 1))  # (corner, corner taken when flipped)
+    cx = np.array([np.where(flip, x[b][live], x[a][live]) for a, b in swap])
+    cy = np.array([np.where(flip, y[b][live], y[a][live]) for a, b in swap])
+    hh = [np.ascontiguousarray(h[live, m]) for m in range(3)]
+    hh[1], hh[2] = np.where(flip, hh[2], hh[1]), np.where(flip, hh[1], hh[2])
+    # edge m runs from corner m+1 to corner m+2 (opposite corner m); its length scales tol
+    bx, by = np.roll(cx, -1, axis=0), np.roll(cy, -1, axis=0)
+    ex, ey = np.roll(cx, -2, axis=0) - bx, np.roll(cy, -2, axis=0) - by
+    slack = -tol * np.hypot(ex, ey)
+    # two levels of flat numbering, each walked in chunks: (triangle, row) pairs, then the
+    # nodes of each pair's span (the row's stretch inside the triangle)
+    for k, off in _chunks(rows[live]):
+        j = lo_j[live[k]] + off
+        span_lo, span_hi = _row_span(cx[:, k], cy[:, k], origin[1] + j * step[1], tol)
+        lo_i = np.clip(np.ceil((span_lo - tol - origin[0]) / step[0]), 0, ni).astype(np.int64)
+        hi_i = np.clip(np.floor((span_hi + tol - origin[0]) / step[0]), -1, ni - 1)
+        span = np.maximum(hi_i.astype(np.int64) - lo_i + 1, 0)
+        for r, col in _chunks(span):
+            kk = k[r]
+            i = lo_i[r] + col
+            jj = j[r]
+            qu = origin[0] + i * step[0]
+            qv = origin[1] + jj * step[1]
+            # w_m: twice the area of (q, corner m+1, corner m+2), the weight of corner m
+            w = [ex[m, kk] * (qv - by[m, kk]) - ey[m, kk] * (qu - bx[m, kk]) for m in range(3)]
+            inside = (w[0] >= slack[0, kk]) & (w[1] >= slack[1, kk]) & (w[2] >= slack[2, kk])
+            if not inside.any():
+                continue
+            w0, w1, w2 = (wm[inside] for wm in w)
+            ki = kk[inside]
+            h0 = hh[0][ki]
+            # relative to corner 0, so a level triangle gives its height exactly
+            rise = w1 * (hh[1][ki] - h0) + w2 * (hh[2][ki] - h0)
+            hit_h = h0 + rise / (w0 + w1 + w2)
+            ray = jj[inside] * ni + i[inside]
+            np.maximum.at(height, ray, hit_h)
+            top = hit_h >= height[ray]
+            face[ray[top]] = live[ki[top]]
+    return height, face
+
+
+def _chunks(counts: np.ndarray):
+    """Walk ``sum(counts)`` items in chunks of at most CHUNK_NODES.
+
+    Yields (owner, offset): (n,) int64 arrays, item number ``offset`` of owner ``owner``.
+    """
+    ends = np.cumsum(counts)
+    if len(ends) == 0:
+        return
+    starts = ends - counts
     total = int(ends[-1])
     for first in range(0, total, CHUNK_NODES):
         flat = np.arange(first, min(first + CHUNK_NODES, total), dtype=np.int64)
-        k = np.searchsorted(ends, flat, side="right")  # which live triangle
-        off = flat - starts[k]
-        tri = live[k]
-        i = lo_i[tri] + off % width[tri]
-        j = lo_j[tri] + off // width[tri]
-        qu = origin[0] + i * step[0]
-        qv = origin[1] + j * step[1]
-        c = corners[k]  # (n, 3, 2)
-        e = edge[k]
-        # w[:, m]: twice the area of (q, corner m+1, corner m+2), the weight of corner m
-        b = np.roll(c, -1, axis=1)
-        w = e[..., 0] * (qv[:, None] - b[..., 1]) - e[..., 1] * (qu[:, None] - b[..., 0])
-        inside = np.all(w >= -slack[k], axis=1)
-        if not inside.any():
-            continue
-        w = w[inside]
-        hk = heights[k[inside]]
-        # relative to corner 0, so a level triangle gives its height exactly
-        rise = w[:, 1] * (hk[:, 1] - hk[:, 0]) + w[:, 2] * (hk[:, 2] - hk[:, 0])
-        hit_h = hk[:, 0] + rise / w.sum(axis=1)
-        ray = j[inside] * ni + i[inside]
-        np.maximum.at(height, ray, hit_h)
-        top = hit_h >= height[ray]
-        face[ray[top]] = tri[inside][top]
-    return height, face
+        owner = np.searchsorted(ends, flat, side="right")
+        yield owner, flat - starts[owner]
+
+
+def _row_span(
+    xs: np.ndarray, ys: np.ndarray, y: np.ndarray, tol: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """x extent of triangles (corners xs, ys: (3, n)) in the bands ``y - tol .. y + tol``.
+
+    Returns (n,) lower and upper ends; an empty band gives (inf, -inf).
+    """
+    lo = np.full(len(y), np.inf)
+    hi = np.full(len(y), -np.inf)
+    for m in range(3):  # corners inside the band
+        near = np.abs(ys[m] - y) <= tol
+        lo = np.where(near, np.minimum(lo, xs[m]), lo)
+        hi = np.where(near, np.maximum(hi, xs[m]), hi)
+    lines = (y - tol, y + tol) if tol > 0 else (y,)
+    for m in range(3):  # edges crossing the band's border lines
+        x0, y0, x1, y1 = xs[m], ys[m], xs[(m + 1) % 3], ys[(m + 1) % 3]
+        dy = y1 - y0
+        flat = dy == 0
+        dy = np.where(flat, 1.0, dy)
+        for line in lines:
+            t = (line - y0) / dy
+            ok = ~flat & (t >= 0) & (t <= 1)
+            xc = x0 + t * (x1 - x0)
+            lo = np.where(ok, np.minimum(lo, xc), lo)
+            hi = np.where(ok, np.maximum(hi, xc), hi)
+    return lo, hi
 
 
 def _grid_axis(lo: float, hi: float, step: float) -> tuple[float, int]:

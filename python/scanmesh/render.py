@@ -1,0 +1,387 @@
+"""Pictures: flat-shaded meshes, side-by-side comparisons and annealing convergence plots.
+
+Meshes are drawn by a small orthographic z-buffer in numpy (the grid caster of
+:mod:`scanmesh.digitizer`, one ray per pixel), which renders a million triangles in about
+a second where matplotlib's polygon painter takes far longer (BENCHMARKS.md, "Rendering
+(issue 5)"). Flat shading shows every facet, so a rough triangulation looks rough: the
+pictures are meant to judge smoothness, as in the 1997 paper's figures 1 and 2.
+Text (titles, axes) is drawn by matplotlib without pyplot, so nothing needs a display.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from scanmesh.digitizer import AxisSpec, cast_grid, parse_axis
+from scanmesh.errors import InvalidMeshError, ParameterError
+
+#: Default direction from the part to the eye: a three-quarter view from above (+z up).
+DEFAULT_VIEW = (-0.55, -1.0, 0.9)
+#: Light direction in camera coordinates (right, up, toward the eye): upper left, in front.
+LIGHT = (-0.4, 0.55, 0.75)
+#: Share of the light that reaches faces turned away from it.
+AMBIENT = 0.25
+#: Surface colour (RGB in 0..1): a light steel blue.
+COLOR = (0.64, 0.74, 0.88)
+#: Wire (triangle edge) colour.
+WIRE = (0.12, 0.16, 0.24)
+#: Empty border around the part, as a share of the picture.
+MARGIN = 0.04
+
+#: The keys plot_convergence draws, with the names it also accepts for them.
+TRACE_KEYS = {
+    "temperature": ("temperature", "temp", "T"),
+    "energy": ("energy", "E"),
+    "best": ("best", "best_energy"),
+    "acceptance": ("acceptance", "acceptance_rate", "accept_rate", "accepted"),
+}
+
+
+def _mesh_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(V, 3) float64 vertices and (F, 3) int64 faces of a Surface, a Trimesh or a pair."""
+    if isinstance(mesh, tuple) and len(mesh) == 2:
+        vertices, faces = mesh
+    elif hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        vertices, faces = mesh.vertices, mesh.faces
+    else:
+        raise ParameterError(
+            "a mesh must be a scanmesh Surface, a trimesh.Trimesh or a (vertices, faces) pair,"
+            f" got {type(mesh).__name__}"
+        )
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise InvalidMeshError(f"vertices must have shape (N, 3), got {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+        raise InvalidMeshError(f"faces must have shape (M, 3) with M > 0, got {f.shape}")
+    f = f.astype(np.int64)
+    if f.min() < 0 or f.max() >= len(v):
+        raise InvalidMeshError(f"faces refer to vertices outside 0..{len(v) - 1}")
+    if not np.all(np.isfinite(v[_used(f, len(v))])):
+        raise InvalidMeshError("the mesh has non-finite vertex coordinates")
+    return v, f
+
+
+def _used(faces: np.ndarray, n_vertices: int) -> np.ndarray:
+    """(V,) bool: the vertices some face uses (a mask: np.unique is slow on 3M indices)."""
+    mask = np.zeros(n_vertices, dtype=bool)
+    mask[faces.ravel()] = True
+    return mask
+
+
+def camera(view: AxisSpec = DEFAULT_VIEW, up: AxisSpec = "z") -> np.ndarray:
+    """A (3, 3) float64 camera frame, rows (right, screen up, toward the eye).
+
+    ``view`` points from the part to the eye; ``up`` is the model direction that should
+    point up on the screen (any other when it is parallel to ``view``).
+    """
+    back = parse_axis(view, "view")
+    hint = parse_axis(up, "up")
+    if abs(float(np.dot(hint, back))) > 1 - 1e-9:
+        hint = np.array([0.0, 1.0, 0.0]) if abs(back[1]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    right = np.cross(hint, back)
+    right /= np.linalg.norm(right)
+    return np.array([right, np.cross(back, right), back])
+
+
+def _fit(
+    xy_lo: np.ndarray, xy_hi: np.ndarray, width: int, height: int
+) -> tuple[float, float, float]:
+    """Pixel size and the centre of pixel (0, 0) (bottom left) so a box fills the picture."""
+    extent = np.maximum(xy_hi - xy_lo, 1e-300)
+    pixel = max(extent[0] / (width * (1 - 2 * MARGIN)), extent[1] / (height * (1 - 2 * MARGIN)))
+    centre = 0.5 * (xy_lo + xy_hi)
+    x0 = centre[0] - pixel * (width - 1) / 2
+    y0 = centre[1] - pixel * (height - 1) / 2
+    return pixel, x0, y0
+
+
+def shade_mesh(
+    mesh: Any,
+    *,
+    size: tuple[int, int] = (800, 600),
+    view: AxisSpec = DEFAULT_VIEW,
+    up: AxisSpec = "z",
+    wire: bool = False,
+    color: Sequence[float] = COLOR,
+    background: Sequence[float] = (1.0, 1.0, 1.0),
+    supersample: int = 2,
+    bounds: tuple[ArrayLike, ArrayLike] | None = None,
+) -> np.ndarray:
+    """Render a mesh flat-shaded from a fixed light, orthographic, into an RGB array.
+
+    Parameters
+    ----------
+    mesh : Surface, trimesh.Trimesh or (vertices, faces)
+        What to draw; faces are lit from both sides (scans are open sheets).
+    size : (width, height) int
+        Picture size in pixels.
+    view, up : axis name or (3,) float
+        Direction from the part to the eye, and the model direction shown upwards.
+    wire : bool
+        Draw the visible triangle edges (best when triangles span many pixels).
+    supersample : int
+        Render this many times larger and average down (anti-aliasing).
+    bounds : ((2,), (2,)) float, optional
+        Screen-space box (right, up) to fit instead of the mesh's own: pictures rendered
+        with the same camera and bounds share one scale.
+
+    Returns
+    -------
+    (height, width, 3) uint8
+    """
+    vertices, faces = _mesh_arrays(mesh)
+    width, height = (int(s) for s in size)
+    ss = int(supersample)
+    if width < 1 or height < 1 or ss < 1:
+        raise ParameterError(f"size and supersample must be positive, got {size}, {supersample}")
+    frame = camera(view, up)
+    local = vertices @ frame.T  # (V, 3) right, up, toward the eye
+    tri = local[faces]  # (F, 3, 3)
+    if bounds is None:
+        used = local[_used(faces, len(local))]
+        lo, hi = used[:, :2].min(axis=0), used[:, :2].max(axis=0)
+    else:
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
+    w, h = width * ss, height * ss
+    pixel, x0, y0 = _fit(lo, hi, w, h)
+    depth, face = cast_grid(
+        tri[..., :2], tri[..., 2], (x0, y0), (pixel, pixel), (w, h), 1e-9 * pixel
+    )
+    face = face.reshape(h, w)[::-1]  # image rows run top to bottom
+    drawn = face >= 0
+    # Lambert shading of the visible faces, two-sided, light fixed to the camera
+    seen = np.flatnonzero(np.bincount(face[drawn], minlength=len(faces)))
+    t = tri[seen]
+    normal = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    length = np.linalg.norm(normal, axis=1)
+    normal /= np.where(length > 0, length, 1.0)[:, None]
+    light = np.asarray(LIGHT) / np.linalg.norm(LIGHT)
+    face_rgb = np.zeros((len(faces), 3))
+    intensity = AMBIENT + (1 - AMBIENT) * np.abs(normal @ light)
+    face_rgb[seen] = intensity[:, None] * np.asarray(color, dtype=np.float64)[None, :]
+    image = np.empty((h, w, 3))
+    image[:] = np.asarray(background, dtype=np.float64)
+    image[drawn] = face_rgb[face[drawn]]
+    if wire:
+        # a pixel beside a pixel of another face (or of the background) is on an edge;
+        # when supersampling, both sides are marked so the averaged line stays dark
+        across = face[:, 1:] != face[:, :-1]
+        down = face[1:, :] != face[:-1, :]
+        edge = np.zeros((h, w), dtype=bool)
+        edge[:, :-1] |= across
+        edge[:-1, :] |= down
+        if ss > 1:
+            edge[:, 1:] |= across
+            edge[1:, :] |= down
+        image[edge] = WIRE
+    if ss > 1:
+        image = sum(image[a::ss, b::ss] for a in range(ss) for b in range(ss)) / (ss * ss)
+    return np.clip(np.rint(image * 255), 0, 255).astype(np.uint8)
+
+
+def _write_atomic(path: str | os.PathLike, data: bytes) -> Path:
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def _png_path(path: str | os.PathLike) -> Path:
+    target = Path(path)
+    if target.suffix.lower() != ".png":
+        raise ParameterError(f"pictures are written as PNG: {target} should end in .png")
+    return target
+
+
+def render_mesh(
+    mesh: Any,
+    path: str | os.PathLike,
+    *,
+    size: tuple[int, int] = (800, 600),
+    view: AxisSpec = DEFAULT_VIEW,
+    up: AxisSpec = "z",
+    wire: bool = False,
+    supersample: int = 2,
+) -> Path:
+    """Write a flat-shaded picture of a mesh to a PNG file (see :func:`shade_mesh`)."""
+    from PIL import Image
+
+    target = _png_path(path)
+    image = shade_mesh(mesh, size=size, view=view, up=up, wire=wire, supersample=supersample)
+    buf = io.BytesIO()
+    Image.fromarray(image, mode="RGB").save(buf, format="PNG")
+    return _write_atomic(target, buf.getvalue())
+
+
+def _figure(width_in: float, height_in: float, dpi: int = 100):
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width_in, height_in), dpi=dpi)
+
+
+def _save_figure(fig, path: Path, dpi: int = 100) -> Path:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, facecolor="white")
+    return _write_atomic(path, buf.getvalue())
+
+
+def render_compare(
+    meshes: Sequence[Any],
+    path: str | os.PathLike,
+    *,
+    titles: Sequence[str] | None = None,
+    size: tuple[int, int] = (560, 420),
+    columns: int | None = None,
+    view: AxisSpec = DEFAULT_VIEW,
+    up: AxisSpec = "z",
+    wire: bool = False,
+    suptitle: str | None = None,
+) -> Path:
+    """Write several meshes side by side with titles, seen by one camera at one scale.
+
+    Parameters
+    ----------
+    meshes : sequence of Surface, trimesh.Trimesh or (vertices, faces)
+        The meshes to compare (usually one point set triangulated by several methods).
+    titles : sequence of str, optional
+        One per mesh (method names and figures, say); default "mesh 1", "mesh 2", ...
+    size : (width, height) int
+        Pixels of each panel's picture.
+    columns : int, optional
+        Panels per row (default: all in one row up to 3, then rows of 3).
+    """
+    target = _png_path(path)
+    if len(meshes) == 0:
+        raise ParameterError("render_compare needs at least one mesh")
+    if titles is None:
+        titles = [f"mesh {k + 1}" for k in range(len(meshes))]
+    if len(titles) != len(meshes):
+        raise ParameterError(f"got {len(meshes)} meshes but {len(titles)} titles")
+    arrays = [_mesh_arrays(m) for m in meshes]
+    frame = camera(view, up)
+    # one screen box for all, so equal sizes look equal
+    xy = np.concatenate([(v[_used(f, len(v))] @ frame.T)[:, :2] for v, f in arrays])
+    bounds = (xy.min(axis=0), xy.max(axis=0))
+    images = [shade_mesh(m, size=size, view=view, up=up, wire=wire, bounds=bounds) for m in arrays]
+    cols = int(columns) if columns else (len(images) if len(images) <= 3 else 3)
+    if cols < 1:
+        raise ParameterError(f"columns must be at least 1, got {columns}")
+    rows = math.ceil(len(images) / cols)
+    dpi = 100
+    title_h = 0.45  # inches above each panel
+    top = 0.5 if suptitle else 0.0
+    fig = _figure(cols * size[0] / dpi, rows * (size[1] / dpi + title_h) + top, dpi)
+    panel_h = 1.0 / rows * (1 - top / fig.get_figheight())
+    for k, (image, title) in enumerate(zip(images, titles, strict=True)):
+        r, c = divmod(k, cols)
+        bottom = 1 - top / fig.get_figheight() - (r + 1) * panel_h
+        pic_h = panel_h * (size[1] / dpi) / (size[1] / dpi + title_h)
+        ax = fig.add_axes((c / cols, bottom, 1 / cols, pic_h))
+        ax.imshow(image, interpolation="nearest")
+        ax.set_axis_off()
+        ax.set_title(str(title), fontsize=11, pad=6)
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=13, y=1 - 0.15 / fig.get_figheight())
+    return _save_figure(fig, target, dpi)
+
+
+def _trace_series(trace: Mapping[str, ArrayLike]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    if not isinstance(trace, Mapping):
+        raise ParameterError(
+            f"trace must be a mapping of name to array, got {type(trace).__name__}"
+        )
+    found: dict[str, np.ndarray] = {}
+    for key, names in TRACE_KEYS.items():
+        for name in names:
+            if name in trace:
+                found[key] = np.asarray(trace[name], dtype=np.float64).ravel()
+                break
+    if "energy" not in found and "best" not in found:
+        raise ParameterError(
+            f"trace needs an 'energy' or 'best' series, got keys {sorted(map(str, trace))}"
+        )
+    lengths = {k: len(v) for k, v in found.items()}
+    if "sweep" in trace:
+        sweep = np.asarray(trace["sweep"], dtype=np.float64).ravel()
+        lengths["sweep"] = len(sweep)
+    else:
+        sweep = np.arange(next(iter(lengths.values())), dtype=np.float64)
+    if len(set(lengths.values())) != 1:
+        raise ParameterError(f"trace series must have equal lengths, got {lengths}")
+    if len(sweep) == 0:
+        raise ParameterError("trace series are empty")
+    return sweep, found
+
+
+def plot_convergence(
+    trace: Mapping[str, ArrayLike],
+    path: str | os.PathLike,
+    *,
+    title: str | None = None,
+    size: tuple[float, float] = (8.0, 7.0),
+) -> Path:
+    """Write a convergence plot of an annealing run to a PNG file.
+
+    Parameters
+    ----------
+    trace : mapping of str to (S,) float
+        Per sweep: ``energy`` (current tac energy), ``best`` (best so far),
+        ``temperature`` and ``acceptance`` (accepted share of proposals, 0..1); optional
+        ``sweep`` (x values). ``energy`` or ``best`` is required, the others are drawn
+        when present.
+    size : (width, height) float
+        Inches (at 100 dpi).
+    """
+    target = _png_path(path)
+    sweep, series = _trace_series(trace)
+    panels = ["energy"]
+    panels += [k for k in ("temperature", "acceptance") if k in series]
+    fig = _figure(*size)
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, panel in zip(axes, panels, strict=True):
+        if panel == "energy":
+            for key, style in (("energy", dict(color="0.55", lw=1.0)), ("best", dict(lw=1.8))):
+                if key in series:
+                    ax.plot(sweep, series[key], label=key, **style)
+            values = np.concatenate([series[k] for k in ("energy", "best") if k in series])
+            _maybe_log(ax, values)
+            ax.set_ylabel("tac energy")
+            ax.legend(loc="upper right", frameon=False)
+        elif panel == "temperature":
+            ax.plot(sweep, series["temperature"], color="tab:red", lw=1.5)
+            _maybe_log(ax, series["temperature"])
+            ax.set_ylabel("temperature")
+        else:
+            ax.plot(sweep, series["acceptance"], color="tab:green", lw=1.2)
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_ylabel("acceptance rate")
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("sweep")
+    if title:
+        axes[0].set_title(title)
+    fig.tight_layout()
+    return _save_figure(fig, target)
+
+
+def _maybe_log(ax, values: np.ndarray) -> None:
+    """Log scale for positive data spanning more than a decade."""
+    finite = values[np.isfinite(values)]
+    if len(finite) and finite.min() > 0 and finite.max() / finite.min() > 10:
+        ax.set_yscale("log")
