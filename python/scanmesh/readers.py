@@ -75,7 +75,7 @@ class ScanPoints:
         if bad.any():
             row, col = np.argwhere(bad)[0]
             raise ScanmeshError(
-                f"{self.source}: point {row} has a non-finite {'xyz'[col]}={pts[row, col]!r}"
+                f"{self.source}: point {row} has a non-finite {'xyz'[col]}={float(pts[row, col])!r}"
             )
         object.__setattr__(self, "points", pts)
         if self.line_ids is not None:
@@ -385,7 +385,9 @@ def _finite_rows(path: Path, data: bytes, table: _Table, cols: list[int], names:
     bad = ~np.isfinite(sub)
     if bad.any():
         row, col = np.argwhere(bad)[0]
-        raise _row_error(path, data, table, int(row), f"non-finite {names[col]}={sub[row, col]!r}")
+        raise _row_error(
+            path, data, table, int(row), f"non-finite {names[col]}={float(sub[row, col])!r}"
+        )
 
 
 def _line_column(path: Path, data: bytes, table: _Table, col: int) -> np.ndarray:
@@ -399,7 +401,7 @@ def _line_column(path: Path, data: bytes, table: _Table, col: int) -> np.ndarray
             data,
             table,
             row,
-            f"line id {ids[row]!r} in column {col + 1} is not an integer",
+            f"line id {float(ids[row])!r} in column {col + 1} is not an integer",
         )
     return ids.astype(np.int64)
 
@@ -747,7 +749,7 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
     if bad.any():
         row, col = np.argwhere(bad)[0]
         raise FileFormatError(
-            f"{path}: vertex {row} has a non-finite {'xyz'[col]}={points[row, col]!r}"
+            f"{path}: vertex {row} has a non-finite {'xyz'[col]}={float(points[row, col])!r}"
         )
     extra: dict[str, Any] = {"format": "ply", "encoding": fmt, "obj_info": info}
     line_ids = None
@@ -909,7 +911,7 @@ def read_npy(path: str | os.PathLike) -> ScanPoints:
     if bad.any():
         row, col = np.argwhere(bad)[0]
         raise FileFormatError(
-            f"{path}: row {row} has a non-finite {'xyz'[col]}={points[row, col]!r}"
+            f"{path}: row {row} has a non-finite {'xyz'[col]}={float(points[row, col])!r}"
         )
     if line_ids is not None:
         ids = np.asarray(line_ids)
@@ -918,7 +920,7 @@ def read_npy(path: str | os.PathLike) -> ScanPoints:
             if wrong.any():
                 row = int(np.flatnonzero(wrong)[0])
                 raise FileFormatError(
-                    f"{path}: row {row} has line id {ids[row]!r}, which is not an integer"
+                    f"{path}: row {row} has line id {float(ids[row])!r}, which is not an integer"
                 )
         line_ids = ids.astype(np.int64)
     return ScanPoints(
@@ -1021,7 +1023,7 @@ class _VtkCursor:
         if kind[0] in "iu" and (values != np.round(values)).any():
             i = int(np.flatnonzero(values != np.round(values))[0])
             raise FileFormatError(
-                f"{self.path}: {what} must be integers, value {i} is {values[i]!r}"
+                f"{self.path}: {what} must be integers, value {i} is {float(values[i])!r}"
             )
         return values.astype(kind) if kind[0] in "iu" else values
 
@@ -1198,6 +1200,8 @@ def read_vtk(path: str | os.PathLike) -> ScanPoints:
                     f"{path}, line {no}: unknown VTK keyword {words[0]!r}:"
                     f" {_quote(' '.join(words))}"
                 )
+        except FileFormatError:
+            raise
         except (IndexError, ValueError):
             raise FileFormatError(
                 f"{path}, line {no}: malformed VTK line: {_quote(' '.join(words))}"
@@ -1208,7 +1212,7 @@ def read_vtk(path: str | os.PathLike) -> ScanPoints:
     if bad.any():
         row, col = np.argwhere(bad)[0]
         raise FileFormatError(
-            f"{path}: point {row} has a non-finite {'xyz'[col]}={points[row, col]!r}"
+            f"{path}: point {row} has a non-finite {'xyz'[col]}={float(points[row, col])!r}"
         )
     n = len(points)
     if cells:
