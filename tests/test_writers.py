@@ -1,0 +1,172 @@
+"""Writers: meshes through trimesh (STL binary, PLY, OBJ, OFF), XYZ points, atomic writes and
+the guard that keeps a command from overwriting its own input."""
+
+from __future__ import annotations
+
+import os
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from scanmesh import ParameterError, ScanmeshError
+from scanmesh.readers import read, read_xyz
+from scanmesh.writers import save_mesh, write_points
+
+
+def grid_mesh(nx=6, ny=5):
+    """A small height-field mesh: vertices on a grid, two triangles per cell."""
+    x, y = np.meshgrid(np.linspace(0, 1, nx), np.linspace(0, 2, ny))
+    verts = np.column_stack([x.ravel(), y.ravel(), np.sin(x.ravel()) * np.cos(y.ravel())])
+    faces = []
+    for j in range(ny - 1):
+        for i in range(nx - 1):
+            a = j * nx + i
+            faces += [[a, a + 1, a + nx + 1], [a, a + nx + 1, a + nx]]
+    return verts, np.array(faces)
+
+
+# --------------------------------------------------------------------------- error cases first
+
+
+def test_refuses_to_overwrite_the_input(tmp_path):
+    verts, faces = grid_mesh()
+    source = tmp_path / "scan.ply"
+    source.write_bytes(b"original input")
+    with pytest.raises(ParameterError, match="refusing to write .*scan.ply.*input file"):
+        save_mesh(source, verts, faces, protect=source)
+    assert source.read_bytes() == b"original input"
+    # another spelling of the same file, and a list of inputs
+    other = tmp_path / "sub" / ".." / "scan.ply"
+    (tmp_path / "sub").mkdir()
+    with pytest.raises(ParameterError):
+        save_mesh(other, verts, faces, protect=[tmp_path / "a.xyz", str(source)])
+    link = tmp_path / "link.ply"
+    link.symlink_to(source)
+    with pytest.raises(ParameterError):
+        save_mesh(link, verts, faces, protect=source)
+    with pytest.raises(ParameterError, match="input file"):
+        write_points(source, verts, protect=source)
+    assert source.read_bytes() == b"original input"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.ply", "scan.ply", "sub"]
+
+
+def test_protect_allows_other_paths(tmp_path):
+    verts, faces = grid_mesh()
+    source = tmp_path / "scan.xyz"
+    source.write_text("1 2 3\n")
+    out = save_mesh(tmp_path / "scan.stl", verts, faces, protect=source)
+    assert out.exists() and source.read_text() == "1 2 3\n"
+
+
+def test_unknown_mesh_ending(tmp_path):
+    verts, faces = grid_mesh()
+    with pytest.raises(ParameterError, match="'.dxf'"):
+        save_mesh(tmp_path / "m.dxf", verts, faces)
+    assert not list(tmp_path.iterdir())
+
+
+def test_failed_write_leaves_the_old_file_and_no_debris(tmp_path, monkeypatch):
+    verts, faces = grid_mesh()
+    target = tmp_path / "m.obj"
+    target.write_text("old")
+
+    def broken_replace(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", broken_replace)
+    with pytest.raises(OSError, match="disk full"):
+        save_mesh(target, verts, faces)
+    with pytest.raises(OSError, match="disk full"):
+        write_points(tmp_path / "p.xyz", verts)
+    assert target.read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.obj"]
+
+
+@pytest.mark.parametrize(
+    ("points", "line_ids", "fragment"),
+    [
+        (np.zeros((4, 2)), None, r"\(4, 2\)"),
+        (np.array([[0, 0, np.nan]]), None, "points\\[0\\]"),
+        (np.array([["a", "b", "c"]]), None, "real"),
+        (np.zeros((4, 3)), np.zeros(3, dtype=int), r"\(3,\)"),
+        (np.zeros((4, 3)), np.full(4, 0.5), "integers"),
+    ],
+)
+def test_write_points_bad_input(tmp_path, points, line_ids, fragment):
+    with pytest.raises(ScanmeshError, match=fragment):
+        write_points(tmp_path / "p.xyz", points, line_ids)
+    assert not list(tmp_path.iterdir())
+
+
+# --------------------------------------------------------------------------- round trips
+
+
+@pytest.mark.parametrize("ending", [".stl", ".ply", ".obj", ".off"])
+def test_mesh_round_trip_through_trimesh(tmp_path, ending):
+    verts, faces = grid_mesh()
+    path = save_mesh(tmp_path / f"m{ending}", verts, faces)
+    assert path == tmp_path / f"m{ending}"
+    back = trimesh.load(path, process=False, force="mesh")
+    if ending == ".stl":
+        # STL stores float32 triangle corners: compare triangles, not indices
+        np.testing.assert_allclose(back.triangles, verts[faces], rtol=1e-6, atol=1e-6)
+    else:
+        np.testing.assert_allclose(back.vertices, verts, rtol=1e-6, atol=1e-7)
+        np.testing.assert_array_equal(back.faces, faces)
+
+
+def test_stl_is_binary(tmp_path):
+    verts, faces = grid_mesh()
+    path = save_mesh(tmp_path / "m.STL", verts, faces)
+    data = path.read_bytes()
+    # binary STL: 80-byte header, uint32 count, 50 bytes per triangle
+    assert struct.unpack("<I", data[80:84])[0] == len(faces)
+    assert len(data) == 84 + 50 * len(faces)
+
+
+def test_surface_save_still_works(tmp_path):
+    from scanmesh import delaunay
+
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.random((50, 2)), rng.random(50) * 0.1])
+    surf = delaunay(pts)
+    out = surf.save(tmp_path / "d.ply")
+    back = trimesh.load(out, process=False)
+    assert len(back.faces) == len(surf.faces)
+
+
+def test_write_points_round_trip_exact(tmp_path):
+    rng = np.random.default_rng(4)
+    pts = rng.normal(size=(2000, 3)) * 10.0 ** rng.integers(-8, 9, size=(2000, 1))
+    pts[0] = [0.1, -0.0, 1e300]
+    ids = np.repeat(np.arange(40), 50)[::-1].copy()
+    path = write_points(tmp_path / "p.xyz", pts, ids)
+    sp = read_xyz(path)
+    np.testing.assert_array_equal(sp.points, pts)  # 17 significant digits: exact
+    np.testing.assert_array_equal(sp.line_ids, ids)
+    single = pts[1:].astype(np.float32)
+    sp = read(write_points(tmp_path / "q.xyz", single))
+    np.testing.assert_array_equal(sp.points, single.astype(float))
+    assert sp.line_ids is None
+
+
+def test_write_points_overwrites_atomically(tmp_path):
+    path = tmp_path / "p.xyz"
+    path.write_text("old\n")
+    write_points(path, [[1, 2, 3]], [5])
+    assert path.read_text() == "1 2 3 5\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.xyz"]
+
+
+def test_write_points_in_blocks(tmp_path, monkeypatch):
+    from scanmesh import writers
+
+    monkeypatch.setattr(writers, "POINTS_PER_BLOCK", 7)
+    pts = np.arange(150.0).reshape(50, 3) / 7
+    path = write_points(tmp_path / "b.xyz", pts, np.arange(50) // 10)
+    assert path.read_text().count("\n") == 50
+    sp = read(Path(path))
+    np.testing.assert_array_equal(sp.points, pts)
+    np.testing.assert_array_equal(sp.line_ids, np.arange(50) // 10)
