@@ -211,6 +211,16 @@ def test_accepts_a_mesh_file(tmp_path, sphere):
     np.testing.assert_allclose(from_file, direct, atol=1e-6)  # STL stores float32
 
 
+def test_accepts_a_scene_of_several_parts():
+    scene = trimesh.Scene(
+        [trimesh.creation.box(extents=(1, 1, 1)), trimesh.creation.box(extents=(1, 1, 2))]
+    )
+    scene.geometry[list(scene.geometry)[1]].apply_translation((3, 0, 0))
+    points, _ = simulate_scan(scene, spacing=0.1)
+    assert set(np.round(points[:, 2], 12)) == {0.5, 1.0}
+    assert len(points) == 2 * 11 * 11
+
+
 # --- table ------------------------------------------------------------------------------
 
 

@@ -113,12 +113,12 @@ def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trim
         except Exception as exc:  # trimesh raises many kinds for bad files
             raise FileFormatError(f"cannot read mesh file {path}: {exc}") from None
         if isinstance(mesh, trimesh.Scene):
-            mesh = mesh.to_mesh() if mesh.geometry else trimesh.Trimesh()
+            mesh = _scene_mesh(mesh)
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise FileFormatError(f"mesh file {path} holds no triangles")
         return mesh
     if isinstance(mesh_or_path, trimesh.Scene):
-        mesh_or_path = mesh_or_path.to_mesh() if mesh_or_path.geometry else trimesh.Trimesh()
+        mesh_or_path = _scene_mesh(mesh_or_path)
     if not isinstance(mesh_or_path, trimesh.Trimesh):
         raise ParameterError(
             f"expected a trimesh.Trimesh or a mesh file path, got {type(mesh_or_path).__name__}"
@@ -128,6 +128,17 @@ def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trim
     if not np.all(np.isfinite(mesh_or_path.vertices)):
         raise InvalidMeshError("the mesh has non-finite vertex coordinates")
     return mesh_or_path
+
+
+def _scene_mesh(scene: trimesh.Scene) -> trimesh.Trimesh:
+    """All geometry of a scene as one mesh (``to_mesh`` in trimesh 4.1+, ``dump`` before)."""
+    import trimesh
+
+    if not scene.geometry:
+        return trimesh.Trimesh()
+    if hasattr(scene, "to_mesh"):
+        return scene.to_mesh()
+    return scene.dump(concatenate=True)
 
 
 def cast_grid(
