@@ -1,0 +1,348 @@
+//! Scan lines: detected from the order of the points, or given as a line id per point, and
+//! split into segments at gaps.
+//!
+//! Everything here works on planar coordinates (the points projected onto the plane the
+//! surface is a height field over): a scan line is straight or gently curved in that
+//! plane, while in 3-D it climbs walls and folds over ridges, where its direction says
+//! nothing about where the scanner went.
+//!
+//! Rules (h = the median planar distance between consecutive points, zero steps left out;
+//! k = the gap factor, default [`DEFAULT_GAP_FACTOR`]):
+//! - **direction** of the current line: the chord from its point up to
+//!   [`DIRECTION_WINDOW`] points back to its last point; a line of one point (or of
+//!   coincident points) has the scan's main axis, either way round: the dominant direction
+//!   of all steps between 0.5 h and k h long;
+//! - a step **continues** the line when it turns at most [`TURN_ANGLE_DEG`] from that
+//!   direction, or when it is shorter than 0.5 h and the step after it does not turn
+//!   (jitter and near-duplicates carry no direction);
+//! - any other step **starts a new line**: a reversal of the scanning direction (zig-zag
+//!   scans), a turn onto the next line (a zig-zag's short sideways move), or a jump longer
+//!   than k h (a raster scan's return, a move to the next profile);
+//! - a step that continues the line but is longer than k h is a **gap** (a hole, a bore,
+//!   a missed region): the line goes on, in a new segment. Strips never bridge gaps.
+//!
+//! Explicit line ids (points with the same id form a line, in input order; lines in
+//! ascending id) skip detection but are split at gaps the same way.
+
+use crate::{Error, Result};
+
+/// Default gap factor k: a step longer than k × the median step is a gap (or a jump). Four
+/// steps keep lines with a dropped point or two whole (a missing point doubles a step, two
+/// triple it) and open every hole three points wide or more.
+pub const DEFAULT_GAP_FACTOR: f64 = 4.0;
+
+/// A step that turns more than this from the line's direction (degrees) ends the line.
+/// Half a right angle: a zig-zag's reversal (180°) and its sideways move to the next line
+/// (90°) are well beyond it, noise on a straight line well below.
+pub const TURN_ANGLE_DEG: f64 = 45.0;
+
+/// Points over which a line's current direction is measured (the chord's length in steps):
+/// long enough to average jitter, short enough to follow a gently curving line.
+pub const DIRECTION_WINDOW: usize = 32;
+
+/// Scan lines split into segments, in the caller's point indices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanLines {
+    /// Lines in scan order; each line its segments in scan order; each segment its point
+    /// indices in scan order. Every segment has at least one point.
+    pub lines: Vec<Vec<Vec<u32>>>,
+    /// Median planar distance between consecutive points of a line (input units; 0 when no
+    /// line has two distinct points).
+    pub median_step: f64,
+    /// The gap length: a longer step inside a line splits it (input units).
+    pub gap: f64,
+    /// (dropped point, the earlier point of its line it coincides with in the plane):
+    /// repeated points would make zero-area triangles, so only the first is kept.
+    pub duplicates: Vec<(u32, u32)>,
+}
+
+fn check_uv(uv: &[[f64; 2]]) -> Result<()> {
+    for (index, p) in uv.iter().enumerate() {
+        for (axis, &x) in p.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(Error::NonFinite {
+                    index,
+                    axis,
+                    value: x,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_gap_factor(gap_factor: f64) -> Result<()> {
+    if !(gap_factor.is_finite() && gap_factor > 0.0) {
+        return Err(Error::InvalidParameter {
+            name: "gap_factor",
+            value: gap_factor.to_string(),
+            expected: "a positive multiple of the median step",
+        });
+    }
+    Ok(())
+}
+
+#[inline]
+fn sub(p: [f64; 2], q: [f64; 2]) -> [f64; 2] {
+    [p[0] - q[0], p[1] - q[1]]
+}
+
+#[inline]
+fn norm(v: [f64; 2]) -> f64 {
+    v[0].hypot(v[1])
+}
+
+/// Median of the non-zero values (0 for none). O(n).
+fn median_nonzero(mut values: Vec<f64>) -> f64 {
+    values.retain(|&x| x > 0.0);
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// The dominant direction (unit, sign arbitrary) of the steps between `short` and `long`
+/// in length: the major axis of their direction tensor. (1, 0) when there are none. O(n).
+fn main_axis(uv: &[[f64; 2]], short: f64, long: f64) -> [f64; 2] {
+    let (mut xx, mut xy, mut yy) = (0.0, 0.0, 0.0);
+    for w in uv.windows(2) {
+        let s = sub(w[1], w[0]);
+        let len = norm(s);
+        if len >= short && len <= long && len > 0.0 {
+            let (x, y) = (s[0] / len, s[1] / len);
+            xx += x * x;
+            xy += x * y;
+            yy += y * y;
+        }
+    }
+    if xx + yy == 0.0 {
+        return [1.0, 0.0];
+    }
+    // Angle of the major axis of [[xx, xy], [xy, yy]].
+    let theta = 0.5 * (2.0 * xy).atan2(xx - yy);
+    [theta.cos(), theta.sin()]
+}
+
+/// A line id per point (0..L−1 in scan order), detected from the point order by the rules
+/// in the module documentation, with `gap_factor` as k. Errors: a non-finite coordinate, a
+/// gap factor that is not positive. O(n).
+pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
+    check_uv(uv)?;
+    check_gap_factor(gap_factor)?;
+    let mut ids = Vec::with_capacity(uv.len());
+    if uv.is_empty() {
+        return Ok(ids);
+    }
+    let h = median_nonzero(uv.windows(2).map(|w| norm(sub(w[1], w[0]))).collect());
+    let (short, long) = (0.5 * h, gap_factor * h);
+    let axis = main_axis(uv, short, long);
+    let cos_turn = TURN_ANGLE_DEG.to_radians().cos();
+    let mut line = 0u32;
+    let mut first = 0usize; // index of the current line's first point
+    ids.push(0);
+    for k in 1..uv.len() {
+        let back = uv[(k - 1).saturating_sub(DIRECTION_WINDOW).max(first)];
+        let chord = sub(uv[k - 1], back);
+        let chord_len = norm(chord);
+        // Whether step `s` keeps within the turn angle of the line's direction.
+        let keeps_direction = |s: [f64; 2]| -> bool {
+            let len = norm(s);
+            let along = if chord_len > 0.0 {
+                (s[0] * chord[0] + s[1] * chord[1]) / chord_len
+            } else {
+                // No direction yet: the main axis, either way round.
+                (s[0] * axis[0] + s[1] * axis[1]).abs()
+            };
+            len == 0.0 || along >= cos_turn * len
+        };
+        let s = sub(uv[k], uv[k - 1]);
+        // A short step that turns is jitter when the line goes on after it, and a zig-zag's
+        // sideways move to the next line when the step after it turns too.
+        let continues = keeps_direction(s)
+            || (norm(s) < short && (k + 1 == uv.len() || keeps_direction(sub(uv[k + 1], uv[k]))));
+        if !continues {
+            line += 1;
+            first = k;
+        }
+        ids.push(line);
+    }
+    Ok(ids)
+}
+
+/// Groups points by line id (same id = one line, in input order; lines by ascending id),
+/// drops points that coincide in the plane with the previous point of their line, and
+/// splits each line into segments at steps longer than `gap_factor` × the median step.
+///
+/// Errors: `line_ids` of another length than `uv`, a non-finite coordinate, a gap factor
+/// that is not positive. O(n log n) for the grouping (O(n) when ids never decrease).
+pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Result<ScanLines> {
+    check_uv(uv)?;
+    check_gap_factor(gap_factor)?;
+    if line_ids.len() != uv.len() {
+        return Err(Error::InvalidParameter {
+            name: "line_ids",
+            value: format!("{} ids", line_ids.len()),
+            expected: "one line id per point",
+        });
+    }
+    if uv.len() > u32::MAX as usize {
+        return Err(Error::InvalidParameter {
+            name: "points",
+            value: uv.len().to_string(),
+            expected: "fewer than 2^32 points",
+        });
+    }
+    let mut order: Vec<u32> = (0..uv.len() as u32).collect();
+    if line_ids.windows(2).any(|w| w[1] < w[0]) {
+        order.sort_by_key(|&k| line_ids[k as usize]); // stable: input order within a line
+    }
+    // Lines with coincident repeats dropped.
+    let mut lines: Vec<Vec<u32>> = Vec::new();
+    let mut duplicates = Vec::new();
+    for (pos, &k) in order.iter().enumerate() {
+        let new_line = pos == 0 || line_ids[k as usize] != line_ids[order[pos - 1] as usize];
+        if new_line {
+            lines.push(vec![k]);
+            continue;
+        }
+        let current = lines.last_mut().expect("a line was started");
+        let last = *current.last().expect("lines are never empty");
+        if uv[k as usize] == uv[last as usize] {
+            duplicates.push((k, last));
+        } else {
+            current.push(k);
+        }
+    }
+    let steps = lines
+        .iter()
+        .flat_map(|l| {
+            l.windows(2)
+                .map(|w| norm(sub(uv[w[1] as usize], uv[w[0] as usize])))
+        })
+        .collect();
+    let median_step = median_nonzero(steps);
+    let gap = gap_factor * median_step;
+    let lines = lines
+        .into_iter()
+        .map(|line| {
+            let mut segments = vec![vec![line[0]]];
+            for w in line.windows(2) {
+                if norm(sub(uv[w[1] as usize], uv[w[0] as usize])) > gap {
+                    segments.push(Vec::new());
+                }
+                segments
+                    .last_mut()
+                    .expect("one segment at least")
+                    .push(w[1]);
+            }
+            segments
+        })
+        .collect();
+    Ok(ScanLines {
+        lines,
+        median_step,
+        gap,
+        duplicates,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A raster (every line left to right) or zig-zag (alternating) scan of `rows` lines of
+    /// `cols` points, spacing 1 along and `across` between lines, with optional jitter.
+    fn scan(rows: usize, cols: usize, across: f64, zigzag: bool, jitter: f64) -> Vec<[f64; 2]> {
+        let mut s = 5u64;
+        let mut noise = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * jitter
+        };
+        let mut out = Vec::new();
+        for r in 0..rows {
+            for c in 0..cols {
+                let c = if zigzag && r % 2 == 1 {
+                    cols - 1 - c
+                } else {
+                    c
+                };
+                out.push([c as f64 + noise(), r as f64 * across + noise()]);
+            }
+        }
+        out
+    }
+
+    fn expected(rows: usize, cols: usize) -> Vec<u32> {
+        (0..rows * cols).map(|k| (k / cols) as u32).collect()
+    }
+
+    #[test]
+    fn raster_and_zigzag_scans_are_found() {
+        for across in [0.3, 1.0, 2.5, 10.0] {
+            for zigzag in [false, true] {
+                let uv = scan(7, 20, across, zigzag, 0.2);
+                let ids = detect_lines(&uv, DEFAULT_GAP_FACTOR).unwrap();
+                assert_eq!(ids, expected(7, 20), "across {across} zigzag {zigzag}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_zigzag_turn_point_starts_the_next_line() {
+        // Line 0 to the right, a sideways move, line 1 to the left.
+        let uv = vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+        ];
+        assert_eq!(detect_lines(&uv, 4.0).unwrap(), vec![0, 0, 0, 1, 1, 1]);
+    }
+
+    #[test]
+    fn a_gap_along_the_line_is_not_a_new_line_but_splits_it() {
+        let mut uv = scan(3, 20, 1.0, false, 0.0);
+        uv.retain(|p| !(p[1] == 1.0 && p[0] > 5.0 && p[0] < 12.0));
+        let ids = detect_lines(&uv, 4.0).unwrap();
+        assert_eq!(*ids.iter().max().unwrap(), 2);
+        let ids64: Vec<i64> = ids.iter().map(|&x| x as i64).collect();
+        let lines = segment_lines(&uv, &ids64, 4.0).unwrap();
+        assert_eq!(lines.lines.len(), 3);
+        assert_eq!(lines.lines[1].len(), 2, "the holed line has two segments");
+        assert_eq!(lines.lines[0].len(), 1);
+        assert!((lines.median_step - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn explicit_ids_group_in_input_order_and_ascending_id() {
+        let uv = vec![
+            [0.0, 1.0],
+            [0.0, 0.0],
+            [1.0, 1.0],
+            [1.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 0.0],
+        ];
+        let ids = vec![7, -3, 7, -3, -3, -3];
+        let lines = segment_lines(&uv, &ids, 4.0).unwrap();
+        assert_eq!(lines.lines, vec![vec![vec![1, 3, 4]], vec![vec![0, 2]]]);
+        assert_eq!(lines.duplicates, vec![(5, 4)]);
+    }
+
+    #[test]
+    fn single_points_and_bad_input() {
+        assert_eq!(detect_lines(&[[1.0, 2.0]], 4.0).unwrap(), vec![0]);
+        assert!(detect_lines(&[], 4.0).unwrap().is_empty());
+        assert!(detect_lines(&[[0.0, f64::NAN]], 4.0).is_err());
+        assert!(detect_lines(&[[0.0, 0.0]], 0.0).is_err());
+        assert!(segment_lines(&[[0.0, 0.0]], &[0, 1], 4.0).is_err());
+        let one = segment_lines(&[[0.0, 0.0], [5.0, 5.0]], &[0, 1], 4.0).unwrap();
+        assert_eq!(one.median_step, 0.0);
+        assert_eq!(one.lines.len(), 2);
+    }
+}
