@@ -10,7 +10,9 @@
 //! - [`tac_state`]: incremental tac energy under flips;
 //! - [`lop`]: Lawson's greedy flipping for any criterion;
 //! - [`anneal`]: simulated annealing on tac;
-//! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks).
+//! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks);
+//! - [`lines`]: scan lines detected from point order or given by id, split at gaps;
+//! - [`fuchs`]: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -18,8 +20,10 @@ pub mod anneal;
 pub mod criteria;
 pub mod delaunay;
 pub mod enumerate;
+pub mod fuchs;
 mod error;
 pub mod geometry;
+pub mod lines;
 pub mod lop;
 pub mod mesh;
 pub mod projection;
