@@ -203,6 +203,16 @@ _NUMBER = re.compile(
 _NUMBER_START = re.compile(rb"\s*[+-]?\.?\d")
 _TOKEN = re.compile(rb"[^\s,]+")
 _COMMA_TO_SPACE = bytes.maketrans(b",", b" ")
+# Byte -> is a separator: space, tab, CR, LF (and, in the second table, comma).
+_WHITE = np.zeros(256, dtype=bool)
+_WHITE[[9, 10, 13, 32]] = True
+_WHITE_COMMA = _WHITE.copy()
+_WHITE_COMMA[44] = True
+
+
+def _separators(u: np.ndarray, comma: bool = False) -> np.ndarray:
+    """(n,) bool: which bytes of ``u`` separate tokens (one table lookup per byte)."""
+    return (_WHITE_COMMA if comma else _WHITE)[u]
 
 
 def _locate_bad_number(path: Path, data: bytes, start: int, stop: int, context: str = "") -> None:
@@ -225,7 +235,9 @@ def _floats(
 
     The fast path is one ``np.fromstring`` call; any failure is located token by token.
     """
-    buf = data[start:stop].translate(_COMMA_TO_SPACE)
+    buf = data[start:stop]
+    if b"," in buf:
+        buf = buf.translate(_COMMA_TO_SPACE)
     try:
         values = np.fromstring(buf, dtype=np.float64, sep=" ")
     except ValueError:
@@ -264,7 +276,7 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
     are comments anywhere; blank lines split the rows into blocks (scan lines).
     """
     _check_text(path, data, what)
-    if not data.strip():
+    if not data or data.isspace():
         raise FileFormatError(f"{path}: the file is empty; expected {what}")
     # header: lines before the first line that starts with a number
     pos, line_no, header = 0, 1, []
@@ -305,9 +317,7 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
         ends = np.flatnonzero(u == 10)
         if not len(ends) or ends[-1] != len(u) - 1:
             ends = np.append(ends, len(u))
-        sep = (u == 32) | (u == 9) | (u == 10) | (u == 13)
-        if comma:
-            sep |= u == 44
+        sep = _separators(u, comma)
         tok, counts = _token_counts(u, ends, sep)
         first_tok = np.cumsum(counts) - counts
         has = counts > 0
@@ -361,8 +371,8 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
         start = stop
     return _Table(
         values=np.concatenate(values) if values else np.empty((0, ncols)),
-        row_lines=np.concatenate(row_lines).astype(np.int64),
-        blocks=np.concatenate(blocks).astype(np.int64),
+        row_lines=np.concatenate(row_lines),
+        blocks=np.concatenate(blocks),
         header=header,
         comma=comma,
     )
@@ -381,7 +391,7 @@ def _row_error(path: Path, data: bytes, table: _Table, row: int, message: str) -
 
 def _finite_rows(path: Path, data: bytes, table: _Table, cols: list[int], names: list[str]) -> None:
     """Raise on the first row with a NaN or infinite value in the given columns."""
-    sub = table.values[:, cols]
+    sub = table.values if cols == list(range(table.values.shape[1])) else table.values[:, cols]
     bad = ~np.isfinite(sub)
     if bad.any():
         row, col = np.argwhere(bad)[0]
@@ -428,7 +438,10 @@ def _table_points(
     """ScanPoints from a parsed table and the columns holding x, y, z and the line id."""
     cols = [columns["x"], columns["y"], columns["z"]]
     _finite_rows(path, data, table, cols, ["x", "y", "z"])
-    points = np.ascontiguousarray(table.values[:, cols])
+    if cols == [0, 1, 2] and table.values.shape[1] == 3:
+        points = table.values  # already (N, 3) C-contiguous: no copy
+    else:
+        points = np.ascontiguousarray(table.values[:, cols])
     extra: dict[str, Any] = {"format": fmt, "header": table.header, "columns": columns}
     if "line" in columns:
         line_ids = _line_column(path, data, table, columns["line"])
@@ -718,7 +731,7 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
                 ends = np.flatnonzero(u == 10)
                 if not len(ends) or ends[-1] != len(u) - 1:
                     ends = np.append(ends, len(u))
-                sep = (u == 32) | (u == 9) | (u == 10) | (u == 13)
+                sep = _separators(u)
                 _, counts = _token_counts(u, ends, sep)
                 uneven = np.flatnonzero(counts != nprops)
                 if len(uneven):
@@ -771,7 +784,7 @@ def _ascii_lists(path: Path, data: bytes, a: int, b: int, el: _PlyElement) -> li
     ends = np.flatnonzero(u == 10)
     if not len(ends) or ends[-1] != len(u) - 1:
         ends = np.append(ends, len(u))
-    sep = (u == 32) | (u == 9) | (u == 10) | (u == 13)
+    sep = _separators(u)
     _, counts = _token_counts(u, ends, sep)
     flat = _floats(path, data, a, b, int(counts.sum()), f" in PLY element {el.name!r}")
     first = np.cumsum(counts) - counts
@@ -1006,7 +1019,7 @@ class _VtkCursor:
         if count == 0:
             return np.empty(0)
         u = np.frombuffer(self.data, dtype=np.uint8, offset=self.pos)
-        sep = (u == 32) | (u == 9) | (u == 10) | (u == 13)
+        sep = _separators(u)
         starts_mask = ~sep
         starts_mask[1:] &= sep[:-1]
         starts = np.flatnonzero(starts_mask)
@@ -1129,7 +1142,7 @@ def read_vtk(path: str | os.PathLike) -> ScanPoints:
     """
     path = Path(path)
     data = _read_bytes(path)
-    if not data.strip():
+    if not data or data.isspace():
         raise FileFormatError(f"{path}: the file is empty; expected a legacy VTK file")
     if data.lstrip().startswith(b"<"):
         raise FileFormatError(
