@@ -19,7 +19,7 @@ ANNEAL_DEFAULTS: dict[str, Any] = dict(_core.ANNEAL_DEFAULTS)
 
 #: Proposals run per native call: small enough that Ctrl-C and progress come back within
 #: about 20 ms at 10 million proposals per second, large enough to amortize the call.
-CHUNK_PROPOSALS = 200_000
+CHUNK_PROPOSALS = 100_000
 
 #: Trace columns, in the order the core returns them.
 TRACE_COLUMNS = ("temperature", "energy", "best", "acceptance")

@@ -46,7 +46,12 @@ impl Frame {
         };
         let u = helper.cross(n).normalize();
         let v = n.cross(u);
-        Frame { origin, u, v, normal: n }
+        Frame {
+            origin,
+            u,
+            v,
+            normal: n,
+        }
     }
 
     /// Planar coordinates of `p`. O(1).
@@ -80,7 +85,9 @@ pub struct Projection {
 pub fn project(points: &[DVec3], plane: Plane) -> Result<Projection> {
     check_finite(points)?;
     if points.len() < 3 {
-        return Err(Error::TooFewPoints { distinct: points.len() });
+        return Err(Error::TooFewPoints {
+            distinct: points.len(),
+        });
     }
     let box_fit = Normalizer::fit(points);
     if box_fit.half_extent == 0.0 {
@@ -101,7 +108,12 @@ pub fn project(points: &[DVec3], plane: Plane) -> Result<Projection> {
                     })
                 }
             };
-            Frame { origin: box_fit.center, u, v, normal: n }
+            Frame {
+                origin: box_fit.center,
+                u,
+                v,
+                normal: n,
+            }
         }
         Plane::Normal(n) => {
             let len = n.length();
@@ -138,16 +150,24 @@ fn best_fit_frame(points: &[DVec3], box_fit: &Normalizer) -> Result<Frame> {
         }
     }
     let (values, vectors) = symmetric_eigen3(cov);
-    // values ascending: values[0] is the normal's, values[2] the longest axis'.
-    if values[1] <= values[2] * 1e-24 {
-        return Err(Error::Collinear { after_projection: false });
+    // values ascending: values[0] is the normal's, values[2] the longest axis'. A second
+    // axis under 1e-7 of the first (1e-14 in variance) is rounding noise: a line.
+    if values[1] <= values[2] * 1e-14 {
+        return Err(Error::Collinear {
+            after_projection: false,
+        });
     }
     let normal = canonical_sign(vectors[0]);
     let u0 = canonical_sign(vectors[2]);
     let u = (u0 - normal * u0.dot(normal)).normalize();
     let v = normal.cross(u);
     let origin = box_fit.center + centroid * box_fit.half_extent;
-    Ok(Frame { origin, u, v, normal })
+    Ok(Frame {
+        origin,
+        u,
+        v,
+        normal,
+    })
 }
 
 /// Flips `v` so that its largest-magnitude component is positive.
@@ -190,17 +210,15 @@ pub fn symmetric_eigen3(m: [[f64; 3]; 3]) -> ([f64; 3], [DVec3; 3]) {
             let t = if theta == 0.0 { 1.0 } else { t };
             let c = 1.0 / (t * t + 1.0).sqrt();
             let s = t * c;
-            for k in 0..3 {
-                let akp = a[k][p];
-                let akq = a[k][q];
-                a[k][p] = c * akp - s * akq;
-                a[k][q] = s * akp + c * akq;
+            for row in a.iter_mut() {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
             }
+            let (row_p, row_q) = (a[p], a[q]);
             for k in 0..3 {
-                let apk = a[p][k];
-                let aqk = a[q][k];
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
+                a[p][k] = c * row_p[k] - s * row_q[k];
+                a[q][k] = s * row_p[k] + c * row_q[k];
             }
             for row in v.iter_mut() {
                 let vkp = row[p];
@@ -269,11 +287,26 @@ mod tests {
     #[test]
     fn degenerate_inputs_are_errors() {
         let line: Vec<DVec3> = (0..5).map(|i| DVec3::splat(i as f64)).collect();
-        assert_eq!(project(&line, Plane::BestFit).unwrap_err(), Error::Collinear { after_projection: false });
+        assert_eq!(
+            project(&line, Plane::BestFit).unwrap_err(),
+            Error::Collinear {
+                after_projection: false
+            }
+        );
         let same = vec![DVec3::ONE; 4];
-        assert!(matches!(project(&same, Plane::BestFit), Err(Error::TooFewPoints { .. })));
+        assert!(matches!(
+            project(&same, Plane::BestFit),
+            Err(Error::TooFewPoints { .. })
+        ));
         let nan = vec![DVec3::ZERO, DVec3::X, DVec3::new(0.0, f64::NAN, 0.0)];
-        assert!(matches!(project(&nan, Plane::BestFit), Err(Error::NonFinite { index: 2, axis: 1, .. })));
+        assert!(matches!(
+            project(&nan, Plane::BestFit),
+            Err(Error::NonFinite {
+                index: 2,
+                axis: 1,
+                ..
+            })
+        ));
         let pts = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
         assert!(project(&pts, Plane::Normal(DVec3::ZERO)).is_err());
         assert!(project(&pts, Plane::Axis(3)).is_err());

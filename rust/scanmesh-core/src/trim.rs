@@ -1,8 +1,8 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps.
 
-use crate::delaunay::NONE;
+use crate::delaunay::{unit_square, NONE};
 use crate::geometry::planar_distance;
-use crate::mesh::{prev, HalfEdgeMesh};
+use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::Result;
 
 /// Default `max_edge` as a multiple of the median nearest-neighbour spacing. Five spacings
@@ -31,20 +31,36 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
     *finite.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-/// Drops triangles whose longest planar edge exceeds `max_edge`, then resolves pinches.
+/// Drops triangles whose longest planar edge exceeds `max_edge`, then peels numerically
+/// degenerate triangles off the boundary and resolves pinches.
 ///
-/// A pinch is a vertex where two fans touch only at a point; there the triangles of all
+/// Straight stretches of a scanned outline put collinear points on the convex hull, and
+/// Delaunay closes them with zero-area slivers whose angles (0, 0, π) make a boundary
+/// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a vertex where two fans touch only at a point; there the triangles of all
 /// fans but the largest are dropped (repeatedly, as a drop can pinch a neighbour), so the
 /// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` keeps everything. Input triangles must
 /// form a valid planar triangulation. O(m log m).
-pub fn trim_long_edges(uv: &[[f64; 2]], triangles: &[[u32; 3]], max_edge: f64) -> Result<Vec<[u32; 3]>> {
+pub fn trim_long_edges(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    max_edge: f64,
+) -> Result<Vec<[u32; 3]>> {
     let longest = |t: &[u32; 3]| {
-        (0..3).map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize])).fold(0.0, f64::max)
+        (0..3)
+            .map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]))
+            .fold(0.0, f64::max)
     };
-    let mut kept: Vec<[u32; 3]> = triangles.iter().copied().filter(|t| longest(t) <= max_edge).collect();
+    let mut kept: Vec<[u32; 3]> = triangles
+        .iter()
+        .copied()
+        .filter(|t| longest(t) <= max_edge)
+        .collect();
+    // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
+    let unit = unit_square(uv);
     loop {
         let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept)?;
-        let drop = pinched_fans_to_drop(&mesh);
+        let mut drop = pinched_fans_to_drop(&mesh);
+        drop.extend(degenerate_boundary_triangles(&mesh, &unit));
         if drop.is_empty() {
             return Ok(kept);
         }
@@ -52,8 +68,22 @@ pub fn trim_long_edges(uv: &[[f64; 2]], triangles: &[[u32; 3]], max_edge: f64) -
         for t in drop {
             keep_flag[t as usize] = false;
         }
-        kept = kept.into_iter().zip(keep_flag).filter(|(_, k)| *k).map(|(t, _)| t).collect();
+        kept = kept
+            .into_iter()
+            .zip(keep_flag)
+            .filter(|(_, k)| *k)
+            .map(|(t, _)| t)
+            .collect();
     }
+}
+
+/// Boundary triangles (an edge without twin) that are numerically collinear. O(m).
+fn degenerate_boundary_triangles<'a>(mesh: &'a HalfEdgeMesh, uv: &'a [[f64; 2]]) -> impl Iterator<Item = u32> + 'a {
+    (0..mesh.n_triangles() as u32).filter(move |&t| {
+        let on_boundary = (3 * t..3 * t + 3).any(|h| mesh.twin(h) == NONE);
+        let [a, b, c] = mesh.triangle(t as usize).map(|v| uv[v as usize]);
+        on_boundary && !well_formed(a, b, c)
+    })
 }
 
 /// Triangles of the smaller fans at every pinched vertex. O(m).
@@ -118,7 +148,10 @@ mod tests {
         // The centre of the hole is covered by no triangle.
         let centre = [9.5, 9.5];
         let covers = |t: &[u32; 3]| {
-            (0..3).all(|k| crate::geometry::orient2d(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize], centre) > 0.0)
+            (0..3).all(|k| {
+                crate::geometry::orient2d(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize], centre)
+                    > 0.0
+            })
         };
         assert!(!kept.iter().any(covers));
         assert!(d.triangles.iter().any(covers));
@@ -127,12 +160,39 @@ mod tests {
     }
 
     #[test]
+    fn collinear_hull_slivers_are_peeled() {
+        // Three hull points on x + y = 1 with the middle one 1e-12 inside: the hull edge
+        // skips it and Delaunay fills the gap with a zero-area sliver, which trimming drops.
+        let inward = 0.5 - (2.0f64).powi(-40);
+        let uv = vec![[0.0, 0.0], [0.25, 0.75], [inward, inward], [0.75, 0.25], [0.0, 0.5]];
+        let d = delaunay(&uv).unwrap();
+        let slivers = |t: &[[u32; 3]]| t.iter().filter(|f| !well_formed(uv[f[0] as usize], uv[f[1] as usize], uv[f[2] as usize])).count();
+        assert!(slivers(&d.triangles) > 0, "the fixture must contain a sliver");
+        let kept = trim_long_edges(&uv, &d.triangles, 10.0).unwrap();
+        assert_eq!(slivers(&kept), 0);
+        assert_eq!(kept.len(), d.triangles.len() - slivers(&d.triangles));
+        HalfEdgeMesh::from_triangles(uv.len(), &kept).unwrap().validate(&uv).unwrap();
+    }
+
+    #[test]
     fn pinches_are_resolved() {
         // Two squares touching at one corner; trimming the long diagonals leaves a bow tie.
-        let uv = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [2.0, 1.0], [2.0, 2.0], [1.0, 2.0], [1.0, 1.0 + 1e-9]];
+        let uv = vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [2.0, 1.0],
+            [2.0, 2.0],
+            [1.0, 2.0],
+            [1.0, 1.0 + 1e-9],
+        ];
         let tris = vec![[0, 1, 2], [0, 2, 3], [2, 4, 5], [2, 5, 6]];
         let kept = trim_long_edges(&uv, &tris, f64::INFINITY).unwrap();
         assert_eq!(kept.len(), 2);
-        HalfEdgeMesh::from_triangles(uv.len(), &kept).unwrap().validate(&uv).unwrap();
+        HalfEdgeMesh::from_triangles(uv.len(), &kept)
+            .unwrap()
+            .validate(&uv)
+            .unwrap();
     }
 }

@@ -41,6 +41,12 @@ create_exception!(
     "Faces that do not form a valid triangulation."
 );
 
+/// numpy arrays handed to Python: (rows, cols) float64, (n,) float64, (rows, cols) int64, (n,) int64.
+type Floats2<'py> = Bound<'py, PyArray2<f64>>;
+type Floats1<'py> = Bound<'py, PyArray1<f64>>;
+type Ints2<'py> = Bound<'py, PyArray2<i64>>;
+type Ints1<'py> = Bound<'py, PyArray1<i64>>;
+
 /// The one place where core errors become Python exceptions.
 fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
@@ -99,14 +105,14 @@ fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResult<Vec<[u32;
     Ok(out)
 }
 
-fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> Bound<'py, PyArray2<i64>> {
+fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> Ints2<'py> {
     let flat: Vec<i64> = t.iter().flat_map(|f| f.map(i64::from)).collect();
     Array2::from_shape_vec((t.len(), 3), flat)
         .expect("3 per face")
         .into_pyarray(py)
 }
 
-fn uv_out<'py>(py: Python<'py>, uv: &[[f64; 2]]) -> Bound<'py, PyArray2<f64>> {
+fn uv_out<'py>(py: Python<'py>, uv: &[[f64; 2]]) -> Floats2<'py> {
     let flat: Vec<f64> = uv.iter().flatten().copied().collect();
     Array2::from_shape_vec((uv.len(), 2), flat)
         .expect("2 per point")
@@ -122,7 +128,7 @@ fn project<'py>(
     points: PyReadonlyArray2<'py, f64>,
     plane: Option<&str>,
     normal: Option<PyReadonlyArray1<'py, f64>>,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+) -> PyResult<(Floats2<'py>, Floats2<'py>)> {
     let pts = points3(&points)?;
     let plane = match (plane, normal) {
         (Some("best-fit"), None) => Plane::BestFit,
@@ -164,7 +170,7 @@ fn project<'py>(
 fn delaunay<'py>(
     py: Python<'py>,
     uv: PyReadonlyArray2<'py, f64>,
-) -> PyResult<(Bound<'py, PyArray2<i64>>, Bound<'py, PyArray1<i64>>)> {
+) -> PyResult<(Ints2<'py>, Ints1<'py>)> {
     let pts = points2(&uv)?;
     let d = py
         .detach(|| scanmesh_core::delaunay::delaunay(&pts))
@@ -198,7 +204,7 @@ fn trim_long_edges<'py>(
     uv: PyReadonlyArray2<'py, f64>,
     faces_: PyReadonlyArray2<'py, i64>,
     max_edge: f64,
-) -> PyResult<Bound<'py, PyArray2<i64>>> {
+) -> PyResult<Ints2<'py>> {
     if max_edge.is_nan() || max_edge <= 0.0 {
         return Err(ParameterError::new_err(format!(
             "max_edge must be positive, got {max_edge}"
@@ -233,7 +239,7 @@ fn mesh_quality<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
     faces_: PyReadonlyArray2<'py, i64>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<(Floats1<'py>, Floats1<'py>)> {
     let pts = points3(&points)?;
     let t = faces(&faces_, pts.len())?;
     scanmesh_core::geometry::check_finite(&pts).map_err(to_py)?;
@@ -292,7 +298,7 @@ fn lop<'py>(
     p: f64,
     sliver_guard: bool,
     tie_tolerance: f64,
-) -> PyResult<(Bound<'py, PyArray2<i64>>, usize)> {
+) -> PyResult<(Ints2<'py>, usize)> {
     let mut state = tac_state(&points, &uv, &faces_, p)?;
     let (mesh, flips) = match criterion {
         "tac" => {
@@ -427,7 +433,7 @@ impl Annealer {
     }
 
     /// The trace so far: (temperature, energy, best, acceptance), one entry per sweep.
-    fn trace<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn trace<'py>(&self, py: Python<'py>) -> PyResult<Floats2<'py>> {
         Ok(trace_out(py, self.running()?.trace()))
     }
 
@@ -436,8 +442,8 @@ impl Annealer {
         &mut self,
         py: Python<'py>,
     ) -> PyResult<(
-        Bound<'py, PyArray2<i64>>,
-        Bound<'py, PyArray2<f64>>,
+        Ints2<'py>,
+        Floats2<'py>,
         Bound<'py, pyo3::types::PyDict>,
     )> {
         let inner = self
@@ -459,7 +465,7 @@ impl Annealer {
     }
 }
 
-fn trace_out<'py>(py: Python<'py>, trace: &[sa::SweepRecord]) -> Bound<'py, PyArray2<f64>> {
+fn trace_out<'py>(py: Python<'py>, trace: &[sa::SweepRecord]) -> Floats2<'py> {
     let flat: Vec<f64> = trace
         .iter()
         .flat_map(|r| [r.temperature, r.energy, r.best, r.acceptance])
@@ -475,7 +481,7 @@ fn trace_out<'py>(py: Python<'py>, trace: &[sa::SweepRecord]) -> Bound<'py, PyAr
 fn empty_triangles<'py>(
     py: Python<'py>,
     uv: PyReadonlyArray2<'py, f64>,
-) -> PyResult<Bound<'py, PyArray2<i64>>> {
+) -> PyResult<Ints2<'py>> {
     let pts = points2(&uv)?;
     let t = py
         .detach(|| scanmesh_core::enumerate::empty_triangles(&pts))

@@ -1,0 +1,34 @@
+"""Shared fixtures: where the real data lives, and small synthetic scans."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+#: ../shared/data beside the repository (CI clones the repo with shared/ next to it).
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """The folder of real models and scans; the suite needs it."""
+    assert SHARED_DATA.is_dir(), f"shared data not found at {SHARED_DATA}"
+    return SHARED_DATA
+
+
+def bumpy_patch(n: int, seed: int) -> np.ndarray:
+    """(n, 3) points of a smooth height field z = f(x, y) at random planar positions."""
+    rng = np.random.default_rng(seed)
+    xy = rng.random((n, 2))
+    z = 0.3 * np.sin(6 * xy[:, 0]) * np.cos(4 * xy[:, 1]) + 0.2 * xy[:, 0] ** 2
+    return np.column_stack([xy, z])
+
+
+@pytest.fixture(scope="session")
+def rod_scan() -> tuple[np.ndarray, np.ndarray]:
+    """The embedded connecting-rod demo scan: (points, line_ids)."""
+    import scanmesh
+
+    return scanmesh.load_demo()

@@ -1,0 +1,164 @@
+"""Simulated annealing and LOP on tac: invariants, reproducibility, the rod, interruption."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+from conftest import bumpy_patch
+
+import scanmesh
+from scanmesh import _core
+
+
+def canonical(faces):
+    return np.unique(np.sort(faces, axis=1), axis=0)
+
+
+@pytest.fixture(scope="module")
+def rod_results(rod_scan):
+    pts, _ = rod_scan
+    return {m: scanmesh.reconstruct(pts, m, plane="y", **({"sweeps": 150} if m == "anneal" else {}))
+            for m in ("delaunay", "lop", "anneal")}
+
+
+def test_anneal_beats_lop_beats_delaunay_on_the_rod(rod_results):
+    d, lop, a = (rod_results[m].quality.tac_1 for m in ("delaunay", "lop", "anneal"))
+    assert a < lop < d
+    assert a < 0.15 * d
+
+
+def test_results_are_valid_planar_triangulations(rod_results, rod_scan):
+    pts, _ = rod_scan
+    uv, _ = scanmesh.project(pts, "y")
+    d = rod_results["delaunay"]
+    for s in rod_results.values():
+        _core.validate(uv, s.faces)
+        # Flips keep the domain: same number of triangles, same boundary.
+        assert len(s.faces) == len(d.faces)
+        assert s.quality.n_interior == d.quality.n_interior
+
+
+def test_sliver_guard_keeps_tac_and_removes_slivers(rod_scan):
+    pts, _ = rod_scan
+    guarded = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=60, seed=3)
+    raw = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=60, seed=3, sliver_guard=False)
+    assert guarded.quality.tac_1 <= raw.quality.tac_1 * 1.02
+    assert guarded.quality.sliver_fraction < 0.5 * raw.quality.sliver_fraction
+
+
+def test_energy_never_ends_above_the_start_and_trace_is_complete():
+    pts = bumpy_patch(600, 1)
+    a = scanmesh.reconstruct(pts, "anneal", sweeps=40, patience=0)
+    opts = a.options
+    assert opts["energy"] <= opts["initial_energy"]
+    assert a.quality.tac_1 == pytest.approx(opts["energy"], rel=1e-9)
+    assert set(a.trace) == {"temperature", "energy", "best", "acceptance"}
+    assert all(len(v) == 40 for v in a.trace.values())
+    assert np.all(np.diff(a.trace["best"]) <= 0)
+    assert np.all(np.diff(a.trace["temperature"]) < 0)
+    assert np.all((a.trace["acceptance"] >= 0) & (a.trace["acceptance"] <= 1))
+
+
+def test_energy_with_p2_matches_the_quality_norm():
+    pts = bumpy_patch(500, 2)
+    a = scanmesh.reconstruct(pts, "anneal", sweeps=30, p=2)
+    assert a.options["energy"] == pytest.approx(a.quality.tac_2**2, rel=1e-9)
+
+
+def test_same_seed_same_faces_other_seed_other_faces():
+    pts = bumpy_patch(500, 3)
+    a = scanmesh.reconstruct(pts, "anneal", sweeps=30, seed=11)
+    b = scanmesh.reconstruct(pts, "anneal", sweeps=30, seed=11)
+    c = scanmesh.reconstruct(pts, "anneal", sweeps=30, seed=12)
+    assert np.array_equal(a.faces, b.faces)
+    assert not np.array_equal(canonical(a.faces), canonical(c.faces))
+
+
+def test_lop_is_a_local_optimum_and_reruns_make_no_flip():
+    pts = bumpy_patch(500, 4)
+    once = scanmesh.reconstruct(pts, "lop")
+    assert once.options["flips"] > 0
+    from scanmesh.anneal import lop_surface
+
+    again = lop_surface(once)
+    assert again.options["flips"] == 0
+    assert once.quality.tac_1 < scanmesh.delaunay(pts).quality.tac_1
+
+
+def test_progress_callback_sees_every_sweep():
+    pts = bumpy_patch(300, 5)
+    seen = []
+    scanmesh.reconstruct(pts, "anneal", sweeps=25, patience=0,
+                         progress=lambda done, total, energy: seen.append((done, total, energy)))
+    assert seen[-1][0] == 25 and all(t == 25 for _, t, _ in seen)
+    assert [d for d, _, _ in seen] == sorted(d for d, _, _ in seen)
+
+
+@pytest.mark.parametrize(
+    "options, match",
+    [
+        ({"sweeps": -1}, "sweeps"),
+        ({"sweeps": 2.5}, "sweeps"),
+        ({"p": 0.5}, "p must"),
+        ({"p": float("inf")}, "p must"),
+        ({"initial_acceptance": 1.5}, "initial_acceptance"),
+        ({"final_temperature_ratio": 0}, "final_temperature_ratio"),
+        ({"bogus": 1}, "unknown annealing option"),
+        ({"initial": "magic"}, "unknown initial"),
+    ],
+)
+def test_bad_annealing_options(options, match):
+    with pytest.raises(scanmesh.ParameterError, match=match):
+        scanmesh.reconstruct(bumpy_patch(50, 6), "anneal", **options)
+
+
+def test_bad_method_and_seed():
+    with pytest.raises(scanmesh.ParameterError, match="unknown method"):
+        scanmesh.reconstruct(bumpy_patch(50, 6), "magic")
+    with pytest.raises(scanmesh.ParameterError, match="seed"):
+        scanmesh.reconstruct(bumpy_patch(50, 6), "anneal", seed=-1)
+    with pytest.raises(scanmesh.ParameterError, match="criterion"):
+        scanmesh.reconstruct(bumpy_patch(50, 6), "lop", criterion="nope")
+
+
+def test_ctrl_c_stops_a_long_run_quickly(tmp_path):
+    script = textwrap.dedent(
+        """
+        import sys, time
+        import numpy as np
+        import scanmesh
+        rng = np.random.default_rng(0)
+        xy = rng.random((60000, 2))
+        pts = np.column_stack([xy, np.sin(5 * xy[:, 0]) * np.cos(3 * xy[:, 1])])
+        started = []
+        def progress(done, total, energy):
+            if not started:
+                started.append(1)
+                print("started", flush=True)
+        try:
+            scanmesh.reconstruct(pts, "anneal", sweeps=100000, patience=0, progress=progress)
+        except KeyboardInterrupt:
+            print(f"interrupted {time.monotonic()!r}", flush=True)
+            sys.exit(0)
+        print("finished", flush=True)
+        """
+    )
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "started"
+        time.sleep(0.3)
+        sent = time.monotonic()
+        os.kill(proc.pid, signal.SIGINT)
+        line = proc.stdout.readline().split()
+        assert proc.wait(timeout=30) == 0
+    finally:
+        proc.kill()
+    assert line[0] == "interrupted"
+    assert float(line[1]) - sent < 0.2
