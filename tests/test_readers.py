@@ -160,6 +160,25 @@ def test_csv_header_without_xyz(tmp_path):
         read_csv(path)
 
 
+def test_zero_points(tmp_path):
+    path = write(
+        tmp_path / "z.ply",
+        "ply\nformat ascii 1.0\nelement vertex 0\n"
+        "property float x\nproperty float y\nproperty float z\nend_header\n",
+    )
+    with raises_naming(FileFormatError, path, "no vertices"):
+        read(path)
+    np.save(tmp_path / "z.npy", np.zeros((0, 3)))
+    with raises_naming(FileFormatError, tmp_path / "z.npy", "no points"):
+        read(tmp_path / "z.npy")
+    path = write(
+        tmp_path / "z.vtk",
+        "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 0 float\n",
+    )
+    with raises_naming(FileFormatError, path, "line 5", "0 points"):
+        read(path)
+
+
 def test_header_only(tmp_path):
     path = write(tmp_path / "head.csv", "x,y,z\n")
     with raises_naming(FileFormatError, path, "no numeric data"):
@@ -732,7 +751,11 @@ def test_autzen_first_returns_and_ground():
     # every sweep ids a contiguous run of the file: first returns keep their sweep's id
     full = read_las(path, select="all")
     np.testing.assert_array_equal(sp.line_ids, full.line_ids[first])
-    assert sp.n_lines <= 681 and len(sp) == int(first.sum())
+    flag = np.asarray(las.scan_direction_flag).astype(int)
+    sweep = np.concatenate([[0], np.cumsum(np.diff(flag) != 0)])  # README: 681 sweeps
+    assert sweep[-1] + 1 == 681
+    assert len(sp) == int(first.sum())
+    assert sp.n_lines == len(np.unique(sweep[first]))
     ground = np.asarray(las.classification) == 2
     gp = read_las(path, select="ground")
     np.testing.assert_array_equal(gp.points, xyz[ground])
@@ -773,7 +796,7 @@ def test_las_bad_input(tmp_path, monkeypatch):
     path = write(tmp_path / "head.las", data[:100])
     with raises_naming(FileFormatError, path):
         read(path)
-    with pytest.raises(ScanmeshError, match="select"):
+    with pytest.raises(scanmesh.ParameterError, match="select"):
         read_las(LAZ, select="last")
 
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh.errors import FileFormatError, ScanmeshError
+from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
 
 #: Bytes of text parsed per vectorised step (bounds the temporary arrays' memory).
 CHUNK_BYTES: int = 1 << 24
@@ -703,6 +703,8 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
     if "vertex" not in names:
         raise FileFormatError(f"{path}: PLY file has no 'vertex' element")
     vertex_el = elements[names.index("vertex")]
+    if vertex_el.count == 0:
+        raise FileFormatError(f"{path}, line {vertex_el.line}: the PLY file holds no vertices")
     prop_names = [p[0] for p in vertex_el.props]
     missing = [c for c in "xyz" if c not in prop_names]
     if missing:
@@ -920,6 +922,8 @@ def read_npy(path: str | os.PathLike) -> ScanPoints:
                     f" {len(points)} points: one line id per point is needed"
                 )
     points = points.astype(np.float64)
+    if not len(points):
+        raise FileFormatError(f"{path}: the array holds no points (shape {points.shape})")
     bad = ~np.isfinite(points)
     if bad.any():
         row, col = np.argwhere(bad)[0]
@@ -1189,6 +1193,8 @@ def read_vtk(path: str | os.PathLike) -> ScanPoints:
         try:
             if key == "POINTS":
                 n = int(words[1])
+                if n <= 0:
+                    raise FileFormatError(f"{path}, line {no}: POINTS declares {n} points")
                 flat = cur.numbers(3 * n, words[2], f"POINTS ({n} points)")
                 points = flat.astype(np.float64).reshape(n, 3)
             elif key in ("VERTICES", "LINES", "POLYGONS", "TRIANGLE_STRIPS", "CELLS"):
@@ -1464,7 +1470,7 @@ def read_las(path: str | os.PathLike, *, select: str = "first") -> ScanPoints:
     """
     path = Path(path)
     if select not in ("first", "ground", "all"):
-        raise ScanmeshError(f"select must be 'first', 'ground' or 'all', got {select!r}")
+        raise ParameterError(f"select must be 'first', 'ground' or 'all', got {select!r}")
     try:
         import laspy
     except ImportError:
