@@ -429,6 +429,22 @@ def test_ply_truncated_binary(tmp_path):
         read_ply(path)
 
 
+def test_ply_truncated_in_the_faces(tmp_path):
+    pts = np.arange(30.0).reshape(10, 3)
+    faces = [[0, 1, 2], [2, 3, 4], [4, 5, 6, 7], [7, 8, 9]]
+    for fmt in ("binary_big_endian", "ascii"):
+        data = ply_bytes(pts, fmt, faces=faces)
+        assert len(read_ply(write(tmp_path / "whole.ply", data))) == 10
+        path = write(tmp_path / "cut.ply", data[:-12])
+        with raises_naming(FileFormatError, path, "truncated", "'face'"):
+            read_ply(path)
+
+
+def test_text_with_byte_order_mark(tmp_path):
+    sp = read_xyz(write(tmp_path / "bom.xyz", b"\xef\xbb\xbf1 2 3\n4 5 6\n"))
+    np.testing.assert_array_equal(sp.points, [[1, 2, 3], [4, 5, 6]])
+
+
 def test_ply_truncated_ascii(tmp_path):
     data = ply_bytes(np.arange(300.0).reshape(100, 3), "ascii")
     path = write(tmp_path / "cut.ply", data[: len(data) // 2])

@@ -279,7 +279,7 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
     if not data or data.isspace():
         raise FileFormatError(f"{path}: the file is empty; expected {what}")
     # header: lines before the first line that starts with a number
-    pos, line_no, header = 0, 1, []
+    pos, line_no, header = (3 if data.startswith(b"\xef\xbb\xbf") else 0), 1, []
     n = len(data)
     while True:
         if pos >= n:
@@ -686,7 +686,8 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
 
     A Stanford range image (``obj_info num_cols``/``num_rows`` and an element ``range_grid``
     of ``num_rows * num_cols`` lists holding 0 or 1 vertex index each, row by row) gives
-    the scan lines: a vertex's line id is its grid row. Faces are ignored.
+    the scan lines: a vertex's line id is its grid row. Faces are not used, but every element
+    is walked so that a file cut short anywhere is reported.
 
     Returns
     -------
@@ -712,8 +713,7 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
             f"{path}, line {vertex_el.line}: PLY vertex element has no {'/'.join(missing)}"
             f" property (has {', '.join(prop_names)})"
         )
-    wanted = {"vertex"} | ({"range_grid"} if "range_grid" in names else set())
-    last = max(names.index(w) for w in wanted)
+    last = len(elements) - 1  # walk every element: truncation anywhere is an error
     vertices, grid = None, None
     if fmt == "ascii":
         _check_text(path, data[pos:], "an ASCII PLY body")
