@@ -325,6 +325,24 @@ def test_text_across_chunks_matches_a_plain_parse(tmp_path, monkeypatch):
     np.testing.assert_array_equal(sp.line_ids, expect_ids)
 
 
+@pytest.mark.parametrize("chunk", [1000, 1 << 24])
+def test_parse_error_line_numbers_after_header_comments_and_chunks(tmp_path, monkeypatch, chunk):
+    from scanmesh import readers
+
+    rows = ["1.5 2 3"] * 3000
+    rows[10] = "# a comment, with words"
+    rows[2500] = "4 5 6e"
+    rows[2600] = "7 8 9"
+    path = write(tmp_path / "late.xyz", "title line\nx y z\n" + "\n".join(rows) + "\n")
+    monkeypatch.setattr(readers, "CHUNK_BYTES", chunk)
+    with raises_naming(FileFormatError, path, "line 2503", "'6e'"):
+        read_xyz(path)
+    rows[2500] = "4 5 nan"
+    path = write(tmp_path / "late.xyz", "title line\nx y z\n" + "\n".join(rows) + "\n")
+    with raises_naming(FileFormatError, path, "line 2503", "non-finite z", "'4 5 nan'"):
+        read_xyz(path)
+
+
 def test_text_error_line_numbers_across_chunks(tmp_path, monkeypatch):
     from scanmesh import readers
 

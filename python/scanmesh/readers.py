@@ -215,11 +215,18 @@ def _separators(u: np.ndarray, comma: bool = False) -> np.ndarray:
     return (_WHITE_COMMA if comma else _WHITE)[u]
 
 
-def _locate_bad_number(path: Path, data: bytes, start: int, stop: int, context: str = "") -> None:
-    """Raise naming the first token in ``data[start:stop]`` that is not a number."""
-    for match in _TOKEN.finditer(data, start, stop):
+def _locate_bad_number(
+    path: Path, data: bytes, start: int, stop: int, context: str = "", buf: bytes | None = None
+) -> None:
+    """Raise naming the first token in ``data[start:stop]`` that is not a number.
+
+    ``buf``, when given, stands for ``data[start:stop]`` (same length, comment lines blanked).
+    """
+    scan, base = (data, 0) if buf is None else (buf, start)
+    lo, hi = (start, stop) if buf is None else (0, len(buf))
+    for match in _TOKEN.finditer(scan, lo, hi):
         if not _NUMBER.fullmatch(match.group()):
-            line, text = _line_at(data, match.start())
+            line, text = _line_at(data, base + match.start())
             raise FileFormatError(
                 f"{path}, line {line}: {_quote(match.group())} is not a number{context}:"
                 f" {_quote(text)}"
@@ -229,21 +236,28 @@ def _locate_bad_number(path: Path, data: bytes, start: int, stop: int, context: 
 
 
 def _floats(
-    path: Path, data: bytes, start: int, stop: int, expect: int, context: str = ""
+    path: Path,
+    data: bytes,
+    start: int,
+    stop: int,
+    expect: int,
+    context: str = "",
+    buf: bytes | None = None,
 ) -> np.ndarray:
     """Parse ``data[start:stop]`` (whitespace/comma separated) into exactly ``expect`` float64.
 
-    The fast path is one ``np.fromstring`` call; any failure is located token by token.
+    ``buf`` may stand in for ``data[start:stop]`` (same offsets; comment lines blanked). The
+    fast path is one ``np.fromstring`` call; any failure is located token by token.
     """
-    buf = data[start:stop]
-    if b"," in buf:
-        buf = buf.translate(_COMMA_TO_SPACE)
+    text = data[start:stop] if buf is None else buf
+    if b"," in text:
+        text = text.translate(_COMMA_TO_SPACE)
     try:
-        values = np.fromstring(buf, dtype=np.float64, sep=" ")
+        values = np.fromstring(text, dtype=np.float64, sep=" ")
     except ValueError:
         values = None
     if values is None or values.size != expect:
-        _locate_bad_number(path, data, start, stop, context)
+        _locate_bad_number(path, data, start, stop, context, buf)
     return values
 
 
@@ -350,7 +364,7 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
                 f"{'comma-separated ' if comma else ''}values as on line {first_line},"
                 f" found {found}{' (or empty fields)' if comma else ''}: {_quote(text)}"
             )
-        flat = _floats(path, chunk, 0, len(chunk), int(counts.sum()))
+        flat = _floats(path, data, start, stop, int(counts.sum()), buf=chunk)
         values.append(flat.reshape(-1, ncols))
         rows = np.flatnonzero(is_data)
         row_lines.append(line_no + rows)
@@ -381,9 +395,8 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
 def _row_error(path: Path, data: bytes, table: _Table, row: int, message: str) -> FileFormatError:
     """A FileFormatError naming the line (and its text) of table row ``row``."""
     line = int(table.row_lines[row])
-    offset = 0
-    for _ in range(line - 1):  # only on the error path; bounded by the file
-        offset = data.find(b"\n", offset) + 1
+    newlines = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10)
+    offset = 0 if line == 1 else int(newlines[line - 2]) + 1
     end = data.find(b"\n", offset)
     text = data[offset : end if end >= 0 else len(data)]
     return FileFormatError(f"{path}, line {line}: {message}: {_quote(text)}")
