@@ -12,7 +12,8 @@
 //! - [`anneal`]: simulated annealing on tac;
 //! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks);
 //! - [`lines`]: scan lines detected from point order or given by id, split at gaps;
-//! - [`fuchs`]: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths.
+//! - [`fuchs`]: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths;
+//! - [`strips`]: strips between consecutive lines stitched into one mesh (rayon).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -27,6 +28,7 @@ pub mod lines;
 pub mod lop;
 pub mod mesh;
 pub mod projection;
+pub mod strips;
 pub mod tac_state;
 pub mod trim;
 

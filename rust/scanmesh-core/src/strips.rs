@@ -1,0 +1,587 @@
+//! Strips between consecutive scan lines, stitched into one mesh over the caller's points.
+//!
+//! For each pair of consecutive lines (lines without a segment of two points or more are
+//! passed over: a one-point line contributes no strip of its own), every segment of the
+//! first is joined to every segment of the second that overlaps it along the scan
+//! direction. The scan direction of a pair is the sum of the two lines' chords (first to
+//! last point, the second turned round when the lines run opposite ways, as in zig-zag
+//! scans); t is the planar position along it. Two segments with t-ranges [t0, t1] and
+//! [s0, s1] overlap when max(t0, s0) − min(t1, s1) ≤ e, with e = half the gap length of
+//! [`crate::lines`]; the strip then uses the points of each segment whose t lies in
+//! [max(t0, s0) − e, min(t1, s1) + e]. Clipping to the overlap keeps strips from bridging
+//! holes (beside a gap of the neighbour line, a segment's points stay on the boundary);
+//! the margin e lets a line end overhang its neighbour's by less than half a gap, as lines
+//! of unequal length do, and still be used. Two windows on one segment never overlap,
+//! because the segments they face are more than a gap apart.
+//!
+//! Each strip is a path through the Fuchs matrix ([`crate::fuchs`]) of its two clipped
+//! segments; strips are independent and run in parallel (rayon). A strip's triangles are
+//! turned counter-clockwise in the plane as a whole (by the sign of their total planar
+//! area), so the mesh is consistently oriented whenever the lines do not cross in the
+//! plane. Points of one-point segments and lines are then inserted into the triangle
+//! (or the edge) that contains them in the plane, if any. The result is checked with
+//! [`HalfEdgeMesh::validate`]; a failure (crossing lines, a pinch) is reported in
+//! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
+
+use crate::fuchs::{lookahead, path_triangles, shortest_path, Solver, Weight};
+use crate::geometry::{check_finite, orient2d};
+use crate::lines::ScanLines;
+use crate::mesh::HalfEdgeMesh;
+use crate::{Error, Result};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// How each strip's path through the Fuchs matrix is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// The cheapest path, by the given solver.
+    ShortestPath(Solver),
+    /// Friedhoff's α-look-ahead with this α ≥ 1.
+    Lookahead(usize),
+}
+
+/// Options of [`stitch`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StripParams {
+    /// The path cost. Inside strips, lengths are measured in median steps of the scan and
+    /// areas in squared median steps, so that criteria can be mixed and the result does
+    /// not depend on the units.
+    pub weight: Weight,
+    /// Shortest path or look-ahead.
+    pub method: Method,
+    /// Whether to build the half-edge mesh and validate it in the plane (O(m log m)).
+    pub check: bool,
+}
+
+impl Default for StripParams {
+    fn default() -> Self {
+        StripParams {
+            weight: Weight::ANGLE,
+            method: Method::ShortestPath(Solver::Banded(crate::fuchs::DEFAULT_BAND)),
+            check: true,
+        }
+    }
+}
+
+/// The stitched mesh.
+#[derive(Debug, Clone)]
+pub struct StripMesh {
+    /// Triangles in the caller's point indices, counter-clockwise in the plane.
+    pub triangles: Vec<[u32; 3]>,
+    /// Points that are in no triangle, ascending (duplicates of [`ScanLines`] included).
+    pub unused: Vec<u32>,
+    /// Number of strips (pairs of overlapping segments) triangulated.
+    pub n_strips: usize,
+    /// Sum of the strips' path costs (in the scaled units of [`StripParams::weight`]).
+    pub cost: f64,
+    /// Why the mesh is not a valid planar triangulation (crossing lines, a pinch), or
+    /// `None` when it is (or when `check` was off).
+    pub planar_error: Option<Error>,
+}
+
+/// One strip to triangulate: the clipped segments, oriented along the scan direction.
+struct Task {
+    a: Vec<u32>,
+    b: Vec<u32>,
+    /// Index of the first of the two lines (for inserting lone points).
+    line: usize,
+}
+
+/// The part of `segment` (in scan order) whose t lies in [lo, hi], oriented by increasing
+/// t. Segments are nearly monotone in t, so the ends are trimmed from outside in. O(len).
+fn clip(segment: &[u32], t: impl Fn(u32) -> f64, lo: f64, hi: f64) -> Vec<u32> {
+    let forward = t(segment[segment.len() - 1]) >= t(segment[0]);
+    let mut ids: Vec<u32> = if forward {
+        segment.to_vec()
+    } else {
+        segment.iter().rev().copied().collect()
+    };
+    let start = ids.iter().position(|&k| t(k) >= lo).unwrap_or(ids.len());
+    let end = ids.iter().rposition(|&k| t(k) <= hi).map_or(0, |e| e + 1);
+    if start >= end {
+        return Vec::new();
+    }
+    ids.truncate(end);
+    ids.drain(..start);
+    ids
+}
+
+/// The strips between lines `p` and `q`: every overlapping pair of their segments. O(s_p ·
+/// s_q + points).
+fn pair_tasks(
+    uv: &[[f64; 2]],
+    lines: &[Vec<Vec<u32>>],
+    p: usize,
+    q: usize,
+    margin: f64,
+    out: &mut Vec<Task>,
+) {
+    let chord = |line: &Vec<Vec<u32>>| {
+        let first = uv[line[0][0] as usize];
+        let last = uv[*line
+            .last()
+            .and_then(|s| s.last())
+            .expect("segments are not empty") as usize];
+        [last[0] - first[0], last[1] - first[1]]
+    };
+    let (c, d) = (chord(&lines[p]), chord(&lines[q]));
+    let sign = if c[0] * d[0] + c[1] * d[1] < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    let axis = [c[0] + sign * d[0], c[1] + sign * d[1]];
+    let t = |k: u32| uv[k as usize][0] * axis[0] + uv[k as usize][1] * axis[1];
+    // t is in units of |axis|: scale the margin to match.
+    let margin = margin * axis[0].hypot(axis[1]);
+    let range = |s: &Vec<u32>| {
+        let (x, y) = (t(s[0]), t(s[s.len() - 1]));
+        (x.min(y), x.max(y))
+    };
+    for sa in lines[p].iter().filter(|s| s.len() >= 2) {
+        let (a0, a1) = range(sa);
+        for sb in lines[q].iter().filter(|s| s.len() >= 2) {
+            let (b0, b1) = range(sb);
+            let (lo, hi) = (a0.max(b0), a1.min(b1));
+            if lo - hi > margin {
+                continue;
+            }
+            let a = clip(sa, t, lo - margin, hi + margin);
+            let b = clip(sb, t, lo - margin, hi + margin);
+            if !a.is_empty() && !b.is_empty() && a.len() + b.len() >= 3 {
+                out.push(Task { a, b, line: p });
+            }
+        }
+    }
+}
+
+/// Triangulates one strip and turns it counter-clockwise in the plane. Returns its
+/// triangles and path cost.
+fn solve(
+    points: &[DVec3],
+    uv: &[[f64; 2]],
+    task: &Task,
+    params: &StripParams,
+    weight: Weight,
+) -> Result<(Vec<[u32; 3]>, f64)> {
+    let a: Vec<DVec3> = task.a.iter().map(|&k| points[k as usize]).collect();
+    let b: Vec<DVec3> = task.b.iter().map(|&k| points[k as usize]).collect();
+    let solution = match params.method {
+        Method::ShortestPath(solver) => shortest_path(&a, &b, weight, solver)?,
+        Method::Lookahead(alpha) => lookahead(&a, &b, weight, alpha)?,
+    };
+    let mut tris = path_triangles(&solution.path, &task.a, &task.b)?;
+    let signed_area: f64 = tris
+        .iter()
+        .map(|t| {
+            let [p, q, r] = t.map(|k| uv[k as usize]);
+            (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+        })
+        .sum();
+    if signed_area < 0.0 {
+        for t in &mut tris {
+            t.swap(1, 2);
+        }
+    }
+    Ok((tris, solution.cost))
+}
+
+/// Where a planar point lies in a counter-clockwise triangle.
+enum Location {
+    Outside,
+    Inside,
+    /// On the edge from corner k to corner k + 1.
+    OnEdge(usize),
+    /// On a corner (coincides in the plane with a vertex).
+    OnVertex,
+}
+
+fn locate(uv: &[[f64; 2]], t: [u32; 3], p: [f64; 2]) -> Location {
+    let o = [0, 1, 2].map(|k| orient2d(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize], p));
+    if o.iter().any(|&x| x < 0.0) {
+        return Location::Outside;
+    }
+    match o.iter().filter(|&&x| x == 0.0).count() {
+        0 => Location::Inside,
+        1 => Location::OnEdge(o.iter().position(|&x| x == 0.0).expect("one zero")),
+        _ => Location::OnVertex,
+    }
+}
+
+/// Inserts lone point `x` into the first of `candidates` that contains it in the plane:
+/// a triangle splits in three, an edge splits its one or two triangles in two. New
+/// triangles are appended to `tris` and to `created`. Returns whether `x` was inserted.
+/// O(candidates), plus O(m) to find the far side of an edge.
+fn insert(
+    uv: &[[f64; 2]],
+    tris: &mut Vec<[u32; 3]>,
+    candidates: impl Iterator<Item = usize>,
+    created: &mut Vec<usize>,
+    x: u32,
+) -> bool {
+    let p = uv[x as usize];
+    for c in candidates {
+        let t = tris[c];
+        match locate(uv, t, p) {
+            Location::Outside => continue,
+            Location::OnVertex => return false,
+            Location::Inside => {
+                let [a, b, d] = t;
+                tris[c] = [a, b, x];
+                tris.push([b, d, x]);
+                tris.push([d, a, x]);
+                created.extend([tris.len() - 2, tris.len() - 1]);
+                return true;
+            }
+            Location::OnEdge(k) => {
+                let (u, v, w) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                tris[c] = [u, x, w];
+                tris.push([x, v, w]);
+                created.push(tris.len() - 1);
+                // The triangle on the other side of u→v, if any, has the edge v→u.
+                let far = tris
+                    .iter()
+                    .position(|s| (0..3).any(|j| s[j] == v && s[(j + 1) % 3] == u));
+                if let Some(f) = far {
+                    let s = tris[f];
+                    let j = (0..3).find(|&j| s[j] == v).expect("found above");
+                    let z = s[(j + 2) % 3];
+                    tris[f] = [v, x, z];
+                    tris.push([x, u, z]);
+                    created.push(tris.len() - 1);
+                }
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Stitches strips between consecutive scan lines into one mesh over `points` (3-D, for
+/// the path weights) with planar positions `uv` (for clipping, orientation and the check).
+///
+/// Time: detection of overlaps O(n + Σ segment pairs); each strip as its method (banded
+/// shortest path O((n_a + n_b) · w), look-ahead O((n_a + n_b) · α²)), all strips in
+/// parallel; lone points O(strip size) each; the check O(m log m). Errors: `points` and
+/// `uv` of different lengths, a non-finite coordinate, bad parameters.
+pub fn stitch(
+    points: &[DVec3],
+    uv: &[[f64; 2]],
+    scan: &ScanLines,
+    params: &StripParams,
+) -> Result<StripMesh> {
+    if points.len() != uv.len() {
+        return Err(Error::InvalidParameter {
+            name: "uv",
+            value: format!("{} planar points for {} points", uv.len(), points.len()),
+            expected: "one planar position per point",
+        });
+    }
+    check_finite(points)?;
+    params.weight.check()?;
+    if let Method::Lookahead(0) = params.method {
+        return Err(Error::InvalidParameter {
+            name: "alpha",
+            value: "0".into(),
+            expected: "alpha >= 1",
+        });
+    }
+    if let Some(&k) = scan
+        .lines
+        .iter()
+        .flatten()
+        .flatten()
+        .find(|&&k| k as usize >= points.len())
+    {
+        return Err(Error::InvalidParameter {
+            name: "lines",
+            value: format!("point index {k}"),
+            expected: "indices of the given points",
+        });
+    }
+    // Scale-free weights: lengths in median steps, areas in squared median steps.
+    let h = if scan.median_step > 0.0 {
+        scan.median_step
+    } else {
+        1.0
+    };
+    let w = params.weight;
+    let weight = Weight {
+        length: w.length / h,
+        area: w.area / (h * h),
+        ..w
+    };
+    let margin = 0.5 * scan.gap;
+
+    let kept: Vec<usize> = (0..scan.lines.len())
+        .filter(|&l| scan.lines[l].iter().any(|s| s.len() >= 2))
+        .collect();
+    let mut tasks = Vec::new();
+    for pair in kept.windows(2) {
+        pair_tasks(uv, &scan.lines, pair[0], pair[1], margin, &mut tasks);
+    }
+    let solved: Vec<(Vec<[u32; 3]>, f64)> = tasks
+        .par_iter()
+        .map(|task| solve(points, uv, task, params, weight))
+        .collect::<Result<_>>()?;
+    let mut triangles = Vec::with_capacity(solved.iter().map(|s| s.0.len()).sum());
+    // Triangle range of each task, to find the strips around a lone point.
+    let mut ranges = Vec::with_capacity(tasks.len());
+    let mut cost = 0.0;
+    for (tris, c) in solved {
+        ranges.push(triangles.len()..triangles.len() + tris.len());
+        triangles.extend(tris);
+        cost += c;
+    }
+
+    // Lone points: one-point segments, and every point of lines passed over.
+    let mut created = Vec::new();
+    for (l, line) in scan.lines.iter().enumerate() {
+        // The strips around line l start at the kept line before it, or at l itself.
+        let before = kept
+            .partition_point(|&k| k < l)
+            .checked_sub(1)
+            .map_or(l, |i| kept[i]);
+        let first = tasks.partition_point(|t| t.line < before);
+        let last = tasks.partition_point(|t| t.line <= l);
+        for segment in line.iter().filter(|s| s.len() == 1) {
+            let candidates: Vec<usize> = ranges[first..last]
+                .iter()
+                .flat_map(|r| r.clone())
+                .chain(created.iter().copied())
+                .collect();
+            insert(
+                uv,
+                &mut triangles,
+                candidates.into_iter(),
+                &mut created,
+                segment[0],
+            );
+        }
+    }
+
+    let mut used = vec![false; points.len()];
+    for t in &triangles {
+        for &k in t {
+            used[k as usize] = true;
+        }
+    }
+    let unused = (0..points.len() as u32)
+        .filter(|&k| !used[k as usize])
+        .collect();
+    let planar_error = if params.check {
+        HalfEdgeMesh::from_triangles(points.len(), &triangles)
+            .and_then(|m| m.validate(uv))
+            .err()
+    } else {
+        None
+    };
+    Ok(StripMesh {
+        triangles,
+        unused,
+        n_strips: tasks.len(),
+        cost,
+        planar_error,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lines::{segment_lines, DEFAULT_GAP_FACTOR};
+
+    /// A height field z = f(x, y) sampled on `rows` lines y = r·dy of points x = c·dx,
+    /// `zigzag` alternating their direction, minus the points for which `drop` holds.
+    fn grid(
+        rows: usize,
+        cols: usize,
+        zigzag: bool,
+        drop: impl Fn(f64, f64) -> bool,
+    ) -> (Vec<DVec3>, Vec<i64>) {
+        let mut pts = Vec::new();
+        let mut ids = Vec::new();
+        for r in 0..rows {
+            for c in 0..cols {
+                let c = if zigzag && r % 2 == 1 {
+                    cols - 1 - c
+                } else {
+                    c
+                };
+                let (x, y) = (c as f64 * 0.5 + 0.05 * (r % 3) as f64, r as f64 * 0.7);
+                if !drop(x, y) {
+                    pts.push(DVec3::new(x, y, (0.4 * x).sin() * (0.3 * y).cos()));
+                    ids.push(r as i64);
+                }
+            }
+        }
+        (pts, ids)
+    }
+
+    fn run(pts: &[DVec3], ids: &[i64], params: &StripParams) -> StripMesh {
+        let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+        let scan = segment_lines(&uv, ids, DEFAULT_GAP_FACTOR).unwrap();
+        stitch(pts, &uv, &scan, params).unwrap()
+    }
+
+    fn methods() -> Vec<StripParams> {
+        let mut out = Vec::new();
+        for weight in [
+            Weight::LENGTH,
+            Weight::AREA,
+            Weight::ANGLE,
+            Weight::DIHEDRAL,
+        ] {
+            for method in [
+                Method::ShortestPath(Solver::Dp),
+                Method::ShortestPath(Solver::Banded(2)),
+                Method::Lookahead(1),
+                Method::Lookahead(4),
+            ] {
+                out.push(StripParams {
+                    weight,
+                    method,
+                    check: true,
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_grid_becomes_one_valid_mesh_using_every_point() {
+        for zigzag in [false, true] {
+            let (pts, ids) = grid(9, 25, zigzag, |_, _| false);
+            for params in methods() {
+                let mesh = run(&pts, &ids, &params);
+                assert!(
+                    mesh.planar_error.is_none(),
+                    "{params:?}: {:?}",
+                    mesh.planar_error
+                );
+                assert!(mesh.unused.is_empty());
+                assert_eq!(mesh.triangles.len(), 8 * (25 + 25 - 2));
+                assert_eq!(mesh.n_strips, 8);
+            }
+        }
+    }
+
+    #[test]
+    fn a_hole_stays_open() {
+        let centre = (6.0, 2.8);
+        let hole =
+            |x: f64, y: f64| (x - centre.0).powi(2) + (y - centre.1).powi(2) < 1.6f64.powi(2);
+        let (pts, ids) = grid(9, 25, true, hole);
+        let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+        for params in methods() {
+            let mesh = run(&pts, &ids, &params);
+            assert!(
+                mesh.planar_error.is_none(),
+                "{params:?}: {:?}",
+                mesh.planar_error
+            );
+            assert!(mesh.unused.is_empty());
+            for t in &mesh.triangles {
+                let [a, b, c] = t.map(|k| uv[k as usize]);
+                let inside = orient2d(a, b, [centre.0, centre.1]) > 0.0
+                    && orient2d(b, c, [centre.0, centre.1]) > 0.0
+                    && orient2d(c, a, [centre.0, centre.1]) > 0.0;
+                assert!(
+                    !inside,
+                    "{params:?}: triangle {t:?} covers the hole's centre"
+                );
+            }
+            // One hole: one extra boundary loop, so V − E + F = 0.
+            let m = HalfEdgeMesh::from_triangles(pts.len(), &mesh.triangles).unwrap();
+            let e = m.edges().count() as i64;
+            assert_eq!(pts.len() as i64 - e + mesh.triangles.len() as i64, 0);
+        }
+    }
+
+    #[test]
+    fn lines_of_unequal_length_are_used_whole() {
+        // A rotated rectangle cut into horizontal lines: ends shift from line to line.
+        let (pts, ids) = grid(12, 40, false, |x, y| x < 0.3 * y || x > 14.0 + 0.25 * y);
+        let mesh = run(&pts, &ids, &StripParams::default());
+        assert!(mesh.planar_error.is_none(), "{:?}", mesh.planar_error);
+        assert!(mesh.unused.is_empty(), "unused {:?}", mesh.unused);
+    }
+
+    #[test]
+    fn one_point_lines_are_inserted() {
+        let (mut pts, mut ids) = grid(4, 10, false, |_, _| false);
+        // A lone point between lines 1 and 2, inside the strip: its own line id 1.5 → 1.
+        pts.push(DVec3::new(2.1, 1.05, 0.0));
+        ids.push(1);
+        for id in ids.iter_mut().take(pts.len() - 1) {
+            if *id >= 2 {
+                *id += 1;
+            }
+        }
+        *ids.last_mut().unwrap() = 2;
+        let mesh = run(&pts, &ids, &StripParams::default());
+        assert!(mesh.planar_error.is_none(), "{:?}", mesh.planar_error);
+        assert!(mesh.unused.is_empty());
+        assert_eq!(mesh.triangles.len(), 3 * 18 + 2);
+    }
+
+    #[test]
+    fn crossing_lines_are_reported_not_a_panic() {
+        let mut pts = Vec::new();
+        let mut ids = Vec::new();
+        for r in 0..3 {
+            for c in 0..10 {
+                let x = c as f64;
+                // Line 2 crosses line 1 halfway.
+                let y = if r == 2 { 2.0 - 0.3 * x } else { r as f64 };
+                pts.push(DVec3::new(x, y, 0.0));
+                ids.push(r);
+            }
+        }
+        let mesh = run(&pts, &ids, &StripParams::default());
+        assert!(mesh.planar_error.is_some());
+        assert!(!mesh.triangles.is_empty());
+    }
+
+    #[test]
+    fn no_duplicate_or_degenerate_triangles() {
+        let (pts, ids) = grid(9, 25, true, |x, y| {
+            (x - 4.0).abs() < 1.2 && y > 1.0 && y < 4.0
+        });
+        for params in methods() {
+            let mesh = run(&pts, &ids, &params);
+            let mut keys: Vec<[u32; 3]> = mesh
+                .triangles
+                .iter()
+                .map(|t| {
+                    let mut s = *t;
+                    s.sort_unstable();
+                    s
+                })
+                .collect();
+            keys.sort_unstable();
+            let n = keys.len();
+            keys.dedup();
+            assert_eq!(keys.len(), n);
+            for t in &mesh.triangles {
+                let [a, b, c] = t.map(|k| pts[k as usize]);
+                assert!(crate::geometry::triangle_area(a, b, c) > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let (pts, ids) = grid(3, 5, false, |_, _| false);
+        let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+        let scan = segment_lines(&uv, &ids, 4.0).unwrap();
+        assert!(stitch(&pts[1..], &uv, &scan, &StripParams::default()).is_err());
+        let bad = StripParams {
+            method: Method::Lookahead(0),
+            ..StripParams::default()
+        };
+        assert!(stitch(&pts, &uv, &scan, &bad).is_err());
+        let mut nan = pts.clone();
+        nan[3].z = f64::NAN;
+        assert!(stitch(&nan, &uv, &scan, &StripParams::default()).is_err());
+    }
+}
