@@ -158,6 +158,9 @@ def test_csv_header_without_xyz(tmp_path):
     path = write(tmp_path / "names.csv", "a,b,c\n1,2,3\n")
     with raises_naming(FileFormatError, path, "line 1", "x, y and z"):
         read_csv(path)
+    path = write(tmp_path / "names.csv", "a,b,c\n# units: mm\n\n1,2,3\n")
+    with raises_naming(FileFormatError, path, "line 1", "'a,b,c'", "line 4"):
+        read_csv(path)
 
 
 def test_zero_points(tmp_path):

@@ -269,6 +269,7 @@ class _Table:
     row_lines: np.ndarray  # (R,) int64 1-based line number of each row
     blocks: np.ndarray  # (R,) int64 index of the blank-line-separated block of each row
     header: list[str]  # the non-numeric lines above the data (comments excluded)
+    header_lines: list[int]  # their 1-based line numbers
     comma: bool  # comma-separated
 
 
@@ -293,7 +294,7 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
     if not data or data.isspace():
         raise FileFormatError(f"{path}: the file is empty; expected {what}")
     # header: lines before the first line that starts with a number
-    pos, line_no, header = (3 if data.startswith(b"\xef\xbb\xbf") else 0), 1, []
+    pos, line_no, header, header_lines = (3 if data.startswith(b"\xef\xbb\xbf") else 0), 1, [], []
     n = len(data)
     while True:
         if pos >= n:
@@ -306,6 +307,7 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
             if _NUMBER_START.match(text):
                 break
             header.append(text.decode("utf-8", errors="replace").strip())
+            header_lines.append(line_no)
             if len(header) > MAX_HEADER_LINES:
                 _, line1 = _line_at(data, 0)
                 raise FileFormatError(
@@ -388,6 +390,7 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
         row_lines=np.concatenate(row_lines),
         blocks=np.concatenate(blocks),
         header=header,
+        header_lines=header_lines,
         comma=comma,
     )
 
@@ -522,7 +525,7 @@ def read_csv(path: str | os.PathLike) -> ScanPoints:
         columns = _named_columns(table.header[-1], table.comma, ncols)
         if columns is None:
             raise FileFormatError(
-                f"{path}, line {int(table.row_lines[0]) - 1}: the header"
+                f"{path}, line {table.header_lines[-1]}: the header"
                 f" {_quote(table.header[-1])} must name columns x, y and z in {ncols} fields"
                 f" (as many as the data on line {int(table.row_lines[0])})"
             )
