@@ -183,9 +183,9 @@ def _line_at(data: bytes, offset: int) -> tuple[int, bytes]:
     return data.count(b"\n", 0, offset) + 1, data[start : end if end >= 0 else len(data)]
 
 
-def _check_text(path: Path, data: bytes, what: str) -> None:
-    """Reject binary content (a NUL byte) in a file that must be text."""
-    nul = data.find(b"\x00")
+def _check_text(path: Path, data: bytes, what: str, start: int = 0) -> None:
+    """Reject binary content (a NUL byte at or after ``start``) in a file that must be text."""
+    nul = data.find(b"\x00", start)
     if nul >= 0:
         line, _ = _line_at(data, nul)
         raise FileFormatError(
@@ -577,8 +577,8 @@ class _PlyElement:
         return all(len(p) == 2 for p in self.props)
 
 
-def _ply_header(path: Path, data: bytes) -> tuple[str, list[_PlyElement], dict[str, str], int, int]:
-    """Parse a PLY header: format, elements, obj_info and the offset and line of the body."""
+def _ply_header(path: Path, data: bytes) -> tuple[str, list[_PlyElement], dict[str, str], int]:
+    """Parse a PLY header: format, elements, obj_info and the offset of the body."""
     if not data.startswith(b"ply"):
         raise FileFormatError(f"{path}, line 1: not a PLY file (it must start with 'ply')")
     end = data.find(b"end_header")
@@ -626,7 +626,7 @@ def _ply_header(path: Path, data: bytes) -> tuple[str, list[_PlyElement], dict[s
             ) from None
     if fmt is None:
         raise FileFormatError(f"{path}: PLY header has no 'format' line")
-    return fmt, elements, info, body, len(lines) + 1
+    return fmt, elements, info, body
 
 
 def _ply_binary_element(
@@ -715,7 +715,7 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
     data = _read_bytes(path)
     if not data:
         raise FileFormatError(f"{path}: the file is empty; expected a PLY file")
-    fmt, elements, info, pos, first_line = _ply_header(path, data)
+    fmt, elements, info, pos = _ply_header(path, data)
     names = [el.name for el in elements]
     if "vertex" not in names:
         raise FileFormatError(f"{path}: PLY file has no 'vertex' element")
@@ -729,12 +729,11 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
             f"{path}, line {vertex_el.line}: PLY vertex element has no {'/'.join(missing)}"
             f" property (has {', '.join(prop_names)})"
         )
-    last = len(elements) - 1  # walk every element: truncation anywhere is an error
     vertices, grid = None, None
+    # every element is walked, not only the vertices: truncation anywhere is an error
     if fmt == "ascii":
-        _check_text(path, data[pos:], "an ASCII PLY body")
-        line = first_line
-        for el in elements[: last + 1]:
+        _check_text(path, data, "an ASCII PLY body", start=pos)
+        for el in elements:
             a, b = _ply_ascii_lines(path, data, pos, el.count, el)
             if el.name == "vertex":
                 if not el.scalar_only:
@@ -763,13 +762,12 @@ def read_ply(path: str | os.PathLike) -> ScanPoints:
                 vertices = flat.reshape(-1, nprops)
             elif el.name == "range_grid":
                 grid = _ascii_lists(path, data, a, b, el)
-            line += el.count
             pos = b
         cols = [prop_names.index(c) for c in "xyz"]
         points = vertices[:, cols] if vertices is not None else np.empty((0, 3))
     else:
         order = "<" if fmt == "binary_little_endian" else ">"
-        for el in elements[: last + 1]:
+        for el in elements:
             got, pos = _ply_binary_element(path, data, pos, el, order)
             if el.name == "vertex":
                 vertices = got
