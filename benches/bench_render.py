@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+
 from scanmesh.render import COLOR, LIGHT, camera, render_mesh
 
 VIEW = (-0.55, -1.0, 0.9)

@@ -18,6 +18,7 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
+
 from scanmesh.digitizer import simulate_scan
 
 ROOT = Path(__file__).resolve().parents[1]

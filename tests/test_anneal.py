@@ -11,9 +11,9 @@ import time
 
 import numpy as np
 import pytest
-from conftest import bumpy_patch
 
 import scanmesh
+from conftest import bumpy_patch
 from scanmesh import _core
 
 

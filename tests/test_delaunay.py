@@ -7,10 +7,10 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import bumpy_patch
 from scipy.spatial import Delaunay as ScipyDelaunay
 
 import scanmesh
+from conftest import bumpy_patch
 from scanmesh import _core
 
 

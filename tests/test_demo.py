@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scanmesh
 import trimesh
+
+import scanmesh
 from scanmesh.demo import SCAN_SETTINGS, TRUTH_FILE, TRUTH_SHA256, demo_truth, load_demo
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+
 from scanmesh.digitizer import cast_grid, scan_frame, simulate_scan
 from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError, ScanmeshError
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import bumpy_patch
 
 import scanmesh
+from conftest import bumpy_patch
 from scanmesh import DegenerateInputError, ParameterError, ScanmeshError
 
 

@@ -7,15 +7,16 @@ import math
 import numpy as np
 import pytest
 import trimesh
-from conftest import bumpy_patch
 
 import scanmesh
+from conftest import bumpy_patch
 
 
 def interior_mask(faces: np.ndarray, n: int) -> np.ndarray:
     """Vertices touched by no boundary edge (an edge used by one face), computed by trimesh."""
     mesh = trimesh.Trimesh(np.zeros((n, 3)), faces, process=False)
-    boundary_edges = mesh.edges_sorted[trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)]
+    once = trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)
+    boundary_edges = mesh.edges_sorted[once]
     mask = np.isin(np.arange(n), np.unique(faces))
     mask[np.unique(boundary_edges)] = False
     return mask
@@ -57,7 +58,8 @@ def test_norms_and_smallest_angle_by_hand():
     for k in range(3):
         u = tri[:, (k + 1) % 3] - tri[:, k]
         v = tri[:, (k + 2) % 3] - tri[:, k]
-        angles.append(np.degrees(np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), (u * v).sum(1))))
+        sine = np.linalg.norm(np.cross(u, v), axis=1)
+        angles.append(np.degrees(np.arctan2(sine, (u * v).sum(1))))
     smallest = np.min(angles, axis=0)
     assert math.isclose(q.min_angle_deg, smallest.min(), rel_tol=1e-12)
     assert q.sliver_fraction == pytest.approx((smallest < 5).mean())
@@ -70,7 +72,8 @@ def test_flat_grid_has_zero_tac_and_bent_grid_has_its_fold():
     assert q.n_interior == 16 and q.tac_1 < 1e-12
     bent = flat.copy()
     bent[:, 2] = np.abs(bent[:, 0] - 2.5)
-    assert scanmesh.quality(bent, scanmesh.delaunay(bent, plane="z", max_edge=math.inf).faces).tac_1 > 0
+    bent_faces = scanmesh.delaunay(bent, plane="z", max_edge=math.inf).faces
+    assert scanmesh.quality(bent, bent_faces).tac_1 > 0
 
 
 def test_comparison_of_triangulations():

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scanmesh
 import trimesh
+
+import scanmesh
 from scanmesh import FileFormatError, ScanmeshError
 from scanmesh.readers import (
     ScanPoints,

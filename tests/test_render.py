@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 from PIL import Image
+
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.render import (
     WIRE,

@@ -32,3 +32,47 @@ def empty_triangles(uv: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
 def triangulations(
     uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64], max_count: int
 ) -> npt.NDArray[np.int64]: ...
+
+ANNEAL_DEFAULTS: dict[str, int | float | bool]
+
+def lop(
+    points: npt.NDArray[np.float64],
+    uv: npt.NDArray[np.float64],
+    faces_: npt.NDArray[np.int64],
+    criterion: str,
+    p: float = 1.0,
+    sliver_guard: bool = True,
+    tie_tolerance: float = 1e-10,
+) -> tuple[npt.NDArray[np.int64], int]: ...
+
+class Annealer:
+    def __init__(
+        self,
+        points: npt.NDArray[np.float64],
+        uv: npt.NDArray[np.float64],
+        faces: npt.NDArray[np.int64],
+        *,
+        sweeps: int,
+        p: float,
+        seed: int,
+        initial_acceptance: float,
+        final_temperature_ratio: float,
+        patience: int,
+        sliver_guard: bool,
+        tie_tolerance: float,
+        polish: bool,
+        calibration_samples: int,
+    ) -> None: ...
+    def advance(self, max_proposals: int, max_seconds: float) -> int: ...
+    @property
+    def done(self) -> bool: ...
+    @property
+    def sweep_len(self) -> int: ...
+    @property
+    def sweeps_done(self) -> int: ...
+    @property
+    def energy(self) -> float: ...
+    def trace(self) -> npt.NDArray[np.float64]: ...
+    def finish(
+        self,
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], dict[str, float | int | bool]]: ...

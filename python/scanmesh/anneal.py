@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from typing import Any, Union
+from typing import Any
 
 import numpy as np
 
@@ -17,15 +17,18 @@ from scanmesh.surface import Surface
 #: Defaults of the annealing schedule, read from the Rust core (one source of truth).
 ANNEAL_DEFAULTS: dict[str, Any] = dict(_core.ANNEAL_DEFAULTS)
 
-#: Proposals run per native call: small enough that Ctrl-C and progress come back within
-#: about 20 ms at 10 million proposals per second, large enough to amortize the call.
-CHUNK_PROPOSALS = 100_000
+#: Each native call runs at most this long (seconds) before Python checks for Ctrl-C and
+#: reports progress: bounded in time, not in proposals, so the latency holds on slow machines.
+CHUNK_SECONDS = 0.02
+
+#: ... and at most this many proposals per call.
+CHUNK_PROPOSALS = 1_000_000
 
 #: Trace columns, in the order the core returns them.
 TRACE_COLUMNS = ("temperature", "energy", "best", "acceptance")
 
 #: progress= accepts a bool or a callable(sweeps_done, sweeps_total, energy) -> None.
-Progress = Union[bool, Callable[[int, int, float], None]]
+Progress = bool | Callable[[int, int, float], None]
 
 
 def _check_schedule(options: dict[str, Any]) -> dict[str, Any]:
@@ -109,19 +112,21 @@ def anneal_surface(
     Raises
     ------
     KeyboardInterrupt
-        On Ctrl-C, within one chunk of proposals (about 20 ms); the run is discarded.
+        On Ctrl-C, within one chunk (``CHUNK_SECONDS``, 20 ms); the run is discarded.
     """
     params = _check_schedule(schedule)
     seed_value = _seed(seed)
     if initial.frame is None:
-        raise ParameterError("the initial surface has no projection frame; build it with delaunay()")
+        raise ParameterError(
+            "the initial surface has no projection frame (build it with delaunay())"
+        )
     t0 = time.perf_counter()
     uv, _ = project(initial.vertices, initial.frame.normal)
     runner = _core.Annealer(initial.vertices, uv, initial.faces, seed=seed_value, **params)
     report = _progress_bar(progress, params["sweeps"])
     try:
         while not runner.done:
-            runner.advance(CHUNK_PROPOSALS)
+            runner.advance(CHUNK_PROPOSALS, CHUNK_SECONDS)
             if report is not None:
                 report(runner.sweeps_done, params["sweeps"], runner.energy)
     finally:
@@ -133,7 +138,9 @@ def anneal_surface(
         vertices=initial.vertices,
         faces=faces,
         method="anneal",
-        options={**initial.options, **params, "seed": seed_value, "initial": initial.method, **summary},
+        options={
+            **initial.options, **params, "seed": seed_value, "initial": initial.method, **summary
+        },
         frame=initial.frame,
         duplicates=initial.duplicates,
         timings={**initial.timings, "anneal": elapsed},
@@ -159,7 +166,9 @@ def lop_surface(
     if criterion not in ("tac", "max-min"):
         raise ParameterError(f"unknown LOP criterion {criterion!r}: use 'tac' or 'max-min'")
     if initial.frame is None:
-        raise ParameterError("the initial surface has no projection frame; build it with delaunay()")
+        raise ParameterError(
+            "the initial surface has no projection frame (build it with delaunay())"
+        )
     p = float(p)
     if not (p >= 1.0) or math.isinf(p):
         raise ParameterError(f"p must be a finite number >= 1, got {p!r}")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Union
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -13,7 +12,7 @@ from scanmesh._checks import as_points
 from scanmesh.errors import ParameterError
 
 #: A plane choice: None or "best-fit" (least squares), an axis name, or a normal 3-vector.
-PlaneSpec = Union[None, str, ArrayLike]
+PlaneSpec = None | str | ArrayLike
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,9 @@ def _load(source: ArrayLike | str | os.PathLike) -> tuple[np.ndarray, np.ndarray
     return as_points(source), None
 
 
-def _strips(points: np.ndarray, method: str, lines: Any, plane: PlaneSpec, options: dict) -> Surface:
+def _strips(
+    points: np.ndarray, method: str, lines: Any, plane: PlaneSpec, options: dict
+) -> Surface:
     from scanmesh.strips import strip_surface
 
     return strip_surface(points, lines=lines, method=method, plane=plane, **options)

@@ -13,6 +13,7 @@ use crate::tac_state::TacState;
 use crate::{Error, Result};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64Mcg;
+use std::time::Instant;
 
 /// Annealing parameters; `Default` gives the measured defaults (see BENCHMARKS.md).
 #[derive(Debug, Clone, PartialEq)]
@@ -253,15 +254,28 @@ impl Annealer {
     /// Runs at most `max_proposals` proposals, stopping early at the end of the run.
     /// Returns how many ran. O(max_proposals) plus O(n) per completed sweep.
     pub fn advance(&mut self, max_proposals: usize) -> usize {
+        self.advance_until(max_proposals, None)
+    }
+
+    /// Like [`advance`](Self::advance), but also returns soon after `deadline` (the clock is
+    /// read every 1,024 proposals), so a caller polling for Ctrl-C gets control back in
+    /// bounded time on any machine. Where the chunks end never changes the result.
+    pub fn advance_until(&mut self, max_proposals: usize, deadline: Option<Instant>) -> usize {
+        const CLOCK_EVERY: usize = 1024;
         let mut ran = 0;
         while ran < max_proposals && !self.is_done() {
-            let budget = (self.sweep_len - self.proposed).min(max_proposals - ran);
+            let budget = (self.sweep_len - self.proposed)
+                .min(max_proposals - ran)
+                .min(CLOCK_EVERY);
             for _ in 0..budget {
                 self.propose();
             }
             ran += budget;
             if self.proposed == self.sweep_len {
                 self.end_sweep();
+            }
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                break;
             }
         }
         ran
@@ -510,6 +524,17 @@ mod tests {
         let mut ann = Annealer::new(st, quick(5)).unwrap();
         while !ann.is_done() {
             ann.advance(37);
+        }
+        assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
+    }
+
+    #[test]
+    fn deadline_chunks_change_nothing() {
+        let st = bumpy_state(250, 26, 1.0);
+        let one = anneal(st.clone(), quick(6)).unwrap();
+        let mut ann = Annealer::new(st, quick(6)).unwrap();
+        while !ann.is_done() {
+            ann.advance_until(usize::MAX, Some(Instant::now()));
         }
         assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
     }

@@ -26,7 +26,11 @@ impl Norm {
         } else if p.is_finite() && p >= 1.0 {
             Ok(Norm::P(p))
         } else {
-            Err(Error::InvalidParameter { name: "p", value: p.to_string(), expected: "p >= 1 or infinity" })
+            Err(Error::InvalidParameter {
+                name: "p",
+                value: p.to_string(),
+                expected: "p >= 1 or infinity",
+            })
         }
     }
 
@@ -34,13 +38,19 @@ impl Norm {
     /// vertices). Scaled by the largest entry so that neither p-th powers overflow nor tiny
     /// entries vanish. 0 for no entries. O(n).
     pub fn of(&self, values: &[f64]) -> f64 {
-        let largest = values.iter().filter(|x| !x.is_nan()).fold(0.0f64, |m, &x| m.max(x.abs()));
+        let largest = values
+            .iter()
+            .filter(|x| !x.is_nan())
+            .fold(0.0f64, |m, &x| m.max(x.abs()));
         match *self {
             Norm::Max => largest,
             Norm::P(_) if largest == 0.0 => 0.0,
             Norm::P(p) => {
-                let sum: f64 =
-                    values.iter().filter(|x| !x.is_nan()).map(|&x| (x.abs() / largest).powf(p)).sum();
+                let sum: f64 = values
+                    .iter()
+                    .filter(|x| !x.is_nan())
+                    .map(|&x| (x.abs() / largest).powf(p))
+                    .sum();
                 largest * sum.powf(1.0 / p)
             }
         }
@@ -69,7 +79,10 @@ pub fn check_faces(n_vertices: usize, faces: &[[u32; 3]]) -> Result<()> {
             });
         }
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            return Err(Error::InvalidFace { face: f, reason: format!("repeats a vertex: {t:?}") });
+            return Err(Error::InvalidFace {
+                face: f,
+                reason: format!("repeats a vertex: {t:?}"),
+            });
         }
     }
     Ok(())
@@ -81,7 +94,10 @@ pub fn check_faces(n_vertices: usize, faces: &[[u32; 3]]) -> Result<()> {
 pub fn interior_vertices(n_vertices: usize, faces: &[[u32; 3]]) -> Result<Vec<bool>> {
     check_faces(n_vertices, faces)?;
     let key = |a: u32, b: u32| ((a.min(b) as u64) << 32) | a.max(b) as u64;
-    let mut edges: Vec<u64> = faces.iter().flat_map(|t| [key(t[0], t[1]), key(t[1], t[2]), key(t[2], t[0])]).collect();
+    let mut edges: Vec<u64> = faces
+        .iter()
+        .flat_map(|t| [key(t[0], t[1]), key(t[1], t[2]), key(t[2], t[0])])
+        .collect();
     edges.sort_unstable();
     let uses = |k: u64| edges.partition_point(|&e| e <= k) - edges.partition_point(|&e| e < k);
     // Faces around each vertex, as compressed rows.
@@ -132,11 +148,17 @@ fn link_is_one_cycle(link: &[(u32, u32)]) -> bool {
     used[0] = true;
     let mut steps = 1;
     while node != first {
-        let Some(k) = (0..link.len()).find(|&k| !used[k] && (link[k].0 == node || link[k].1 == node)) else {
+        let Some(k) =
+            (0..link.len()).find(|&k| !used[k] && (link[k].0 == node || link[k].1 == node))
+        else {
             return false;
         };
         used[k] = true;
-        node = if link[k].0 == node { link[k].1 } else { link[k].0 };
+        node = if link[k].0 == node {
+            link[k].1
+        } else {
+            link[k].0
+        };
         steps += 1;
     }
     steps == link.len()
@@ -160,16 +182,23 @@ pub fn tac(points: &[DVec3], faces: &[[u32; 3]]) -> Result<Vec<f64>> {
     let interior = interior_vertices(points.len(), faces)?;
     let unit = Normalizer::fit(points).apply_all(points);
     let sums = angle_sums(&unit, faces);
-    Ok(sums.iter().zip(&interior).map(|(&s, &i)| if i { (TAU - s).abs() } else { f64::NAN }).collect())
+    Ok(sums
+        .iter()
+        .zip(&interior)
+        .map(|(&s, &i)| if i { (TAU - s).abs() } else { f64::NAN })
+        .collect())
 }
 
 /// Smallest 3-D corner angle (radians) of each face. O(m).
 pub fn min_angles(points: &[DVec3], faces: &[[u32; 3]]) -> Vec<f64> {
     let unit = Normalizer::fit(points).apply_all(points);
-    faces.iter().map(|t| {
-        let [a, b, c] = t.map(|v| unit[v as usize]);
-        smallest_angle(a, b, c)
-    }).collect()
+    faces
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| unit[v as usize]);
+            smallest_angle(a, b, c)
+        })
+        .collect()
 }
 
 /// Everything a quality report says about one mesh.
@@ -209,7 +238,11 @@ pub fn quality(points: &[DVec3], faces: &[[u32; 3]]) -> Result<Quality> {
         tac_inf: Norm::Max.of(&tac),
         n_interior,
         min_angle_overall: min_angle.iter().copied().fold(f64::NAN, f64::min),
-        sliver_fraction: if faces.is_empty() { 0.0 } else { slivers as f64 / faces.len() as f64 },
+        sliver_fraction: if faces.is_empty() {
+            0.0
+        } else {
+            slivers as f64 / faces.len() as f64
+        },
         tac,
         min_angle,
     })
@@ -245,7 +278,11 @@ mod tests {
         let q = quality(&pts, &faces).unwrap();
         assert_eq!(q.n_interior, 1);
         assert!(q.tac[4].abs() < 1e-14);
-        assert!(q.tac.iter().enumerate().all(|(i, t)| (i == 4) != t.is_nan()));
+        assert!(q
+            .tac
+            .iter()
+            .enumerate()
+            .all(|(i, t)| (i == 4) != t.is_nan()));
     }
 
     #[test]
@@ -256,7 +293,11 @@ mod tests {
             .iter()
             .filter_map(|t| {
                 let k = t.iter().position(|&v| v == 4)?;
-                Some(crate::geometry::corner_angle(pts[4], pts[t[(k + 1) % 3] as usize], pts[t[(k + 2) % 3] as usize]))
+                Some(crate::geometry::corner_angle(
+                    pts[4],
+                    pts[t[(k + 1) % 3] as usize],
+                    pts[t[(k + 2) % 3] as usize],
+                ))
             })
             .sum();
         assert!((q.tac[4] - (TAU - manual)).abs() < 1e-14);
@@ -275,22 +316,41 @@ mod tests {
         assert!(Norm::new(0.5).is_err());
         assert!(Norm::new(f64::NAN).is_err());
         assert_eq!(Norm::new(f64::INFINITY).unwrap(), Norm::Max);
-        assert_eq!(compare_tac(&[1.0, 1.0], &[1.5, 0.0], Norm::P(1.0)), Ordering::Greater);
-        assert_eq!(compare_tac(&[1.0, 1.0], &[1.5, 0.0], Norm::Max), Ordering::Less);
+        assert_eq!(
+            compare_tac(&[1.0, 1.0], &[1.5, 0.0], Norm::P(1.0)),
+            Ordering::Greater
+        );
+        assert_eq!(
+            compare_tac(&[1.0, 1.0], &[1.5, 0.0], Norm::Max),
+            Ordering::Less
+        );
         assert_eq!(compare_max_min(0.5, 0.2), Ordering::Less);
     }
 
     #[test]
     fn pinched_double_fan_is_not_interior() {
         // Two closed fans (two tents) glued at vertex 0 only: 0 has two cycles in its link.
-        let faces = vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [0, 4, 5], [0, 5, 6], [0, 6, 4]];
+        let faces = vec![
+            [0, 1, 2],
+            [0, 2, 3],
+            [0, 3, 1],
+            [0, 4, 5],
+            [0, 5, 6],
+            [0, 6, 4],
+        ];
         let interior = interior_vertices(7, &faces).unwrap();
         assert!(!interior[0]);
     }
 
     #[test]
     fn bad_faces_are_errors() {
-        assert!(matches!(interior_vertices(3, &[[0, 1, 5]]), Err(Error::InvalidFace { face: 0, .. })));
-        assert!(matches!(interior_vertices(3, &[[0, 1, 2], [2, 2, 1]]), Err(Error::InvalidFace { face: 1, .. })));
+        assert!(matches!(
+            interior_vertices(3, &[[0, 1, 5]]),
+            Err(Error::InvalidFace { face: 0, .. })
+        ));
+        assert!(matches!(
+            interior_vertices(3, &[[0, 1, 2], [2, 2, 1]]),
+            Err(Error::InvalidFace { face: 1, .. })
+        ));
     }
 }

@@ -60,7 +60,12 @@ pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let scale = if half > 0.0 { 1.0 / half } else { 1.0 };
     let flush = |x: f64| if x.abs() < 1e-40 { 0.0 } else { x };
     uv.iter()
-        .map(|p| [flush((p[0] - center[0]) * scale), flush((p[1] - center[1]) * scale)])
+        .map(|p| {
+            [
+                flush((p[0] - center[0]) * scale),
+                flush((p[1] - center[1]) * scale),
+            ]
+        })
         .collect()
 }
 
@@ -80,29 +85,45 @@ pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
     for (index, p) in uv.iter().enumerate() {
         for (axis, &x) in p.iter().enumerate() {
             if !x.is_finite() {
-                return Err(Error::NonFinite { index, axis, value: x });
+                return Err(Error::NonFinite {
+                    index,
+                    axis,
+                    value: x,
+                });
             }
         }
     }
     let unit = unit_square(uv);
     let duplicate_of = find_duplicates(&unit);
-    let distinct: Vec<u32> =
-        (0..uv.len() as u32).filter(|&i| duplicate_of[i as usize] == NONE).collect();
+    let distinct: Vec<u32> = (0..uv.len() as u32)
+        .filter(|&i| duplicate_of[i as usize] == NONE)
+        .collect();
     if distinct.len() < 3 {
-        return Err(Error::TooFewPoints { distinct: distinct.len() });
+        return Err(Error::TooFewPoints {
+            distinct: distinct.len(),
+        });
     }
     if all_collinear(&unit, &distinct) {
-        return Err(Error::Collinear { after_projection: true });
+        return Err(Error::Collinear {
+            after_projection: true,
+        });
     }
     let vertices = distinct
         .iter()
         .map(|&i| {
             let [x, y] = unit[i as usize];
-            IndexedPoint { position: Point2::new(x, y), index: i }
+            IndexedPoint {
+                position: Point2::new(x, y),
+                index: i,
+            }
         })
         .collect();
     let dt = DelaunayTriangulation::<IndexedPoint>::bulk_load(vertices).map_err(|e| {
-        Error::InvalidParameter { name: "points", value: format!("{e:?}"), expected: "coordinates spade accepts" }
+        Error::InvalidParameter {
+            name: "points",
+            value: format!("{e:?}"),
+            expected: "coordinates spade accepts",
+        }
     })?;
     let triangles = dt
         .inner_faces()
@@ -110,14 +131,22 @@ pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
             let [a, b, c] = f.vertices();
             let t = [a.data().index, b.data().index, c.data().index];
             // spade's faces are counter-clockwise; we promise it, so we make sure of it.
-            if orient2d(unit[t[0] as usize], unit[t[1] as usize], unit[t[2] as usize]) < 0.0 {
+            if orient2d(
+                unit[t[0] as usize],
+                unit[t[1] as usize],
+                unit[t[2] as usize],
+            ) < 0.0
+            {
                 [t[0], t[2], t[1]]
             } else {
                 t
             }
         })
         .collect();
-    Ok(Delaunay { triangles, duplicate_of })
+    Ok(Delaunay {
+        triangles,
+        duplicate_of,
+    })
 }
 
 /// For each point, the lowest index of an earlier point with identical coordinates, or NONE.
@@ -127,7 +156,9 @@ fn find_duplicates(uv: &[[f64; 2]]) -> Vec<u32> {
     let key = |i: &u32| uv[*i as usize];
     order.sort_by(|a, b| {
         let (p, q) = (key(a), key(b));
-        p[0].total_cmp(&q[0]).then(p[1].total_cmp(&q[1])).then(a.cmp(b))
+        p[0].total_cmp(&q[0])
+            .then(p[1].total_cmp(&q[1]))
+            .then(a.cmp(b))
     });
     let mut duplicate_of = vec![NONE; uv.len()];
     let mut run_start = 0;
@@ -147,7 +178,9 @@ fn find_duplicates(uv: &[[f64; 2]]) -> Vec<u32> {
 fn all_collinear(uv: &[[f64; 2]], ids: &[u32]) -> bool {
     let a = uv[ids[0] as usize];
     let b = uv[ids[1] as usize];
-    ids[2..].iter().all(|&i| orient2d(a, b, uv[i as usize]) == 0.0)
+    ids[2..]
+        .iter()
+        .all(|&i| orient2d(a, b, uv[i as usize]) == 0.0)
 }
 
 #[cfg(test)]
@@ -157,7 +190,9 @@ mod tests {
     pub(crate) fn lcg_points(n: usize, seed: u64) -> Vec<[f64; 2]> {
         let mut s = seed;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64
         };
         (0..n).map(|_| [next(), next()]).collect()
@@ -191,11 +226,22 @@ mod tests {
     #[test]
     fn degenerate_inputs() {
         let line: Vec<[f64; 2]> = (0..10).map(|i| [i as f64, 2.0 * i as f64]).collect();
-        assert_eq!(delaunay(&line).unwrap_err(), Error::Collinear { after_projection: true });
+        assert_eq!(
+            delaunay(&line).unwrap_err(),
+            Error::Collinear {
+                after_projection: true
+            }
+        );
         let two = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 0.0]];
-        assert_eq!(delaunay(&two).unwrap_err(), Error::TooFewPoints { distinct: 2 });
+        assert_eq!(
+            delaunay(&two).unwrap_err(),
+            Error::TooFewPoints { distinct: 2 }
+        );
         let nan = vec![[0.0, 0.0], [1.0, 0.0], [f64::NAN, 0.0]];
-        assert!(matches!(delaunay(&nan), Err(Error::NonFinite { index: 2, .. })));
+        assert!(matches!(
+            delaunay(&nan),
+            Err(Error::NonFinite { index: 2, .. })
+        ));
     }
 
     #[test]
@@ -212,7 +258,11 @@ mod tests {
         };
         for s in [1e-300, 1e-6, 1e6, 1e300] {
             let scaled: Vec<[f64; 2]> = pts.iter().map(|p| [p[0] * s, p[1] * s]).collect();
-            assert_eq!(canon(delaunay(&scaled).unwrap().triangles), canon(base.clone()), "scale {s}");
+            assert_eq!(
+                canon(delaunay(&scaled).unwrap().triangles),
+                canon(base.clone()),
+                "scale {s}"
+            );
         }
     }
 }

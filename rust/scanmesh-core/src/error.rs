@@ -61,14 +61,22 @@ impl fmt::Display for Error {
                 f,
                 "need at least 3 distinct points to triangulate, got {distinct}"
             ),
-            Error::Collinear { after_projection: false } => {
+            Error::Collinear {
+                after_projection: false,
+            } => {
                 write!(f, "all points are collinear: they span no surface")
             }
-            Error::Collinear { after_projection: true } => write!(
+            Error::Collinear {
+                after_projection: true,
+            } => write!(
                 f,
                 "all points are collinear after projection onto the plane: choose another plane"
             ),
-            Error::InvalidParameter { name, value, expected } => {
+            Error::InvalidParameter {
+                name,
+                value,
+                expected,
+            } => {
                 write!(f, "invalid {name}={value}: expected {expected}")
             }
             Error::InvalidFace { face, reason } => write!(f, "face {face}: {reason}"),

@@ -16,7 +16,11 @@ pub fn corner_angle(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 /// The three corner angles (radians) of triangle (a, b, c), at a, b and c in that order. O(1).
 #[inline]
 pub fn triangle_angles(a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
-    [corner_angle(a, b, c), corner_angle(b, c, a), corner_angle(c, a, b)]
+    [
+        corner_angle(a, b, c),
+        corner_angle(b, c, a),
+        corner_angle(c, a, b),
+    ]
 }
 
 /// Smallest corner angle (radians) of triangle (a, b, c). O(1).
@@ -93,11 +97,17 @@ impl Normalizer {
             hi = hi.max(p);
         }
         if points.is_empty() {
-            return Normalizer { center: DVec3::ZERO, half_extent: 0.0 };
+            return Normalizer {
+                center: DVec3::ZERO,
+                half_extent: 0.0,
+            };
         }
         // Halve before subtracting: hi - lo overflows for coordinates near f64::MAX.
         let half = hi * 0.5 - lo * 0.5;
-        Normalizer { center: lo * 0.5 + hi * 0.5, half_extent: half.max_element() }
+        Normalizer {
+            center: lo * 0.5 + hi * 0.5,
+            half_extent: half.max_element(),
+        }
     }
 
     /// Maps one point into the unit box (identity scale when all points coincide).
@@ -121,7 +131,11 @@ pub fn check_finite(points: &[DVec3]) -> crate::Result<()> {
     for (index, p) in points.iter().enumerate() {
         for axis in 0..3 {
             if !p[axis].is_finite() {
-                return Err(crate::Error::NonFinite { index, axis, value: p[axis] });
+                return Err(crate::Error::NonFinite {
+                    index,
+                    axis,
+                    value: p[axis],
+                });
             }
         }
     }

@@ -9,10 +9,13 @@ use pyo3::prelude::*;
 use scanmesh_core::anneal::{self as sa, AnnealParams};
 use scanmesh_core::criteria::{self, Norm};
 use scanmesh_core::delaunay::NONE;
+use scanmesh_core::fuchs::{Solver, Weight};
 use scanmesh_core::glam::DVec3;
+use scanmesh_core::lines;
 use scanmesh_core::lop::{lop as run_lop, PlanarMaxMinLop, TacLop, TacOrder};
 use scanmesh_core::mesh::HalfEdgeMesh;
 use scanmesh_core::projection::{self, Plane};
+use scanmesh_core::strips::{self, Method, StripParams};
 use scanmesh_core::tac_state::TacState;
 use scanmesh_core::{trim, Error};
 
@@ -399,13 +402,22 @@ impl Annealer {
         Ok(Annealer { inner: Some(inner) })
     }
 
-    /// Runs at most `max_proposals` proposals without the GIL; returns how many ran.
-    fn advance(&mut self, py: Python<'_>, max_proposals: usize) -> PyResult<usize> {
+    /// Runs at most `max_proposals` proposals, and for about `max_seconds` at most, without
+    /// the GIL; returns how many ran.
+    fn advance(
+        &mut self,
+        py: Python<'_>,
+        max_proposals: usize,
+        max_seconds: f64,
+    ) -> PyResult<usize> {
         let inner = self
             .inner
             .as_mut()
             .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
-        Ok(py.detach(|| inner.advance(max_proposals)))
+        let budget = std::time::Duration::try_from_secs_f64(max_seconds.max(0.0))
+            .unwrap_or(std::time::Duration::MAX);
+        let deadline = std::time::Instant::now().checked_add(budget);
+        Ok(py.detach(|| inner.advance_until(max_proposals, deadline)))
     }
 
     /// True when all sweeps ran or the run froze and stopped early.
@@ -441,11 +453,7 @@ impl Annealer {
     fn finish<'py>(
         &mut self,
         py: Python<'py>,
-    ) -> PyResult<(
-        Ints2<'py>,
-        Floats2<'py>,
-        Bound<'py, pyo3::types::PyDict>,
-    )> {
+    ) -> PyResult<(Ints2<'py>, Floats2<'py>, Bound<'py, pyo3::types::PyDict>)> {
         let inner = self
             .inner
             .take()
@@ -478,10 +486,7 @@ fn trace_out<'py>(py: Python<'py>, trace: &[sa::SweepRecord]) -> Floats2<'py> {
 /// Every empty triangle of (N, 2) pairwise distinct points: no other point in the closed
 /// triangle, corners not collinear (exact predicates). Returns (T, 3) int64, counter-clockwise.
 #[pyfunction]
-fn empty_triangles<'py>(
-    py: Python<'py>,
-    uv: PyReadonlyArray2<'py, f64>,
-) -> PyResult<Ints2<'py>> {
+fn empty_triangles<'py>(py: Python<'py>, uv: PyReadonlyArray2<'py, f64>) -> PyResult<Ints2<'py>> {
     let pts = points2(&uv)?;
     let t = py
         .detach(|| scanmesh_core::enumerate::empty_triangles(&pts))
@@ -513,6 +518,163 @@ fn triangulations<'py>(
     Ok(numpy::ndarray::Array3::from_shape_vec(shape, flat)
         .expect("M per triangulation")
         .into_pyarray(py))
+}
+
+/// Scan-line id per point, (N,) int64 numbered 0..L-1 in scan order, detected from the
+/// order of the planar points `uv` (N, 2) with gap factor k (scanmesh_core::lines).
+#[pyfunction]
+fn detect_lines<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+    gap_factor: f64,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    let pts = points2(&uv)?;
+    let ids = py
+        .detach(|| lines::detect_lines(&pts, gap_factor))
+        .map_err(to_py)?;
+    Ok(Array1::from_iter(ids.into_iter().map(i64::from)).into_pyarray(py))
+}
+
+fn line_ids_in(a: &PyReadonlyArray1<'_, i64>, n: usize) -> PyResult<Vec<i64>> {
+    let v = a.as_array();
+    if v.len() != n {
+        return Err(shape_error("line_ids", &format!("({n},)"), v.shape()));
+    }
+    Ok(v.iter().copied().collect())
+}
+
+fn pairs_out<'py>(py: Python<'py>, pairs: &[(u32, u32)]) -> Bound<'py, PyArray2<i64>> {
+    let flat: Vec<i64> = pairs
+        .iter()
+        .flat_map(|&(a, b)| [i64::from(a), i64::from(b)])
+        .collect();
+    Array2::from_shape_vec((pairs.len(), 2), flat)
+        .expect("2 per pair")
+        .into_pyarray(py)
+}
+
+/// Scan lines from a line id per point: returns (lines: list of lines, each a list of
+/// segments, each a (K,) int64 array of point indices; median step; gap length;
+/// duplicates (D, 2) int64 pairs (dropped point, the point it coincides with)).
+#[pyfunction]
+fn scan_segments<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+    line_ids: PyReadonlyArray1<'py, i64>,
+    gap_factor: f64,
+) -> PyResult<(
+    Vec<Vec<Bound<'py, PyArray1<i64>>>>,
+    f64,
+    f64,
+    Bound<'py, PyArray2<i64>>,
+)> {
+    let pts = points2(&uv)?;
+    let ids = line_ids_in(&line_ids, pts.len())?;
+    let scan = py
+        .detach(|| lines::segment_lines(&pts, &ids, gap_factor))
+        .map_err(to_py)?;
+    let out = scan
+        .lines
+        .iter()
+        .map(|line| {
+            line.iter()
+                .map(|s| Array1::from_iter(s.iter().map(|&k| i64::from(k))).into_pyarray(py))
+                .collect()
+        })
+        .collect();
+    Ok((
+        out,
+        scan.median_step,
+        scan.gap,
+        pairs_out(py, &scan.duplicates),
+    ))
+}
+
+/// Strips between consecutive scan lines as one mesh over `points` (N, 3), with planar
+/// positions `uv` (N, 2) and a line id per point. `weight` = (length, area, angle,
+/// dihedral) coefficients; `method` "shortest-path" (with `solver` "banded", "dp" or
+/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`). Returns
+/// (faces (M, 3) int64 counter-clockwise in the plane, unused (K,) int64, duplicates
+/// (D, 2) int64, number of strips, total path cost, planar error message or None).
+#[pyfunction]
+#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn strip_mesh<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    uv: PyReadonlyArray2<'py, f64>,
+    line_ids: PyReadonlyArray1<'py, i64>,
+    weight: (f64, f64, f64, f64),
+    method: &str,
+    alpha: usize,
+    solver: &str,
+    band: usize,
+    gap_factor: f64,
+    check: bool,
+) -> PyResult<(
+    Bound<'py, PyArray2<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray2<i64>>,
+    usize,
+    f64,
+    Option<String>,
+)> {
+    let pts = points3(&points)?;
+    let plane = points2(&uv)?;
+    if plane.len() != pts.len() {
+        return Err(shape_error(
+            "uv",
+            &format!("({}, 2)", pts.len()),
+            &[plane.len(), 2],
+        ));
+    }
+    let ids = line_ids_in(&line_ids, pts.len())?;
+    let solver = match solver {
+        "banded" => Solver::Banded(band),
+        "dp" => Solver::Dp,
+        "dijkstra" => Solver::Dijkstra,
+        other => {
+            return Err(ParameterError::new_err(format!(
+                "solver must be 'banded', 'dp' or 'dijkstra', got {other:?}"
+            )))
+        }
+    };
+    let method = match method {
+        "shortest-path" => Method::ShortestPath(solver),
+        "lookahead" => Method::Lookahead(alpha),
+        other => {
+            return Err(ParameterError::new_err(format!(
+                "method must be 'shortest-path' or 'lookahead', got {other:?}"
+            )))
+        }
+    };
+    let (length, area, angle, dihedral) = weight;
+    let params = StripParams {
+        weight: Weight {
+            length,
+            area,
+            angle,
+            dihedral,
+        },
+        method,
+        check,
+    };
+    let (scan, mesh) = py
+        .detach(|| {
+            let scan = lines::segment_lines(&plane, &ids, gap_factor)?;
+            let mesh = strips::stitch(&pts, &plane, &scan, &params)?;
+            Ok((scan, mesh))
+        })
+        .map_err(to_py)?;
+    let unused = Array1::from_iter(mesh.unused.iter().map(|&k| i64::from(k))).into_pyarray(py);
+    Ok((
+        faces_out(py, &mesh.triangles),
+        unused,
+        pairs_out(py, &scan.duplicates),
+        mesh.n_strips,
+        mesh.cost,
+        mesh.planar_error.map(|e| e.to_string()),
+    ))
 }
 
 /// The native core of scanmesh.
@@ -547,6 +709,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_quality, m)?)?;
     m.add_function(wrap_pyfunction!(tac_norm, m)?)?;
+    m.add("DEFAULT_GAP_FACTOR", lines::DEFAULT_GAP_FACTOR)?;
+    m.add("DEFAULT_BAND", scanmesh_core::fuchs::DEFAULT_BAND)?;
+    m.add_function(wrap_pyfunction!(detect_lines, m)?)?;
+    m.add_function(wrap_pyfunction!(scan_segments, m)?)?;
+    m.add_function(wrap_pyfunction!(strip_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(empty_triangles, m)?)?;
     m.add_function(wrap_pyfunction!(triangulations, m)?)?;
     m.add_function(wrap_pyfunction!(lop, m)?)?;
