@@ -149,6 +149,12 @@ def test_fractional_line_id(tmp_path):
         read_xyz(path)
 
 
+def test_line_id_too_large_for_exact_reading(tmp_path):
+    path = write(tmp_path / "big.xyz", "1 2 3 0\n4 5 6 9007199254740993\n")
+    with raises_naming(FileFormatError, path, "line 2", "below 2**53"):
+        read_xyz(path)
+
+
 def test_csv_empty_field(tmp_path):
     path = write(tmp_path / "gap.csv", "x,y,z\n1,2,3\n4,,6,7\n")
     with raises_naming(FileFormatError, path, "line 3", "'4,,6,7'"):

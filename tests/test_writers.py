@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+
 from scanmesh import ParameterError, ScanmeshError
 from scanmesh.readers import read, read_xyz
 from scanmesh.writers import save_mesh, write_points
@@ -150,6 +151,15 @@ def test_write_points_round_trip_exact(tmp_path):
     sp = read(write_points(tmp_path / "q.xyz", single))
     np.testing.assert_array_equal(sp.points, single.astype(float))
     assert sp.line_ids is None
+
+
+def test_write_points_line_ids_below_2_53_are_exact(tmp_path):
+    ids = np.array([2**53 - 1, -(2**53) + 1, 0])
+    sp = read(write_points(tmp_path / "h.xyz", np.zeros((3, 3)), ids))
+    np.testing.assert_array_equal(sp.line_ids, ids)
+    with pytest.raises(ParameterError, match="2\\*\\*53"):
+        write_points(tmp_path / "g.xyz", np.zeros((1, 3)), [2**53])
+    assert not (tmp_path / "g.xyz").exists()
 
 
 def test_write_points_overwrites_atomically(tmp_path):

@@ -19,6 +19,9 @@ FORMATS = {".stl": "stl", ".ply": "ply", ".obj": "obj", ".off": "off"}
 #: Points per block when formatting XYZ text (bounds the temporary strings' memory).
 POINTS_PER_BLOCK: int = 1 << 18
 
+#: Line ids must be below this in magnitude: text readers parse numbers as float64.
+MAX_LINE_ID: int = 2**53
+
 PathSpec = str | os.PathLike
 
 
@@ -147,6 +150,11 @@ def write_points(
                 f" {ids.shape}"
             )
         ids = ids.astype(np.int64)
+        if ids.size and int(np.abs(ids).max()) >= MAX_LINE_ID:
+            raise ParameterError(
+                f"line ids must be below 2**53 in magnitude to be read back exactly, got"
+                f" {ids.min()}..{ids.max()}"
+            )
     _check_protected(target, protect)
 
     def blocks() -> Iterable[bytes]:
@@ -155,10 +163,9 @@ def write_points(
             block = pts[start : start + POINTS_PER_BLOCK]
             if ids is None:
                 values = block.ravel().tolist()
-            else:
-                cols = [block[:, 0].tolist(), block[:, 1].tolist(), block[:, 2].tolist()]
-                cols.append(ids[start : start + POINTS_PER_BLOCK].tolist())
-                values = [v for rec in zip(*cols, strict=True) for v in rec]
+            else:  # '%d' of a float holding an integer below 2**53 is exact
+                line = ids[start : start + POINTS_PER_BLOCK].astype(np.float64)
+                values = np.column_stack([block, line]).ravel().tolist()
             yield ((row * len(block)) % tuple(values)).encode("ascii")
 
     return _write_atomic(target, blocks())
