@@ -593,7 +593,7 @@ def test_vtk_random_triangulation_is_not_a_grid(tmp_path):
     assert read_vtk(path).line_ids is None
 
 
-def vtk_text(points, lines=None, polys=None, header="POLYDATA"):
+def vtk_text(points, lines=None, polys=None, header="POLYDATA", strips=None):
     out = [
         "# vtk DataFile Version 3.0",
         "test",
@@ -602,7 +602,7 @@ def vtk_text(points, lines=None, polys=None, header="POLYDATA"):
         f"POINTS {len(points)} double",
     ]
     out += [" ".join(repr(float(v)) for v in p) for p in points]
-    for key, cells in (("LINES", lines), ("POLYGONS", polys)):
+    for key, cells in (("LINES", lines), ("POLYGONS", polys), ("TRIANGLE_STRIPS", strips)):
         if cells is not None:
             out.append(f"{key} {len(cells)} {sum(len(c) + 1 for c in cells)}")
             out += [" ".join(map(str, [len(c), *c])) for c in cells]
@@ -613,6 +613,28 @@ def scan_lines(n_lines=3, per_line=4):
     pts = np.array([(i, j * 0.5, i * j) for i in range(n_lines) for j in range(per_line)], float)
     cells = [list(range(i * per_line, (i + 1) * per_line)) for i in range(n_lines)]
     return pts, cells
+
+
+def test_vtk_triangle_strips_between_rows(tmp_path):
+    rows, width = 5, 7
+    pts = np.array([(c, r, np.sin(c + r)) for r in range(rows) for c in range(width)], float)
+    strips = [
+        [v for c in range(width) for v in (r * width + c, (r + 1) * width + c)]
+        for r in range(rows - 1)
+    ]
+    sp = read_vtk(write(tmp_path / "strips.vtk", vtk_text(pts, strips=strips)))
+    np.testing.assert_array_equal(sp.line_ids, np.repeat(np.arange(rows), width))
+    # the same grid stored column by column, meshed with quads: the lines follow the storage
+    quads = [
+        [r * width + c, r * width + c + 1, (r + 1) * width + c + 1, (r + 1) * width + c]
+        for r in range(rows - 1)
+        for c in range(width - 1)
+    ]
+    order = np.arange(rows * width).reshape(rows, width).T.ravel()  # new index -> old
+    new_of_old = np.argsort(order)
+    shuffled = [[int(new_of_old[v]) for v in q] for q in quads]
+    sp = read_vtk(write(tmp_path / "cols.vtk", vtk_text(pts[order], polys=shuffled)))
+    np.testing.assert_array_equal(sp.line_ids, np.repeat(np.arange(width), rows))
 
 
 def test_vtk_ascii_poly_lines(tmp_path):

@@ -1101,6 +1101,18 @@ def _vtk_cells(cur: _VtkCursor, count: int, size: int, what: str) -> list[np.nda
     return cells
 
 
+def _equal_length_groups(cells: list[np.ndarray]) -> list[np.ndarray]:
+    """Cells grouped by length, each group a (C, k) int64 array (cell order kept within)."""
+    if not cells:
+        return []
+    lengths = np.fromiter((len(c) for c in cells), dtype=np.int64, count=len(cells))
+    groups = []
+    for k in np.unique(lengths):
+        members = np.flatnonzero(lengths == k)
+        groups.append(np.array([cells[i] for i in members], dtype=np.int64).reshape(-1, int(k)))
+    return groups
+
+
 def _grid_width(n: int, faces: list[np.ndarray], strips: list[np.ndarray]) -> int | None:
     """Width W when the face connectivity is a row-major grid of rows of W points, else None.
 
@@ -1109,20 +1121,20 @@ def _grid_width(n: int, faces: list[np.ndarray], strips: list[np.ndarray]) -> in
     row, between rows) must occur.
     """
     pairs = []
-    for cell in faces:
-        if len(cell) >= 2:
-            pairs.append(np.column_stack([cell, np.roll(cell, -1)]))
-    for cell in strips:
-        if len(cell) >= 3:
-            pairs.append(np.column_stack([cell[:-1], cell[1:]]))
-            pairs.append(np.column_stack([cell[:-2], cell[2:]]))
+    for group in _equal_length_groups(faces):  # (C, k): each row a closed polygon
+        if group.shape[1] >= 2:
+            pairs.append(np.stack([group, np.roll(group, -1, axis=1)], axis=-1).reshape(-1, 2))
+    for group in _equal_length_groups(strips):  # (C, k): each row a triangle strip
+        if group.shape[1] >= 3:
+            pairs.append(np.stack([group[:, :-1], group[:, 1:]], axis=-1).reshape(-1, 2))
+            pairs.append(np.stack([group[:, :-2], group[:, 2:]], axis=-1).reshape(-1, 2))
     if not pairs:
         return None
     edges = np.concatenate(pairs)
-    diff = np.abs(edges[:, 0] - edges[:, 1])
-    for width in sorted(
-        {int(d) for d in np.unique(diff) if d > 2} | {int(d) + 1 for d in np.unique(diff) if d > 1}
-    ):
+    diffs = np.unique(np.abs(edges[:, 0] - edges[:, 1]))
+    if len(diffs) > 4:  # a grid has at most 1, W - 1, W and W + 1
+        return None
+    for width in sorted({int(d) for d in diffs if d > 2} | {int(d) + 1 for d in diffs if d > 1}):
         if n % width or n // width < 2:
             continue
         rows, cols = edges // width, edges % width
@@ -1256,10 +1268,12 @@ def read_vtk(path: str | os.PathLike) -> ScanPoints:
         strips += [c for c, t in zip(cells, cell_types, strict=True) if t == 6]
         # VTK_PIXEL (8) orders its corners as a 2x2 grid: as a polygon it is 0 1 3 2
         faces += [c[[0, 1, 3, 2]] for c, t in zip(cells, cell_types, strict=True) if t == 8]
-    for cell in lines + faces + strips:
-        if len(cell) and (cell.min() < 0 or cell.max() >= n):
-            wrong = int(cell.max() if cell.max() >= n else cell.min())
-            raise FileFormatError(f"{path}: a cell refers to point {wrong}, outside 0..{n - 1}")
+    used = np.concatenate([np.asarray(c, dtype=np.int64) for c in lines + faces + strips] or [[]])
+    outside = used[(used < 0) | (used >= n)]
+    if len(outside):
+        raise FileFormatError(
+            f"{path}: a cell refers to point {int(outside[0])}, outside 0..{n - 1}"
+        )
     extra: dict[str, Any] = {"format": "vtk", "dataset": dataset, "encoding": mode.decode().lower()}
     line_ids = None
     if lines:
