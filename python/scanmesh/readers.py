@@ -1277,12 +1277,11 @@ def read_vtk(path: str | os.PathLike) -> ScanPoints:
     extra: dict[str, Any] = {"format": "vtk", "dataset": dataset, "encoding": mode.decode().lower()}
     line_ids = None
     if lines:
+        members = np.concatenate([np.asarray(c, dtype=np.int64) for c in lines])
+        cell_of = np.repeat(np.arange(len(lines)), [len(c) for c in lines])
         owner = np.full(n, -1, dtype=np.int64)
-        counts = np.zeros(n, dtype=np.int64)
-        for i, cell in enumerate(lines):
-            owner[cell] = i
-            np.add.at(counts, cell, 1)
-        if (counts == 1).all():
+        owner[members] = cell_of
+        if (np.bincount(members, minlength=n) == 1).all():
             line_ids = owner
             extra["line_ids_from"] = f"{len(lines)} poly-line cells"
     if line_ids is None and (faces or strips):
