@@ -643,6 +643,11 @@ def test_vtk_ascii_poly_lines(tmp_path):
     sp = read_vtk(write(tmp_path / "l.vtk", vtk_text(pts, lines=cells)))
     np.testing.assert_array_equal(sp.points, pts)
     np.testing.assert_array_equal(sp.line_ids, [1] * 4 + [2] * 4 + [0] * 4)
+    # chained 2-point segments share points: not one cell per line, so no line ids
+    segments = [[i, i + 1] for i in range(11)]
+    assert read_vtk(write(tmp_path / "seg.vtk", vtk_text(pts, lines=segments))).line_ids is None
+    # poly-lines that leave points out do not define lines for every point either
+    assert read_vtk(write(tmp_path / "part.vtk", vtk_text(pts, lines=cells[:2]))).line_ids is None
 
 
 def test_vtk_binary_unstructured_grid(tmp_path):
