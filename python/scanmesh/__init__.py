@@ -5,6 +5,7 @@ The public API:
 - :func:`reconstruct` - every method behind one call;
 - :func:`delaunay` - planar Delaunay of projected points, trimmed to the outline;
 - :func:`quality` - tac norms and the max-min angle of any mesh;
+- :func:`optimal_surface`, :func:`brute_force_surface` - the certified tac optimum (small inputs);
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
 - :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
 - :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
@@ -24,6 +25,7 @@ from scanmesh.errors import (
     ScanmeshError,
     ScanmeshWarning,
 )
+from scanmesh.optimal import brute_force_surface, optimal_surface
 from scanmesh.projection import Frame, project
 from scanmesh.quality import Quality, quality
 from scanmesh.readers import ScanPoints, read
@@ -39,6 +41,8 @@ __all__ = [
     "simulate_scan",
     "load_demo",
     "quality",
+    "optimal_surface",
+    "brute_force_surface",
     "read",
     "ScanPoints",
     "project",

@@ -1,0 +1,530 @@
+"""Certified tac-optimal triangulations of small point sets: an exact MILP, and brute force.
+
+Both search all (fine) triangulations of the convex hull of the projected points: every
+point is a vertex (it is a scan sample), triangles tile the hull, and the tac norm
+(DESIGN.md: ``tac(v) = |2 pi - sum of 3-D corner angles at v|`` over interior vertices v)
+is minimized. Annealing and LOP search the same space heuristically; these functions say
+how far from the optimum they stop.
+
+Mixed-integer program (:func:`optimal_surface`)
+-----------------------------------------------
+Variables: ``x_t`` in {0, 1} for every *empty* triangle t (three non-collinear input points,
+no other input point in the closed triangle; computed with exact predicates by
+``_core.empty_triangles``). Only empty triangles can occur in a fine triangulation, since a
+point inside a triangle or on one of its edges would not be a vertex of it.
+
+Triangulation constraints, the cocircuit ("flow") equations of the universal polytope of
+De Loera, Hosten, Santos and Sturmfels, *The polytope of all triangulations of a point
+configuration*, Documenta Math. 1 (1996) 103-119 (see also De Loera, Rambau and Santos,
+*Triangulations*, Springer 2010, sec. 8.3, where the 0/1 points of this system are shown
+to be exactly the triangulations), restricted to empty triangles:
+
+* for every segment e that is an edge of some candidate and lies inside the hull: the
+  chosen triangles on its left equal those on its right, ``sum_{t left} x_t =
+  sum_{t right} x_t``;
+* for every segment on the hull boundary: exactly one chosen triangle uses it,
+  ``sum_t x_t = 1``.
+
+A segment is on the hull boundary exactly when candidates lie on only one side of it (an
+inner edge has points strictly on both sides, and the nearest point to the line on either
+side spans an empty triangle with it). The interior vertices are the points that are not
+an end of a boundary segment, i.e. not on the hull boundary (points on a hull edge,
+collinear with its ends, are boundary vertices in every triangulation).
+
+Why every 0/1 solution is a triangulation (self-contained, planar case). Let f(q) be the
+number of chosen triangles covering a point q off all segments. Moving q across a segment
+e at a point on no other segment (two distinct empty segments never overlap, as neither
+contains an input point in its relative interior) changes f by (triangles with edge e on
+the far side) - (on the near side), which is 0 for inner segments and, crossing into the
+hull, 1 - 0 for boundary segments. f = 0 outside, so f = 1 almost everywhere in the hull:
+the chosen triangles cover it with disjoint interiors. Two such triangles meet properly,
+because a vertex of one on an edge of the other, or overlapping collinear edges, would put
+an input point in a closed empty triangle. Every point lies in some closed chosen
+triangle and so, by emptiness, is one of its corners. The same argument holds for
+fractional x (f = 1 as a density), which makes ``sum_t x_t * planar angle_t(v) = 2 pi``
+implied at every interior v; the tac rows below use this. The tests also check every
+solution with ``HalfEdgeMesh::validate`` and the hull area.
+
+Objective. With a_t(v) the 3-D corner angle and theta_t(v) the planar one at v,
+``s_v = sum_t x_t * (a_t(v) - theta_t(v))`` equals ``sum a - 2 pi`` on every solution and
+avoids cancelling against 2 pi. p = 1: minimize ``sum_v y_v`` with ``y_v >= s_v`` and
+``y_v >= -s_v``; p = inf: minimize z with ``z >= s_v`` and ``z >= -s_v`` for all v. Other p
+would need a nonlinear objective; :func:`brute_force_surface` takes any p >= 1.
+Integer-programming approaches to optimal triangulations go back to minimum weight
+triangulation (Kyoda, Imai, Takeuchi and Tajima, *A branch-and-cut approach for minimum
+weight triangulation*, ISAAC 1997, LNCS 1350); here the solver is HiGHS (Huangfu and
+Hall, Math. Prog. Comp. 10 (2018)) through ``scipy.optimize.milp``.
+
+The LP relaxation is weak for tac: it can blend fans with positive and negative angle
+defects at a vertex, so proofs need branching and grow quickly with the number of points.
+
+Brute force (:func:`brute_force_surface`)
+-----------------------------------------
+``_core.triangulations`` lists every triangulation by breadth-first search over edge
+flips from Delaunay (the flip graph of a planar point set is connected: Lawson 1972), with
+a cap on their number. Used to check the MILP on up to about 10 points.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike
+from scipy.optimize import Bounds, LinearConstraint, milp
+
+from scanmesh import _core
+from scanmesh._checks import as_points
+from scanmesh.delaunay import delaunay
+from scanmesh.errors import ParameterError
+from scanmesh.projection import Frame, PlaneSpec, project
+from scanmesh.surface import Surface
+
+#: Relative optimality gap at which HiGHS stops and the result counts as proven optimal.
+MIP_REL_GAP: float = 1e-6
+
+#: Default cap on the number of triangulations :func:`brute_force_surface` enumerates.
+MAX_TRIANGULATIONS: int = 200_000
+
+#: Most (distinct) points :func:`optimal_surface` accepts: the empty-triangle search is
+#: O(n^4) and the program has about 2 n^2 binary variables; proofs already take minutes
+#: for a few dozen points (BENCHMARKS.md).
+MAX_OPTIMAL_POINTS: int = 400
+
+
+@dataclass(frozen=True)
+class _Instance:
+    """One input, projected, with coincident points merged (delaunay()'s handling)."""
+
+    #: (N, 3) float64 the input points
+    points: np.ndarray
+    #: (N, 2) float64 their planar coordinates
+    uv: np.ndarray
+    frame: Frame
+    #: (n,) int64 input index of each distinct point (the local index is the position)
+    keep: np.ndarray
+    #: (K, 2) int64 (unused point, the coincident point standing for it)
+    duplicates: np.ndarray
+    #: (M, 3) int64 Delaunay triangles of the hull, local indices, counter-clockwise
+    delaunay_local: np.ndarray
+    #: seconds spent projecting and triangulating
+    seconds: float
+
+
+def _instance(points: ArrayLike, plane: PlaneSpec) -> _Instance:
+    t0 = time.perf_counter()
+    pts = as_points(points)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        base = delaunay(pts, plane=plane, max_edge=math.inf)
+    for w in caught:  # re-issued so that they point at the caller's line
+        warnings.warn(w.message, w.category, stacklevel=4)
+    uv, frame = project(pts, plane)
+    used = np.ones(len(pts), dtype=bool)
+    used[base.duplicates[:, 0]] = False
+    keep = np.flatnonzero(used)
+    local = np.full(len(pts), -1, dtype=np.int64)
+    local[keep] = np.arange(len(keep))
+    return _Instance(
+        points=pts,
+        uv=uv,
+        frame=frame,
+        keep=keep,
+        duplicates=base.duplicates,
+        delaunay_local=local[base.faces],
+        seconds=time.perf_counter() - t0,
+    )
+
+
+def _check_p(p: float, *, exact: bool) -> float:
+    try:
+        value = float(p)
+    except (TypeError, ValueError):
+        raise ParameterError(f"p must be a number >= 1 or math.inf, got {p!r}") from None
+    if exact and value not in (1.0, math.inf):
+        raise ParameterError(
+            f"optimal_surface solves p = 1 and p = math.inf exactly, got p={p!r};"
+            " brute_force_surface takes any p >= 1 on a few points"
+        )
+    if not value >= 1.0:
+        raise ParameterError(f"p must be >= 1 or math.inf, got {p!r}")
+    return value
+
+
+def _unit(points: np.ndarray) -> np.ndarray:
+    """(N, 3) points mapped into [-1, 1]^3 as the core's Normalizer does (angles unchanged)."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    half = float((hi * 0.5 - lo * 0.5).max())
+    centred = points - (lo * 0.5 + hi * 0.5)
+    return centred / half if half > 0 else centred
+
+
+def _corner_angles(xyz: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """(..., 3) corner angles (radians) of triangles ``tri`` (..., 3) over points (N, 2 or 3).
+
+    Column k is the angle at ``tri[..., k]``, in the atan2 form of DESIGN.md.
+    """
+    if xyz.shape[1] == 2:
+        xyz = np.column_stack([xyz, np.zeros(len(xyz))])
+    out = np.empty(tri.shape, dtype=np.float64)
+    for k in range(3):
+        p = xyz[tri[..., k]]
+        u = xyz[tri[..., (k + 1) % 3]] - p
+        v = xyz[tri[..., (k + 2) % 3]] - p
+        out[..., k] = np.arctan2(
+            np.linalg.norm(np.cross(u, v), axis=-1), np.einsum("...i,...i->...", u, v)
+        )
+    return out
+
+
+def _interior_mask(n: int, triangles: np.ndarray) -> np.ndarray:
+    """(n,) bool: vertices on no boundary edge of one triangulation (M, 3) of the hull."""
+    directed = np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=-1).reshape(-1, 2)
+    keys = directed.min(axis=1) * n + directed.max(axis=1)
+    unique, counts = np.unique(keys, return_counts=True)
+    boundary = unique[counts == 1]
+    interior = np.ones(n, dtype=bool)
+    interior[boundary // n] = False
+    interior[boundary % n] = False
+    return interior
+
+
+def _surface(inst: _Instance, local_faces: np.ndarray, method: str, **extra: object) -> Surface:
+    timings = extra.pop("timings")
+    options = extra.pop("options")
+    return Surface(
+        vertices=inst.points,
+        faces=np.ascontiguousarray(inst.keep[local_faces], dtype=np.int64),
+        method=method,
+        options=options,
+        frame=inst.frame,
+        duplicates=inst.duplicates,
+        timings=timings,
+        **extra,
+    )
+
+
+def _tac_norm(surface: Surface, p: float) -> float:
+    return surface.quality.tac_norm(p)
+
+
+def optimal_surface(
+    points: ArrayLike,
+    *,
+    p: float = 1,
+    plane: PlaneSpec = None,
+    time_limit: float = 60.0,
+) -> Surface:
+    """The triangulation of the whole convex hull with the smallest tac p-norm, proven.
+
+    Solves the mixed-integer program of the module docstring with HiGHS
+    (``scipy.optimize.milp``). Meant for small inputs: proofs take seconds for about 20
+    points and can exceed a minute from about 40 (BENCHMARKS.md).
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        Scan points; any real dtype and memory layout. N <= MAX_OPTIMAL_POINTS after
+        merging points that coincide in the plane.
+    p : 1 or math.inf
+        The tac norm to minimize.
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane (see :func:`scanmesh.projection.project`).
+    time_limit : float
+        Seconds HiGHS may search (``math.inf``: no limit). Setting up the program is not
+        counted.
+
+    Returns
+    -------
+    Surface
+        ``method="optimal"``, faces over the input points covering the convex hull (no
+        trimming). ``certified`` is True when HiGHS proved optimality (to a relative gap of
+        MIP_REL_GAP); False when the time limit stopped it, with the best triangulation
+        found (Delaunay if none) and ``gap`` = (its tac norm - lower bound) / its tac norm.
+        ``options`` holds the program's size, the bound and the solver's status;
+        ``timings`` the seconds per stage. Coincident points are handled as by
+        :func:`scanmesh.delaunay` (``Surface.duplicates``, a ``CoincidentPointsWarning``).
+
+    Raises
+    ------
+    ScanmeshError
+        Bad points (shape, non-finite, too few distinct, collinear), p other than 1 or
+        inf, a non-positive time limit, or more than MAX_OPTIMAL_POINTS distinct points.
+    """
+    p = _check_p(p, exact=True)
+    try:
+        limit = float(time_limit)
+    except (TypeError, ValueError):
+        raise ParameterError(f"time_limit must be seconds > 0, got {time_limit!r}") from None
+    if not limit > 0:
+        raise ParameterError(f"time_limit must be seconds > 0 (or math.inf), got {time_limit!r}")
+    inst = _instance(points, plane)
+    n = len(inst.keep)
+    if n > MAX_OPTIMAL_POINTS:
+        raise ParameterError(
+            f"optimal_surface is exact and exponential: {n} distinct points is more than"
+            f" MAX_OPTIMAL_POINTS={MAX_OPTIMAL_POINTS}; use reconstruct(method='anneal')"
+        )
+    t0 = time.perf_counter()
+    uv = np.ascontiguousarray(inst.uv[inst.keep])
+    tri = _core.empty_triangles(uv)  # (T, 3) local indices, counter-clockwise
+    t1 = time.perf_counter()
+    model = _build_program(inst, uv, tri, p)
+    t2 = time.perf_counter()
+    options: dict[str, object] = {"disp": False, "mip_rel_gap": MIP_REL_GAP}
+    if math.isfinite(limit):
+        options["time_limit"] = limit
+    res = milp(
+        model.c,
+        integrality=model.integrality,
+        bounds=Bounds(0.0, model.upper),
+        constraints=LinearConstraint(model.a, model.lower_rows, model.upper_rows),
+        options=options,
+    )
+    t3 = time.perf_counter()
+    if res.status not in (0, 1):
+        raise RuntimeError(
+            f"HiGHS could not solve the triangulation program ({res.message}); every point"
+            " set has a triangulation, so this is a bug: please report it with the points"
+        )
+    found = res.x is not None
+    if found:
+        chosen = res.x[: len(tri)] > 0.5
+        # 0/1 and the integer rows hold exactly: by the theorem, a triangulation.
+        residual = model.flow @ chosen.astype(np.int64) - model.flow_rhs
+        if np.any(residual != 0):
+            raise RuntimeError(
+                f"HiGHS returned a solution that breaks {int(np.count_nonzero(residual))}"
+                " triangulation equations after rounding; please report it with the points"
+            )
+        local_faces = tri[chosen]
+    else:
+        local_faces = inst.delaunay_local
+    bound = res.mip_dual_bound if res.mip_dual_bound is not None else 0.0
+    bound = max(0.0, float(bound)) if math.isfinite(bound) else 0.0
+    certified = bool(res.status == 0)
+    surface = _surface(
+        inst,
+        local_faces,
+        "optimal",
+        certified=certified,
+        gap=None,
+        options={
+            "p": p,
+            "plane": None if plane is None else plane,
+            "time_limit": limit,
+            "max_edge": math.inf,
+            "candidate_triangles": int(len(tri)),
+            "interior_vertices": int(model.n_interior),
+            "equations": int(model.flow.shape[0]),
+            "lower_bound": bound,
+            "solver_objective": None if res.fun is None else float(res.fun),
+            "nodes": res.mip_node_count,
+            "status": res.message,
+            "solution_found": found,
+        },
+        timings={
+            "project_delaunay": inst.seconds,
+            "empty_triangles": t1 - t0,
+            "build": t2 - t1,
+            "solve": t3 - t2,
+        },
+    )
+    value = _tac_norm(surface, p)
+    surface.gap = 0.0 if value <= bound or value == 0.0 else (value - bound) / value
+    if certified:
+        # Proven within MIP_REL_GAP (and HiGHS's tolerances): report no more than that.
+        surface.gap = min(surface.gap, MIP_REL_GAP)
+    return surface
+
+
+@dataclass(frozen=True)
+class _Program:
+    c: np.ndarray
+    integrality: np.ndarray
+    upper: np.ndarray
+    a: sp.csr_array
+    lower_rows: np.ndarray
+    upper_rows: np.ndarray
+    #: the triangulation equations alone, over x (integer coefficients) and their rhs
+    flow: sp.csr_array
+    flow_rhs: np.ndarray
+    n_interior: int
+
+
+def _build_program(inst: _Instance, uv: np.ndarray, tri: np.ndarray, p: float) -> _Program:
+    """Assemble the MILP of the module docstring: x (T) binary, then y (I) or z continuous."""
+    n, t_count = len(uv), len(tri)
+    # Edges: triangle t lies left of its directed edge (a -> b); +1 when a < b.
+    a_end = tri.reshape(-1)
+    b_end = np.roll(tri, -1, axis=1).reshape(-1)
+    owner = np.repeat(np.arange(t_count), 3)
+    sign = np.where(a_end < b_end, 1, -1)
+    keys = np.minimum(a_end, b_end) * n + np.maximum(a_end, b_end)
+    edge_keys, edge_of = np.unique(keys, return_inverse=True)
+    has_left = np.zeros(len(edge_keys), dtype=bool)
+    has_right = np.zeros(len(edge_keys), dtype=bool)
+    has_left[edge_of[sign > 0]] = True
+    has_right[edge_of[sign < 0]] = True
+    inner = has_left & has_right
+    # Inner segments: sum(left) - sum(right) = 0. Hull segments: sum = 1 (one side only).
+    coef = np.where(inner[edge_of], sign, 1)
+    flow = sp.csr_array((coef, (edge_of, owner)), shape=(len(edge_keys), t_count))
+    flow_rhs = np.where(inner, 0, 1).astype(np.int64)
+    on_hull = np.zeros(n, dtype=bool)
+    hull_keys = edge_keys[~inner]
+    on_hull[hull_keys // n] = True
+    on_hull[hull_keys % n] = True
+    interior = np.flatnonzero(~on_hull)
+    row_of = np.full(n, -1, dtype=np.int64)
+    row_of[interior] = np.arange(len(interior))
+    # s_v = sum_t x_t (3-D angle - planar angle) at each interior corner.
+    deviation = _corner_angles(_unit(inst.points), inst.keep[tri]) - _corner_angles(uv, tri)
+    corner_rows = row_of[tri].reshape(-1)
+    at_interior = corner_rows >= 0
+    s = sp.csr_array(
+        (deviation.reshape(-1)[at_interior], (corner_rows[at_interior], owner[at_interior])),
+        shape=(len(interior), t_count),
+    )
+    n_i = len(interior)
+    if p == 1.0:
+        n_extra = n_i
+        bound_cols = sp.identity(n_i, format="csr")
+    else:
+        n_extra = 1
+        bound_cols = sp.csr_array(np.ones((n_i, 1)))
+    zeros = sp.csr_array((flow.shape[0], n_extra))
+    a = sp.vstack(
+        [
+            sp.hstack([flow, zeros]),
+            sp.hstack([s, bound_cols]),  # y - (-s) >= 0
+            sp.hstack([-s, bound_cols]),  # y - s >= 0
+        ],
+        format="csr",
+    )
+    lower_rows = np.concatenate([flow_rhs, np.zeros(2 * n_i)]).astype(np.float64)
+    upper_rows = np.concatenate([flow_rhs, np.full(2 * n_i, np.inf)]).astype(np.float64)
+    c = np.concatenate([np.zeros(t_count), np.ones(n_extra)])
+    integrality = np.concatenate([np.ones(t_count), np.zeros(n_extra)])
+    upper = np.concatenate([np.ones(t_count), np.full(n_extra, np.inf)])
+    return _Program(
+        c=c,
+        integrality=integrality,
+        upper=upper,
+        a=a,
+        lower_rows=lower_rows,
+        upper_rows=upper_rows,
+        flow=flow,
+        flow_rhs=flow_rhs,
+        n_interior=n_i,
+    )
+
+
+def triangulations(
+    points: ArrayLike, *, plane: PlaneSpec = None, max_count: int = MAX_TRIANGULATIONS
+) -> np.ndarray:
+    """Every triangulation of the convex hull of the projected points, all points used.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        A few points (the count grows exponentially: Catalan(N - 2) in convex position).
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane.
+    max_count : int
+        Raise ParameterError rather than enumerate more than this many.
+
+    Returns
+    -------
+    (K, M, 3) int64
+        K triangulations of M counter-clockwise triangles each, as input indices (points
+        coinciding in the plane with an earlier one are left out, as in delaunay()).
+    """
+    inst = _instance(points, plane)
+    return inst.keep[_all_local(inst, max_count)]
+
+
+def _all_local(inst: _Instance, max_count: int) -> np.ndarray:
+    if isinstance(max_count, bool) or not isinstance(max_count, (int, np.integer)):
+        raise ParameterError(f"max_count must be a whole number >= 1, got {max_count!r}")
+    if max_count < 1:
+        raise ParameterError(f"max_count must be >= 1, got {max_count!r}")
+    uv = np.ascontiguousarray(inst.uv[inst.keep])
+    return _core.triangulations(uv, inst.delaunay_local, int(max_count))
+
+
+def brute_force_surface(
+    points: ArrayLike,
+    *,
+    p: float = 1,
+    plane: PlaneSpec = None,
+    max_triangulations: int = MAX_TRIANGULATIONS,
+) -> Surface:
+    """The tac-optimal triangulation of the convex hull by trying every triangulation.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        A few points (about 10; the number of triangulations grows exponentially).
+    p : float
+        Any tac norm, p >= 1 or ``math.inf``.
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane.
+    max_triangulations : int
+        Raise ParameterError rather than enumerate more than this many.
+
+    Returns
+    -------
+    Surface
+        ``method="brute-force"``, ``certified=True``, ``gap=0.0``; the first of the best
+        (ties: in breadth-first order from Delaunay). ``options["n_triangulations"]`` is
+        how many were compared.
+    """
+    p = _check_p(p, exact=False)
+    inst = _instance(points, plane)
+    t0 = time.perf_counter()
+    every = _all_local(inst, max_triangulations)  # (K, M, 3) local indices
+    t1 = time.perf_counter()
+    n = len(inst.keep)
+    angles = _corner_angles(_unit(inst.points), inst.keep[every])  # (K, M, 3)
+    flat = (np.arange(len(every))[:, None, None] * n + every).reshape(-1)
+    sums = np.bincount(flat, weights=angles.reshape(-1), minlength=len(every) * n)
+    interior = _interior_mask(n, every[0])
+    tac = np.abs(2 * np.pi - sums.reshape(len(every), n)[:, interior])  # (K, I)
+    if tac.shape[1] == 0:
+        score = np.zeros(len(every))
+    elif math.isinf(p):
+        score = tac.max(axis=1)
+    else:
+        score = (tac**p).sum(axis=1)
+    best = int(np.argmin(score))
+    t2 = time.perf_counter()
+    return _surface(
+        inst,
+        every[best],
+        "brute-force",
+        certified=True,
+        gap=0.0,
+        options={
+            "p": p,
+            "plane": plane,
+            "max_edge": math.inf,
+            "n_triangulations": int(len(every)),
+            "max_triangulations": int(max_triangulations),
+        },
+        timings={"project_delaunay": inst.seconds, "enumerate": t1 - t0, "score": t2 - t1},
+    )
+
+
+__all__ = [
+    "optimal_surface",
+    "brute_force_surface",
+    "triangulations",
+    "MIP_REL_GAP",
+    "MAX_TRIANGULATIONS",
+    "MAX_OPTIMAL_POINTS",
+]

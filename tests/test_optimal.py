@@ -1,0 +1,282 @@
+"""Exact tac optimum (MILP) and brute-force enumeration of all triangulations."""
+
+from __future__ import annotations
+
+import math
+from math import comb
+
+import numpy as np
+import pytest
+from scipy.spatial import ConvexHull
+
+import scanmesh
+from scanmesh import _core
+from scanmesh.errors import (
+    CoincidentPointsWarning,
+    DegenerateInputError,
+    ParameterError,
+    ScanmeshError,
+)
+from scanmesh.optimal import (
+    MIP_REL_GAP,
+    brute_force_surface,
+    optimal_surface,
+    triangulations,
+)
+
+
+def bumpy(n: int, seed: int) -> np.ndarray:
+    """(n, 3) random points in the unit square under a smooth bump with a little noise."""
+    rng = np.random.default_rng(seed)
+    xy = rng.random((n, 2))
+    z = 0.3 * np.sin(3 * xy[:, 0]) * np.cos(2 * xy[:, 1]) + 0.03 * rng.standard_normal(n)
+    return np.column_stack([xy, z])
+
+
+def convex_polygon(n: int) -> np.ndarray:
+    """(n, 3) points on an ellipse (strictly convex position) lifted onto a paraboloid."""
+    a = 2 * np.pi * np.arange(n) / n + 0.1
+    x, y = np.cos(a), 0.7 * np.sin(a)
+    return np.column_stack([x, y, x**2 + 0.5 * y**2])
+
+
+def grid(cols: int, rows: int, seed: int = 0) -> np.ndarray:
+    """(cols*rows, 3) lattice points (collinear on the hull, cocircular squares), random z."""
+    j, i = np.mgrid[0:rows, 0:cols]
+    z = np.random.default_rng(seed).normal(0, 0.3, size=i.size)
+    return np.column_stack([i.ravel(), j.ravel(), z]).astype(float)
+
+
+def close(a: float, b: float) -> bool:
+    """Equal up to the MILP's proven relative gap and solver tolerances."""
+    return abs(a - b) <= 4 * MIP_REL_GAP * max(1.0, abs(a), abs(b)) + 1e-9
+
+
+def assert_full_triangulation(points: np.ndarray, faces: np.ndarray, plane="z") -> None:
+    """faces tile the convex hull of the projected points and pass HalfEdgeMesh::validate."""
+    uv, _ = scanmesh.project(points, plane)
+    _core.validate(uv, faces)
+    a, b, c = (uv[faces[:, k]] for k in range(3))
+    areas = 0.5 * ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    assert np.all(areas > 0)
+    assert math.isclose(areas.sum(), ConvexHull(uv).volume, rel_tol=1e-9)
+
+
+# --- errors first -------------------------------------------------------------------------
+
+
+def test_bad_inputs_raise_scanmesh_errors():
+    pts = bumpy(8, 0)
+    with pytest.raises(ParameterError, match="p = 1 and p = math.inf"):
+        optimal_surface(pts, p=2)
+    with pytest.raises(ParameterError):
+        optimal_surface(pts, p=0.5)
+    with pytest.raises(ParameterError):
+        brute_force_surface(pts, p=0.5)
+    with pytest.raises(ParameterError):
+        brute_force_surface(pts, p="one")
+    for limit in (0, -1.0, math.nan, "soon"):
+        with pytest.raises(ParameterError, match="time_limit"):
+            optimal_surface(pts, time_limit=limit)
+    line = np.column_stack([np.arange(6.0), 2 * np.arange(6.0), np.zeros(6)])
+    with pytest.raises(DegenerateInputError):
+        optimal_surface(line, plane="z")
+    with pytest.raises(DegenerateInputError):
+        brute_force_surface(line, plane="z")
+    with pytest.raises(ScanmeshError):
+        optimal_surface(np.zeros((5, 2)))
+    with pytest.raises(DegenerateInputError):
+        optimal_surface([[0, 0, 0], [1, 0, 0], [0, 1, math.nan]])
+
+
+def test_the_enumeration_cap_is_an_error_not_a_truncation():
+    pts = convex_polygon(9)  # Catalan(7) = 429 triangulations
+    assert len(triangulations(pts, plane="z", max_count=429)) == 429
+    with pytest.raises(ParameterError, match="max_count"):
+        triangulations(pts, plane="z", max_count=428)
+    with pytest.raises(ParameterError, match="max_count"):
+        brute_force_surface(pts, plane="z", max_triangulations=100)
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ParameterError):
+            triangulations(pts, plane="z", max_count=bad)
+
+
+def test_empty_triangles_refuse_coincident_points():
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 0.0]])
+    with pytest.raises(ParameterError, match="distinct"):
+        _core.empty_triangles(uv)
+
+
+# --- counting triangulations --------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", range(3, 11))
+def test_convex_position_has_catalan_many_triangulations(n):
+    catalan = comb(2 * (n - 2), n - 2) // (n - 1)
+    every = triangulations(convex_polygon(n), plane="z")
+    assert every.shape == (catalan, n - 2, 3)
+    canon = {tuple(sorted(tuple(np.roll(t, -int(np.argmin(t)))) for t in tri)) for tri in every}
+    assert len(canon) == catalan, "duplicates in the enumeration"
+    assert brute_force_surface(convex_polygon(n), plane="z").options["n_triangulations"] == catalan
+
+
+@pytest.mark.parametrize(
+    ("points", "count"),
+    [
+        (grid(2, 2), 2),
+        (grid(3, 2), 6),  # 1 x k lattice rectangles: C(2k, k)
+        (grid(4, 2), 20),
+        (grid(5, 2), 70),
+        (grid(3, 3), 64),  # Kaibel and Ziegler (2003)
+        (grid(4, 3), 852),
+        # A square with its centre: both diagonals pass through it, one triangulation.
+        (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1]], float), 1),
+        # Off-centre interior point: degree 4, or either diagonal with the point beside it.
+        (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.7, 0.4, 1]], float), 3),
+        # Triangle with one interior point: one triangulation; with a point on an edge: one.
+        (np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0], [1, 1, 1]], float), 1),
+        (np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0], [2, 0, 1]], float), 1),
+    ],
+)
+def test_small_configurations_have_their_known_counts(points, count):
+    every = triangulations(points, plane="z")
+    assert len(every) == count
+    for faces in every:
+        assert_full_triangulation(points, faces)
+
+
+# --- the MILP against brute force ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("p", [1, math.inf])
+@pytest.mark.parametrize("n", [4, 5, 6, 7, 8, 9, 10])
+def test_milp_optimum_equals_brute_force(n, p):
+    strictly_better_than_delaunay = 0
+    for seed in range(6):
+        pts = bumpy(n, 100 * n + seed)
+        exact = optimal_surface(pts, p=p, plane="z")
+        brute = brute_force_surface(pts, p=p, plane="z")
+        value, truth = exact.quality.tac_norm(p), brute.quality.tac_norm(p)
+        assert close(value, truth), (n, seed, value, truth)
+        assert exact.certified is True and 0.0 <= exact.gap <= MIP_REL_GAP
+        assert brute.certified is True and brute.gap == 0.0
+        assert_full_triangulation(pts, exact.faces)
+        assert_full_triangulation(pts, brute.faces)
+        # The brute force optimum really is the minimum over its own list.
+        d = scanmesh.delaunay(pts, plane="z", max_edge=math.inf)
+        assert value <= d.quality.tac_norm(p) * (1 + 4 * MIP_REL_GAP) + 1e-12
+        strictly_better_than_delaunay += value < d.quality.tac_norm(p) - 1e-9
+    if n >= 7:
+        assert strictly_better_than_delaunay >= 2, "instances too easy to test anything"
+
+
+def test_brute_force_takes_any_p_and_is_the_minimum_of_all():
+    pts = bumpy(8, 7)
+    every = triangulations(pts, plane="z")
+    for p in (1, 2, 3.5, math.inf):
+        values = [scanmesh.quality(pts, f).tac_norm(p) for f in every]
+        best = brute_force_surface(pts, p=p, plane="z")
+        assert math.isclose(best.quality.tac_norm(p), min(values), rel_tol=1e-12, abs_tol=1e-15)
+    assert len(set(np.round(values, 12))) > 10, "tac should vary between triangulations"
+
+
+def test_collinear_hull_points_are_boundary_vertices():
+    # 3 x 4 lattice with random heights: 2 interior vertices, 10 on the hull (6 collinear
+    # with hull edges), 852 triangulations.
+    for seed in range(3):
+        pts = grid(4, 3, seed)
+        for p in (1, math.inf):
+            exact = optimal_surface(pts, p=p, plane="z")
+            brute = brute_force_surface(pts, p=p, plane="z")
+            assert exact.quality.n_interior == 2
+            assert exact.options["interior_vertices"] == 2
+            assert close(exact.quality.tac_norm(p), brute.quality.tac_norm(p))
+            assert_full_triangulation(pts, exact.faces)
+
+
+def test_no_interior_vertex_means_zero():
+    exact = optimal_surface(convex_polygon(7), plane="z")
+    assert exact.certified and exact.quality.n_interior == 0 and exact.quality.tac_1 == 0.0
+    assert_full_triangulation(convex_polygon(7), exact.faces)
+
+
+def test_flat_points_have_zero_optimum():
+    pts = bumpy(15, 3)
+    pts[:, 2] = 0.25
+    exact = optimal_surface(pts, plane="z")
+    assert exact.certified and exact.quality.tac_1 < 1e-12
+
+
+def test_coincident_points_are_merged_as_delaunay_does():
+    pts = bumpy(9, 5)
+    doubled = np.vstack([pts, pts[[2]] + [0, 0, 0.1], pts[[6]]])
+    with pytest.warns(CoincidentPointsWarning):
+        exact = optimal_surface(doubled, plane="z")
+    with pytest.warns(CoincidentPointsWarning):
+        brute = brute_force_surface(doubled, plane="z")
+    assert exact.duplicates.tolist() == [[9, 2], [10, 6]]
+    assert brute.duplicates.tolist() == [[9, 2], [10, 6]]
+    assert not np.isin(exact.faces, [9, 10]).any()
+    reference = brute_force_surface(pts, plane="z")
+    assert close(exact.quality.tac_1, reference.quality.tac_1)
+    assert close(brute.quality.tac_1, reference.quality.tac_1)
+
+
+def test_other_planes_and_the_result_record():
+    pts = bumpy(9, 21)[:, [2, 0, 1]]  # the height is now along x
+    exact = optimal_surface(pts, plane="x")
+    brute = brute_force_surface(pts, plane="x")
+    assert close(exact.quality.tac_1, brute.quality.tac_1)
+    assert_full_triangulation(pts, exact.faces, plane="x")
+    assert exact.method == "optimal" and brute.method == "brute-force"
+    assert exact.vertices is not pts and np.array_equal(exact.vertices, pts)
+    assert exact.faces.dtype == np.int64 and exact.faces.shape == (
+        2 * 9 - 2 - len(ConvexHull(scanmesh.project(pts, "x")[0]).vertices),
+        3,
+    )
+    for key in ("candidate_triangles", "lower_bound", "status", "nodes", "interior_vertices"):
+        assert key in exact.options
+    assert set(exact.timings) >= {"empty_triangles", "solve"}
+    default = optimal_surface(bumpy(9, 21))  # best-fit plane
+    assert default.certified
+
+
+def test_time_limit_gives_an_honest_uncertified_triangulation():
+    pts = bumpy(45, 4)
+    result = optimal_surface(pts, plane="z", time_limit=0.2)
+    assert result.certified is False
+    assert 0.0 < result.gap <= 1.0
+    assert_full_triangulation(pts, result.faces)
+    bound = result.options["lower_bound"]
+    assert bound <= result.quality.tac_1
+    assert math.isclose(result.gap, (result.quality.tac_1 - bound) / result.quality.tac_1)
+
+
+# --- heuristics against the optimum -------------------------------------------------------
+
+
+def test_optimum_is_never_worse_than_delaunay():
+    for seed in range(5):
+        pts = bumpy(12, 800 + seed)
+        exact = optimal_surface(pts, plane="z")
+        assert exact.certified
+        d = scanmesh.delaunay(pts, plane="z", max_edge=math.inf)
+        assert exact.quality.tac_1 <= d.quality.tac_1 * (1 + 4 * MIP_REL_GAP)
+
+
+@pytest.mark.parametrize("p", [1, math.inf])
+def test_optimum_is_never_worse_than_lop_or_annealing(p):
+    worse = {"lop": 0, "anneal": 0}
+    for seed in range(8):
+        pts = bumpy(12, 900 + seed)
+        exact = optimal_surface(pts, p=p, plane="z")
+        assert exact.certified
+        best = exact.quality.tac_norm(p)
+        for method in worse:
+            heuristic = scanmesh.reconstruct(pts, method, plane="z", max_edge=math.inf, seed=seed)
+            assert_full_triangulation(pts, heuristic.faces)
+            value = heuristic.quality.tac_norm(p)
+            assert best <= value * (1 + 4 * MIP_REL_GAP) + 1e-12, (method, seed, best, value)
+            worse[method] += value > best * (1 + 1e-6)
+    # LOP is a local optimum: it should stop above the certified optimum somewhere.
+    assert worse["lop"] >= 1
