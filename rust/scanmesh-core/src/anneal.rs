@@ -9,7 +9,7 @@
 use crate::delaunay::NONE;
 use crate::lop::{lop, TacLop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
-use crate::tac_state::TacState;
+use crate::tac_state::{Detail, TacState};
 use crate::{Error, Result};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -169,7 +169,7 @@ pub struct Annealer {
 impl Annealer {
     /// Starts a run from `state`; calibrates T0 from `calibration_samples` random proposals.
     /// O(calibration_samples + m).
-    pub fn new(state: TacState, params: AnnealParams) -> Result<Self> {
+    pub fn new(mut state: TacState, params: AnnealParams) -> Result<Self> {
         params.check()?;
         if state.p() != params.p {
             return Err(Error::InvalidParameter {
@@ -186,7 +186,7 @@ impl Annealer {
         if n_interior_half_edges > 0 {
             for _ in 0..params.calibration_samples {
                 let h = random_interior_half_edge(&mut rng, &state, n_half_edges);
-                if let Some(mv) = state.evaluate(h) {
+                if let Some(mv) = state.evaluate(h, Detail::Energy) {
                     if !order.is_tie(&mv) && mv.delta_energy > 0.0 {
                         uphill.push(mv.delta_energy);
                     }
@@ -286,7 +286,7 @@ impl Annealer {
     fn propose(&mut self) {
         self.proposed += 1;
         let h = random_interior_half_edge(&mut self.rng, &self.state, self.n_half_edges);
-        let Some(mv) = self.state.evaluate(h) else {
+        let Some(mv) = self.state.evaluate(h, Detail::Energy) else {
             return;
         };
         // Ties are accepted freely: tac is blind on flat and developable parts, and the

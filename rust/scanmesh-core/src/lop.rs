@@ -6,7 +6,7 @@
 use crate::delaunay::NONE;
 use crate::geometry::planar_smallest_angle;
 use crate::mesh::{next, prev, HalfEdgeMesh};
-use crate::tac_state::{FlipMove, TacState};
+use crate::tac_state::{Detail, FlipMove, TacState};
 
 /// Smallest improvement in a smallest angle (radians) that counts: below it, rounding could
 /// make both diagonals of a cocircular quadrilateral look better than the other, and loop.
@@ -91,7 +91,7 @@ impl FlipSearch for TacLop<'_> {
         self.state.mesh()
     }
     fn flip_if_better(&mut self, h: u32) -> bool {
-        match self.state.evaluate(h) {
+        match self.state.evaluate(h, Detail::Shape) {
             Some(mv) if self.order.improves(&mv) => {
                 self.state.apply(&mv);
                 true
@@ -220,7 +220,7 @@ mod tests {
         let scratch = st.energy_from_scratch();
         assert!((st.energy() - scratch).abs() < 1e-9 * scratch);
         for h in st.mesh().interior_edges() {
-            if let Some(mv) = st.evaluate(h) {
+            if let Some(mv) = st.evaluate(h, Detail::Shape) {
                 assert!(!order.improves(&mv), "edge {h} still improves: {mv:?}");
             }
         }

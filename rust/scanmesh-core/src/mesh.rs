@@ -201,7 +201,10 @@ impl HalfEdgeMesh {
     /// One half-edge per interior edge (both sides have a triangle). O(m).
     pub fn interior_edges(&self) -> Vec<u32> {
         (0..self.start.len() as u32)
-            .filter(|&h| h < self.twin[h as usize])
+            .filter(|&h| {
+                let t = self.twin[h as usize];
+                t != NONE && h < t
+            })
             .collect()
     }
 
@@ -562,6 +565,10 @@ mod tests {
     fn delaunay_mesh_is_valid() {
         let (uv, mesh) = delaunay_mesh(300, 1);
         mesh.validate(&uv).unwrap();
+        let interior = mesh.interior_edges();
+        assert!(interior.iter().all(|&h| mesh.twin(h) != NONE));
+        let boundary = mesh.edges().filter(|&h| mesh.twin(h) == NONE).count();
+        assert_eq!(interior.len() + boundary, mesh.edges().count());
         let interior = (0..300).filter(|&v| mesh.is_interior(v)).count();
         assert!(interior > 200 && interior < 300);
     }

@@ -4,10 +4,15 @@
 //! corner angles at v and `f(S) = |2π − S|^p` (p ≥ 1; p = 1 is the tac 1-norm). Corner
 //! angles are cached per half-edge slot and angle sums per vertex, so a proposed flip
 //! computes only the six corner angles of its two new triangles and changes the energy of
-//! its four corners alone. Both annealing and LOP use this one state.
+//! its four corners alone. Flips of coplanar quadrilaterals (flat parts of a scan) change
+//! no angle sum, so they are applied without computing any angle: their six corner slots are
+//! marked stale (NaN) and recomputed only when a later evaluation reads them. Both annealing
+//! and LOP use this one state.
 
-use crate::delaunay::NONE;
+use crate::delaunay::{unit_square, NONE};
 use crate::geometry::triangle_angles;
+use crate::geometry::Normalizer;
+use crate::locality::Relabel;
 use crate::mesh::{next, prev, HalfEdgeMesh};
 use crate::{Error, Result};
 use glam::DVec3;
@@ -18,16 +23,34 @@ use std::f64::consts::TAU;
 pub struct FlipMove {
     /// The interior half-edge to flip.
     pub h: u32,
-    /// Energy after minus energy before.
+    /// Energy after minus energy before (exactly 0 for a coplanar quadrilateral).
     pub delta_energy: f64,
     /// Corner angles (radians) of the two new triangles in slot order h, next(h), prev(h),
-    /// t, next(t), prev(t) as [`HalfEdgeMesh::flip`] rewrites them.
+    /// t, next(t), prev(t) as [`HalfEdgeMesh::flip`] rewrites them; NaN when not computed
+    /// (a coplanar flip evaluated without [`Detail::Shape`]).
     pub new_angles: [f64; 6],
-    /// Smallest 3-D angle of the two triangles before the flip (radians).
+    /// Smallest 3-D angle of the two triangles before the flip (radians; NaN if not computed).
     pub old_min_angle: f64,
-    /// Smallest 3-D angle of the two triangles after the flip (radians).
+    /// Smallest 3-D angle of the two triangles after the flip (radians; NaN if not computed).
     pub new_min_angle: f64,
+    /// The four corners are coplanar: angle sums cannot change, the move is an exact tie.
+    pub coplanar: bool,
 }
+
+/// How much a caller needs to know about a move.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Detail {
+    /// The energy change only: coplanar moves skip every angle (annealing).
+    Energy,
+    /// Also the smallest angles before and after (tie-breaking in the polish).
+    Shape,
+}
+
+/// Four points count as coplanar when the volume of their tetrahedron is below this times
+/// the cube of the longest edge from the first: out-of-plane offsets of 1e-13 relative
+/// change angle sums far below the tie tolerance. Scans of machined parts are mostly flat,
+/// and there every flip is such an exact tie.
+pub const COPLANAR_RELATIVE: f64 = 1e-13;
 
 /// Mesh, positions and the caches that make a flip's energy change O(1).
 #[derive(Debug, Clone)]
@@ -40,6 +63,19 @@ pub struct TacState {
     interior: Vec<bool>,
     p: f64,
     energy: f64,
+}
+
+/// True when the tetrahedron (a, b, c, d) is flat relative to its size (see
+/// [`COPLANAR_RELATIVE`]). O(1).
+#[inline]
+pub fn is_coplanar(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> bool {
+    let (u, v, w) = (b - a, c - a, d - a);
+    let volume6 = u.dot(v.cross(w)).abs();
+    let longest = u
+        .length_squared()
+        .max(v.length_squared())
+        .max(w.length_squared());
+    volume6 <= COPLANAR_RELATIVE * longest * longest.sqrt()
 }
 
 /// Energy contribution `|2π − S|^p` of an interior vertex with angle sum `s`. O(1).
@@ -104,12 +140,55 @@ impl TacState {
         Ok(state)
     }
 
+    /// Builds the state from input-ordered data: normalizes positions (scale-free), checks that
+    /// `triangles` form a valid planar triangulation of `uv`, and relabels everything in
+    /// Z-order for memory locality. Map results back with the returned [`Relabel`].
+    /// O(m log m).
+    pub fn from_input(
+        points: &[DVec3],
+        uv: &[[f64; 2]],
+        triangles: &[[u32; 3]],
+        p: f64,
+    ) -> Result<(Self, Relabel)> {
+        crate::geometry::check_finite(points)?;
+        if points.len() != uv.len() {
+            return Err(Error::InvalidParameter {
+                name: "positions",
+                value: format!("{} points and {} planar positions", points.len(), uv.len()),
+                expected: "one planar position per point",
+            });
+        }
+        crate::criteria::check_faces(points.len(), triangles)?;
+        let relabel = Relabel::morton(uv);
+        let unit_uv = relabel.vertices(&unit_square(uv));
+        let unit_xyz = relabel.vertices(&Normalizer::fit(points).apply_all(points));
+        let mesh =
+            HalfEdgeMesh::from_triangles(points.len(), &relabel.triangles_to_local(triangles))?;
+        mesh.validate(&unit_uv)?;
+        Ok((TacState::new(mesh, unit_uv, unit_xyz, p)?, relabel))
+    }
+
     /// Angle sum around `v` from the corner cache, walking its fan. O(degree).
-    fn fan_sum(&self, v: u32) -> f64 {
+    fn fan_sum(&mut self, v: u32) -> f64 {
         if !self.mesh.is_used(v) {
             return 0.0;
         }
-        self.mesh.fan(v).map(|h| self.corner[h as usize]).sum()
+        let mut total = 0.0;
+        let first = self
+            .mesh
+            .fan(v)
+            .next()
+            .expect("a used vertex has a half-edge");
+        let mut h = first;
+        loop {
+            let k = (h % 3) as usize;
+            total += self.fresh_corners((h / 3) as usize)[k];
+            h = self.mesh.twin(prev(h));
+            if h == NONE || h == first {
+                break;
+            }
+        }
+        total
     }
 
     /// The triangulation. O(1).
@@ -171,54 +250,88 @@ impl TacState {
             .count()
     }
 
-    /// Evaluates flipping `h`: `None` when it is a boundary edge or its quadrilateral is not
-    /// strictly convex in the plane. O(1): two exact orientations and six corner angles.
+    /// The three corner angles of triangle `t`, recomputing them if a coplanar flip left
+    /// them stale. O(1).
     #[inline]
-    pub fn evaluate(&self, h: u32) -> Option<FlipMove> {
+    fn fresh_corners(&mut self, t: usize) -> [f64; 3] {
+        let k = &mut self.corner[3 * t..3 * t + 3];
+        if k[0].is_nan() {
+            let [a, b, c] = self.mesh.triangle(t).map(|v| self.xyz[v as usize]);
+            k.copy_from_slice(&triangle_angles(a, b, c));
+        }
+        [k[0], k[1], k[2]]
+    }
+
+    /// Evaluates flipping `h`: `None` when it is a boundary edge or its quadrilateral is not
+    /// strictly convex in the plane. O(1): two orientations, a triple product and, unless the
+    /// quadrilateral is coplanar and `detail` is `Energy`, six corner angles.
+    #[inline]
+    pub fn evaluate(&mut self, h: u32, detail: Detail) -> Option<FlipMove> {
         if !self.mesh.can_flip(h, &self.uv) {
             return None;
         }
         let t = self.mesh.twin(h);
         let [a, b, c, d] = self.mesh.quad(h, t);
         let [pa, pb, pc, pd] = [a, b, c, d].map(|v| self.xyz[v as usize]);
+        let coplanar = is_coplanar(pa, pb, pc, pd);
+        if coplanar && detail == Detail::Energy {
+            let nan = f64::NAN;
+            return Some(FlipMove {
+                h,
+                delta_energy: 0.0,
+                new_angles: [nan; 6],
+                old_min_angle: nan,
+                new_min_angle: nan,
+                coplanar,
+            });
+        }
         let [d0, c0, a0] = triangle_angles(pd, pc, pa);
         let [c1, d1, b1] = triangle_angles(pc, pd, pb);
         let new_angles = [d0, c0, a0, c1, d1, b1];
-        let (h1, h2, t1, t2) = (next(h), prev(h), next(t), prev(t));
-        let k = &self.corner;
+        let (ko, kt) = (
+            self.fresh_corners((h / 3) as usize),
+            self.fresh_corners((t / 3) as usize),
+        );
+        // Slot order within each triangle starts at its first slot; rotate to h and t.
+        let (oh, ot) = ((h % 3) as usize, (t % 3) as usize);
         let old = [
-            k[h as usize],
-            k[h1 as usize],
-            k[h2 as usize],
-            k[t as usize],
-            k[t1 as usize],
-            k[t2 as usize],
+            ko[oh],
+            ko[(oh + 1) % 3],
+            ko[(oh + 2) % 3],
+            kt[ot],
+            kt[(ot + 1) % 3],
+            kt[(ot + 2) % 3],
         ];
-        let deltas = [
-            (a, a0 - (old[0] + old[4])),
-            (b, b1 - (old[1] + old[3])),
-            (c, c0 + c1 - old[2]),
-            (d, d0 + d1 - old[5]),
-        ];
+        let min6 = |x: [f64; 6]| x.iter().copied().fold(f64::INFINITY, f64::min);
         let mut delta_energy = 0.0;
-        for (v, delta) in deltas {
-            if self.interior[v as usize] {
-                let s = self.sum[v as usize];
-                delta_energy += vertex_energy(s + delta, self.p) - vertex_energy(s, self.p);
+        if !coplanar {
+            let deltas = [
+                (a, a0 - (old[0] + old[4])),
+                (b, b1 - (old[1] + old[3])),
+                (c, c0 + c1 - old[2]),
+                (d, d0 + d1 - old[5]),
+            ];
+            for (v, delta) in deltas {
+                if self.interior[v as usize] {
+                    let s = self.sum[v as usize];
+                    delta_energy += vertex_energy(s + delta, self.p) - vertex_energy(s, self.p);
+                }
             }
         }
-        let min6 = |x: [f64; 6]| x.iter().copied().fold(f64::INFINITY, f64::min);
         Some(FlipMove {
             h,
             delta_energy,
             new_angles,
             old_min_angle: min6(old),
             new_min_angle: min6(new_angles),
+            coplanar,
         })
     }
 
-    /// Applies an evaluated move: flips, writes the six new corner angles, re-sums the four
-    /// touched vertices from their fans (so sums never drift) and updates the energy. O(degree).
+    /// Applies an evaluated move: flips and writes the six new corner angles (or marks them
+    /// stale for a coplanar move, whose angle sums and energy do not change); otherwise
+    /// re-sums the four touched vertices from their fans (so sums never drift) and updates
+    /// the energy. O(1) coplanar, O(degree) otherwise.
     pub fn apply(&mut self, mv: &FlipMove) {
         let h = mv.h;
         let t = self.mesh.twin(h);
@@ -229,6 +342,9 @@ impl TacState {
             .zip(mv.new_angles)
         {
             self.corner[slot as usize] = angle;
+        }
+        if mv.coplanar {
+            return;
         }
         for v in quad {
             self.sum[v as usize] = self.fan_sum(v);
@@ -249,6 +365,19 @@ pub(crate) mod tests {
 
     /// A bumpy height field sampled at random planar points.
     pub(crate) fn bumpy_state(n: usize, seed: u64, p: f64) -> TacState {
+        height_state(n, seed, p, |x, y| {
+            0.3 * (6.0 * x).sin() * (4.0 * y).cos() + 0.2 * x * x
+        })
+    }
+
+    /// Mostly flat: a plateau with one smooth bump, so most flips are coplanar ties.
+    pub(crate) fn plateau_state(n: usize, seed: u64, p: f64) -> TacState {
+        height_state(n, seed, p, |x, y| {
+            (0.04 - (x - 0.5).powi(2) - (y - 0.5).powi(2)).max(0.0)
+        })
+    }
+
+    fn height_state(n: usize, seed: u64, p: f64, f: impl Fn(f64, f64) -> f64) -> TacState {
         let mut s = seed;
         let mut rnd = || {
             s = s
@@ -259,13 +388,7 @@ pub(crate) mod tests {
         let uv: Vec<[f64; 2]> = (0..n).map(|_| [rnd(), rnd()]).collect();
         let xyz: Vec<DVec3> = uv
             .iter()
-            .map(|q| {
-                DVec3::new(
-                    q[0],
-                    q[1],
-                    0.3 * (6.0 * q[0]).sin() * (4.0 * q[1]).cos() + 0.2 * q[0] * q[0],
-                )
-            })
+            .map(|q| DVec3::new(q[0], q[1], f(q[0], q[1])))
             .collect();
         let uv = unit_square(&uv);
         let d = delaunay(&uv).unwrap();
@@ -282,7 +405,7 @@ pub(crate) mod tests {
             let edges = st.mesh().interior_edges();
             let mut applied = 0;
             for &h in edges.iter().take(400) {
-                if let Some(mv) = st.evaluate(h) {
+                if let Some(mv) = st.evaluate(h, Detail::Energy) {
                     let before = st.energy_from_scratch();
                     st.apply(&mv);
                     let after = st.energy_from_scratch();
@@ -305,13 +428,55 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn coplanar_moves_skip_angles_and_stale_corners_stay_exact() {
+        let mut st = plateau_state(600, 6, 1.0);
+        let edges = st.mesh().interior_edges();
+        let (mut flat, mut curved) = (0, 0);
+        for round in 0..3 {
+            for &h in &edges {
+                if let Some(mv) = st.evaluate(h, Detail::Energy) {
+                    if mv.coplanar {
+                        assert_eq!(mv.delta_energy, 0.0);
+                        assert!(mv.new_angles.iter().all(|a| a.is_nan()));
+                        flat += 1;
+                    } else {
+                        curved += 1;
+                    }
+                    // Flip everything legal: chains of coplanar flips leave stale corners
+                    // that later non-coplanar moves must recompute.
+                    if round < 2 || !mv.coplanar {
+                        st.apply(&mv);
+                    }
+                }
+            }
+            let scratch = st.energy_from_scratch();
+            assert!(
+                (st.energy() - scratch).abs() <= 1e-9 * scratch,
+                "{} vs {scratch}",
+                st.energy()
+            );
+            st.mesh().validate(st.uv()).unwrap();
+        }
+        assert!(flat > 1000 && curved > 50, "flat {flat}, curved {curved}");
+        // A shape evaluation of a coplanar move computes its angles and is still a tie.
+        let mv = edges
+            .iter()
+            .find_map(|&h| st.evaluate(h, Detail::Shape).filter(|m| m.coplanar))
+            .unwrap();
+        assert!(mv.new_min_angle > 0.0 && mv.delta_energy == 0.0);
+    }
+
+    #[test]
     fn boundary_and_reflex_edges_are_not_moves() {
-        let st = bumpy_state(100, 5, 1.0);
+        let mut st = bumpy_state(100, 5, 1.0);
         for h in 0..st.mesh().n_half_edges() as u32 {
             if st.mesh().twin(h) == NONE {
-                assert!(st.evaluate(h).is_none());
+                assert!(st.evaluate(h, Detail::Energy).is_none());
             } else {
-                assert_eq!(st.evaluate(h).is_some(), st.mesh().can_flip(h, st.uv()));
+                assert_eq!(
+                    st.evaluate(h, Detail::Energy).is_some(),
+                    st.mesh().can_flip(h, st.uv())
+                );
             }
         }
     }

@@ -12,6 +12,7 @@ use scanmesh_core::delaunay::NONE;
 use scanmesh_core::fuchs::{Solver, Weight};
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::lines;
+use scanmesh_core::locality::Relabel;
 use scanmesh_core::lop::{lop as run_lop, PlanarMaxMinLop, TacLop, TacOrder};
 use scanmesh_core::mesh::HalfEdgeMesh;
 use scanmesh_core::projection::{self, Plane};
@@ -267,23 +268,11 @@ fn tac_state(
     uv: &PyReadonlyArray2<'_, f64>,
     faces_: &PyReadonlyArray2<'_, i64>,
     p: f64,
-) -> PyResult<TacState> {
+) -> PyResult<(TacState, Relabel)> {
     let xyz = points3(points)?;
     let plane = points2(uv)?;
-    if xyz.len() != plane.len() {
-        return Err(ScanmeshError::new_err(format!(
-            "{} points but {} planar positions",
-            xyz.len(),
-            plane.len()
-        )));
-    }
-    scanmesh_core::geometry::check_finite(&xyz).map_err(to_py)?;
     let t = faces(faces_, xyz.len())?;
-    let unit_uv = scanmesh_core::delaunay::unit_square(&plane);
-    let unit_xyz = scanmesh_core::geometry::Normalizer::fit(&xyz).apply_all(&xyz);
-    let mesh = HalfEdgeMesh::from_triangles(xyz.len(), &t).map_err(to_py)?;
-    mesh.validate(&unit_uv).map_err(to_py)?;
-    TacState::new(mesh, unit_uv, unit_xyz, p).map_err(to_py)
+    TacState::from_input(&xyz, &plane, &t, p).map_err(to_py)
 }
 
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
@@ -302,7 +291,7 @@ fn lop<'py>(
     sliver_guard: bool,
     tie_tolerance: f64,
 ) -> PyResult<(Ints2<'py>, usize)> {
-    let mut state = tac_state(&points, &uv, &faces_, p)?;
+    let (mut state, relabel) = tac_state(&points, &uv, &faces_, p)?;
     let (mesh, flips) = match criterion {
         "tac" => {
             if !(tie_tolerance >= 0.0 && tie_tolerance.is_finite()) {
@@ -343,7 +332,10 @@ fn lop<'py>(
             )))
         }
     };
-    Ok((faces_out(py, &mesh.triangles()), flips))
+    Ok((
+        faces_out(py, &relabel.triangles_to_input(&mesh.triangles())),
+        flips,
+    ))
 }
 
 /// A resumable simulated-annealing run (see `scanmesh_core::anneal`). Python drives it in
@@ -351,6 +343,8 @@ fn lop<'py>(
 #[pyclass(module = "scanmesh._core")]
 struct Annealer {
     inner: Option<sa::Annealer>,
+    /// Maps the run's Z-ordered vertex labels back to the caller's indices.
+    relabel: Relabel,
 }
 
 impl Annealer {
@@ -395,11 +389,14 @@ impl Annealer {
             calibration_samples,
         };
         params.check().map_err(to_py)?;
-        let state = tac_state(&points, &uv, &faces, p)?;
+        let (state, relabel) = tac_state(&points, &uv, &faces, p)?;
         let inner = py
             .detach(|| sa::Annealer::new(state, params))
             .map_err(to_py)?;
-        Ok(Annealer { inner: Some(inner) })
+        Ok(Annealer {
+            inner: Some(inner),
+            relabel,
+        })
     }
 
     /// Runs at most `max_proposals` proposals, and for about `max_seconds` at most, without
@@ -466,7 +463,7 @@ impl Annealer {
         summary.set_item("polish_flips", r.polish_flips)?;
         summary.set_item("stopped_early", r.stopped_early)?;
         Ok((
-            faces_out(py, &r.mesh.triangles()),
+            faces_out(py, &self.relabel.triangles_to_input(&r.mesh.triangles())),
             trace_out(py, &r.trace),
             summary,
         ))
