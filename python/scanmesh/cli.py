@@ -495,8 +495,17 @@ def cmd_simulate(args: argparse.Namespace, con: _Console) -> int:
     write_points(out, points, line_ids, protect=[mesh])
     n_lines = int(line_ids.max()) + 1 if len(line_ids) else 0
     if con.json:
-        print(_dumps({"mesh": str(mesh), "output": str(out), "points": len(points),
-                      "lines": n_lines, "time_s": elapsed}))
+        print(
+            _dumps(
+                {
+                    "mesh": str(mesh),
+                    "output": str(out),
+                    "points": len(points),
+                    "lines": n_lines,
+                    "time_s": elapsed,
+                }
+            )
+        )
     else:
         con.out(f"wrote {out}: {len(points):,} points on {n_lines:,} lines ({elapsed:.2f} s)")
     return 0
@@ -631,9 +640,19 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
         row.update({k: err[k] for k in ("h_rms", "h_max")})
         results[name] = row
     if con.json:
-        print(_dumps({"points": len(points), "lines": int(line_ids.max()) + 1,
-                      "plane": plane, "seed": 0, "methods": results,
-                      "height_error": MEASURE, "files": [str(mesh_path), str(png_path)]}))
+        print(
+            _dumps(
+                {
+                    "points": len(points),
+                    "lines": int(line_ids.max()) + 1,
+                    "plane": plane,
+                    "seed": 0,
+                    "methods": results,
+                    "height_error": MEASURE,
+                    "files": [str(mesh_path), str(png_path)],
+                }
+            )
+        )
         return 0
     d, a = results["delaunay"], results["anneal"]
     rows = [
@@ -650,9 +669,7 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
     con.out(f"{'':<24}{'Delaunay':>12}{'annealed':>12}")
     for label, spec, key in rows:
         scale = 100 if key == "sliver_fraction" else 1
-        con.out(
-            f"{label:<24}{spec.format(d[key] * scale):>12}{spec.format(a[key] * scale):>12}"
-        )
+        con.out(f"{label:<24}{spec.format(d[key] * scale):>12}{spec.format(a[key] * scale):>12}")
     con.out(
         f"tac_1 {d['tac_1'] / a['tac_1']:.1f} times smaller after annealing"
         f" (1,000 sweeps, seed 0); height error: closest-point distance to the CAD model"
@@ -672,7 +689,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument(
-        "-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+        "-q",
+        "--quiet",
+        action="store_true",
+        default=argparse.SUPPRESS,
         help="no progress bars or remarks (bars show only on a terminal anyway)",
     )
     with_json = argparse.ArgumentParser(add_help=False)
@@ -681,17 +701,26 @@ def build_parser() -> argparse.ArgumentParser:
     )
     shape = argparse.ArgumentParser(add_help=False)
     shape.add_argument(
-        "--plane", type=_plane, default=None, metavar="P",
+        "--plane",
+        type=_plane,
+        default=None,
+        metavar="P",
         help="projection plane: best-fit (default), x, y, z or a normal vector nx,ny,nz",
     )
     shape.add_argument(
-        "--max-edge", type=_max_edge, default=None, metavar="L",
+        "--max-edge",
+        type=_max_edge,
+        default=None,
+        metavar="L",
         help="drop Delaunay triangles with a longer planar edge (default 5 x median spacing;"
         " inf keeps the convex hull)",
     )
     shape.add_argument("--seed", type=_count, default=0, metavar="S", help="random seed (0)")
     shape.add_argument(
-        "--sweeps", type=_count, default=None, metavar="N",
+        "--sweeps",
+        type=_count,
+        default=None,
+        metavar="N",
         help="annealing sweeps (default 1000; a sweep proposes one flip per interior edge)",
     )
 
@@ -706,7 +735,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     p = sub.add_parser(
-        "reconstruct", parents=[common, with_json, shape],
+        "reconstruct",
+        parents=[common, with_json, shape],
         help="triangulate a scan file and write the mesh",
         description="Read scan points (XYZ, CSV, PLY, NPY, VTK, DEM, LAS), triangulate them and"
         " write the mesh by its file ending (.stl, .ply, .obj, .off).",
@@ -719,7 +749,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_reconstruct, _parser=p)
 
     p = sub.add_parser(
-        "compare", parents=[common, with_json, shape],
+        "compare",
+        parents=[common, with_json, shape],
         help="run several methods on one scan; print one table",
         description="Run each method on the same points and print time and quality side by"
         " side; with --truth also the distance of each mesh to the true surface (closest-point"
@@ -728,7 +759,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", metavar="IN", help="scan file")
     p.add_argument("--truth", metavar="MESH", help="the true surface (a CAD mesh file)")
     p.add_argument(
-        "--methods", nargs="+", choices=METHODS, metavar="M",
+        "--methods",
+        nargs="+",
+        choices=METHODS,
+        metavar="M",
         help=f"methods to run (default: {' '.join(COMPARE_METHODS)}; choices:"
         f" {', '.join(METHODS)})",
     )
@@ -736,7 +770,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_compare, _parser=p)
 
     p = sub.add_parser(
-        "simulate", parents=[common, with_json],
+        "simulate",
+        parents=[common, with_json],
         help="scan a mesh with a virtual line digitizer",
         description="Cast parallel lines of rays onto a mesh (first hits, like a line"
         " digitizer) and write the points as XYZ text with the scan line as 4th column.",
@@ -752,7 +787,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--line-spacing", type=_positive, metavar="L", help="distance between lines")
     p.add_argument(
-        "--noise", type=_non_negative, default=0.0, metavar="SIGMA",
+        "--noise",
+        type=_non_negative,
+        default=0.0,
+        metavar="SIGMA",
         help="Gaussian noise along the rays (model units, 0)",
     )
     p.add_argument("--table", action="store_true", help="rays that miss hit the table")
@@ -760,18 +798,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate, _parser=p)
 
     p = sub.add_parser(
-        "info", parents=[common, with_json],
+        "info",
+        parents=[common, with_json],
         help="describe a scan file",
         description="Points, scan lines, extent, median spacing and the share of steep"
         f" Delaunay triangles (normal more than {STEEP_DEG:g} deg from the projection normal).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
-    p.add_argument("--plane", type=_plane, default=None, metavar="P",
-                   help="projection plane (best-fit, x, y, z or nx,ny,nz)")
+    p.add_argument(
+        "--plane",
+        type=_plane,
+        default=None,
+        metavar="P",
+        help="projection plane (best-fit, x, y, z or nx,ny,nz)",
+    )
     p.set_defaults(func=cmd_info, _parser=p)
 
     p = sub.add_parser(
-        "render", parents=[common],
+        "render",
+        parents=[common],
         help="flat-shaded PNG picture of a mesh",
         description="Draw a mesh flat-shaded (each facet visible), seen from the side it faces.",
     )
@@ -784,13 +829,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_render, _parser=p)
 
     p = sub.add_parser(
-        "demo", parents=[common, with_json],
+        "demo",
+        parents=[common, with_json],
         help="anneal the embedded connecting-rod scan",
         description=f"Anneal the embedded scan of a connecting rod (seed 0), write {DEMO_MESH}"
         f" and {DEMO_PREVIEW}, and print its quality next to Delaunay's.",
     )
-    p.add_argument("-o", "--output-dir", default=".", metavar="OUTDIR",
-                   help="folder for the files (default: here)")
+    p.add_argument(
+        "-o",
+        "--output-dir",
+        default=".",
+        metavar="OUTDIR",
+        help="folder for the files (default: here)",
+    )
     p.set_defaults(func=cmd_demo, _parser=p)
     return parser
 

@@ -272,19 +272,23 @@ class TrueSurface:
         if pts.ndim != 2 or pts.shape[1] != 3:
             raise ParameterError(f"points must have shape (N, 3), got {pts.shape}")
         best = np.full(len(pts), np.inf)
-        # pass 1: the point's own cell
+        # pass 1: the point's own cell; a distance within the point's margin to the cell's
+        # walls is final (a closer triangle would come into the cell)
         self._search_cells(pts, np.zeros(len(pts)), best)
+        frac = (pts - self.origin) / self.cell
+        frac -= np.floor(frac)
+        margin = np.minimum(frac, 1.0 - frac).min(axis=1) * self.cell
         # pass 2: every cell within the distance found, or within one cell of an empty one;
         # exact where the distance found is within that reach, as any closer triangle comes
         # within it and so is binned in one of those cells
         reach = np.where(np.isfinite(best), best, self.cell) * (1 + 1e-9)
         cells = (np.ceil(reach / self.cell) * 2 + 2) ** 3  # cells the box may meet
-        near = np.flatnonzero(cells <= MAX_CELLS_PER_QUERY)
+        near = np.flatnonzero((cells <= MAX_CELLS_PER_QUERY) & ~(best <= margin))
         if len(near):
             sub = best[near]
             self._search_cells(pts[near], reach[near], sub)
             best[near] = sub
-        settled = np.zeros(len(pts), dtype=bool)
+        settled = best <= margin
         settled[near] = best[near] <= reach[near]
         # pass 3: far from the surface: the r-tree
         far = np.flatnonzero(~settled)

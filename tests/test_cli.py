@@ -1,0 +1,590 @@
+"""The ``scanmesh`` command, run as users run it (``python -m scanmesh ...`` in a subprocess),
+and the height-error measure (``scanmesh.truth``) that ``scanmesh compare --truth`` prints."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from PIL import Image
+
+from scanmesh.truth import TrueSurface, height_error, point_triangle_distance
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
+needs_conrod = pytest.mark.skipif(not CONROD.is_file(), reason="shared data not present")
+
+QUALITY_KEYS = ("tac_1", "tac_2", "tac_inf", "min_angle_deg", "sliver_fraction")
+COMPARE_KEYS = ("method", "time_s", *QUALITY_KEYS)
+HEIGHT_KEYS = ("h_rms", "h_mean", "h_max")
+
+
+def run(*args: str | os.PathLike, cwd: Path | None = None, timeout: float = 300):
+    """``python -m scanmesh ARGS`` with captured text output."""
+    return subprocess.run(
+        [sys.executable, "-m", "scanmesh", *map(str, args)],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=timeout,
+    )
+
+
+def assert_failed(result, code: int = 1) -> str:
+    """Exit status ``code``; for bad input exactly one line on stderr, and never a traceback."""
+    assert result.returncode == code, (result.stdout, result.stderr)
+    assert "Traceback" not in result.stderr
+    if code == 1:
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("scanmesh: error: "), result.stderr
+        assert result.stdout == ""
+    return result.stderr
+
+
+def grid_scan(nx: int = 20, ny: int = 15) -> tuple[np.ndarray, np.ndarray]:
+    """A paraboloid cap sampled line by line: (N, 3) points and (N,) line ids."""
+    x, y = np.meshgrid(np.linspace(0.0, 1.0, nx), np.linspace(0.0, 0.75, ny))
+    z = 0.3 * (x**2 + y**2)
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    return points, np.repeat(np.arange(ny), nx)
+
+
+def write_xyz(path: Path, points: np.ndarray, line_ids: np.ndarray | None = None) -> Path:
+    cols = points if line_ids is None else np.column_stack([points, line_ids])
+    fmt = ["%.17g"] * 3 + (["%d"] if line_ids is not None else [])
+    np.savetxt(path, cols, fmt=fmt)
+    return path
+
+
+def load_mesh(path: Path) -> trimesh.Trimesh:
+    mesh = trimesh.load_mesh(path, process=False)
+    assert isinstance(mesh, trimesh.Trimesh)
+    assert len(mesh.faces) > 0
+    return mesh
+
+
+def assert_png(path: Path, size: tuple[int, int] | None = None) -> None:
+    assert path.is_file()
+    with Image.open(path) as image:
+        assert image.format == "PNG"
+        if size is not None:
+            assert image.size == size
+
+
+def no_partial_files(folder: Path) -> bool:
+    return not any(p.name.endswith(".part") for p in folder.iterdir())
+
+
+@pytest.fixture(scope="module")
+def scan(tmp_path_factory) -> Path:
+    """A small scan file: 300 points on 15 lines with a line-id column."""
+    folder = tmp_path_factory.mktemp("scan")
+    return write_xyz(folder / "cap.xyz", *grid_scan())
+
+
+@pytest.fixture(scope="module")
+def cap_truth(tmp_path_factory) -> Path:
+    """The paraboloid the small scan samples, finely triangulated (its true surface)."""
+    x, y = np.meshgrid(np.linspace(-0.05, 1.05, 111), np.linspace(-0.05, 0.8, 86))
+    v = np.column_stack([x.ravel(), y.ravel(), 0.3 * (x.ravel() ** 2 + y.ravel() ** 2)])
+    k = np.arange(110 * 85)
+    i, j = k % 110 + (k // 110) * 111, k % 110 + (k // 110) * 111 + 111
+    faces = np.concatenate([np.column_stack([i, i + 1, j]), np.column_stack([i + 1, j + 1, j])])
+    path = tmp_path_factory.mktemp("truth") / "cap.stl"
+    trimesh.Trimesh(v, faces, process=False).export(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def rod_scan(tmp_path_factory) -> Path:
+    """``scanmesh simulate`` of the connecting rod along its thickness axis (about 1,500 points)."""
+    if not CONROD.is_file():
+        pytest.skip("shared data not present")
+    out = tmp_path_factory.mktemp("rod") / "rod.xyz"
+    result = run("simulate", CONROD, "-o", out, "--up", "y", "--along", "x", "--n-points", 1500)
+    assert result.returncode == 0, result.stderr
+    return out
+
+
+# --------------------------------------------------------------------------- usage errors
+
+
+def test_help_and_version():
+    result = run("--help")
+    assert result.returncode == 0
+    for command in ("reconstruct", "compare", "simulate", "info", "render", "demo"):
+        assert command in result.stdout
+    result = run("--version")
+    assert result.returncode == 0 and result.stdout.startswith("scanmesh ")
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        [],
+        ["frobnicate"],
+        ["reconstruct", "scan.xyz"],  # no -o
+        ["reconstruct", "scan.xyz", "-o", "out.stl", "--method", "magic"],
+        ["reconstruct", "scan.xyz", "-o", "out.stl", "--plane", "sideways"],
+        ["reconstruct", "scan.xyz", "-o", "out.stl", "--method", "lop", "--sweeps", "20"],
+        ["simulate", "part.stl", "-o", "s.xyz", "--spacing", "0.1", "--n-points", "100"],
+    ],
+    ids=lambda a: " ".join(a) or "nothing",
+)
+def test_usage_errors_exit_2(args, tmp_path):
+    result = run(*args, cwd=tmp_path)
+    assert_failed(result, code=2)
+    assert "usage:" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize(
+    "name, content",
+    [
+        ("missing.xyz", None),
+        ("empty.xyz", b""),
+        ("words.xyz", b"x y z\nthis is not a scan\n" * 200),
+        ("ragged.xyz", b"0 0 0\n1 0 0\n1 1\n"),
+        ("binary.xyz", bytes(range(256)) * 8),
+        ("points.unknown", b"0 0 0\n1 0 0\n0 1 0\n"),
+        ("line.xyz", b"0 0 0\n1 0 0\n2 0 0\n3 0 0\n"),  # collinear: nothing to triangulate
+    ],
+)
+def test_bad_scan_files_exit_1_with_one_line(name, content, tmp_path):
+    source = tmp_path / name
+    if content is not None:
+        source.write_bytes(content)
+    assert_failed(run("reconstruct", source, "-o", tmp_path / "out.stl", "--sweeps", "20"))
+    assert not (tmp_path / "out.stl").exists()
+    assert no_partial_files(tmp_path)
+
+
+def test_bad_files_for_the_other_commands(tmp_path):
+    junk = tmp_path / "junk.stl"
+    junk.write_bytes(b"solid nothing\nendsolid nothing\n")
+    assert_failed(run("info", tmp_path / "nowhere.xyz"))
+    assert_failed(run("render", junk, "-o", tmp_path / "p.png"))
+    assert_failed(run("simulate", tmp_path / "nowhere.stl", "-o", tmp_path / "s.xyz"))
+    assert_failed(run("compare", tmp_path / "nowhere.xyz", "--methods", "delaunay"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["junk.stl"]
+
+
+def test_unwritable_output_exits_1(scan, tmp_path):
+    message = assert_failed(run("reconstruct", scan, "-o", tmp_path / "no" / "such" / "out.stl"))
+    assert "does not exist" in message
+    message = assert_failed(run("reconstruct", scan, "-o", tmp_path / "out.vrml"))
+    assert ".vrml" in message
+    message = assert_failed(
+        run("reconstruct", scan, "-o", tmp_path / "o.stl", "--preview", "p.jpg")
+    )
+    assert "png" in message.lower()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_reconstruct_refuses_to_overwrite_its_input(tmp_path):
+    points, _ = grid_scan()
+    # a PLY of points is both a scan the readers take and a mesh ending the writer takes
+    cloud = tmp_path / "scan.ply"
+    trimesh.PointCloud(points).export(cloud)
+    before = cloud.read_bytes()
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    for target in (cloud, sub / ".." / "scan.ply"):
+        message = assert_failed(run("reconstruct", cloud, "-o", target, "--method", "delaunay"))
+        assert "input" in message
+    os.symlink(cloud, tmp_path / "alias.ply")
+    assert_failed(run("reconstruct", cloud, "-o", tmp_path / "alias.ply", "--method", "delaunay"))
+    # the report and the preview may not name the input either
+    assert_failed(
+        run(
+            "reconstruct",
+            cloud,
+            "-o",
+            tmp_path / "m.stl",
+            "--report",
+            cloud,
+            "--method",
+            "delaunay",
+        )
+    )
+    assert cloud.read_bytes() == before
+    assert not (tmp_path / "m.stl").exists()
+    assert no_partial_files(tmp_path)
+
+
+# --------------------------------------------------------------------------- reconstruct
+
+
+def test_reconstruct_writes_mesh_report_and_preview(scan, tmp_path):
+    out, report, preview = tmp_path / "cap.stl", tmp_path / "cap.json", tmp_path / "cap.png"
+    result = run(
+        "reconstruct",
+        scan,
+        "-o",
+        out,
+        "--sweeps",
+        20,
+        "--seed",
+        3,
+        "--report",
+        report,
+        "--preview",
+        preview,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "anneal" in result.stdout and "tac_1" in result.stdout
+    mesh = load_mesh(out)
+    data = json.loads(report.read_text())
+    assert data["method"] == "anneal"
+    assert data["options"]["sweeps"] == 20 and data["options"]["seed"] == 3
+    assert set(QUALITY_KEYS) <= set(data["quality"])
+    assert data["counts"]["points"] == 300 and data["counts"]["lines"] == 15
+    assert data["counts"]["faces"] == len(mesh.faces)
+    assert data["time_s"] > 0 and "read" in data["timings"]
+    assert_png(preview)
+    assert no_partial_files(tmp_path)
+
+
+@pytest.mark.parametrize("ending", [".ply", ".obj", ".off"])
+def test_reconstruct_writes_each_mesh_format(scan, tmp_path, ending):
+    out = tmp_path / f"cap{ending}"
+    result = run("reconstruct", scan, "-o", out, "--method", "delaunay", "--json", "--quiet")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)  # --json: the report and nothing else
+    mesh = load_mesh(out)
+    assert data["counts"]["faces"] == len(mesh.faces)
+    assert len(mesh.vertices) == 300
+
+
+def test_reconstruct_same_seed_same_mesh(scan, tmp_path):
+    a, b = tmp_path / "a.ply", tmp_path / "b.ply"
+    for out in (a, b):
+        result = run("reconstruct", scan, "-o", out, "--sweeps", 20, "--seed", 7, "--plane", "z")
+        assert result.returncode == 0, result.stderr
+    np.testing.assert_array_equal(load_mesh(a).faces, load_mesh(b).faces)
+
+
+def test_reconstruct_options_reach_the_method(scan, tmp_path):
+    out = tmp_path / "hull.stl"
+    result = run(
+        "reconstruct",
+        scan,
+        "-o",
+        out,
+        "--method",
+        "lop",
+        "--max-edge",
+        "inf",
+        "--plane",
+        "0,0,1",
+        "--json",
+    )
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert data["method"] == "lop"
+    # the whole convex hull of a 20 x 15 grid: 2 x 19 x 14 triangles
+    assert data["counts"]["faces"] == 2 * 19 * 14 == len(load_mesh(out).faces)
+
+
+# --------------------------------------------------------------------------- compare
+
+
+def test_compare_json_has_every_key(scan, cap_truth, tmp_path):
+    methods = ["delaunay", "lop", "anneal"]
+    result = run(
+        "compare",
+        scan,
+        "--truth",
+        cap_truth,
+        "--methods",
+        *methods,
+        "--sweeps",
+        20,
+        "--json",
+        "--picture",
+        tmp_path / "cmp.png",
+    )
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert [row["method"] for row in data["methods"]] == methods
+    for row in data["methods"]:
+        for key in (*COMPARE_KEYS, *HEIGHT_KEYS):
+            assert isinstance(row[key], (int, float, str)), key
+        # the scan samples the truth, so the meshes are close to it (chords of a paraboloid)
+        assert 0 < row["h_mean"] <= row["h_rms"] <= row["h_max"] < 0.01
+    assert_png(tmp_path / "cmp.png")
+
+
+def test_compare_table_without_truth(scan):
+    result = run("compare", scan, "--methods", "delaunay", "anneal", "--sweeps", 20)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    header = next(line for line in lines if line.startswith("method"))
+    for column in ("time", "tac_1", "tac_2", "tac_inf", "min angle", "slivers"):
+        assert column in header
+    assert "h_rms" not in header
+    assert any(line.startswith("delaunay") for line in lines)
+    assert any(line.startswith("anneal") for line in lines)
+    result = run("compare", scan, "--methods", "delaunay", "--json")
+    row = json.loads(result.stdout)["methods"][0]
+    assert not set(HEIGHT_KEYS) & set(row)
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("scanmesh.strips") is None, reason="strip methods not built yet"
+)
+def test_compare_runs_every_method_by_default(scan):
+    result = run("compare", scan, "--sweeps", 20, "--json")
+    assert result.returncode == 0, result.stderr
+    methods = [row["method"] for row in json.loads(result.stdout)["methods"]]
+    assert methods == ["delaunay", "lookahead", "shortest-path", "lop", "anneal"]
+
+
+def test_compare_reports_a_failing_method_and_goes_on(tmp_path):
+    # the exact method refuses more than MAX_OPTIMAL_POINTS (400) points
+    big = write_xyz(tmp_path / "big.xyz", *grid_scan(25, 20))
+    result = run("compare", big, "--methods", "delaunay", "optimal", "--json")
+    assert result.returncode == 1
+    data = json.loads(result.stdout)
+    assert [row["method"] for row in data["methods"]] == ["delaunay"]
+    assert "optimal" in data["failed"]
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("scanmesh: optimal failed: ")
+    assert "Traceback" not in result.stderr
+
+
+# --------------------------------------------------------------------------- simulate, info
+
+
+@needs_conrod
+def test_simulate_writes_a_scan_that_reads_back(rod_scan):
+    from scanmesh import read
+
+    scan = read(rod_scan)
+    assert abs(len(scan.points) - 1500) < 0.05 * 1500
+    assert scan.n_lines > 10
+    np.testing.assert_allclose(np.unique(np.round(scan.points[:, 1], 4)), [0.1969, 0.3937])
+
+
+@needs_conrod
+def test_simulate_noise_table_and_spacing(tmp_path):
+    out = tmp_path / "noisy.xyz"
+    result = run(
+        "simulate",
+        CONROD,
+        "-o",
+        out,
+        "--up",
+        "y",
+        "--spacing",
+        0.1,
+        "--line-spacing",
+        0.2,
+        "--noise",
+        0.001,
+        "--table",
+        "--seed",
+        1,
+        "--json",
+    )
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    rows = np.loadtxt(out)
+    assert rows.shape == (data["points"], 4)
+    assert len(np.unique(rows[:, 3])) == data["lines"]
+    # --table: rays that miss the rod (outside it, through its bores) touch the table at its
+    # lowest y, -0.3937; noise moves every point a little along y
+    table = np.abs(rows[:, 1] + 0.3937) < 0.01
+    assert 0.2 * len(rows) < table.sum() < 0.9 * len(rows)
+    assert np.std(rows[table, 1]) == pytest.approx(0.001, rel=0.2)
+
+
+@needs_conrod
+def test_simulate_refuses_to_overwrite_the_mesh(tmp_path):
+    copy = tmp_path / "rod.stl"
+    copy.write_bytes(CONROD.read_bytes())
+    assert_failed(run("simulate", copy, "-o", tmp_path / "rod.xyz" / ".." / "rod.stl"))
+    assert_failed(run("simulate", copy, "-o", tmp_path / "rod.ply"))  # not a points ending
+    assert copy.read_bytes() == CONROD.read_bytes()
+
+
+@needs_conrod
+def test_info_text_and_json(rod_scan):
+    result = run("info", rod_scan, "--json")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    for key in ("points", "lines", "extent", "median_spacing", "steep_share"):
+        assert key in data
+    assert data["lines"] > 10
+    assert len(data["extent"]["size"]) == 3
+    assert data["extent"]["size"][0] == pytest.approx(5.6, abs=0.1)
+    assert 0 < data["median_spacing"] < 0.2
+    # rods walls are not sampled, but triangles bridging the recessed web are steep
+    assert 0 < data["steep_share"] < 0.2
+    text = run("info", rod_scan).stdout
+    for word in ("points", "scan lines", "median spacing", "steep"):
+        assert word in text
+
+
+def test_info_steep_share_of_a_flat_and_a_folded_scan(tmp_path):
+    points, ids = grid_scan()
+    flat = points.copy()
+    flat[:, 2] = 0
+    assert (
+        json.loads(run("info", write_xyz(tmp_path / "f.xyz", flat), "--json").stdout)["steep_share"]
+        == 0
+    )
+    wall = points.copy()
+    wall[:, 2] = np.where(wall[:, 0] > 0.5, 5.0, 0.0)  # a cliff between two columns
+    data = json.loads(
+        run("info", write_xyz(tmp_path / "w.xyz", wall), "--json", "--plane", "z").stdout
+    )
+    assert 0 < data["steep_share"] < 0.2
+
+
+# --------------------------------------------------------------------------- render, demo
+
+
+@needs_conrod
+def test_render_a_mesh(tmp_path):
+    out = tmp_path / "rod.png"
+    result = run("render", CONROD, "-o", out, "--size", "320x240", "--wire")
+    assert result.returncode == 0, result.stderr
+    assert_png(out, (320, 240))
+    with Image.open(out) as image:
+        pixels = np.asarray(image.convert("RGB"))
+    assert (pixels != 255).any(axis=2).mean() > 0.05  # the part is drawn
+
+
+def test_demo_end_to_end(tmp_path):
+    folder = tmp_path / "out"
+    t0 = time.perf_counter()
+    result = run("demo", "-o", folder, timeout=600)
+    elapsed = time.perf_counter() - t0
+    assert result.returncode == 0, result.stderr
+    mesh = load_mesh(folder / "demo_rod.stl")
+    assert len(mesh.faces) > 20_000
+    assert_png(folder / "demo_rod.png")
+    assert "Delaunay" in result.stdout and "annealed" in result.stdout
+    assert "tac_1" in result.stdout and "time" in result.stdout
+    assert elapsed < 120, f"the demo took {elapsed:.0f} s"
+
+
+# --------------------------------------------------------------------------- Ctrl-C
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs a named pipe")
+def test_ctrl_c_exits_130_without_partial_output(tmp_path):
+    source = tmp_path / "scan.xyz"
+    os.mkfifo(source)  # the command blocks reading it: then it is past its imports
+    out = tmp_path / "out.stl"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "scanmesh",
+            "reconstruct",
+            source,
+            "-o",
+            out,
+            "--sweeps",
+            "1000000000",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while True:  # opening a FIFO without blocking succeeds once a reader waits on it
+            try:
+                fd = os.open(source, os.O_WRONLY | os.O_NONBLOCK)
+                break
+            except OSError:
+                assert proc.poll() is None, proc.communicate()
+                assert time.monotonic() < deadline
+                time.sleep(0.05)
+        os.set_blocking(fd, True)
+        points, ids = grid_scan()
+        rows = "".join(
+            f"{x!r} {y!r} {z!r} {i}\n" for (x, y, z), i in zip(points.tolist(), ids, strict=True)
+        )
+        os.write(fd, rows.encode())
+        os.close(fd)
+        time.sleep(1.5)  # annealing a billion sweeps now
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130
+    assert stderr.strip().splitlines() == ["scanmesh: interrupted"]
+    assert "Traceback" not in stderr
+    assert not out.exists()
+    assert no_partial_files(tmp_path)
+
+
+# --------------------------------------------------------------------------- truth
+
+
+def brute_distance(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
+    return np.array(
+        [
+            point_triangle_distance(triangles, np.repeat(p[None], len(triangles), 0)).min()
+            for p in points
+        ]
+    )
+
+
+def test_point_triangle_distance_matches_trimesh_and_handles_degenerate_triangles():
+    rng = np.random.default_rng(0)
+    tri = rng.normal(size=(5000, 3, 3))
+    pts = rng.normal(size=(5000, 3)) * 2
+    tri[:50, 2] = tri[:50, 1]  # two corners coincide
+    tri[50:100, 2] = 0.5 * (tri[50:100, 0] + tri[50:100, 1])  # collinear
+    tri[100:150] = tri[100:150, :1]  # a point
+    ref = np.linalg.norm(trimesh.triangles.closest_point(tri, pts) - pts, axis=1)
+    np.testing.assert_allclose(point_triangle_distance(tri, pts), ref, rtol=0, atol=1e-12)
+
+
+@needs_conrod
+def test_true_surface_distance_is_exact():
+    truth = TrueSurface(CONROD)
+    rng = np.random.default_rng(1)
+    lo, hi = truth.mesh.bounds
+    near = truth.mesh.sample(300, seed=2) + rng.normal(size=(300, 3)) * 1e-3
+    far = lo - (hi - lo) + rng.random((100, 3)) * 3 * (hi - lo)  # well outside too
+    pts = np.concatenate([near, far])
+    np.testing.assert_allclose(
+        truth.distance(pts), brute_distance(truth.triangles, pts), rtol=0, atol=1e-12
+    )
+
+
+def test_height_error_of_a_plane_offset_along_its_normal():
+    # the truth: a unit square at z = 0; the mesh: a smaller square at z = 0.01
+    square = trimesh.Trimesh(
+        [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]], process=False
+    )
+    lifted = (square.vertices * 0.5 + [0.25, 0.25, 0.01], square.faces)
+    err = height_error(lifted, square, n_samples=1000, seed=0)
+    assert err["n_samples"] == 1000 and "closest-point" in err["measure"]
+    for key in HEIGHT_KEYS:
+        assert err[key] == pytest.approx(0.01, abs=1e-12)
+    assert height_error(square, square)["h_max"] < 1e-12
+    # the same seed gives the same figures
+    tilted = (square.vertices + [[0, 0, 0], [0, 0, 0.1], [0, 0, 0], [0, 0, 0]], square.faces)
+    assert height_error(tilted, square, seed=5) == height_error(tilted, square, seed=5)
