@@ -5,6 +5,7 @@ The public API:
 - :func:`reconstruct` - every method behind one call;
 - :func:`delaunay` - planar Delaunay of projected points, trimmed to the outline;
 - :func:`quality` - tac norms and the max-min angle of any mesh;
+- :func:`detect_lines` - scan lines from the order of the points;
 - :func:`optimal_surface`, :func:`brute_force_surface` - the certified tac optimum (small inputs);
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
 - :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
@@ -25,6 +26,7 @@ from scanmesh.errors import (
     ScanmeshError,
     ScanmeshWarning,
 )
+from scanmesh.lines import detect_lines
 from scanmesh.optimal import brute_force_surface, optimal_surface
 from scanmesh.projection import Frame, project
 from scanmesh.quality import Quality, quality
@@ -41,6 +43,7 @@ __all__ = [
     "simulate_scan",
     "load_demo",
     "quality",
+    "detect_lines",
     "optimal_surface",
     "brute_force_surface",
     "read",

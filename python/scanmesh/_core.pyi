@@ -76,3 +76,25 @@ class Annealer:
     def finish(
         self,
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], dict[str, float | int | bool]]: ...
+
+DEFAULT_GAP_FACTOR: float
+DEFAULT_BAND: int
+
+def detect_lines(uv: npt.NDArray[np.float64], gap_factor: float) -> npt.NDArray[np.int64]: ...
+def scan_segments(
+    uv: npt.NDArray[np.float64], line_ids: npt.NDArray[np.int64], gap_factor: float
+) -> tuple[list[list[npt.NDArray[np.int64]]], float, float, npt.NDArray[np.int64]]: ...
+def strip_mesh(
+    points: npt.NDArray[np.float64],
+    uv: npt.NDArray[np.float64],
+    line_ids: npt.NDArray[np.int64],
+    weight: tuple[float, float, float, float],
+    method: str,
+    alpha: int,
+    solver: str,
+    band: int,
+    gap_factor: float,
+    check: bool = True,
+) -> tuple[
+    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], int, float, str | None
+]: ...

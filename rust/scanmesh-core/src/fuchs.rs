@@ -140,8 +140,9 @@ pub enum Solver {
 }
 
 /// Default initial half width of the band, in columns: optimal strips between scan lines of
-/// similar spacing stray one or two columns from the arc-length diagonal.
-pub const DEFAULT_BAND: usize = 4;
+/// similar spacing stray one or two columns from the arc-length diagonal, and a narrow
+/// first band keeps the confirming round (twice as wide) cheap.
+pub const DEFAULT_BAND: usize = 2;
 
 /// The cheapest path by `solver`. See the solver functions for complexity. Errors: an empty
 /// line, a non-finite coordinate, a bad weight or a zero band width.
@@ -347,8 +348,23 @@ fn best_from(t: &Terms, p: &Cell, normal: DVec3, at_start: bool, start_cost: f64
     if at_start {
         return (start_cost, 0);
     }
-    let via_a = p.cost[0] + t.turn(p.normal[0], normal);
-    let via_b = p.cost[1] + t.turn(p.normal[1], normal);
+    // Turns cost atan2s, the hot spot: when the cheaper state plus its turn is still below
+    // the other state before any turn, the other turn cannot win (turns are ≥ 0).
+    let (cheaper, other) = if p.cost[1] < p.cost[0] {
+        (1, 0)
+    } else {
+        (0, 1)
+    };
+    let via_cheaper = p.cost[cheaper] + t.turn(p.normal[cheaper], normal);
+    if p.cost[other] > via_cheaper {
+        return (via_cheaper, cheaper as u8);
+    }
+    let via_other = p.cost[other] + t.turn(p.normal[other], normal);
+    let (via_a, via_b) = if cheaper == 0 {
+        (via_cheaper, via_other)
+    } else {
+        (via_other, via_cheaper)
+    };
     if via_a <= via_b {
         (via_a, 0)
     } else {

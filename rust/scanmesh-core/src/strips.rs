@@ -15,10 +15,11 @@
 //! because the segments they face are more than a gap apart.
 //!
 //! Each strip is a path through the Fuchs matrix ([`crate::fuchs`]) of its two clipped
-//! segments; strips are independent and run in parallel (rayon). A strip's triangles are
-//! turned counter-clockwise in the plane as a whole (by the sign of their total planar
-//! area), so the mesh is consistently oriented whenever the lines do not cross in the
-//! plane. Points of one-point segments and lines are then inserted into the triangle
+//! segments; strips are independent and run in parallel (rayon). All lines are first
+//! turned to run the same way, so that every line's edges run one way in the strip before
+//! it and the other way in the strip after it: the strips fit together with one
+//! consistent orientation even where lines cross in the plane. The whole mesh is then
+//! turned counter-clockwise in the plane (by the sign of its total planar area). Points of one-point segments and lines are then inserted into the triangle
 //! (or the edge) that contains them in the plane, if any. The result is checked with
 //! [`HalfEdgeMesh::validate`]; a failure (crossing lines, a pinch) is reported in
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
@@ -30,6 +31,12 @@ use crate::mesh::HalfEdgeMesh;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
+
+/// Coefficient of the edge length (in median steps) added to every weight to break ties:
+/// on a flat strip every path has the same area and no dihedral angle, and without it the
+/// choice among equals (a fan of slivers) would be an accident of the search order. Far
+/// below any real difference (a millionth of a step per edge).
+pub const TIE_BREAK: f64 = 1e-6;
 
 /// How each strip's path through the Fuchs matrix is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,7 +52,7 @@ pub enum Method {
 pub struct StripParams {
     /// The path cost. Inside strips, lengths are measured in median steps of the scan and
     /// areas in squared median steps, so that criteria can be mixed and the result does
-    /// not depend on the units.
+    /// not depend on the units; [`TIE_BREAK`] is added to the length coefficient.
     pub weight: Weight,
     /// Shortest path or look-ahead.
     pub method: Method,
@@ -87,27 +94,35 @@ struct Task {
     line: usize,
 }
 
-/// The part of `segment` (in scan order) whose t lies in [lo, hi], oriented by increasing
-/// t. Segments are nearly monotone in t, so the ends are trimmed from outside in. O(len).
+/// The part of `segment` whose t lies in [lo, hi]. Segments run in their line's oriented
+/// direction, nearly monotone in t, so the ends are trimmed from outside in. O(len).
 fn clip(segment: &[u32], t: impl Fn(u32) -> f64, lo: f64, hi: f64) -> Vec<u32> {
-    let forward = t(segment[segment.len() - 1]) >= t(segment[0]);
-    let mut ids: Vec<u32> = if forward {
-        segment.to_vec()
-    } else {
-        segment.iter().rev().copied().collect()
-    };
-    let start = ids.iter().position(|&k| t(k) >= lo).unwrap_or(ids.len());
-    let end = ids.iter().rposition(|&k| t(k) <= hi).map_or(0, |e| e + 1);
+    let start = segment
+        .iter()
+        .position(|&k| t(k) >= lo)
+        .unwrap_or(segment.len());
+    let end = segment
+        .iter()
+        .rposition(|&k| t(k) <= hi)
+        .map_or(0, |e| e + 1);
     if start >= end {
         return Vec::new();
     }
-    ids.truncate(end);
-    ids.drain(..start);
-    ids
+    segment[start..end].to_vec()
 }
 
-/// The strips between lines `p` and `q`: every overlapping pair of their segments. O(s_p ·
-/// s_q + points).
+/// The chord of a line in the plane: from its first point to its last. O(1).
+fn chord(uv: &[[f64; 2]], line: &[Vec<u32>]) -> [f64; 2] {
+    let first = uv[line[0][0] as usize];
+    let last = uv[*line
+        .last()
+        .and_then(|s| s.last())
+        .expect("segments are not empty") as usize];
+    [last[0] - first[0], last[1] - first[1]]
+}
+
+/// The strips between oriented lines `p` and `q` (both running the same way): every
+/// overlapping pair of their segments. O(s_p · s_q + points).
 fn pair_tasks(
     uv: &[[f64; 2]],
     lines: &[Vec<Vec<u32>>],
@@ -116,21 +131,8 @@ fn pair_tasks(
     margin: f64,
     out: &mut Vec<Task>,
 ) {
-    let chord = |line: &Vec<Vec<u32>>| {
-        let first = uv[line[0][0] as usize];
-        let last = uv[*line
-            .last()
-            .and_then(|s| s.last())
-            .expect("segments are not empty") as usize];
-        [last[0] - first[0], last[1] - first[1]]
-    };
-    let (c, d) = (chord(&lines[p]), chord(&lines[q]));
-    let sign = if c[0] * d[0] + c[1] * d[1] < 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
-    let axis = [c[0] + sign * d[0], c[1] + sign * d[1]];
+    let (c, d) = (chord(uv, &lines[p]), chord(uv, &lines[q]));
+    let axis = [c[0] + d[0], c[1] + d[1]];
     let t = |k: u32| uv[k as usize][0] * axis[0] + uv[k as usize][1] * axis[1];
     // t is in units of |axis|: scale the margin to match.
     let margin = margin * axis[0].hypot(axis[1]);
@@ -155,11 +157,10 @@ fn pair_tasks(
     }
 }
 
-/// Triangulates one strip and turns it counter-clockwise in the plane. Returns its
-/// triangles and path cost.
+/// Triangulates one strip. Returns its triangles (in the orientation of
+/// [`path_triangles`]) and its path cost.
 fn solve(
     points: &[DVec3],
-    uv: &[[f64; 2]],
     task: &Task,
     params: &StripParams,
     weight: Weight,
@@ -170,20 +171,10 @@ fn solve(
         Method::ShortestPath(solver) => shortest_path(&a, &b, weight, solver)?,
         Method::Lookahead(alpha) => lookahead(&a, &b, weight, alpha)?,
     };
-    let mut tris = path_triangles(&solution.path, &task.a, &task.b)?;
-    let signed_area: f64 = tris
-        .iter()
-        .map(|t| {
-            let [p, q, r] = t.map(|k| uv[k as usize]);
-            (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-        })
-        .sum();
-    if signed_area < 0.0 {
-        for t in &mut tris {
-            t.swap(1, 2);
-        }
-    }
-    Ok((tris, solution.cost))
+    Ok((
+        path_triangles(&solution.path, &task.a, &task.b)?,
+        solution.cost,
+    ))
 }
 
 /// Where a planar point lies in a counter-clockwise triangle.
@@ -316,13 +307,29 @@ pub fn stitch(
     let kept: Vec<usize> = (0..scan.lines.len())
         .filter(|&l| scan.lines[l].iter().any(|s| s.len() >= 2))
         .collect();
+    // Orient the kept lines alike (a zig-zag scan's every other line turned round), so a
+    // line's edges run one way in the strip before it and the other way in the strip after
+    // it: the strips then fit together with one consistent orientation, whatever the plane.
+    let mut oriented: Vec<Vec<Vec<u32>>> = vec![Vec::new(); scan.lines.len()];
+    let mut previous: Option<[f64; 2]> = None;
+    for &l in &kept {
+        let mut c = chord(uv, &scan.lines[l]);
+        let mut line = scan.lines[l].clone();
+        if previous.is_some_and(|p| p[0] * c[0] + p[1] * c[1] < 0.0) {
+            line.reverse();
+            line.iter_mut().for_each(|s| s.reverse());
+            c = [-c[0], -c[1]];
+        }
+        previous = Some(c);
+        oriented[l] = line;
+    }
     let mut tasks = Vec::new();
     for pair in kept.windows(2) {
-        pair_tasks(uv, &scan.lines, pair[0], pair[1], margin, &mut tasks);
+        pair_tasks(uv, &oriented, pair[0], pair[1], margin, &mut tasks);
     }
     let solved: Vec<(Vec<[u32; 3]>, f64)> = tasks
         .par_iter()
-        .map(|task| solve(points, uv, task, params, weight))
+        .map(|task| solve(points, task, params, weight))
         .collect::<Result<_>>()?;
     let mut triangles = Vec::with_capacity(solved.iter().map(|s| s.0.len()).sum());
     // Triangle range of each task, to find the strips around a lone point.
@@ -332,6 +339,18 @@ pub fn stitch(
         ranges.push(triangles.len()..triangles.len() + tris.len());
         triangles.extend(tris);
         cost += c;
+    }
+    // One orientation for the whole mesh: counter-clockwise in the plane where most of the
+    // area is (all of it, unless lines cross).
+    let signed_area: f64 = triangles
+        .iter()
+        .map(|t| {
+            let [p, q, r] = t.map(|k| uv[k as usize]);
+            (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+        })
+        .sum();
+    if signed_area < 0.0 {
+        triangles.iter_mut().for_each(|t| t.swap(1, 2));
     }
 
     // Lone points: one-point segments, and every point of lines passed over.
@@ -540,6 +559,8 @@ mod tests {
         let mesh = run(&pts, &ids, &StripParams::default());
         assert!(mesh.planar_error.is_some());
         assert!(!mesh.triangles.is_empty());
+        // The 3-D mesh is still consistently oriented and manifold.
+        HalfEdgeMesh::from_triangles(pts.len(), &mesh.triangles).unwrap();
     }
 
     #[test]

@@ -1,0 +1,232 @@
+"""Strip reconstruction: a Fuchs-matrix path between each two consecutive scan lines.
+
+Between consecutive lines a_0..a_{n-1} and b_0..b_{m-1}, every strip triangulation is a
+monotone path through the Fuchs matrix; the shortest-path method takes the cheapest path
+under a weight, the look-ahead method (Friedhoff's alpha-look-ahead) a greedy one. Strips
+join only overlapping segments of neighbouring lines, so holes stay open, and together
+they form one mesh over the caller's points (see ``scanmesh_core::strips``).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from scanmesh import _core
+from scanmesh._checks import as_points
+from scanmesh.errors import (
+    CoincidentPointsWarning,
+    DegenerateInputError,
+    ParameterError,
+    ScanmeshWarning,
+)
+from scanmesh.lines import GAP_FACTOR, _gap_factor, as_line_ids
+from scanmesh.projection import PlaneSpec, project
+from scanmesh.surface import Surface
+
+#: The path criteria, in the order the core takes their coefficients. Lengths are measured
+#: in median point steps and areas in squared median steps, so that mixtures are scale-free:
+#:
+#: - "length": 3-D length of each edge a_i-b_j of the strip (per node);
+#: - "area": 3-D area of each triangle (Fuchs, Kedem and Uselton);
+#: - "angle": pi/3 minus the smallest 3-D angle of each triangle (radians);
+#: - "dihedral": angle between the normals of consecutive triangles (radians).
+CRITERIA: tuple[str, ...] = ("length", "area", "angle", "dihedral")
+
+#: A weight: one criterion by name, or a mapping of criteria to non-negative coefficients.
+WeightSpec = str | Mapping[str, float]
+
+#: Default weight, chosen by measurement (BENCHMARKS.md, "Strips (issue 3)", tac_1 and
+#: smallest angle of every criterion on fran_cut and on the simulated connecting-rod scan):
+#: area and dihedral alone fill flat and cylindrical parts with slivers (88-91 % of the rod's
+#: triangles below 5 degrees); length and angle keep the largest smallest angle (12.5 degrees
+#: on fran_cut, 4.9 on the rod); adding 0.3 x dihedral to angle lowers fran_cut's tac_1 from
+#: 79.6 to 67.0 (length: 73.1) and raises its smallest angle to 12.8 degrees, with the rod
+#: unchanged; a full 1.0 x dihedral starts to cost smallest angle (10.7 degrees).
+DEFAULT_WEIGHT: dict[str, float] = {"angle": 1.0, "dihedral": 0.3}
+
+#: Default look-ahead depth alpha (steps).
+DEFAULT_ALPHA: int = 3
+
+#: Shortest-path solvers: "banded" (DP in a widening band, near-linear), "dp" (the whole
+#: matrix, O(nm)) and "dijkstra" (binary heap, as the seed paper, O(nm log nm)).
+SOLVERS: tuple[str, ...] = ("banded", "dp", "dijkstra")
+
+METHODS: tuple[str, ...] = ("shortest-path", "lookahead")
+
+
+class CrossingLinesWarning(ScanmeshWarning):
+    """The strips are not a valid triangulation in the plane: lines cross or fold there.
+
+    The 3-D mesh is still returned; its triangles may overlap in the projection.
+    """
+
+
+class UnusedPointsWarning(ScanmeshWarning):
+    """Some points are in no strip: isolated points outside every strip, or line ends that
+    overhang both neighbouring lines by more than half a gap."""
+
+
+def weight_coefficients(weight: WeightSpec) -> tuple[float, float, float, float]:
+    """The (length, area, angle, dihedral) coefficients of a weight spec."""
+    if isinstance(weight, str):
+        if weight not in CRITERIA:
+            raise ParameterError(f"weight must be one of {CRITERIA} or a mapping, got {weight!r}")
+        spec: Mapping[str, float] = {weight: 1.0}
+    elif isinstance(weight, Mapping):
+        spec = weight
+        unknown = sorted(set(spec) - set(CRITERIA))
+        if unknown:
+            raise ParameterError(f"unknown weight criteria {unknown}; known: {CRITERIA}")
+    else:
+        raise ParameterError(f"weight must be a criterion name or a mapping, got {weight!r}")
+    coefficients = tuple(float(spec.get(name, 0.0)) for name in CRITERIA)
+    if not all(np.isfinite(c) and c >= 0 for c in coefficients) or not any(coefficients):
+        raise ParameterError(
+            f"weight coefficients must be finite and >= 0, one of them positive, got {dict(spec)}"
+        )
+    return coefficients  # type: ignore[return-value]
+
+
+def strip_surface(
+    points: ArrayLike,
+    *,
+    lines: ArrayLike | None = None,
+    method: str = "shortest-path",
+    weight: WeightSpec = DEFAULT_WEIGHT,
+    alpha: int = DEFAULT_ALPHA,
+    plane: PlaneSpec = None,
+    gap_factor: float = GAP_FACTOR,
+    solver: str = "banded",
+    band: int = _core.DEFAULT_BAND,
+) -> Surface:
+    """Triangulate scan-line points strip by strip.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        Scan points, line after line.
+    lines : (N,) int, optional
+        A line id per point (same id = one line, in input order; lines by ascending id).
+        None detects the lines from the point order (:func:`scanmesh.detect_lines`).
+    method : "shortest-path" or "lookahead"
+        The cheapest path per strip, or Friedhoff's alpha-look-ahead.
+    weight : str or mapping
+        A criterion of :data:`CRITERIA` or a mapping of them to coefficients. The default
+        :data:`DEFAULT_WEIGHT` (angle + 0.3 dihedral) was chosen by measuring tac_1 and the
+        smallest angle of every criterion on fran_cut and a connecting-rod scan: area and
+        dihedral alone make slivers on flat and cylindrical parts; angle keeps the largest
+        smallest angle; the dihedral share lowers fran_cut's tac_1 by 16 % and keeps the
+        smallest angle (figures in BENCHMARKS.md).
+    alpha : int
+        Look-ahead depth in steps (``method="lookahead"`` only), >= 1.
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane: lines are followed, clipped and oriented in it, and the mesh is
+        counter-clockwise seen against its normal.
+    gap_factor : float
+        A step longer than this many median steps splits a line (a hole); strips never
+        bridge it.
+    solver : "banded", "dp" or "dijkstra"
+        Shortest-path solver (same optimum; see :data:`SOLVERS`).
+    band : int
+        Initial half width of the banded solver, in matrix columns.
+
+    Returns
+    -------
+    Surface
+        ``method`` is "shortest-path" or "lookahead"; ``options`` holds the parameters and
+        ``n_lines``, ``n_strips``, ``cost`` (sum of path costs), ``unused`` ((K,) int64
+        points in no triangle) and ``planar_valid``; ``duplicates`` the points dropped for
+        coinciding with the previous point of their line; ``timings`` the seconds spent
+        projecting, finding lines and building strips.
+
+    Warns
+    -----
+    CrossingLinesWarning
+        The lines cross in the plane, so the mesh is not a planar triangulation there.
+    UnusedPointsWarning
+        Some points are in no triangle (other than coincident duplicates).
+    CoincidentPointsWarning
+        Points coincide with the previous point of their line and are left out.
+
+    Raises
+    ------
+    ScanmeshError
+        Bad shapes or values, unknown method, weight or solver, alpha < 1, band < 1, or
+        fewer than two lines with two points each.
+    """
+    if method not in METHODS:
+        raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
+    if solver not in SOLVERS:
+        raise ParameterError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    coefficients = weight_coefficients(weight)
+    if isinstance(alpha, bool) or not isinstance(alpha, (int, np.integer)) or alpha < 1:
+        raise ParameterError(f"alpha must be an integer >= 1, got {alpha!r}")
+    if isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 1:
+        raise ParameterError(f"band must be an integer >= 1, got {band!r}")
+    k = _gap_factor(gap_factor)
+    t0 = time.perf_counter()
+    pts = as_points(points)
+    uv, frame = project(pts, plane)
+    t1 = time.perf_counter()
+    ids = _core.detect_lines(uv, k) if lines is None else as_line_ids(lines, len(pts))
+    t2 = time.perf_counter()
+    faces, unused, duplicates, n_strips, cost, planar_error = _core.strip_mesh(
+        pts, uv, ids, coefficients, method, int(alpha), solver, int(band), k
+    )
+    t3 = time.perf_counter()
+    if n_strips == 0:
+        raise DegenerateInputError(
+            "no strip to build: need two neighbouring scan lines with two points each "
+            f"that overlap along the scan direction (found {len(np.unique(ids))} line(s))"
+        )
+    if planar_error is not None:
+        warnings.warn(
+            f"the strips are not a valid triangulation in the projection plane ({planar_error});"
+            " scan lines probably cross there: the 3-D mesh is returned as it is",
+            CrossingLinesWarning,
+            stacklevel=2,
+        )
+    lone = np.setdiff1d(unused, duplicates[:, 0]) if len(duplicates) else unused
+    if len(lone):
+        shown = ", ".join(str(i) for i in lone[:5])
+        warnings.warn(
+            f"{len(lone)} point(s) are in no strip (first: {shown}); see Surface.options['unused']",
+            UnusedPointsWarning,
+            stacklevel=2,
+        )
+    if len(duplicates):
+        shown = ", ".join(f"{a}->{b}" for a, b in duplicates[:5])
+        warnings.warn(
+            f"{len(duplicates)} point(s) coincide in the plane with the previous point of their"
+            f" line and are left out (first: {shown}); see Surface.duplicates",
+            CoincidentPointsWarning,
+            stacklevel=2,
+        )
+    options = {
+        "lines": "detected" if lines is None else "given",
+        "weight": dict(zip(CRITERIA, coefficients, strict=True)),
+        "alpha": int(alpha) if method == "lookahead" else None,
+        "solver": solver if method == "shortest-path" else None,
+        "band": int(band),
+        "plane": plane,
+        "gap_factor": k,
+        "n_lines": int(len(np.unique(ids))),
+        "n_strips": int(n_strips),
+        "cost": float(cost),
+        "unused": unused,
+        "planar_valid": planar_error is None,
+    }
+    return Surface(
+        vertices=pts,
+        faces=faces,
+        method=method,
+        options=options,
+        frame=frame,
+        duplicates=duplicates,
+        timings={"project": t1 - t0, "lines": t2 - t1, "strips": t3 - t2},
+    )
