@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -363,7 +364,8 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
 
     rows, surfaces, failed = [], [], {}
     for method in methods:
-        con.note(f"{method} ...") if con.progress else None
+        if con.progress:
+            con.note(f"{method} ...")
         t0 = time.perf_counter()
         try:
             surface = reconstruct(
@@ -670,10 +672,13 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
     for label, spec, key in rows:
         scale = 100 if key == "sliver_fraction" else 1
         con.out(f"{label:<24}{spec.format(d[key] * scale):>12}{spec.format(a[key] * scale):>12}")
+    limit = int(surface.options["sweeps"])
+    ran = len(surface.trace["energy"]) if surface.trace else limit
+    sweeps = f"{ran:,} sweeps" if ran == limit else f"{ran:,} of up to {limit:,} sweeps"
+    con.out(f"annealing ({sweeps}, seed 0) made tac_1 {d['tac_1'] / a['tac_1']:.1f} times smaller")
     con.out(
-        f"tac_1 {d['tac_1'] / a['tac_1']:.1f} times smaller after annealing"
-        f" (1,000 sweeps, seed 0); height error: closest-point distance to the CAD model"
-        f" at 100,000 random points on each mesh"
+        "height error: closest-point distance to the CAD model at 100,000 random points on"
+        " each mesh"
     )
     con.out(f"wrote {mesh_path} and {png_path}")
     return 0
@@ -876,6 +881,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("scanmesh: interrupted", file=sys.stderr, flush=True)
         return 130
+    except BrokenPipeError:
+        # the reader of stdout went away (``scanmesh info x --json | head``): stop quietly,
+        # and keep Python from reporting the pipe again when it flushes stdout at exit
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except (ScanmeshError, FileNotFoundError, OSError) as exc:
         print(f"scanmesh: error: {_one_line(exc)}", file=sys.stderr, flush=True)
         return 1
