@@ -78,7 +78,10 @@ pub fn trim_long_edges(
 }
 
 /// Boundary triangles (an edge without twin) that are numerically collinear. O(m).
-fn degenerate_boundary_triangles<'a>(mesh: &'a HalfEdgeMesh, uv: &'a [[f64; 2]]) -> impl Iterator<Item = u32> + 'a {
+fn degenerate_boundary_triangles<'a>(
+    mesh: &'a HalfEdgeMesh,
+    uv: &'a [[f64; 2]],
+) -> impl Iterator<Item = u32> + 'a {
     (0..mesh.n_triangles() as u32).filter(move |&t| {
         let on_boundary = (3 * t..3 * t + 3).any(|h| mesh.twin(h) == NONE);
         let [a, b, c] = mesh.triangle(t as usize).map(|v| uv[v as usize]);
@@ -164,14 +167,30 @@ mod tests {
         // Three hull points on x + y = 1 with the middle one 1e-12 inside: the hull edge
         // skips it and Delaunay fills the gap with a zero-area sliver, which trimming drops.
         let inward = 0.5 - (2.0f64).powi(-40);
-        let uv = vec![[0.0, 0.0], [0.25, 0.75], [inward, inward], [0.75, 0.25], [0.0, 0.5]];
+        let uv = vec![
+            [0.0, 0.0],
+            [0.25, 0.75],
+            [inward, inward],
+            [0.75, 0.25],
+            [0.0, 0.5],
+        ];
         let d = delaunay(&uv).unwrap();
-        let slivers = |t: &[[u32; 3]]| t.iter().filter(|f| !well_formed(uv[f[0] as usize], uv[f[1] as usize], uv[f[2] as usize])).count();
-        assert!(slivers(&d.triangles) > 0, "the fixture must contain a sliver");
+        let slivers = |t: &[[u32; 3]]| {
+            t.iter()
+                .filter(|f| !well_formed(uv[f[0] as usize], uv[f[1] as usize], uv[f[2] as usize]))
+                .count()
+        };
+        assert!(
+            slivers(&d.triangles) > 0,
+            "the fixture must contain a sliver"
+        );
         let kept = trim_long_edges(&uv, &d.triangles, 10.0).unwrap();
         assert_eq!(slivers(&kept), 0);
         assert_eq!(kept.len(), d.triangles.len() - slivers(&d.triangles));
-        HalfEdgeMesh::from_triangles(uv.len(), &kept).unwrap().validate(&uv).unwrap();
+        HalfEdgeMesh::from_triangles(uv.len(), &kept)
+            .unwrap()
+            .validate(&uv)
+            .unwrap();
     }
 
     #[test]
