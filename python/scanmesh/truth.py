@@ -29,6 +29,12 @@ from scanmesh.errors import InvalidMeshError, ParameterError
 #: What :func:`height_error` measures, for reports.
 MEASURE = "closest-point distance to the true surface at random points on the mesh's area"
 
+#: What :func:`normal_error` measures, for reports.
+NORMAL_MEASURE = (
+    "unoriented angle between the mesh's face normal and the normal of the closest true"
+    " triangle, at random points on the mesh's area"
+)
+
 #: Candidate (point, triangle) pairs evaluated per step (bounds temporary memory).
 PAIRS_PER_STEP: int = 1 << 20
 
@@ -150,13 +156,30 @@ def _box_cells(lo: np.ndarray, span: np.ndarray, owner: np.ndarray, off: np.ndar
     return lo[owner] + np.column_stack((off % s[:, 0], rest % s[:, 1], rest // s[:, 1]))
 
 
-def _reduce_min(best: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
-    """``best[r] = min(best[r], values of row r)``, for ``rows`` sorted ascending."""
+def _reduce_min(
+    best: np.ndarray,
+    rows: np.ndarray,
+    values: np.ndarray,
+    arg: np.ndarray | None = None,
+    items: np.ndarray | None = None,
+) -> None:
+    """``best[r] = min(best[r], values of row r)``, for ``rows`` sorted ascending.
+
+    With ``arg`` and ``items``: where a row's minimum improves ``best``, ``arg[r]`` becomes
+    the ``items`` entry that attains it (the first one on ties).
+    """
     if len(rows) == 0:
         return
     first = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
     owners = rows[first]
-    best[owners] = np.minimum(best[owners], np.minimum.reduceat(values, first))
+    low = np.minimum.reduceat(values, first)
+    if arg is not None and items is not None:
+        group = np.cumsum(np.r_[False, rows[1:] != rows[:-1]])  # group of each entry
+        attains = np.flatnonzero(values == low[group])
+        _, pick = np.unique(group[attains], return_index=True)
+        better = low < best[owners]
+        arg[owners[better]] = items[attains[pick]][better]
+    best[owners] = np.minimum(best[owners], low)
 
 
 class TrueSurface:
@@ -212,8 +235,15 @@ class TrueSurface:
     def _key(self, cells: np.ndarray) -> np.ndarray:
         return (cells[:, 0] * self.shape[1] + cells[:, 1]) * self.shape[2] + cells[:, 2]
 
-    def _search_cells(self, points: np.ndarray, bound: np.ndarray, best: np.ndarray) -> None:
-        """Lower ``best`` by the triangles binned in the cells that ``point +- bound`` meets."""
+    def _search_cells(
+        self,
+        points: np.ndarray,
+        bound: np.ndarray,
+        best: np.ndarray,
+        arg: np.ndarray | None = None,
+    ) -> None:
+        """Lower ``best`` by the triangles binned in the cells that ``point +- bound`` meets
+        (and set ``arg`` to the triangle that lowered it, when given)."""
         lo = np.floor((points - bound[:, None] - self.origin) / self.cell).astype(np.int64)
         hi = np.floor((points + bound[:, None] - self.origin) / self.cell).astype(np.int64)
         lo = np.clip(lo, 0, self.shape - 1)
@@ -227,9 +257,12 @@ class TrueSurface:
             for k, item in _expand(count):
                 tri = self.tris[self.starts[slot[k]] + item]
                 who = rows[k]
-                _reduce_min(best, who, point_triangle_distance(self.triangles[tri], points[who]))
+                dist = point_triangle_distance(self.triangles[tri], points[who])
+                _reduce_min(best, who, dist, arg, tri)
 
-    def _search_tree(self, points: np.ndarray, best: np.ndarray) -> None:
+    def _search_tree(
+        self, points: np.ndarray, best: np.ndarray, arg: np.ndarray | None = None
+    ) -> None:
         """Lower ``best`` to the exact distance, best-first through the r-tree.
 
         The triangles whose boxes are nearest come first; once the k-th box is farther than
@@ -245,10 +278,14 @@ class TrueSurface:
             starts = np.cumsum(counts) - counts
             ids = ids.astype(np.int64)
             sub = best[todo]
+            sub_arg = arg[todo] if arg is not None else None
             for rows, off in _expand(counts):
-                tri = self.triangles[ids[starts[rows] + off]]
-                _reduce_min(sub, rows, point_triangle_distance(tri, q[rows]))
+                found = ids[starts[rows] + off]
+                dist = point_triangle_distance(self.triangles[found], q[rows])
+                _reduce_min(sub, rows, dist, sub_arg, found)
             best[todo] = sub
+            if arg is not None:
+                arg[todo] = sub_arg
             # not settled: k boxes returned (there may be more) and the k-th is not farther
             open_ = (counts >= k) & (np.asarray(kth) < sub) & (k < len(self.triangles))
             todo = todo[open_]
@@ -268,13 +305,37 @@ class TrueSurface:
             Exact distances (the values of ``trimesh.proximity.closest_point``, which can
             be a little larger where its candidate search misses the closest triangle).
         """
+        return self._query(points, track=False)[0]
+
+    def closest(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Closest-point distance and the true triangle that attains it, for each point.
+
+        Parameters
+        ----------
+        points : (N, 3) float
+            Query points.
+
+        Returns
+        -------
+        distance : (N,) float64
+            As :meth:`distance`.
+        triangle : (N,) int64
+            Index into ``mesh.faces`` of a closest triangle (where several are equally
+            close, e.g. at a shared edge or a crease, one of them).
+        """
+        distance, triangle = self._query(points, track=True)
+        assert triangle is not None
+        return distance, triangle
+
+    def _query(self, points: Any, track: bool) -> tuple[np.ndarray, np.ndarray | None]:
         pts = np.ascontiguousarray(points, dtype=np.float64)
         if pts.ndim != 2 or pts.shape[1] != 3:
             raise ParameterError(f"points must have shape (N, 3), got {pts.shape}")
         best = np.full(len(pts), np.inf)
+        arg = np.full(len(pts), -1, dtype=np.int64) if track else None
         # pass 1: the point's own cell; a distance within the point's margin to the cell's
         # walls is final (a closer triangle would come into the cell)
-        self._search_cells(pts, np.zeros(len(pts)), best)
+        self._search_cells(pts, np.zeros(len(pts)), best, arg)
         frac = (pts - self.origin) / self.cell
         frac -= np.floor(frac)
         margin = np.minimum(frac, 1.0 - frac).min(axis=1) * self.cell
@@ -285,18 +346,22 @@ class TrueSurface:
         cells = (np.ceil(reach / self.cell) * 2 + 2) ** 3  # cells the box may meet
         near = np.flatnonzero((cells <= MAX_CELLS_PER_QUERY) & ~(best <= margin))
         if len(near):
-            sub = best[near]
-            self._search_cells(pts[near], reach[near], sub)
+            sub, sub_arg = best[near], (arg[near] if arg is not None else None)
+            self._search_cells(pts[near], reach[near], sub, sub_arg)
             best[near] = sub
+            if arg is not None:
+                arg[near] = sub_arg
         settled = best <= margin
         settled[near] = best[near] <= reach[near]
         # pass 3: far from the surface: the r-tree
         far = np.flatnonzero(~settled)
         if len(far):
-            sub = best[far]
-            self._search_tree(pts[far], sub)
+            sub, sub_arg = best[far], (arg[far] if arg is not None else None)
+            self._search_tree(pts[far], sub, sub_arg)
             best[far] = sub
-        return best
+            if arg is not None:
+                arg[far] = sub_arg
+        return best, arg
 
 
 def _as_trimesh(mesh: Any, name: str):
@@ -368,4 +433,56 @@ def height_error(
         "h_max": float(np.max(dist)),
         "n_samples": int(len(dist)),
         "measure": MEASURE,
+    }
+
+
+def normal_error(
+    surface: Any, truth_mesh: Any, n_samples: int = 100_000, seed: int = 0
+) -> dict[str, Any]:
+    """How far a reconstructed mesh's normals turn from the true surface's normals.
+
+    At each of ``n_samples`` random points on the mesh's area (the same points as
+    :func:`height_error` with the same seed) the angle between the normal of the mesh face
+    holding the point and the normal of the closest true triangle. Orientation is ignored
+    (the angle is in 0..90 degrees), so a mesh wound either way scores the same.
+
+    Parameters
+    ----------
+    surface, truth_mesh, n_samples, seed
+        As :func:`height_error`.
+
+    Returns
+    -------
+    dict
+        ``n_mean_deg``, ``n_rms_deg``, ``n_median_deg``, ``n_max_deg``: statistics of the
+        angle in degrees; ``n_samples``; ``measure`` (:data:`NORMAL_MEASURE`).
+    """
+    import trimesh
+
+    if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)):
+        raise ParameterError(f"n_samples must be a whole number, got {n_samples!r}")
+    if n_samples < 1:
+        raise ParameterError(f"n_samples must be at least 1, got {n_samples}")
+    mesh = _as_trimesh(surface, "the mesh")
+    truth = truth_mesh if isinstance(truth_mesh, TrueSurface) else TrueSurface(truth_mesh)
+    area = float(mesh.area)
+    if not math.isfinite(area) or area <= 0:
+        raise InvalidMeshError("the mesh has no area to sample")
+    samples, face = trimesh.sample.sample_surface(mesh, int(n_samples), seed=seed)
+    _, closest = truth.closest(samples)
+    tri = mesh.triangles[face]
+    tt = truth.triangles[closest]
+    a = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    b = np.cross(tt[:, 1] - tt[:, 0], tt[:, 2] - tt[:, 0])
+    # unoriented angle, atan2 form (stable near 0 and 90 degrees)
+    angle = np.degrees(
+        np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.abs(np.einsum("ij,ij->i", a, b)))
+    )
+    return {
+        "n_mean_deg": float(angle.mean()),
+        "n_rms_deg": float(np.sqrt(np.mean(angle * angle))),
+        "n_median_deg": float(np.median(angle)),
+        "n_max_deg": float(angle.max()),
+        "n_samples": int(len(angle)),
+        "measure": NORMAL_MEASURE,
     }
