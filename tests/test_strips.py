@@ -1,0 +1,254 @@
+"""Strip reconstruction: Fuchs-matrix paths between consecutive lines, stitched into a mesh."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import scipy.spatial
+
+import scanmesh
+from scanmesh import _core
+from scanmesh.readers import read_dem, read_vtk
+from scanmesh.strips import (
+    CRITERIA,
+    DEFAULT_WEIGHT,
+    CrossingLinesWarning,
+    UnusedPointsWarning,
+    strip_surface,
+)
+from test_lines import line_scan
+
+ALL_WEIGHTS = [*CRITERIA, DEFAULT_WEIGHT]
+
+
+def quiet(points, **kwargs) -> scanmesh.Surface:
+    """strip_surface with warnings turned into errors: the input is supposed to be clean."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return strip_surface(points, **kwargs)
+
+
+def planar_uv(surface: scanmesh.Surface) -> np.ndarray:
+    """The surface's points in its projection plane, (N, 2)."""
+    uv, _ = scanmesh.project(surface.vertices, surface.options["plane"])
+    return uv
+
+
+def contains(surface: scanmesh.Surface, q: np.ndarray) -> np.ndarray:
+    """(M,) bool: which faces hold point q = (x, y) strictly inside, seen along z (the faces
+    are counter-clockwise there when the surface was built with ``plane="z"``)."""
+    xy, faces = surface.vertices[:, :2], surface.faces
+    a, b, c = (xy[faces[:, k]] for k in range(3))
+
+    def left(p, r):
+        return (r[:, 0] - p[:, 0]) * (q[1] - p[:, 1]) - (r[:, 1] - p[:, 1]) * (q[0] - p[:, 0]) > 0
+
+    return left(a, b) & left(b, c) & left(c, a)
+
+
+def assert_manifold_disc_like(surface: scanmesh.Surface) -> None:
+    """Consistently oriented, every edge in one or two faces, no repeated faces."""
+    mesh = surface.to_trimesh()
+    assert mesh.is_winding_consistent
+    edges = np.sort(mesh.edges, axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert counts.max() <= 2
+    assert len(np.unique(np.sort(surface.faces, axis=1), axis=0)) == len(surface.faces)
+    assert mesh.area_faces.min() > 0
+
+
+# Errors first.
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"method": "greedy"}, "method"),
+        ({"weight": "curvature"}, "weight"),
+        ({"weight": {"angle": 1, "bogus": 2}}, "bogus"),
+        ({"weight": {"angle": -1}}, "non|>= 0"),
+        ({"weight": {"angle": 0}}, "positive"),
+        ({"weight": 3}, "weight"),
+        ({"alpha": 0, "method": "lookahead"}, "alpha"),
+        ({"alpha": 1.5}, "alpha"),
+        ({"solver": "astar"}, "solver"),
+        ({"band": 0}, "band"),
+        ({"gap_factor": 0}, "gap_factor"),
+    ],
+)
+def test_bad_options_are_refused(kwargs, match):
+    pts, ids = line_scan(4, 8)
+    with pytest.raises(scanmesh.ParameterError, match=match):
+        strip_surface(pts, lines=ids, **kwargs)
+
+
+def test_bad_lines_and_points_are_refused():
+    pts, ids = line_scan(4, 8)
+    with pytest.raises(scanmesh.ScanmeshError, match="one id per point"):
+        strip_surface(pts, lines=ids[:-1])
+    bad = pts.copy()
+    bad[5, 0] = np.inf
+    with pytest.raises(scanmesh.DegenerateInputError):
+        strip_surface(bad, lines=ids)
+    with pytest.raises(scanmesh.DegenerateInputError, match="no strip"):
+        strip_surface(pts[:8], lines=ids[:8])  # a single line
+
+
+# Synthetic scans.
+
+
+@pytest.mark.parametrize("weight", ALL_WEIGHTS, ids=str)
+@pytest.mark.parametrize("method", ["shortest-path", "lookahead"])
+@pytest.mark.parametrize("zigzag", [False, True])
+def test_a_clean_scan_is_a_valid_mesh_of_every_point(weight, method, zigzag):
+    pts, ids = line_scan(8, 25, zigzag=zigzag, jitter=0.2, seed=2)
+    for lines in (ids, None):
+        surface = quiet(pts, lines=lines, weight=weight, method=method, plane="z")
+        # (L - 1) strips of n + m - 2 triangles each.
+        assert len(surface.faces) == 7 * (25 + 25 - 2)
+        _core.validate(planar_uv(surface), surface.faces)  # CCW in the plane, no folds
+        assert len(np.unique(surface.faces)) == len(pts)
+        assert surface.method == method
+        assert surface.options["n_strips"] == 7 and surface.options["planar_valid"]
+        assert surface.options["lines"] == ("given" if lines is not None else "detected")
+        assert set(surface.timings) == {"project", "lines", "strips"}
+
+
+def test_a_hole_across_several_lines_stays_open():
+    centre, radius = np.array([15.0, 5.0]), 3.2
+
+    def hole(x, y):
+        return np.hypot(x - centre[0], y - centre[1]) < radius
+
+    pts, ids = line_scan(11, 30, zigzag=True, drop=hole)
+    probes = centre + np.array([[0, 0], [1.5, 0.5], [-1.5, -0.5], [0.5, 1.8], [-0.4, -1.9]])
+    for weight in ALL_WEIGHTS:
+        for method in ("shortest-path", "lookahead"):
+            surface = quiet(pts, lines=ids, weight=weight, method=method, plane="z")
+            _core.validate(planar_uv(surface), surface.faces)
+            assert contains(surface, np.array([3.3, 2.4])).sum() == 1  # the probe works
+            for q in probes:
+                assert not contains(surface, q).any(), f"{weight} {method}: {q}"
+            assert len(np.unique(surface.faces)) == len(pts)
+            # One hole: two boundary loops, so V - E + F = 0 (a disc would give 1).
+            mesh = surface.to_trimesh()
+            assert len(pts) - len(mesh.edges_unique) + len(mesh.faces) == 0
+
+
+def test_without_the_gap_rule_the_hole_would_be_covered():
+    """The hole test can fail: with a gap factor wider than the hole, strips bridge it."""
+    pts, ids = line_scan(11, 30, drop=lambda x, y: np.hypot(x - 15, y - 5) < 3.2)
+    surface = quiet(pts, lines=ids, plane="z", gap_factor=20.0)
+    assert contains(surface, np.array([14.2, 5.3])).any()
+
+
+def test_lines_of_unequal_length_use_every_point():
+    # A parallelogram cut into lines: each line starts and ends a little later than the
+    # one before, and the lines have 22 to 34 points.
+    pts, ids = line_scan(12, 60, drop=lambda x, y: (x < 0.6 * y) | (x > 22 + 1.8 * y), seed=4)
+    counts = np.bincount(ids)
+    assert counts.min() < counts.max()
+    for method in ("shortest-path", "lookahead"):
+        surface = quiet(pts, lines=ids, method=method, plane="z")
+        _core.validate(planar_uv(surface), surface.faces)
+        assert len(np.unique(surface.faces)) == len(pts)
+
+
+def test_a_one_point_line_is_inserted():
+    pts, ids = line_scan(4, 12)
+    lone = np.array([[5.3, 1.5, 0.0]])
+    pts = np.vstack([pts, lone])
+    ids = np.concatenate([np.where(ids >= 2, ids + 1, ids), [2]])
+    surface = quiet(pts, lines=ids, plane="z")
+    _core.validate(planar_uv(surface), surface.faces)
+    assert len(pts) - 1 in surface.faces
+    assert len(surface.faces) == 3 * (12 + 12 - 2) + 2  # a triangle split into three
+
+
+def test_an_isolated_point_outside_every_strip_is_reported():
+    pts, ids = line_scan(4, 12)
+    pts = np.vstack([pts, [[40.0, 1.5, 0.0]]])
+    ids = np.concatenate([np.where(ids >= 2, ids + 1, ids), [2]])
+    with pytest.warns(UnusedPointsWarning, match="1 point"):
+        surface = strip_surface(pts, lines=ids, plane="z")
+    np.testing.assert_array_equal(surface.options["unused"], [len(pts) - 1])
+
+
+def test_crossing_lines_warn_and_still_give_the_3d_mesh():
+    pts, ids = line_scan(3, 12)
+    third = ids == 2
+    pts[third, 1] = 2.0 - 0.3 * pts[third, 0]  # line 2 crosses line 1 at x = 10/3
+    with pytest.warns(CrossingLinesWarning):
+        surface = strip_surface(pts, lines=ids, plane="z")
+    assert not surface.options["planar_valid"]
+    assert len(surface.faces) == 2 * 22
+    assert surface.to_trimesh().is_winding_consistent
+
+
+def test_shortest_path_is_never_above_lookahead_on_real_strips(rod_scan, shared_data):
+    fran = read_vtk(shared_data / "scans" / "fran_cut.vtk")
+    scans = {"rod": rod_scan, "fran": (fran.points, fran.line_ids)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CrossingLinesWarning)  # fran folds in any plane
+        for name, (points, line_ids) in scans.items():
+            for weight in ALL_WEIGHTS:
+                best = strip_surface(points, lines=line_ids, weight=weight).options["cost"]
+                for alpha in range(1, 7):
+                    look = strip_surface(
+                        points, lines=line_ids, weight=weight, method="lookahead", alpha=alpha
+                    ).options["cost"]
+                    assert best <= look * (1 + 1e-12), f"{name} {weight} alpha={alpha}"
+
+
+def test_every_solver_finds_the_same_optimum_on_real_strips(rod_scan):
+    points, line_ids = rod_scan
+    for weight in ALL_WEIGHTS:
+        costs = [
+            strip_surface(points, lines=line_ids, weight=weight, solver=s).options["cost"]
+            for s in ("banded", "dp", "dijkstra")
+        ]
+        np.testing.assert_allclose(costs, costs[1], rtol=1e-9, err_msg=str(weight))
+
+
+# Real scans.
+
+
+def test_fran_cut_is_a_valid_mesh_of_every_point(shared_data):
+    fran = read_vtk(shared_data / "scans" / "fran_cut.vtk")
+    points = fran.points
+    # A cylindrical scan over 93 degrees folds in every projection plane: the strips say so
+    # but are still one consistently oriented 3-D surface.
+    with pytest.warns(CrossingLinesWarning):
+        surface = strip_surface(points)
+    assert surface.options["n_lines"] == 45
+    assert len(surface.faces) == 44 * (49 + 49 - 2)
+    assert len(np.unique(surface.faces)) == len(points) == 2205
+    assert_manifold_disc_like(surface)
+    # In the scan's own coordinates (azimuth about the y axis, height y) it is a valid
+    # planar triangulation: no folds, no overlaps.
+    azimuth = np.arctan2(points[:, 0], -points[:, 2])
+    _core.validate(np.ascontiguousarray(np.column_stack([-azimuth, points[:, 1]])), surface.faces)
+    quality = surface.quality
+    assert quality.n_interior == 43 * 47
+    assert quality.min_angle_deg > 10
+
+
+def test_sainte_helens_is_a_valid_mesh_of_every_point(shared_data):
+    dem = read_dem(shared_data / "terrain" / "SainteHelens.dem")
+    surface = quiet(dem.points, lines=dem.line_ids)
+    assert len(np.unique(surface.faces)) == len(dem.points) == 148_885
+    _core.validate(planar_uv(surface), surface.faces)
+    assert_manifold_disc_like(surface)
+    # Profiles of 8 to 464 points (the quadrangle is rotated against the UTM grid): the
+    # strips cover the whole quadrangle, one disc without holes, up to its outline.
+    mesh = surface.to_trimesh()
+    assert len(dem.points) - len(mesh.edges_unique) + len(mesh.faces) == 1
+    xy = dem.points[:, :2]
+    a, b, c = (xy[surface.faces[:, k]] for k in range(3))
+    u, v = b - a, c - a
+    area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]).sum()
+    hull = scipy.spatial.ConvexHull(xy).volume
+    assert 0.99 * hull < area <= hull * (1 + 1e-9)
+    assert np.isfinite(surface.quality.tac_1) and surface.quality.min_angle_deg > 1
