@@ -1,7 +1,38 @@
-"""Type stubs of the native module ``scanmesh._core`` (Rust, PyO3)."""
+"""Type stubs of the native module ``scanmesh._core`` (Rust, PyO3).
+
+Checked against the built module by ``python -m mypy.stubtest scanmesh._core`` in CI.
+"""
+
+from typing import final
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = [
+    "ScanmeshError",
+    "DegenerateInputError",
+    "ParameterError",
+    "InvalidMeshError",
+    "SLIVER_ANGLE_DEG",
+    "DEFAULT_MAX_EDGE_FACTOR",
+    "ANNEAL_DEFAULTS",
+    "project",
+    "delaunay",
+    "median_spacing",
+    "trim_long_edges",
+    "validate",
+    "mesh_quality",
+    "tac_norm",
+    "DEFAULT_GAP_FACTOR",
+    "DEFAULT_BAND",
+    "detect_lines",
+    "scan_segments",
+    "strip_mesh",
+    "empty_triangles",
+    "triangulations",
+    "lop",
+    "Annealer",
+]
 
 class ScanmeshError(ValueError): ...
 class DegenerateInputError(ScanmeshError): ...
@@ -45,9 +76,10 @@ def lop(
     tie_tolerance: float = 1e-10,
 ) -> tuple[npt.NDArray[np.int64], int]: ...
 
+@final
 class Annealer:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         points: npt.NDArray[np.float64],
         uv: npt.NDArray[np.float64],
         faces: npt.NDArray[np.int64],
@@ -62,7 +94,7 @@ class Annealer:
         tie_tolerance: float,
         polish: bool,
         calibration_samples: int,
-    ) -> None: ...
+    ) -> Annealer: ...
     def advance(self, max_proposals: int, max_seconds: float) -> int: ...
     @property
     def done(self) -> bool: ...

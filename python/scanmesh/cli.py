@@ -142,9 +142,9 @@ def _dumps(data: Any) -> str:
 
 
 def _write_text(path: Path, text: str) -> None:
-    from scanmesh.writers import _write_atomic
+    from scanmesh.writers import write_atomic
 
-    _write_atomic(path, [text.encode("utf-8")])
+    write_atomic(path, [text.encode("utf-8")])
 
 
 def _check_outputs(inputs: Sequence[Path], outputs: Sequence[Path | None]) -> None:

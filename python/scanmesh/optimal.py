@@ -71,11 +71,10 @@ import math
 import time
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import ArrayLike
-from scipy.optimize import Bounds, LinearConstraint, milp
 
 from scanmesh import _core
 from scanmesh._checks import as_points
@@ -83,6 +82,9 @@ from scanmesh.delaunay import delaunay
 from scanmesh.errors import ParameterError
 from scanmesh.projection import Frame, PlaneSpec, project
 from scanmesh.surface import Surface
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 #: Relative optimality gap at which HiGHS stops and the result counts as proven optimal.
 MIP_REL_GAP: float = 1e-6
@@ -255,6 +257,9 @@ def optimal_surface(
         Bad points (shape, non-finite, too few distinct, collinear), p other than 1 or
         inf, a non-positive time limit, or more than MAX_OPTIMAL_POINTS distinct points.
     """
+    # scipy is imported here, not at module load: `import scanmesh` stays light.
+    from scipy.optimize import Bounds, LinearConstraint, milp
+
     p = _check_p(p, exact=True)
     try:
         limit = float(time_limit)
@@ -358,6 +363,8 @@ class _Program:
 
 def _build_program(inst: _Instance, uv: np.ndarray, tri: np.ndarray, p: float) -> _Program:
     """Assemble the MILP of the module docstring: x (T) binary, then y (I) or z continuous."""
+    import scipy.sparse as sp
+
     n, t_count = len(uv), len(tri)
     # Edges: triangle t lies left of its directed edge (a -> b); +1 when a < b.
     a_end = tri.reshape(-1)

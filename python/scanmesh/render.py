@@ -13,7 +13,6 @@ from __future__ import annotations
 import io
 import math
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -23,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh.digitizer import AxisSpec, cast_grid, parse_axis
 from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.writers import write_atomic
 
 #: Default direction from the part to the eye: a three-quarter view from above (+z up).
 DEFAULT_VIEW = (-0.55, -1.0, 0.9)
@@ -189,20 +189,6 @@ def shade_mesh(
     return np.clip(np.rint(image * 255), 0, 255).astype(np.uint8)
 
 
-def _write_atomic(path: str | os.PathLike, data: bytes) -> Path:
-    target = Path(path)
-    folder = target.parent if str(target.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
-
-
 def _png_path(path: str | os.PathLike) -> Path:
     target = Path(path)
     if target.suffix.lower() != ".png":
@@ -227,7 +213,7 @@ def render_mesh(
     image = shade_mesh(mesh, size=size, view=view, up=up, wire=wire, supersample=supersample)
     buf = io.BytesIO()
     Image.fromarray(image, mode="RGB").save(buf, format="PNG")
-    return _write_atomic(target, buf.getvalue())
+    return write_atomic(target, [buf.getvalue()])
 
 
 def _figure(width_in: float, height_in: float, dpi: int = 100):
@@ -239,7 +225,7 @@ def _figure(width_in: float, height_in: float, dpi: int = 100):
 def _save_figure(fig, path: Path, dpi: int = 100) -> Path:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, facecolor="white")
-    return _write_atomic(path, buf.getvalue())
+    return write_atomic(path, [buf.getvalue()])
 
 
 def render_compare(

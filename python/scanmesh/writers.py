@@ -46,11 +46,27 @@ def _check_protected(target: Path, protect: PathSpec | Iterable[PathSpec] | None
             )
 
 
-def _write_atomic(target: Path, chunks: Iterable[bytes]) -> Path:
-    """Write byte chunks to a temporary file beside ``target``, then rename it over ``target``."""
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: Permissions of new files: what ``open()`` would give (0o666 less the process umask);
+#: ``mkstemp`` alone would leave every output readable by its owner only.
+FILE_MODE = 0o666 & ~_umask()
+
+
+def write_atomic(path: str | os.PathLike, chunks: Iterable[bytes]) -> Path:
+    """Write byte chunks to a temporary file beside ``path``, then rename it over ``path``.
+
+    A failure or an interruption leaves neither a partial file nor a damaged old one.
+    """
+    target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
     try:
+        os.chmod(tmp, FILE_MODE)
         with os.fdopen(fd, "wb") as handle:
             for chunk in chunks:
                 handle.write(chunk)
@@ -102,7 +118,7 @@ def save_mesh(
     data = mesh.export(file_type=kind)
     if isinstance(data, str):
         data = data.encode()
-    return _write_atomic(target, [data])
+    return write_atomic(target, [data])
 
 
 def write_points(
@@ -168,4 +184,4 @@ def write_points(
                 values = np.column_stack([block, line]).ravel().tolist()
             yield ((row * len(block)) % tuple(values)).encode("ascii")
 
-    return _write_atomic(target, blocks())
+    return write_atomic(target, blocks())
