@@ -559,12 +559,7 @@ fn scan_segments<'py>(
     uv: PyReadonlyArray2<'py, f64>,
     line_ids: PyReadonlyArray1<'py, i64>,
     gap_factor: f64,
-) -> PyResult<(
-    Vec<Vec<Bound<'py, PyArray1<i64>>>>,
-    f64,
-    f64,
-    Bound<'py, PyArray2<i64>>,
-)> {
+) -> PyResult<(Vec<Vec<Ints1<'py>>>, f64, f64, Ints2<'py>)> {
     let pts = points2(&uv)?;
     let ids = line_ids_in(&line_ids, pts.len())?;
     let scan = py
