@@ -22,6 +22,7 @@ from scanmesh.errors import (
     DegenerateInputError,
     FileFormatError,
     InvalidMeshError,
+    NotAHeightFieldWarning,
     ParameterError,
     ScanmeshError,
     ScanmeshWarning,
@@ -59,4 +60,5 @@ __all__ = [
     "FileFormatError",
     "ScanmeshWarning",
     "CoincidentPointsWarning",
+    "NotAHeightFieldWarning",
 ]

@@ -11,7 +11,8 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_points
-from scanmesh.errors import CoincidentPointsWarning, ParameterError
+from scanmesh._interrupt import interruptible
+from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError, ParameterError
 from scanmesh.projection import PlaneSpec, project
 from scanmesh.surface import Surface
 
@@ -50,22 +51,34 @@ def delaunay(
     Surface
         Faces over the input points. Points that coincide in the plane with an earlier point
         are not used; ``Surface.duplicates`` lists them and a ``CoincidentPointsWarning`` says
-        how many.
+        how many. ``options["trimmed"]`` ((K,) int64) lists the points whose every triangle
+        was trimmed away: each input point is in a face, a duplicate or trimmed.
 
     Raises
     ------
     ScanmeshError
-        Wrong shape, non-finite values, fewer than 3 distinct points, or collinear points.
+        Wrong shape, non-finite values, fewer than 3 distinct points, collinear points, or
+        a trimming length that leaves no triangle.
     """
     t0 = time.perf_counter()
     pts = as_points(points)
     uv, frame = project(pts, plane)
     t1 = time.perf_counter()
-    faces, duplicate_of = _core.delaunay(uv)
+    faces, duplicate_of = interruptible(len(pts), _core.delaunay, uv)
     t2 = time.perf_counter()
     limit = resolve_max_edge(uv, faces, max_edge)
+    trimmed = np.empty(0, dtype=np.int64)
     if math.isfinite(limit):
-        faces = _core.trim_long_edges(uv, faces, limit)
+        untrimmed = faces
+        faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit)
+        # (K,) int64 points that lost every triangle to trimming (outliers, stray points)
+        trimmed = np.setdiff1d(untrimmed, faces).astype(np.int64)
+        if len(faces) == 0:
+            raise DegenerateInputError(
+                f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse"
+                " for it, or fold onto themselves in the projection plane (try another plane=,"
+                " or a larger max_edge)"
+            )
     t3 = time.perf_counter()
     dropped = np.flatnonzero(duplicate_of >= 0)
     duplicates = np.column_stack([dropped, duplicate_of[dropped]]).astype(np.int64)
@@ -81,7 +94,7 @@ def delaunay(
         vertices=pts,
         faces=faces,
         method="delaunay",
-        options={"plane": plane, "max_edge": limit},
+        options={"plane": plane, "max_edge": limit, "trimmed": trimmed},
         frame=frame,
         duplicates=duplicates,
         timings={"project": t1 - t0, "triangulate": t2 - t1, "trim": t3 - t2},

@@ -23,6 +23,11 @@ class CoincidentPointsWarning(ScanmeshWarning):
     """Points that coincide in the projection plane; all but one of each group are unused."""
 
 
+class NotAHeightFieldWarning(ScanmeshWarning):
+    """Many triangles are steep over the projection plane (see ``Surface.steep_fraction``):
+    the surface is probably not a height field there; another ``plane=`` may fit it better."""
+
+
 __all__ = [
     "ScanmeshError",
     "DegenerateInputError",
@@ -31,4 +36,5 @@ __all__ = [
     "FileFormatError",
     "ScanmeshWarning",
     "CoincidentPointsWarning",
+    "NotAHeightFieldWarning",
 ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from typing import Any
 
 import numpy as np
@@ -12,9 +13,9 @@ from numpy.typing import ArrayLike
 from scanmesh._checks import as_points
 from scanmesh.anneal import Progress, anneal_surface, lop_surface
 from scanmesh.delaunay import delaunay
-from scanmesh.errors import ParameterError
+from scanmesh.errors import NotAHeightFieldWarning, ParameterError
 from scanmesh.projection import PlaneSpec
-from scanmesh.surface import Surface
+from scanmesh.surface import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION, Surface
 
 #: Methods of :func:`reconstruct`, fast to slow.
 METHODS = ("delaunay", "lookahead", "shortest-path", "lop", "anneal", "optimal")
@@ -92,6 +93,13 @@ def reconstruct(
         Bad points, a bad file, an unknown method or option.
     KeyboardInterrupt
         Ctrl-C during annealing (returns control within about 20 ms).
+
+    Warns
+    -----
+    NotAHeightFieldWarning
+        More than ``surface.STEEP_WARN_FRACTION`` (10 %) of the triangles are steeper than
+        ``surface.STEEP_ANGLE_DEG`` (75 degrees) over the projection plane (see
+        ``Surface.steep_fraction``).
     """
     if method not in METHODS:
         raise ParameterError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -127,6 +135,16 @@ def reconstruct(
         surface.timings = {"read": t_read, **surface.timings}
     if surface.line_ids is None and lines is not None:
         surface.line_ids = np.asarray(lines)
+    steep = surface.steep_fraction
+    if steep is not None and steep > STEEP_WARN_FRACTION:
+        warnings.warn(
+            f"{100 * steep:.0f} % of the triangles are steep (normal more than"
+            f" {STEEP_ANGLE_DEG:g} deg from the projection normal): the surface is probably"
+            f" not a height field over this plane (plane={plane!r}); try another plane=,"
+            " e.g. 'x', 'y', 'z' or a normal vector",
+            NotAHeightFieldWarning,
+            stacklevel=2,
+        )
     return surface
 
 

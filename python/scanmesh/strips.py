@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_points
+from scanmesh._interrupt import interruptible
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -172,11 +173,16 @@ def strip_surface(
     t0 = time.perf_counter()
     pts = as_points(points)
     uv, frame = project(pts, plane)
+    if np.linalg.matrix_rank(uv - uv.mean(axis=0)) < 2:
+        raise DegenerateInputError(
+            "all points are collinear after projection onto the plane: choose another plane"
+        )
     t1 = time.perf_counter()
     ids = _core.detect_lines(uv, k) if lines is None else as_line_ids(lines, len(pts))
     t2 = time.perf_counter()
-    faces, unused, duplicates, n_strips, cost, planar_error = _core.strip_mesh(
-        pts, uv, ids, coefficients, method, int(alpha), solver, int(band), k
+    faces, unused, duplicates, n_strips, cost, planar_error = interruptible(
+        len(pts), _core.strip_mesh, pts, uv, ids, coefficients, method, int(alpha), solver,
+        int(band), k,
     )
     t3 = time.perf_counter()
     if n_strips == 0:

@@ -126,6 +126,34 @@ impl Normalizer {
     }
 }
 
+/// Planar points moved so their bounding box is centred on 0, then scaled by `1 / half` of
+/// its larger extent, so that every coordinate lies in [-1, 1] (no flushing, unlike
+/// [`crate::delaunay::unit_square`]). Returns the points and the scale factor (1 when all
+/// points coincide). Keeps dot and cross products of 1e300- or 1e-300-sized inputs finite
+/// and normal; orientations and length ratios are unchanged up to rounding. O(n).
+pub fn normalize_plane(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, f64) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in uv {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if uv.is_empty() {
+        return (Vec::new(), 1.0);
+    }
+    // Halve before subtracting: hi - lo overflows for coordinates near f64::MAX.
+    let center = [lo[0] * 0.5 + hi[0] * 0.5, lo[1] * 0.5 + hi[1] * 0.5];
+    let half = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
+    let scale = if half > 0.0 { 1.0 / half } else { 1.0 };
+    let scale = if scale.is_finite() { scale } else { 1.0 };
+    let out = uv
+        .iter()
+        .map(|p| [(p[0] - center[0]) * scale, (p[1] - center[1]) * scale])
+        .collect();
+    (out, scale)
+}
+
 /// Checks that every coordinate is finite; the error names the first bad one. O(n).
 pub fn check_finite(points: &[DVec3]) -> crate::Result<()> {
     for (index, p) in points.iter().enumerate() {

@@ -130,6 +130,9 @@ fn main_axis(uv: &[[f64; 2]], short: f64, long: f64) -> [f64; 2] {
 pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
     check_uv(uv)?;
     check_gap_factor(gap_factor)?;
+    // The rules compare ratios of lengths; in the unit box their products stay finite.
+    let (unit, _) = crate::geometry::normalize_plane(uv);
+    let uv = &unit[..];
     let mut ids = Vec::with_capacity(uv.len());
     if uv.is_empty() {
         return Ok(ids);

@@ -25,7 +25,7 @@
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
 use crate::fuchs::{lookahead, path_triangles, shortest_path, Solver, Weight};
-use crate::geometry::{check_finite, orient2d};
+use crate::geometry::{check_finite, normalize_plane, orient2d, Normalizer};
 use crate::lines::ScanLines;
 use crate::mesh::HalfEdgeMesh;
 use crate::{Error, Result};
@@ -290,9 +290,22 @@ pub fn stitch(
             expected: "indices of the given points",
         });
     }
-    // Scale-free weights: lengths in median steps, areas in squared median steps.
-    let h = if scan.median_step > 0.0 {
-        scan.median_step
+    // Work on positions mapped into the unit box (3-D and planar, each by one translation
+    // and uniform scale), so that path weights and planar products neither overflow at 1e300
+    // nor underflow at 1e-300; the scan's step and gap follow the planar scale.
+    let normalizer = Normalizer::fit(points);
+    let points = &normalizer.apply_all(points)[..];
+    let to_unit_3d = if normalizer.half_extent > 0.0 {
+        1.0 / normalizer.half_extent
+    } else {
+        1.0
+    };
+    let (unit_uv, to_unit_2d) = normalize_plane(uv);
+    let uv = &unit_uv[..];
+    // Scale-free weights: lengths in median steps, areas in squared median steps. The
+    // median step is planar; 3-D lengths are in the 3-D unit box.
+    let h = if scan.median_step > 0.0 && (scan.median_step * to_unit_3d).is_normal() {
+        scan.median_step * to_unit_3d
     } else {
         1.0
     };
@@ -302,7 +315,7 @@ pub fn stitch(
         area: w.area / (h * h),
         ..w
     };
-    let margin = 0.5 * scan.gap;
+    let margin = 0.5 * scan.gap * to_unit_2d;
 
     let kept: Vec<usize> = (0..scan.lines.len())
         .filter(|&l| scan.lines[l].iter().any(|s| s.len() >= 2))

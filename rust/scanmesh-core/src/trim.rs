@@ -10,15 +10,35 @@ use crate::Result;
 /// still open a bore or a missed region a few lines wide.
 pub const DEFAULT_MAX_EDGE_FACTOR: f64 = 5.0;
 
+/// Distances below this fraction of the planar extent are not spacings but near-duplicates
+/// (a point scanned twice, a surface folded onto itself in the plane); `median_spacing`
+/// skips them, or a scan with many of them would be trimmed away entirely.
+pub const NEAR_DUPLICATE_RELATIVE: f64 = 1e-9;
+
 /// Median over used vertices of the planar distance to the nearest neighbour, taken along
-/// triangulation edges (the nearest-neighbour graph is a subgraph of Delaunay's). 0 when
-/// there are no triangles. O(m + n log n).
+/// triangulation edges (the nearest-neighbour graph is a subgraph of Delaunay's), ignoring
+/// near-duplicates (see [`NEAR_DUPLICATE_RELATIVE`]). 0 when there are no triangles.
+/// O(m + n log n).
 pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
     let mut nearest = vec![f64::INFINITY; uv.len()];
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for t in triangles {
+        for &v in t {
+            for k in 0..2 {
+                lo[k] = lo[k].min(uv[v as usize][k]);
+                hi[k] = hi[k].max(uv[v as usize][k]);
+            }
+        }
+    }
+    let extent = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
+    let negligible = NEAR_DUPLICATE_RELATIVE * extent;
     for t in triangles {
         for k in 0..3 {
             let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
             let d = planar_distance(uv[a], uv[b]);
+            if d <= negligible {
+                continue;
+            }
             nearest[a] = nearest[a].min(d);
             nearest[b] = nearest[b].min(d);
         }
