@@ -250,6 +250,13 @@ def test_time_limit_gives_an_honest_uncertified_triangulation():
     bound = result.options["lower_bound"]
     assert bound <= result.quality.tac_1
     assert math.isclose(result.gap, (result.quality.tac_1 - bound) / result.quality.tac_1)
+    # The best triangulation known: never worse than LOP or Delaunay.
+    assert result.options["source"] in ("highs", "lop", "delaunay")
+    lop = scanmesh.reconstruct(pts, "lop", plane="z", max_edge=math.inf)
+    assert result.quality.tac_1 <= lop.quality.tac_1 + 1e-12
+    assert (
+        result.quality.tac_1 <= scanmesh.delaunay(pts, plane="z", max_edge=math.inf).quality.tac_1
+    )
 
 
 # --- heuristics against the optimum -------------------------------------------------------

@@ -113,6 +113,8 @@ class _Instance:
     duplicates: np.ndarray
     #: (M, 3) int64 Delaunay triangles of the hull, local indices, counter-clockwise
     delaunay_local: np.ndarray
+    #: the Delaunay triangulation of the hull itself (input indices)
+    delaunay: Surface
     #: seconds spent projecting and triangulating
     seconds: float
 
@@ -138,6 +140,7 @@ def _instance(points: ArrayLike, plane: PlaneSpec) -> _Instance:
         keep=keep,
         duplicates=base.duplicates,
         delaunay_local=local[base.faces],
+        delaunay=base,
         seconds=time.perf_counter() - t0,
     )
 
@@ -195,25 +198,6 @@ def _interior_mask(n: int, triangles: np.ndarray) -> np.ndarray:
     return interior
 
 
-def _surface(inst: _Instance, local_faces: np.ndarray, method: str, **extra: object) -> Surface:
-    timings = extra.pop("timings")
-    options = extra.pop("options")
-    return Surface(
-        vertices=inst.points,
-        faces=np.ascontiguousarray(inst.keep[local_faces], dtype=np.int64),
-        method=method,
-        options=options,
-        frame=inst.frame,
-        duplicates=inst.duplicates,
-        timings=timings,
-        **extra,
-    )
-
-
-def _tac_norm(surface: Surface, p: float) -> float:
-    return surface.quality.tac_norm(p)
-
-
 def optimal_surface(
     points: ArrayLike,
     *,
@@ -246,8 +230,10 @@ def optimal_surface(
         ``method="optimal"``, faces over the input points covering the convex hull (no
         trimming). ``certified`` is True when HiGHS proved optimality (to a relative gap of
         MIP_REL_GAP); False when the time limit stopped it, with the best triangulation
-        found (Delaunay if none) and ``gap`` = (its tac norm - lower bound) / its tac norm.
+        known and ``gap`` = (its tac norm - lower bound) / its tac norm.
         ``options`` holds the program's size, the bound and the solver's status;
+        ``options["source"]`` says where the faces come from ("highs"; when stopped
+        early also "lop" or "delaunay", whichever has the smallest tac norm);
         ``timings`` the seconds per stage. Coincident points are handled as by
         :func:`scanmesh.delaunay` (``Surface.duplicates``, a ``CoincidentPointsWarning``).
 
@@ -297,6 +283,8 @@ def optimal_surface(
             " set has a triangulation, so this is a bug: please report it with the points"
         )
     found = res.x is not None
+    certified = bool(res.status == 0)
+    candidates: list[tuple[str, np.ndarray]] = []
     if found:
         chosen = res.x[: len(tri)] > 0.5
         # 0/1 and the integer rows hold exactly: by the theorem, a triangulation.
@@ -306,21 +294,31 @@ def optimal_surface(
                 f"HiGHS returned a solution that breaks {int(np.count_nonzero(residual))}"
                 " triangulation equations after rounding; please report it with the points"
             )
-        local_faces = tri[chosen]
-    else:
-        local_faces = inst.delaunay_local
+        candidates.append(("highs", inst.keep[tri[chosen]]))
+    if not certified:
+        # Stopped early: return the best triangulation known, HiGHS's or a local optimum.
+        from scanmesh.anneal import lop_surface
+
+        candidates.append(("lop", lop_surface(inst.delaunay, p=1.0).faces))
+        candidates.append(("delaunay", inst.delaunay.faces))
+    scored = [
+        (_core_norm(inst.points, faces, p), k, name) for k, (name, faces) in enumerate(candidates)
+    ]
+    value, best, source = min(scored)
     bound = res.mip_dual_bound if res.mip_dual_bound is not None else 0.0
     bound = max(0.0, float(bound)) if math.isfinite(bound) else 0.0
-    certified = bool(res.status == 0)
-    surface = _surface(
-        inst,
-        local_faces,
-        "optimal",
+    t4 = time.perf_counter()
+    surface = Surface(
+        vertices=inst.points,
+        faces=np.ascontiguousarray(candidates[best][1], dtype=np.int64),
+        method="optimal",
+        frame=inst.frame,
+        duplicates=inst.duplicates,
         certified=certified,
-        gap=None,
+        gap=0.0 if value <= bound or value == 0.0 else (value - bound) / value,
         options={
             "p": p,
-            "plane": None if plane is None else plane,
+            "plane": plane,
             "time_limit": limit,
             "max_edge": math.inf,
             "candidate_triangles": int(len(tri)),
@@ -331,20 +329,26 @@ def optimal_surface(
             "nodes": res.mip_node_count,
             "status": res.message,
             "solution_found": found,
+            "source": source,
         },
         timings={
             "project_delaunay": inst.seconds,
             "empty_triangles": t1 - t0,
             "build": t2 - t1,
             "solve": t3 - t2,
+            "compare": t4 - t3,
         },
     )
-    value = _tac_norm(surface, p)
-    surface.gap = 0.0 if value <= bound or value == 0.0 else (value - bound) / value
     if certified:
         # Proven within MIP_REL_GAP (and HiGHS's tolerances): report no more than that.
         surface.gap = min(surface.gap, MIP_REL_GAP)
     return surface
+
+
+def _core_norm(points: np.ndarray, faces: np.ndarray, p: float) -> float:
+    """tac p-norm of ``faces`` over ``points`` as Surface.quality measures it."""
+    tac, _ = _core.mesh_quality(points, np.ascontiguousarray(faces, dtype=np.int64))
+    return _core.tac_norm(tac, p)
 
 
 @dataclass(frozen=True)
@@ -510,12 +514,10 @@ def brute_force_surface(
         score = (tac**p).sum(axis=1)
     best = int(np.argmin(score))
     t2 = time.perf_counter()
-    return _surface(
-        inst,
-        every[best],
-        "brute-force",
-        certified=True,
-        gap=0.0,
+    return Surface(
+        vertices=inst.points,
+        faces=np.ascontiguousarray(inst.keep[every[best]], dtype=np.int64),
+        method="brute-force",
         options={
             "p": p,
             "plane": plane,
@@ -523,7 +525,11 @@ def brute_force_surface(
             "n_triangulations": int(len(every)),
             "max_triangulations": int(max_triangulations),
         },
+        frame=inst.frame,
+        duplicates=inst.duplicates,
         timings={"project_delaunay": inst.seconds, "enumerate": t1 - t0, "score": t2 - t1},
+        certified=True,
+        gap=0.0,
     )
 
 
