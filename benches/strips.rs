@@ -1,0 +1,123 @@
+//! Strips against spade's Delaunay on the same points, and the path solvers on one scan.
+//!
+//! `cargo bench --bench strips`. Groups:
+//! - `strips_vs_delaunay/{10000,100000,1000000}`: a line scan of a smooth height field
+//!   (square, jittered); `strips` is `segment_lines` + `stitch` with the default weight
+//!   (angle + 0.3 dihedral), banded shortest path and the planar check; `strips_unchecked`
+//!   the same without the check; `strips_length` with the length weight, unchecked;
+//!   `delaunay` is spade's bulk load through `scanmesh_core::delaunay` (no trimming);
+//! - `solvers`: every solver and look-ahead depth on the embedded ~14,000-point rod scan.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use scanmesh_core::delaunay::delaunay;
+use scanmesh_core::fuchs::{Solver, Weight, DEFAULT_BAND};
+use scanmesh_core::glam::DVec3;
+use scanmesh_core::lines::{detect_lines, segment_lines, DEFAULT_GAP_FACTOR};
+use scanmesh_core::projection::{project, Plane};
+use scanmesh_core::strips::{stitch, Method, StripParams};
+use std::hint::black_box;
+use std::time::Duration;
+
+#[path = "demo_scan.rs"]
+mod demo_scan;
+
+/// The default weight of the Python layer (`scanmesh.strips.DEFAULT_WEIGHT`).
+const DEFAULT_WEIGHT: Weight = Weight {
+    length: 0.0,
+    area: 0.0,
+    angle: 1.0,
+    dihedral: 0.3,
+};
+
+/// About `n` points on √n lines of √n points over z = 5 sin(0.05 x) cos(0.04 y), spacing 1
+/// along and across, jittered by ±0.15: (points, planar positions, line ids).
+fn height_scan(n: usize) -> (Vec<DVec3>, Vec<[f64; 2]>, Vec<i64>) {
+    let side = (n as f64).sqrt().round() as usize;
+    let mut s = 17u64;
+    let mut jitter = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3
+    };
+    let mut points = Vec::with_capacity(side * side);
+    let mut ids = Vec::with_capacity(side * side);
+    for r in 0..side {
+        for c in 0..side {
+            let (x, y) = (c as f64 + jitter(), r as f64 + jitter());
+            points.push(DVec3::new(x, y, 5.0 * (0.05 * x).sin() * (0.04 * y).cos()));
+            ids.push(r as i64);
+        }
+    }
+    let uv = points.iter().map(|p| [p.x, p.y]).collect();
+    (points, uv, ids)
+}
+
+fn strips_vs_delaunay(c: &mut Criterion) {
+    let mut group = c.benchmark_group("strips_vs_delaunay");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(15));
+    for n in [10_000, 100_000, 1_000_000] {
+        let (points, uv, ids) = height_scan(n);
+        group.throughput(Throughput::Elements(points.len() as u64));
+        let banded = Method::ShortestPath(Solver::Banded(DEFAULT_BAND));
+        let variants = [
+            ("strips", DEFAULT_WEIGHT, true),
+            ("strips_unchecked", DEFAULT_WEIGHT, false),
+            ("strips_length", Weight::LENGTH, false),
+        ];
+        for (name, weight, check) in variants {
+            let params = StripParams {
+                weight,
+                method: banded,
+                check,
+            };
+            group.bench_with_input(BenchmarkId::new(name, n), &n, |b, _| {
+                b.iter(|| {
+                    let scan = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
+                    black_box(stitch(&points, &uv, &scan, &params).unwrap())
+                })
+            });
+        }
+        group.bench_with_input(BenchmarkId::new("delaunay", n), &n, |b, _| {
+            b.iter(|| black_box(delaunay(&uv).unwrap()))
+        });
+    }
+    group.finish();
+}
+
+fn solvers(c: &mut Criterion) {
+    let points = demo_scan::demo_points();
+    let uv = project(&points, Plane::Axis(1)).unwrap().uv;
+    let ids: Vec<i64> = detect_lines(&uv, DEFAULT_GAP_FACTOR)
+        .unwrap()
+        .into_iter()
+        .map(i64::from)
+        .collect();
+    let scan = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
+    let mut group = c.benchmark_group("solvers");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(points.len() as u64));
+    let methods = [
+        ("banded", Method::ShortestPath(Solver::Banded(DEFAULT_BAND))),
+        ("dp", Method::ShortestPath(Solver::Dp)),
+        ("dijkstra", Method::ShortestPath(Solver::Dijkstra)),
+        ("lookahead_1", Method::Lookahead(1)),
+        ("lookahead_3", Method::Lookahead(3)),
+        ("lookahead_6", Method::Lookahead(6)),
+    ];
+    for (name, method) in methods {
+        let params = StripParams {
+            weight: DEFAULT_WEIGHT,
+            method,
+            check: false,
+        };
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(stitch(&points, &uv, &scan, &params).unwrap()))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, strips_vs_delaunay, solvers);
+criterion_main!(benches);
