@@ -185,6 +185,10 @@ def test_crossing_lines_warn_and_still_give_the_3d_mesh():
     assert not surface.options["planar_valid"]
     assert len(surface.faces) == 2 * 22
     assert surface.to_trimesh().is_winding_consistent
+    # Without the check there is no verdict and no warning, and the same faces.
+    unchecked = quiet(pts, lines=ids, plane="z", check=False)
+    assert unchecked.options["planar_valid"] is None
+    np.testing.assert_array_equal(unchecked.faces, surface.faces)
 
 
 def test_shortest_path_is_never_above_lookahead_on_real_strips(rod_scan, shared_data):

@@ -104,6 +104,7 @@ def strip_surface(
     gap_factor: float = GAP_FACTOR,
     solver: str = "banded",
     band: int = _core.DEFAULT_BAND,
+    check: bool = True,
 ) -> Surface:
     """Triangulate scan-line points strip by strip.
 
@@ -135,6 +136,10 @@ def strip_surface(
         Shortest-path solver (same optimum; see :data:`SOLVERS`).
     band : int
         Initial half width of the banded solver, in matrix columns.
+    check : bool
+        Validate the mesh in the plane (O(m log m); at a million points it takes longer
+        than the strips themselves). False skips it: no CrossingLinesWarning, and
+        ``options["planar_valid"]`` is None.
 
     Returns
     -------
@@ -181,8 +186,18 @@ def strip_surface(
     ids = _core.detect_lines(uv, k) if lines is None else as_line_ids(lines, len(pts))
     t2 = time.perf_counter()
     faces, unused, duplicates, n_strips, cost, planar_error = interruptible(
-        len(pts), _core.strip_mesh, pts, uv, ids, coefficients, method, int(alpha), solver,
-        int(band), k,
+        len(pts),
+        _core.strip_mesh,
+        pts,
+        uv,
+        ids,
+        coefficients,
+        method,
+        int(alpha),
+        solver,
+        int(band),
+        k,
+        bool(check),
     )
     t3 = time.perf_counter()
     if n_strips == 0:
@@ -225,7 +240,7 @@ def strip_surface(
         "n_strips": int(n_strips),
         "cost": float(cost),
         "unused": unused,
-        "planar_valid": planar_error is None,
+        "planar_valid": (planar_error is None) if check else None,
     }
     return Surface(
         vertices=pts,
