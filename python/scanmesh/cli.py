@@ -21,15 +21,13 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh.surface import STEEP_ANGLE_DEG
+
 #: Methods ``scanmesh compare`` runs by default: all but the exact one (small inputs only).
 COMPARE_METHODS = ("delaunay", "lookahead", "shortest-path", "lop", "anneal")
 
 #: File endings ``scanmesh simulate`` writes (XYZ text, read back by ``scanmesh.read``).
 POINT_ENDINGS = (".xyz", ".txt", ".asc")
-
-#: A triangle is steep when its normal is more than this many degrees from the projection
-#: normal (``scanmesh info``).
-STEEP_DEG = 60.0
 
 #: File names ``scanmesh demo`` writes.
 DEMO_MESH = "demo_rod.stl"
@@ -529,10 +527,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     # delaunay() trims at MAX_EDGE_FACTOR x the median nearest-neighbour spacing
     spacing = float(surface.options["max_edge"]) / MAX_EDGE_FACTOR
     normal = np.asarray(surface.frame.normal, dtype=np.float64)
-    tri = pts[surface.faces]
-    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    tilt = np.degrees(np.arctan2(np.linalg.norm(np.cross(fn, normal), axis=1), fn @ normal))
-    steep = float((tilt > STEEP_DEG).mean()) if len(tilt) else 0.0
+    steep = surface.steep_fraction
     lines, lines_from = _lines_info(scan, args.plane)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     data = {
@@ -547,7 +542,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
         "delaunay_faces": int(len(surface.faces)),
         "coincident_points": int(len(surface.duplicates)),
         "steep_share": steep,
-        "steep_deg": STEEP_DEG,
+        "steep_deg": STEEP_ANGLE_DEG,
     }
     if con.json:
         print(_dumps(data))
@@ -562,7 +557,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     con.out(f"  coincident        {len(surface.duplicates):,} points (in the plane)")
     con.out(
         f"  steep share       {100 * steep:.2f} % of {len(surface.faces):,} Delaunay triangles"
-        f" tilt more than {STEEP_DEG:g} deg from the plane normal"
+        f" tilt more than {STEEP_ANGLE_DEG:g} deg from the plane normal"
     )
     return 0
 
@@ -807,7 +802,8 @@ def build_parser() -> argparse.ArgumentParser:
         parents=[common, with_json],
         help="describe a scan file",
         description="Points, scan lines, extent, median spacing and the share of steep"
-        f" Delaunay triangles (normal more than {STEEP_DEG:g} deg from the projection normal).",
+        f" Delaunay triangles (normal more than {STEEP_ANGLE_DEG:g} deg from the projection"
+        " normal).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
     p.add_argument(
