@@ -73,14 +73,16 @@ def child(method: str, n: int, repeat: int) -> None:
 
     points, ids = synthetic_scan(n)
     base = current_rss_mb()
-    best, faces = float("inf"), 0
+    best, faces, stages = float("inf"), 0, {}
     for _ in range(repeat):
         t0 = time.perf_counter()
         if method == "scipy":
             surface = scipy_delaunay(points, "z")
         else:
             surface = scanmesh.reconstruct(points, method, lines=ids, plane="z")
-        best = min(best, time.perf_counter() - t0)
+        elapsed = time.perf_counter() - t0
+        if elapsed < best:
+            best, stages = elapsed, dict(surface.timings)
         faces = len(surface.faces)
         del surface
     print(
@@ -92,6 +94,7 @@ def child(method: str, n: int, repeat: int) -> None:
                 "faces": faces,
                 "base_mb": base,
                 "peak_mb": rss_mb(),
+                "stages": stages,
             }
         )
     )
@@ -119,21 +122,29 @@ def machine() -> str:
     )
 
 
-def peers(sizes: list[int], repeat: int, timeout: float) -> None:
+def peers(sizes: list[int], repeat: int, repeat_large: int, timeout: float) -> None:
     print(f"machine: {machine()}\n")
-    print("| points | method | time (s) | / spade | faces | peak RSS (MB) | RSS before (MB) |")
-    print("|---|---|---|---|---|---|---|")
+    print(
+        "| points | method | time (s) | / spade | of which (s) | faces | peak RSS (MB) |"
+        " RSS before (MB) |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
     for n in sizes:
-        rows = {m: run_child(m, n, repeat if n < 1_000_000 else 1, timeout) for m in METHODS}
+        runs = repeat if n < 1_000_000 else repeat_large
+        rows = {m: run_child(m, n, runs, timeout) for m in METHODS}
         spade = rows["delaunay"].get("time_s")
         for m in METHODS:
             r = rows[m]
             if "error" in r:
-                print(f"| {n:,} | {LABELS[m]} | {r['error']} | - | - | - | - |", flush=True)
+                print(f"| {n:,} | {LABELS[m]} | {r['error']} | - | - | - | - | - |", flush=True)
                 continue
             ratio = f"{r['time_s'] / spade:.2f}" if spade else "-"
+            stages = ", ".join(
+                f"{k} {v:.2g}" for k, v in r.get("stages", {}).items() if k != "project"
+            )
             print(
-                f"| {r['n']:,} | {LABELS[m]} | {r['time_s']:.3g} | {ratio} | {r['faces']:,} |"
+                f"| {r['n']:,} | {LABELS[m]} | {r['time_s']:.3g} | {ratio} | {stages or '-'} |"
+                f" {r['faces']:,} |"
                 f" {r['peak_mb']:,.0f} | {r['base_mb']:,.0f} |",
                 flush=True,
             )
@@ -175,7 +186,8 @@ def anneal_speed() -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--repeat", type=int, default=3, help="runs per size under 1M (best)")
+    parser.add_argument("--repeat-large", type=int, default=1, help="runs per size from 1M")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per process")
     parser.add_argument("--anneal", action="store_true", help="annealing proposals/s only")
     parser.add_argument("--child", nargs=2, metavar=("METHOD", "N"), help=argparse.SUPPRESS)
@@ -185,7 +197,7 @@ def main() -> None:
     elif args.anneal:
         anneal_speed()
     else:
-        peers(args.sizes, args.repeat, args.timeout)
+        peers(args.sizes, args.repeat, args.repeat_large, args.timeout)
 
 
 if __name__ == "__main__":
