@@ -41,13 +41,13 @@ CRITERIA: tuple[str, ...] = ("length", "area", "angle", "dihedral")
 #: A weight: one criterion by name, or a mapping of criteria to non-negative coefficients.
 WeightSpec = str | Mapping[str, float]
 
-#: Default weight, chosen by measurement (BENCHMARKS.md, "Strips (issue 3)", tac_1 and
-#: smallest angle of every criterion on fran_cut and on the simulated connecting-rod scan):
-#: area and dihedral alone fill flat and cylindrical parts with slivers (88-91 % of the rod's
-#: triangles below 5 degrees); length and angle keep the largest smallest angle (12.5 degrees
-#: on fran_cut, 4.9 on the rod); adding 0.3 x dihedral to angle lowers fran_cut's tac_1 from
-#: 79.6 to 67.0 (length: 73.1) and raises its smallest angle to 12.8 degrees, with the rod
-#: unchanged; a full 1.0 x dihedral starts to cost smallest angle (10.7 degrees).
+#: Default weight, chosen by measurement (BENCHMARKS.md, "Strips (issue 3)": tac_1 and
+#: smallest angle of every criterion on fran_cut and on the connecting-rod scan). On the rod
+#: every criterion gives the same mesh quality (tac_1 88.4, smallest angle 4.9 degrees), so
+#: fran_cut decides: area and length keep 12.5 degrees at tac_1 71.3 and 73.1, angle 12.5 at
+#: 79.6, dihedral alone reaches tac_1 64.7 but lets the smallest angle fall to 4.8 degrees;
+#: angle + 0.3 x dihedral gives tac_1 67.0 with the largest smallest angle of all (12.8),
+#: while a full 1.0 x dihedral starts to cost angle (10.7 degrees).
 DEFAULT_WEIGHT: dict[str, float] = {"angle": 1.0, "dihedral": 0.3}
 
 #: Default look-ahead depth alpha (steps).
@@ -120,10 +120,10 @@ def strip_surface(
     weight : str or mapping
         A criterion of :data:`CRITERIA` or a mapping of them to coefficients. The default
         :data:`DEFAULT_WEIGHT` (angle + 0.3 dihedral) was chosen by measuring tac_1 and the
-        smallest angle of every criterion on fran_cut and a connecting-rod scan: area and
-        dihedral alone make slivers on flat and cylindrical parts; angle keeps the largest
-        smallest angle; the dihedral share lowers fran_cut's tac_1 by 16 % and keeps the
-        smallest angle (figures in BENCHMARKS.md).
+        smallest angle of every criterion on fran_cut and a connecting-rod scan: the rod
+        does not tell them apart; on fran_cut the mixture keeps the largest smallest angle
+        (12.8 degrees) at 16 % less tac_1 than angle alone, where dihedral alone falls to
+        4.8 degrees (figures in BENCHMARKS.md).
     alpha : int
         Look-ahead depth in steps (``method="lookahead"`` only), >= 1.
     plane : None, "best-fit", "x", "y", "z" or (3,) float

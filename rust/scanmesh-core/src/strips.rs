@@ -311,7 +311,7 @@ pub fn stitch(
     };
     let w = params.weight;
     let weight = Weight {
-        length: w.length / h,
+        length: w.length / h + TIE_BREAK,
         area: w.area / (h * h),
         ..w
     };
@@ -599,6 +599,32 @@ mod tests {
             for t in &mesh.triangles {
                 let [a, b, c] = t.map(|k| pts[k as usize]);
                 assert!(crate::geometry::triangle_area(a, b, c) > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn ties_on_flat_strips_are_broken_by_length_not_by_search_order() {
+        // Flat: every path has the same area and no dihedral angle. Without the tie-break
+        // the search order would pick fans of slivers.
+        let (mut pts, ids) = grid(6, 20, false, |_, _| false);
+        pts.iter_mut().for_each(|p| p.z = 0.0);
+        for weight in [Weight::AREA, Weight::DIHEDRAL] {
+            for method in [Method::ShortestPath(Solver::Dp), Method::Lookahead(3)] {
+                let mesh = run(
+                    &pts,
+                    &ids,
+                    &StripParams {
+                        weight,
+                        method,
+                        check: true,
+                    },
+                );
+                for t in &mesh.triangles {
+                    let [a, b, c] = t.map(|k| pts[k as usize]);
+                    let angle = crate::geometry::smallest_angle(a, b, c).to_degrees();
+                    assert!(angle > 20.0, "{weight:?} {method:?}: {angle} degrees");
+                }
             }
         }
     }
