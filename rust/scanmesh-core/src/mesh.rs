@@ -95,28 +95,34 @@ impl HalfEdgeMesh {
             }
             start.extend_from_slice(t);
         }
-        // Directed edge keys (from << 32 | to), sorted, to pair each half-edge with its twin.
-        let key = |h: u32| ((start[h as usize] as u64) << 32) | start[next(h) as usize] as u64;
-        let mut keyed: Vec<(u64, u32)> = (0..3 * m as u32).map(|h| (key(h), h)).collect();
+        // Undirected edge keys (min << 32 | max), sorted: the half-edges of one edge end up
+        // adjacent, so one linear pass pairs twins (no search per half-edge).
+        let undirected = |h: u32| {
+            let (a, b) = (start[h as usize], start[next(h) as usize]);
+            ((a.min(b) as u64) << 32) | a.max(b) as u64
+        };
+        let mut keyed: Vec<(u64, u32)> = (0..3 * m as u32).map(|h| (undirected(h), h)).collect();
         keyed.sort_unstable();
-        for w in keyed.windows(2) {
-            if w[0].0 == w[1].0 {
-                let (a, b) = ((w[0].0 >> 32) as u32, w[0].0 as u32);
-                return Err(Error::InvalidFace {
-                    face: (w[1].1 / 3) as usize,
-                    reason: format!(
-                        "edge {a}->{b} is also used in the same direction by face {}: faces must be consistently oriented and each edge shared by at most two faces",
-                        w[0].1 / 3
-                    ),
-                });
-            }
-        }
         let mut twin = vec![NONE; 3 * m];
-        for h in 0..3 * m as u32 {
-            let reverse = ((start[next(h) as usize] as u64) << 32) | start[h as usize] as u64;
-            if let Ok(k) = keyed.binary_search_by_key(&reverse, |&(k, _)| k) {
-                twin[h as usize] = keyed[k].1;
+        let mut k = 0;
+        while k < keyed.len() {
+            let run = keyed[k..].iter().take_while(|e| e.0 == keyed[k].0).count();
+            if run >= 2 {
+                let (h, g) = (keyed[k].1, keyed[k + 1].1);
+                let (a, b) = (start[h as usize], start[next(h) as usize]);
+                if run > 2 || start[g as usize] == a {
+                    return Err(Error::InvalidFace {
+                        face: (g / 3) as usize,
+                        reason: format!(
+                            "edge {a}->{b} is also used by face {}: faces must be consistently oriented and each edge shared by at most two faces",
+                            h / 3
+                        ),
+                    });
+                }
+                twin[h as usize] = g;
+                twin[g as usize] = h;
             }
+            k += run;
         }
         let mut mesh = HalfEdgeMesh {
             start,
