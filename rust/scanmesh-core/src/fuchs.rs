@@ -162,7 +162,8 @@ struct Terms<'a> {
     w: Weight,
 }
 
-/// Dihedral angle (radians, [0, π]) between two unit normals; π when one is degenerate. O(1).
+/// Dihedral angle (radians, [0, π]) between two normals of any length; π when one is zero
+/// (a degenerate triangle). O(1).
 #[inline]
 fn dihedral(n1: DVec3, n2: DVec3) -> f64 {
     if n1 == DVec3::ZERO || n2 == DVec3::ZERO {
@@ -258,24 +259,29 @@ impl<'a> Terms<'a> {
     }
 
     /// Cost of the step `s` leaving (i, j), including the weight of the node it enters,
-    /// and the unit normal of its triangle (zero when degenerate or not needed). O(1).
+    /// and a normal of its triangle, of any length (zero when degenerate or not needed). O(1).
     #[inline]
     fn step(&self, i: usize, j: usize, s: Step) -> (f64, DVec3) {
         let (p, q, r, target) = match s {
             Step::A => (self.a[i], self.a[i + 1], self.b[j], (i + 1, j)),
             Step::B => (self.a[i], self.b[j + 1], self.b[j], (i, j + 1)),
         };
+        let mut cost = self.node(target.0, target.1);
+        if self.w.area == 0.0 && self.w.angle == 0.0 && self.w.dihedral == 0.0 {
+            // The length weight alone needs no triangle (the hot path of `Weight::LENGTH`).
+            return (cost, DVec3::ZERO);
+        }
         let c = (q - p).cross(r - p);
         let twice_area = c.length();
-        let mut cost = self.node(target.0, target.1);
         if self.w.area != 0.0 {
             cost += self.w.area * 0.5 * twice_area;
         }
         if self.w.angle != 0.0 {
             cost += self.w.angle * (FRAC_PI_3 - smallest_angle(p, q, r, twice_area));
         }
-        let normal = if self.w.dihedral != 0.0 && twice_area > 0.0 {
-            c / twice_area
+        // The dihedral angle is scale-free: the cross product serves as the normal unscaled.
+        let normal = if self.w.dihedral != 0.0 {
+            c
         } else {
             DVec3::ZERO
         };
