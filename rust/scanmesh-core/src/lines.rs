@@ -24,6 +24,7 @@
 //! Explicit line ids (points with the same id form a line, in input order; lines in
 //! ascending id) skip detection but are split at gaps the same way.
 
+use crate::geometry::planar_distance;
 use crate::{Error, Result};
 
 /// Default gap factor k: a step longer than k × the median step is a gap (or a jump). Four
@@ -137,7 +138,7 @@ pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
     if uv.is_empty() {
         return Ok(ids);
     }
-    let h = median_nonzero(uv.windows(2).map(|w| norm(sub(w[1], w[0]))).collect());
+    let h = median_nonzero(uv.windows(2).map(|w| planar_distance(w[1], w[0])).collect());
     let (short, long) = (0.5 * h, gap_factor * h);
     let axis = main_axis(uv, short, long);
     let cos_turn = TURN_ANGLE_DEG.to_radians().cos();
@@ -221,7 +222,7 @@ pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Resu
         .iter()
         .flat_map(|l| {
             l.windows(2)
-                .map(|w| norm(sub(uv[w[1] as usize], uv[w[0] as usize])))
+                .map(|w| planar_distance(uv[w[1] as usize], uv[w[0] as usize]))
         })
         .collect();
     let median_step = median_nonzero(steps);
@@ -231,7 +232,7 @@ pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Resu
         .map(|line| {
             let mut segments = vec![vec![line[0]]];
             for w in line.windows(2) {
-                if norm(sub(uv[w[1] as usize], uv[w[0] as usize])) > gap {
+                if planar_distance(uv[w[1] as usize], uv[w[0] as usize]) > gap {
                     segments.push(Vec::new());
                 }
                 segments
