@@ -186,21 +186,11 @@ fn all_collinear(uv: &[[f64; 2]], ids: &[u32]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    pub(crate) fn lcg_points(n: usize, seed: u64) -> Vec<[f64; 2]> {
-        let mut s = seed;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        (0..n).map(|_| [next(), next()]).collect()
-    }
+    use crate::testing::random_points;
 
     #[test]
     fn triangles_are_ccw_and_cover_all_points() {
-        let pts = lcg_points(500, 7);
+        let pts = random_points(500, 7);
         let d = delaunay(&pts).unwrap();
         let mut used = vec![false; pts.len()];
         for t in &d.triangles {
@@ -214,7 +204,7 @@ mod tests {
 
     #[test]
     fn duplicates_are_reported_not_dropped() {
-        let mut pts = lcg_points(50, 3);
+        let mut pts = random_points(50, 3);
         pts.push(pts[10]);
         pts.push(pts[10]);
         pts.push([-0.0 + pts[4][0], pts[4][1]]);
@@ -246,7 +236,7 @@ mod tests {
 
     #[test]
     fn extreme_scales_give_the_same_connectivity() {
-        let pts = lcg_points(200, 11);
+        let pts = random_points(200, 11);
         let base = delaunay(&pts).unwrap().triangles;
         let canon = |mut t: Vec<[u32; 3]>| {
             for tri in t.iter_mut() {

@@ -32,6 +32,8 @@ pub mod mesh;
 pub mod projection;
 pub mod strips;
 pub mod tac_state;
+#[cfg(test)]
+mod testing;
 pub mod trim;
 
 pub use error::{Error, Result};

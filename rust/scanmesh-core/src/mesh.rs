@@ -537,17 +537,7 @@ impl Iterator for Fan<'_> {
 mod tests {
     use super::*;
     use crate::delaunay::delaunay;
-
-    pub(crate) fn random_points(n: usize, seed: u64) -> Vec<[f64; 2]> {
-        let mut s = seed;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        (0..n).map(|_| [next(), next()]).collect()
-    }
+    use crate::testing::random_points;
 
     fn canonical(mut t: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
         for tri in t.iter_mut() {

@@ -378,14 +378,7 @@ pub(crate) mod tests {
     }
 
     fn height_state(n: usize, seed: u64, p: f64, f: impl Fn(f64, f64) -> f64) -> TacState {
-        let mut s = seed;
-        let mut rnd = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let uv: Vec<[f64; 2]> = (0..n).map(|_| [rnd(), rnd()]).collect();
+        let uv = crate::testing::random_points(n, seed);
         let xyz: Vec<DVec3> = uv
             .iter()
             .map(|q| DVec3::new(q[0], q[1], f(q[0], q[1])))
