@@ -170,6 +170,20 @@ def test_milp_optimum_equals_brute_force(n, p):
         assert strictly_better_than_delaunay >= 2, "instances too easy to test anything"
 
 
+@pytest.mark.parametrize("p", [1, math.inf])
+def test_fan_cuts_keep_the_optimum(p):
+    # strengthen=True adds cuts from column generation: they must never cut off the optimum.
+    for seed in range(4):
+        pts = bumpy(9, 500 + seed)
+        strong = optimal_surface(pts, p=p, plane="z", strengthen=True)
+        brute = brute_force_surface(pts, p=p, plane="z")
+        assert strong.certified
+        assert strong.options["fan_cuts"] > 0 and strong.options["fan_iterations"] >= 1
+        assert strong.options["fan_bound"] <= brute.quality.tac_norm(p) * (1 + 1e-6) + 1e-9
+        assert close(strong.quality.tac_norm(p), brute.quality.tac_norm(p))
+        assert_full_triangulation(pts, strong.faces)
+
+
 def test_brute_force_takes_any_p_and_is_the_minimum_of_all():
     pts = bumpy(8, 7)
     every = triangulations(pts, plane="z")

@@ -30,6 +30,7 @@ __all__ = [
     "strip_mesh",
     "empty_triangles",
     "triangulations",
+    "cheapest_fans",
     "lop",
     "Annealer",
 ]
@@ -63,6 +64,20 @@ def empty_triangles(uv: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
 def triangulations(
     uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64], max_count: int
 ) -> npt.NDArray[np.int64]: ...
+def cheapest_fans(
+    uv: npt.NDArray[np.float64],
+    triangles: npt.NDArray[np.int64],
+    d: npt.NDArray[np.float64],
+    c: npt.NDArray[np.float64],
+    vertices: npt.NDArray[np.int64],
+    w: npt.NDArray[np.float64],
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+]: ...
 
 ANNEAL_DEFAULTS: dict[str, int | float | bool]
 

@@ -669,6 +669,73 @@ fn strip_mesh<'py>(
     ))
 }
 
+/// The cheapest fan (star in some triangulation) around each of `vertices`: the minimum of
+/// `w·|Σ d| + Σ c` over fans of the candidate `triangles` (T, 3), with `d`, `c` (T, 3) per
+/// corner and `w` (I,) per vertex. Returns (lower bounds (I,), then for K fans found, the
+/// cheapest of each vertex first: their vertex positions (K,) int64, values (K,), triangles
+/// (F,) int64 and offsets (K + 1,) int64: fan k is `fans[offsets[k]:offsets[k + 1]]`).
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn cheapest_fans<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+    triangles: PyReadonlyArray2<'py, i64>,
+    d: PyReadonlyArray2<'py, f64>,
+    c: PyReadonlyArray2<'py, f64>,
+    vertices: PyReadonlyArray1<'py, i64>,
+    w: PyReadonlyArray1<'py, f64>,
+) -> PyResult<(
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+)> {
+    let pts = points2(&uv)?;
+    let t = faces(&triangles, pts.len())?;
+    let per_corner = |a: &PyReadonlyArray2<'py, f64>, name: &str| -> PyResult<Vec<[f64; 3]>> {
+        let v = a.as_array();
+        if v.ncols() != 3 || v.nrows() != t.len() {
+            return Err(shape_error(name, "(T, 3) like triangles", v.shape()));
+        }
+        Ok(v.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+    };
+    let (d, c) = (per_corner(&d, "d")?, per_corner(&c, "c")?);
+    let mut vs = Vec::with_capacity(vertices.len()?);
+    for &v in vertices.as_array().iter() {
+        if v < 0 || v as u64 >= pts.len() as u64 {
+            return Err(ParameterError::new_err(format!("vertex {v} out of range")));
+        }
+        vs.push(v as u32);
+    }
+    let w = w.as_array().to_vec();
+    let fans = py
+        .detach(|| scanmesh_core::enumerate::cheapest_fans(&pts, &t, &d, &c, &vs, &w))
+        .map_err(to_py)?;
+    let bounds: Vec<f64> = fans.iter().map(|f| f.lower_bound).collect();
+    let (mut owner, mut values, mut flat, mut offsets) =
+        (Vec::new(), Vec::new(), Vec::new(), vec![0i64]);
+    for (i, f) in fans.iter().enumerate() {
+        let best = (!f.fan.is_empty()).then_some((f.value, &f.fan));
+        for (value, fan) in best
+            .into_iter()
+            .chain(f.others.iter().map(|(v, t)| (*v, t)))
+        {
+            owner.push(i as i64);
+            values.push(value);
+            flat.extend(fan.iter().map(|&x| i64::from(x)));
+            offsets.push(flat.len() as i64);
+        }
+    }
+    Ok((
+        Array1::from_vec(bounds).into_pyarray(py),
+        Array1::from_vec(owner).into_pyarray(py),
+        Array1::from_vec(values).into_pyarray(py),
+        Array1::from_vec(flat).into_pyarray(py),
+        Array1::from_vec(offsets).into_pyarray(py),
+    ))
+}
+
 /// The native core of scanmesh.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -708,6 +775,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(strip_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(empty_triangles, m)?)?;
     m.add_function(wrap_pyfunction!(triangulations, m)?)?;
+    m.add_function(wrap_pyfunction!(cheapest_fans, m)?)?;
     m.add_function(wrap_pyfunction!(lop, m)?)?;
     m.add_class::<Annealer>()?;
     Ok(())
