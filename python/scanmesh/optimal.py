@@ -507,7 +507,6 @@ def _fan_cuts(
     x_link = sp.csr_array((np.ones(c_count), (np.arange(c_count), ct)), shape=(c_count, t_count))
     flow_x = geo.flow.astype(np.float64)
     weights = np.ones(n_i)
-    history: list[float] = []
     best_bound = -math.inf
     best_duals = center = None
     iterations = 0
@@ -596,7 +595,6 @@ def _fan_cuts(
             if k == 0:
                 # Lagrangian bound: the master value plus each vertex's least reduced cost.
                 bound = res.fun + float(np.minimum(lows - cv, 0.0).sum())
-                history.append(bound)
                 if bound > best_bound:
                     best_bound, best_duals, center = bound, (lk, lows, wt), (lk, cv, wt)
             for f, row in enumerate(owner.tolist()):
@@ -611,8 +609,9 @@ def _fan_cuts(
     link, lows, weights = best_duals
     keep = weights > 1e-12
     coef_rows, coef_cols, coef_vals = [], [], []
+    corner_row = geo.row_of[tri[ct, ck]]
     for r in np.flatnonzero(keep):
-        corners = np.flatnonzero(geo.row_of[tri[ct]][np.arange(c_count), ck] == r)
+        corners = np.flatnonzero(corner_row == r)
         coef_rows.append(np.full(len(corners), len(coef_rows)))
         coef_cols.append(ct[corners])
         coef_vals.append(link[corners] / weights[r])
@@ -630,7 +629,7 @@ def _fan_cuts(
         "fan_bound": max(best_bound, 0.0),
         "fan_iterations": iterations,
         "fan_columns": len(columns),
-        "fan_converged": bool(history and len(history) == iterations and added == 0),
+        "fan_converged": added == 0,
     }
     return _Cuts(coef, rhs, np.flatnonzero(keep), info)
 
