@@ -42,15 +42,23 @@ def _plane(text: str) -> str | tuple[float, float, float]:
     name = text.strip().lower()
     if name in ("best-fit", "x", "y", "z"):
         return name
-    try:
-        parts = tuple(float(t) for t in name.replace(" ", ",").split(",") if t)
-    except ValueError:
-        parts = ()
-    if len(parts) != 3 or not all(map(math.isfinite, parts)) or not any(parts):
+    parts = _vector(name)
+    if parts is None:
         raise argparse.ArgumentTypeError(
             f"{text!r} is not best-fit, x, y, z or a non-zero vector like 0,0,1"
         )
     return parts
+
+
+def _vector(text: str) -> tuple[float, float, float] | None:
+    """A finite non-zero 3-vector written "x,y,z" (or space separated), else None."""
+    try:
+        parts = tuple(float(t) for t in text.replace(" ", ",").split(",") if t)
+    except ValueError:
+        return None
+    if len(parts) != 3 or not all(map(math.isfinite, parts)) or not any(parts):
+        return None
+    return parts  # type: ignore[return-value]
 
 
 def _axis(text: str) -> str | tuple[float, float, float]:
@@ -58,11 +66,8 @@ def _axis(text: str) -> str | tuple[float, float, float]:
     name = text.strip().lower()
     if name.lstrip("+-") in ("x", "y", "z") and len(name) <= 2:
         return name
-    try:
-        parts = tuple(float(t) for t in name.replace(" ", ",").split(",") if t)
-    except ValueError:
-        parts = ()
-    if len(parts) != 3 or not all(map(math.isfinite, parts)) or not any(parts):
+    parts = _vector(name)
+    if parts is None:
         raise argparse.ArgumentTypeError(
             f"{text!r} is not an axis (x, -y, +z, ...) or a non-zero vector like 0,0,1"
         )

@@ -1,6 +1,6 @@
 //! Planar Delaunay triangulation through spade, with the map back to input indices.
 
-use crate::geometry::orient2d;
+use crate::geometry::{check_planar, orient2d};
 use crate::{Error, Result};
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 
@@ -75,24 +75,7 @@ pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
 /// others are listed in `duplicate_of`. Errors: fewer than 3 distinct points; all points
 /// collinear (checked exactly before spade, whose bulk load is quadratic on such input).
 pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
-    if uv.len() >= NONE as usize {
-        return Err(Error::InvalidParameter {
-            name: "points",
-            value: uv.len().to_string(),
-            expected: "fewer than 2^32 - 1 points",
-        });
-    }
-    for (index, p) in uv.iter().enumerate() {
-        for (axis, &x) in p.iter().enumerate() {
-            if !x.is_finite() {
-                return Err(Error::NonFinite {
-                    index,
-                    axis,
-                    value: x,
-                });
-            }
-        }
-    }
+    check_planar(uv)?;
     let unit = unit_square(uv);
     let duplicate_of = find_duplicates(&unit);
     let distinct: Vec<u32> = (0..uv.len() as u32)

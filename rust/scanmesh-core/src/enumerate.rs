@@ -19,7 +19,7 @@
 //! polygons, whose triangulations are flip-connected), so the walk reaches all of them.
 
 use crate::delaunay::NONE;
-use crate::geometry::orient2d;
+use crate::geometry::{check_planar, orient2d};
 use crate::mesh::HalfEdgeMesh;
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -77,24 +77,7 @@ fn in_closed_triangle(uv: &[[f64; 2]], t: [u32; 3], p: [f64; 2]) -> bool {
 
 /// Errors unless every coordinate is finite and no two points coincide. O(n log n).
 fn check_distinct(uv: &[[f64; 2]]) -> Result<()> {
-    if uv.len() >= NONE as usize {
-        return Err(Error::InvalidParameter {
-            name: "uv",
-            value: uv.len().to_string(),
-            expected: "fewer than 2^32 - 1 points",
-        });
-    }
-    for (index, p) in uv.iter().enumerate() {
-        for (axis, &x) in p.iter().enumerate() {
-            if !x.is_finite() {
-                return Err(Error::NonFinite {
-                    index,
-                    axis,
-                    value: x,
-                });
-            }
-        }
-    }
+    check_planar(uv)?;
     let mut order: Vec<usize> = (0..uv.len()).collect();
     order.sort_by(|&a, &b| {
         uv[a][0]

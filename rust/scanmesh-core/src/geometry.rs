@@ -170,6 +170,26 @@ pub fn check_finite(points: &[DVec3]) -> crate::Result<()> {
     Ok(())
 }
 
+/// Checks planar points for the triangulation code: every coordinate finite (the error
+/// names the first bad one) and fewer than 2^32 − 1 of them (indices are u32). O(n).
+pub fn check_planar(uv: &[[f64; 2]]) -> crate::Result<()> {
+    if uv.len() >= u32::MAX as usize {
+        return Err(crate::Error::InvalidParameter {
+            name: "points",
+            value: uv.len().to_string(),
+            expected: "fewer than 2^32 - 1 points",
+        });
+    }
+    for (index, p) in uv.iter().enumerate() {
+        for (axis, &value) in p.iter().enumerate() {
+            if !value.is_finite() {
+                return Err(crate::Error::NonFinite { index, axis, value });
+            }
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

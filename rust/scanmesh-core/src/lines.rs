@@ -57,21 +57,6 @@ pub struct ScanLines {
     pub duplicates: Vec<(u32, u32)>,
 }
 
-fn check_uv(uv: &[[f64; 2]]) -> Result<()> {
-    for (index, p) in uv.iter().enumerate() {
-        for (axis, &x) in p.iter().enumerate() {
-            if !x.is_finite() {
-                return Err(Error::NonFinite {
-                    index,
-                    axis,
-                    value: x,
-                });
-            }
-        }
-    }
-    Ok(())
-}
-
 fn check_gap_factor(gap_factor: f64) -> Result<()> {
     if !(gap_factor.is_finite() && gap_factor > 0.0) {
         return Err(Error::InvalidParameter {
@@ -129,7 +114,7 @@ fn main_axis(uv: &[[f64; 2]], short: f64, long: f64) -> [f64; 2] {
 /// in the module documentation, with `gap_factor` as k. Errors: a non-finite coordinate, a
 /// gap factor that is not positive. O(n).
 pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
-    check_uv(uv)?;
+    crate::geometry::check_planar(uv)?;
     check_gap_factor(gap_factor)?;
     // The rules compare ratios of lengths; in the unit box their products stay finite.
     let (unit, _) = crate::geometry::normalize_plane(uv);
@@ -181,7 +166,7 @@ pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
 /// Errors: `line_ids` of another length than `uv`, a non-finite coordinate, a gap factor
 /// that is not positive. O(n log n) for the grouping (O(n) when ids never decrease).
 pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Result<ScanLines> {
-    check_uv(uv)?;
+    crate::geometry::check_planar(uv)?;
     check_gap_factor(gap_factor)?;
     if line_ids.len() != uv.len() {
         return Err(Error::InvalidParameter {
