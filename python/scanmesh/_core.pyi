@@ -32,6 +32,7 @@ __all__ = [
     "triangulations",
     "cheapest_fans",
     "lop",
+    "parse_text_table",
     "Annealer",
 ]
 
@@ -145,3 +146,8 @@ def strip_mesh(
 ) -> tuple[
     npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], int, float, str | None
 ]: ...
+def parse_text_table(
+    data: bytes, start: int, stop: int, ncols: int, comma: bool
+) -> (
+    tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64], int] | None
+): ...

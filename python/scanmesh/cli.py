@@ -243,10 +243,10 @@ class _Console:
             print(f"scanmesh: {text}", file=sys.stderr, flush=True)
 
 
-def _read_scan(path: Path):
+def _read_scan(path: Path, progress: bool = False):
     from scanmesh.readers import read
 
-    return read(path)
+    return read(path, progress=progress)
 
 
 def _method_options(args: argparse.Namespace, method: str) -> dict[str, Any]:
@@ -274,7 +274,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     _check_png(preview)
 
     t0 = time.perf_counter()
-    scan = _read_scan(source)
+    scan = _read_scan(source, con.progress)
     t_read = time.perf_counter() - t0
     t1 = time.perf_counter()
     surface = reconstruct(
@@ -288,8 +288,11 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
         **_method_options(args, args.method),
     )
     elapsed = time.perf_counter() - t1
-    save_mesh(out, surface.vertices, surface.faces, protect=[source])
+    t2 = time.perf_counter()
+    save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
+    t_write = time.perf_counter() - t2
     data = _report(source, out, scan, surface, t_read, elapsed)
+    data["timings"]["write"] = t_write
     if report is not None:
         _write_text(report, _dumps(data) + "\n")
     if preview is not None:

@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 from scanmesh import _core
 from scanmesh._checks import as_points
 from scanmesh._interrupt import interruptible
+from scanmesh._progress import Progress, Stage
 from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError, ParameterError
 from scanmesh.projection import PlaneSpec, project
 from scanmesh.surface import Surface
@@ -31,7 +32,11 @@ def resolve_max_edge(uv: np.ndarray, faces: np.ndarray, max_edge: float | None) 
 
 
 def delaunay(
-    points: ArrayLike, *, plane: PlaneSpec = None, max_edge: float | None = None
+    points: ArrayLike,
+    *,
+    plane: PlaneSpec = None,
+    max_edge: float | None = None,
+    progress: Progress = False,
 ) -> Surface:
     """Delaunay triangulation of the points projected onto a plane.
 
@@ -45,6 +50,10 @@ def delaunay(
         Triangles with a longer planar edge (input units) are dropped, so holes and concave
         outlines stay open. Default: ``MAX_EDGE_FACTOR`` (5) x the median nearest-neighbour
         spacing. ``math.inf`` keeps the whole convex hull.
+    progress : bool or callable
+        True shows progress bars; a callable taking ``stage=`` is called for the stages
+        "delaunay" (points) and "trim" (faces), each one native call reported at its start
+        and its end (see :func:`scanmesh.reconstruct`).
 
     Returns
     -------
@@ -64,15 +73,17 @@ def delaunay(
     pts = as_points(points)
     uv, frame = project(pts, plane)
     t1 = time.perf_counter()
-    faces, duplicate_of = interruptible(len(pts), _core.delaunay, uv)
+    with Stage(progress, "delaunay", len(pts), blocking=True):
+        faces, duplicate_of = interruptible(len(pts), _core.delaunay, uv)
     t2 = time.perf_counter()
     limit = resolve_max_edge(uv, faces, max_edge)
     trimmed = np.empty(0, dtype=np.int64)
     if math.isfinite(limit):
         untrimmed = faces
-        faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit)
-        # (K,) int64 points that lost every triangle to trimming (outliers, stray points)
-        trimmed = np.setdiff1d(untrimmed, faces).astype(np.int64)
+        with Stage(progress, "trim", len(untrimmed), blocking=True):
+            faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit)
+            # (K,) int64 points that lost every triangle to trimming (outliers, stray points)
+            trimmed = np.setdiff1d(untrimmed, faces).astype(np.int64)
         if len(faces) == 0:
             raise DegenerateInputError(
                 f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse"

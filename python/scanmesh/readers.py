@@ -11,9 +11,10 @@ Formats (chosen by :func:`read` from the file ending):
 - ``.las``, ``.laz`` - :func:`read_las`: LiDAR through laspy (``pip install scanmesh[las]``).
 
 Every problem with a file is a :class:`~scanmesh.errors.FileFormatError` whose message names
-the file and, for text, the line number and the offending text. Text is parsed with
-vectorised numpy (``np.fromstring`` on large chunks; structure checks on the raw bytes), never
-with a Python loop per point.
+the file and, for text, the line number and the offending text. XYZ and CSV rows are parsed
+by the Rust core (``_core.parse_text_table``) chunk by chunk; the other text formats, and the
+location of any bad line, by vectorised numpy (``np.fromstring`` on large chunks, structure
+checks on the raw bytes): never a Python loop per point.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh import _core
+from scanmesh._progress import Progress, Stage
 from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
 
 #: Bytes of text parsed per vectorised step. It bounds the temporary arrays' memory and the
@@ -51,6 +54,17 @@ LINE_COLUMN_NAMES = (
 
 #: Elevation that marks a void (no data) in USGS DEM profiles.
 DEM_VOID: int = -32767
+
+
+def count_lines(ids: np.ndarray) -> int:
+    """Number of distinct ids in (N,) integer ``ids``: O(N) when they never decrease (files
+    list their lines in order), a sort otherwise."""
+    if len(ids) < 2:
+        return len(ids)
+    steps = np.diff(ids)
+    if (steps >= 0).all():
+        return int(np.count_nonzero(steps)) + 1
+    return int(len(np.unique(ids)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,7 +113,7 @@ class ScanPoints:
     @property
     def n_lines(self) -> int:
         """Number of distinct scan lines (0 when the file gives none)."""
-        return 0 if self.line_ids is None else int(len(np.unique(self.line_ids)))
+        return 0 if self.line_ids is None else count_lines(self.line_ids)
 
     def lines(self) -> list[np.ndarray]:
         """Point indices of each scan line, lines ordered by first appearance, points in file order.
@@ -129,13 +143,17 @@ class ScanPoints:
 # --------------------------------------------------------------------------- dispatch
 
 
-def read(path: str | os.PathLike, **kwargs: Any) -> ScanPoints:
+def read(path: str | os.PathLike, *, progress: Progress = False, **kwargs: Any) -> ScanPoints:
     """Read scan points, choosing the reader by the file ending (case does not matter).
 
     Parameters
     ----------
     path : str or PathLike
         The file.
+    progress : bool or callable
+        True shows a progress bar; a callable taking ``stage=`` is called as
+        ``progress(bytes_done, bytes_total, None, stage="read")`` (see ``reconstruct``). Text
+        files report after every chunk, other formats once at the start and once at the end.
     **kwargs
         Passed to the reader (e.g. ``select="ground"`` for :func:`read_las`).
 
@@ -150,7 +168,14 @@ def read(path: str | os.PathLike, **kwargs: Any) -> ScanPoints:
             f"{target}: unknown file ending {target.suffix!r}; readable endings are"
             f" {', '.join(sorted(READERS))}"
         )
-    return reader(target, **kwargs)
+    if reader in (read_xyz, read_csv):
+        return reader(target, progress=progress, **kwargs)
+    try:
+        size = target.stat().st_size
+    except OSError:
+        size = 0  # the reader reports the missing file
+    with Stage(progress, "read", size, blocking=True):
+        return reader(target, **kwargs)
 
 
 def _read_bytes(path: Path) -> bytes:
@@ -287,7 +312,70 @@ def _token_counts(
     return tok, counts
 
 
-def _read_table(path: Path, data: bytes, what: str) -> _Table:
+def _numpy_chunk(
+    path: Path,
+    data: bytes,
+    start: int,
+    stop: int,
+    ncols: int,
+    comma: bool,
+    line_no: int,
+    first_line: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Parse ``data[start:stop]`` (whole lines starting at file line ``line_no``) with numpy.
+
+    The reference for ``_core.parse_text_table`` (same rules, same results) and the error
+    reporter: it raises naming the file, the line and the offending text. Returns (values
+    (R, ncols), row line indices (R,), blank line indices (B,), number of lines), line
+    indices 0-based within the chunk.
+    """
+    u = np.frombuffer(data, dtype=np.uint8, count=stop - start, offset=start)
+    ends = np.flatnonzero(u == 10)
+    if not len(ends) or ends[-1] != len(u) - 1:
+        ends = np.append(ends, len(u))
+    sep = _separators(u, comma)
+    tok, counts = _token_counts(u, ends, sep)
+    first_tok = np.cumsum(counts) - counts
+    has = counts > 0
+    comment = np.zeros(len(ends), dtype=bool)
+    comment[has] = u[tok[first_tok[has]]] == 35
+    chunk = data[start:stop]
+    if comment.any():
+        # blank out comment lines (offsets, and so line numbers, stay the same)
+        line_starts = np.concatenate(([0], ends[:-1] + 1))
+        mark = np.zeros(len(u) + 1, dtype=np.int8)
+        np.add.at(mark, line_starts[comment], 1)
+        np.add.at(mark, ends[comment], -1)
+        arr = np.frombuffer(chunk, dtype=np.uint8).copy()
+        arr[np.cumsum(mark[:-1]) > 0] = 32
+        chunk = arr.tobytes()
+        counts = np.where(comment, 0, counts)
+    is_data = counts > 0
+    bad = is_data & (counts != ncols)
+    if comma:
+        commas = np.diff(np.searchsorted(np.flatnonzero(u == 44), ends), prepend=0)
+        bad |= is_data & (commas != ncols - 1)
+        bad |= ~is_data & ~comment & (commas > 0)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        line_start = 0 if i == 0 else int(ends[i - 1]) + 1
+        text = data[start + line_start : start + int(ends[i])]
+        found = len(_TOKEN.findall(text))
+        raise FileFormatError(
+            f"{path}, line {line_no + i}: expected {ncols} "
+            f"{'comma-separated ' if comma else ''}values as on line {first_line},"
+            f" found {found}{' (or empty fields)' if comma else ''}: {_quote(text)}"
+        )
+    flat = _floats(path, data, start, stop, int(counts.sum()), buf=chunk)
+    return (
+        flat.reshape(-1, ncols),
+        np.flatnonzero(is_data),
+        np.flatnonzero(~is_data & ~comment),
+        len(ends),
+    )
+
+
+def _read_table(path: Path, data: bytes, what: str, progress: Progress = False) -> _Table:
     """Parse a numeric text table: optional header lines, then rows of equally many numbers.
 
     Rows are whitespace- or comma-separated (comma when the first row holds one); ``#`` lines
@@ -322,76 +410,52 @@ def _read_table(path: Path, data: bytes, what: str) -> _Table:
     ncols = len(_TOKEN.findall(text))
     first_line = line_no
 
-    values, row_lines, blocks = [], [], []
+    # One allocation per output, filled chunk by chunk (pages are touched only as rows
+    # arrive): no list of chunks to concatenate, which would double the peak memory.
+    capacity = data.count(b"\n", pos) + 1
+    values = np.empty((capacity, ncols))
+    row_lines = np.empty(capacity, dtype=np.int64)
+    blocks = np.empty(capacity, dtype=np.int64)
+    n_rows = 0
     blanks_seen = 0  # blank lines before the current position (after the first data line)
     last_blanks = 0  # blank count at the previous data row
     block = 0
     start = pos
-    while start < n:
-        stop = min(start + CHUNK_BYTES, n)
-        if stop < n:
-            nl = data.find(b"\n", stop - 1)
-            stop = n if nl < 0 else nl + 1
-        u = np.frombuffer(data, dtype=np.uint8, count=stop - start, offset=start)
-        ends = np.flatnonzero(u == 10)
-        if not len(ends) or ends[-1] != len(u) - 1:
-            ends = np.append(ends, len(u))
-        sep = _separators(u, comma)
-        tok, counts = _token_counts(u, ends, sep)
-        first_tok = np.cumsum(counts) - counts
-        has = counts > 0
-        comment = np.zeros(len(ends), dtype=bool)
-        comment[has] = u[tok[first_tok[has]]] == 35
-        chunk = data[start:stop]
-        if comment.any():
-            # blank out comment lines (offsets, and so line numbers, stay the same)
-            line_starts = np.concatenate(([0], ends[:-1] + 1))
-            mark = np.zeros(len(u) + 1, dtype=np.int8)
-            np.add.at(mark, line_starts[comment], 1)
-            np.add.at(mark, ends[comment], -1)
-            arr = np.frombuffer(chunk, dtype=np.uint8).copy()
-            arr[np.cumsum(mark[:-1]) > 0] = 32
-            chunk = arr.tobytes()
-            counts = np.where(comment, 0, counts)
-        is_data = counts > 0
-        bad = is_data & (counts != ncols)
-        if comma:
-            commas = np.diff(np.searchsorted(np.flatnonzero(u == 44), ends), prepend=0)
-            bad |= is_data & (commas != ncols - 1)
-            bad |= ~is_data & ~comment & (commas > 0)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            line_start = 0 if i == 0 else int(ends[i - 1]) + 1
-            text = data[start + line_start : start + int(ends[i])]
-            found = len(_TOKEN.findall(text))
-            raise FileFormatError(
-                f"{path}, line {line_no + i}: expected {ncols} "
-                f"{'comma-separated ' if comma else ''}values as on line {first_line},"
-                f" found {found}{' (or empty fields)' if comma else ''}: {_quote(text)}"
-            )
-        flat = _floats(path, data, start, stop, int(counts.sum()), buf=chunk)
-        values.append(flat.reshape(-1, ncols))
-        rows = np.flatnonzero(is_data)
-        row_lines.append(line_no + rows)
-        # blocks: a data row preceded by a blank line (since the last row) opens a new block
-        blank = ~is_data & ~comment
-        cum_blank = blanks_seen + np.cumsum(blank)
-        at_row = cum_blank[rows]
-        prev = np.concatenate(([last_blanks], at_row[:-1]))
-        opens = at_row > prev
-        if start == pos and len(opens):
-            opens[0] = False
-        blocks.append(block + np.cumsum(opens))
-        if len(rows):
-            block = int(blocks[-1][-1])
-            last_blanks = int(at_row[-1])
-        blanks_seen = int(cum_blank[-1])
-        line_no += len(ends)
-        start = stop
+    with Stage(progress, "read", n) as stage:
+        stage.update(start)
+        while start < n:
+            stop = min(start + CHUNK_BYTES, n)
+            if stop < n:
+                nl = data.find(b"\n", stop - 1)
+                stop = n if nl < 0 else nl + 1
+            # the native parser, without the GIL; a line it refuses is located (and the
+            # message written) by the numpy reference path
+            parsed = _core.parse_text_table(data, start, stop, ncols, comma)
+            if parsed is None:
+                parsed = _numpy_chunk(path, data, start, stop, ncols, comma, line_no, first_line)
+            flat, rows, blank_lines, n_lines = parsed
+            end = n_rows + len(rows)
+            values[n_rows:end] = flat
+            row_lines[n_rows:end] = line_no + rows
+            # blocks: a data row preceded by a blank line (since the last row) opens a new block
+            at_row = blanks_seen + np.searchsorted(blank_lines, rows)
+            prev = np.concatenate(([last_blanks], at_row[:-1]))
+            opens = at_row > prev
+            if start == pos and len(opens):
+                opens[0] = False
+            blocks[n_rows:end] = block + np.cumsum(opens)
+            if len(rows):
+                block = int(blocks[end - 1])
+                last_blanks = int(at_row[-1])
+            n_rows = end
+            blanks_seen += len(blank_lines)
+            line_no += n_lines
+            start = stop
+            stage.update(stop)
     return _Table(
-        values=np.concatenate(values) if values else np.empty((0, ncols)),
-        row_lines=np.concatenate(row_lines),
-        blocks=np.concatenate(blocks),
+        values=values[:n_rows],
+        row_lines=row_lines[:n_rows],
+        blocks=blocks[:n_rows],
         header=header,
         header_lines=header_lines,
         comma=comma,
@@ -410,6 +474,8 @@ def _row_error(path: Path, data: bytes, table: _Table, row: int, message: str) -
 
 def _finite_rows(path: Path, data: bytes, table: _Table, cols: list[int], names: list[str]) -> None:
     """Raise on the first row with a NaN or infinite value in the given columns."""
+    if np.isfinite(table.values).all():  # the usual case: one pass, no column copy
+        return
     sub = table.values if cols == list(range(table.values.shape[1])) else table.values[:, cols]
     bad = ~np.isfinite(sub)
     if bad.any():
@@ -456,6 +522,8 @@ def _table_points(
     _finite_rows(path, data, table, cols, ["x", "y", "z"])
     if cols == [0, 1, 2] and table.values.shape[1] == 3:
         points = table.values  # already (N, 3) C-contiguous: no copy
+    elif cols == [0, 1, 2]:
+        points = np.ascontiguousarray(table.values[:, :3])  # a view, then one copy
     else:
         points = np.ascontiguousarray(table.values[:, cols])
     extra: dict[str, Any] = {"format": fmt, "header": table.header, "columns": columns}
@@ -471,14 +539,15 @@ def _table_points(
     return ScanPoints(points=points, line_ids=line_ids, source=path, extra=extra)
 
 
-def read_xyz(path: str | os.PathLike) -> ScanPoints:
+def read_xyz(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoints:
     """Read an XYZ text file (also ``.txt``, ``.asc``).
 
     One point per line: ``x y z`` or ``x y z line_id``, separated by whitespace or commas.
     Non-numeric lines at the top are a header; a header row naming ``x``, ``y``, ``z`` (and
     ``line``) in as many fields as the data places the columns by name, so extra columns
     are then allowed. ``#`` lines are comments anywhere. Without a line-id column, blank lines
-    separate scan lines.
+    separate scan lines. Numbers are parsed natively (``_core.parse_text_table``) in chunks of
+    ``CHUNK_BYTES``, so Ctrl-C is honoured between chunks; ``progress`` as in :func:`read`.
 
     Returns
     -------
@@ -488,7 +557,7 @@ def read_xyz(path: str | os.PathLike) -> ScanPoints:
     """
     path = Path(path)
     data = _read_bytes(path)
-    table = _read_table(path, data, "x y z rows")
+    table = _read_table(path, data, "x y z rows", progress)
     ncols = table.values.shape[1]
     columns = _named_columns(table.header[-1], table.comma, ncols) if table.header else None
     if columns is None:
@@ -504,13 +573,14 @@ def read_xyz(path: str | os.PathLike) -> ScanPoints:
     return _table_points(path, data, table, columns, "xyz")
 
 
-def read_csv(path: str | os.PathLike) -> ScanPoints:
+def read_csv(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoints:
     """Read a CSV file of points: ``x,y,z`` or ``x,y,z,line`` per row.
 
     A header row, when present, must name the columns ``x``, ``y``, ``z`` and optionally a
     line id (``line``, ``line_id``, ``scan_line``, ...); other named columns are ignored.
     Without a header the columns are taken in order and there must be 3 or 4. Blank lines
-    separate scan lines when there is no line-id column.
+    separate scan lines when there is no line-id column. Parsed like :func:`read_xyz`
+    (natively, in chunks); ``progress`` as in :func:`read`.
 
     Returns
     -------
@@ -519,7 +589,7 @@ def read_csv(path: str | os.PathLike) -> ScanPoints:
     """
     path = Path(path)
     data = _read_bytes(path)
-    table = _read_table(path, data, "comma-separated x,y,z rows")
+    table = _read_table(path, data, "comma-separated x,y,z rows", progress)
     ncols = table.values.shape[1]
     if table.header:
         columns = _named_columns(table.header[-1], table.comma, ncols)

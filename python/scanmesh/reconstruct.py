@@ -11,7 +11,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh._checks import as_points
-from scanmesh.anneal import Progress, anneal_surface, lop_surface
+from scanmesh._progress import Progress, anneal_progress
+from scanmesh.anneal import anneal_surface, lop_surface
 from scanmesh.delaunay import delaunay
 from scanmesh.errors import NotAHeightFieldWarning, ParameterError
 from scanmesh.projection import PlaneSpec
@@ -24,21 +25,26 @@ METHODS = ("delaunay", "lookahead", "shortest-path", "lop", "anneal", "optimal")
 INITIALS = ("delaunay", "shortest-path")
 
 
-def _load(source: ArrayLike | str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None]:
+def _load(
+    source: ArrayLike | str | os.PathLike, progress: Progress
+) -> tuple[np.ndarray, np.ndarray | None]:
     if isinstance(source, (str, os.PathLike)):
         from scanmesh.readers import read
 
-        scan = read(source)
+        scan = read(source, progress=progress)
         return scan.points, scan.line_ids
     return as_points(source), None
 
 
 def _strips(
-    points: np.ndarray, method: str, lines: Any, plane: PlaneSpec, options: dict
+    points: np.ndarray, method: str, lines: Any, plane: PlaneSpec, options: dict,
+    progress: Progress,
 ) -> Surface:
     from scanmesh.strips import strip_surface
 
-    return strip_surface(points, lines=lines, method=method, plane=plane, **options)
+    return strip_surface(
+        points, lines=lines, method=method, plane=plane, progress=progress, **options
+    )
 
 
 def reconstruct(
@@ -74,7 +80,17 @@ def reconstruct(
     seed : int, optional
         Seed for annealing (default 0). The same seed gives the same faces.
     progress : bool or callable
-        Progress bar (True) or callback ``(done, total, energy)`` for annealing.
+        True shows a progress bar (on stderr) for every stage that runs longer than a second.
+        A callable is called as ``progress(done, total, value)``. If it accepts a keyword
+        argument ``stage`` (or ``**kwargs``) it is called for every stage, as
+        ``progress(done, total, value, stage=name)`` with ``name`` in ``"read"`` (bytes;
+        text files report every chunk), ``"lines"`` and ``"strips"`` (points), ``"delaunay"``
+        (points), ``"trim"`` (faces), ``"anneal"`` (sweeps; ``value`` is the energy; every
+        ~20 ms) and, from :meth:`Surface.save` / the command, ``"write"`` (faces). Otherwise
+        it is called for annealing only, as ``progress(sweeps_done, sweeps_total, energy)``.
+        Within a stage ``done`` never decreases and the last call has ``done == total``;
+        stages that are one native call (lines, strips, Delaunay, trimming) report their
+        start and end only. See ``scanmesh._progress``.
     **options
         Method options. ``anneal``: ``initial`` ("delaunay" or "shortest-path"), ``sweeps``,
         ``p``, ``sliver_guard``, ... (see :data:`scanmesh.anneal.ANNEAL_DEFAULTS`). ``lop``:
@@ -104,7 +120,7 @@ def reconstruct(
     if method not in METHODS:
         raise ParameterError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     t0 = time.perf_counter()
-    points, file_lines = _load(source)
+    points, file_lines = _load(source, progress)
     if lines is None:
         lines = file_lines
     t_read = time.perf_counter() - t0
@@ -113,20 +129,22 @@ def reconstruct(
         if name not in INITIALS:
             raise ParameterError(f"unknown initial {name!r}; choose one of {', '.join(INITIALS)}")
         if name == "delaunay":
-            return delaunay(points, plane=plane, max_edge=max_edge)
-        return _strips(points, "shortest-path", lines, plane, {})
+            return delaunay(points, plane=plane, max_edge=max_edge, progress=progress)
+        return _strips(points, "shortest-path", lines, plane, {}, progress)
 
     if method == "delaunay":
         _no_options(method, options)
-        surface = delaunay(points, plane=plane, max_edge=max_edge)
+        surface = delaunay(points, plane=plane, max_edge=max_edge, progress=progress)
     elif method in ("lookahead", "shortest-path"):
-        surface = _strips(points, method, lines, plane, options)
+        surface = _strips(points, method, lines, plane, options, progress)
     elif method == "lop":
         start = initial_surface(options.pop("initial", "delaunay"))
         surface = lop_surface(start, **options)
     elif method == "anneal":
         start = initial_surface(options.pop("initial", "delaunay"))
-        surface = anneal_surface(start, seed=seed, progress=progress, **options)
+        surface = anneal_surface(
+            start, seed=seed, progress=anneal_progress(progress), **options
+        )
     else:
         from scanmesh.optimal import optimal_surface
 

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 from scanmesh import _core
 from scanmesh._checks import as_points
 from scanmesh._interrupt import interruptible
+from scanmesh._progress import Progress, Stage
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -27,6 +28,7 @@ from scanmesh.errors import (
 )
 from scanmesh.lines import GAP_FACTOR, _gap_factor, as_line_ids
 from scanmesh.projection import PlaneSpec, project
+from scanmesh.readers import count_lines
 from scanmesh.surface import Surface
 
 #: The path criteria, in the order the core takes their coefficients. Lengths are measured
@@ -105,6 +107,7 @@ def strip_surface(
     solver: str = "banded",
     band: int = _core.DEFAULT_BAND,
     check: bool = True,
+    progress: Progress = False,
 ) -> Surface:
     """Triangulate scan-line points strip by strip.
 
@@ -140,6 +143,10 @@ def strip_surface(
         Validate the mesh in the plane (O(m log m); at a million points it takes longer
         than the strips themselves). False skips it: no CrossingLinesWarning, and
         ``options["planar_valid"]`` is None.
+    progress : bool or callable
+        True shows progress bars; a callable taking ``stage=`` is called for the stages
+        "lines" and "strips" (in points; see :func:`scanmesh.reconstruct`). Each is one
+        native call, so it reports its start and its end.
 
     Returns
     -------
@@ -183,27 +190,30 @@ def strip_surface(
             "all points are collinear after projection onto the plane: choose another plane"
         )
     t1 = time.perf_counter()
-    ids = _core.detect_lines(uv, k) if lines is None else as_line_ids(lines, len(pts))
+    with Stage(progress, "lines", len(pts), blocking=True):
+        ids = _core.detect_lines(uv, k) if lines is None else as_line_ids(lines, len(pts))
+        n_lines = count_lines(ids)
     t2 = time.perf_counter()
-    faces, unused, duplicates, n_strips, cost, planar_error = interruptible(
-        len(pts),
-        _core.strip_mesh,
-        pts,
-        uv,
-        ids,
-        coefficients,
-        method,
-        int(alpha),
-        solver,
-        int(band),
-        k,
-        bool(check),
-    )
+    with Stage(progress, "strips", len(pts), blocking=True):
+        faces, unused, duplicates, n_strips, cost, planar_error = interruptible(
+            len(pts),
+            _core.strip_mesh,
+            pts,
+            uv,
+            ids,
+            coefficients,
+            method,
+            int(alpha),
+            solver,
+            int(band),
+            k,
+            bool(check),
+        )
     t3 = time.perf_counter()
     if n_strips == 0:
         raise DegenerateInputError(
             "no strip to build: need two neighbouring scan lines with two points each "
-            f"that overlap along the scan direction (found {len(np.unique(ids))} line(s))"
+            f"that overlap along the scan direction (found {n_lines} line(s))"
         )
     if planar_error is not None:
         warnings.warn(
@@ -236,7 +246,7 @@ def strip_surface(
         "band": int(band),
         "plane": plane,
         "gap_factor": k,
-        "n_lines": int(len(np.unique(ids))),
+        "n_lines": n_lines,
         "n_strips": int(n_strips),
         "cost": float(cost),
         "unused": unused,

@@ -14,8 +14,10 @@
 //! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks);
 //! - [`lines`]: scan lines detected from point order or given by id, split at gaps;
 //! - [`fuchs`]: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths;
-//! - [`strips`]: strips between consecutive lines stitched into one mesh (rayon).
-#![forbid(unsafe_code)]
+//! - [`strips`]: strips between consecutive lines stitched into one mesh (rayon);
+//! - [`text`]: numeric text tables (XYZ, CSV rows) parsed from bytes.
+// `deny`, not `forbid`: the one exception is the cache prefetch hint in `locality::prefetch`.
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod anneal;
@@ -34,6 +36,7 @@ pub mod strips;
 pub mod tac_state;
 #[cfg(test)]
 mod testing;
+pub mod text;
 pub mod trim;
 
 pub use error::{Error, Result};

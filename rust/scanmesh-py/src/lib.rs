@@ -18,6 +18,7 @@ use scanmesh_core::mesh::HalfEdgeMesh;
 use scanmesh_core::projection::{self, Plane};
 use scanmesh_core::strips::{self, Method, StripParams};
 use scanmesh_core::tac_state::TacState;
+use scanmesh_core::text;
 use scanmesh_core::{trim, Error};
 
 create_exception!(
@@ -669,6 +670,41 @@ fn strip_mesh<'py>(
     ))
 }
 
+/// Parses bytes `data[start:stop]` (whole lines) as rows of `ncols` whitespace- or, with
+/// `comma`, comma-separated numbers (rules in `scanmesh_core::text`), without the GIL.
+/// Returns (values (R, ncols) float64, row_lines (R,) int64 and blank_lines (B,) int64,
+/// both 0-based line indices within the range, number of lines), or None when a line
+/// breaks the rules: the readers then locate it and name file, line and text themselves.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn parse_text_table<'py>(
+    py: Python<'py>,
+    data: &[u8],
+    start: usize,
+    stop: usize,
+    ncols: usize,
+    comma: bool,
+) -> PyResult<Option<(Floats2<'py>, Ints1<'py>, Ints1<'py>, usize)>> {
+    if start > stop || stop > data.len() || ncols == 0 {
+        return Err(ParameterError::new_err(format!(
+            "need 0 <= start <= stop <= {} and ncols >= 1, got start {start}, stop {stop}, ncols {ncols}",
+            data.len()
+        )));
+    }
+    let chunk = &data[start..stop];
+    let Ok(table) = py.detach(|| text::parse_table(chunk, ncols, comma)) else {
+        return Ok(None);
+    };
+    let rows = table.row_lines.len();
+    let values = Array2::from_shape_vec((rows, ncols), table.values).expect("ncols per row");
+    Ok(Some((
+        values.into_pyarray(py),
+        Array1::from_vec(table.row_lines).into_pyarray(py),
+        Array1::from_vec(table.blank_lines).into_pyarray(py),
+        table.n_lines,
+    )))
+}
+
 /// The cheapest fan (star in some triangulation) around each of `vertices`: the minimum of
 /// `w·|Σ d| + Σ c` over fans of the candidate `triangles` (T, 3), with `d`, `c` (T, 3) per
 /// corner and `w` (I,) per vertex. Returns (lower bounds (I,), then for K fans found, the
@@ -777,6 +813,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(triangulations, m)?)?;
     m.add_function(wrap_pyfunction!(cheapest_fans, m)?)?;
     m.add_function(wrap_pyfunction!(lop, m)?)?;
+    m.add_function(wrap_pyfunction!(parse_text_table, m)?)?;
     m.add_class::<Annealer>()?;
     Ok(())
 }

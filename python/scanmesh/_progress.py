@@ -1,0 +1,128 @@
+"""Progress of long steps (reading, lines, strips, Delaunay, trimming, annealing, writing).
+
+One convention for every stage, the one annealing started with: ``progress=True`` shows a
+tqdm bar on stderr; a callable is called as ``progress(done, total, value)``. A callable
+that accepts a keyword argument ``stage`` (or ``**kwargs``) is called for every stage, as
+``progress(done, total, value, stage=name)``; one that does not is called for annealing
+only, as before (so existing ``(done, total, energy)`` callbacks keep working and never see
+bytes where they expect sweeps). Within a stage ``done`` never decreases and the last call
+has ``done == total``; ``value`` is the energy for annealing and None elsewhere.
+"""
+
+from __future__ import annotations
+
+import inspect
+import threading
+from collections.abc import Callable
+from typing import Any
+
+#: progress= of the public functions: a bool, or a callable(done, total, value[, stage=]).
+Progress = bool | Callable[..., None] | None
+
+#: Stage names, in pipeline order, with the unit of their ``done`` / ``total``.
+STAGES: dict[str, str] = {
+    "read": "bytes",
+    "lines": "points",
+    "strips": "points",
+    "delaunay": "points",
+    "trim": "faces",
+    "anneal": "sweeps",
+    "write": "faces",
+}
+
+#: A bar appears only for a stage still running after this many seconds (short steps stay
+#: silent), and a bar over one blocking native call is redrawn this often so its clock runs.
+BAR_DELAY_SECONDS: float = 1.0
+
+
+def takes_stage(progress: Any) -> bool:
+    """True when ``progress`` is a callable that accepts a ``stage`` keyword argument."""
+    if not callable(progress) or isinstance(progress, bool):
+        return False
+    try:
+        params = inspect.signature(progress).parameters.values()
+    except (TypeError, ValueError):  # builtins without a signature: the original convention
+        return False
+    return any(
+        p.kind is p.VAR_KEYWORD
+        or (p.name == "stage" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD))
+        for p in params
+    )
+
+
+class Stage:
+    """Reports one stage: ``update(done, value)`` as it goes, ``close()`` at the end (which
+    reports ``done == total``). Also a context manager. A no-op when nobody listens."""
+
+    def __init__(self, progress: Progress, name: str, total: int, blocking: bool = False):
+        self.name, self.total, self.done = name, max(int(total), 0), 0
+        self._call: Callable[..., None] | None = None
+        self._bar: Any = None
+        self._ticker: threading.Event | None = None
+        if progress is True:
+            from tqdm import tqdm
+
+            self._bar = tqdm(
+                total=self.total,
+                desc=name,
+                unit=STAGES.get(name, "it"),
+                unit_scale=True,
+                leave=False,
+                delay=BAR_DELAY_SECONDS,
+            )
+            if blocking:  # no updates come during one native call: keep the clock moving
+                self._ticker = threading.Event()
+                threading.Thread(target=self._tick, daemon=True).start()
+        elif takes_stage(progress):
+            self._call = progress  # type: ignore[assignment]
+        self.update(0)
+
+    def _tick(self) -> None:
+        assert self._ticker is not None
+        while not self._ticker.wait(BAR_DELAY_SECONDS / 2):
+            bar = self._bar
+            if bar is not None:
+                bar.update(0)
+
+    def update(self, done: int, value: float | None = None) -> None:
+        """Report ``done`` of ``total`` (clamped so that it never decreases)."""
+        self.done = min(max(int(done), self.done), self.total)
+        if self._call is not None:
+            self._call(self.done, self.total, value, stage=self.name)
+        elif self._bar is not None:
+            self._bar.n = self.done
+            self._bar.update(0)  # redraws, once BAR_DELAY_SECONDS have passed
+
+    def close(self) -> None:
+        """Report the stage complete and remove its bar."""
+        if self._ticker is not None:
+            self._ticker.set()
+        if self.done < self.total or self._call is None:
+            self.update(self.total)
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def __enter__(self) -> Stage:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if exc[0] is None:
+            self.close()
+        elif self._bar is not None:  # failed or interrupted: drop the bar, report nothing
+            if self._ticker is not None:
+                self._ticker.set()
+            self._bar.close()
+
+
+def anneal_progress(progress: Progress) -> Progress:
+    """What annealing gets: the progress as it is, or for a stage-aware callable one that
+    adds ``stage="anneal"`` (annealing keeps its own ``(done, total, energy)`` calls)."""
+    if not takes_stage(progress):
+        return progress
+    call: Callable[..., None] = progress  # type: ignore[assignment]
+
+    def report(done: int, total: int, energy: float) -> None:
+        call(done, total, energy, stage="anneal")
+
+    return report
