@@ -335,6 +335,109 @@ def test_text_across_chunks_matches_a_plain_parse(tmp_path, monkeypatch):
     np.testing.assert_array_equal(sp.line_ids, expect_ids)
 
 
+def random_table_text(rng, comma: bool, ncols: int = 4, rows: int = 400) -> bytes:
+    """Rows of ncols numbers in many spellings, with comments, blank and CRLF lines."""
+    spell = [
+        lambda v: repr(v),
+        lambda v: f"{v:.3e}",
+        lambda v: f"{v:+.2f}",
+        lambda v: f"{v:E}",
+        lambda v: str(int(v)),
+        lambda v: f"{v:.17g}",
+        lambda v: f"{abs(v):.4f}".lstrip("0") or "0",
+    ]
+    lines = []
+    for _ in range(rows):
+        r = rng.random()
+        if r < 0.05:
+            lines.append(rng.choice(["", "   ", "\t", "\r"]))
+        elif r < 0.08:
+            lines.append(rng.choice(["# note", "  #x, y, z", "#"]))
+        else:
+            scale = 10.0 ** int(rng.integers(-5, 8))
+            vals = [
+                spell[int(rng.integers(len(spell)))](float(v))
+                for v in rng.normal(size=ncols) * scale
+            ]
+            sep = rng.choice([",", ", ", " ,"]) if comma else rng.choice([" ", "\t", "   "])
+            lines.append(sep.join(vals) + rng.choice(["", " ", "\r"]))
+    return ("\n".join(lines) + rng.choice(["", "\n"])).encode()
+
+
+@pytest.mark.parametrize("comma", [False, True])
+def test_native_chunk_parser_matches_the_numpy_reference(comma):
+    """_core.parse_text_table and readers._numpy_chunk give the same table, bit for bit."""
+    from scanmesh import _core, readers
+
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        data = random_table_text(rng, comma)
+        native = _core.parse_text_table(data, 0, len(data), 4, comma)
+        assert native is not None
+        ref = readers._numpy_chunk(Path("t"), data, 0, len(data), 4, comma, 1, 1)
+        np.testing.assert_array_equal(native[0], ref[0])
+        np.testing.assert_array_equal(native[1], ref[1])
+        np.testing.assert_array_equal(native[2], ref[2])
+        assert native[3] == ref[3]
+        # any range of whole lines parses alone like the whole
+        cut = data.find(b"\n", len(data) // 2) + 1
+        if 0 < cut < len(data):
+            head = _core.parse_text_table(data, 0, cut, 4, comma)
+            tail = _core.parse_text_table(data, cut, len(data), 4, comma)
+            np.testing.assert_array_equal(np.concatenate([head[0], tail[0]]), native[0])
+
+
+@pytest.mark.parametrize(
+    ("line", "comma"),
+    [
+        ("1 2 x 4", False),
+        ("1 2 3", False),
+        ("1 2 3 4 5", False),
+        ("1 2 3 4e", False),
+        ("1,2,,3,4", True),
+        (",,,", True),
+        ("1;2;3;4", False),
+        ("0x1 2 3 4", False),
+    ],
+)
+def test_native_chunk_parser_refuses_what_the_reference_refuses(line, comma):
+    """Refused chunks go to the numpy path, which raises naming file, line and text."""
+    from scanmesh import _core, readers
+
+    sep = "," if comma else " "
+    data = f"1{sep}2{sep}3{sep}4\n{line}\n".encode()
+    assert _core.parse_text_table(data, 0, len(data), 4, comma) is None
+    with pytest.raises(FileFormatError, match=r"t, line 2:"):
+        readers._numpy_chunk(Path("t"), data, 0, len(data), 4, comma, 1, 1)
+
+
+def test_native_chunk_parser_checks_its_range():
+    from scanmesh import _core
+
+    for args in ((b"1 2", 2, 1, 1, False), (b"1 2", 0, 9, 1, False), (b"1 2", 0, 3, 0, False)):
+        with pytest.raises(ScanmeshError, match="start"):
+            _core.parse_text_table(*args)
+
+
+def test_read_reports_progress_in_bytes(tmp_path, monkeypatch):
+    from scanmesh import readers
+
+    rows = "\n".join(f"{i} {i % 7} {i * 0.5} {i // 100}" for i in range(2000))
+    path = write(tmp_path / "p.xyz", "x y z line\n" + rows + "\n")
+    monkeypatch.setattr(readers, "CHUNK_BYTES", 4096)
+    seen = []
+    sp = read(path, progress=lambda done, total, value, stage: seen.append((stage, done, total)))
+    assert len(sp) == 2000
+    size = path.stat().st_size
+    assert {s for s, _, _ in seen} == {"read"} and all(t == size for _, _, t in seen)
+    done = [d for _, d, _ in seen]
+    assert done == sorted(done) and done[-1] == size and len(done) > 5
+    # a callback without stage= is the annealing-only convention: not called while reading
+    calls = []
+    read(path, progress=lambda done, total, energy: calls.append(done))
+    assert calls == []
+
+
 @pytest.mark.parametrize("chunk", [1000, 1 << 24])
 def test_parse_error_line_numbers_after_header_comments_and_chunks(tmp_path, monkeypatch, chunk):
     from scanmesh import readers

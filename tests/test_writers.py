@@ -180,3 +180,66 @@ def test_write_points_in_blocks(tmp_path, monkeypatch):
     sp = read(Path(path))
     np.testing.assert_array_equal(sp.points, pts)
     np.testing.assert_array_equal(sp.line_ids, np.arange(50) // 10)
+
+
+def test_stl_from_numpy_matches_trimesh_in_blocks(tmp_path, monkeypatch):
+    """The numpy STL writer gives trimesh's records (normals, float32 corners), block size
+    does not matter, and a degenerate triangle gets a zero normal."""
+    from scanmesh import writers
+
+    verts, faces = grid_mesh(9, 7)
+    faces = np.vstack([faces, [[0, 1, 0]]])  # a repeated corner: zero area
+    expect = trimesh.Trimesh(vertices=verts, faces=faces, process=False).export(file_type="stl")
+    record = writers.STL_RECORD
+    want = np.frombuffer(expect, dtype=record, offset=84)
+    for block in (1, 7, 1 << 19):
+        monkeypatch.setattr(writers, "STL_FACES_PER_BLOCK", block)
+        data = save_mesh(tmp_path / f"b{block}.stl", verts, faces).read_bytes()
+        assert len(data) == 84 + 50 * len(faces)
+        assert not data.startswith(b"solid")
+        got = np.frombuffer(data, dtype=record, offset=84)
+        np.testing.assert_array_equal(got["corners"], want["corners"])
+        np.testing.assert_allclose(got["normal"], want["normal"], atol=1e-6)
+        np.testing.assert_array_equal(got["normal"][-1], 0.0)
+        assert (got["attribute"] == 0).all()
+
+
+def test_stl_bad_faces_are_refused_before_writing(tmp_path):
+    verts, faces = grid_mesh()
+    with pytest.raises(ParameterError, match="indices"):
+        save_mesh(tmp_path / "m.stl", verts, faces + len(verts))
+    with pytest.raises(ParameterError, match=r"\(M, 3\)"):
+        save_mesh(tmp_path / "m.stl", verts, faces[:, :2])
+    assert not list(tmp_path.iterdir())
+
+
+def test_interrupted_stl_leaves_no_file(tmp_path, monkeypatch):
+    from scanmesh import writers
+
+    verts, faces = grid_mesh()
+    monkeypatch.setattr(writers, "STL_FACES_PER_BLOCK", 4)
+
+    def stop(done, total, value, stage):
+        if done >= 8:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        save_mesh(tmp_path / "m.stl", verts, faces, progress=stop)
+    assert not list(tmp_path.iterdir())
+
+
+def test_write_progress_counts_faces(tmp_path, monkeypatch):
+    from scanmesh import writers
+
+    verts, faces = grid_mesh(9, 7)
+    monkeypatch.setattr(writers, "STL_FACES_PER_BLOCK", 10)
+    for ending in (".stl", ".ply"):
+        seen: list[tuple[str, int, int]] = []
+
+        def record(d, t, v, stage, seen=seen):
+            seen.append((stage, d, t))
+
+        save_mesh(tmp_path / f"m{ending}", verts, faces, progress=record)
+        assert {s for s, _, _ in seen} == {"write"}
+        done = [d for _, d, _ in seen]
+        assert done == sorted(done) and done[-1] == len(faces) and seen[0][1] == 0
