@@ -23,6 +23,7 @@ Instances:
 
     python benches/optimal.py                       # the full run (about an hour)
     python benches/optimal.py --sizes 20 30 --instances 4 --no-write   # a quick look
+    python benches/optimal.py --reuse-milp benches/results/optimal_milp.jsonl  # heuristics only
 """
 
 from __future__ import annotations
@@ -106,22 +107,47 @@ def load_scan() -> np.ndarray:
     return scanmesh.readers.read_vtk(SCAN).points.reshape(45, 49, 3)
 
 
-def run_instance(points: np.ndarray, plane, time_limit: float, seed: int) -> dict:
-    """Optimum, LOP and annealing on one patch; tac_1 values, times and gaps."""
+#: the MILP's columns of a row, reusable when only the heuristics change
+MILP_KEYS = (
+    "n", "certified", "milp_gap", "optimum_or_incumbent", "lower_bound", "seconds_optimal",
+    "seconds_solve", "candidates", "nodes",
+)
+
+
+def solve_exact(points: np.ndarray, plane, time_limit: float) -> dict:
+    """The MILP's optimum (or incumbent and bound) on one patch, with its times."""
     t0 = time.perf_counter()
     exact = optimal_surface(points, plane=plane, time_limit=time_limit)
-    t_opt = time.perf_counter() - t0
-    row = {
+    return {
         "n": len(points),
         "certified": exact.certified,
         "milp_gap": exact.gap,
         "optimum_or_incumbent": exact.quality.tac_1,
         "lower_bound": exact.options["lower_bound"],
-        "seconds_optimal": t_opt,
+        "seconds_optimal": time.perf_counter() - t0,
         "seconds_solve": exact.timings["solve"],
         "candidates": exact.options["candidate_triangles"],
         "nodes": exact.options["nodes"],
     }
+
+
+def run_instance(
+    points: np.ndarray,
+    plane,
+    time_limit: float,
+    seed: int,
+    known: dict | None = None,
+    settle: float = 0.0,
+) -> dict:
+    """Optimum (or ``known``'s MILP columns), LOP and annealing on one patch: tac_1
+    values, times and gaps. With ``settle`` > 0 seconds, an instance whose annealing
+    verdict (within 1 %) is still open gets a second MILP with annealing's triangulation
+    as the incumbent (a cutoff: ``optimal_surface(incumbent=...)``)."""
+    if known is not None:
+        row = {k: known[k] for k in MILP_KEYS}
+    else:
+        row = solve_exact(points, plane, time_limit)
+    surfaces = {}
     for method in ("lop", "anneal"):
         t0 = time.perf_counter()
         kwargs = {"seed": seed} if method == "anneal" else {}
@@ -131,15 +157,36 @@ def run_instance(points: np.ndarray, plane, time_limit: float, seed: int) -> dic
             surface = scanmesh.reconstruct(points, method, plane=plane, max_edge=math.inf, **kwargs)
         row[f"seconds_{method}"] = time.perf_counter() - t0
         row[method] = surface.quality.tac_1
+        surfaces[method] = surface
+    add_gaps(row)
+    if settle > 0 and within(row, "anneal") is None:
+        t0 = time.perf_counter()
+        second = optimal_surface(
+            points, plane=plane, time_limit=settle, incumbent=surfaces["anneal"]
+        )
+        row["settle_seconds"] = time.perf_counter() - t0
+        row["settle_certified"] = second.certified
+        row["settle_value"] = second.quality.tac_1
+        row["settle_lower_bound"] = second.options["lower_bound"]
+        add_gaps(row)
+    return row
+
+
+def add_gaps(row: dict) -> None:
+    """Best known value, lower bound and each heuristic's gap interval, from every MILP run."""
     best_known = min(row["optimum_or_incumbent"], row["lop"], row["anneal"])
-    lower = exact.options["lower_bound"] if not exact.certified else exact.quality.tac_1
+    lower = row["lower_bound"] if not row["certified"] else row["optimum_or_incumbent"]
+    if "settle_value" in row:
+        best_known = min(best_known, row["settle_value"])
+        lower = row["settle_value"] if row["settle_certified"] else max(
+            lower, row["settle_lower_bound"]
+        )
     lower = min(lower, best_known)
     row["best_known"] = best_known
     for method in ("lop", "anneal"):
         v = row[method]
         row[f"{method}_gap_low"] = (v - best_known) / best_known if best_known > 0 else 0.0
         row[f"{method}_gap_high"] = (v - lower) / lower if lower > 0 else math.inf
-    return row
 
 
 def within(row: dict, method: str, tol: float = 0.01) -> bool | None:
@@ -239,6 +286,21 @@ def main() -> None:
         help="summarize rows of an earlier run (its JSONL) instead of measuring; the other"
         " options should repeat that run's",
     )
+    parser.add_argument(
+        "--reuse-milp",
+        type=Path,
+        help="take the MILP columns (optimum, bound, proof time) from this JSONL of an earlier"
+        " run with the same --sizes/--kinds/--seed/--time-limit and rerun only LOP and"
+        " annealing (after a change to the heuristics)",
+    )
+    parser.add_argument(
+        "--settle",
+        type=float,
+        default=0.0,
+        help="seconds for a second MILP, with annealing's triangulation as incumbent, on"
+        " instances of --settle-sizes whose 1 %% verdict is still open (0: none)",
+    )
+    parser.add_argument("--settle-sizes", type=int, nargs="+", default=[30])
     args = parser.parse_args()
     if args.from_log:
         rows = [json.loads(line) for line in args.from_log.read_text().splitlines() if line]
@@ -251,6 +313,12 @@ def main() -> None:
 def measure(args: argparse.Namespace) -> tuple[list[dict], float]:
     """Run every instance; rows also go to out/optimal.jsonl as they come."""
     grid = load_scan()
+    known = {}
+    if args.reuse_milp:
+        for line in args.reuse_milp.read_text().splitlines():
+            if line:
+                r = json.loads(line)
+                known[(r["kind"], r["n"], r["index"])] = r
     out = ROOT / "out"
     out.mkdir(exist_ok=True)
     rows: list[dict] = []
@@ -265,7 +333,21 @@ def measure(args: argparse.Namespace) -> tuple[list[dict], float]:
                         pts, plane = random_patch(n, rng), "z"
                     else:
                         pts, plane = scan_patch(grid, n, rng), None
-                    row = {"kind": kind, "index": k, **run_instance(pts, plane, args.time_limit, k)}
+                    reuse = known.get((kind, n, k)) if args.reuse_milp else None
+                    if args.reuse_milp and reuse is None:
+                        raise SystemExit(f"{args.reuse_milp} has no row for {kind} n={n} #{k}")
+                    row = {
+                        "kind": kind,
+                        "index": k,
+                        **run_instance(
+                            pts,
+                            plane,
+                            args.time_limit,
+                            k,
+                            reuse,
+                            args.settle if n in args.settle_sizes else 0.0,
+                        ),
+                    }
                     rows.append(row)
                     log.write(json.dumps(row) + "\n")
                     log.flush()
@@ -298,6 +380,21 @@ def report(args: argparse.Namespace, rows: list[dict], elapsed: float) -> None:
         f"Annealing found a proven optimum on {exact_hits} of {len(rows)} instances and"
         f" ended above LOP's tac_1 on {above_lop}."
     )
+    settled = [r for r in rows if "settle_certified" in r]
+    if settled:
+        proved = [r for r in settled if r["settle_certified"]]
+        facts += (
+            f" Second MILP with annealing's triangulation as incumbent (cutoff), on the"
+            f" {len(settled)} instances of {args.settle_sizes} points whose verdict was open"
+            f" ({args.settle:g} s limit): optimality proven on {len(proved)}"
+            + (
+                f" in {min(r['settle_seconds'] for r in proved):.0f}-"
+                f"{max(r['settle_seconds'] for r in proved):.0f} s"
+                if proved
+                else ""
+            )
+            + "; the table and the goal count these proofs."
+        )
     print("\n".join(table))
     print(goal)
     print(facts)
@@ -306,7 +403,7 @@ def report(args: argparse.Namespace, rows: list[dict], elapsed: float) -> None:
     command = "python benches/optimal.py " + " ".join(
         f"--{k.replace('_', '-')} {' '.join(map(str, v)) if isinstance(v, list) else v}"
         for k, v in vars(args).items()
-        if v not in (None, False) and k not in ("no_write", "from_log")
+        if v not in (None, False) and k not in ("no_write", "from_log", "reuse_milp")
     )
     text = "\n".join(
         [
@@ -326,7 +423,13 @@ def report(args: argparse.Namespace, rows: list[dict], elapsed: float) -> None:
             "```",
             "",
             f"Machine: {machine()}; {len(rows)} instances, {elapsed / 60:.0f} min measured; time"
-            f" limit {args.time_limit:g} s per MILP. Raw rows: `out/optimal.jsonl`.",
+            f" limit {args.time_limit:g} s per MILP. Raw rows: `out/optimal.jsonl`."
+            + (
+                f" MILP columns (optimum, bound, time to prove) reused from `{args.reuse_milp}`"
+                " (an earlier run, same instances); LOP and annealing measured in this run."
+                if args.reuse_milp
+                else ""
+            ),
             "",
             *table,
             "",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import subprocess
@@ -95,9 +96,10 @@ def test_lop_is_a_local_optimum_and_reruns_make_no_flip():
 def test_progress_callback_sees_every_sweep():
     pts = bumpy_patch(300, 5)
     seen = []
-    scanmesh.reconstruct(pts, "anneal", sweeps=25, patience=0,
-                         progress=lambda done, total, energy: seen.append((done, total, energy)))
-    assert seen[-1][0] == 25 and all(t == 25 for _, t, _ in seen)
+    s = scanmesh.reconstruct(pts, "anneal", sweeps=25, patience=0,
+                             progress=lambda done, total, energy: seen.append((done, total, energy)))
+    total = 25 * s.options["chains"]
+    assert seen[-1][0] == total and all(t == total for _, t, _ in seen)
     assert [d for d, _, _ in seen] == sorted(d for d, _, _ in seen)
 
 
@@ -162,3 +164,27 @@ def test_ctrl_c_stops_a_long_run_quickly(tmp_path):
         proc.kill()
     assert line[0] == "interrupted"
     assert float(line[1]) - sent < 0.2
+
+
+def test_small_inputs_run_several_chains_and_keep_the_best():
+    pts = bumpy_patch(40, 8)
+    many = scanmesh.reconstruct(pts, "anneal", seed=4, max_edge=math.inf)
+    one = scanmesh.reconstruct(pts, "anneal", seed=4, max_edge=math.inf, chains=1)
+    energies = many.options["chain_energies"]
+    assert many.options["chains"] == len(energies) > 1
+    assert one.options["chains"] == 1
+    # Chain 0 of the automatic run is the single-chain run with the same seed.
+    assert energies[0] == pytest.approx(one.options["energy"], rel=1e-12)
+    assert many.options["energy"] == min(energies)
+    assert energies.index(min(energies)) == many.options["best_chain"]
+    assert many.quality.tac_1 <= one.quality.tac_1 * (1 + 1e-12)
+    again = scanmesh.reconstruct(pts, "anneal", seed=4, max_edge=math.inf)
+    np.testing.assert_array_equal(again.faces, many.faces)
+
+
+def test_large_inputs_run_one_chain_unless_asked():
+    pts = bumpy_patch(2500, 9)
+    auto = scanmesh.reconstruct(pts, "anneal", sweeps=2, patience=0)
+    assert auto.options["chains"] == 1
+    three = scanmesh.reconstruct(pts, "anneal", sweeps=2, patience=0, chains=3)
+    assert three.options["chains"] == 3 and len(three.options["chain_energies"]) == 3

@@ -301,3 +301,38 @@ def test_optimum_is_never_worse_than_lop_or_annealing(p):
             worse[method] += value > best * (1 + 1e-6)
     # LOP is a local optimum: it should stop above the certified optimum somewhere.
     assert worse["lop"] >= 1
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_an_incumbent_cuts_the_search_but_not_the_optimum(seed):
+    pts = bumpy(9, seed)
+    plain = optimal_surface(pts, plane="z")
+    brute = brute_force_surface(pts, plane="z")
+    # A worse incumbent (Delaunay): HiGHS still finds the optimum below it.
+    delaunay = scanmesh.reconstruct(pts, "delaunay", plane="z", max_edge=math.inf)
+    cut = optimal_surface(pts, plane="z", incumbent=delaunay)
+    assert cut.certified and close(cut.quality.tac_1, brute.quality.tac_1)
+    assert cut.options["incumbent_value"] == pytest.approx(delaunay.quality.tac_1, rel=1e-12)
+    # The optimum as incumbent: nothing is strictly better, the program is infeasible,
+    # and the incumbent comes back certified.
+    again = optimal_surface(pts, plane="z", incumbent=plain.faces)
+    assert again.certified and again.options["source"] in ("incumbent", "highs")
+    assert close(again.quality.tac_1, brute.quality.tac_1)
+    assert_full_triangulation(pts, again.faces)
+
+
+def test_a_wrong_incumbent_is_refused_not_trusted():
+    pts = bumpy(10, 6)
+    best = optimal_surface(pts, plane="z")
+    with pytest.raises(ParameterError, match="do not triangulate"):
+        optimal_surface(pts, plane="z", incumbent=best.faces[1:])  # a hole: lower tac
+    bad = best.faces.copy()
+    bad[0, 1] = bad[0, 0]
+    with pytest.raises(ParameterError, match="face 0 "):
+        optimal_surface(pts, plane="z", incumbent=bad)
+    with pytest.raises(ParameterError, match=f"face {len(best.faces)} .*repeats"):
+        optimal_surface(pts, plane="z", incumbent=np.r_[best.faces, best.faces[:1]])
+    with pytest.raises(ParameterError, match="integer faces"):
+        optimal_surface(pts, plane="z", incumbent=np.zeros((3, 2)))
+    with pytest.raises(ParameterError, match="index points"):
+        optimal_surface(pts, plane="z", incumbent=best.faces + 100)

@@ -223,6 +223,7 @@ def optimal_surface(
     plane: PlaneSpec = None,
     time_limit: float = 60.0,
     strengthen: bool = False,
+    incumbent: ArrayLike | Surface | None = None,
 ) -> Surface:
     """The triangulation of the whole convex hull with the smallest tac p-norm, proven.
 
@@ -249,6 +250,13 @@ def optimal_surface(
         instance the fan LP closes the gap to the optimum from 55 % to 3 %), but without
         warm starts (``scipy.optimize.linprog`` rebuilds each master LP) the columns come
         too slowly to pay off from 20 points on; off by default.
+    incumbent : (M, 3) int array or Surface, optional
+        A known triangulation of the same hull over the input points (annealing's, say).
+        Its tac norm U becomes a cutoff row ``objective <= U (1 - MIP_REL_GAP)``: HiGHS
+        searches only strictly better triangulations and prunes every branch whose bound
+        reaches U, which is how a heuristic's answer shortens the proof. When none exists
+        (the program is infeasible) the incumbent is returned, ``certified`` (optimal
+        within MIP_REL_GAP) and ``options["source"] == "incumbent"``.
 
     Returns
     -------
@@ -300,6 +308,11 @@ def optimal_surface(
         lop_faces = local[lop_surface(inst.delaunay, p=1.0).faces]
         cuts = _fan_cuts(geo, uv, p, [inst.delaunay_local, lop_faces], t1 + FAN_SHARE * limit)
     model = _assemble(geo, p, cuts)
+    known = None
+    if incumbent is not None:
+        known_faces = _incumbent_faces(incumbent, inst, tri, geo)
+        known = (known_faces, _core_norm(inst.points, known_faces, p))
+        model = _with_cutoff(model, known[1] * (1.0 - MIP_REL_GAP))
     t2 = time.perf_counter()
     options: dict[str, object] = {"disp": False, "mip_rel_gap": MIP_REL_GAP}
     if math.isfinite(limit):
@@ -312,14 +325,17 @@ def optimal_surface(
         options=options,
     )
     t3 = time.perf_counter()
-    if res.status not in (0, 1):
+    proven_by_cutoff = known is not None and res.status == 2
+    if res.status not in (0, 1) and not proven_by_cutoff:
         raise RuntimeError(
             f"HiGHS could not solve the triangulation program ({res.message}); every point"
             " set has a triangulation, so this is a bug: please report it with the points"
         )
     found = res.x is not None
-    certified = bool(res.status == 0)
+    certified = bool(res.status == 0) or proven_by_cutoff
     candidates: list[tuple[str, np.ndarray]] = []
+    if known is not None:
+        candidates.append(("incumbent", known[0]))
     if found:
         chosen = res.x[: len(tri)] > 0.5
         # 0/1 and the integer rows hold exactly: by the theorem, a triangulation.
@@ -339,9 +355,13 @@ def optimal_surface(
     scored = [
         (_core_norm(inst.points, faces, p), k, name) for k, (name, faces) in enumerate(candidates)
     ]
-    value, best, source = min(scored)
+    # Ties go to the solver's triangulation (listed after the incumbent, so compare it first).
+    value, best, source = min(scored, key=lambda v: (v[0], v[2] != "highs", v[1]))
     bound = res.mip_dual_bound if res.mip_dual_bound is not None else 0.0
     bound = max(0.0, float(bound)) if math.isfinite(bound) else 0.0
+    if known is not None:
+        # Every triangulation better than the cutoff was searched for: the cutoff bounds.
+        bound = known[1] * (1.0 - MIP_REL_GAP) if proven_by_cutoff else min(bound, known[1])
     t4 = time.perf_counter()
     surface = Surface(
         vertices=inst.points,
@@ -360,6 +380,7 @@ def optimal_surface(
             "interior_vertices": int(len(geo.interior)),
             "equations": int(geo.flow.shape[0]),
             "fan_cuts": 0 if cuts is None else int(len(cuts.rhs)),
+            "incumbent_value": None if known is None else known[1],
             **({} if cuts is None else cuts.info),
             "lower_bound": bound,
             "solver_objective": None if res.fun is None else float(res.fun),
@@ -380,6 +401,61 @@ def optimal_surface(
         # Proven within MIP_REL_GAP (and HiGHS's tolerances): report no more than that.
         surface.gap = min(surface.gap, MIP_REL_GAP)
     return surface
+
+
+def _incumbent_faces(
+    incumbent: ArrayLike | Surface, inst: _Instance, tri: np.ndarray, geo: _Geometry
+) -> np.ndarray:
+    """The incumbent's faces as (M, 3) int64 input indices, checked to be a triangulation
+    of the hull: every face an empty candidate triangle and the flow equations met (the
+    module docstring's theorem), so a wrong incumbent cannot cut the optimum off."""
+    faces = incumbent.faces if isinstance(incumbent, Surface) else incumbent
+    try:
+        arr = np.asarray(faces)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"incumbent cannot be read as faces: {exc}") from None
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.dtype.kind not in "iu":
+        raise ParameterError(
+            f"incumbent must be (M, 3) integer faces or a Surface, got shape {arr.shape}"
+            f" of {arr.dtype}"
+        )
+    local = np.full(len(inst.points), -1, dtype=np.int64)
+    local[inst.keep] = np.arange(len(inst.keep))
+    if len(arr) and (arr.min() < 0 or arr.max() >= len(inst.points)):
+        raise ParameterError(
+            f"incumbent faces must index points 0..{len(inst.points) - 1},"
+            f" found {arr.min()}..{arr.max()}"
+        )
+    index = {tuple(sorted(t)): k for k, t in enumerate(tri.tolist())}
+    chosen = np.zeros(len(tri), dtype=np.int64)
+    for row, face in enumerate(local[arr].tolist()):
+        k = index.get(tuple(sorted(face)), -1)
+        if k < 0 or chosen[k]:
+            raise ParameterError(
+                f"incumbent face {row} {arr[row].tolist()} is not an empty triangle of"
+                " distinct hull points (or repeats one)"
+            )
+        chosen[k] = 1
+    if np.any(geo.flow @ chosen != geo.flow_rhs):
+        raise ParameterError(
+            "incumbent faces do not triangulate the convex hull of the points (a gap or an"
+            " overlap); pass a Surface built with max_edge=math.inf"
+        )
+    return np.ascontiguousarray(arr, dtype=np.int64)
+
+
+def _with_cutoff(model: _Program, cutoff: float) -> _Program:
+    """The program with one more row, objective <= cutoff."""
+    import scipy.sparse as sp
+
+    return _Program(
+        model.c,
+        model.integrality,
+        model.upper,
+        sp.vstack([model.a, sp.csr_array(model.c[None, :])], format="csr"),
+        np.r_[model.lower_rows, -np.inf],
+        np.r_[model.upper_rows, cutoff],
+    )
 
 
 def _core_norm(points: np.ndarray, faces: np.ndarray, p: float) -> float:

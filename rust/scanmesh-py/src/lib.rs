@@ -359,7 +359,7 @@ impl Annealer {
 #[pymethods]
 impl Annealer {
     #[new]
-    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples))]
+    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples, chains, chain = 0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -376,6 +376,8 @@ impl Annealer {
         tie_tolerance: f64,
         polish: bool,
         calibration_samples: usize,
+        chains: usize,
+        chain: usize,
     ) -> PyResult<Self> {
         let params = AnnealParams {
             sweeps,
@@ -388,7 +390,9 @@ impl Annealer {
             tie_tolerance,
             polish,
             calibration_samples,
-        };
+            chains,
+        }
+        .for_chain(chain);
         params.check().map_err(to_py)?;
         let (state, relabel) = tac_state(&points, &uv, &faces, p)?;
         let inner = py
@@ -422,6 +426,13 @@ impl Annealer {
     #[getter]
     fn done(&self) -> PyResult<bool> {
         Ok(self.running()?.is_done())
+    }
+
+    /// Chains a whole run takes on this triangulation (`AnnealParams::chain_count`).
+    #[getter]
+    fn chains(&self) -> PyResult<usize> {
+        let inner = self.running()?;
+        Ok(inner.params().chain_count(inner.sweep_len()))
     }
 
     /// Proposals per sweep (interior edges).
@@ -796,6 +807,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     defaults.set_item("tie_tolerance", d.tie_tolerance)?;
     defaults.set_item("polish", d.polish)?;
     defaults.set_item("calibration_samples", d.calibration_samples)?;
+    defaults.set_item("chains", d.chains)?;
     m.add("ANNEAL_DEFAULTS", defaults)?;
     m.add_function(wrap_pyfunction!(project, m)?)?;
     m.add_function(wrap_pyfunction!(delaunay, m)?)?;
