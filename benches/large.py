@@ -16,7 +16,8 @@ own; "RSS before" is the size after loading that stage's input (``.npy`` files s
 stage before, which are not part of the stage). Stages:
 
 - read: ``scanmesh.read(file)`` (text parse, checks, ScanPoints);
-- lines: ``scanmesh.scan_lines(points, ids, plane="z")`` (segments, median step, gaps);
+- lines: ``scanmesh.lines.scan_lines(points, ids, plane="z")`` (projection, segments,
+  median step, gaps; the strips stage does this again inside its native call);
 - strips: ``strip_surface(points, lines=ids, plane="z")`` (projection, lines, shortest-path
   strips with the default weight, planar check), split by ``Surface.timings``;
 - anneal: ``reconstruct(..., "anneal", initial="shortest-path", sweeps=S, patience=0,
@@ -104,6 +105,7 @@ def files(n: int) -> dict[str, Path]:
 def child(stage: str, n: int, sweeps: int) -> None:
     """Run one stage on size n and print a JSON line."""
     import scanmesh
+    from scanmesh.lines import scan_lines
     from scanmesh.strips import strip_surface
     from scanmesh.writers import save_mesh
 
@@ -123,7 +125,7 @@ def child(stage: str, n: int, sweeps: int) -> None:
         base = current_rss_mb()
         t0 = time.perf_counter()
         if stage == "lines":
-            lines = scanmesh.scan_lines(points, ids, plane="z")
+            lines = scan_lines(points, ids, plane="z")
             out["detail"] = f"{lines.n_lines:,} lines, {lines.n_segments:,} segments"
         elif stage == "strips":
             surface = strip_surface(points, lines=ids, plane="z")

@@ -69,7 +69,7 @@ def test_stage_progress_through_reconstruct(scan_file, monkeypatch):
 
 def test_stage_progress_through_delaunay_and_annealing():
     rng = np.random.default_rng(3)
-    pts = np.column_stack([rng.random((3000, 2)), rng.random(3000) * 0.05])
+    pts = np.column_stack([rng.random((3000, 2)), rng.random(3000) * 0.001])
     rec = Recorder()
     scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=20, patience=0, progress=rec)
     rec.check_monotone()

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from scanmesh._progress import Progress
 from scanmesh.projection import Frame
 from scanmesh.quality import Quality, quality
 
@@ -114,11 +115,12 @@ class Surface:
 
         return trimesh.Trimesh(vertices=self.vertices, faces=self.faces, process=False)
 
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write the mesh by file ending (.stl binary, .ply, .obj, .off), atomically."""
+    def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
+        """Write the mesh by file ending (.stl binary, .ply, .obj, .off), atomically;
+        ``progress`` as in :func:`scanmesh.writers.save_mesh` (stage "write")."""
         from scanmesh.writers import save_mesh
 
-        return save_mesh(path, self.vertices, self.faces)
+        return save_mesh(path, self.vertices, self.faces, progress=progress)
 
     def __repr__(self) -> str:
         return (

@@ -17,6 +17,8 @@
 //! Numbers are converted by `fast_float2` (Eisel-Lemire with an exact fallback: correctly
 //! rounded, so `%.17g` text reads back bit for bit).
 
+use rayon::prelude::*;
+
 /// Why a chunk was refused: the first offending line (0-based within the chunk) and the
 /// byte offset (within the chunk) of the offending token or line start. The caller turns
 /// it into a message naming the file, line and text.
@@ -64,11 +66,54 @@ fn number(token: &[u8]) -> Option<f64> {
     }
 }
 
+/// Chunks at least this long are split at line breaks into one piece per rayon thread and
+/// parsed in parallel (smaller ones are not worth a thread hand-off).
+pub const PARALLEL_MIN_BYTES: usize = 1 << 18;
+
 /// Parses `buf`, a chunk of whole lines, as rows of `ncols` numbers (see the module rules).
 ///
 /// `comma` selects comma mode (commas separate too, and count). Returns the first bad line
-/// as a [`TextError`]; never panics on any input.
+/// as a [`TextError`]; never panics on any input. Long chunks are parsed in parallel pieces
+/// (same result as one piece: tested). O(len) work.
 pub fn parse_table(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextError> {
+    let threads = rayon::current_num_threads();
+    if buf.len() < PARALLEL_MIN_BYTES || threads < 2 {
+        return parse_piece(buf, ncols, comma);
+    }
+    // cut points: just after the first line break at or past each k/threads of the chunk
+    let mut cuts = vec![0usize];
+    for k in 1..threads {
+        let at = (buf.len() * k / threads).max(*cuts.last().expect("starts with 0"));
+        match buf[at..].iter().position(|&b| b == b'\n') {
+            Some(p) if at + p + 1 < buf.len() => cuts.push(at + p + 1),
+            _ => break,
+        }
+    }
+    cuts.push(buf.len());
+    cuts.dedup();
+    let pieces: Vec<Result<Table, TextError>> = cuts
+        .par_windows(2)
+        .map(|w| parse_piece(&buf[w[0]..w[1]], ncols, comma))
+        .collect();
+    let mut out = Table::default();
+    for (piece, &offset) in pieces.into_iter().zip(&cuts) {
+        let lines = out.n_lines as i64;
+        let piece = piece.map_err(|e| TextError {
+            line: e.line + out.n_lines,
+            offset: e.offset + offset,
+        })?;
+        out.values.extend_from_slice(&piece.values);
+        out.row_lines
+            .extend(piece.row_lines.iter().map(|l| l + lines));
+        out.blank_lines
+            .extend(piece.blank_lines.iter().map(|l| l + lines));
+        out.n_lines += piece.n_lines;
+    }
+    Ok(out)
+}
+
+/// [`parse_table`] on one thread.
+fn parse_piece(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextError> {
     let mask = if comma { 3u8 } else { 1u8 };
     // A row costs at least 2 bytes per value: reserve for the densest plausible chunk /4
     // (about what real scans hold) and let the vector grow past it if needed.
@@ -244,6 +289,41 @@ mod tests {
         }
         let t = parse_table(text.as_bytes(), 1, false).unwrap();
         assert_eq!(t.values, want);
+    }
+
+    #[test]
+    fn parallel_pieces_equal_one_piece() {
+        let mut text = String::new();
+        for i in 0..60_000 {
+            match i % 97 {
+                0 => text.push('\n'),
+                1 => text.push_str("# comment\n"),
+                _ => text.push_str(&format!("{} {}.5 -{}e-3\n", i, i % 13, i * 7)),
+            }
+        }
+        assert!(text.len() > 2 * PARALLEL_MIN_BYTES);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap();
+        let parallel = pool
+            .install(|| parse_table(text.as_bytes(), 3, false))
+            .unwrap();
+        assert_eq!(parallel, parse_piece(text.as_bytes(), 3, false).unwrap());
+        // an error in a later piece names its line and offset in the whole chunk
+        let bad_at = text.len() - 20;
+        let line_start = text[..bad_at].rfind('\n').unwrap() + 1;
+        let mut broken = text.clone().into_bytes();
+        broken[line_start] = b'x';
+        let line = text[..line_start].matches('\n').count();
+        let e = pool.install(|| parse_table(&broken, 3, false)).unwrap_err();
+        assert_eq!(
+            e,
+            TextError {
+                line,
+                offset: line_start
+            }
+        );
     }
 
     #[test]
