@@ -162,23 +162,34 @@ struct Terms<'a> {
     w: Weight,
 }
 
-/// Dihedral angle (radians, [0, π]) between two normals of any length; π when one is zero
-/// (a degenerate triangle). O(1).
-#[inline]
-fn dihedral(n1: DVec3, n2: DVec3) -> f64 {
+/// Dihedral angle (radians, [0, π]) between triangles with normals `n1`, `n2` of any
+/// length that share an edge e of length `len`; `apex` is the first triangle's corner off
+/// e minus a point of e. π when a normal is zero (a degenerate triangle). O(1).
+///
+/// The definition is `atan2(|n1 × n2|, n1 · n2)`; both normals are perpendicular to e, so
+/// n1 × n2 is parallel to it and, with n1 = ±apex × e, |n1 × n2| = |apex · n2| · |e|
+/// (Lagrange: (u × e) × (v × e) = (u · (e × v)) e). That is one dot product where the
+/// cross product form needs a cross product and a square root; `len` is the node length
+/// every search computes anyway. Equal to the cross product form up to rounding (tested
+/// against it to 1e-12 in path costs).
+#[inline(always)]
+fn dihedral(n1: DVec3, apex: DVec3, len: f64, n2: DVec3) -> f64 {
     if n1 == DVec3::ZERO || n2 == DVec3::ZERO {
         return PI;
     }
-    atan2_upper(n1.cross(n2).length(), n1.dot(n2))
+    atan2_upper(apex.dot(n2).abs() * len, n1.dot(n2))
 }
 
 /// `y.atan2(x)` for y ≥ 0 (a result in [0, π]), to within a few units in the last place.
 ///
 /// Why not libm: its atan2 was half the run time of strips under the angle and dihedral
-/// weights (up to six calls per matrix cell). This is Cephes' `atan` (Moshier): one
-/// reduction to |t| ≤ 0.66 and a degree 4/5 rational function; tested within 4 ulp of
-/// libm over 40 decades, and twice as fast (10M calls: 95 ms against 190 ms). O(1).
-#[inline]
+/// weights (up to six calls per matrix cell). This is Cephes' `atan` (Moshier): a
+/// reduction to |u| ≤ 0.66 and a degree 4/5 rational function; tested within 4 ulp of
+/// libm over 40 decades. The reduction is written without branches (selects), because
+/// the DP's cost comparisons wait on these results and a mispredicted branch here stalls
+/// them: u = min/max, or (min − max)/(min + max) when min > 0.66 max (one division
+/// where Cephes divides twice; min − max is exact there by Sterbenz). O(1).
+#[inline(always)]
 fn atan2_upper(y: f64, x: f64) -> f64 {
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
     const MOREBITS: f64 = 6.123_233_995_736_766e-17;
@@ -200,28 +211,26 @@ fn atan2_upper(y: f64, x: f64) -> f64 {
     if y == 0.0 && ax == 0.0 {
         return if x.is_sign_negative() { PI } else { 0.0 };
     }
-    // t = min/max in [0, 1]; atan2 = atan(t), or π/2 − atan(t) when y > |x|.
-    let (t, swapped) = if y <= ax {
-        (y / ax, false)
-    } else {
-        (ax / y, true)
-    };
-    let (base, u, more) = if t <= 0.66 {
-        (0.0, t, 0.0)
-    } else {
-        (FRAC_PI_4, (t - 1.0) / (t + 1.0), 0.5 * MOREBITS)
-    };
+    // atan2 = atan(min/max), or π/2 − that when y > |x|; then π − that when x < 0.
+    let swapped = y > ax;
+    let (lo, hi) = if swapped { (ax, y) } else { (y, ax) };
+    let big = lo > 0.66 * hi;
+    let u = if big { lo - hi } else { lo } / if big { lo + hi } else { hi };
     let z = u * u;
     let p = (((P[0] * z + P[1]) * z + P[2]) * z + P[3]) * z + P[4];
     let q = ((((z + Q[0]) * z + Q[1]) * z + Q[2]) * z + Q[3]) * z + Q[4];
-    let mut a = base + (u + u * z * p / q + more);
-    if swapped {
-        a = FRAC_PI_2 - a;
-    }
+    let (base, more) = if big {
+        (FRAC_PI_4, 0.5 * MOREBITS)
+    } else {
+        (0.0, 0.0)
+    };
+    let a = base + (u + u * z * p / q + more);
+    let a = if swapped { FRAC_PI_2 - a } else { a };
     if x < 0.0 {
-        a = PI - a;
+        PI - a
+    } else {
+        a
     }
-    a
 }
 
 impl<'a> Terms<'a> {
@@ -258,65 +267,122 @@ impl<'a> Terms<'a> {
         }
     }
 
-    /// Cost of the step `s` leaving (i, j), including the weight of the node it enters,
-    /// and a normal of its triangle, of any length (zero when degenerate or not needed). O(1).
+    /// The step `s` leaving (i, j): its cost (including the weight of the node it enters)
+    /// and what the turn to the next step needs. O(1).
     #[inline]
-    fn step(&self, i: usize, j: usize, s: Step) -> (f64, DVec3) {
-        let (p, q, r, target) = match s {
-            Step::A => (self.a[i], self.a[i + 1], self.b[j], (i + 1, j)),
-            Step::B => (self.a[i], self.b[j + 1], self.b[j], (i, j + 1)),
+    fn step(&self, i: usize, j: usize, s: Step) -> Tri {
+        // The entered node (ti, tj) is the edge shared with the next triangle; the apex is
+        // this triangle's third corner, taken relative to a_ti.
+        let (p, q, r, ti, tj, apex) = match s {
+            Step::A => (self.a[i], self.a[i + 1], self.b[j], i + 1, j, self.a[i]),
+            Step::B => (self.a[i], self.b[j + 1], self.b[j], i, j + 1, self.b[j]),
         };
-        let mut cost = self.node(target.0, target.1);
-        if self.w.area == 0.0 && self.w.angle == 0.0 && self.w.dihedral == 0.0 {
+        let e = self.b[tj] - self.a[ti];
+        let sides = [
+            (q - p).length_squared(),
+            (r - q).length_squared(),
+            (p - r).length_squared(),
+        ];
+        let dots = [(p - r).dot(q - r), (q - p).dot(r - p), (r - q).dot(p - q)];
+        self.triangle(
+            e.length(),
+            (q - p).cross(r - p),
+            sides,
+            dots,
+            apex - self.a[ti],
+        )
+    }
+
+    /// Whether any triangle criterion (area, angle, dihedral) is on. O(1).
+    #[inline]
+    fn needs_triangles(&self) -> bool {
+        self.w.area != 0.0 || self.w.angle != 0.0 || self.w.dihedral != 0.0
+    }
+
+    /// A step from its parts: `len` = length of the entered node's edge a_i–b_j,
+    /// its triangle (p, q, r) by `cross` = (q − p) × (r − p), squared sides
+    /// [|pq|², |qr|², |rp|²], the dot products of the two sides at the corners opposite
+    /// them [at r, at p, at q], and `apex` = the corner off the entered edge minus a_i.
+    /// Every evaluation of a step goes through here, whether its vectors are computed on
+    /// the spot ([`Terms::step`]) or taken from the DP's row caches ([`dp_in_band`]), so
+    /// both give bit-identical costs. Branch-free apart from the weight switches, which are
+    /// the same for every call. O(1).
+    #[inline(always)]
+    fn triangle(
+        &self,
+        len: f64,
+        cross: DVec3,
+        sides: [f64; 3],
+        dots: [f64; 3],
+        apex: DVec3,
+    ) -> Tri {
+        let mut cost = if self.w.length == 0.0 {
+            0.0
+        } else {
+            self.w.length * len
+        };
+        if !self.needs_triangles() {
             // The length weight alone needs no triangle (the hot path of `Weight::LENGTH`).
-            return (cost, DVec3::ZERO);
+            return Tri {
+                cost,
+                normal: DVec3::ZERO,
+                apex: DVec3::ZERO,
+                len,
+            };
         }
-        let c = (q - p).cross(r - p);
-        let twice_area = c.length();
+        let twice_area = cross.length();
         if self.w.area != 0.0 {
             cost += self.w.area * 0.5 * twice_area;
         }
         if self.w.angle != 0.0 {
-            cost += self.w.angle * (FRAC_PI_3 - smallest_angle(p, q, r, twice_area));
+            // The smallest angle is at the corner opposite the shortest side (law of sines).
+            let [pq, qr, rp] = sides;
+            let k = usize::from(pq > qr || pq > rp) * (1 + usize::from(qr > rp));
+            cost += self.w.angle * (FRAC_PI_3 - atan2_upper(twice_area, dots[k]));
         }
         // The dihedral angle is scale-free: the cross product serves as the normal unscaled.
         let normal = if self.w.dihedral != 0.0 {
-            c
+            cross
         } else {
             DVec3::ZERO
         };
-        (cost, normal)
+        Tri {
+            cost,
+            normal,
+            apex,
+            len,
+        }
     }
 
-    /// Cost of the turn between consecutive triangles with normals `n1`, `n2`. O(1).
-    #[inline]
-    fn turn(&self, n1: DVec3, n2: DVec3) -> f64 {
+    /// Cost of the turn from triangle `from` to the next one, with normal `n2`. O(1).
+    #[inline(always)]
+    fn turn(&self, n1: DVec3, apex: DVec3, len: f64, n2: DVec3) -> f64 {
         if self.w.dihedral == 0.0 {
             0.0
         } else {
-            self.w.dihedral * dihedral(n1, n2)
+            self.w.dihedral * dihedral(n1, apex, len, n2)
         }
+    }
+
+    /// [`Terms::turn`] from a whole step. O(1).
+    #[inline]
+    fn turn_from(&self, from: &Tri, n2: DVec3) -> f64 {
+        self.turn(from.normal, from.apex, from.len, n2)
     }
 }
 
-/// Smallest corner angle of (p, q, r) given twice its area: the angle opposite the shortest
-/// side (law of sines), by one atan2 instead of three. O(1).
-#[inline]
-fn smallest_angle(p: DVec3, q: DVec3, r: DVec3, twice_area: f64) -> f64 {
-    let (pq, qr, rp) = (
-        (q - p).length_squared(),
-        (r - q).length_squared(),
-        (p - r).length_squared(),
-    );
-    // The corner opposite the shortest side and its two sides.
-    let (corner, x, y) = if pq <= qr && pq <= rp {
-        (r, p, q)
-    } else if qr <= rp {
-        (p, q, r)
-    } else {
-        (q, r, p)
-    };
-    atan2_upper(twice_area, (x - corner).dot(y - corner))
+/// A step as the searches need it.
+#[derive(Debug, Clone, Copy)]
+struct Tri {
+    /// Its cost: the weight of the node it enters plus its triangle's terms.
+    cost: f64,
+    /// (q − p) × (r − p) of its triangle (p, q, r), unnormalized; zero when the dihedral
+    /// weight is off.
+    normal: DVec3,
+    /// Its triangle's corner off the edge a_i–b_j of the node (i, j) it enters, minus a_i.
+    apex: DVec3,
+    /// |a_i − b_j| of the node it enters.
+    len: f64,
 }
 
 /// Cost of `path` between lines `a` and `b` under `w`, evaluated step by step: node weights
@@ -327,11 +393,11 @@ pub fn path_cost(a: &[DVec3], b: &[DVec3], w: Weight, path: &[Step]) -> Result<f
     check_path(t.n(), t.m(), path)?;
     let (mut i, mut j) = (0, 0);
     let mut cost = t.node(0, 0);
-    let mut previous: Option<DVec3> = None;
+    let mut previous: Option<Tri> = None;
     for &s in path {
-        let (c, normal) = t.step(i, j, s);
-        cost += c + previous.map_or(0.0, |p| t.turn(p, normal));
-        previous = Some(normal);
+        let step = t.step(i, j, s);
+        cost += step.cost + previous.map_or(0.0, |p| t.turn_from(&p, step.normal));
+        previous = Some(step);
         match s {
             Step::A => i += 1,
             Step::B => j += 1,
@@ -387,38 +453,53 @@ pub fn shortest_path_dp(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Solution>
     Ok(dp_in_band(&t, &lo, &hi))
 }
 
-/// Cost and normal of the triangle entering a cell, per entering direction (A = 0, B = 1).
+/// A matrix cell: per entering direction (A = 0, B = 1), the cheapest cost so far and the
+/// entering triangle's normal and apex (see [`Tri`]); the node length, for the turns out.
 #[derive(Clone, Copy)]
 struct Cell {
     cost: [f64; 2],
     normal: [DVec3; 2],
+    apex: [DVec3; 2],
+    len: f64,
 }
 
 const UNREACHED: Cell = Cell {
     cost: [f64::INFINITY; 2],
     normal: [DVec3::ZERO; 2],
+    apex: [DVec3::ZERO; 2],
+    len: 0.0,
 };
+
+impl Cell {
+    /// Records `step` as the way in by direction `d` at cost `cost`. O(1).
+    #[inline(always)]
+    fn enter(&mut self, d: usize, cost: f64, step: &Tri) {
+        self.cost[d] = cost;
+        self.normal[d] = step.normal;
+        self.apex[d] = step.apex;
+        self.len = step.len;
+    }
+}
 
 /// The best way into a cell from predecessor `p` by a step whose triangle has `normal`:
 /// (cost before the step, entering direction at `p`: 0 = A, 1 = B). At the start cell
 /// there is no previous triangle, so no turn.
-#[inline]
+#[inline(always)]
 fn best_from(t: &Terms, p: &Cell, normal: DVec3, at_start: bool, start_cost: f64) -> (f64, u8) {
     if at_start {
         return (start_cost, 0);
     }
     // Turns cost atan2s, the hot spot: when the cheaper state plus its turn is still below
-    // the other state before any turn, the other turn cannot win (turns are ≥ 0).
-    let (cheaper, other) = if p.cost[1] < p.cost[0] {
-        (1, 0)
-    } else {
-        (0, 1)
-    };
-    let via_cheaper = p.cost[cheaper] + t.turn(p.normal[cheaper], normal);
+    // the other state before any turn, the other turn cannot win (turns are ≥ 0); on scan
+    // strips that settles all but about 1 in 1,000. The choice is a select, not a branch:
+    // which state is cheaper is a coin toss the branch predictor loses.
+    let cheaper = usize::from(p.cost[1] < p.cost[0]);
+    let other = 1 - cheaper;
+    let via_cheaper = p.cost[cheaper] + t.turn(p.normal[cheaper], p.apex[cheaper], p.len, normal);
     if p.cost[other] > via_cheaper {
         return (via_cheaper, cheaper as u8);
     }
-    let via_other = p.cost[other] + t.turn(p.normal[other], normal);
+    let via_other = p.cost[other] + t.turn(p.normal[other], p.apex[other], p.len, normal);
     let (via_a, via_b) = if cheaper == 0 {
         (via_cheaper, via_other)
     } else {
@@ -431,9 +512,138 @@ fn best_from(t: &Terms, p: &Cell, normal: DVec3, at_start: bool, start_cost: f64
     }
 }
 
+/// Where [`dp_in_band`] gets the steps entering a cell.
+trait Steps {
+    /// Called once before the cells of row i (band `lo..=hi`) are evaluated.
+    fn begin_row(&mut self, i: usize, lo: usize, hi: usize);
+    /// [`Terms::step`] (i − 1, j, A), entering (i, j); (i − 1, j) lies in the last band.
+    fn entering_by_a(&self, i: usize, j: usize) -> Tri;
+    /// [`Terms::step`] (i, j − 1, B), entering (i, j); j − 1 lies in the current band.
+    fn entering_by_b(&self, i: usize, j: usize) -> Tri;
+}
+
+/// Every step evaluated from scratch by [`Terms::step`]: the reference the row cache is
+/// tested against bit for bit.
+#[cfg(test)]
+struct Direct<'t, 'a>(&'t Terms<'a>);
+
+#[cfg(test)]
+impl Steps for Direct<'_, '_> {
+    fn begin_row(&mut self, _: usize, _: usize, _: usize) {}
+    fn entering_by_a(&self, i: usize, j: usize) -> Tri {
+        self.0.step(i - 1, j, Step::A)
+    }
+    fn entering_by_b(&self, i: usize, j: usize) -> Tri {
+        self.0.step(i, j - 1, Step::B)
+    }
+}
+
+/// The vector b_j − a_i of node (i, j), its squared length and its length.
+#[derive(Clone, Copy, Default)]
+struct Node {
+    e: DVec3,
+    l2: f64,
+    len: f64,
+}
+
+/// Steps from cached vectors: each triangle entering (i, j) has two sides that are node
+/// edges (a_i–b_j and a_{i−1}–b_j or a_i–b_{j−1}) and one that is a line step, so the
+/// node vectors of the current and the last row plus the line steps give every side,
+/// cross product and corner product without recomputing a difference, and each node's
+/// length is taken once (both steps into a cell need it). The arithmetic is
+/// the same as [`Terms::step`]'s term for term (a negated difference only flips signs,
+/// exactly), so the costs are bit-identical; tested.
+struct RowCache<'t, 'a> {
+    t: &'t Terms<'a>,
+    /// a_{i+1} − a_i and b_{j+1} − b_j, and their squared lengths.
+    da: Vec<DVec3>,
+    db: Vec<DVec3>,
+    da2: Vec<f64>,
+    db2: Vec<f64>,
+    /// Nodes of the current and the last row, from their band's `lo`.
+    cur: Vec<Node>,
+    last: Vec<Node>,
+    cur_lo: usize,
+    last_lo: usize,
+}
+
+impl<'t, 'a> RowCache<'t, 'a> {
+    fn new(t: &'t Terms<'a>, width: usize) -> Self {
+        let steps =
+            |line: &[DVec3]| -> Vec<DVec3> { line.windows(2).map(|w| w[1] - w[0]).collect() };
+        let (da, db) = (steps(t.a), steps(t.b));
+        let squares = |v: &[DVec3]| v.iter().map(|d| d.length_squared()).collect();
+        RowCache {
+            t,
+            da2: squares(&da),
+            db2: squares(&db),
+            da,
+            db,
+            cur: vec![Node::default(); width],
+            last: vec![Node::default(); width],
+            cur_lo: 0,
+            last_lo: 0,
+        }
+    }
+}
+
+impl Steps for RowCache<'_, '_> {
+    fn begin_row(&mut self, i: usize, lo: usize, hi: usize) {
+        std::mem::swap(&mut self.cur, &mut self.last);
+        self.last_lo = self.cur_lo;
+        self.cur_lo = lo;
+        let a = self.t.a[i];
+        for (node, &b) in self.cur.iter_mut().zip(&self.t.b[lo..=hi]) {
+            let e = b - a;
+            let l2 = e.length_squared();
+            *node = Node {
+                e,
+                l2,
+                len: l2.sqrt(),
+            };
+        }
+    }
+
+    #[inline(always)]
+    fn entering_by_a(&self, i: usize, j: usize) -> Tri {
+        // (p, q, r) = (a_{i−1}, a_i, b_j): q − p = da, r − p = last.e, r − q = cur.e; the
+        // apex a_{i−1} − a_i = −da.
+        let (cur, last) = (self.cur[j - self.cur_lo], self.last[j - self.last_lo]);
+        let da = self.da[i - 1];
+        self.t.triangle(
+            cur.len,
+            da.cross(last.e),
+            [self.da2[i - 1], cur.l2, last.l2],
+            [last.e.dot(cur.e), da.dot(last.e), -cur.e.dot(da)],
+            -da,
+        )
+    }
+
+    #[inline(always)]
+    fn entering_by_b(&self, _: usize, j: usize) -> Tri {
+        // (p, q, r) = (a_i, b_j, b_{j−1}): q − p = cur.e, r − p = left.e, q − r = db; the
+        // apex b_{j−1} − a_i = left.e.
+        let (cur, left) = (self.cur[j - self.cur_lo], self.cur[j - 1 - self.cur_lo]);
+        let db = self.db[j - 1];
+        self.t.triangle(
+            cur.len,
+            cur.e.cross(left.e),
+            [cur.l2, self.db2[j - 1], left.l2],
+            [-left.e.dot(db), cur.e.dot(left.e), db.dot(cur.e)],
+            left.e,
+        )
+    }
+}
+
 /// DP restricted to row bands `lo[i]..=hi[i]` (nondecreasing, overlapping consecutive rows,
 /// lo[0] = 0, hi[n−1] = m−1). O(Σ band widths) time and back-pointer bytes.
 fn dp_in_band(t: &Terms, lo: &[usize], hi: &[usize]) -> Solution {
+    let width = (0..t.n()).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);
+    dp_in_band_with(t, RowCache::new(t, width), lo, hi)
+}
+
+/// [`dp_in_band`] with steps from `steps`.
+fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize]) -> Solution {
     let (n, m) = (t.n(), t.m());
     let start_cost = t.node(0, 0);
     if n == 1 && m == 1 {
@@ -454,28 +664,32 @@ fn dp_in_band(t: &Terms, lo: &[usize], hi: &[usize]) -> Solution {
     let mut prev = vec![UNREACHED; width];
     let mut cur = vec![UNREACHED; width];
     for i in 0..n {
+        steps.begin_row(i, lo[i], hi[i]);
         for j in lo[i]..=hi[i] {
             let mut cell = UNREACHED;
             let mut bits = 0u8;
             if i > 0 && j >= lo[i - 1] && j <= hi[i - 1] {
-                let (c, normal) = t.step(i - 1, j, Step::A);
+                let step = steps.entering_by_a(i, j);
                 let (before, from) = best_from(
                     t,
                     &prev[j - lo[i - 1]],
-                    normal,
+                    step.normal,
                     i == 1 && j == 0,
                     start_cost,
                 );
-                cell.cost[0] = before + c;
-                cell.normal[0] = normal;
+                cell.enter(0, before + step.cost, &step);
                 bits |= from;
             }
             if j > lo[i] {
-                let (c, normal) = t.step(i, j - 1, Step::B);
-                let (before, from) =
-                    best_from(t, &cur[j - 1 - lo[i]], normal, i == 0 && j == 1, start_cost);
-                cell.cost[1] = before + c;
-                cell.normal[1] = normal;
+                let step = steps.entering_by_b(i, j);
+                let (before, from) = best_from(
+                    t,
+                    &cur[j - 1 - lo[i]],
+                    step.normal,
+                    i == 0 && j == 1,
+                    start_cost,
+                );
+                cell.enter(1, before + step.cost, &step);
                 bits |= from << 1;
             }
             cur[j - lo[i]] = cell;
@@ -556,9 +770,9 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
                  j,
                  s,
                  before: f64,
-                 previous: Option<DVec3>| {
-        let (c, normal) = t.step(i, j, s);
-        let cost = before + c + previous.map_or(0.0, |p| t.turn(p, normal));
+                 previous: Option<Tri>| {
+        let step = t.step(i, j, s);
+        let cost = before + step.cost + previous.map_or(0.0, |p| t.turn_from(&p, step.normal));
         let (ti, tj, d) = match s {
             Step::A => (i + 1, j, 0),
             Step::B => (i, j + 1, 1),
@@ -608,12 +822,12 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
             break;
         }
         let (i, j, d) = (state / 2 / m, state / 2 % m, state % 2);
-        // Normal of the triangle that entered (i, j), recomputed: the reference favours
-        // clarity over speed.
+        // The step that entered (i, j), recomputed: the reference favours clarity over
+        // speed.
         let entered = if d == 0 {
-            t.step(i - 1, j, Step::A).1
+            t.step(i - 1, j, Step::A)
         } else {
-            t.step(i, j - 1, Step::B).1
+            t.step(i, j - 1, Step::B)
         };
         if i + 1 < n {
             relax(
@@ -804,7 +1018,7 @@ impl Window {
         t: &Terms,
         i: usize,
         j: usize,
-        entered: Option<DVec3>,
+        entered: Option<Tri>,
         first: Step,
         alpha: usize,
     ) -> f64 {
@@ -814,31 +1028,31 @@ impl Window {
         self.cells.clear();
         self.cells.resize(rows * cols, UNREACHED);
         let cells = &mut self.cells;
-        let (c, normal) = t.step(i, j, first);
+        let step = t.step(i, j, first);
         let at = |p: usize, q: usize| p * cols + q;
         let d = match first {
             Step::A => 0,
             Step::B => 1,
         };
         let first_cell = if d == 0 { at(1, 0) } else { at(0, 1) };
-        cells[first_cell].cost[d] = c + entered.map_or(0.0, |e| t.turn(e, normal));
-        cells[first_cell].normal[d] = normal;
+        let turn = entered.map_or(0.0, |e| t.turn_from(&e, step.normal));
+        cells[first_cell].enter(d, step.cost + turn, &step);
         let mut best = f64::INFINITY;
         for p in 0..rows {
             for q in 0..cols.min(k + 1 - p) {
                 if p + q >= 2 {
                     let mut cell = UNREACHED;
                     if p > 0 {
-                        let (c, normal) = t.step(i + p - 1, j + q, Step::A);
-                        let (before, _) = best_from(t, &cells[at(p - 1, q)], normal, false, 0.0);
-                        cell.cost[0] = before + c;
-                        cell.normal[0] = normal;
+                        let step = t.step(i + p - 1, j + q, Step::A);
+                        let (before, _) =
+                            best_from(t, &cells[at(p - 1, q)], step.normal, false, 0.0);
+                        cell.enter(0, before + step.cost, &step);
                     }
                     if q > 0 {
-                        let (c, normal) = t.step(i + p, j + q - 1, Step::B);
-                        let (before, _) = best_from(t, &cells[at(p, q - 1)], normal, false, 0.0);
-                        cell.cost[1] = before + c;
-                        cell.normal[1] = normal;
+                        let step = t.step(i + p, j + q - 1, Step::B);
+                        let (before, _) =
+                            best_from(t, &cells[at(p, q - 1)], step.normal, false, 0.0);
+                        cell.enter(1, before + step.cost, &step);
                     }
                     cells[at(p, q)] = cell;
                 }
@@ -874,7 +1088,7 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
     let mut window = Window { cells: Vec::new() };
     let mut path = Vec::with_capacity(n + m - 2);
     let (mut i, mut j) = (0, 0);
-    let mut entered: Option<DVec3> = None;
+    let mut entered: Option<Tri> = None;
     let mut cost = t.node(0, 0);
     while i + 1 < n || j + 1 < m {
         let s = if i + 1 == n {
@@ -890,9 +1104,9 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
                 Step::B
             }
         };
-        let (c, normal) = t.step(i, j, s);
-        cost += c + entered.map_or(0.0, |e| t.turn(e, normal));
-        entered = Some(normal);
+        let step = t.step(i, j, s);
+        cost += step.cost + entered.map_or(0.0, |e| t.turn_from(&e, step.normal));
+        entered = Some(step);
         path.push(s);
         match s {
             Step::A => i += 1,
@@ -1028,11 +1242,101 @@ mod tests {
     fn smallest_angle_matches_three_atan2() {
         let mut rng = Lcg(7);
         for _ in 0..1000 {
+            // Step A at (0, 0) adds triangle (a_0, a_1, b_0) at cost π/3 − smallest angle.
             let p = random_line(&mut rng, 3);
-            let twice = (p[1] - p[0]).cross(p[2] - p[0]).length();
-            let fast = smallest_angle(p[0], p[1], p[2], twice);
+            let t = Terms::new(&p[..2], &p[2..], Weight::ANGLE).unwrap();
+            let fast = FRAC_PI_3 - t.step(0, 0, Step::A).cost;
             let slow = geometry::smallest_angle(p[0], p[1], p[2]);
             assert!((fast - slow).abs() < 1e-12, "{fast} vs {slow}");
+        }
+    }
+
+    #[test]
+    fn row_cache_steps_are_bit_identical_to_direct_steps() {
+        let mut rng = Lcg(13);
+        for trial in 0..80 {
+            let (n, m) = (1 + trial % 9, 1 + (trial * 5) % 11);
+            let (a, b) = if trial % 2 == 0 {
+                (random_line(&mut rng, n), random_line(&mut rng, m))
+            } else {
+                scan_pair(&mut rng, 3 * n, 3 * m)
+            };
+            let (n, m) = (a.len(), b.len());
+            // The whole matrix, and a band of half width 1 around the diagonal.
+            let full = (vec![0; n], vec![m - 1; n]);
+            let mut lo: Vec<usize> = (0..n).map(|i| (i * m / n).saturating_sub(1)).collect();
+            let mut hi: Vec<usize> = (0..n).map(|i| (i * m / n + 1).min(m - 1)).collect();
+            lo[0] = 0;
+            hi[n - 1] = m - 1;
+            for i in (0..n - 1).rev() {
+                hi[i] = hi[i].max(lo[i + 1]).min(hi[i + 1]);
+            }
+            for (lo, hi) in [full, (lo, hi)] {
+                for w in WEIGHTS {
+                    let t = Terms::new(&a, &b, w).unwrap();
+                    let fast = dp_in_band(&t, &lo, &hi);
+                    let slow = dp_in_band_with(&t, Direct(&t), &lo, &hi);
+                    assert_eq!(fast.cost.to_bits(), slow.cost.to_bits(), "{trial} {w:?}");
+                    assert_eq!(fast.path, slow.path);
+                }
+            }
+        }
+    }
+
+    /// The cost of `path` straight from the definitions of [`Weight`], with libm's atan2
+    /// and the cross product form of the dihedral angle: the slow reference.
+    fn reference_path_cost(a: &[DVec3], b: &[DVec3], w: Weight, path: &[Step]) -> f64 {
+        let (mut i, mut j) = (0, 0);
+        let mut cost = w.length * (a[0] - b[0]).length();
+        let mut previous: Option<DVec3> = None;
+        for &s in path {
+            let (p, q, r) = match s {
+                Step::A => (a[i], a[i + 1], b[j]),
+                Step::B => (a[i], b[j + 1], b[j]),
+            };
+            match s {
+                Step::A => i += 1,
+                Step::B => j += 1,
+            }
+            let normal = (q - p).cross(r - p);
+            cost += w.length * (a[i] - b[j]).length()
+                + w.area * geometry::triangle_area(p, q, r)
+                + w.angle * (FRAC_PI_3 - geometry::smallest_angle(p, q, r));
+            if let Some(n1) = previous {
+                let angle = if n1 == DVec3::ZERO || normal == DVec3::ZERO {
+                    PI
+                } else {
+                    n1.cross(normal).length().atan2(n1.dot(normal))
+                };
+                cost += w.dihedral * angle;
+            }
+            previous = Some(normal);
+        }
+        cost
+    }
+
+    #[test]
+    fn costs_match_the_reference_definitions() {
+        let mut rng = Lcg(17);
+        for trial in 0..60 {
+            let (n, m) = (2 + trial % 40, 2 + (trial * 7) % 45);
+            let (a, b) = if trial % 3 == 0 {
+                (random_line(&mut rng, n), random_line(&mut rng, m))
+            } else {
+                scan_pair(&mut rng, n, m)
+            };
+            for w in WEIGHTS {
+                let s = shortest_path_banded(&a, &b, w, DEFAULT_BAND).unwrap();
+                let reference = reference_path_cost(&a, &b, w, &s.path);
+                let tolerance = 1e-12 * reference.abs().max(1.0);
+                assert!(
+                    (s.cost - reference).abs() <= tolerance,
+                    "trial {trial} {w:?}: {} vs {reference}",
+                    s.cost
+                );
+                let again = path_cost(&a, &b, w, &s.path).unwrap();
+                assert!((again - reference).abs() <= tolerance);
+            }
         }
     }
 
