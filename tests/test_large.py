@@ -104,3 +104,20 @@ def test_command_end_to_end_on_100k_points(scan_file, tmp_path, capsys):
     assert rep["counts"]["faces"] == count and rep["counts"]["lines"] == 100
     assert {"read", "strips", "write"} <= set(rep["timings"])
     assert capsys.readouterr().err == ""  # --quiet: no bars, no remarks
+
+
+def test_collinear_check_on_many_points_uses_every_point():
+    """The strided sample only short-cuts the rank-2 case: collinear input still raises,
+    and one point off the line (which the sample misses) still counts."""
+    from scanmesh.strips import RANK_SAMPLE, _spans_plane
+
+    n = 3 * RANK_SAMPLE + 7
+    t = np.linspace(0.0, 1.0, n)
+    line = np.column_stack([t, 2 * t + 1])
+    assert not _spans_plane(line)
+    off = line.copy()
+    off[n - 2, 1] += 0.5
+    assert _spans_plane(off)
+    pts = np.column_stack([line, np.zeros(n)])
+    with pytest.raises(scanmesh.DegenerateInputError, match="collinear"):
+        scanmesh.reconstruct(pts, "shortest-path", lines=np.arange(n) // 1000, plane="z")

@@ -74,6 +74,25 @@ class UnusedPointsWarning(ScanmeshWarning):
     overhang both neighbouring lines by more than half a gap."""
 
 
+#: Rows of the planar coordinates whose rank :func:`_spans_plane` tries first.
+RANK_SAMPLE: int = 65_536
+
+
+def _spans_plane(uv: np.ndarray) -> bool:
+    """True when the (N, 2) points are not all collinear (numerical rank 2).
+
+    An SVD of all N rows takes seconds at 10M points, so an evenly strided sample is tried
+    first: rows added to a matrix never lower its smallest singular value, so a sample of
+    rank 2 means the whole has rank 2 (up to matrix_rank's size-dependent tolerance). Only
+    a sample of rank < 2 (collinear input, the case that raises) pays for the full SVD.
+    """
+    if len(uv) > RANK_SAMPLE:
+        sample = uv[:: len(uv) // RANK_SAMPLE]
+        if np.linalg.matrix_rank(sample - sample.mean(axis=0)) == 2:
+            return True
+    return bool(np.linalg.matrix_rank(uv - uv.mean(axis=0)) == 2)
+
+
 def weight_coefficients(weight: WeightSpec) -> tuple[float, float, float, float]:
     """The (length, area, angle, dihedral) coefficients of a weight spec."""
     if isinstance(weight, str):
@@ -185,7 +204,7 @@ def strip_surface(
     t0 = time.perf_counter()
     pts = as_points(points)
     uv, frame = project(pts, plane)
-    if np.linalg.matrix_rank(uv - uv.mean(axis=0)) < 2:
+    if not _spans_plane(uv):
         raise DegenerateInputError(
             "all points are collinear after projection onto the plane: choose another plane"
         )
