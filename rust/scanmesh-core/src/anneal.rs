@@ -6,8 +6,9 @@
 //! many proposals as interior edges), early stop once frozen, the best state kept, then a
 //! greedy polish (LOP) under the order (tac first, then smallest angle).
 
+use crate::criteria::SLIVER_ANGLE_DEG;
 use crate::delaunay::NONE;
-use crate::lop::{lop, TacLop, TacOrder};
+use crate::lop::{lop, ShapeBudgetLop, TacLop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{Detail, TacState};
 use crate::{Error, Result};
@@ -40,6 +41,10 @@ pub struct AnnealParams {
     pub polish: bool,
     /// Proposals sampled to calibrate T0.
     pub calibration_samples: usize,
+    /// Part of the sliver guard: energy the final shape pass may add while removing slivers,
+    /// as a fraction of the energy after the polish (0 = no shape pass; see
+    /// [`ShapeBudgetLop`]). Measured: 1 % of tac buys most of the slivers on curved scans.
+    pub shape_budget: f64,
     /// Independent chains (restarts from the same initial state with derived seeds, see
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
@@ -70,6 +75,7 @@ impl Default for AnnealParams {
             polish: true,
             calibration_samples: 2000,
             chains: 0,
+            shape_budget: 0.01,
         }
     }
 }
@@ -99,6 +105,13 @@ impl AnnealParams {
                 "final_temperature_ratio",
                 self.final_temperature_ratio.to_string(),
                 "a ratio in (0, 1]",
+            );
+        }
+        if !(self.shape_budget >= 0.0 && self.shape_budget.is_finite()) {
+            return bad(
+                "shape_budget",
+                self.shape_budget.to_string(),
+                "a finite fraction >= 0",
             );
         }
         if !(self.tie_tolerance >= 0.0 && self.tie_tolerance.is_finite()) {
@@ -180,6 +193,8 @@ pub struct AnnealResult {
     pub trace: Vec<SweepRecord>,
     /// Flips made by the final polish.
     pub polish_flips: usize,
+    /// Flips made by the shape pass after it.
+    pub shape_flips: usize,
     /// True when the run stopped before `sweeps` because it was frozen.
     pub stopped_early: bool,
 }
@@ -190,13 +205,15 @@ pub struct Annealer {
     state: TacState,
     params: AnnealParams,
     order: TacOrder,
-    rng: Pcg64Mcg,
+    // Two streams split from the seed: edges (drawn ahead, see `SlotDraws`) and the
+    // Metropolis uniforms, so drawing edges early never reorders the uniforms.
+    slots: SlotDraws,
+    uniforms: Pcg64Mcg,
     initial_energy: f64,
     initial_temperature: f64,
     temperature: f64,
     cooling: f64,
     sweep_len: usize,
-    n_half_edges: u64,
     // Counters of the sweep in progress.
     proposed: usize,
     accepted: usize,
@@ -227,13 +244,17 @@ impl Annealer {
             });
         }
         let n_interior_half_edges = state.count_interior_half_edges();
-        let mut rng = Pcg64Mcg::seed_from_u64(params.seed);
         let n_half_edges = state.mesh().n_half_edges() as u64;
+        // Edges come from the seed's own stream (the sequence a sequential draw would give);
+        // the uniforms from a second generator seeded by that stream's first two outputs.
+        let slot_rng = Pcg64Mcg::seed_from_u64(params.seed);
+        let uniforms = Pcg64Mcg::from_rng(&mut slot_rng.clone());
+        let mut slots = SlotDraws::new(slot_rng, n_half_edges);
         let order = params.order();
         let mut uphill = Vec::new();
         if n_interior_half_edges > 0 {
             for _ in 0..params.calibration_samples {
-                let h = random_interior_half_edge(&mut rng, &state, n_half_edges);
+                let h = slots.next_interior(&state);
                 if let Some(mv) = state.evaluate(h, Detail::Energy) {
                     if !order.is_tie(&mv) && mv.delta_energy > 0.0 {
                         uphill.push(mv.delta_energy);
@@ -257,11 +278,11 @@ impl Annealer {
             best_energy: energy,
             initial_energy: energy,
             sweep_len: n_interior_half_edges / 2,
-            n_half_edges,
             state,
             order,
             params,
-            rng,
+            slots,
+            uniforms,
             initial_temperature,
             temperature: initial_temperature,
             cooling,
@@ -338,7 +359,7 @@ impl Annealer {
     #[inline]
     fn propose(&mut self) {
         self.proposed += 1;
-        let h = random_interior_half_edge(&mut self.rng, &self.state, self.n_half_edges);
+        let h = self.slots.next_interior(&self.state);
         let Some(mv) = self.state.evaluate(h, Detail::Energy) else {
             return;
         };
@@ -349,7 +370,7 @@ impl Annealer {
             true
         } else {
             self.uphill_proposed += 1;
-            let u = unit_f64(&mut self.rng);
+            let u = unit_f64(&mut self.uniforms);
             let ok = self.temperature > 0.0 && u < (-mv.delta_energy / self.temperature).exp();
             self.uphill_accepted += ok as usize;
             ok
@@ -446,6 +467,19 @@ impl Annealer {
         } else {
             0
         };
+        let polished = best.resync_energy();
+        let shape_flips = if self.params.sliver_guard && self.params.shape_budget > 0.0 {
+            lop(
+                &mut ShapeBudgetLop {
+                    state: &mut best,
+                    budget: self.params.shape_budget * polished,
+                    sliver_angle: SLIVER_ANGLE_DEG.to_radians(),
+                },
+                max_flips,
+            )
+        } else {
+            0
+        };
         let energy = best.resync_energy();
         Ok(AnnealResult {
             mesh: best.into_mesh(),
@@ -454,6 +488,7 @@ impl Annealer {
             initial_temperature: self.initial_temperature,
             trace: self.trace,
             polish_flips,
+            shape_flips,
             stopped_early: self.stopped_early,
         })
     }
@@ -491,14 +526,77 @@ fn better_chain(a: Result<AnnealResult>, b: Result<AnnealResult>) -> Result<Anne
     }
 }
 
-/// A uniformly random half-edge that has a twin: uniform over interior edges, since each
-/// has exactly two. Rejection sampling over all slots; boundary slots are a small share.
-#[inline]
-fn random_interior_half_edge(rng: &mut Pcg64Mcg, state: &TacState, n_half_edges: u64) -> u32 {
-    loop {
-        let h = below(rng, n_half_edges) as u32;
-        if state.mesh().twin(h) != NONE {
-            return h;
+/// Proposals between the prefetch stages of a drawn edge (see [`TacState::prefetch`]):
+/// stage 0 right after the draw, stage 1 `STAGE_GAP` proposals later, stage 2 after another
+/// `STAGE_GAP`, and the proposal itself `STAGE_GAP` after that. On the rod and on 1M
+/// points 2 to 6 all help about alike (BENCHMARKS.md, "Annealing throughput").
+const STAGE_GAP: usize = 4;
+
+/// Edges drawn this many proposals ahead of their use.
+const AHEAD: usize = 3 * STAGE_GAP;
+
+/// Uniformly random half-edge slots, drawn `AHEAD` proposals before they are used.
+///
+/// Why: a proposal is a chain of dependent cache misses (slot, then its twin's triangle,
+/// then four vertices), about 120 ns on the rod before this. The slot sequence depends
+/// only on the RNG, never on the state, so it can be drawn early and each future slot's
+/// lines requested in stages while earlier proposals run; the misses of several proposals
+/// then overlap. The returned sequence is exactly the RNG's sequence (tested); boundary
+/// slots are rejected when a slot is used, because flips move twins meanwhile.
+#[derive(Debug, Clone)]
+struct SlotDraws {
+    rng: Pcg64Mcg,
+    n: u64,
+    ring: [u32; AHEAD],
+    head: usize,
+}
+
+impl SlotDraws {
+    /// Fills the ring with the first `AHEAD` draws of `rng` over slots `0..n`. O(AHEAD).
+    fn new(mut rng: Pcg64Mcg, n: u64) -> Self {
+        let mut ring = [0; AHEAD];
+        if n > 0 {
+            for r in &mut ring {
+                *r = below(&mut rng, n) as u32;
+            }
+        }
+        SlotDraws {
+            rng,
+            n,
+            ring,
+            head: 0,
+        }
+    }
+
+    /// The next slot of the sequence (any slot, boundary included); draws its replacement
+    /// and issues the prefetch stages of the slots ahead. O(1).
+    #[inline]
+    fn next_slot(&mut self, state: &TacState) -> u32 {
+        let h = self.ring[self.head];
+        let fresh = below(&mut self.rng, self.n) as u32;
+        self.ring[self.head] = fresh;
+        self.head = if self.head + 1 == AHEAD {
+            0
+        } else {
+            self.head + 1
+        };
+        // Distances from the new head: `fresh` is AHEAD - 1 proposals away.
+        let at = |d: usize| self.ring[(self.head + d) % AHEAD];
+        state.prefetch(fresh, 0);
+        state.prefetch(at(AHEAD - 1 - STAGE_GAP), 1);
+        state.prefetch(at(AHEAD - 1 - 2 * STAGE_GAP), 2);
+        h
+    }
+
+    /// The next slot that has a twin: uniform over interior edges, since each has exactly
+    /// two. Rejection sampling; boundary slots are a small share. O(1) expected.
+    #[inline]
+    fn next_interior(&mut self, state: &TacState) -> u32 {
+        loop {
+            let h = self.next_slot(state);
+            if state.mesh().twin(h) != NONE {
+                return h;
+            }
         }
     }
 }
@@ -646,6 +744,35 @@ mod tests {
         let best = ann.trace().last().unwrap().best;
         let r = ann.finish().unwrap();
         assert!(r.energy <= best + 1e-12);
+    }
+
+    #[test]
+    fn drawn_ahead_slots_are_the_sequential_draws() {
+        // The ring returns exactly the stream's draws in order, and `next_interior` is the
+        // plain rejection sampler over that stream, also while flips move twins.
+        let mut st = bumpy_state(200, 3, 1.0);
+        let n = st.mesh().n_half_edges() as u64;
+        let mut ahead = SlotDraws::new(Pcg64Mcg::seed_from_u64(42), n);
+        let mut plain = Pcg64Mcg::seed_from_u64(42);
+        for _ in 0..1000 {
+            assert_eq!(ahead.next_slot(&st), below(&mut plain, n) as u32);
+        }
+        let mut flips = 0;
+        for _ in 0..1000 {
+            let h = ahead.next_interior(&st);
+            let expected = loop {
+                let g = below(&mut plain, n) as u32;
+                if st.mesh().twin(g) != NONE {
+                    break g;
+                }
+            };
+            assert_eq!(h, expected);
+            if let Some(mv) = st.evaluate(h, Detail::Energy) {
+                st.apply(&mv);
+                flips += 1;
+            }
+        }
+        assert!(flips > 100, "{flips}");
     }
 
     #[test]

@@ -8,6 +8,7 @@
 
 use crate::delaunay::NONE;
 use crate::geometry::{orient2d, planar_corner_angle};
+use crate::locality::prefetch;
 use crate::{Error, Result};
 
 /// Triples whose triangle has a smallest angle with sine below about this count as collinear
@@ -27,6 +28,15 @@ pub fn well_formed(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
     }
     let sq = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
     area2 > COLLINEAR_SINE * sq(a, b).max(sq(b, c)).max(sq(c, a))
+}
+
+/// True when the quadrilateral (a, d, b, c) around diagonal a→b (triangles (a, b, c) and
+/// (b, a, d), counter-clockwise) may flip to diagonal c→d: both new triangles (d, c, a) and
+/// (c, d, b) are [`well_formed`]. The test of [`HalfEdgeMesh::can_flip`], for callers that
+/// hold the positions elsewhere. O(1).
+#[inline]
+pub fn convex_quad(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> bool {
+    well_formed(d, c, a) && well_formed(c, d, b)
 }
 
 /// Connectivity of a triangulation of `n_vertices` points.
@@ -250,7 +260,7 @@ impl HalfEdgeMesh {
             return false;
         }
         let [a, b, c, d] = self.quad(h, t).map(|v| uv[v as usize]);
-        well_formed(d, c, a) && well_formed(c, d, b)
+        convex_quad(a, b, c, d)
     }
 
     /// The four corners (a, b, c, d) around interior half-edge `h` = a→b with twin `t`:
@@ -263,6 +273,38 @@ impl HalfEdgeMesh {
             self.start(prev(h)),
             self.start(prev(t)),
         ]
+    }
+
+    /// Prefetch hint for the `start` and `twin` entries of triangle `t` (see
+    /// [`crate::locality::prefetch`]; no effect on results). O(1).
+    #[inline]
+    pub fn prefetch_triangle(&self, t: u32) {
+        // A triangle's three u32 entries can straddle two cache lines: hint both ends.
+        let (first, last) = (3 * t as usize, 3 * t as usize + 2);
+        if last < self.start.len() {
+            for s in [&self.start, &self.twin] {
+                prefetch(&s[first]);
+                prefetch(&s[last]);
+            }
+        }
+    }
+
+    /// Prefetch hint for what [`flip`](Self::flip)`(h)` writes outside the two triangles of
+    /// `h` (the twins of the four outer edges, the four corners' `vertex_edge`); reads the
+    /// two triangles, so call it once they are cached. No effect on results. O(1).
+    #[inline]
+    pub fn prefetch_flip(&self, h: u32) {
+        let t = self.twin[h as usize];
+        if t == NONE {
+            return;
+        }
+        for e in [next(h), prev(h), next(t), prev(t)] {
+            let o = self.twin[e as usize];
+            if o != NONE {
+                prefetch(&self.twin[o as usize]);
+            }
+            prefetch(&self.vertex_edge[self.start[e as usize] as usize]);
+        }
     }
 
     /// Flips interior half-edge `h` (a→b) to the other diagonal (c→d) without checking
@@ -308,21 +350,20 @@ impl HalfEdgeMesh {
         self.link(t1, tw_db);
         self.link(t2, tw_bc);
         // Boundary vertices must keep their twin-less outgoing half-edge, which may have
-        // moved slot; an interior vertex may point anywhere it still leaves from.
-        let moved = |e: u32| -> u32 {
-            match e {
-                x if x == h1 => t2, // b→c
-                x if x == h2 => h1, // c→a
-                x if x == t1 => h2, // a→d
-                x if x == t2 => t1, // d→b
-                x if x == h0 => h2, // a's a→b is gone: a→d
-                x if x == t0 => t2, // b's b→a is gone: b→c
-                x => x,
+        // moved slot; an interior vertex may point anywhere it still leaves from. A corner
+        // pointing into the two triangles gets its one new slot there: a's a→b (h0, gone)
+        // and a→d (t1) become h2 = a→d; b's b→a (t0, gone) and b→c (h1) become t2 = b→c;
+        // c's c→a (h2) becomes h1; d's d→b (t2) becomes t1. Two compares per corner.
+        for (v, old0, old1, new) in [
+            (a, h0, t1, h2),
+            (b, t0, h1, t2),
+            (c, h2, h2, h1),
+            (d, t2, t2, t1),
+        ] {
+            let e = &mut self.vertex_edge[v as usize];
+            if *e == old0 || *e == old1 {
+                *e = new;
             }
-        };
-        for v in [a, b, c, d] {
-            let e = self.vertex_edge[v as usize];
-            self.vertex_edge[v as usize] = moved(e);
         }
         h
     }
