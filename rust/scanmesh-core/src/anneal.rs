@@ -41,10 +41,6 @@ pub struct AnnealParams {
     pub polish: bool,
     /// Proposals sampled to calibrate T0.
     pub calibration_samples: usize,
-    /// Part of the sliver guard: energy the final shape pass may add while removing slivers,
-    /// as a fraction of the energy after the polish (0 = no shape pass; see
-    /// [`ShapeBudgetLop`]). Measured: 1 % of tac buys most of the slivers on curved scans.
-    pub shape_budget: f64,
     /// Independent chains (restarts from the same initial state with derived seeds, see
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
@@ -75,7 +71,6 @@ impl Default for AnnealParams {
             polish: true,
             calibration_samples: 2000,
             chains: 0,
-            shape_budget: 0.01,
         }
     }
 }
@@ -105,13 +100,6 @@ impl AnnealParams {
                 "final_temperature_ratio",
                 self.final_temperature_ratio.to_string(),
                 "a ratio in (0, 1]",
-            );
-        }
-        if !(self.shape_budget >= 0.0 && self.shape_budget.is_finite()) {
-            return bad(
-                "shape_budget",
-                self.shape_budget.to_string(),
-                "a finite fraction >= 0",
             );
         }
         if !(self.tie_tolerance >= 0.0 && self.tie_tolerance.is_finite()) {
@@ -193,8 +181,6 @@ pub struct AnnealResult {
     pub trace: Vec<SweepRecord>,
     /// Flips made by the final polish.
     pub polish_flips: usize,
-    /// Flips made by the shape pass after it.
-    pub shape_flips: usize,
     /// True when the run stopped before `sweeps` because it was frozen.
     pub stopped_early: bool,
 }
@@ -467,19 +453,6 @@ impl Annealer {
         } else {
             0
         };
-        let polished = best.resync_energy();
-        let shape_flips = if self.params.sliver_guard && self.params.shape_budget > 0.0 {
-            lop(
-                &mut ShapeBudgetLop {
-                    state: &mut best,
-                    budget: self.params.shape_budget * polished,
-                    sliver_angle: SLIVER_ANGLE_DEG.to_radians(),
-                },
-                max_flips,
-            )
-        } else {
-            0
-        };
         let energy = best.resync_energy();
         Ok(AnnealResult {
             mesh: best.into_mesh(),
@@ -488,7 +461,6 @@ impl Annealer {
             initial_temperature: self.initial_temperature,
             trace: self.trace,
             polish_flips,
-            shape_flips,
             stopped_early: self.stopped_early,
         })
     }
