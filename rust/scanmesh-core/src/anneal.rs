@@ -6,9 +6,8 @@
 //! many proposals as interior edges), early stop once frozen, the best state kept, then a
 //! greedy polish (LOP) under the order (tac first, then smallest angle).
 
-use crate::criteria::SLIVER_ANGLE_DEG;
 use crate::delaunay::NONE;
-use crate::lop::{lop, ShapeBudgetLop, TacLop, TacOrder};
+use crate::lop::{lop, TacLop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{Detail, TacState};
 use crate::{Error, Result};
