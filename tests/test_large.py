@@ -58,7 +58,7 @@ def test_stage_progress_through_reconstruct(scan_file, monkeypatch):
     surface = scanmesh.reconstruct(scan_file, "shortest-path", plane="z", progress=rec)
     rec.check_monotone()
     stages = [s for s, *_ in rec.calls]
-    assert list(dict.fromkeys(stages)) == ["read", "lines", "strips"]
+    assert list(dict.fromkeys(stages)) == ["read", "lines", "strips", "steep"]
     assert len(rec.by_stage()["read"]) > 3  # per chunk, not only start and end
     out = scan_file.with_suffix(".stl")
     surface_rec = Recorder()
@@ -74,7 +74,7 @@ def test_stage_progress_through_delaunay_and_annealing():
     scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=20, patience=0, progress=rec)
     rec.check_monotone()
     stages = rec.by_stage()
-    assert list(stages) == ["delaunay", "trim", "anneal"]
+    assert list(stages) == ["delaunay", "trim", "anneal", "steep"]
     assert all(isinstance(v, float) for _, _, v in stages["anneal"])
     # the original convention still sees annealing only
     legacy = []
@@ -87,7 +87,7 @@ def test_progress_callback_with_kwargs_sees_every_stage(scan_file):
     seen = []
     scanmesh.reconstruct(scan_file, "delaunay", plane="z",
                          progress=lambda *a, **k: seen.append(k["stage"]))
-    assert list(dict.fromkeys(seen)) == ["read", "delaunay", "trim"]
+    assert list(dict.fromkeys(seen)) == ["read", "delaunay", "trim", "steep"]
 
 
 def test_command_end_to_end_on_100k_points(scan_file, tmp_path, capsys):

@@ -27,7 +27,9 @@ STAGES: dict[str, str] = {
     "delaunay": "points",
     "trim": "faces",
     "anneal": "sweeps",
+    "steep": "faces",
     "write": "faces",
+    "quality": "faces",
 }
 
 #: A bar appears only for a stage still running after this many seconds (short steps stay

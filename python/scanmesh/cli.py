@@ -287,6 +287,7 @@ def _method_options(args: argparse.Namespace, method: str) -> dict[str, Any]:
 
 def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     """Read scan points, triangulate them, write the mesh (and a report and a preview)."""
+    from scanmesh._progress import Stage
     from scanmesh.reconstruct import reconstruct
     from scanmesh.writers import save_mesh
 
@@ -320,7 +321,8 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     measured = _background(lambda: surface.quality)
     save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
     t_write = time.perf_counter() - t2
-    measured()
+    with Stage(con.progress, "quality", len(surface.faces), blocking=True):
+        measured()
     data = _report(source, out, scan, surface, t_read, elapsed)
     data["timings"]["write"] = t_write
     if report is not None:

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh._checks import as_points
-from scanmesh._progress import Progress, anneal_progress
+from scanmesh._progress import Progress, Stage, anneal_progress
 from scanmesh.anneal import anneal_surface, lop_surface
 from scanmesh.delaunay import delaunay
 from scanmesh.errors import NotAHeightFieldWarning, ParameterError
@@ -86,11 +86,12 @@ def reconstruct(
         ``progress(done, total, value, stage=name)`` with ``name`` in ``"read"`` (bytes;
         text files report every chunk), ``"lines"`` and ``"strips"`` (points), ``"delaunay"``
         (points), ``"trim"`` (faces), ``"anneal"`` (sweeps; ``value`` is the energy; every
-        ~20 ms) and, from :meth:`Surface.save` / the command, ``"write"`` (faces). Otherwise
+        ~20 ms), ``"steep"`` (faces: the height-field check below) and, from
+        :meth:`Surface.save` / the command, ``"write"`` (faces). Otherwise
         it is called for annealing only, as ``progress(sweeps_done, sweeps_total, energy)``.
         Within a stage ``done`` never decreases and the last call has ``done == total``;
-        stages that are one native call (lines, strips, Delaunay, trimming) report their
-        start and end only. See ``scanmesh._progress``.
+        stages that are one native call or one pass (lines, strips, Delaunay, trimming,
+        steep) report their start and end only. See ``scanmesh._progress``.
     **options
         Method options. ``anneal``: ``initial`` ("delaunay" or "shortest-path"), ``sweeps``,
         ``p``, ``sliver_guard``, ... (see :data:`scanmesh.anneal.ANNEAL_DEFAULTS`). ``lop``:
@@ -153,7 +154,8 @@ def reconstruct(
         surface.timings = {"read": t_read, **surface.timings}
     if surface.line_ids is None and lines is not None:
         surface.line_ids = np.asarray(lines)
-    steep = surface.steep_fraction
+    with Stage(progress, "steep", len(surface.faces), blocking=True):
+        steep = surface.steep_fraction
     if steep is not None and steep > STEEP_WARN_FRACTION:
         warnings.warn(
             f"{100 * steep:.0f} % of the triangles are steep (normal more than"
