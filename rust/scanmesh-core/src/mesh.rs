@@ -7,7 +7,7 @@
 //! in place; nothing is allocated.
 
 use crate::delaunay::NONE;
-use crate::geometry::{orient2d, planar_corner_angle};
+use crate::geometry::orient2d;
 use crate::locality::prefetch;
 use crate::{Error, Result};
 
@@ -381,9 +381,14 @@ impl HalfEdgeMesh {
     /// Twins are mutual and reversed; each triangle is strictly counter-clockwise (exact
     /// predicate); no directed edge repeats; every used vertex has a single fan (at most one
     /// boundary half-edge leaves it, and the walk from `vertex_edge` visits all its
-    /// half-edges); the planar angles around each interior vertex sum to 2π (no fold);
-    /// and the Euler characteristic V − E + F equals 2C − B for C components and B boundary
-    /// loops (each component a disc with holes). O(m log m).
+    /// half-edges); the fan of each interior vertex winds once around it (its planar angles
+    /// sum to 2π: no fold); and the Euler characteristic V − E + F equals 2C − B for C
+    /// components and B boundary loops (each component a disc with holes).
+    ///
+    /// O(m α(m)) time (the components' union-find), three arrays of n entries, no sort and
+    /// no floating-point angle: repeated directed edges and folds are found by the fan walks
+    /// (see [`fan_winding`]), exactly. A mesh with several faults may report another of them
+    /// than before, never none.
     pub fn validate(&self, uv: &[[f64; 2]]) -> Result<()> {
         let fail = |s: String| Err(Error::Invariant(s));
         if uv.len() != self.n_vertices() {
@@ -424,26 +429,22 @@ impl HalfEdgeMesh {
                 ));
             }
         }
-        let mut keys: Vec<u64> = (0..n_he)
-            .map(|h| ((self.start(h) as u64) << 32) | self.end(h) as u64)
-            .collect();
-        keys.sort_unstable();
-        if let Some(w) = keys.windows(2).find(|w| w[0] == w[1]) {
-            return fail(format!(
-                "directed edge {}->{} appears twice",
-                w[0] >> 32,
-                w[0] as u32
-            ));
-        }
-        let mut degree = vec![0u32; self.n_vertices()];
-        let mut boundary_out = vec![0u32; self.n_vertices()];
+        let n = self.n_vertices();
+        let mut degree = vec![0u32; n];
+        let mut boundary_out = vec![0u32; n];
         for h in 0..n_he {
             degree[self.start(h) as usize] += 1;
             if self.twin(h) == NONE {
                 boundary_out[self.start(h) as usize] += 1;
             }
         }
-        for v in 0..self.n_vertices() as u32 {
+        // last_from[w] = v once the fan walk of v has met the half-edge v→w: a second one
+        // is a repeated directed edge. The walk of v meets all of v's half-edges when it
+        // reaches `degree` of them (the fan map h → twin(prev(h)) is injective once twins
+        // are mutual, so a walk never meets a half-edge twice), so every repeat is caught
+        // here or fails the count below.
+        let mut last_from = vec![NONE; n];
+        for v in 0..n as u32 {
             let e = self.vertex_edge[v as usize];
             let vi = v as usize;
             if degree[vi] == 0 {
@@ -471,28 +472,26 @@ impl HalfEdgeMesh {
                     "boundary vertex {v} does not point at its boundary half-edge"
                 ));
             }
-            let fan: Vec<u32> = self.fan(v).collect();
-            if fan.len() != degree[vi] as usize {
+            let mut reached = 0u32;
+            for h in self.fan(v) {
+                reached += 1;
+                let w = self.end(h);
+                if last_from[w as usize] == v {
+                    return fail(format!("directed edge {v}->{w} appears twice"));
+                }
+                last_from[w as usize] = v;
+            }
+            if reached != degree[vi] {
                 return fail(format!(
-                    "the fan of vertex {v} reaches {} of its {} half-edges",
-                    fan.len(),
+                    "the fan of vertex {v} reaches {reached} of its {} half-edges",
                     degree[vi]
                 ));
             }
             if self.is_interior(v) {
-                let total: f64 = fan
-                    .iter()
-                    .map(|&h| {
-                        planar_corner_angle(
-                            uv[vi],
-                            uv[self.end(h) as usize],
-                            uv[self.start(prev(h)) as usize],
-                        )
-                    })
-                    .sum();
-                if (total - std::f64::consts::TAU).abs() > 1e-6 {
+                let winding = self.fan_winding(v, uv);
+                if winding != 1 {
                     return fail(format!(
-                        "planar angles around interior vertex {v} sum to {total}, not 2π (a fold)"
+                        "the fan of interior vertex {v} winds {winding} times around it (planar angles sum to {winding} × 2π, not 2π: a fold)"
                     ));
                 }
             }
@@ -511,6 +510,33 @@ impl HalfEdgeMesh {
         Ok(())
     }
 
+    /// How many times the closed fan of `v` winds around it in the plane, when every
+    /// triangle is strictly counter-clockwise (checked first by [`validate`](Self::validate)).
+    ///
+    /// Why this is the angle-sum test without angles: going round the fan, the direction
+    /// from v to the far end of each half-edge turns counter-clockwise by the triangle's
+    /// corner angle at v, which lies strictly between 0 and π because the triangle is
+    /// strictly counter-clockwise. The directions return to the first, so the corner
+    /// angles sum to 2πk, k ≥ 1 the winding number, and k = 1 exactly when the sum is 2π
+    /// (k ≥ 2 is a fold: the fan covers its neighbourhood k times). Split the directions
+    /// into the half-open upper half [0, π) (y > 0, or y = 0 and x > 0) and lower half
+    /// [π, 2π). A turn by less than π passes the direction 0 (≡ 2π) exactly when it goes
+    /// from the lower half into the upper half, and the lifted direction passes 0 exactly
+    /// k times in the whole walk; so k = the number of lower-to-upper steps. Each half is
+    /// decided by comparing coordinates with v's (exact, no subtraction), and the
+    /// orientation was decided by an exact predicate, so the count is exact: no atan2,
+    /// and no tolerance where the sum of corner angles needed 1e-6. O(degree).
+    fn fan_winding(&self, v: u32, uv: &[[f64; 2]]) -> u32 {
+        let p = uv[v as usize];
+        let lower = |q: [f64; 2]| q[1] < p[1] || (q[1] == p[1] && q[0] < p[0]);
+        self.fan(v)
+            .map(|h| {
+                let (from, to) = (uv[self.end(h) as usize], uv[self.start(prev(h)) as usize]);
+                u32::from(lower(from) && !lower(to))
+            })
+            .sum()
+    }
+
     /// Connected components of triangles (through twins) and boundary loops. O(m α(m)).
     fn count_components_and_loops(&self) -> (i64, i64) {
         let m = self.n_triangles();
@@ -524,7 +550,8 @@ impl HalfEdgeMesh {
         }
         for h in 0..self.start.len() as u32 {
             let t = self.twin(h);
-            if t != NONE {
+            // Each interior edge once (from its lower half-edge).
+            if t != NONE && h < t {
                 let (x, y) = (find(&mut parent, h / 3), find(&mut parent, t / 3));
                 if x != y {
                     parent[x as usize] = y;
@@ -695,6 +722,85 @@ mod tests {
         let bow = HalfEdgeMesh::from_triangles(5, &[[0, 1, 2], [0, 3, 4]]).unwrap();
         let err = bow.validate(&uv).unwrap_err();
         assert!(format!("{err}").contains("pinch"), "{err}");
+    }
+
+    #[test]
+    fn validate_catches_a_fan_that_winds_twice() {
+        // Centre 0 and five points at 0°, 144°, 288°, 72°, 216°: every triangle
+        // (0, k, k + 1) is counter-clockwise and the fan closes, but it covers the plane
+        // around 0 twice (corner angles 5 × 144° = 720°); V − E + F = 6 − 10 + 5 = 1 with
+        // one boundary loop, so only the fold check can see it.
+        let mut uv = vec![[0.0, 0.0]];
+        for k in 0..5 {
+            let a = (144.0 * k as f64).to_radians();
+            uv.push([a.cos(), a.sin()]);
+        }
+        let tris: Vec<[u32; 3]> = (0..5).map(|k| [0, k + 1, (k + 1) % 5 + 1]).collect();
+        let mesh = HalfEdgeMesh::from_triangles(6, &tris).unwrap();
+        assert!(mesh.is_interior(0));
+        assert_eq!(mesh.fan_winding(0, &uv), 2);
+        let err = mesh.validate(&uv).unwrap_err();
+        assert!(format!("{err}").contains("fold"), "{err}");
+        // The same fan with the points in angular order winds once and is valid.
+        let mut once = vec![[0.0, 0.0]];
+        for k in 0..5 {
+            let a = (72.0 * k as f64).to_radians();
+            once.push([a.cos(), a.sin()]);
+        }
+        assert_eq!(mesh.fan_winding(0, &once), 1);
+        mesh.validate(&once).unwrap();
+    }
+
+    #[test]
+    fn winding_counts_agree_with_angle_sums_on_random_meshes() {
+        // Every interior fan whose triangles are counter-clockwise, on Delaunay meshes with
+        // one vertex moved: the exact count against the corner angles summed with atan2
+        // (mostly k = 1; the test above builds k = 2).
+        for seed in 0..20 {
+            let (mut uv, mesh) = delaunay_mesh(60, 100 + seed);
+            // Fans with a clockwise triangle are skipped: validate rejects those first.
+            uv[(seed % 60) as usize] = [0.5, 0.5];
+            for v in 0..60u32 {
+                if !mesh.is_interior(v) {
+                    continue;
+                }
+                let ccw = mesh.fan(v).all(|h| {
+                    let t = (h / 3) as usize;
+                    let [a, b, c] = mesh.triangle(t).map(|k| uv[k as usize]);
+                    orient2d(a, b, c) > 0.0
+                });
+                if !ccw {
+                    continue;
+                }
+                let sum: f64 = mesh
+                    .fan(v)
+                    .map(|h| {
+                        crate::geometry::planar_corner_angle(
+                            uv[v as usize],
+                            uv[mesh.end(h) as usize],
+                            uv[mesh.start(prev(h)) as usize],
+                        )
+                    })
+                    .sum();
+                let k = (sum / std::f64::consts::TAU).round() as u32;
+                assert!((sum - k as f64 * std::f64::consts::TAU).abs() < 1e-9);
+                assert_eq!(mesh.fan_winding(v, &uv), k, "seed {seed} vertex {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn validate_catches_a_repeated_directed_edge() {
+        // Built by hand (from_triangles refuses it): triangles (0, 1, 2) and (0, 1, 3) both
+        // use 0→1, both counter-clockwise.
+        let uv = vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+        let mesh = HalfEdgeMesh {
+            start: vec![0, 1, 2, 0, 1, 3],
+            twin: vec![NONE; 6],
+            vertex_edge: vec![0, 1, 2, 5],
+            on_boundary: vec![true; 4],
+        };
+        assert!(mesh.validate(&uv).is_err());
     }
 
     #[test]
