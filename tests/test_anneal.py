@@ -183,7 +183,7 @@ def test_small_inputs_run_several_chains_and_keep_the_best():
 
 
 def test_large_inputs_run_one_chain_unless_asked():
-    pts = bumpy_patch(2500, 9)
+    pts = bumpy_patch(4000, 9)
     auto = scanmesh.reconstruct(pts, "anneal", sweeps=2, patience=0)
     assert auto.options["chains"] == 1
     three = scanmesh.reconstruct(pts, "anneal", sweeps=2, patience=0, chains=3)

@@ -7,13 +7,13 @@
 //! greedy polish (LOP) under the order (tac first, then smallest angle).
 
 use crate::delaunay::NONE;
+use crate::ensemble::Ensemble;
 use crate::lop::{lop, TacLop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{Detail, TacState};
 use crate::{Error, Result};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64Mcg;
-use rayon::prelude::*;
 use std::time::Instant;
 
 /// Annealing parameters; `Default` gives the measured defaults (see BENCHMARKS.md).
@@ -51,10 +51,10 @@ pub struct AnnealParams {
 /// chain). Small inputs are cheap, and on them independent restarts find the optimum far
 /// more often than one longer chain (BENCHMARKS.md, "Certified optimum"); counting edges,
 /// not planned proposals, keeps a short run asked for (`sweeps`) proportionally short.
-pub const AUTO_CHAIN_EDGES: usize = 4_000;
+pub const AUTO_CHAIN_EDGES: usize = 8_000;
 
 /// Automatic chains never exceed this count.
-pub const MAX_AUTO_CHAINS: usize = 64;
+pub const MAX_AUTO_CHAINS: usize = 128;
 
 impl Default for AnnealParams {
     fn default() -> Self {
@@ -465,36 +465,11 @@ impl Annealer {
     }
 }
 
-/// Runs a whole annealing in one call (no interruption): [`AnnealParams::chain_count`]
-/// independent chains on the rayon pool, the lowest final energy winning (ties to the
-/// lower chain), so the result depends on the seed only, not on the thread count.
-/// O(chains × sweeps × m) work; memory O(threads × m).
+/// Runs a whole annealing in one call (no interruption): the [`Ensemble`] of
+/// [`AnnealParams::chain_count`] chains on the rayon pool, returning the winner. The result
+/// depends on the seed only, not on the thread count. O(chains × sweeps × m) work.
 pub fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
-    let chains = params.chain_count(state.count_interior_half_edges() / 2);
-    (0..chains)
-        .into_par_iter()
-        .map(|chain| run_chain(state.clone(), params.for_chain(chain)))
-        .reduce_with(better_chain)
-        .expect("at least one chain")
-}
-
-/// One chain from start to finish. O(sweeps × m).
-fn run_chain(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
-    let mut annealer = Annealer::new(state, params)?;
-    while !annealer.is_done() {
-        annealer.advance(usize::MAX);
-    }
-    annealer.finish()
-}
-
-/// The better of two chain results, `a` being the lower-numbered chains: lower energy wins,
-/// a tie keeps `a`; the first error wins over everything. Associative, so rayon's
-/// reduction is deterministic.
-fn better_chain(a: Result<AnnealResult>, b: Result<AnnealResult>) -> Result<AnnealResult> {
-    match (a, b) {
-        (Ok(a), Ok(b)) => Ok(if b.energy < a.energy { b } else { a }),
-        (Err(e), _) | (_, Err(e)) => Err(e),
-    }
+    Ok(Ensemble::new(state, params)?.run()?.0)
 }
 
 /// Proposals between the prefetch stages of a drawn edge (see [`TacState::prefetch`]):
@@ -603,9 +578,9 @@ mod tests {
     fn automatic_chains_give_small_inputs_a_work_floor() {
         let auto = AnnealParams::default();
         assert_eq!(auto.chain_count(1_000_000), 1);
-        assert_eq!(auto.chain_count(4_000), 1);
-        assert_eq!(auto.chain_count(3_999), 2);
-        assert_eq!(auto.chain_count(75), 54);
+        assert_eq!(auto.chain_count(8_000), 1);
+        assert_eq!(auto.chain_count(7_999), 2);
+        assert_eq!(auto.chain_count(75), 107);
         assert_eq!(auto.chain_count(10), MAX_AUTO_CHAINS);
         assert_eq!(auto.chain_count(0), MAX_AUTO_CHAINS);
         let set = AnnealParams { chains: 3, ..auto };
@@ -621,36 +596,6 @@ mod tests {
             (0..100).map(|c| params.for_chain(c).seed).collect();
         assert_eq!(seeds.len(), 100);
         assert_eq!(params.for_chain(5).sweeps, params.sweeps);
-    }
-
-    #[test]
-    fn several_chains_return_the_best_chain_whatever_the_thread_count() {
-        let st = bumpy_state(120, 27, 1.0);
-        let params = AnnealParams {
-            chains: 5,
-            sweeps: 20,
-            ..quick(13)
-        };
-        let singles: Vec<AnnealResult> = (0..5)
-            .map(|c| run_chain(st.clone(), params.for_chain(c)).unwrap())
-            .collect();
-        let energies: Vec<f64> = singles.iter().map(|r| r.energy).collect();
-        let winner = (0..5)
-            .min_by(|&a, &b| energies[a].total_cmp(&energies[b]))
-            .unwrap();
-        assert!(
-            energies.iter().any(|&e| e != energies[winner]),
-            "chains should differ: {energies:?}"
-        );
-        for threads in [1, 2, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            let r = pool.install(|| anneal(st.clone(), params.clone())).unwrap();
-            assert_eq!(r.energy, energies[winner]);
-            assert_eq!(r.mesh.triangles(), singles[winner].mesh.triangles());
-        }
     }
 
     #[test]

@@ -11,6 +11,7 @@
 //! - [`locality`]: Z-order relabelling so annealing's memory accesses stay close;
 //! - [`lop`]: Lawson's greedy flipping for any criterion;
 //! - [`anneal`]: simulated annealing on tac;
+//! - [`ensemble`]: independent annealing chains side by side, the best one kept;
 //! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks);
 //! - [`lines`]: scan lines detected from point order or given by id, split at gaps;
 //! - [`fuchs`]: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths;
@@ -23,6 +24,7 @@
 pub mod anneal;
 pub mod criteria;
 pub mod delaunay;
+pub mod ensemble;
 pub mod enumerate;
 mod error;
 pub mod fuchs;

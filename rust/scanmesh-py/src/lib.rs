@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 use scanmesh_core::anneal::{self as sa, AnnealParams};
 use scanmesh_core::criteria::{self, Norm};
 use scanmesh_core::delaunay::NONE;
+use scanmesh_core::ensemble::Ensemble;
 use scanmesh_core::fuchs::{Solver, Weight};
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::lines;
@@ -339,17 +340,18 @@ fn lop<'py>(
     ))
 }
 
-/// A resumable simulated-annealing run (see `scanmesh_core::anneal`). Python drives it in
-/// chunks with `advance`, so progress is reported and Ctrl-C honoured between chunks.
+/// A resumable simulated-annealing run: the chains of `scanmesh_core::ensemble::Ensemble`
+/// (one on large inputs). Python drives it in chunks with `advance`, so progress is
+/// reported and Ctrl-C honoured between chunks.
 #[pyclass(module = "scanmesh._core")]
 struct Annealer {
-    inner: Option<sa::Annealer>,
+    inner: Option<Ensemble>,
     /// Maps the run's Z-ordered vertex labels back to the caller's indices.
     relabel: Relabel,
 }
 
 impl Annealer {
-    fn running(&self) -> PyResult<&sa::Annealer> {
+    fn running(&self) -> PyResult<&Ensemble> {
         self.inner
             .as_ref()
             .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))
@@ -359,7 +361,7 @@ impl Annealer {
 #[pymethods]
 impl Annealer {
     #[new]
-    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples, chains, chain = 0))]
+    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples, chains))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -377,7 +379,6 @@ impl Annealer {
         polish: bool,
         calibration_samples: usize,
         chains: usize,
-        chain: usize,
     ) -> PyResult<Self> {
         let params = AnnealParams {
             sweeps,
@@ -391,21 +392,18 @@ impl Annealer {
             polish,
             calibration_samples,
             chains,
-        }
-        .for_chain(chain);
+        };
         params.check().map_err(to_py)?;
         let (state, relabel) = tac_state(&points, &uv, &faces, p)?;
-        let inner = py
-            .detach(|| sa::Annealer::new(state, params))
-            .map_err(to_py)?;
+        let inner = py.detach(|| Ensemble::new(state, params)).map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),
             relabel,
         })
     }
 
-    /// Runs at most `max_proposals` proposals, and for about `max_seconds` at most, without
-    /// the GIL; returns how many ran.
+    /// Runs at most `max_proposals` proposals per chain, and for about `max_seconds` at
+    /// most, without the GIL; returns how many ran in all.
     fn advance(
         &mut self,
         py: Python<'_>,
@@ -422,43 +420,38 @@ impl Annealer {
         Ok(py.detach(|| inner.advance_until(max_proposals, deadline)))
     }
 
-    /// True when all sweeps ran or the run froze and stopped early.
+    /// True when every chain ran all its sweeps or froze and stopped early.
     #[getter]
     fn done(&self) -> PyResult<bool> {
         Ok(self.running()?.is_done())
     }
 
-    /// Chains a whole run takes on this triangulation (`AnnealParams::chain_count`).
+    /// Number of chains (`AnnealParams::chain_count` on this triangulation).
     #[getter]
     fn chains(&self) -> PyResult<usize> {
-        let inner = self.running()?;
-        Ok(inner.params().chain_count(inner.sweep_len()))
+        Ok(self.running()?.len())
     }
 
-    /// Proposals per sweep (interior edges).
+    /// Proposals per sweep of each chain (interior edges).
     #[getter]
     fn sweep_len(&self) -> PyResult<usize> {
         Ok(self.running()?.sweep_len())
     }
 
-    /// Sweeps completed so far.
+    /// Sweeps completed so far, summed over the chains.
     #[getter]
     fn sweeps_done(&self) -> PyResult<usize> {
-        Ok(self.running()?.trace().len())
+        Ok(self.running()?.sweeps_done())
     }
 
-    /// Current energy.
+    /// The lowest current energy among the chains.
     #[getter]
     fn energy(&self) -> PyResult<f64> {
-        Ok(self.running()?.state().energy())
+        Ok(self.running()?.energy())
     }
 
-    /// The trace so far: (temperature, energy, best, acceptance), one entry per sweep.
-    fn trace<'py>(&self, py: Python<'py>) -> PyResult<Floats2<'py>> {
-        Ok(trace_out(py, self.running()?.trace()))
-    }
-
-    /// Ends the run: best state, polished. Returns (faces, trace (S, 4), summary dict).
+    /// Ends the run: every chain's best state, polished; the lowest energy wins. Returns
+    /// (faces, the winner's trace (S, 4), summary dict).
     fn finish<'py>(
         &mut self,
         py: Python<'py>,
@@ -467,13 +460,16 @@ impl Annealer {
             .inner
             .take()
             .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
-        let r = py.detach(|| inner.finish()).map_err(to_py)?;
+        let (r, chains) = py.detach(|| inner.finish()).map_err(to_py)?;
         let summary = pyo3::types::PyDict::new(py);
         summary.set_item("initial_energy", r.initial_energy)?;
         summary.set_item("energy", r.energy)?;
         summary.set_item("initial_temperature", r.initial_temperature)?;
         summary.set_item("polish_flips", r.polish_flips)?;
         summary.set_item("stopped_early", r.stopped_early)?;
+        summary.set_item("chains", chains.energies.len())?;
+        summary.set_item("best_chain", chains.best_chain)?;
+        summary.set_item("chain_energies", chains.energies)?;
         Ok((
             faces_out(py, &self.relabel.triangles_to_input(&r.mesh.triangles())),
             trace_out(py, &r.trace),

@@ -1,0 +1,216 @@
+//! Independent annealing chains run side by side; the best final state wins.
+//!
+//! Why chains: on small inputs one annealing run often ends in a deep local minimum of tac,
+//! and independent restarts find the optimum far more often than one longer run (measured
+//! against the certified optimum, BENCHMARKS.md "Certified optimum"). Small inputs are
+//! cheap, so [`AnnealParams::chain_count`] gives them many chains and large inputs one.
+//!
+//! Chains share nothing but the initial state; chain c runs on the seed
+//! [`AnnealParams::for_chain`] derives, so the result depends on (seed, chains) only, not on
+//! the thread count or on where the caller's chunks end.
+
+use crate::anneal::{AnnealParams, AnnealResult, Annealer};
+use crate::tac_state::TacState;
+use crate::Result;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// A resumable set of annealing chains, advanced together on the rayon pool.
+pub struct Ensemble {
+    chains: Vec<Annealer>,
+}
+
+/// What [`Ensemble::finish`] says about the chains besides the winner.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnsembleSummary {
+    /// Index of the winning chain (the lowest final energy; ties to the lower index).
+    pub best_chain: usize,
+    /// Final energy of every chain, in chain order.
+    pub energies: Vec<f64>,
+}
+
+impl Ensemble {
+    /// Starts `params.chain_count(interior edges)` chains from copies of `state`, each
+    /// calibrating its own T0. O(chains × (calibration_samples + m)) work, in parallel;
+    /// memory O(chains × m).
+    pub fn new(state: TacState, params: AnnealParams) -> Result<Self> {
+        let count = params.chain_count(state.count_interior_half_edges() / 2);
+        let chains = (0..count)
+            .into_par_iter()
+            .map(|chain| Annealer::new(state.clone(), params.for_chain(chain)))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Ensemble { chains })
+    }
+
+    /// Number of chains. O(1).
+    pub fn len(&self) -> usize {
+        self.chains.len()
+    }
+
+    /// Always false: an ensemble has at least one chain.
+    pub fn is_empty(&self) -> bool {
+        self.chains.is_empty()
+    }
+
+    /// True when every chain has finished its sweeps or stopped early. O(chains).
+    pub fn is_done(&self) -> bool {
+        self.chains.iter().all(Annealer::is_done)
+    }
+
+    /// Proposals per sweep of each chain (interior edges). O(1).
+    pub fn sweep_len(&self) -> usize {
+        self.chains[0].sweep_len()
+    }
+
+    /// Sweeps completed, summed over the chains. O(chains).
+    pub fn sweeps_done(&self) -> usize {
+        self.chains.iter().map(|c| c.trace().len()).sum()
+    }
+
+    /// The lowest current energy among the chains (radians^p). O(chains).
+    pub fn energy(&self) -> f64 {
+        self.chains
+            .iter()
+            .map(|c| c.state().energy())
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Advances every unfinished chain by at most `max_proposals` proposals, in parallel,
+    /// each returning soon after `deadline` (see [`Annealer::advance_until`]). Returns the
+    /// proposals run in all. Where chunks end never changes a chain's result.
+    pub fn advance_until(&mut self, max_proposals: usize, deadline: Option<Instant>) -> usize {
+        self.chains
+            .par_iter_mut()
+            .filter(|c| !c.is_done())
+            .map(|c| c.advance_until(max_proposals, deadline))
+            .sum()
+    }
+
+    /// Runs every chain to its end. O(chains × sweeps × m) work, in parallel.
+    pub fn run(mut self) -> Result<(AnnealResult, EnsembleSummary)> {
+        while !self.is_done() {
+            self.advance_until(usize::MAX, None);
+        }
+        self.finish()
+    }
+
+    /// Ends every chain (best state, polish) and returns the winner with the chain summary.
+    /// O(chains × (m + polish flips)), in parallel.
+    pub fn finish(self) -> Result<(AnnealResult, EnsembleSummary)> {
+        let results = self
+            .chains
+            .into_par_iter()
+            .map(Annealer::finish)
+            .collect::<Result<Vec<_>>>()?;
+        let energies: Vec<f64> = results.iter().map(|r| r.energy).collect();
+        // `min_by` keeps the first of equal minima: ties go to the lower chain.
+        let best_chain = (0..energies.len())
+            .min_by(|&a, &b| energies[a].total_cmp(&energies[b]))
+            .expect("an ensemble has at least one chain");
+        let best = results
+            .into_iter()
+            .nth(best_chain)
+            .expect("best_chain indexes the results");
+        Ok((
+            best,
+            EnsembleSummary {
+                best_chain,
+                energies,
+            },
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tac_state::tests::bumpy_state;
+
+    fn params(chains: usize, seed: u64) -> AnnealParams {
+        AnnealParams {
+            sweeps: 20,
+            seed,
+            chains,
+            ..AnnealParams::default()
+        }
+    }
+
+    fn single(state: &TacState, params: AnnealParams) -> AnnealResult {
+        let mut one = Annealer::new(state.clone(), params).unwrap();
+        while !one.is_done() {
+            one.advance(usize::MAX);
+        }
+        one.finish().unwrap()
+    }
+
+    #[test]
+    fn the_winner_is_the_best_of_the_single_chains_whatever_the_thread_count() {
+        let st = bumpy_state(120, 27, 1.0);
+        let p = params(5, 13);
+        let singles: Vec<AnnealResult> = (0..5).map(|c| single(&st, p.for_chain(c))).collect();
+        let energies: Vec<f64> = singles.iter().map(|r| r.energy).collect();
+        let winner = (0..5)
+            .min_by(|&a, &b| energies[a].total_cmp(&energies[b]))
+            .unwrap();
+        assert!(
+            energies.iter().any(|&e| e != energies[winner]),
+            "chains should differ: {energies:?}"
+        );
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let (r, summary) = pool
+                .install(|| Ensemble::new(st.clone(), p.clone()).unwrap().run())
+                .unwrap();
+            assert_eq!(summary.energies, energies);
+            assert_eq!(summary.best_chain, winner);
+            assert_eq!(r.mesh.triangles(), singles[winner].mesh.triangles());
+        }
+    }
+
+    #[test]
+    fn chunked_and_deadline_runs_equal_one_shot_runs() {
+        let st = bumpy_state(150, 28, 1.0);
+        let (one, _) = Ensemble::new(st.clone(), params(3, 5))
+            .unwrap()
+            .run()
+            .unwrap();
+        let mut chunked = Ensemble::new(st.clone(), params(3, 5)).unwrap();
+        assert_eq!(chunked.len(), 3);
+        let mut total = 0;
+        while !chunked.is_done() {
+            total += chunked.advance_until(37, Some(Instant::now()));
+            assert!(chunked.energy().is_finite());
+        }
+        assert!(total >= 3 * chunked.sweep_len());
+        assert!(chunked.sweeps_done() <= 3 * 20);
+        let (r, _) = chunked.finish().unwrap();
+        assert_eq!(r.mesh.triangles(), one.mesh.triangles());
+    }
+
+    #[test]
+    fn one_chain_is_the_plain_annealer() {
+        let st = bumpy_state(150, 29, 1.0);
+        let (r, summary) = Ensemble::new(st.clone(), params(1, 8))
+            .unwrap()
+            .run()
+            .unwrap();
+        assert_eq!(summary.best_chain, 0);
+        assert_eq!(
+            r.mesh.triangles(),
+            single(&st, params(1, 8)).mesh.triangles()
+        );
+    }
+
+    #[test]
+    fn bad_parameters_fail_before_any_chain_runs() {
+        let st = bumpy_state(50, 1, 1.0);
+        let bad = AnnealParams {
+            p: 0.5,
+            ..params(4, 1)
+        };
+        assert!(Ensemble::new(st, bad).is_err());
+    }
+}
