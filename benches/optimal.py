@@ -110,7 +110,7 @@ def load_scan() -> np.ndarray:
 #: the MILP's columns of a row, reusable when only the heuristics change
 MILP_KEYS = (
     "n", "certified", "milp_gap", "optimum_or_incumbent", "lower_bound", "seconds_optimal",
-    "seconds_solve", "candidates", "nodes",
+    "seconds_solve", "candidates", "nodes", "proof",
 )
 
 
@@ -144,7 +144,7 @@ def run_instance(
     verdict (within 1 %) is still open gets a second MILP with annealing's triangulation
     as the incumbent (a cutoff: ``optimal_surface(incumbent=...)``)."""
     if known is not None:
-        row = {k: known[k] for k in MILP_KEYS}
+        row = {k: known[k] for k in MILP_KEYS if k in known}
     else:
         row = solve_exact(points, plane, time_limit)
     surfaces = {}
@@ -380,6 +380,13 @@ def report(args: argparse.Namespace, rows: list[dict], elapsed: float) -> None:
         f"Annealing found a proven optimum on {exact_hits} of {len(rows)} instances and"
         f" ended above LOP's tac_1 on {above_lop}."
     )
+    by_incumbent = [r for r in rows if r.get("proof") == "incumbent"]
+    if by_incumbent:
+        facts += (
+            f" {len(by_incumbent)} optima in the reused MILP columns were proven by an earlier"
+            " --settle run (annealing's triangulation as incumbent, 600 s limit; their time to"
+            " prove is that run's)."
+        )
     settled = [r for r in rows if "settle_certified" in r]
     if settled:
         proved = [r for r in settled if r["settle_certified"]]
