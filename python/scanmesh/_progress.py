@@ -71,6 +71,8 @@ class Stage:
                 unit_scale=True,
                 leave=False,
                 delay=BAR_DELAY_SECONDS,
+                # one native call moves no bar: show what runs, on how much, for how long
+                bar_format="{desc} ({total_fmt} {unit}): {elapsed}" if blocking else None,
             )
             if blocking:  # no updates come during one native call: keep the clock moving
                 self._ticker = threading.Event()
