@@ -157,24 +157,43 @@ fn pair_tasks(
     }
 }
 
-/// Triangulates one strip. Returns its triangles (in the orientation of
-/// [`path_triangles`]) and its path cost.
+/// One triangulated strip.
+struct Solved {
+    /// Its triangles, in the orientation of [`path_triangles`].
+    triangles: Vec<[u32; 3]>,
+    /// Its path cost.
+    cost: f64,
+    /// Twice the planar signed area of its triangles (for the orientation of the mesh).
+    signed_area: f64,
+}
+
+/// Triangulates one strip; `uv` are the planar positions (for its signed area).
 fn solve(
     points: &[DVec3],
+    uv: &[[f64; 2]],
     task: &Task,
     params: &StripParams,
     weight: Weight,
-) -> Result<(Vec<[u32; 3]>, f64)> {
+) -> Result<Solved> {
     let a: Vec<DVec3> = task.a.iter().map(|&k| points[k as usize]).collect();
     let b: Vec<DVec3> = task.b.iter().map(|&k| points[k as usize]).collect();
     let solution = match params.method {
         Method::ShortestPath(solver) => shortest_path(&a, &b, weight, solver)?,
         Method::Lookahead(alpha) => lookahead(&a, &b, weight, alpha)?,
     };
-    Ok((
-        path_triangles(&solution.path, &task.a, &task.b)?,
-        solution.cost,
-    ))
+    let triangles = path_triangles(&solution.path, &task.a, &task.b)?;
+    let signed_area = triangles
+        .iter()
+        .map(|t| {
+            let [p, q, r] = t.map(|k| uv[k as usize]);
+            (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+        })
+        .sum();
+    Ok(Solved {
+        triangles,
+        cost: solution.cost,
+        signed_area,
+    })
 }
 
 /// Where a planar point lies in a counter-clockwise triangle.
@@ -294,7 +313,10 @@ pub fn stitch(
     // and uniform scale), so that path weights and planar products neither overflow at 1e300
     // nor underflow at 1e-300; the scan's step and gap follow the planar scale.
     let normalizer = Normalizer::fit(points);
-    let points = &normalizer.apply_all(points)[..];
+    let points: &[DVec3] = &points
+        .par_iter()
+        .map(|&p| normalizer.apply(p))
+        .collect::<Vec<_>>();
     let to_unit_3d = if normalizer.half_extent > 0.0 {
         1.0 / normalizer.half_extent
     } else {
@@ -340,30 +362,26 @@ pub fn stitch(
     for pair in kept.windows(2) {
         pair_tasks(uv, &oriented, pair[0], pair[1], margin, &mut tasks);
     }
-    let solved: Vec<(Vec<[u32; 3]>, f64)> = tasks
+    // Everything per strip happens here, in parallel: what stays serial below (joining the
+    // lists, lone points, marking used points) is memory traffic of a few ms per million.
+    let solved: Vec<Solved> = tasks
         .par_iter()
-        .map(|task| solve(points, task, params, weight))
+        .map(|task| solve(points, uv, task, params, weight))
         .collect::<Result<_>>()?;
-    let mut triangles = Vec::with_capacity(solved.iter().map(|s| s.0.len()).sum());
+    let mut triangles = Vec::with_capacity(solved.iter().map(|s| s.triangles.len()).sum());
     // Triangle range of each task, to find the strips around a lone point.
     let mut ranges = Vec::with_capacity(tasks.len());
-    let mut cost = 0.0;
-    for (tris, c) in solved {
-        ranges.push(triangles.len()..triangles.len() + tris.len());
-        triangles.extend(tris);
-        cost += c;
+    let (mut cost, mut signed_area) = (0.0, 0.0);
+    for s in solved {
+        ranges.push(triangles.len()..triangles.len() + s.triangles.len());
+        triangles.extend(s.triangles);
+        cost += s.cost;
+        signed_area += s.signed_area;
     }
     // One orientation for the whole mesh: counter-clockwise in the plane where most of the
     // area is (all of it, unless lines cross).
-    let signed_area: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [p, q, r] = t.map(|k| uv[k as usize]);
-            (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-        })
-        .sum();
     if signed_area < 0.0 {
-        triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        triangles.par_iter_mut().for_each(|t| t.swap(1, 2));
     }
 
     // Lone points: one-point segments, and every point of lines passed over.
