@@ -10,6 +10,7 @@ use crate::delaunay::NONE;
 use crate::geometry::orient2d;
 use crate::locality::prefetch;
 use crate::{Error, Result};
+use rayon::slice::ParallelSliceMut;
 
 /// Triples whose triangle has a smallest angle with sine below about this count as collinear
 /// for flips. Scan grids put many points on lines (grid diagonals) that are straight in the
@@ -112,7 +113,7 @@ impl HalfEdgeMesh {
             ((a.min(b) as u64) << 32) | a.max(b) as u64
         };
         let mut keyed: Vec<(u64, u32)> = (0..3 * m as u32).map(|h| (undirected(h), h)).collect();
-        keyed.sort_unstable();
+        keyed.par_sort_unstable(); // (key, half-edge) pairs are distinct: deterministic
         let mut twin = vec![NONE; 3 * m];
         let mut k = 0;
         while k < keyed.len() {
