@@ -6,6 +6,8 @@
 //!   (angle + 0.3 dihedral), banded shortest path and the planar check; `strips_unchecked`
 //!   the same without the check; `strips_length` with the length weight, unchecked;
 //!   `delaunay` is spade's bulk load through `scanmesh_core::delaunay` (no trimming);
+//! - `strips_threads/{1,2}`: `strips_unchecked` at 1M points on a rayon pool of 1 and of 2
+//!   threads (issue 9 asks for a 2-core speed-up of at least 1.8);
 //! - `solvers`: every solver and look-ahead depth on the embedded ~14,000-point rod scan.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -86,6 +88,33 @@ fn strips_vs_delaunay(c: &mut Criterion) {
     group.finish();
 }
 
+fn strips_threads(c: &mut Criterion) {
+    let mut group = c.benchmark_group("strips_threads");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(15));
+    let (points, uv, ids) = height_scan(1_000_000);
+    let params = StripParams {
+        weight: DEFAULT_WEIGHT,
+        method: Method::ShortestPath(Solver::Banded(DEFAULT_BAND)),
+        check: false,
+    };
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        group.bench_with_input(BenchmarkId::from_parameter(threads), &threads, |b, _| {
+            b.iter(|| {
+                pool.install(|| {
+                    let scan = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
+                    black_box(stitch(&points, &uv, &scan, &params).unwrap())
+                })
+            })
+        });
+    }
+    group.finish();
+}
+
 fn solvers(c: &mut Criterion) {
     let points = demo_scan::demo_points();
     let uv = project(&points, Plane::Axis(1)).unwrap().uv;
@@ -119,5 +148,5 @@ fn solvers(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, strips_vs_delaunay, solvers);
+criterion_group!(benches, strips_vs_delaunay, strips_threads, solvers);
 criterion_main!(benches);
