@@ -121,3 +121,22 @@ def test_collinear_check_on_many_points_uses_every_point():
     pts = np.column_stack([line, np.zeros(n)])
     with pytest.raises(scanmesh.DegenerateInputError, match="collinear"):
         scanmesh.reconstruct(pts, "shortest-path", lines=np.arange(n) // 1000, plane="z")
+
+
+def test_steep_fraction_in_blocks_matches_the_angle_formula(monkeypatch):
+    """Blocks and the cosine form give the share the atan2 of every triangle gives."""
+    from scanmesh import surface as surface_module
+
+    rng = np.random.default_rng(5)
+    verts = rng.normal(size=(400, 3)) * [1.0, 1.0, 0.7]
+    faces = rng.integers(0, 400, size=(3000, 3))
+    faces[:5, 1] = faces[:5, 0]  # degenerate triangles: tilt 0, not steep
+    normal = np.array([0.3, -0.2, 0.9])
+    fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
+    unit = normal / np.linalg.norm(normal)
+    tilt = np.degrees(np.arctan2(np.linalg.norm(np.cross(fn, unit), axis=1), fn @ unit))
+    expect = float((tilt > surface_module.STEEP_ANGLE_DEG).mean())
+    assert 0.2 < expect < 0.8
+    for block in (7, 1 << 19):
+        monkeypatch.setattr(surface_module, "STEEP_FACES_PER_BLOCK", block)
+        assert surface_module.steep_fraction(verts, faces, normal) == expect
