@@ -489,14 +489,18 @@ def _finite_rows(path: Path, data: bytes, table: _Table, cols: list[int], names:
 def _line_column(path: Path, data: bytes, table: _Table, col: int) -> np.ndarray:
     """The line-id column as int64, raising on the first value that is not an integer."""
     ids = table.values[:, col]
-    bad = ~np.isfinite(ids) | (ids != np.round(ids)) | (np.abs(ids) >= 2**53)
+    # the int64 cast is needed anyway; a value it does not give back exactly is a fraction,
+    # NaN or infinite (their casts are garbage, hence errstate): one pass fewer than round()
+    with np.errstate(invalid="ignore"):
+        as_int = ids.astype(np.int64)
+    bad = (as_int != ids) | (np.abs(ids) >= 2**53)
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
         what = "is not below 2**53" if np.abs(ids[row]) >= 2**53 else "is not an integer"
         raise _row_error(
             path, data, table, row, f"line id {float(ids[row])!r} in column {col + 1} {what}"
         )
-    return ids.astype(np.int64)
+    return as_int
 
 
 def _named_columns(header: str, comma: bool, ncols: int) -> dict[str, int] | None:
