@@ -96,8 +96,10 @@ def test_lop_is_a_local_optimum_and_reruns_make_no_flip():
 def test_progress_callback_sees_every_sweep():
     pts = bumpy_patch(300, 5)
     seen = []
-    s = scanmesh.reconstruct(pts, "anneal", sweeps=25, patience=0,
-                             progress=lambda done, total, energy: seen.append((done, total, energy)))
+    s = scanmesh.reconstruct(
+        pts, "anneal", sweeps=25, patience=0,
+        progress=lambda done, total, energy: seen.append((done, total, energy)),
+    )
     total = 25 * s.options["chains"]
     assert seen[-1][0] == total and all(t == total for _, t, _ in seen)
     assert [d for d, _, _ in seen] == sorted(d for d, _, _ in seen)
