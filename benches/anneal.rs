@@ -4,12 +4,16 @@
 //! - `proposals`: Metropolis proposals per second at the start temperature (hot) and at the
 //!   end of the schedule (cold, where almost every proposal is rejected);
 //! - `six_corner_angles`: the floor the issue names: the six new corner angles of a proposal
-//!   alone, for the same random edges, with no convexity test, energy or bookkeeping.
+//!   alone, for the same random edges, with no convexity test, energy or bookkeeping;
+//! - `scaling`: the sustained hot rate on one synthetic surface (a jittered grid over a
+//!   gently curved height field) at about 14,000 and 1,000,000 points, to show how much
+//!   memory locality costs once the state (about 150 MB at 1M) outgrows the caches.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use scanmesh_core::anneal::{AnnealParams, Annealer};
 use scanmesh_core::delaunay::delaunay;
 use scanmesh_core::geometry::triangle_angles;
+use scanmesh_core::glam::DVec3;
 use scanmesh_core::mesh::prev;
 use scanmesh_core::projection::{project, Plane};
 use scanmesh_core::tac_state::TacState;
@@ -21,12 +25,16 @@ mod demo_scan;
 
 /// The rod's trimmed Delaunay triangulation seen along y, as the Python layer builds it.
 fn rod_state() -> TacState {
-    let points = demo_scan::demo_points();
-    let uv = project(&points, Plane::Axis(1)).unwrap().uv;
+    trimmed_state(&demo_scan::demo_points())
+}
+
+/// Trimmed Delaunay triangulation of `points` seen along y, relabelled in Z-order. O(n log n).
+fn trimmed_state(points: &[DVec3]) -> TacState {
+    let uv = project(points, Plane::Axis(1)).unwrap().uv;
     let d = delaunay(&uv).unwrap();
     let max_edge = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
     let triangles = trim_long_edges(&uv, &d.triangles, max_edge).unwrap();
-    TacState::from_input(&points, &uv, &triangles, 1.0)
+    TacState::from_input(points, &uv, &triangles, 1.0)
         .unwrap()
         .0
 }
@@ -118,5 +126,53 @@ fn six_corner_angles(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, proposals, six_corner_angles);
+/// About `n` points on a jittered square grid over the unit square (x, z), with height
+/// y = 0.1 sin(3x) cos(2z) + 0.05 xz: gently curved everywhere, so no flip is a coplanar
+/// tie and every proposal computes its six angles. The same surface at every size; the
+/// jitter (±15 % of the spacing, a fixed LCG) keeps Delaunay free of cocircular ties.
+fn grid_points(n: usize) -> Vec<DVec3> {
+    let side = (n as f64).sqrt().round() as usize;
+    let mut s = 12_345u64;
+    let mut jitter = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3
+    };
+    let mut points = Vec::with_capacity(side * side);
+    for j in 0..side {
+        for i in 0..side {
+            let x = (i as f64 + jitter()) / side as f64;
+            let z = (j as f64 + jitter()) / side as f64;
+            let y = 0.1 * (3.0 * x).sin() * (2.0 * z).cos() + 0.05 * x * z;
+            points.push(DVec3::new(x, y, z));
+        }
+    }
+    points
+}
+
+fn scaling(c: &mut Criterion) {
+    let mut group = c.benchmark_group("scaling");
+    group.throughput(Throughput::Elements(CHUNK as u64));
+    group.sample_size(20);
+    for (name, n) in [("grid_14k", 14_000), ("grid_1M", 1_000_000)] {
+        // Setup (points, Delaunay, trimming, Z-order, calibration) stays outside the timing;
+        // one sweep first, so both sizes are measured in the same kind of state.
+        let params = AnnealParams {
+            sweeps: usize::MAX / 2,
+            final_temperature_ratio: 1.0,
+            patience: 0,
+            ..AnnealParams::default()
+        };
+        let state = trimmed_state(&grid_points(n));
+        let mut annealer = Annealer::new(state, params).unwrap();
+        annealer.advance(annealer.sweep_len());
+        group.bench_function(BenchmarkId::new("hot", name), |b| {
+            b.iter(|| black_box(annealer.advance(CHUNK)))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, proposals, six_corner_angles, scaling);
 criterion_main!(benches);

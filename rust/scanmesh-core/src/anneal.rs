@@ -10,7 +10,7 @@ use crate::delaunay::NONE;
 use crate::ensemble::Ensemble;
 use crate::lop::{lop, TacLop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
-use crate::tac_state::{Detail, TacState};
+use crate::tac_state::{Detail, Proposal, TacState};
 use crate::{Error, Result};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -345,8 +345,16 @@ impl Annealer {
     fn propose(&mut self) {
         self.proposed += 1;
         let h = self.slots.next_interior(&self.state);
-        let Some(mv) = self.state.evaluate(h, Detail::Energy) else {
-            return;
+        let mv = match self.state.propose(h) {
+            Proposal::NotFlippable => return,
+            // An exact tie, accepted and applied by `propose`; the energy is unchanged, so
+            // it cannot be a new best.
+            Proposal::FlippedTie => {
+                self.accepted += 1;
+                self.log.push(h);
+                return;
+            }
+            Proposal::Move(mv) => mv,
         };
         // Ties are accepted freely: tac is blind on flat and developable parts, and the
         // better optima are reached through long neutral walks there. The sliver guard acts

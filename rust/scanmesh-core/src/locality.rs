@@ -6,24 +6,28 @@
 //! order is its own; a Z-order (Morton) relabelling makes both local at every scale, which
 //! matters once the arrays outgrow the caches (a 1M-point scan holds about 250 MB of state).
 
-/// Hints the CPU to bring the cache line holding `x` into L1 (`prefetcht0`). No effect on
-/// results, only on when memory is read; a no-op off x86-64. O(1), never blocks.
+/// Hints the CPU to bring the cache line holding `slice[i]` into L1 (`prefetcht0`). No
+/// effect on results, only on when memory is read; a no-op off x86-64. An index out of
+/// range is harmless (a prefetch never faults), so there is no bounds check. O(1), never
+/// blocks.
 ///
 /// Why: annealing draws its edges from the RNG ahead of time, independently of the state
 /// ([`crate::anneal`]), so the lines a proposal will read can be requested several
 /// proposals early and their misses overlap instead of forming one dependent chain.
 #[inline(always)]
 #[allow(unsafe_code)]
-pub fn prefetch<T>(x: &T) {
+pub fn prefetch<T>(slice: &[T], i: usize) {
+    // `wrapping_add` is safe and computes the address only; nothing is dereferenced.
+    let p = slice.as_ptr().wrapping_add(i);
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: `_mm_prefetch` is a hint that never faults and reads nothing into registers;
-    // SSE is part of the x86-64 baseline; the pointer comes from a live reference.
+    // SAFETY: `_mm_prefetch` is a hint that never faults and reads nothing into registers,
+    // whatever the address; SSE is part of the x86-64 baseline.
     unsafe {
         use core::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast::<i8>());
+        _mm_prefetch::<_MM_HINT_T0>(p.cast::<i8>());
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
+    let _ = p;
 }
 
 /// A permutation of vertex indices and the inverse, plus helpers to move data across it.

@@ -40,6 +40,14 @@ pub fn convex_quad(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> bool {
     well_formed(d, c, a) && well_formed(c, d, b)
 }
 
+/// The three entries of triangle `t` in a per-slot array, with one bounds check (the
+/// range's) instead of three. O(1).
+#[inline(always)]
+fn slots3(v: &[u32], t: usize) -> [u32; 3] {
+    let s = &v[3 * t..3 * t + 3];
+    [s[0], s[1], s[2]]
+}
+
 /// Connectivity of a triangulation of `n_vertices` points.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HalfEdgeMesh {
@@ -278,34 +286,70 @@ impl HalfEdgeMesh {
 
     /// Prefetch hint for the `start` and `twin` entries of triangle `t` (see
     /// [`crate::locality::prefetch`]; no effect on results). O(1).
-    #[inline]
+    #[inline(always)]
     pub fn prefetch_triangle(&self, t: u32) {
-        // A triangle's three u32 entries can straddle two cache lines: hint both ends.
-        let (first, last) = (3 * t as usize, 3 * t as usize + 2);
-        if last < self.start.len() {
-            for s in [&self.start, &self.twin] {
-                prefetch(&s[first]);
-                prefetch(&s[last]);
-            }
+        // A triangle's three u32 entries straddle two cache lines in 2 of 16 positions:
+        // hint both ends.
+        let first = 3 * t as usize;
+        for s in [&self.start, &self.twin] {
+            prefetch(s, first);
+            prefetch(s, first + 2);
         }
     }
 
     /// Prefetch hint for what [`flip`](Self::flip)`(h)` writes outside the two triangles of
-    /// `h` (the twins of the four outer edges, the four corners' `vertex_edge`); reads the
-    /// two triangles, so call it once they are cached. No effect on results. O(1).
-    #[inline]
-    pub fn prefetch_flip(&self, h: u32) {
+    /// `h` (the twins of the four outer edges, the four corners' `vertex_edge`). Reads the
+    /// two triangles, so call it once they are cached. Returns the corners (a, b, c, d) of
+    /// [`quad`](Self::quad), for the caller's own per-vertex data, or `None` when `h` is a
+    /// boundary half-edge. No effect on results. O(1).
+    #[inline(always)]
+    pub fn prefetch_flip(&self, h: u32) -> Option<[u32; 4]> {
+        let (th, kh) = (h as usize / 3, h as usize % 3);
+        let twin_h = slots3(&self.twin, th);
+        let t = twin_h[kh];
+        if t == NONE {
+            return None;
+        }
+        let (tt, kt) = (t as usize / 3, t as usize % 3);
+        let twin_t = slots3(&self.twin, tt);
+        let (start_h, start_t) = (slots3(&self.start, th), slots3(&self.start, tt));
+        let quad = [
+            start_h[kh],
+            start_h[(kh + 1) % 3],
+            start_h[(kh + 2) % 3],
+            start_t[(kt + 2) % 3],
+        ];
+        for o in [
+            twin_h[(kh + 1) % 3],
+            twin_h[(kh + 2) % 3],
+            twin_t[(kt + 1) % 3],
+            twin_t[(kt + 2) % 3],
+        ] {
+            if o != NONE {
+                prefetch(&self.twin, o as usize);
+            }
+        }
+        for v in quad {
+            prefetch(&self.vertex_edge, v as usize);
+        }
+        Some(quad)
+    }
+
+    /// The twin `t` of `h` and the corners (a, b, c, d) of [`quad`](Self::quad)`(h, t)`,
+    /// reading each triangle's slots as one block; `None` when `h` is on the boundary. O(1).
+    #[inline(always)]
+    pub fn twin_and_quad(&self, h: u32) -> Option<(u32, [u32; 4])> {
         let t = self.twin[h as usize];
         if t == NONE {
-            return;
+            return None;
         }
-        for e in [next(h), prev(h), next(t), prev(t)] {
-            let o = self.twin[e as usize];
-            if o != NONE {
-                prefetch(&self.twin[o as usize]);
-            }
-            prefetch(&self.vertex_edge[self.start[e as usize] as usize]);
-        }
+        let (th, kh) = (h as usize / 3, h as usize % 3);
+        let (tt, kt) = (t as usize / 3, t as usize % 3);
+        let (sh, st) = (slots3(&self.start, th), slots3(&self.start, tt));
+        Some((
+            t,
+            [sh[kh], sh[(kh + 1) % 3], sh[(kh + 2) % 3], st[(kt + 2) % 3]],
+        ))
     }
 
     /// Flips interior half-edge `h` (a→b) to the other diagonal (c→d) without checking
@@ -332,24 +376,32 @@ impl HalfEdgeMesh {
         debug_assert!(t != NONE, "flip of boundary half-edge {h}");
         let (h0, h1, h2) = (h, next(h), prev(h));
         let (t0, t1, t2) = (t, next(t), prev(t));
-        let [a, b, c, d] = self.quad(h, t);
-        let (tw_ca, tw_ad, tw_db, tw_bc) = (
-            self.twin[h2 as usize],
-            self.twin[t1 as usize],
-            self.twin[t2 as usize],
-            self.twin[h1 as usize],
-        );
-        let s = &mut self.start;
-        s[h0 as usize] = d;
-        s[h1 as usize] = c;
-        s[h2 as usize] = a;
-        s[t0 as usize] = c;
-        s[t1 as usize] = d;
-        s[t2 as usize] = b;
-        self.link(h1, tw_ca);
-        self.link(h2, tw_ad);
-        self.link(t1, tw_db);
-        self.link(t2, tw_bc);
+        // Each triangle's slots are read and written as one block of three (one bounds
+        // check each instead of one per slot); k is the position of h (t) in its block.
+        let (th, kh) = (h as usize / 3, h as usize % 3);
+        let (tt, kt) = (t as usize / 3, t as usize % 3);
+        let (sh, st) = (slots3(&self.start, th), slots3(&self.start, tt));
+        let (wh, wt) = (slots3(&self.twin, th), slots3(&self.twin, tt));
+        let [a, b, c, d] = [sh[kh], sh[(kh + 1) % 3], sh[(kh + 2) % 3], st[(kt + 2) % 3]];
+        let (tw_bc, tw_ca) = (wh[(kh + 1) % 3], wh[(kh + 2) % 3]);
+        let (tw_ad, tw_db) = (wt[(kt + 1) % 3], wt[(kt + 2) % 3]);
+        // New triangles: h0 = d→c, h1 = c→a, h2 = a→d and t0 = c→d, t1 = d→b, t2 = b→c.
+        let block = |k: usize, x: [u32; 3]| {
+            let mut out = [0; 3];
+            out[k] = x[0];
+            out[(k + 1) % 3] = x[1];
+            out[(k + 2) % 3] = x[2];
+            out
+        };
+        self.start[3 * th..3 * th + 3].copy_from_slice(&block(kh, [d, c, a]));
+        self.start[3 * tt..3 * tt + 3].copy_from_slice(&block(kt, [c, d, b]));
+        self.twin[3 * th..3 * th + 3].copy_from_slice(&block(kh, [t0, tw_ca, tw_ad]));
+        self.twin[3 * tt..3 * tt + 3].copy_from_slice(&block(kt, [h0, tw_db, tw_bc]));
+        for (outer, inner) in [(tw_ca, h1), (tw_ad, h2), (tw_db, t1), (tw_bc, t2)] {
+            if outer != NONE {
+                self.twin[outer as usize] = inner;
+            }
+        }
         // Boundary vertices must keep their twin-less outgoing half-edge, which may have
         // moved slot; an interior vertex may point anywhere it still leaves from. A corner
         // pointing into the two triangles gets its one new slot there: a's a→b (h0, gone)
@@ -367,14 +419,6 @@ impl HalfEdgeMesh {
             }
         }
         h
-    }
-
-    #[inline]
-    fn link(&mut self, h: u32, t: u32) {
-        self.twin[h as usize] = t;
-        if t != NONE {
-            self.twin[t as usize] = h;
-        }
     }
 
     /// Checks every invariant against the planar positions `uv`; the error says which failed.

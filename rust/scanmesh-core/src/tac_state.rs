@@ -5,9 +5,9 @@
 //! angles are cached per half-edge slot and angle sums per vertex, so a proposed flip
 //! computes only the six corner angles of its two new triangles and changes the energy of
 //! its four corners alone. Flips of coplanar quadrilaterals (flat parts of a scan) change
-//! no angle sum, so they are applied without computing any angle: their six corner slots are
-//! marked stale (NaN) and recomputed only when a later evaluation reads them. Both annealing
-//! and LOP use this one state.
+//! no angle sum, so they are applied without computing any angle: their two triangles are
+//! marked stale (one bit each) and their corners recomputed only when a later evaluation
+//! reads them. Both annealing and LOP use this one state.
 
 use crate::delaunay::{unit_square, NONE};
 use crate::geometry::triangle_angles;
@@ -40,6 +40,17 @@ pub struct FlipMove {
     pub coplanar: bool,
 }
 
+/// What [`TacState::propose`] did with a half-edge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Proposal {
+    /// A boundary edge, or a quadrilateral that is not strictly convex: no move.
+    NotFlippable,
+    /// A coplanar quadrilateral: an exact tie, already flipped (energy unchanged).
+    FlippedTie,
+    /// Any other flippable edge, evaluated with [`Detail::Energy`] and not applied.
+    Move(FlipMove),
+}
+
 /// How much a caller needs to know about a move.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Detail {
@@ -63,6 +74,10 @@ pub struct TacState {
     uv: Vec<[f64; 2]>,
     xyz: Vec<DVec3>,
     corner: Vec<f64>,
+    // One bit per triangle: its `corner` entries are out of date (a coplanar flip left them).
+    // A bit set instead of NaN written into `corner`: a tie flip then touches no corner line
+    // at all, and the set (one bit per triangle) stays in L1/L2.
+    stale: Vec<u64>,
     vert: Vec<VertexRecord>,
     p: f64,
     energy: f64,
@@ -141,6 +156,7 @@ impl TacState {
             .collect();
         let mut state = TacState {
             corner: vec![0.0; mesh.n_half_edges()],
+            stale: vec![0; mesh.n_triangles().div_ceil(64)],
             vert,
             mesh,
             uv,
@@ -273,9 +289,12 @@ impl TacState {
     /// them stale. O(1).
     #[inline]
     fn fresh_corners(&mut self, t: usize) -> [f64; 3] {
+        let word = &mut self.stale[t / 64];
+        let bit = 1u64 << (t % 64);
         let k = &mut self.corner[3 * t..3 * t + 3];
-        if k[0].is_nan() {
-            let [a, b, c] = self.mesh.triangle(t).map(|v| self.xyz[v as usize]);
+        if *word & bit != 0 {
+            *word &= !bit;
+            let [a, b, c] = self.mesh.triangle(t).map(|v| self.vert[v as usize].xyz);
             k.copy_from_slice(&triangle_angles(a, b, c));
         }
         [k[0], k[1], k[2]]
@@ -290,8 +309,8 @@ impl TacState {
     pub fn prefetch(&self, h: u32, stage: usize) {
         // A triangle's three corners (24 bytes) can straddle two lines: hint both ends.
         let corners = |t: u32| {
-            prefetch(&self.corner[3 * t as usize]);
-            prefetch(&self.corner[3 * t as usize + 2]);
+            prefetch(&self.corner, 3 * t as usize);
+            prefetch(&self.corner, 3 * t as usize + 2);
         };
         match stage {
             0 => {
@@ -306,15 +325,28 @@ impl TacState {
                 }
             }
             _ => {
-                let t = self.mesh.twin(h);
-                if t != NONE {
-                    for v in self.mesh.quad(h, t) {
-                        prefetch(&self.vert[v as usize]);
+                if let Some(quad) = self.mesh.prefetch_flip(h) {
+                    for v in quad {
+                        prefetch(&self.vert, v as usize);
                     }
-                    self.mesh.prefetch_flip(h);
                 }
             }
         }
+    }
+
+    /// The convexity and coplanarity tests shared by [`evaluate`](Self::evaluate) and
+    /// [`propose`](Self::propose): the twin, the corners, their 3-D positions and whether
+    /// they are coplanar, or `None` when `h` cannot flip (boundary, or not strictly convex in
+    /// the plane; the test of `HalfEdgeMesh::can_flip` on the packed positions). O(1).
+    #[inline(always)]
+    fn flippable(&self, h: u32) -> Option<(u32, [u32; 4], [DVec3; 4], bool)> {
+        let (t, quad) = self.mesh.twin_and_quad(h)?;
+        let [ra, rb, rc, rd] = quad.map(|v| &self.vert[v as usize]);
+        if !convex_quad(ra.uv, rb.uv, rc.uv, rd.uv) {
+            return None;
+        }
+        let pos = [ra.xyz, rb.xyz, rc.xyz, rd.xyz];
+        Some((t, quad, pos, is_coplanar(pos[0], pos[1], pos[2], pos[3])))
     }
 
     /// Evaluates flipping `h`: `None` when it is a boundary edge or its quadrilateral is not
@@ -322,18 +354,7 @@ impl TacState {
     /// quadrilateral is coplanar and `detail` is `Energy`, six corner angles.
     #[inline]
     pub fn evaluate(&mut self, h: u32, detail: Detail) -> Option<FlipMove> {
-        // `HalfEdgeMesh::can_flip` on the packed positions: one line per corner.
-        let t = self.mesh.twin(h);
-        if t == NONE {
-            return None;
-        }
-        let [a, b, c, d] = self.mesh.quad(h, t);
-        let [ra, rb, rc, rd] = [a, b, c, d].map(|v| &self.vert[v as usize]);
-        if !convex_quad(ra.uv, rb.uv, rc.uv, rd.uv) {
-            return None;
-        }
-        let pos = [ra.xyz, rb.xyz, rc.xyz, rd.xyz];
-        let coplanar = is_coplanar(pos[0], pos[1], pos[2], pos[3]);
+        let (t, quad, pos, coplanar) = self.flippable(h)?;
         if coplanar && detail == Detail::Energy {
             let nan = f64::NAN;
             return Some(FlipMove {
@@ -346,7 +367,34 @@ impl TacState {
                 coplanar,
             });
         }
-        Some(self.evaluate_angles(h, t, [a, b, c, d], pos, coplanar))
+        Some(self.evaluate_angles(h, t, quad, pos, coplanar))
+    }
+
+    /// One annealing proposal of `h`: like [`evaluate`](Self::evaluate) with
+    /// [`Detail::Energy`], except that a coplanar quadrilateral (an exact tie, which any
+    /// Metropolis rule accepts) is flipped at once, as [`apply`](Self::apply) would, without
+    /// building a [`FlipMove`]: the common case on scans of machined parts. O(1).
+    #[inline]
+    pub fn propose(&mut self, h: u32) -> Proposal {
+        match self.flippable(h) {
+            None => Proposal::NotFlippable,
+            Some((t, _, _, true)) => {
+                self.mesh.flip(h);
+                self.mark_stale(h, t);
+                Proposal::FlippedTie
+            }
+            Some((t, quad, pos, false)) => {
+                Proposal::Move(self.evaluate_angles(h, t, quad, pos, false))
+            }
+        }
+    }
+
+    /// Marks the corner angles of the triangles of slots `h` and `t` as unknown. O(1).
+    #[inline(always)]
+    fn mark_stale(&mut self, h: u32, t: u32) {
+        for tri in [h / 3, t / 3] {
+            self.stale[tri as usize / 64] |= 1 << (tri % 64);
+        }
     }
 
     /// The angle part of [`evaluate`](Self::evaluate) for the convex quadrilateral of `h`
@@ -417,11 +465,18 @@ impl TacState {
         let h = mv.h;
         let t = self.mesh.twin(h);
         self.mesh.flip(h);
-        for (slot, angle) in [h, next(h), prev(h), t, next(t), prev(t)]
-            .into_iter()
-            .zip(mv.new_angles)
-        {
-            self.corner[slot as usize] = angle;
+        let (th, tt) = ((h / 3) as usize, (t / 3) as usize);
+        if mv.new_angles[0].is_nan() {
+            self.mark_stale(h, t);
+        } else {
+            for (slot, angle) in [h, next(h), prev(h), t, next(t), prev(t)]
+                .into_iter()
+                .zip(mv.new_angles)
+            {
+                self.corner[slot as usize] = angle;
+            }
+            self.stale[th / 64] &= !(1 << (th % 64));
+            self.stale[tt / 64] &= !(1 << (tt % 64));
         }
         if !mv.coplanar {
             // Why increments and not a walk of the four fans: the walk is a chain of
@@ -587,6 +642,39 @@ pub(crate) mod tests {
             );
             assert_eq!(st.vert[v as usize].uv, st.uv()[v as usize]);
         }
+    }
+
+    #[test]
+    fn propose_matches_evaluate_then_apply() {
+        let mut fused = plateau_state(500, 11, 1.0);
+        let mut plain = fused.clone();
+        let edges = fused.mesh().interior_edges();
+        let (mut ties, mut moves) = (0, 0);
+        for &h in edges.iter().chain(&edges) {
+            let expected = plain.evaluate(h, Detail::Energy);
+            match fused.propose(h) {
+                Proposal::NotFlippable => assert!(expected.is_none()),
+                Proposal::FlippedTie => {
+                    let mv = expected.unwrap();
+                    assert!(mv.coplanar && mv.delta_energy == 0.0);
+                    plain.apply(&mv);
+                    ties += 1;
+                }
+                Proposal::Move(mv) => {
+                    assert_eq!(Some(mv), expected);
+                    if mv.delta_energy < 0.0 {
+                        fused.apply(&mv);
+                        plain.apply(&mv);
+                    }
+                    moves += 1;
+                }
+            }
+            assert_eq!(fused.mesh(), plain.mesh());
+        }
+        assert!(ties > 500 && moves > 50, "ties {ties}, moves {moves}");
+        assert_eq!(fused.energy(), plain.energy());
+        let scratch = fused.energy_from_scratch();
+        assert!((fused.energy() - scratch).abs() <= 1e-9 * scratch);
     }
 
     #[test]
