@@ -16,7 +16,7 @@
 //! steps (dihedral angle). All are non-negative, which Dijkstra needs and which makes every
 //! look-ahead path cost at least the optimum.
 
-use crate::geometry::check_finite;
+use crate::geometry::{atan2_upper, check_finite};
 use crate::{Error, Result};
 use glam::DVec3;
 use std::cmp::Ordering;
@@ -178,59 +178,6 @@ fn dihedral(n1: DVec3, apex: DVec3, len: f64, n2: DVec3) -> f64 {
         return PI;
     }
     atan2_upper(apex.dot(n2).abs() * len, n1.dot(n2))
-}
-
-/// `y.atan2(x)` for y ≥ 0 (a result in [0, π]), to within a few units in the last place.
-///
-/// Why not libm: its atan2 was half the run time of strips under the angle and dihedral
-/// weights (up to six calls per matrix cell). This is Cephes' `atan` (Moshier): a
-/// reduction to |u| ≤ 0.66 and a degree 4/5 rational function; tested within 4 ulp of
-/// libm over 40 decades. The reduction is written without branches (selects), because
-/// the DP's cost comparisons wait on these results and a mispredicted branch here stalls
-/// them: u = min/max, or (min − max)/(min + max) when min > 0.66 max (one division
-/// where Cephes divides twice; min − max is exact there by Sterbenz). O(1).
-#[inline(always)]
-fn atan2_upper(y: f64, x: f64) -> f64 {
-    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
-    const MOREBITS: f64 = 6.123_233_995_736_766e-17;
-    const P: [f64; 5] = [
-        -8.750_608_600_031_904e-1,
-        -1.615_753_718_733_365e1,
-        -7.500_855_792_314_705e1,
-        -1.228_866_684_490_136e2,
-        -6.485_021_904_942_025e1,
-    ];
-    const Q: [f64; 5] = [
-        2.485_846_490_142_306e1,
-        1.650_270_098_316_988e2,
-        4.328_810_604_912_903e2,
-        4.853_903_996_359_137e2,
-        1.945_506_571_482_614e2,
-    ];
-    let ax = x.abs();
-    if y == 0.0 && ax == 0.0 {
-        return if x.is_sign_negative() { PI } else { 0.0 };
-    }
-    // atan2 = atan(min/max), or π/2 − that when y > |x|; then π − that when x < 0.
-    let swapped = y > ax;
-    let (lo, hi) = if swapped { (ax, y) } else { (y, ax) };
-    let big = lo > 0.66 * hi;
-    let u = if big { lo - hi } else { lo } / if big { lo + hi } else { hi };
-    let z = u * u;
-    let p = (((P[0] * z + P[1]) * z + P[2]) * z + P[3]) * z + P[4];
-    let q = ((((z + Q[0]) * z + Q[1]) * z + Q[2]) * z + Q[3]) * z + Q[4];
-    let (base, more) = if big {
-        (FRAC_PI_4, 0.5 * MOREBITS)
-    } else {
-        (0.0, 0.0)
-    };
-    let a = base + (u + u * z * p / q + more);
-    let a = if swapped { FRAC_PI_2 - a } else { a };
-    if x < 0.0 {
-        PI - a
-    } else {
-        a
-    }
 }
 
 impl<'a> Terms<'a> {
@@ -1205,37 +1152,6 @@ mod tests {
 
     fn close(x: f64, y: f64) -> bool {
         (x - y).abs() <= 1e-9 * (1.0 + x.abs().max(y.abs()))
-    }
-
-    #[test]
-    fn atan2_upper_matches_libm() {
-        let mut rng = Lcg(3);
-        let mut worst = 0.0f64;
-        for k in 0..200_000 {
-            // Magnitudes over 40 decades, both signs of x, and the special lines.
-            let scale = |r: f64| 10f64.powf(40.0 * r - 20.0);
-            let y = if k % 97 == 0 {
-                0.0
-            } else {
-                rng.next() * scale(rng.next())
-            };
-            let x = match k % 89 {
-                0 => 0.0,
-                1 => -y,
-                2 => y,
-                _ => (rng.next() - 0.5) * scale(rng.next()),
-            };
-            let (fast, exact) = (atan2_upper(y, x), y.atan2(x));
-            worst = worst.max((fast - exact).abs() / exact.abs().max(f64::MIN_POSITIVE));
-            assert!(
-                (fast - exact).abs() <= 4.0 * f64::EPSILON * exact.abs(),
-                "atan2({y}, {x}): {fast} vs {exact}"
-            );
-        }
-        assert_eq!(atan2_upper(0.0, 0.0), 0.0);
-        assert_eq!(atan2_upper(0.0, -0.0), PI);
-        assert_eq!(atan2_upper(0.0, -1.0), PI);
-        assert!(worst < 4.0 * f64::EPSILON, "{worst}");
     }
 
     #[test]

@@ -2,6 +2,60 @@
 
 use glam::DVec3;
 
+/// `y.atan2(x)` for y ≥ 0 (a result in [0, π]), to within a few units in the last place.
+///
+/// Why not libm: its atan2 was half the run time of strips under the angle and dihedral
+/// weights (up to six calls per matrix cell), and a quarter of annealing's on curved
+/// surfaces (six corner angles per proposal). The one implementation for both. This is Cephes' `atan` (Moshier): a
+/// reduction to |u| ≤ 0.66 and a degree 4/5 rational function; tested within 4 ulp of
+/// libm over 40 decades. The reduction is written without branches (selects), because
+/// the DP's cost comparisons wait on these results and a mispredicted branch here stalls
+/// them: u = min/max, or (min − max)/(min + max) when min > 0.66 max (one division
+/// where Cephes divides twice; min − max is exact there by Sterbenz). O(1).
+#[inline(always)]
+pub fn atan2_upper(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    const MOREBITS: f64 = 6.123_233_995_736_766e-17;
+    const P: [f64; 5] = [
+        -8.750_608_600_031_904e-1,
+        -1.615_753_718_733_365e1,
+        -7.500_855_792_314_705e1,
+        -1.228_866_684_490_136e2,
+        -6.485_021_904_942_025e1,
+    ];
+    const Q: [f64; 5] = [
+        2.485_846_490_142_306e1,
+        1.650_270_098_316_988e2,
+        4.328_810_604_912_903e2,
+        4.853_903_996_359_137e2,
+        1.945_506_571_482_614e2,
+    ];
+    let ax = x.abs();
+    if y == 0.0 && ax == 0.0 {
+        return if x.is_sign_negative() { PI } else { 0.0 };
+    }
+    // atan2 = atan(min/max), or π/2 − that when y > |x|; then π − that when x < 0.
+    let swapped = y > ax;
+    let (lo, hi) = if swapped { (ax, y) } else { (y, ax) };
+    let big = lo > 0.66 * hi;
+    let u = if big { lo - hi } else { lo } / if big { lo + hi } else { hi };
+    let z = u * u;
+    let p = (((P[0] * z + P[1]) * z + P[2]) * z + P[3]) * z + P[4];
+    let q = ((((z + Q[0]) * z + Q[1]) * z + Q[2]) * z + Q[3]) * z + Q[4];
+    let (base, more) = if big {
+        (FRAC_PI_4, 0.5 * MOREBITS)
+    } else {
+        (0.0, 0.0)
+    };
+    let a = base + (u + u * z * p / q + more);
+    let a = if swapped { FRAC_PI_2 - a } else { a };
+    if x < 0.0 {
+        PI - a
+    } else {
+        a
+    }
+}
+
 /// Angle in radians at corner `p` of triangle (p, a, b), in [0, π].
 ///
 /// Uses `atan2(|u × v|, u · v)`, which stays accurate for tiny and near-straight angles
@@ -10,7 +64,7 @@ use glam::DVec3;
 pub fn corner_angle(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let u = a - p;
     let v = b - p;
-    u.cross(v).length().atan2(u.dot(v))
+    atan2_upper(u.cross(v).length(), u.dot(v))
 }
 
 /// The three corner angles (radians) of triangle (a, b, c), at a, b and c in that order. O(1).
@@ -47,7 +101,7 @@ pub fn triangle_normal(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
 pub fn planar_corner_angle(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let (ux, uy) = (a[0] - p[0], a[1] - p[1]);
     let (vx, vy) = (b[0] - p[0], b[1] - p[1]);
-    (ux * vy - uy * vx).abs().atan2(ux * vx + uy * vy)
+    atan2_upper((ux * vy - uy * vx).abs(), ux * vx + uy * vy)
 }
 
 /// Smallest corner angle (radians) of the planar triangle (a, b, c). O(1).
@@ -194,6 +248,43 @@ pub fn check_planar(uv: &[[f64; 2]]) -> crate::Result<()> {
 mod tests {
     use super::*;
     use std::f64::consts::{FRAC_PI_2, PI};
+
+    #[test]
+    fn atan2_upper_matches_libm() {
+        let mut state = 3u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut worst = 0.0f64;
+        for k in 0..200_000 {
+            // Magnitudes over 40 decades, both signs of x, and the special lines.
+            let scale = |r: f64| 10f64.powf(40.0 * r - 20.0);
+            let y = if k % 97 == 0 {
+                0.0
+            } else {
+                next() * scale(next())
+            };
+            let x = match k % 89 {
+                0 => 0.0,
+                1 => -y,
+                2 => y,
+                _ => (next() - 0.5) * scale(next()),
+            };
+            let (fast, exact) = (atan2_upper(y, x), y.atan2(x));
+            worst = worst.max((fast - exact).abs() / exact.abs().max(f64::MIN_POSITIVE));
+            assert!(
+                (fast - exact).abs() <= 4.0 * f64::EPSILON * exact.abs(),
+                "atan2({y}, {x}): {fast} vs {exact}"
+            );
+        }
+        assert_eq!(atan2_upper(0.0, 0.0), 0.0);
+        assert_eq!(atan2_upper(0.0, -0.0), PI);
+        assert_eq!(atan2_upper(0.0, -1.0), PI);
+        assert!(worst < 4.0 * f64::EPSILON, "{worst}");
+    }
 
     #[test]
     fn right_angle_and_straight_angle() {
