@@ -123,8 +123,8 @@ def test_collinear_check_on_many_points_uses_every_point():
         scanmesh.reconstruct(pts, "shortest-path", lines=np.arange(n) // 1000, plane="z")
 
 
-def test_steep_fraction_in_blocks_matches_the_angle_formula(monkeypatch):
-    """Blocks and the cosine form give the share the atan2 of every triangle gives."""
+def test_steep_fraction_matches_the_angle_formula():
+    """The native cosine form gives the share the atan2 of every triangle gives."""
     from scanmesh import surface as surface_module
 
     rng = np.random.default_rng(5)
@@ -137,6 +137,17 @@ def test_steep_fraction_in_blocks_matches_the_angle_formula(monkeypatch):
     tilt = np.degrees(np.arctan2(np.linalg.norm(np.cross(fn, unit), axis=1), fn @ unit))
     expect = float((tilt > surface_module.STEEP_ANGLE_DEG).mean())
     assert 0.2 < expect < 0.8
-    for block in (7, 1 << 19):
-        monkeypatch.setattr(surface_module, "STEEP_FACES_PER_BLOCK", block)
-        assert surface_module.steep_fraction(verts, faces, normal) == expect
+    assert surface_module.steep_fraction(verts, faces, normal) == expect
+    # column-major arrays take the binding's copying path: same count
+    tilt_limit = np.radians(surface_module.STEEP_ANGLE_DEG)
+    count = scanmesh._core.steep_count(
+        np.asfortranarray(verts), np.asfortranarray(faces), normal, tilt_limit
+    )
+    assert count / len(faces) == expect
+    bad = faces.copy()
+    bad[7, 2] = 400
+    with pytest.raises(scanmesh.InvalidMeshError, match="face 7"):
+        surface_module.steep_fraction(verts, bad, normal)
+    bad[7, 2] = -1
+    with pytest.raises(scanmesh.InvalidMeshError, match="face 7"):
+        surface_module.steep_fraction(verts, bad, normal)

@@ -70,10 +70,12 @@ def test_flat_grid_has_zero_tac_and_bent_grid_has_its_fold():
     flat = np.column_stack([g, np.zeros(len(g))])
     q = scanmesh.delaunay(flat, plane="z", max_edge=math.inf).quality
     assert q.n_interior == 16 and q.tac_1 < 1e-12
+    # Folded along one line the grid stays developable (tac 0 up to rounding); folded along
+    # two, the vertices next to both folds are cone points with a real angle defect.
     bent = flat.copy()
-    bent[:, 2] = np.abs(bent[:, 0] - 2.5)
+    bent[:, 2] = np.abs(bent[:, 0] - 2.5) + np.abs(bent[:, 1] - 2.5)
     bent_faces = scanmesh.delaunay(bent, plane="z", max_edge=math.inf).faces
-    assert scanmesh.quality(bent, bent_faces).tac_1 > 0
+    assert scanmesh.quality(bent, bent_faces).tac_1 > 0.1
 
 
 def test_comparison_of_triangulations():

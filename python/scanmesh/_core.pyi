@@ -23,6 +23,7 @@ __all__ = [
     "validate",
     "mesh_quality",
     "tac_norm",
+    "steep_count",
     "DEFAULT_GAP_FACTOR",
     "DEFAULT_BAND",
     "detect_lines",
@@ -61,6 +62,12 @@ def mesh_quality(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def tac_norm(values: npt.NDArray[np.float64], p: float) -> float: ...
+def steep_count(
+    points: npt.NDArray[np.float64],
+    faces_: npt.NDArray[np.int64],
+    normal: npt.NDArray[np.float64],
+    max_tilt: float,
+) -> int: ...
 def empty_triangles(uv: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
 def triangulations(
     uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64], max_count: int

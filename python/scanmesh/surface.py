@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -10,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from scanmesh import _core
 from scanmesh._progress import Progress
 from scanmesh.projection import Frame
 from scanmesh.quality import Quality, quality
@@ -30,44 +32,23 @@ STEEP_ANGLE_DEG: float = 75.0
 STEEP_WARN_FRACTION: float = 0.10
 
 
-#: Triangles per block in :func:`steep_fraction`: its temporaries take about 200 bytes per
-#: triangle, so blocks keep them near 100 MB on meshes of tens of millions of triangles.
-STEEP_FACES_PER_BLOCK: int = 1 << 19
-
-
 def steep_fraction(vertices: np.ndarray, faces: np.ndarray, normal: np.ndarray) -> float:
     """Share of ``faces`` whose normal is more than ``STEEP_ANGLE_DEG`` from ``normal``.
 
     vertices : (N, 3) float64; faces : (M, 3) int64, counter-clockwise seen against
     ``normal`` ((3,) float64), so upside-down triangles (a fold) count as steep. Scale-free
     (edge vectors are divided by the half extent of the vertices first). 0.0 for no faces.
-    O(M) time, memory bounded by ``STEEP_FACES_PER_BLOCK``.
+    O(M) time in native code on every core (``_core.steep_count``), no per-face temporaries
+    (it was 7 s at 20M faces in numpy blocks).
     """
     if len(faces) == 0:
         return 0.0
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    half = float(np.max(hi * 0.5 - lo * 0.5))
-    scale = 1.0 / half if half > 0 else 1.0
-    n = np.asarray(normal, dtype=np.float64)
-    n = n / np.linalg.norm(n)
-    limit = np.cos(np.radians(STEEP_ANGLE_DEG))
-    steep = 0
-    for start in range(0, len(faces), STEEP_FACES_PER_BLOCK):
-        # edge vectors gathered corner by corner and updated in place: the same arithmetic
-        # as from a (B, 3, 3) gather, 20 % faster (fewer temporaries, no strided slices)
-        block = faces[start : start + STEEP_FACES_PER_BLOCK]
-        first = vertices[block[:, 0]]
-        e1 = vertices[block[:, 1]]
-        e1 -= first
-        e1 *= scale
-        e2 = vertices[block[:, 2]]
-        e2 -= first
-        e2 *= scale
-        fn = np.cross(e1, e2)
-        # tilt > STEEP_ANGLE_DEG  <=>  cos(tilt) = fn.n / |fn| < cos(STEEP_ANGLE_DEG)
-        # (a degenerate triangle, fn = 0, has tilt atan2(0, 0) = 0: not steep)
-        along = fn @ n
-        steep += int(np.count_nonzero(along < limit * np.sqrt(np.einsum("ij,ij->i", fn, fn))))
+    steep = _core.steep_count(
+        np.ascontiguousarray(vertices, dtype=np.float64),
+        np.ascontiguousarray(faces, dtype=np.int64),
+        np.ascontiguousarray(normal, dtype=np.float64),
+        math.radians(STEEP_ANGLE_DEG),
+    )
     return steep / len(faces)
 
 
