@@ -10,7 +10,12 @@ use crate::delaunay::NONE;
 use crate::geometry::orient2d;
 use crate::locality::prefetch;
 use crate::{Error, Result};
-use rayon::slice::ParallelSliceMut;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+
+/// Items per rayon task in the mesh's parallel passes (half-edges, triangles or
+/// vertices): large enough that splitting costs nothing next to the work.
+const BLOCK: usize = 1 << 14;
 
 /// Triples whose triangle has a smallest angle with sine below about this count as collinear
 /// for flips. Scan grids put many points on lines (grid diagonals) that are straight in the
@@ -84,7 +89,9 @@ impl HalfEdgeMesh {
     ///
     /// Errors: an index out of range, a repeated vertex in a triangle, or a directed edge
     /// used twice (two triangles on the same side of an edge: inconsistent orientation or
-    /// a non-manifold edge). O(m log m) for m triangles.
+    /// a non-manifold edge). O(m + n) work for m triangles and n vertices (a counting sort
+    /// of the half-edges by start vertex, then per-vertex passes), in parallel on the
+    /// rayon pool; the result and the error do not depend on the thread count.
     pub fn from_triangles(n_vertices: usize, triangles: &[[u32; 3]]) -> Result<Self> {
         let m = triangles.len();
         if 3 * m >= NONE as usize {
@@ -94,35 +101,95 @@ impl HalfEdgeMesh {
                 expected: "fewer than 2^32 / 3 triangles",
             });
         }
-        let mut start = Vec::with_capacity(3 * m);
-        for (f, t) in triangles.iter().enumerate() {
-            for &v in t {
-                if v as usize >= n_vertices {
-                    return Err(Error::InvalidFace {
+        // The lowest bad face, as a serial scan would report it.
+        let bad_face = triangles
+            .par_iter()
+            .with_min_len(BLOCK)
+            .enumerate()
+            .find_map_first(|(f, t)| {
+                if let Some(&v) = t.iter().find(|&&v| v as usize >= n_vertices) {
+                    return Some(Error::InvalidFace {
                         face: f,
                         reason: format!(
                             "vertex index {v} out of range (there are {n_vertices} vertices)"
                         ),
                     });
                 }
-            }
-            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                return Err(Error::InvalidFace {
+                (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]).then(|| Error::InvalidFace {
                     face: f,
                     reason: format!("repeats a vertex: {t:?}"),
-                });
-            }
-            start.extend_from_slice(t);
+                })
+            });
+        if let Some(e) = bad_face {
+            return Err(e);
         }
-        // Undirected edge keys (min << 32 | max), sorted: the half-edges of one edge end up
-        // adjacent, so one linear pass pairs twins (no search per half-edge).
+        let start = triangles.as_flattened().to_vec();
+        let out = Outgoing::new(n_vertices, &start);
+        if out.repeats_a_directed_edge() {
+            // Rare (a bad input): the sort names the same edge and faces as always.
+            return Err(Self::repeated_edge_by_sort(&start));
+        }
+        // Twins: the twin of a→b is the one half-edge b→a in b's list, if any.
+        let mut twin = vec![NONE; 3 * m];
+        twin.par_chunks_mut(BLOCK)
+            .enumerate()
+            .for_each(|(c, chunk)| {
+                for (k, tw) in chunk.iter_mut().enumerate() {
+                    let h = (c * BLOCK + k) as u32;
+                    let (a, b) = (start[h as usize], start[next(h) as usize]);
+                    if let Some(g) = out.find(b, a) {
+                        *tw = g;
+                    }
+                }
+            });
+        // Each vertex from its own list: vertex_edge is its highest twin-less outgoing
+        // half-edge, else its lowest (what a serial pass over h that lets twin-less
+        // half-edges overwrite would leave); it is on the boundary when a twin-less
+        // half-edge leaves or enters it, and every half-edge entering v is prev(h) of a
+        // half-edge h leaving v (the same triangle's corner).
+        let mut vertex_edge = vec![NONE; n_vertices];
+        let mut on_boundary = vec![false; n_vertices];
+        vertex_edge
+            .par_chunks_mut(BLOCK)
+            .zip(on_boundary.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each(|(c, (edges, flags))| {
+                for (k, (e, flag)) in edges.iter_mut().zip(flags.iter_mut()).enumerate() {
+                    let (mut lowest, mut twinless) = (NONE, None);
+                    for &h in out.half_edges(c * BLOCK + k) {
+                        lowest = lowest.min(h);
+                        if twin[h as usize] == NONE {
+                            twinless = twinless.max(Some(h));
+                            *flag = true;
+                        } else if twin[prev(h) as usize] == NONE {
+                            *flag = true;
+                        }
+                    }
+                    *e = twinless.unwrap_or(lowest);
+                }
+            });
+        Ok(HalfEdgeMesh {
+            start,
+            twin,
+            vertex_edge,
+            on_boundary,
+        })
+    }
+
+    /// The error for half-edges `start` (three per triangle) with a repeated directed
+    /// edge: the lowest undirected edge (min << 32 | max) whose half-edges do not form
+    /// one opposite pair, naming the faces of its two lowest half-edges. O(m log m); only
+    /// called once [`Outgoing::repeats_a_directed_edge`] has found one, so that the error
+    /// is the one this check has always named.
+    fn repeated_edge_by_sort(start: &[u32]) -> Error {
         let undirected = |h: u32| {
             let (a, b) = (start[h as usize], start[next(h) as usize]);
             ((a.min(b) as u64) << 32) | a.max(b) as u64
         };
-        let mut keyed: Vec<(u64, u32)> = (0..3 * m as u32).map(|h| (undirected(h), h)).collect();
+        let mut keyed: Vec<(u64, u32)> = (0..start.len() as u32)
+            .map(|h| (undirected(h), h))
+            .collect();
         keyed.par_sort_unstable(); // (key, half-edge) pairs are distinct: deterministic
-        let mut twin = vec![NONE; 3 * m];
         let mut k = 0;
         while k < keyed.len() {
             let run = keyed[k..].iter().take_while(|e| e.0 == keyed[k].0).count();
@@ -130,41 +197,18 @@ impl HalfEdgeMesh {
                 let (h, g) = (keyed[k].1, keyed[k + 1].1);
                 let (a, b) = (start[h as usize], start[next(h) as usize]);
                 if run > 2 || start[g as usize] == a {
-                    return Err(Error::InvalidFace {
+                    return Error::InvalidFace {
                         face: (g / 3) as usize,
                         reason: format!(
                             "edge {a}->{b} is also used by face {}: faces must be consistently oriented and each edge shared by at most two faces",
                             h / 3
                         ),
-                    });
+                    };
                 }
-                twin[h as usize] = g;
-                twin[g as usize] = h;
             }
             k += run;
         }
-        let mut mesh = HalfEdgeMesh {
-            start,
-            twin,
-            vertex_edge: vec![NONE; n_vertices],
-            on_boundary: vec![false; n_vertices],
-        };
-        mesh.index_vertices();
-        Ok(mesh)
-    }
-
-    /// Recomputes `vertex_edge` and `on_boundary` from the half-edges. O(m).
-    fn index_vertices(&mut self) {
-        for h in 0..self.start.len() as u32 {
-            let v = self.start[h as usize] as usize;
-            if self.twin[h as usize] == NONE {
-                self.vertex_edge[v] = h;
-                self.on_boundary[v] = true;
-                self.on_boundary[self.start[next(h) as usize] as usize] = true;
-            } else if self.vertex_edge[v] == NONE {
-                self.vertex_edge[v] = h;
-            }
-        }
+        unreachable!("repeated_edge_by_sort called on half-edges without a repeated edge")
     }
 
     /// Number of vertices (used or not). O(1).
@@ -430,10 +474,12 @@ impl HalfEdgeMesh {
     /// sum to 2π: no fold); and the Euler characteristic V − E + F equals 2C − B for C
     /// components and B boundary loops (each component a disc with holes).
     ///
-    /// O(m α(m)) time (the components' union-find), three arrays of n entries, no sort and
-    /// no floating-point angle: repeated directed edges and folds are found by the fan walks
-    /// (see [`fan_winding`]), exactly. A mesh with several faults may report another of them
-    /// than before, never none.
+    /// O(m α(m)) time (the components' union-find), no sort and no floating-point angle:
+    /// repeated directed edges and folds are found by the fan walks (see
+    /// [`fan_winding`]), exactly. The half-edge, triangle and vertex checks run in
+    /// parallel on the rayon pool; the error named is that of the lowest failing
+    /// half-edge, else triangle, else vertex (in that order of checks), so it does not
+    /// depend on the thread count.
     pub fn validate(&self, uv: &[[f64; 2]]) -> Result<()> {
         let fail = |s: String| Err(Error::Invariant(s));
         if uv.len() != self.n_vertices() {
@@ -447,103 +493,94 @@ impl HalfEdgeMesh {
             return fail("half-edge arrays of inconsistent length".into());
         }
         let n_he = self.start.len() as u32;
-        for h in 0..n_he {
-            if self.start(h) as usize >= self.n_vertices() {
-                return fail(format!(
-                    "half-edge {h} starts at vertex {} out of range",
-                    self.start(h)
-                ));
-            }
-            let t = self.twin(h);
-            if t != NONE {
-                if t >= n_he || self.twin(t) != h {
-                    return fail(format!("twin of half-edge {h} is not mutual"));
-                }
-                if self.start(t) != self.end(h) || self.end(t) != self.start(h) {
-                    return fail(format!(
-                        "half-edge {h} and its twin {t} do not join the same vertices"
+        let half_edge_fault = (0..n_he)
+            .into_par_iter()
+            .with_min_len(BLOCK)
+            .find_map_first(|h| {
+                if self.start(h) as usize >= self.n_vertices() {
+                    return Some(format!(
+                        "half-edge {h} starts at vertex {} out of range",
+                        self.start(h)
                     ));
                 }
-            }
+                let t = self.twin(h);
+                if t != NONE {
+                    if t >= n_he || self.twin(t) != h {
+                        return Some(format!("twin of half-edge {h} is not mutual"));
+                    }
+                    if self.start(t) != self.end(h) || self.end(t) != self.start(h) {
+                        return Some(format!(
+                            "half-edge {h} and its twin {t} do not join the same vertices"
+                        ));
+                    }
+                }
+                None
+            });
+        if let Some(s) = half_edge_fault {
+            return fail(s);
         }
-        for tri in 0..self.n_triangles() {
-            let [a, b, c] = self.triangle(tri);
-            if orient2d(uv[a as usize], uv[b as usize], uv[c as usize]) <= 0.0 {
-                return fail(format!(
-                    "triangle {tri} ({a}, {b}, {c}) is not strictly counter-clockwise in the plane"
-                ));
-            }
+        let triangle_fault = (0..self.n_triangles())
+            .into_par_iter()
+            .with_min_len(BLOCK)
+            .find_map_first(|tri| {
+                let [a, b, c] = self.triangle(tri);
+                (orient2d(uv[a as usize], uv[b as usize], uv[c as usize]) <= 0.0).then(|| {
+                    format!(
+                        "triangle {tri} ({a}, {b}, {c}) is not strictly counter-clockwise in the plane"
+                    )
+                })
+            });
+        if let Some(s) = triangle_fault {
+            return fail(s);
         }
+        // The vertex checks need each vertex's out-degree and count of boundary half-edges
+        // leaving it, a scattered count over all half-edges. A valid mesh does not: the
+        // fan walks leave from different vertices, so they reach disjoint sets of
+        // half-edges, and when they reach all of them together every walk reached its
+        // vertex's degree and at most one boundary half-edge (the first) leaves each
+        // vertex (see `vertex_fault`). So the counts are only taken when that pass fails,
+        // to name the fault as a full check would.
         let n = self.n_vertices();
-        let mut degree = vec![0u32; n];
-        let mut boundary_out = vec![0u32; n];
-        for h in 0..n_he {
-            degree[self.start(h) as usize] += 1;
-            if self.twin(h) == NONE {
-                boundary_out[self.start(h) as usize] += 1;
-            }
-        }
-        // last_from[w] = v once the fan walk of v has met the half-edge v→w: a second one
-        // is a repeated directed edge. The walk of v meets all of v's half-edges when it
-        // reaches `degree` of them (the fan map h → twin(prev(h)) is injective once twins
-        // are mutual, so a walk never meets a half-edge twice), so every repeat is caught
-        // here or fails the count below.
-        let mut last_from = vec![NONE; n];
-        for v in 0..n as u32 {
-            let e = self.vertex_edge[v as usize];
-            let vi = v as usize;
-            if degree[vi] == 0 {
-                if e != NONE {
-                    return fail(format!("unused vertex {v} has an outgoing half-edge"));
-                }
-                continue;
-            }
-            if e == NONE || self.start(e) != v {
-                return fail(format!(
-                    "vertex {v} does not point at a half-edge leaving it"
-                ));
-            }
-            if boundary_out[vi] > 1 {
-                return fail(format!(
-                    "vertex {v} joins {} separate fans (a pinch)",
-                    boundary_out[vi]
-                ));
-            }
-            if self.on_boundary[vi] != (boundary_out[vi] == 1) {
-                return fail(format!("boundary flag of vertex {v} is stale"));
-            }
-            if boundary_out[vi] == 1 && self.twin(e) != NONE {
-                return fail(format!(
-                    "boundary vertex {v} does not point at its boundary half-edge"
-                ));
-            }
-            let mut reached = 0u32;
-            for h in self.fan(v) {
-                reached += 1;
-                let w = self.end(h);
-                if last_from[w as usize] == v {
-                    return fail(format!("directed edge {v}->{w} appears twice"));
-                }
-                last_from[w as usize] = v;
-            }
-            if reached != degree[vi] {
-                return fail(format!(
-                    "the fan of vertex {v} reaches {reached} of its {} half-edges",
-                    degree[vi]
-                ));
-            }
-            if self.is_interior(v) {
-                let winding = self.fan_winding(v, uv);
-                if winding != 1 {
-                    return fail(format!(
-                        "the fan of interior vertex {v} winds {winding} times around it (planar angles sum to {winding} × 2π, not 2π: a fold)"
-                    ));
+        let walks = (0..n as u32)
+            .into_par_iter()
+            .with_min_len(BLOCK)
+            .map_init(Vec::new, |ends, v| {
+                self.vertex_fault(v, uv, None, ends).ok().map(u64::from)
+            })
+            .sum::<Option<u64>>();
+        let v_used = if walks == Some(u64::from(n_he)) {
+            self.vertex_edge.par_iter().filter(|&&e| e != NONE).count()
+        } else {
+            let mut degree = vec![0u32; n];
+            let mut boundary_out = vec![0u32; n];
+            for h in 0..n_he {
+                degree[self.start(h) as usize] += 1;
+                if self.twin(h) == NONE {
+                    boundary_out[self.start(h) as usize] += 1;
                 }
             }
-        }
+            let counts = Some((&degree[..], &boundary_out[..]));
+            let vertex_fault = (0..n as u32)
+                .into_par_iter()
+                .with_min_len(BLOCK)
+                .map_init(Vec::new, |ends, v| {
+                    self.vertex_fault(v, uv, counts, ends).err()
+                })
+                .find_map_first(|fault| fault);
+            if let Some(s) = vertex_fault {
+                return fail(s);
+            }
+            degree.iter().filter(|&&d| d > 0).count()
+        };
         let (components, loops) = self.count_components_and_loops();
-        let v_used = degree.iter().filter(|&&d| d > 0).count() as i64;
-        let e = self.edges().count() as i64;
+        let v_used = v_used as i64;
+        let e = (0..n_he)
+            .into_par_iter()
+            .filter(|&h| {
+                let t = self.twin(h);
+                t == NONE || h < t
+            })
+            .count() as i64;
         let f = self.n_triangles() as i64;
         if v_used - e + f != 2 * components - loops {
             return fail(format!(
@@ -553,6 +590,111 @@ impl HalfEdgeMesh {
             ));
         }
         Ok(())
+    }
+
+    /// The first fault of vertex `v` in the order [`validate`](Self::validate) checks
+    /// them, or the number of half-edges its fan walk reached. Assumes twins are mutual
+    /// and reversed (checked first), so the walk only meets half-edges leaving `v`, never
+    /// one twice (the fan map h → twin(prev(h)) is injective), and ends.
+    ///
+    /// `counts` = (out-degree, boundary half-edges leaving) per vertex gives the full
+    /// check. Without it (the fast pass), a vertex without `vertex_edge` passes and the
+    /// boundary flag is compared with the first half-edge of the walk: when the walks of
+    /// all vertices together reach every half-edge, that is the same check (a second
+    /// boundary half-edge leaving v, or one not first in its fan, would not be reached);
+    /// otherwise the caller reruns with counts. `ends` is scratch space (the fan's far
+    /// ends, to find a repeated directed edge). O(degree), O(degree log degree) above 32.
+    fn vertex_fault(
+        &self,
+        v: u32,
+        uv: &[[f64; 2]],
+        counts: Option<(&[u32], &[u32])>,
+        ends: &mut Vec<u32>,
+    ) -> std::result::Result<u32, String> {
+        let vi = v as usize;
+        let e = self.vertex_edge[vi];
+        match counts {
+            Some((degree, boundary_out)) => {
+                if degree[vi] == 0 {
+                    if e != NONE {
+                        return Err(format!("unused vertex {v} has an outgoing half-edge"));
+                    }
+                    return Ok(0);
+                }
+                if e == NONE || self.start(e) != v {
+                    return Err(format!(
+                        "vertex {v} does not point at a half-edge leaving it"
+                    ));
+                }
+                if boundary_out[vi] > 1 {
+                    return Err(format!(
+                        "vertex {v} joins {} separate fans (a pinch)",
+                        boundary_out[vi]
+                    ));
+                }
+                if self.on_boundary[vi] != (boundary_out[vi] == 1) {
+                    return Err(format!("boundary flag of vertex {v} is stale"));
+                }
+                if boundary_out[vi] == 1 && self.twin(e) != NONE {
+                    return Err(format!(
+                        "boundary vertex {v} does not point at its boundary half-edge"
+                    ));
+                }
+            }
+            None => {
+                if e == NONE {
+                    return Ok(0);
+                }
+                if self.start(e) != v {
+                    return Err(format!(
+                        "vertex {v} does not point at a half-edge leaving it"
+                    ));
+                }
+                if self.on_boundary[vi] != (self.twin(e) == NONE) {
+                    return Err(format!("boundary flag of vertex {v} is stale"));
+                }
+            }
+        }
+        // A repeated directed edge v→w shows as w met twice in the walk: a scan of the
+        // ends so far (about 6) beats a shared per-vertex stamp array's scattered writes;
+        // a long fan switches to a set, so a star of degree d costs O(d log d), not d².
+        ends.clear();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut reached = 0u32;
+        for h in self.fan(v) {
+            reached += 1;
+            let w = self.end(h);
+            let repeat = if ends.len() < 32 {
+                let r = ends.contains(&w);
+                ends.push(w);
+                if ends.len() == 32 {
+                    seen.extend(ends.iter().copied());
+                }
+                r
+            } else {
+                !seen.insert(w)
+            };
+            if repeat {
+                return Err(format!("directed edge {v}->{w} appears twice"));
+            }
+        }
+        if let Some((degree, _)) = counts {
+            if reached != degree[vi] {
+                return Err(format!(
+                    "the fan of vertex {v} reaches {reached} of its {} half-edges",
+                    degree[vi]
+                ));
+            }
+        }
+        if self.is_interior(v) {
+            let winding = self.fan_winding(v, uv);
+            if winding != 1 {
+                return Err(format!(
+                    "the fan of interior vertex {v} winds {winding} times around it (planar angles sum to {winding} × 2π, not 2π: a fold)"
+                ));
+            }
+        }
+        Ok(reached)
     }
 
     /// How many times the closed fan of `v` winds around it in the plane, when every
@@ -582,43 +724,199 @@ impl HalfEdgeMesh {
             .sum()
     }
 
-    /// Connected components of triangles (through twins) and boundary loops. O(m α(m)).
+    /// Connected components of triangles (through twins) and boundary loops.
+    ///
+    /// Components: a concurrent union-find over the interior edges on the rayon pool
+    /// (compare-and-swap links, the higher root under the lower, path halving); the count
+    /// of roots does not depend on the order of the unions. Loops: the cycles of
+    /// h → vertex_edge[end(h)] on the boundary half-edges, walked serially over the
+    /// (usually few) boundary half-edges. O(m α(m)) work.
     fn count_components_and_loops(&self) -> (i64, i64) {
         let m = self.n_triangles();
-        let mut parent: Vec<u32> = (0..m as u32).collect();
-        fn find(p: &mut [u32], mut x: u32) -> u32 {
-            while p[x as usize] != x {
-                p[x as usize] = p[p[x as usize] as usize];
-                x = p[x as usize];
-            }
-            x
-        }
-        for h in 0..self.start.len() as u32 {
-            let t = self.twin(h);
-            // Each interior edge once (from its lower half-edge).
-            if t != NONE && h < t {
-                let (x, y) = (find(&mut parent, h / 3), find(&mut parent, t / 3));
-                if x != y {
-                    parent[x as usize] = y;
+        let parent: Vec<AtomicU32> = (0..m as u32).into_par_iter().map(AtomicU32::new).collect();
+        fn find(p: &[AtomicU32], mut x: u32) -> u32 {
+            loop {
+                let up = p[x as usize].load(Ordering::Relaxed);
+                if up == x {
+                    return x;
                 }
+                let grand = p[up as usize].load(Ordering::Relaxed);
+                if grand != up {
+                    // Halving; losing the race only leaves a longer path.
+                    let _ = p[x as usize].compare_exchange(
+                        up,
+                        grand,
+                        Ordering::Relaxed,
+                        Ordering::Relaxed,
+                    );
+                }
+                x = grand;
             }
         }
-        let components = (0..m as u32).filter(|&x| find(&mut parent, x) == x).count() as i64;
-        let mut seen = vec![false; self.start.len()];
+        (0..self.start.len() as u32)
+            .into_par_iter()
+            .with_min_len(BLOCK)
+            .for_each(|h| {
+                let t = self.twin(h);
+                // Each interior edge once (from its lower half-edge).
+                if t == NONE || h > t {
+                    return;
+                }
+                let (mut x, mut y) = (h / 3, t / 3);
+                loop {
+                    x = find(&parent, x);
+                    y = find(&parent, y);
+                    if x == y {
+                        return;
+                    }
+                    let (lo, hi) = (x.min(y), x.max(y));
+                    // Only a root is relinked: if hi stopped being one, retry.
+                    if parent[hi as usize]
+                        .compare_exchange(hi, lo, Ordering::Relaxed, Ordering::Relaxed)
+                        .is_ok()
+                    {
+                        return;
+                    }
+                }
+            });
+        let components = (0..m)
+            .into_par_iter()
+            .filter(|&x| parent[x].load(Ordering::Relaxed) == x as u32)
+            .count() as i64;
+        let boundary: Vec<u32> = (0..self.start.len() as u32)
+            .into_par_iter()
+            .filter(|&h| self.twin(h) == NONE)
+            .collect();
+        let mut seen = vec![false; boundary.len()];
         let mut loops = 0;
-        for h0 in 0..self.start.len() as u32 {
-            if self.twin(h0) != NONE || seen[h0 as usize] {
+        for k0 in 0..boundary.len() {
+            if seen[k0] {
                 continue;
             }
             loops += 1;
-            let mut h = h0;
-            // The boundary half-edge leaving end(h) is that vertex's vertex_edge (one fan each).
-            while !seen[h as usize] {
-                seen[h as usize] = true;
-                h = self.vertex_edge[self.end(h) as usize];
+            let mut k = k0;
+            // The boundary half-edge leaving end(h) is that vertex's vertex_edge (one fan
+            // each); validate has checked that it is a boundary half-edge.
+            while !seen[k] {
+                seen[k] = true;
+                let h = self.vertex_edge[self.end(boundary[k]) as usize];
+                k = boundary
+                    .binary_search(&h)
+                    .expect("boundary vertex_edge checked");
             }
         }
         (components, loops)
+    }
+}
+
+/// The half-edges of a triangle list grouped by start vertex (a counting sort): the
+/// half-edges leaving v are `half_edge[first[v]..first[v + 1]]`, in increasing order,
+/// and `end[k]` is where `half_edge[k]` arrives. Used by
+/// [`HalfEdgeMesh::from_triangles`] to pair twins without sorting edge keys.
+struct Outgoing {
+    first: Vec<u32>,
+    half_edge: Vec<u32>,
+    end: Vec<u32>,
+}
+
+impl Outgoing {
+    /// Groups half-edges `start` (three per triangle, vertices below `n`). Each of c
+    /// chunks of the half-edges counts its own starts, so the chunks scatter without
+    /// atomic counters and every list comes out in increasing order whatever c is.
+    /// O(m + c n) work for m half-edges, c = the rayon pool's thread count (at most one
+    /// chunk per 2^16 half-edges); c arrays of n counts.
+    fn new(n: usize, start: &[u32]) -> Self {
+        let m = start.len();
+        let chunks = rayon::current_num_threads().min(m >> 16).max(1);
+        let len = m.div_ceil(chunks).max(1);
+        let mut cursor: Vec<Vec<u32>> = start
+            .par_chunks(len)
+            .map(|s| {
+                let mut count = vec![0u32; n];
+                for &v in s {
+                    count[v as usize] += 1;
+                }
+                count
+            })
+            .collect();
+        // Exclusive prefix sums in (vertex, chunk) order: chunk c's first slot for v.
+        let mut first = Vec::with_capacity(n + 1);
+        let mut total = 0u32;
+        for v in 0..n {
+            first.push(total);
+            for count in cursor.iter_mut() {
+                let k = count[v];
+                count[v] = total;
+                total += k;
+            }
+        }
+        first.push(total);
+        // The slots are disjoint across chunks but interleaved, so the scatter writes
+        // through relaxed atomics (plain stores on x86): (end << 32) | half-edge.
+        let slots: Vec<AtomicU64> = (0..m).map(|_| AtomicU64::new(0)).collect();
+        start
+            .par_chunks(len)
+            .zip(cursor.par_iter_mut())
+            .enumerate()
+            .for_each(|(c, (s, cursor))| {
+                for (k, &v) in s.iter().enumerate() {
+                    let h = (c * len + k) as u32;
+                    let slot = &mut cursor[v as usize];
+                    let packed = (u64::from(start[next(h) as usize]) << 32) | u64::from(h);
+                    slots[*slot as usize].store(packed, Ordering::Relaxed);
+                    *slot += 1;
+                }
+            });
+        let (end, half_edge) = slots
+            .into_par_iter()
+            .map(|s| {
+                let p = s.into_inner();
+                ((p >> 32) as u32, p as u32)
+            })
+            .unzip();
+        Outgoing {
+            first,
+            half_edge,
+            end,
+        }
+    }
+
+    /// The slots of vertex `v`'s half-edges. O(1).
+    #[inline]
+    fn range(&self, v: usize) -> std::ops::Range<usize> {
+        self.first[v] as usize..self.first[v + 1] as usize
+    }
+
+    /// The half-edges leaving `v`, in increasing order. O(1).
+    #[inline]
+    fn half_edges(&self, v: usize) -> &[u32] {
+        &self.half_edge[self.range(v)]
+    }
+
+    /// The first half-edge a→b, if any. O(degree of a).
+    #[inline]
+    fn find(&self, a: u32, b: u32) -> Option<u32> {
+        let r = self.range(a as usize);
+        let k = self.end[r.clone()].iter().position(|&w| w == b)?;
+        Some(self.half_edge[r.start + k])
+    }
+
+    /// True when some vertex has two half-edges to the same vertex. O(Σ d²) over vertex
+    /// degrees d up to 32 (about 15 compares at the usual 6), O(d log d) above; parallel.
+    fn repeats_a_directed_edge(&self) -> bool {
+        (0..self.first.len() - 1)
+            .into_par_iter()
+            .with_min_len(BLOCK)
+            .any(|v| {
+                let ends = &self.end[self.range(v)];
+                if ends.len() <= 32 {
+                    (1..ends.len()).any(|k| ends[..k].contains(&ends[k]))
+                } else {
+                    let mut sorted = ends.to_vec();
+                    sorted.sort_unstable();
+                    sorted.windows(2).any(|w| w[0] == w[1])
+                }
+            })
     }
 }
 
@@ -846,6 +1144,77 @@ mod tests {
             on_boundary: vec![true; 4],
         };
         assert!(mesh.validate(&uv).is_err());
+    }
+
+    /// `f` on a rayon pool of `threads` threads.
+    fn on_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(f)
+    }
+
+    #[test]
+    fn errors_name_the_lowest_fault_on_any_thread_count() {
+        // 60,000 points: every parallel pass splits into several blocks of BLOCK items.
+        let (uv, mesh) = delaunay_mesh(60_000, 7);
+        let tris = mesh.triangles();
+        let both = |f: &(dyn Fn() -> String + Sync)| {
+            let (one, two) = (on_pool(1, f), on_pool(2, f));
+            assert_eq!(one, two);
+            one
+        };
+        // from_triangles: the same mesh, and the lowest bad face, on 1 and 2 threads.
+        let build = |t: &[[u32; 3]]| match HalfEdgeMesh::from_triangles(uv.len(), t) {
+            Ok(m) => format!("{m:?}"),
+            Err(e) => format!("{e}"),
+        };
+        assert_eq!(both(&|| build(&tris)), format!("{mesh:?}"));
+        let mut bad = tris.clone();
+        bad[100_000][1] = 70_000; // out of range
+        bad[90_000][2] = bad[90_000][0]; // repeated vertex: the lowest fault
+        let err = both(&|| build(&bad));
+        assert!(
+            err.contains("face 90000") && err.contains("repeats"),
+            "{err}"
+        );
+        // Repeated directed edges (a face copied over another twice): the lowest edge key.
+        let mut bad = tris.clone();
+        bad[110_000] = bad[3];
+        bad[5] = bad[100_000];
+        let sorted_error = format!(
+            "{}",
+            HalfEdgeMesh::repeated_edge_by_sort(bad.as_flattened())
+        );
+        assert_eq!(both(&|| build(&bad)), sorted_error);
+        // validate: several stale flags, a vertex pointing elsewhere and a fold; the
+        // lowest faulty vertex is named whatever the split.
+        let mut broken = mesh.clone();
+        let interior: Vec<u32> = (0..60_000).filter(|&v| mesh.is_interior(v)).collect();
+        let [v1, v2, v3] = [interior[20_000], interior[35_000], interior[50_000]];
+        broken.on_boundary[v3 as usize] = true;
+        broken.on_boundary[v2 as usize] = true;
+        broken.vertex_edge[v1 as usize] = broken.vertex_edge[v3 as usize];
+        let err = both(&|| format!("{}", broken.validate(&uv).unwrap_err()));
+        assert_eq!(
+            err,
+            format!(
+                "mesh invariant violated: vertex {v1} does not point at a half-edge leaving it"
+            )
+        );
+        // Clockwise triangles at both ends: the lowest triangle is named.
+        let mut flipped = uv.clone();
+        let [a, b, _] = mesh.triangle(110_000);
+        flipped.swap(a as usize, b as usize);
+        let [a, b, _] = mesh.triangle(40_000);
+        flipped.swap(a as usize, b as usize);
+        let one = on_pool(1, || broken.validate(&flipped).unwrap_err());
+        assert_eq!(
+            format!("{one}"),
+            format!("{}", on_pool(2, || broken.validate(&flipped).unwrap_err()))
+        );
+        assert!(format!("{one}").contains("triangle"), "{one}");
     }
 
     #[test]
