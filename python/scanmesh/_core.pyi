@@ -34,6 +34,7 @@ __all__ = [
     "cheapest_fans",
     "lop",
     "parse_text_table",
+    "stl_records",
     "Annealer",
 ]
 
@@ -162,3 +163,6 @@ def parse_text_table(
 ) -> (
     tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64], int] | None
 ): ...
+def stl_records(
+    points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
+) -> npt.NDArray[np.uint8]: ...

@@ -34,6 +34,7 @@ pub mod locality;
 pub mod lop;
 pub mod mesh;
 pub mod projection;
+pub mod stl;
 pub mod strips;
 pub mod tac_state;
 #[cfg(test)]

@@ -778,6 +778,23 @@ fn strip_mesh<'py>(
     ))
 }
 
+/// Binary STL records of faces (M, 3) int64 over (N, 3) points: (M * 50,) uint8, normal and
+/// corners as little-endian float32, attribute 0 (`scanmesh_core::stl`). Raises
+/// InvalidMeshError for an index out of range. O(M), GIL released.
+#[pyfunction]
+fn stl_records<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    faces_: PyReadonlyArray2<'py, i64>,
+) -> PyResult<Bound<'py, PyArray1<u8>>> {
+    let pts = points3_view(&points)?;
+    let t = face_rows(&faces_)?;
+    let bytes = py
+        .detach(|| scanmesh_core::stl::records(&pts, &t))
+        .map_err(to_py)?;
+    Ok(Array1::from_vec(bytes).into_pyarray(py))
+}
+
 /// Parses bytes `data[start:stop]` (whole lines) as rows of `ncols` whitespace- or, with
 /// `comma`, comma-separated numbers (rules in `scanmesh_core::text`), without the GIL.
 /// Returns (values (R, ncols) float64, row_lines (R,) int64 and blank_lines (B,) int64,
@@ -924,6 +941,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cheapest_fans, m)?)?;
     m.add_function(wrap_pyfunction!(lop, m)?)?;
     m.add_function(wrap_pyfunction!(parse_text_table, m)?)?;
+    m.add_function(wrap_pyfunction!(stl_records, m)?)?;
     m.add_class::<Annealer>()?;
     Ok(())
 }
