@@ -8,7 +8,7 @@
 //!   alone, for the same random edges, with no convexity test, energy or bookkeeping;
 //! - `scaling`: the sustained hot rate on one synthetic surface (a jittered grid over a
 //!   gently curved height field) at about 14,000 and 1,000,000 points, to show how much
-//!   memory locality costs once the state (about 150 MB at 1M) outgrows the caches.
+//!   memory locality costs once the state (about 200 MB at 1M) outgrows the caches.
 
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
