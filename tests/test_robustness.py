@@ -384,9 +384,11 @@ CTRL_C_SCRIPT = """
 import sys, time
 import numpy as np
 import scanmesh
-x, y = np.meshgrid(np.arange(1500.0), 1.2 * np.arange(400))
+# 2.4M points: several seconds of native work even for the fastest method on an idle
+# machine, so the interrupt (0.8 s after "started") always lands inside the call.
+x, y = np.meshgrid(np.arange(3000.0), 1.2 * np.arange(800))
 pts = np.column_stack([x.ravel(), y.ravel(), np.sin(x.ravel() / 30) * np.cos(y.ravel() / 20)])
-ids = np.repeat(np.arange(400), 1500)
+ids = np.repeat(np.arange(800), 3000)
 print("started", flush=True)
 try:
     scanmesh.reconstruct(pts, METHOD, lines=ids, plane="z", max_edge=MAX_EDGE)
