@@ -25,6 +25,8 @@ use std::time::Duration;
 
 #[path = "demo_scan.rs"]
 mod demo_scan;
+#[path = "jitter.rs"]
+mod jitter;
 
 /// The rod's trimmed Delaunay triangulation seen along y, as the Python layer builds it.
 fn rod_state() -> TacState {
@@ -135,13 +137,7 @@ fn six_corner_angles<M: Measurement>(c: &mut Criterion<M>, prefix: &str) {
 /// jitter (±15 % of the spacing, a fixed LCG) keeps Delaunay free of cocircular ties.
 fn grid_points(n: usize) -> Vec<DVec3> {
     let side = (n as f64).sqrt().round() as usize;
-    let mut s = 12_345u64;
-    let mut jitter = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3
-    };
+    let mut jitter = jitter::jitter(12_345, 0.3);
     let mut points = Vec::with_capacity(side * side);
     for j in 0..side {
         for i in 0..side {

@@ -22,6 +22,8 @@ use std::time::Duration;
 
 #[path = "demo_scan.rs"]
 mod demo_scan;
+#[path = "jitter.rs"]
+mod jitter;
 
 /// The default weight of the Python layer (`scanmesh.strips.DEFAULT_WEIGHT`).
 const DEFAULT_WEIGHT: Weight = Weight {
@@ -35,13 +37,7 @@ const DEFAULT_WEIGHT: Weight = Weight {
 /// along and across, jittered by ±0.15: (points, planar positions, line ids).
 fn height_scan(n: usize) -> (Vec<DVec3>, Vec<[f64; 2]>, Vec<i64>) {
     let side = (n as f64).sqrt().round() as usize;
-    let mut s = 17u64;
-    let mut jitter = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3
-    };
+    let mut jitter = jitter::jitter(17, 0.3);
     let mut points = Vec::with_capacity(side * side);
     let mut ids = Vec::with_capacity(side * side);
     for r in 0..side {

@@ -653,17 +653,7 @@ fn path_value(arena: &[Label], mut k: u32, arcs: &[Arc]) -> f64 {
 mod tests {
     use super::*;
     use crate::delaunay::delaunay;
-
-    fn lcg_points(n: usize, seed: u64) -> Vec<[f64; 2]> {
-        let mut s = seed;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        (0..n).map(|_| [next(), next()]).collect()
-    }
+    use crate::testing::random_points;
 
     fn all(uv: &[[f64; 2]], cap: usize) -> Result<Vec<Vec<[u32; 3]>>> {
         let d = delaunay(uv)?;
@@ -721,7 +711,7 @@ mod tests {
     #[test]
     fn every_enumerated_triangulation_is_distinct_full_and_made_of_empty_triangles() {
         for seed in 0..6 {
-            let uv = lcg_points(9, seed);
+            let uv = random_points(9, seed);
             let empty: HashSet<[u32; 3]> = empty_triangles(&uv).unwrap().into_iter().collect();
             let found = all(&uv, 100_000).unwrap();
             let distinct: HashSet<&Vec<[u32; 3]>> = found.iter().collect();
@@ -825,7 +815,7 @@ mod tests {
         };
         let (mut exact_seen, mut inexact_seen) = (0, 0);
         for seed in 0..8 {
-            let uv = lcg_points(10, 100 + seed);
+            let uv = random_points(10, 100 + seed);
             let tri = empty_triangles(&uv).unwrap();
             let d: Vec<[f64; 3]> = tri.iter().map(|_| [rand(), rand(), rand()]).collect();
             let c: Vec<[f64; 3]> = tri.iter().map(|_| [rand(), rand(), rand()]).collect();
@@ -896,7 +886,7 @@ mod tests {
         }
         assert!(exact_seen > 10, "the exact path is exercised");
         assert!(inexact_seen > 10, "the merging path is exercised");
-        let uv = lcg_points(5, 1);
+        let uv = random_points(5, 1);
         let tri = empty_triangles(&uv).unwrap();
         let z = vec![[0.0; 3]; tri.len()];
         assert!(cheapest_fans(&uv, &tri, &z, &z, &[0], &[-1.0]).is_err());
