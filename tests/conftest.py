@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -32,3 +38,21 @@ def rod_scan() -> tuple[np.ndarray, np.ndarray]:
     import scanmesh
 
     return scanmesh.load_demo()
+
+
+def seconds_to_interrupt(script: str, wait: float) -> float:
+    """Run ``script`` in a child; after it prints "started" and ``wait`` seconds pass, send
+    SIGINT; return how long the child took to reach its ``except KeyboardInterrupt``."""
+    proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(script)],
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "started"
+        time.sleep(wait)
+        sent = time.monotonic()
+        os.kill(proc.pid, signal.SIGINT)
+        line = proc.stdout.readline().split()
+        assert proc.wait(timeout=60) == 0
+    finally:
+        proc.kill()
+    assert line and line[0] == "interrupted", line
+    return float(line[1]) - sent

@@ -3,18 +3,13 @@
 from __future__ import annotations
 
 import math
-import os
-import signal
-import subprocess
-import sys
 import textwrap
-import time
 
 import numpy as np
 import pytest
 
 import scanmesh
-from conftest import bumpy_patch
+from conftest import bumpy_patch, seconds_to_interrupt
 from scanmesh import _core
 
 
@@ -154,18 +149,7 @@ def test_ctrl_c_stops_a_long_run_quickly(tmp_path):
         print("finished", flush=True)
         """
     )
-    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
-    try:
-        assert proc.stdout.readline().strip() == "started"
-        time.sleep(0.3)
-        sent = time.monotonic()
-        os.kill(proc.pid, signal.SIGINT)
-        line = proc.stdout.readline().split()
-        assert proc.wait(timeout=30) == 0
-    finally:
-        proc.kill()
-    assert line[0] == "interrupted"
-    assert float(line[1]) - sent < 0.2
+    assert seconds_to_interrupt(script, 0.3) < 0.2
 
 
 def test_small_inputs_run_several_chains_and_keep_the_best():

@@ -8,21 +8,15 @@ codes, atomic outputs); the cases already there are not repeated.
 
 from __future__ import annotations
 
-import os
 import re
-import signal
-import subprocess
-import sys
-import textwrap
 import threading
-import time
 import warnings
 
 import numpy as np
 import pytest
 
 import scanmesh
-from conftest import bumpy_patch
+from conftest import bumpy_patch, seconds_to_interrupt
 from scanmesh import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -397,24 +391,6 @@ except KeyboardInterrupt:
     sys.exit(0)
 print("finished", flush=True)
 """
-
-
-def seconds_to_interrupt(script: str, wait: float) -> float:
-    """Run ``script`` in a child; after it prints "started" and ``wait`` seconds pass, send
-    SIGINT; return how long the child took to reach its ``except KeyboardInterrupt``."""
-    proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(script)],
-                            stdout=subprocess.PIPE, text=True)
-    try:
-        assert proc.stdout.readline().strip() == "started"
-        time.sleep(wait)
-        sent = time.monotonic()
-        os.kill(proc.pid, signal.SIGINT)
-        line = proc.stdout.readline().split()
-        assert proc.wait(timeout=60) == 0
-    finally:
-        proc.kill()
-    assert line and line[0] == "interrupted", line
-    return float(line[1]) - sent
 
 
 @pytest.mark.parametrize("method, max_edge", [("shortest-path", None), ("delaunay", 5.0)])
