@@ -127,7 +127,6 @@ def anneal_surface(
         )
     t0 = time.perf_counter()
     uv, _ = project(initial.vertices, initial.frame.normal)
-
     runner = _core.Annealer(initial.vertices, uv, initial.faces, seed=seed_value, **params)
     total = runner.chains * params["sweeps"]
     report = _progress_bar(progress, total)

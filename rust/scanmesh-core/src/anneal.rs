@@ -295,11 +295,6 @@ impl Annealer {
         &self.trace
     }
 
-    /// The parameters of this run (its chain's seed included).
-    pub fn params(&self) -> &AnnealParams {
-        &self.params
-    }
-
     /// Proposals per sweep (the number of interior edges).
     pub fn sweep_len(&self) -> usize {
         self.sweep_len
