@@ -202,6 +202,8 @@ pub struct Annealer {
     // Counters of the sweep in progress.
     proposed: usize,
     accepted: usize,
+    // Proposals of the sweep that measured angles (not a tie, not unflippable).
+    measured: usize,
     uphill_proposed: usize,
     uphill_accepted: usize,
     found_best: bool,
@@ -273,6 +275,7 @@ impl Annealer {
             cooling,
             proposed: 0,
             accepted: 0,
+            measured: 0,
             uphill_proposed: 0,
             uphill_accepted: 0,
             found_best: false,
@@ -351,6 +354,7 @@ impl Annealer {
             }
             Proposal::Move(mv) => mv,
         };
+        self.measured += 1;
         // Ties are accepted freely: tac is blind on flat and developable parts, and the
         // better optima are reached through long neutral walks there. The sliver guard acts
         // in the final polish, which makes the result a local optimum of (tac, angle).
@@ -426,6 +430,11 @@ impl Annealer {
             self.stopped_early = true;
         }
         self.temperature *= self.cooling;
+        // Corner angles are read by measured proposals only: on flat scans (ties and
+        // unflippable quadrilaterals, 99.9 % of the rod's proposals) hinting their lines
+        // only crowds out the useful hints. Hints never change results.
+        self.slots.corners = self.measured * CORNER_HINT_SHARE >= self.proposed;
+        self.measured = 0;
         self.proposed = 0;
         self.accepted = 0;
         self.uphill_proposed = 0;
@@ -481,6 +490,10 @@ pub fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
 /// points 2 to 6 all help about alike (BENCHMARKS.md, "Annealing throughput").
 const STAGE_GAP: usize = 4;
 
+/// Corner lines are hinted in a sweep when at least one in this many proposals of the
+/// previous sweep measured angles.
+const CORNER_HINT_SHARE: usize = 8;
+
 /// Edges drawn this many proposals ahead of their use.
 const AHEAD: usize = 3 * STAGE_GAP;
 
@@ -496,16 +509,23 @@ const AHEAD: usize = 3 * STAGE_GAP;
 struct SlotDraws {
     rng: Pcg64Mcg,
     n: u64,
-    ring: [u32; AHEAD],
+    // Slots `head + 1 ..= head + AHEAD` of the sequence, at their position mod RING (a
+    // power of two, so positions are masks, not divisions).
+    ring: [u32; RING],
     head: usize,
+    /// Also hint the corner angles of upcoming triangles (see [`TacState::prefetch`]).
+    pub corners: bool,
 }
+
+/// Ring size: the smallest power of two above `AHEAD`.
+const RING: usize = (AHEAD + 1).next_power_of_two();
 
 impl SlotDraws {
     /// Fills the ring with the first `AHEAD` draws of `rng` over slots `0..n`. O(AHEAD).
     fn new(mut rng: Pcg64Mcg, n: u64) -> Self {
-        let mut ring = [0; AHEAD];
+        let mut ring = [0; RING];
         if n > 0 {
-            for r in &mut ring {
+            for r in &mut ring[..AHEAD] {
                 *r = below(&mut rng, n) as u32;
             }
         }
@@ -514,6 +534,7 @@ impl SlotDraws {
             n,
             ring,
             head: 0,
+            corners: true,
         }
     }
 
@@ -521,19 +542,16 @@ impl SlotDraws {
     /// and issues the prefetch stages of the slots ahead. O(1).
     #[inline]
     fn next_slot(&mut self, state: &TacState) -> u32 {
-        let h = self.ring[self.head];
+        const MASK: usize = RING - 1;
+        let h = self.ring[self.head & MASK];
         let fresh = below(&mut self.rng, self.n) as u32;
-        self.ring[self.head] = fresh;
-        self.head = if self.head + 1 == AHEAD {
-            0
-        } else {
-            self.head + 1
-        };
+        self.ring[(self.head + AHEAD) & MASK] = fresh;
+        self.head = self.head.wrapping_add(1);
         // Distances from the new head: `fresh` is AHEAD - 1 proposals away.
-        let at = |d: usize| self.ring[(self.head + d) % AHEAD];
-        state.prefetch(fresh, 0);
-        state.prefetch(at(AHEAD - 1 - STAGE_GAP), 1);
-        state.prefetch(at(AHEAD - 1 - 2 * STAGE_GAP), 2);
+        let at = |d: usize| self.ring[(self.head + d) & MASK];
+        state.prefetch(fresh, 0, self.corners);
+        state.prefetch(at(AHEAD - 1 - STAGE_GAP), 1, self.corners);
+        state.prefetch(at(AHEAD - 1 - 2 * STAGE_GAP), 2, self.corners);
         h
     }
 

@@ -341,44 +341,6 @@ impl HalfEdgeMesh {
         }
     }
 
-    /// Prefetch hint for what [`flip`](Self::flip)`(h)` writes outside the two triangles of
-    /// `h` (the twins of the four outer edges, the four corners' `vertex_edge`). Reads the
-    /// two triangles, so call it once they are cached. Returns the corners (a, b, c, d) of
-    /// [`quad`](Self::quad), for the caller's own per-vertex data, or `None` when `h` is a
-    /// boundary half-edge. No effect on results. O(1).
-    #[inline(always)]
-    pub fn prefetch_flip(&self, h: u32) -> Option<[u32; 4]> {
-        let (th, kh) = (h as usize / 3, h as usize % 3);
-        let twin_h = slots3(&self.twin, th);
-        let t = twin_h[kh];
-        if t == NONE {
-            return None;
-        }
-        let (tt, kt) = (t as usize / 3, t as usize % 3);
-        let twin_t = slots3(&self.twin, tt);
-        let (start_h, start_t) = (slots3(&self.start, th), slots3(&self.start, tt));
-        let quad = [
-            start_h[kh],
-            start_h[(kh + 1) % 3],
-            start_h[(kh + 2) % 3],
-            start_t[(kt + 2) % 3],
-        ];
-        for o in [
-            twin_h[(kh + 1) % 3],
-            twin_h[(kh + 2) % 3],
-            twin_t[(kt + 1) % 3],
-            twin_t[(kt + 2) % 3],
-        ] {
-            if o != NONE {
-                prefetch(&self.twin, o as usize);
-            }
-        }
-        for v in quad {
-            prefetch(&self.vertex_edge, v as usize);
-        }
-        Some(quad)
-    }
-
     /// The twin `t` of `h` and the corners (a, b, c, d) of [`quad`](Self::quad)`(h, t)`,
     /// reading each triangle's slots as one block; `None` when `h` is on the boundary. O(1).
     #[inline(always)]
@@ -418,29 +380,36 @@ impl HalfEdgeMesh {
     pub fn flip(&mut self, h: u32) -> u32 {
         let t = self.twin[h as usize];
         debug_assert!(t != NONE, "flip of boundary half-edge {h}");
-        let (h0, h1, h2) = (h, next(h), prev(h));
-        let (t0, t1, t2) = (t, next(t), prev(t));
-        // Each triangle's slots are read and written as one block of three (one bounds
-        // check each instead of one per slot); k is the position of h (t) in its block.
-        let (th, kh) = (h as usize / 3, h as usize % 3);
-        let (tt, kt) = (t as usize / 3, t as usize % 3);
-        let (sh, st) = (slots3(&self.start, th), slots3(&self.start, tt));
-        let (wh, wt) = (slots3(&self.twin, th), slots3(&self.twin, tt));
-        let [a, b, c, d] = [sh[kh], sh[(kh + 1) % 3], sh[(kh + 2) % 3], st[(kt + 2) % 3]];
-        let (tw_bc, tw_ca) = (wh[(kh + 1) % 3], wh[(kh + 2) % 3]);
-        let (tw_ad, tw_db) = (wt[(kt + 1) % 3], wt[(kt + 2) % 3]);
+        // Each triangle's slots are taken as a block of three (one bounds check per block);
+        // positions k and step(k) are below 3, so indexing a block needs no other check.
+        // Written out slot by slot: the loop's flips are its largest instruction cost.
+        let (kh, kt) = ((h % 3) as usize, (t % 3) as usize);
+        let (th, tt) = (h as usize - kh, t as usize - kt);
+        let step = |k: usize| if k == 2 { 0 } else { k + 1 };
+        let (kh1, kh2, kt1, kt2) = (step(kh), step(step(kh)), step(kt), step(step(kt)));
+        let (h0, h1, h2) = (h, (th + kh1) as u32, (th + kh2) as u32);
+        let (t0, t1, t2) = (t, (tt + kt1) as u32, (tt + kt2) as u32);
+        let sh: &mut [u32; 3] = (&mut self.start[th..th + 3]).try_into().unwrap();
+        let [a, b, c] = [sh[kh], sh[kh1], sh[kh2]];
         // New triangles: h0 = d→c, h1 = c→a, h2 = a→d and t0 = c→d, t1 = d→b, t2 = b→c.
-        let block = |k: usize, x: [u32; 3]| {
-            let mut out = [0; 3];
-            out[k] = x[0];
-            out[(k + 1) % 3] = x[1];
-            out[(k + 2) % 3] = x[2];
-            out
-        };
-        self.start[3 * th..3 * th + 3].copy_from_slice(&block(kh, [d, c, a]));
-        self.start[3 * tt..3 * tt + 3].copy_from_slice(&block(kt, [c, d, b]));
-        self.twin[3 * th..3 * th + 3].copy_from_slice(&block(kh, [t0, tw_ca, tw_ad]));
-        self.twin[3 * tt..3 * tt + 3].copy_from_slice(&block(kt, [h0, tw_db, tw_bc]));
+        let st: &mut [u32; 3] = (&mut self.start[tt..tt + 3]).try_into().unwrap();
+        let d = st[kt2];
+        st[kt] = c;
+        st[kt1] = d;
+        st[kt2] = b;
+        let sh: &mut [u32; 3] = (&mut self.start[th..th + 3]).try_into().unwrap();
+        sh[kh] = d;
+        sh[kh1] = c;
+        sh[kh2] = a;
+        let wh: &mut [u32; 3] = (&mut self.twin[th..th + 3]).try_into().unwrap();
+        let (tw_bc, tw_ca) = (wh[kh1], wh[kh2]);
+        let wt: &mut [u32; 3] = (&mut self.twin[tt..tt + 3]).try_into().unwrap();
+        let (tw_ad, tw_db) = (wt[kt1], wt[kt2]);
+        wt[kt1] = tw_db;
+        wt[kt2] = tw_bc;
+        let wh: &mut [u32; 3] = (&mut self.twin[th..th + 3]).try_into().unwrap();
+        wh[kh1] = tw_ca;
+        wh[kh2] = tw_ad;
         for (outer, inner) in [(tw_ca, h1), (tw_ad, h2), (tw_db, t1), (tw_bc, t2)] {
             if outer != NONE {
                 self.twin[outer as usize] = inner;
