@@ -584,7 +584,7 @@ fn unit_f64(rng: &mut Pcg64Mcg) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tac_state::tests::bumpy_state;
+    use crate::tac_state::tests::{bumpy_state, plateau_state};
 
     fn quick(seed: u64) -> AnnealParams {
         AnnealParams {
@@ -710,6 +710,21 @@ mod tests {
             }
         }
         assert!(flips > 100, "{flips}");
+    }
+
+    #[test]
+    fn corner_hints_follow_the_share_of_measured_proposals() {
+        // Curved everywhere: every flippable proposal measures angles, hints stay on. A
+        // plateau: nearly all proposals are ties or unflippable, hints go off after a sweep.
+        for (state, hinted) in [
+            (bumpy_state(400, 31, 1.0), true),
+            (plateau_state(400, 31, 1.0), false),
+        ] {
+            let mut ann = Annealer::new(state, quick(2)).unwrap();
+            assert!(ann.slots.corners);
+            ann.advance(2 * ann.sweep_len());
+            assert_eq!(ann.slots.corners, hinted);
+        }
     }
 
     #[test]
