@@ -66,6 +66,18 @@ pub enum Detail {
 /// and there every flip is such an exact tie.
 pub const COPLANAR_RELATIVE: f64 = 1e-13;
 
+/// Optional lines for [`TacState::prefetch`]: each helps on some inputs and crowds the
+/// useful hints (a core tracks only so many misses) on others.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PrefetchHints {
+    /// The two triangles' cached corner angles: read only by proposals that measure angles
+    /// (curved quadrilaterals), not by ties or unflippable edges.
+    pub corners: bool,
+    /// What a flip writes outside its two triangles (outer twins, `vertex_edge`): stores
+    /// stall the loop only when they miss every cache, on large states.
+    pub flip_writes: bool,
+}
+
 /// Mesh, positions and the caches that make a flip's energy change O(1).
 #[derive(Debug, Clone)]
 pub struct TacState {
@@ -303,17 +315,13 @@ impl TacState {
     /// Prefetch hints for a later [`evaluate`](Self::evaluate)`(h)` and [`apply`](Self::apply),
     /// in three stages that a caller issues a few proposals apart, each reading only what the
     /// previous stage requested: 0, the slots of h's triangle; 1, those of its twin's; 2,
-    /// the four corners' positions and sums. `corners`: also the two triangles' cached
-    /// corner angles (worth it only where most proposals measure angles). Not hinted: what
-    /// a flip writes outside the two triangles (outer twins, `vertex_edge`): stores do not
-    /// stall the loop, and those hints cost 8 % of the rod's throughput by crowding the
-    /// useful ones. Hints never change results (a flip in between only makes one
-    /// useless). O(1).
+    /// the four corners' positions and sums, and what [`PrefetchHints`] asks for. Hints
+    /// never change results (a flip in between only makes one useless). O(1).
     #[inline(always)]
-    pub fn prefetch(&self, h: u32, stage: usize, corners: bool) {
+    pub fn prefetch(&self, h: u32, stage: usize, hints: PrefetchHints) {
         // A triangle's three corners (24 bytes) can straddle two lines: hint both ends.
         let corner_lines = |t: u32| {
-            if corners {
+            if hints.corners {
                 prefetch(&self.corner, 3 * t as usize);
                 prefetch(&self.corner, 3 * t as usize + 2);
             }
@@ -334,6 +342,9 @@ impl TacState {
                 if let Some((_, quad)) = self.mesh.twin_and_quad(h) {
                     for v in quad {
                         prefetch(&self.vert, v as usize);
+                    }
+                    if hints.flip_writes {
+                        self.mesh.prefetch_flip_writes(h, quad);
                     }
                 }
             }
@@ -689,7 +700,14 @@ pub(crate) mod tests {
         let before = st.clone();
         for h in 0..st.mesh().n_half_edges() as u32 {
             for stage in 0..3 {
-                st.prefetch(h, stage, stage == 0);
+                st.prefetch(
+                    h,
+                    stage,
+                    PrefetchHints {
+                        corners: stage == 0,
+                        flip_writes: stage == 2,
+                    },
+                );
             }
         }
         assert_eq!(st.mesh(), before.mesh());
