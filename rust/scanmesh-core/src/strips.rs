@@ -20,9 +20,14 @@
 //! it and the other way in the strip after it: the strips fit together with one
 //! consistent orientation even where lines cross in the plane. The whole mesh is then
 //! turned counter-clockwise in the plane (by the sign of its total planar area). Points of one-point segments and lines are then inserted into the triangle
-//! (or the edge) that contains them in the plane, if any. The result is checked with
-//! [`HalfEdgeMesh::validate`]; a failure (crossing lines, a pinch) is reported in
+//! (or the edge) that contains them in the plane, if any. The result is checked as
+//! [`HalfEdgeMesh::validate`] would check it: decided from the strips themselves while they
+//! are solved when they fit together as strips do (`strips/check.rs`, which proves the two
+//! checks equivalent), else by building the half-edge mesh and validating it, which also
+//! names every error; a failure (crossing lines, a pinch) is reported in
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
+
+mod check;
 
 use crate::fuchs::{lookahead, path_triangles, shortest_path, Solver, Weight};
 use crate::geometry::{check_finite, normalize_plane, orient2d, Normalizer};
@@ -31,6 +36,7 @@ use crate::mesh::HalfEdgeMesh;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Coefficient of the edge length (in median steps) added to every weight to break ties:
 /// on a flat strip every path has the same area and no dihedral angle, and without it the
@@ -56,7 +62,9 @@ pub struct StripParams {
     pub weight: Weight,
     /// Shortest path or look-ahead.
     pub method: Method,
-    /// Whether to build the half-edge mesh and validate it in the plane (O(m log m)).
+    /// Whether to check that the mesh is a valid planar triangulation (as
+    /// [`HalfEdgeMesh::validate`]): O(n) in parallel from the strips when they fit together
+    /// as strips do, else O(m α(m)) on the half-edge mesh.
     pub check: bool,
 }
 
@@ -90,13 +98,17 @@ pub struct StripMesh {
 struct Task {
     a: Vec<u32>,
     b: Vec<u32>,
+    /// Where `a` and `b` lie in their oriented lines (for the planar check).
+    a_at: check::Window,
+    b_at: check::Window,
     /// Index of the first of the two lines (for inserting lone points).
     line: usize,
 }
 
-/// The part of `segment` whose t lies in [lo, hi]. Segments run in their line's oriented
-/// direction, nearly monotone in t, so the ends are trimmed from outside in. O(len).
-fn clip(segment: &[u32], t: impl Fn(u32) -> f64, lo: f64, hi: f64) -> Vec<u32> {
+/// The part of `segment` whose t lies in [lo, hi], and the index of its first point in
+/// `segment`. Segments run in their line's oriented direction, nearly monotone in t, so
+/// the ends are trimmed from outside in. O(len).
+fn clip(segment: &[u32], t: impl Fn(u32) -> f64, lo: f64, hi: f64) -> (Vec<u32>, u32) {
     let start = segment
         .iter()
         .position(|&k| t(k) >= lo)
@@ -106,9 +118,9 @@ fn clip(segment: &[u32], t: impl Fn(u32) -> f64, lo: f64, hi: f64) -> Vec<u32> {
         .rposition(|&k| t(k) <= hi)
         .map_or(0, |e| e + 1);
     if start >= end {
-        return Vec::new();
+        return (Vec::new(), 0);
     }
-    segment[start..end].to_vec()
+    (segment[start..end].to_vec(), start as u32)
 }
 
 /// The chord of a line in the plane: from its first point to its last. O(1).
@@ -140,18 +152,30 @@ fn pair_tasks(
         let (x, y) = (t(s[0]), t(s[s.len() - 1]));
         (x.min(y), x.max(y))
     };
-    for sa in lines[p].iter().filter(|s| s.len() >= 2) {
+    let long = |line: usize| lines[line].iter().enumerate().filter(|(_, s)| s.len() >= 2);
+    let at = |line: usize, segment: usize, lo: u32| check::Window {
+        line: line as u32,
+        segment: segment as u32,
+        lo,
+    };
+    for (ka, sa) in long(p) {
         let (a0, a1) = range(sa);
-        for sb in lines[q].iter().filter(|s| s.len() >= 2) {
+        for (kb, sb) in long(q) {
             let (b0, b1) = range(sb);
             let (lo, hi) = (a0.max(b0), a1.min(b1));
             if lo - hi > margin {
                 continue;
             }
-            let a = clip(sa, t, lo - margin, hi + margin);
-            let b = clip(sb, t, lo - margin, hi + margin);
+            let (a, a_lo) = clip(sa, t, lo - margin, hi + margin);
+            let (b, b_lo) = clip(sb, t, lo - margin, hi + margin);
             if !a.is_empty() && !b.is_empty() && a.len() + b.len() >= 3 {
-                out.push(Task { a, b, line: p });
+                out.push(Task {
+                    a,
+                    b,
+                    a_at: at(p, ka, a_lo),
+                    b_at: at(q, kb, b_lo),
+                    line: p,
+                });
             }
         }
     }
@@ -165,15 +189,19 @@ struct Solved {
     cost: f64,
     /// Twice the planar signed area of its triangles (for the orientation of the mesh).
     signed_area: f64,
+    /// Its part of the planar check, when the check runs locally.
+    summary: Option<check::Summary>,
 }
 
-/// Triangulates one strip; `uv` are the planar positions (for its signed area).
+/// Triangulates one strip; `uv` are the planar positions (for its signed area);
+/// `interior` the strip's interior ranges when the planar check runs locally.
 fn solve(
     points: &[DVec3],
     uv: &[[f64; 2]],
     task: &Task,
     params: &StripParams,
     weight: Weight,
+    interior: Option<&[Vec<std::ops::Range<u32>>; 2]>,
 ) -> Result<Solved> {
     let a: Vec<DVec3> = task.a.iter().map(|&k| points[k as usize]).collect();
     let b: Vec<DVec3> = task.b.iter().map(|&k| points[k as usize]).collect();
@@ -182,6 +210,7 @@ fn solve(
         Method::Lookahead(alpha) => lookahead(&a, &b, weight, alpha)?,
     };
     let triangles = path_triangles(&solution.path, &task.a, &task.b)?;
+    let summary = interior.map(|r| check::summarize(uv, task, &solution.path, r));
     let signed_area = triangles
         .iter()
         .map(|t| {
@@ -193,6 +222,7 @@ fn solve(
         triangles,
         cost: solution.cost,
         signed_area,
+        summary,
     })
 }
 
@@ -272,14 +302,39 @@ fn insert(
 ///
 /// Time: detection of overlaps O(n + Σ segment pairs); each strip as its method (banded
 /// shortest path O((n_a + n_b) · w), look-ahead O((n_a + n_b) · α²)), all strips in
-/// parallel; lone points O(strip size) each; the check O(m log m). Errors: `points` and
-/// `uv` of different lengths, a non-finite coordinate, bad parameters.
+/// parallel; lone points O(strip size) each; the check O(n) in parallel when it can be
+/// decided from the strips (see `strips/check.rs`), else O(m α(m)) on the half-edge mesh.
+/// Errors: `points` and `uv` of different lengths, a non-finite coordinate, bad
+/// parameters.
 pub fn stitch(
     points: &[DVec3],
     uv: &[[f64; 2]],
     scan: &ScanLines,
     params: &StripParams,
 ) -> Result<StripMesh> {
+    stitch_with(points, uv, scan, params, true).map(|(mesh, _)| mesh)
+}
+
+/// Why the stitched mesh is not a valid planar triangulation, by the global check
+/// ([`HalfEdgeMesh::from_triangles`] and [`HalfEdgeMesh::validate`] on the unit-box
+/// positions `uv`): the oracle of the local check, and what names its errors. O(m α(m)).
+fn global_check(n_points: usize, triangles: &[[u32; 3]], uv: &[[f64; 2]]) -> Option<Error> {
+    HalfEdgeMesh::from_triangles(n_points, triangles)
+        .and_then(|m| m.validate(uv))
+        .err()
+}
+
+/// [`stitch`], deciding the planar check from the strips when `local` and it can (else,
+/// and always when not `local`, by [`global_check`]); also returns the local verdict
+/// (`Some(true)` = accepted without the global check, `Some(false)` = referred to it,
+/// `None` = not asked), for the tests that hold it against the global check.
+fn stitch_with(
+    points: &[DVec3],
+    uv: &[[f64; 2]],
+    scan: &ScanLines,
+    params: &StripParams,
+    local: bool,
+) -> Result<(StripMesh, Option<bool>)> {
     if points.len() != uv.len() {
         return Err(Error::InvalidParameter {
             name: "uv",
@@ -362,12 +417,22 @@ pub fn stitch(
     for pair in kept.windows(2) {
         pair_tasks(uv, &oriented, pair[0], pair[1], margin, &mut tasks);
     }
+    let plan = if params.check && local {
+        check::plan(&tasks, &oriented, points.len())
+    } else {
+        None
+    };
     // Everything per strip happens here, in parallel: what stays serial below (joining the
-    // lists, lone points, marking used points) is memory traffic of a few ms per million.
+    // lists, lone points) is memory traffic of a few ms per million.
     let solved: Vec<Solved> = tasks
         .par_iter()
-        .map(|task| solve(points, uv, task, params, weight))
+        .enumerate()
+        .map(|(k, task)| {
+            let interior = plan.as_ref().map(|p| p.interior(k));
+            solve(points, uv, task, params, weight, interior)
+        })
         .collect::<Result<_>>()?;
+    let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
     let mut triangles = Vec::with_capacity(solved.iter().map(|s| s.triangles.len()).sum());
     // Triangle range of each task, to find the strips around a lone point.
     let mut ranges = Vec::with_capacity(tasks.len());
@@ -386,6 +451,7 @@ pub fn stitch(
 
     // Lone points: one-point segments, and every point of lines passed over.
     let mut created = Vec::new();
+    let mut inserted = false;
     for (l, line) in scan.lines.iter().enumerate() {
         // The strips around line l start at the kept line before it, or at l itself.
         let before = kept
@@ -400,7 +466,7 @@ pub fn stitch(
                 .flat_map(|r| r.clone())
                 .chain(created.iter().copied())
                 .collect();
-            insert(
+            inserted |= insert(
                 uv,
                 &mut triangles,
                 candidates.into_iter(),
@@ -410,34 +476,43 @@ pub fn stitch(
         }
     }
 
-    let mut used = vec![false; points.len()];
-    for t in &triangles {
-        for &k in t {
-            used[k as usize] = true;
-        }
-    }
-    let unused = (0..points.len() as u32)
-        .filter(|&k| !used[k as usize])
+    // Relaxed stores of `true` in any order leave the same flags: parallel is exact.
+    let used: Vec<AtomicBool> = (0..points.len())
+        .into_par_iter()
+        .map(|_| AtomicBool::new(false))
         .collect();
-    let planar_error = if params.check {
-        HalfEdgeMesh::from_triangles(points.len(), &triangles)
-            .and_then(|m| m.validate(uv))
-            .err()
-    } else {
+    triangles
+        .par_iter()
+        .flatten()
+        .for_each(|&k| used[k as usize].store(true, Ordering::Relaxed));
+    let unused = (0..points.len() as u32)
+        .into_par_iter()
+        .filter(|&k| !used[k as usize].load(Ordering::Relaxed))
+        .collect();
+    // Lone points' triangles are not strips: then only the global check knows.
+    let verdict = plan
+        .as_ref()
+        .map(|p| !inserted && p.accepts(&summaries, signed_area < 0.0));
+    let planar_error = if !params.check || verdict == Some(true) {
         None
+    } else {
+        global_check(points.len(), &triangles, uv)
     };
-    Ok(StripMesh {
+    let mesh = StripMesh {
         triangles,
         unused,
         n_strips: tasks.len(),
         cost,
         planar_error,
-    })
+    };
+    let asked = params.check && local;
+    Ok((mesh, asked.then_some(verdict == Some(true))))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::normalize_plane;
     use crate::lines::{segment_lines, DEFAULT_GAP_FACTOR};
 
     /// A height field z = f(x, y) sampled on `rows` lines y = r·dy of points x = c·dx,
@@ -645,6 +720,252 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Stitches `scan` with the planar check decided locally and globally: the meshes and
+    /// errors must be the same, and the local check may only accept what the global one
+    /// accepts. Returns (local verdict, global verdict).
+    fn local_against_global(
+        pts: &[DVec3],
+        uv: &[[f64; 2]],
+        scan: &ScanLines,
+        params: &StripParams,
+    ) -> (bool, bool) {
+        let (local, verdict) = stitch_with(pts, uv, scan, params, true).unwrap();
+        let (global, none) = stitch_with(pts, uv, scan, params, false).unwrap();
+        assert_eq!(none, None);
+        assert_eq!(local.triangles, global.triangles);
+        assert_eq!(local.unused, global.unused);
+        assert_eq!(
+            format!("{:?}", local.planar_error),
+            format!("{:?}", global.planar_error)
+        );
+        let valid = global.planar_error.is_none();
+        let accepted = verdict.expect("the check was asked for");
+        assert!(
+            !accepted || valid,
+            "the local check accepted an invalid mesh"
+        );
+        // The oracle once more, on the mesh as returned.
+        if !global.triangles.is_empty() {
+            let (unit, _) = normalize_plane(uv);
+            assert_eq!(
+                valid,
+                global_check(pts.len(), &global.triangles, &unit).is_none()
+            );
+        }
+        (accepted, valid)
+    }
+
+    /// A small LCG in [0, 1), for the random scans below.
+    fn lcg(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    #[test]
+    fn the_local_check_accepts_valid_scans_like_the_global_one() {
+        let centre = (6.0, 2.8);
+        let hole =
+            |x: f64, y: f64| (x - centre.0).powi(2) + (y - centre.1).powi(2) < 1.6f64.powi(2);
+        let cases: Vec<(Vec<DVec3>, Vec<i64>)> = vec![
+            grid(9, 25, false, |_, _| false),
+            grid(9, 25, true, |_, _| false),
+            grid(9, 25, true, hole),
+            grid(12, 40, false, |x, y| x < 0.3 * y || x > 14.0 + 0.25 * y),
+            grid(9, 25, true, |x, y| {
+                (x - 4.0).abs() < 1.2 && y > 1.0 && y < 4.0
+            }),
+        ];
+        for (pts, ids) in cases {
+            let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+            let scan = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
+            for params in methods() {
+                assert_eq!(
+                    local_against_global(&pts, &uv, &scan, &params),
+                    (true, true)
+                );
+            }
+        }
+    }
+
+    /// Random scans, from tame to wild: lines with holes, jitter across the lines (up to
+    /// crossings and folds), lines turned or shifted, random line ids, lone points. The
+    /// local check must agree with the global one; it may only refer valid meshes to it
+    /// when lone points were inserted or windows of one side touch (counted, and rare).
+    #[test]
+    fn the_local_check_refuses_exactly_what_the_global_one_refuses() {
+        let (mut valid, mut invalid, mut referred) = (0, 0, 0);
+        for seed in 0..600u64 {
+            let mut r = lcg(seed);
+            let rows = 2 + (r() * 8.0) as usize;
+            let cols = 2 + (r() * 30.0) as usize;
+            let across = [0.0, 0.1, 0.4, 0.9, 2.0][seed as usize % 5];
+            let along = [0.0, 0.3, 1.5][(seed / 5) as usize % 3];
+            let holes = r() < 0.5;
+            let zigzag = r() < 0.5;
+            let (mut pts, mut ids) = (Vec::new(), Vec::new());
+            for row in 0..rows {
+                let len = (cols as f64 * (0.5 + r())) as usize + 1;
+                let shift = if r() < 0.3 { r() * 6.0 - 3.0 } else { 0.0 };
+                let tilt = if r() < 0.15 { r() * 0.6 - 0.3 } else { 0.0 };
+                for c in 0..len {
+                    let c = if zigzag && row % 2 == 1 {
+                        len - 1 - c
+                    } else {
+                        c
+                    };
+                    let x = c as f64 + shift + along * (r() - 0.5);
+                    let y = row as f64 + tilt * x + across * (r() - 0.5);
+                    if holes && ((x - 7.0).powi(2) + (y - 3.0).powi(2)).sqrt() < 2.0 {
+                        continue;
+                    }
+                    pts.push(DVec3::new(x, y, (0.4 * x).sin() * (0.3 * y).cos()));
+                    ids.push(row as i64);
+                }
+            }
+            if seed % 7 == 0 {
+                // Lone points: a line of one point between two lines.
+                for _ in 0..3 {
+                    let (x, y) = (r() * cols as f64, (r() * rows as f64).floor() + 0.5);
+                    pts.push(DVec3::new(x, y, 0.0));
+                    ids.push(1000 + (y * 2.0) as i64);
+                }
+            }
+            if seed % 11 == 0 {
+                // Scrambled ids: lines all over the plane.
+                let n_ids = 1 + (r() * 5.0) as usize;
+                ids.iter_mut()
+                    .for_each(|id| *id = (r() * n_ids as f64) as i64);
+            }
+            let mut uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+            if seed % 13 == 0 {
+                // A fold: the plane of the second half of the points mirrored.
+                let half = uv.len() / 2;
+                uv[half..].iter_mut().for_each(|p| p[0] = -p[0]);
+            }
+            let Ok(scan) = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR) else {
+                continue;
+            };
+            let params = StripParams {
+                method: if seed % 3 == 0 {
+                    Method::Lookahead(2)
+                } else {
+                    StripParams::default().method
+                },
+                ..StripParams::default()
+            };
+            let (accepted, ok) = local_against_global(&pts, &uv, &scan, &params);
+            match (accepted, ok) {
+                (true, _) => valid += 1,
+                (false, false) => invalid += 1,
+                (false, true) => referred += 1,
+            }
+        }
+        assert!(
+            valid > 150 && invalid > 50,
+            "{valid} valid, {invalid} invalid"
+        );
+        assert!(
+            referred <= 60,
+            "{referred} valid meshes referred to the global check"
+        );
+    }
+
+    /// Hand-made scan lines the local check must not trust: a point in two lines, windows
+    /// of one side touching or sharing an edge (a repeated directed edge), a fold.
+    #[test]
+    fn adversarial_scan_lines_go_to_the_global_check() {
+        let (pts, ids) = grid(4, 10, false, |_, _| false);
+        let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+        let params = StripParams::default();
+        let base = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
+        assert_eq!(
+            local_against_global(&pts, &uv, &base, &params),
+            (true, true)
+        );
+        // Point 15 (line 1) repeated in line 2.
+        let mut twice = base.clone();
+        twice.lines[2][0].insert(5, 15);
+        assert_eq!(
+            local_against_global(&pts, &uv, &twice, &params),
+            (false, false)
+        );
+        // Line 1 split so that its two halves share point 14: two windows of one side
+        // touch in one point.
+        let mut touch = base.clone();
+        let line = touch.lines[1][0].clone();
+        touch.lines[1] = vec![line[..5].to_vec(), line[4..].to_vec()];
+        let (_, ok) = local_against_global(&pts, &uv, &touch, &params);
+        assert!(!ok);
+        // Line 1 split into overlapping halves: repeated directed edges.
+        let mut overlap = base.clone();
+        overlap.lines[1] = vec![line[..6].to_vec(), line[3..].to_vec()];
+        assert_eq!(
+            local_against_global(&pts, &uv, &overlap, &params),
+            (false, false)
+        );
+        // A fold: the middle line mirrored, so its strips turn clockwise.
+        let mut fold_uv = uv.clone();
+        for (p, &id) in fold_uv.iter_mut().zip(&ids) {
+            if id == 2 {
+                p[1] = 0.7 * 0.5;
+            }
+        }
+        let fold = segment_lines(&fold_uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
+        assert_eq!(
+            local_against_global(&pts, &fold_uv, &fold, &params),
+            (false, false)
+        );
+    }
+
+    /// A below and an above window of one line meeting in one point: a pinch, which the
+    /// local plan refers to the global check and the global check refuses.
+    #[test]
+    fn windows_meeting_in_one_point_are_a_pinch_for_both_checks() {
+        use crate::fuchs::Step::{A, B};
+        // Lines 0, 1, 2: points 0-2, 3-5, 6-8 on y = 0, 1, 2, each shifted by one.
+        let uv: Vec<[f64; 2]> = (0..9)
+            .map(|k| [(k % 3 + k / 3) as f64, (k / 3) as f64])
+            .collect();
+        let at = |line, lo| check::Window {
+            line,
+            segment: 0,
+            lo,
+        };
+        // Strip 0 uses points 3, 4 of line 1, strip 1 points 4, 5: they meet in point 4.
+        let tasks = [
+            (vec![0, 1, 2], vec![3, 4], at(0, 0), at(1, 0), [A, A, B]),
+            (vec![4, 5], vec![6, 7, 8], at(1, 1), at(2, 0), [A, B, B]),
+        ];
+        let mut triangles = Vec::new();
+        for (a, b, _, _, path) in &tasks {
+            triangles.extend(path_triangles(path, a, b).unwrap());
+        }
+        let tasks: Vec<Task> = tasks
+            .into_iter()
+            .enumerate()
+            .map(|(line, (a, b, a_at, b_at, _))| Task {
+                a,
+                b,
+                a_at,
+                b_at,
+                line,
+            })
+            .collect();
+        let lines = vec![
+            vec![vec![0, 1, 2]],
+            vec![vec![3, 4, 5]],
+            vec![vec![6, 7, 8]],
+        ];
+        assert!(check::plan(&tasks, &lines, 9).is_none());
+        let error = global_check(9, &triangles, &uv).expect("a pinch");
+        assert!(error.to_string().contains("pinch"), "{error}");
     }
 
     #[test]
