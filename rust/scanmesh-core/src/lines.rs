@@ -42,6 +42,10 @@ pub const TURN_ANGLE_DEG: f64 = 45.0;
 /// long enough to average jitter, short enough to follow a gently curving line.
 pub const DIRECTION_WINDOW: usize = 32;
 
+/// Points per rayon task in the passes over all points: large enough that splitting
+/// costs nothing next to the work.
+const BLOCK: usize = 1 << 14;
+
 /// Scan lines split into segments, in the caller's point indices.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScanLines {
@@ -167,7 +171,11 @@ pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
 /// Errors: `line_ids` of another length than `uv`, a non-finite coordinate, a gap factor
 /// that is not positive. O(n log n) for the grouping (O(n) when ids never decrease).
 pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Result<ScanLines> {
-    crate::geometry::check_planar(uv)?;
+    // The common case (all finite) in parallel; the serial check names the first bad one.
+    let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
+    if uv.len() >= u32::MAX as usize || !uv.par_iter().with_min_len(BLOCK).all(finite) {
+        crate::geometry::check_planar(uv)?;
+    }
     check_gap_factor(gap_factor)?;
     if line_ids.len() != uv.len() {
         return Err(Error::InvalidParameter {
@@ -183,45 +191,62 @@ pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Resu
             expected: "fewer than 2^32 points",
         });
     }
-    let mut order: Vec<u32> = (0..uv.len() as u32).collect();
-    if line_ids.windows(2).any(|w| w[1] < w[0]) {
-        order.sort_by_key(|&k| line_ids[k as usize]); // stable: input order within a line
-    }
-    // Lines with coincident repeats dropped.
-    let mut lines: Vec<Vec<u32>> = Vec::new();
-    let mut duplicates = Vec::new();
-    for (pos, &k) in order.iter().enumerate() {
-        let new_line = pos == 0 || line_ids[k as usize] != line_ids[order[pos - 1] as usize];
-        if new_line {
-            lines.push(vec![k]);
-            continue;
-        }
-        let current = lines.last_mut().expect("a line was started");
-        let last = *current.last().expect("lines are never empty");
-        if uv[k as usize] == uv[last as usize] {
-            duplicates.push((k, last));
-        } else {
-            current.push(k);
-        }
-    }
-    // Step lengths once per line (the median and the gaps both need them), lines in
-    // parallel: with the grouping above they were most of the serial time of strips.
-    let steps: Vec<Vec<f64>> = lines
-        .par_iter()
+    // Input positions in line order: the input itself when ids never decrease (scans
+    // usually come that way), else a stable sort (input order within a line).
+    let sorted = line_ids
+        .par_windows(2)
+        .with_min_len(BLOCK)
+        .all(|w| w[0] <= w[1]);
+    let order: Vec<u32> = if sorted {
+        Vec::new()
+    } else {
+        let mut order: Vec<u32> = (0..uv.len() as u32).collect();
+        order.par_sort_by_key(|&k| line_ids[k as usize]); // stable
+        order
+    };
+    let at = |pos: usize| if sorted { pos as u32 } else { order[pos] };
+    // Where each line starts in that order, then each line on its own, in parallel: its
+    // points with coincident repeats dropped (each against the last point kept, as a
+    // serial pass would), those repeats, and its step lengths (the median and the gaps
+    // both need them). The same lines, repeats and steps as one serial pass.
+    let starts: Vec<usize> = (0..uv.len())
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .filter(|&pos| pos == 0 || line_ids[at(pos) as usize] != line_ids[at(pos - 1) as usize])
+        .collect();
+    type Grouped = (Vec<u32>, Vec<(u32, u32)>, Vec<f64>);
+    let grouped: Vec<Grouped> = (0..starts.len())
+        .into_par_iter()
         .map(|l| {
-            l.windows(2)
-                .map(|w| planar_distance(uv[w[1] as usize], uv[w[0] as usize]))
-                .collect()
+            let end = starts.get(l + 1).copied().unwrap_or(uv.len());
+            let mut line = vec![at(starts[l])];
+            let mut repeats = Vec::new();
+            let mut steps = Vec::new();
+            for pos in starts[l] + 1..end {
+                let (k, last) = (at(pos), *line.last().expect("lines are never empty"));
+                let (p, q) = (uv[k as usize], uv[last as usize]);
+                if p == q {
+                    repeats.push((k, last));
+                } else {
+                    line.push(k);
+                    steps.push(planar_distance(p, q));
+                }
+            }
+            (line, repeats, steps)
         })
         .collect();
-    let median_step = median_nonzero(steps.iter().flatten().copied().collect());
+    let duplicates = grouped.iter().flat_map(|g| g.1.iter().copied()).collect();
+    let nonzero: Vec<f64> = grouped
+        .par_iter()
+        .flat_map_iter(|g| g.2.iter().copied().filter(|&x| x > 0.0))
+        .collect();
+    let median_step = median_nonzero(nonzero);
     let gap = gap_factor * median_step;
-    let lines = lines
+    let lines = grouped
         .into_par_iter()
-        .zip(&steps)
-        .map(|(line, steps)| {
+        .map(|(line, _, steps)| {
             let mut segments = vec![vec![line[0]]];
-            for (&k, &step) in line[1..].iter().zip(steps) {
+            for (&k, &step) in line[1..].iter().zip(&steps) {
                 if step > gap {
                     segments.push(Vec::new());
                 }
@@ -323,6 +348,53 @@ mod tests {
         let lines = segment_lines(&uv, &ids, 4.0).unwrap();
         assert_eq!(lines.lines, vec![vec![vec![1, 3, 4]], vec![vec![0, 2]]]);
         assert_eq!(lines.duplicates, vec![(5, 4)]);
+    }
+
+    /// The parallel grouping against the serial pass it replaced (lines in ascending id,
+    /// input order within a line, a point equal to the last one kept dropped), on random
+    /// ids with many repeats, sorted and not, on pools of 1 and 3 threads.
+    #[test]
+    fn grouping_matches_a_serial_pass() {
+        let mut s = 9u64;
+        let mut next = |k: u64| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 33) % k
+        };
+        for sorted in [false, true] {
+            let n = 5000;
+            let uv: Vec<[f64; 2]> = (0..n).map(|_| [next(4) as f64, next(3) as f64]).collect();
+            let mut ids: Vec<i64> = (0..n).map(|_| next(40) as i64 - 20).collect();
+            if sorted {
+                ids.sort_unstable();
+            }
+            let mut order: Vec<usize> = (0..n).collect();
+            order.sort_by_key(|&k| ids[k]);
+            let (mut lines, mut duplicates): (Vec<Vec<u32>>, Vec<(u32, u32)>) = (vec![], vec![]);
+            for (pos, &k) in order.iter().enumerate() {
+                if pos == 0 || ids[k] != ids[order[pos - 1]] {
+                    lines.push(vec![k as u32]);
+                } else {
+                    let last = *lines.last().unwrap().last().unwrap();
+                    if uv[k] == uv[last as usize] {
+                        duplicates.push((k as u32, last));
+                    } else {
+                        lines.last_mut().unwrap().push(k as u32);
+                    }
+                }
+            }
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let scan = pool.install(|| segment_lines(&uv, &ids, 1e9).unwrap());
+                let joined: Vec<Vec<u32>> = scan.lines.iter().map(|l| l.concat()).collect();
+                assert_eq!(joined, lines);
+                assert_eq!(scan.duplicates, duplicates);
+            }
+        }
     }
 
     #[test]

@@ -44,6 +44,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// below any real difference (a millionth of a step per edge).
 pub const TIE_BREAK: f64 = 1e-6;
 
+/// Points or triangles per rayon task in the passes over all of them: large enough that
+/// splitting costs nothing next to the work, small enough to share a million among threads.
+const BLOCK: usize = 1 << 14;
+
 /// How each strip's path through the Fuchs matrix is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
@@ -193,18 +197,24 @@ struct Solved {
     summary: Option<check::Summary>,
 }
 
-/// Triangulates one strip; `uv` are the planar positions (for its signed area);
-/// `interior` the strip's interior ranges when the planar check runs locally.
+/// Triangulates one strip of `points` as `normalizer` maps them (into the unit box); `uv`
+/// are the planar positions (for its signed area); `interior` the strip's interior ranges
+/// when the planar check runs locally.
 fn solve(
     points: &[DVec3],
+    normalizer: &Normalizer,
     uv: &[[f64; 2]],
     task: &Task,
     params: &StripParams,
     weight: Weight,
     interior: Option<&[Vec<std::ops::Range<u32>>; 2]>,
 ) -> Result<Solved> {
-    let a: Vec<DVec3> = task.a.iter().map(|&k| points[k as usize]).collect();
-    let b: Vec<DVec3> = task.b.iter().map(|&k| points[k as usize]).collect();
+    let unit = |ids: &[u32]| -> Vec<DVec3> {
+        ids.iter()
+            .map(|&k| normalizer.apply(points[k as usize]))
+            .collect()
+    };
+    let (a, b) = (unit(&task.a), unit(&task.b));
     let solution = match params.method {
         Method::ShortestPath(solver) => shortest_path(&a, &b, weight, solver)?,
         Method::Lookahead(alpha) => lookahead(&a, &b, weight, alpha)?,
@@ -342,7 +352,10 @@ fn stitch_with(
             expected: "one planar position per point",
         });
     }
-    check_finite(points)?;
+    // The common case (all finite) in parallel; the serial check names the first bad one.
+    if !points.par_iter().with_min_len(BLOCK).all(|p| p.is_finite()) {
+        check_finite(points)?;
+    }
     params.weight.check()?;
     if let Method::Lookahead(0) = params.method {
         return Err(Error::InvalidParameter {
@@ -351,12 +364,11 @@ fn stitch_with(
             expected: "alpha >= 1",
         });
     }
-    if let Some(&k) = scan
+    if let Some(k) = scan
         .lines
-        .iter()
-        .flatten()
-        .flatten()
-        .find(|&&k| k as usize >= points.len())
+        .par_iter()
+        .flat_map_iter(|line| line.iter().flatten().copied())
+        .find_first(|&k| k as usize >= points.len())
     {
         return Err(Error::InvalidParameter {
             name: "lines",
@@ -366,12 +378,17 @@ fn stitch_with(
     }
     // Work on positions mapped into the unit box (3-D and planar, each by one translation
     // and uniform scale), so that path weights and planar products neither overflow at 1e300
-    // nor underflow at 1e-300; the scan's step and gap follow the planar scale.
-    let normalizer = Normalizer::fit(points);
-    let points: &[DVec3] = &points
-        .par_iter()
-        .map(|&p| normalizer.apply(p))
-        .collect::<Vec<_>>();
+    // nor underflow at 1e-300; the scan's step and gap follow the planar scale. The 3-D
+    // points are mapped as each strip copies them (no mapped copy of all of them).
+    // The bounding box in parallel; the fit of its two corners is the fit of all points.
+    let normalizer = Normalizer::fit(
+        &points
+            .par_iter()
+            .with_min_len(BLOCK)
+            .map(|&p| (p, p))
+            .reduce_with(|(lo, hi), (p, q)| (lo.min(p), hi.max(q)))
+            .map_or(Vec::new(), |(lo, hi)| vec![lo, hi]),
+    );
     let to_unit_3d = if normalizer.half_extent > 0.0 {
         1.0 / normalizer.half_extent
     } else {
@@ -400,23 +417,39 @@ fn stitch_with(
     // Orient the kept lines alike (a zig-zag scan's every other line turned round), so a
     // line's edges run one way in the strip before it and the other way in the strip after
     // it: the strips then fit together with one consistent orientation, whatever the plane.
-    let mut oriented: Vec<Vec<Vec<u32>>> = vec![Vec::new(); scan.lines.len()];
+    // Which lines turn round is a serial walk over the chords; the copies are parallel.
+    let mut turned = vec![false; scan.lines.len()];
     let mut previous: Option<[f64; 2]> = None;
     for &l in &kept {
         let mut c = chord(uv, &scan.lines[l]);
-        let mut line = scan.lines[l].clone();
         if previous.is_some_and(|p| p[0] * c[0] + p[1] * c[1] < 0.0) {
-            line.reverse();
-            line.iter_mut().for_each(|s| s.reverse());
+            turned[l] = true;
             c = [-c[0], -c[1]];
         }
         previous = Some(c);
-        oriented[l] = line;
     }
-    let mut tasks = Vec::new();
-    for pair in kept.windows(2) {
-        pair_tasks(uv, &oriented, pair[0], pair[1], margin, &mut tasks);
-    }
+    let oriented: Vec<Vec<Vec<u32>>> = (0..scan.lines.len())
+        .into_par_iter()
+        .map(|l| {
+            if kept.binary_search(&l).is_err() {
+                return Vec::new();
+            }
+            let mut line = scan.lines[l].clone();
+            if turned[l] {
+                line.reverse();
+                line.iter_mut().for_each(|s| s.reverse());
+            }
+            line
+        })
+        .collect();
+    let tasks: Vec<Task> = kept
+        .par_windows(2)
+        .flat_map_iter(|pair| {
+            let mut out = Vec::new();
+            pair_tasks(uv, &oriented, pair[0], pair[1], margin, &mut out);
+            out
+        })
+        .collect();
     let plan = if params.check && local {
         check::plan(&tasks, &oriented, points.len())
     } else {
@@ -429,20 +462,34 @@ fn stitch_with(
         .enumerate()
         .map(|(k, task)| {
             let interior = plan.as_ref().map(|p| p.interior(k));
-            solve(points, uv, task, params, weight, interior)
+            solve(points, &normalizer, uv, task, params, weight, interior)
         })
         .collect::<Result<_>>()?;
     let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
-    let mut triangles = Vec::with_capacity(solved.iter().map(|s| s.triangles.len()).sum());
-    // Triangle range of each task, to find the strips around a lone point.
+    // Triangle range of each task, to find the strips around a lone point; sums in task
+    // order.
     let mut ranges = Vec::with_capacity(tasks.len());
-    let (mut cost, mut signed_area) = (0.0, 0.0);
-    for s in solved {
-        ranges.push(triangles.len()..triangles.len() + s.triangles.len());
-        triangles.extend(s.triangles);
+    let (mut cost, mut signed_area, mut total) = (0.0, 0.0, 0);
+    for s in &solved {
+        ranges.push(total..total + s.triangles.len());
+        total += s.triangles.len();
         cost += s.cost;
         signed_area += s.signed_area;
     }
+    // The strips' lists copied side by side in parallel.
+    let mut triangles = vec![[0u32; 3]; total];
+    let mut parts = Vec::with_capacity(solved.len());
+    let mut rest = &mut triangles[..];
+    for s in &solved {
+        let (part, tail) = rest.split_at_mut(s.triangles.len());
+        parts.push(part);
+        rest = tail;
+    }
+    parts
+        .into_par_iter()
+        .zip(&solved)
+        .for_each(|(part, s)| part.copy_from_slice(&s.triangles));
+    drop(solved);
     // One orientation for the whole mesh: counter-clockwise in the plane where most of the
     // area is (all of it, unless lines cross).
     if signed_area < 0.0 {
@@ -479,14 +526,17 @@ fn stitch_with(
     // Relaxed stores of `true` in any order leave the same flags: parallel is exact.
     let used: Vec<AtomicBool> = (0..points.len())
         .into_par_iter()
+        .with_min_len(BLOCK)
         .map(|_| AtomicBool::new(false))
         .collect();
-    triangles
-        .par_iter()
-        .flatten()
-        .for_each(|&k| used[k as usize].store(true, Ordering::Relaxed));
+    triangles.par_iter().with_min_len(BLOCK).for_each(|t| {
+        for &k in t {
+            used[k as usize].store(true, Ordering::Relaxed);
+        }
+    });
     let unused = (0..points.len() as u32)
         .into_par_iter()
+        .with_min_len(BLOCK)
         .filter(|&k| !used[k as usize].load(Ordering::Relaxed))
         .collect();
     // Lone points' triangles are not strips: then only the global check knows.

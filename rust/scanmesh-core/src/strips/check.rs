@@ -103,6 +103,7 @@ struct Span {
 pub(super) fn plan(tasks: &[Task], lines: &[Vec<Vec<u32>>], n_points: usize) -> Option<Plan> {
     let seen: Vec<AtomicBool> = (0..n_points)
         .into_par_iter()
+        .with_min_len(super::BLOCK)
         .map(|_| AtomicBool::new(false))
         .collect();
     let distinct = lines.par_iter().all(|line| {
