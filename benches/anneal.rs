@@ -3,7 +3,7 @@
 //! `cargo bench --bench anneal`. Groups (each twice: timed by wall clock, and by thread CPU
 //! time with the prefix `cpu_`, the figure to quote on a loaded machine):
 //! - `proposals`: Metropolis proposals per second at the start temperature (hot) and at the
-//!   end of the schedule (cold, where almost every proposal is rejected);
+//!   end of the schedule (cold: uphill moves are rejected, coplanar ties still flip);
 //! - `six_corner_angles`: the floor the issue names: the six new corner angles of a proposal
 //!   alone, for the same random edges, with no convexity test, energy or bookkeeping;
 //! - `scaling`: the sustained hot rate on one synthetic surface (a jittered grid over a
