@@ -22,15 +22,13 @@ the common set every mesh is scored over the same vertices.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import time
 from pathlib import Path
 
 import numpy as np
 
 # benches/quality.py: the trimmed scipy baseline, same code as the CAD table
-from quality import scipy_delaunay
+from quality import machine, scipy_delaunay
 
 import scanmesh
 from scanmesh.truth import TrueSurface, height_error
@@ -41,20 +39,17 @@ SIZES = (7_000, 10_500, 14_339, 20_000)
 N_SAMPLES = 100_000
 
 
-def machine() -> str:
-    load = os.getloadavg()
-    return (
-        f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()},"
-        f" load average {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (1 / 5 / 15 min)"
-    )
-
-
 def measure(points, lines, n_points: int, seeds, truth: TrueSurface) -> list[dict]:
     runs = [("spade Delaunay", "delaunay", {}), ("scipy Delaunay", "scipy", {})]
     runs += [("LOP", "lop", {}), ("shortest path", "shortest-path", {})]
     runs += [(f"anneal, seed {s}", "anneal", {"seed": s}) for s in seeds]
-    runs += [(f"anneal from strips, seed {seeds[0]}", "anneal",
-              {"seed": seeds[0], "initial": "shortest-path"})]
+    runs += [
+        (
+            f"anneal from strips, seed {seeds[0]}",
+            "anneal",
+            {"seed": seeds[0], "initial": "shortest-path"},
+        )
+    ]
     rows, tacs = [], []
     for label, method, options in runs:
         t0 = time.perf_counter()
@@ -69,9 +64,14 @@ def measure(points, lines, n_points: int, seeds, truth: TrueSurface) -> list[dic
         h = height_error(surface, truth, n_samples=N_SAMPLES, seed=0)
         rows.append(
             {
-                "n_points": n_points, "points": len(points), "lines": int(lines.max()) + 1,
-                "method": label, "time_s": elapsed, "tac_1": q.tac_1,
-                "slivers": q.sliver_fraction, "h_rms": h["h_rms"],
+                "n_points": n_points,
+                "points": len(points),
+                "lines": int(lines.max()) + 1,
+                "method": label,
+                "time_s": elapsed,
+                "tac_1": q.tac_1,
+                "slivers": q.sliver_fraction,
+                "h_rms": h["h_rms"],
                 "tac_vertices": int((tac > 1e-9).sum()),
             }
         )
