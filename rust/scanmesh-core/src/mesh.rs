@@ -780,26 +780,42 @@ impl HalfEdgeMesh {
             .into_par_iter()
             .filter(|&h| self.twin(h) == NONE)
             .collect();
-        let mut seen = vec![false; boundary.len()];
-        let mut loops = 0;
-        for k0 in 0..boundary.len() {
-            if seen[k0] {
-                continue;
-            }
-            loops += 1;
-            let mut k = k0;
-            // The boundary half-edge leaving end(h) is that vertex's vertex_edge (one fan
-            // each); validate has checked that it is a boundary half-edge.
-            while !seen[k] {
-                seen[k] = true;
-                let h = self.vertex_edge[self.end(boundary[k]) as usize];
-                k = boundary
-                    .binary_search(&h)
-                    .expect("boundary vertex_edge checked");
-            }
-        }
-        (components, loops)
+        // The boundary half-edge leaving end(h) is that vertex's vertex_edge (one fan each);
+        // validate has checked that it is a boundary half-edge, so this is a permutation.
+        let loops = count_cycles(boundary.len(), |k| {
+            let h = self.vertex_edge[self.end(boundary[k]) as usize];
+            boundary.binary_search(&h).ok()
+        })
+        .expect("boundary vertex_edge checked");
+        (components, loops as i64)
     }
+}
+
+/// Number of cycles of the map `successor` on `0..n`, or `None` when it is not a
+/// permutation (`successor` returns `None`, or a walk joins a cycle part-way). Counts
+/// boundary loops, of a mesh (`validate`) and of strips before they are built
+/// (`strips::check`). O(n) calls of `successor`.
+pub(crate) fn count_cycles(
+    n: usize,
+    mut successor: impl FnMut(usize) -> Option<usize>,
+) -> Option<usize> {
+    let mut seen = vec![false; n];
+    let mut cycles = 0;
+    for k0 in 0..n {
+        if seen[k0] {
+            continue;
+        }
+        cycles += 1;
+        let mut k = k0;
+        while !seen[k] {
+            seen[k] = true;
+            k = successor(k)?;
+        }
+        if k != k0 {
+            return None;
+        }
+    }
+    Some(cycles)
 }
 
 /// The half-edges of a triangle list grouped by start vertex (a counting sort): the
@@ -1123,6 +1139,17 @@ mod tests {
                 assert_eq!(mesh.fan_winding(v, &uv), k, "seed {seed} vertex {v}");
             }
         }
+    }
+
+    #[test]
+    fn count_cycles_counts_permutation_cycles_and_refuses_other_maps() {
+        let perm = [1, 2, 0, 4, 3, 5];
+        assert_eq!(count_cycles(6, |k| Some(perm[k])), Some(3));
+        assert_eq!(count_cycles(0, |_| None), Some(0));
+        // 0 -> 1 -> 2 -> 1: the walk from 0 joins a cycle part-way.
+        let tail = [1, 2, 1];
+        assert_eq!(count_cycles(3, |k| Some(tail[k])), None);
+        assert_eq!(count_cycles(2, |k| (k == 0).then_some(1)), None);
     }
 
     #[test]

@@ -61,6 +61,7 @@
 use super::Task;
 use crate::fuchs::Step;
 use crate::geometry::orient2d;
+use crate::mesh::count_cycles;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::ops::Range;
@@ -241,22 +242,8 @@ fn boundary_loops(tasks: &[Task], shared: &[[Vec<(u32, u32)>; 2]]) -> Option<i64
             return None;
         }
     }
-    let mut seen = vec![false; runs.len()];
-    for k0 in 0..runs.len() {
-        if seen[k0] {
-            continue;
-        }
-        loops += 1;
-        let mut k = k0;
-        while !seen[k] {
-            seen[k] = true;
-            k = *starting.get(&runs[k].1)?;
-        }
-        if k != k0 {
-            return None; // joined a loop part-way: not a permutation
-        }
-    }
-    Some(loops)
+    let run_loops = count_cycles(runs.len(), |k| starting.get(&runs[k].1).copied())?;
+    Some(loops + run_loops as i64)
 }
 
 /// What one strip contributes to the verdict of [`Plan::accepts`].
