@@ -516,8 +516,9 @@ const AHEAD: usize = 3 * STAGE_GAP;
 struct SlotDraws {
     rng: Pcg64Mcg,
     n: u64,
-    // Slots `head + 1 ..= head + AHEAD` of the sequence, at their position mod RING (a
-    // power of two, so positions are masks, not divisions).
+    // The next AHEAD slots of the sequence, positions `head .. head + AHEAD` (the next to
+    // use at `head`), each stored at its position mod RING (a power of two, so positions
+    // are masks, not divisions).
     ring: [u32; RING],
     head: usize,
     /// What to hint besides the triangles and corners' records (see [`TacState::prefetch`]).
