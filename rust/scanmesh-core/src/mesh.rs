@@ -342,16 +342,12 @@ impl HalfEdgeMesh {
     }
 
     /// Prefetch hint for what [`flip`](Self::flip)`(h)` writes outside the two triangles of
-    /// `h`: the twins of the four outer edges and the corners' `vertex_edge` (`quad` from
-    /// [`twin_and_quad`](Self::twin_and_quad)). Reads the two triangles, so call it once
-    /// they are cached. No effect on results. O(1).
+    /// `h`: the twins of the four outer edges and the corners' `vertex_edge` (`t` and `quad`
+    /// from [`twin_and_quad`](Self::twin_and_quad), which has read the twin already). Reads
+    /// the two triangles, so call it once they are cached. No effect on results. O(1).
     #[inline(always)]
-    pub fn prefetch_flip_writes(&self, h: u32, quad: [u32; 4]) {
-        let t = self.twin[h as usize];
+    pub fn prefetch_flip_writes(&self, h: u32, t: u32, quad: [u32; 4]) {
         for e in [h, t] {
-            if e == NONE {
-                continue;
-            }
             let (th, k) = (e as usize / 3, e as usize % 3);
             let twins = slots3(&self.twin, th);
             for o in [twins[(k + 1) % 3], twins[(k + 2) % 3]] {

@@ -339,12 +339,12 @@ impl TacState {
                 }
             }
             _ => {
-                if let Some((_, quad)) = self.mesh.twin_and_quad(h) {
+                if let Some((t, quad)) = self.mesh.twin_and_quad(h) {
                     for v in quad {
                         prefetch(&self.vert, v as usize);
                     }
                     if hints.flip_writes {
-                        self.mesh.prefetch_flip_writes(h, quad);
+                        self.mesh.prefetch_flip_writes(h, t, quad);
                     }
                 }
             }
