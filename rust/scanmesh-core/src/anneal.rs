@@ -395,8 +395,9 @@ impl Annealer {
     /// Replays the flips up to the best state onto the `best` copy (flips rewrite slots
     /// deterministically, so the replay reproduces it exactly). O(flips replayed).
     fn sync_best(&mut self) {
+        // Unanchored: `finish` builds a `TacState`, which reanchors.
         for &h in &self.log[..self.pending] {
-            self.best.flip(h);
+            self.best.flip_unanchored(h);
         }
         self.log.drain(..self.pending);
         self.pending = 0;

@@ -91,6 +91,9 @@ impl FlipSearch for TacLop<'_> {
         self.state.mesh()
     }
     fn flip_if_better(&mut self, h: u32) -> bool {
+        // `push_affected` walks fans: a state left unanchored by annealing ties is
+        // reanchored once, here (a flag test on every later call).
+        self.state.reanchor();
         match self.state.evaluate(h, Detail::Shape) {
             Some(mv) if self.order.improves(&mv) => {
                 self.state.apply(&mv);

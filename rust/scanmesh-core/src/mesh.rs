@@ -62,6 +62,9 @@ pub struct HalfEdgeMesh {
     /// twin (the most clockwise), so that a counter-clockwise walk covers the whole fan.
     vertex_edge: Vec<u32>,
     on_boundary: Vec<bool>,
+    /// False after [`flip_unanchored`](Self::flip_unanchored): `vertex_edge` may name
+    /// half-edges that no longer leave their vertex until [`reanchor`](Self::reanchor).
+    anchored: bool,
 }
 
 /// The next half-edge in the same triangle (counter-clockwise). O(1).
@@ -173,6 +176,7 @@ impl HalfEdgeMesh {
             twin,
             vertex_edge,
             on_boundary,
+            anchored: true,
         })
     }
 
@@ -290,8 +294,10 @@ impl HalfEdgeMesh {
     }
 
     /// The half-edges leaving `v`, counter-clockwise, starting from the most clockwise one on
-    /// a boundary vertex. O(degree).
+    /// a boundary vertex. Needs an anchored mesh (see [`reanchor`](Self::reanchor)).
+    /// O(degree).
     pub fn fan(&self, v: u32) -> Fan<'_> {
+        debug_assert!(self.anchored, "fan walk on a mesh that needs reanchor()");
         let first = self.vertex_edge[v as usize];
         Fan {
             mesh: self,
@@ -398,6 +404,61 @@ impl HalfEdgeMesh {
     /// diagonal's half-edge (still `h`). Flipping it again restores the connectivity up to
     /// slot rotation; the caller's caches indexed by slot must follow the same rewrite.
     pub fn flip(&mut self, h: u32) -> u32 {
+        for (v, old0, old1, new) in self.rewrite_flip(h) {
+            let e = &mut self.vertex_edge[v as usize];
+            if *e == old0 || *e == old1 {
+                *e = new;
+            }
+        }
+        h
+    }
+
+    /// [`flip`](Self::flip) without keeping `vertex_edge`: for loops that walk no fan while
+    /// they flip (the annealer's exact ties, a third of its proposals on scans of machined
+    /// parts). Why: those four scattered read-modify-writes cost about a tenth of the
+    /// annealing loop on the rod. Fan walks ([`fan`](Self::fan)) need
+    /// [`reanchor`](Self::reanchor) first; [`validate`](Self::validate) does it on a copy.
+    /// O(1).
+    #[inline]
+    pub fn flip_unanchored(&mut self, h: u32) -> u32 {
+        self.rewrite_flip(h);
+        self.anchored = false;
+        h
+    }
+
+    /// Whether every vertex's `vertex_edge` leaves it (false after
+    /// [`flip_unanchored`](Self::flip_unanchored) until [`reanchor`](Self::reanchor)). O(1).
+    pub fn is_anchored(&self) -> bool {
+        self.anchored
+    }
+
+    /// Recomputes every vertex's `vertex_edge` from the slots, by the rule of
+    /// [`from_triangles`](Self::from_triangles) (the highest twin-less half-edge leaving
+    /// the vertex, else the lowest), so that anchors, and the order of every fan walk, are
+    /// a function of the connectivity alone, not of the flips that led to it. A no-op on
+    /// an anchored mesh. O(m), serial.
+    pub fn reanchor(&mut self) {
+        if self.anchored {
+            return;
+        }
+        self.vertex_edge.fill(NONE);
+        for (h, (&v, &t)) in self.start.iter().zip(&self.twin).enumerate() {
+            // Out-of-range starts are left for `validate` to report.
+            // Ascending slots: a twin-less half-edge overwrites (the highest wins), any
+            // other only fills an empty anchor (the lowest wins).
+            if let Some(e) = self.vertex_edge.get_mut(v as usize) {
+                if t == NONE || *e == NONE {
+                    *e = h as u32;
+                }
+            }
+        }
+        self.anchored = true;
+    }
+
+    /// The slot rewrite of [`flip`](Self::flip); returns, per corner, the vertex, the two
+    /// slots that may hold its anchor before the flip and its slot after. O(1).
+    #[inline(always)]
+    fn rewrite_flip(&mut self, h: u32) -> [(u32, u32, u32, u32); 4] {
         let t = self.twin[h as usize];
         debug_assert!(t != NONE, "flip of boundary half-edge {h}");
         // Each triangle's slots are taken as a block of three (one bounds check per block);
@@ -440,21 +501,17 @@ impl HalfEdgeMesh {
         // pointing into the two triangles gets its one new slot there: a's a→b (h0, gone)
         // and a→d (t1) become h2 = a→d; b's b→a (t0, gone) and b→c (h1) become t2 = b→c;
         // c's c→a (h2) becomes h1; d's d→b (t2) becomes t1. Two compares per corner.
-        for (v, old0, old1, new) in [
+        [
             (a, h0, t1, h2),
             (b, t0, h1, t2),
             (c, h2, h2, h1),
             (d, t2, t2, t1),
-        ] {
-            let e = &mut self.vertex_edge[v as usize];
-            if *e == old0 || *e == old1 {
-                *e = new;
-            }
-        }
-        h
+        ]
     }
 
     /// Checks every invariant against the planar positions `uv`; the error says which failed.
+    /// A mesh left unanchored by [`flip_unanchored`](Self::flip_unanchored) is checked on a
+    /// reanchored copy.
     ///
     /// Twins are mutual and reversed; each triangle is strictly counter-clockwise (exact
     /// predicate); no directed edge repeats; every used vertex has a single fan (at most one
@@ -470,6 +527,11 @@ impl HalfEdgeMesh {
     /// half-edge, else triangle, else vertex (in that order of checks), so it does not
     /// depend on the thread count.
     pub fn validate(&self, uv: &[[f64; 2]]) -> Result<()> {
+        if !self.anchored {
+            let mut anchored = self.clone();
+            anchored.reanchor();
+            return anchored.validate(uv);
+        }
         let fail = |s: String| Err(Error::Invariant(s));
         if uv.len() != self.n_vertices() {
             return fail(format!(
@@ -1026,6 +1088,49 @@ mod tests {
     }
 
     #[test]
+    fn unanchored_flips_then_reanchor_equal_a_fresh_build() {
+        // Mixed full and unanchored flips: reanchoring gives exactly the anchors that
+        // `from_triangles` gives the same slots (so fan sums cannot depend on history),
+        // and `validate` accepts the mesh before and after.
+        let (uv, mut mesh) = delaunay_mesh(400, 4);
+        let edges = mesh.interior_edges();
+        let mut s = 7u64;
+        let mut unanchored = 0;
+        for step in 0..6_000 {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
+            let h = edges[((s >> 33) as usize) % edges.len()];
+            if !mesh.can_flip(h, &uv) {
+                continue;
+            }
+            if step % 3 == 0 {
+                mesh.flip(h);
+            } else {
+                mesh.flip_unanchored(h);
+                unanchored += 1;
+            }
+            if step % 1_500 == 0 {
+                mesh.validate(&uv).unwrap();
+            }
+        }
+        assert!(unanchored > 1_000, "only {unanchored} unanchored flips");
+        assert!(!mesh.is_anchored());
+        mesh.validate(&uv).unwrap();
+        let fresh = HalfEdgeMesh::from_triangles(uv.len(), &mesh.triangles()).unwrap();
+        assert_ne!(
+            mesh.vertex_edge, fresh.vertex_edge,
+            "the flips left anchors stale"
+        );
+        mesh.reanchor();
+        assert_eq!(mesh, fresh);
+        mesh.validate(&uv).unwrap();
+        // A fresh build is already anchored by the same rule.
+        let mut rebuilt = fresh.clone();
+        rebuilt.anchored = false;
+        rebuilt.reanchor();
+        assert_eq!(rebuilt, fresh);
+    }
+
+    #[test]
     fn nonconvex_quads_are_refused() {
         // A convex kite (a, d, b, c) = (0, 3, 1, 2): flippable.
         let uv = vec![[0.0, 0.0], [2.0, 0.0], [1.0, 3.0], [1.0, -0.2]];
@@ -1158,6 +1263,7 @@ mod tests {
             twin: vec![NONE; 6],
             vertex_edge: vec![0, 1, 2, 5],
             on_boundary: vec![true; 4],
+            anchored: true,
         };
         assert!(mesh.validate(&uv).is_err());
     }

@@ -138,7 +138,7 @@ impl TacState {
     /// Builds the caches. `uv` are the planar positions the flips are checked in (use
     /// [`crate::delaunay::unit_square`] of the projection), `xyz` the 3-D positions the angles
     /// are measured on (normalize with [`crate::geometry::Normalizer`] to be scale-safe). O(m).
-    pub fn new(mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
+    pub fn new(mut mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
         if !(p.is_finite() && p >= 1.0) {
             return Err(Error::InvalidParameter {
                 name: "p",
@@ -158,6 +158,9 @@ impl TacState {
                 expected: "one of each per vertex",
             });
         }
+        // Anchors fix where each fan walk starts, and with it the rounding of the angle sums:
+        // recomputed from the connectivity, they do not depend on how a mesh was flipped.
+        mesh.reanchor();
         let vert = (0..mesh.n_vertices())
             .map(|v| VertexRecord {
                 uv: uv[v],
@@ -239,9 +242,15 @@ impl TacState {
         total
     }
 
-    /// The triangulation. O(1).
+    /// The triangulation; unanchored after [`propose`](Self::propose) flipped a tie. O(1).
     pub fn mesh(&self) -> &HalfEdgeMesh {
         &self.mesh
+    }
+
+    /// Brings the mesh's vertex anchors up to date (see [`HalfEdgeMesh::reanchor`]). O(1)
+    /// when they are, else O(m).
+    pub fn reanchor(&mut self) {
+        self.mesh.reanchor();
     }
 
     /// Planar positions. O(1).
@@ -390,13 +399,15 @@ impl TacState {
     /// One annealing proposal of `h`: like [`evaluate`](Self::evaluate) with
     /// [`Detail::Energy`], except that a coplanar quadrilateral (an exact tie, which any
     /// Metropolis rule accepts) is flipped at once, as [`apply`](Self::apply) would, without
-    /// building a [`FlipMove`]: the common case on scans of machined parts. O(1).
+    /// building a [`FlipMove`]: the common case on scans of machined parts. Such a flip
+    /// leaves the mesh unanchored ([`HalfEdgeMesh::flip_unanchored`]): call
+    /// [`reanchor`](Self::reanchor) before walking fans (LOP does). O(1).
     #[inline]
     pub fn propose(&mut self, h: u32) -> Proposal {
         match self.flippable(h) {
             None => Proposal::NotFlippable,
             Some((t, _, _, true)) => {
-                self.mesh.flip(h);
+                self.mesh.flip_unanchored(h);
                 self.mark_stale(h, t);
                 Proposal::FlippedTie
             }
@@ -512,8 +523,10 @@ impl TacState {
         }
     }
 
-    /// Consumes the state, returning the mesh. O(1).
-    pub fn into_mesh(self) -> HalfEdgeMesh {
+    /// Consumes the state, returning the mesh, anchored. O(1), or O(m) after
+    /// [`propose`](Self::propose) flipped ties.
+    pub fn into_mesh(mut self) -> HalfEdgeMesh {
+        self.mesh.reanchor();
         self.mesh
     }
 }
@@ -686,9 +699,14 @@ pub(crate) mod tests {
                     moves += 1;
                 }
             }
-            assert_eq!(fused.mesh(), plain.mesh());
+            // Same slots; only the vertex anchors differ (ties leave them stale).
+            assert_eq!(fused.mesh().triangles(), plain.mesh().triangles());
         }
         assert!(ties > 500 && moves > 50, "ties {ties}, moves {moves}");
+        assert!(!fused.mesh().is_anchored());
+        let n = plain.mesh().n_vertices();
+        let fresh = HalfEdgeMesh::from_triangles(n, &plain.mesh().triangles()).unwrap();
+        assert_eq!(fused.clone().into_mesh(), fresh);
         assert_eq!(fused.energy(), plain.energy());
         let scratch = fused.energy_from_scratch();
         assert!((fused.energy() - scratch).abs() <= 1e-9 * scratch);
