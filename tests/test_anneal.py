@@ -110,6 +110,9 @@ def test_progress_callback_sees_every_sweep():
         ({"initial_acceptance": 1.5}, "initial_acceptance"),
         ({"final_temperature_ratio": 0}, "final_temperature_ratio"),
         ({"bogus": 1}, "unknown annealing option"),
+        ({"tiles": 0}, "tiles"),
+        ({"tiles": 65}, "tiles"),
+        ({"tiles": 1.5}, "tiles"),
         ({"initial": "magic"}, "unknown initial"),
     ],
 )
@@ -127,7 +130,8 @@ def test_bad_method_and_seed():
         scanmesh.reconstruct(bumpy_patch(50, 6), "lop", criterion="nope")
 
 
-def test_ctrl_c_stops_a_long_run_quickly(tmp_path):
+@pytest.mark.parametrize("tiles", [1, 4])
+def test_ctrl_c_stops_a_long_run_quickly(tmp_path, tiles):
     script = textwrap.dedent(
         """
         import sys, time
@@ -142,13 +146,15 @@ def test_ctrl_c_stops_a_long_run_quickly(tmp_path):
                 started.append(1)
                 print("started", flush=True)
         try:
-            scanmesh.reconstruct(pts, "anneal", sweeps=100000, patience=0, progress=progress)
+            scanmesh.reconstruct(
+                pts, "anneal", sweeps=100000, patience=0, tiles=TILES, progress=progress
+            )
         except KeyboardInterrupt:
             print(f"interrupted {time.monotonic()!r}", flush=True)
             sys.exit(0)
         print("finished", flush=True)
         """
-    )
+    ).replace("TILES", str(tiles))
     assert seconds_to_interrupt(script, 0.3) < 0.2
 
 
@@ -174,3 +180,18 @@ def test_large_inputs_run_one_chain_unless_asked():
     assert auto.options["chains"] == 1
     three = scanmesh.reconstruct(pts, "anneal", sweeps=2, patience=0, chains=3)
     assert three.options["chains"] == 3 and len(three.options["chain_energies"]) == 3
+
+
+def test_tiles_anneal_the_rod_as_well_as_one_chain(rod_results, rod_scan):
+    pts, _ = rod_scan
+    uv, _ = scanmesh.project(pts, "y")
+    tiled = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=150, tiles=3)
+    _core.validate(uv, tiled.faces)
+    assert len(tiled.faces) == len(rod_results["delaunay"].faces)
+    assert tiled.options["tiles"] == 3
+    assert tiled.quality.tac_1 < rod_results["lop"].quality.tac_1
+    assert tiled.quality.tac_1 < 1.15 * rod_results["anneal"].quality.tac_1
+    assert len(tiled.trace["energy"]) == 150
+    assert np.all(np.diff(tiled.trace["best"]) <= 0)
+    again = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=150, tiles=3)
+    np.testing.assert_array_equal(again.faces, tiled.faces)

@@ -136,6 +136,7 @@ def test_help_and_version():
         ["reconstruct", "scan.xyz", "-o", "out.stl", "--method", "magic"],
         ["reconstruct", "scan.xyz", "-o", "out.stl", "--plane", "sideways"],
         ["reconstruct", "scan.xyz", "-o", "out.stl", "--method", "lop", "--sweeps", "20"],
+        ["reconstruct", "scan.xyz", "-o", "out.stl", "--method", "delaunay", "--tiles", "2"],
         ["simulate", "part.stl", "-o", "s.xyz", "--spacing", "0.1", "--n-points", "100"],
     ],
     ids=lambda a: " ".join(a) or "nothing",
@@ -236,6 +237,8 @@ def test_reconstruct_writes_mesh_report_and_preview(scan, tmp_path):
         out,
         "--sweeps",
         20,
+        "--tiles",
+        2,
         "--seed",
         3,
         "--report",
@@ -249,6 +252,7 @@ def test_reconstruct_writes_mesh_report_and_preview(scan, tmp_path):
     data = json.loads(report.read_text())
     assert data["method"] == "anneal"
     assert data["options"]["sweeps"] == 20 and data["options"]["seed"] == 3
+    assert data["options"]["tiles"] == 2
     assert set(QUALITY_KEYS) <= set(data["quality"])
     assert data["counts"]["points"] == 300 and data["counts"]["lines"] == 15
     assert data["counts"]["faces"] == len(mesh.faces)

@@ -119,6 +119,7 @@ class Annealer:
         polish: bool,
         calibration_samples: int,
         chains: int,
+        tiles: int,
     ) -> Annealer: ...
     def advance(self, max_proposals: int, max_seconds: float) -> int: ...
     @property

@@ -38,7 +38,7 @@ def _check_schedule(options: dict[str, Any]) -> dict[str, Any]:
             f"unknown annealing option(s) {unknown}; known: {sorted(ANNEAL_DEFAULTS)}"
         )
     params = {**ANNEAL_DEFAULTS, **{k: v for k, v in options.items() if v is not None}}
-    for name in ("sweeps", "patience", "chains"):
+    for name in ("sweeps", "patience", "chains", "tiles"):
         value = params[name]
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
             raise ParameterError(f"{name} must be a whole number >= 0, got {value!r}")
@@ -107,6 +107,11 @@ def anneal_surface(
         from 8,000 interior edges (about 2,700 points) up, otherwise enough chains (at most
         128) to make 8,000 proposals per sweep in all: on small inputs restarts find the
         optimum far more often than one longer chain (BENCHMARKS.md, "Certified optimum").
+        ``tiles`` (1): anneal each chain in this many stripes of the plane at once, on the
+        cores (at most 64): each phase of 50 sweeps freezes the triangles that cross a
+        stripe border, the stripes shift by half a stripe every phase, and the energy stays
+        exact; for large scans and long runs on several cores. The result depends on the
+        seed and ``tiles``, not on the number of cores.
 
     Returns
     -------

@@ -275,11 +275,17 @@ def _background(fn: Callable[[], Any]) -> Callable[[], Any]:
     return result
 
 
+#: Command-line options that go to the annealer (each is refused for other methods).
+ANNEAL_FLAGS = ("sweeps", "tiles")
+
+
 def _method_options(args: argparse.Namespace, method: str) -> dict[str, Any]:
     options: dict[str, Any] = {}
-    if method == "anneal" and getattr(args, "sweeps", None) is not None:
-        options["sweeps"] = args.sweeps
+    for name in ANNEAL_FLAGS:
+        if method == "anneal" and getattr(args, name, None) is not None:
+            options[name] = getattr(args, name)
     return options
+
 
 
 # --------------------------------------------------------------------------- reconstruct
@@ -294,8 +300,9 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     source, out = Path(args.input), Path(args.output)
     report = Path(args.report) if args.report else None
     preview = Path(args.preview) if args.preview else None
-    if args.sweeps is not None and args.method != "anneal":
-        args._parser.error("--sweeps applies to --method anneal only")
+    for name in ANNEAL_FLAGS:
+        if getattr(args, name) is not None and args.method != "anneal":
+            args._parser.error(f"--{name} applies to --method anneal only")
     _check_outputs([source], [out, report, preview])
     _check_mesh_ending(out)
     _check_png(preview)
@@ -388,8 +395,9 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     source = Path(args.input)
     picture = Path(args.picture) if args.picture else None
     methods = list(dict.fromkeys(args.methods or COMPARE_METHODS))
-    if args.sweeps is not None and "anneal" not in methods:
-        args._parser.error("--sweeps applies to the anneal method only")
+    for name in ANNEAL_FLAGS:
+        if getattr(args, name, None) is not None and "anneal" not in methods:
+            args._parser.error(f"--{name} applies to the anneal method only")
     inputs = [source] + ([Path(args.truth)] if args.truth else [])
     _check_outputs(inputs, [picture])
     _check_png(picture)
@@ -762,6 +770,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="N",
         help="annealing sweeps (default 1000; a sweep proposes one flip per interior edge)",
+    )
+    shape.add_argument(
+        "--tiles",
+        type=_count,
+        default=None,
+        metavar="K",
+        help="anneal in K stripes of the plane at once, on the cores (default 1; results"
+        " depend on K, not on the core count)",
     )
 
     parser = argparse.ArgumentParser(

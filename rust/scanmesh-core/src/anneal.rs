@@ -44,6 +44,11 @@ pub struct AnnealParams {
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
     pub chains: usize,
+    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::tiles`]): 1
+    /// runs the plain sequential chain; k > 1 splits the plane into stripes whose
+    /// interiors anneal independently, phase by phase, with the stripes shifted every
+    /// phase. The result depends on (seed, tiles), never on the thread count.
+    pub tiles: usize,
 }
 
 /// Automatic chains: as many as it takes for the chains together to propose at least this
@@ -55,6 +60,9 @@ pub const AUTO_CHAIN_EDGES: usize = 8_000;
 
 /// Automatic chains never exceed this count.
 pub const MAX_AUTO_CHAINS: usize = 128;
+
+/// Largest accepted [`AnnealParams::tiles`].
+pub const MAX_TILES: usize = 64;
 
 impl Default for AnnealParams {
     fn default() -> Self {
@@ -70,6 +78,7 @@ impl Default for AnnealParams {
             polish: true,
             calibration_samples: 2000,
             chains: 0,
+            tiles: 1,
         }
     }
 }
@@ -107,6 +116,22 @@ impl AnnealParams {
                 self.tie_tolerance.to_string(),
                 "a finite value >= 0",
             );
+        }
+        if self.tiles == 0 || self.tiles > MAX_TILES {
+            return bad("tiles", self.tiles.to_string(), "a tile count from 1 to 64");
+        }
+        Ok(())
+    }
+
+    /// [`check`](Self::check), and that `state` measures the energy with this `p`.
+    pub fn check_for(&self, state: &TacState) -> Result<()> {
+        self.check()?;
+        if state.p() != self.p {
+            return Err(Error::InvalidParameter {
+                name: "p",
+                value: state.p().to_string(),
+                expected: "the state's p to equal the parameters' p",
+            });
         }
         Ok(())
     }
@@ -163,6 +188,9 @@ pub struct SweepRecord {
     pub best: f64,
     /// Accepted flips / proposals in the sweep.
     pub acceptance: f64,
+    /// At most one in 1,000 uphill proposals of the sweep was accepted (the early stop
+    /// waits for this).
+    pub frozen: bool,
 }
 
 /// The outcome of a run.
@@ -222,57 +250,43 @@ impl Annealer {
     /// Starts a run from `state`; calibrates T0 from `calibration_samples` random proposals.
     /// O(calibration_samples + m).
     pub fn new(mut state: TacState, params: AnnealParams) -> Result<Self> {
-        params.check()?;
-        if state.p() != params.p {
-            return Err(Error::InvalidParameter {
-                name: "p",
-                value: state.p().to_string(),
-                expected: "the state's p to equal the parameters' p",
-            });
-        }
-        let n_interior_half_edges = state.count_interior_half_edges();
-        let n_half_edges = state.mesh().n_half_edges() as u64;
-        // Edges come from the seed's own stream (the sequence a sequential draw would give);
-        // the uniforms from a second generator seeded by that stream's first two outputs.
-        let slot_rng = Pcg64Mcg::seed_from_u64(params.seed);
-        let uniforms = Pcg64Mcg::from_rng(&mut slot_rng.clone());
-        let mut slots = SlotDraws::new(slot_rng, n_half_edges);
-        let order = params.order();
-        let mut uphill = Vec::new();
-        if n_interior_half_edges > 0 {
-            for _ in 0..params.calibration_samples {
-                let h = slots.next_interior(&state);
-                if let Some(mv) = state.evaluate(h, Detail::Energy) {
-                    if !order.is_tie(&mv) && mv.delta_energy > 0.0 {
-                        uphill.push(mv.delta_energy);
-                    }
-                }
-            }
-        }
-        let initial_temperature = if uphill.is_empty() {
-            0.0
-        } else {
-            let mid = uphill.len() / 2;
-            let median = *uphill.select_nth_unstable_by(mid, f64::total_cmp).1;
-            -median / params.initial_acceptance.ln()
-        };
-        let cooling = params
-            .final_temperature_ratio
-            .powf(1.0 / params.sweeps.max(1) as f64);
+        params.check_for(&state)?;
+        let (mut slots, uniforms) = streams(&state, params.seed);
+        let initial_temperature = calibrate(&mut state, &params, &mut slots);
+        let cooling = cooling(params.final_temperature_ratio, params.sweeps);
+        Ok(Self::with_schedule(
+            state,
+            params,
+            (slots, uniforms),
+            initial_temperature,
+            cooling,
+        ))
+    }
+
+    /// A run on the given streams whose schedule starts at `temperature` (no calibration)
+    /// and multiplies it by `cooling` after each sweep. O(m).
+    fn with_schedule(
+        state: TacState,
+        params: AnnealParams,
+        (slots, uniforms): (SlotDraws, Pcg64Mcg),
+        temperature: f64,
+        cooling: f64,
+    ) -> Self {
         let energy = state.energy();
-        Ok(Annealer {
+        let sweep_len = state.count_interior_half_edges() / 2;
+        Annealer {
             best: state.mesh().clone(),
             best_energy: energy,
             initial_energy: energy,
-            sweep_len: n_interior_half_edges / 2,
             state,
-            order,
+            order: params.order(),
             params,
             slots,
             uniforms,
-            initial_temperature,
-            temperature: initial_temperature,
+            initial_temperature: temperature,
+            temperature,
             cooling,
+            sweep_len,
             proposed: 0,
             accepted: 0,
             measured: 0,
@@ -285,7 +299,27 @@ impl Annealer {
             log: Vec::new(),
             pending: 0,
             detached: false,
-        })
+        }
+    }
+
+    /// A tile's run for one phase of [`crate::tiles`]: `params.sweeps` sweeps on
+    /// `params.seed`'s streams, from `temperature` (the shared schedule's, not calibrated
+    /// on the tile), cooled by `cooling` per sweep. O(m).
+    pub(crate) fn for_phase(
+        state: TacState,
+        params: AnnealParams,
+        temperature: f64,
+        cooling: f64,
+    ) -> Self {
+        let streams = streams(&state, params.seed);
+        Self::with_schedule(state, params, streams, temperature, cooling)
+    }
+
+    /// Ends a phase of [`crate::tiles`]: the best state seen and its energy, the current
+    /// state and the sweep records. O(flips since the last sweep's replay).
+    pub(crate) fn end_phase(mut self) -> (HalfEdgeMesh, f64, TacState, Vec<SweepRecord>) {
+        self.sync_best();
+        (self.best, self.best_energy, self.state, self.trace)
     }
 
     /// True when every sweep has run or the run stopped early.
@@ -415,13 +449,14 @@ impl Annealer {
             self.note_best();
         }
         self.sync_best();
+        let frozen = self.uphill_accepted * 1000 <= self.uphill_proposed;
         self.trace.push(SweepRecord {
             temperature: self.temperature,
             energy,
             best: self.best_energy,
             acceptance: self.accepted as f64 / self.proposed.max(1) as f64,
+            frozen,
         });
-        let frozen = self.uphill_accepted * 1000 <= self.uphill_proposed;
         self.since_best = if self.found_best {
             0
         } else {
@@ -447,27 +482,10 @@ impl Annealer {
     /// order when asked, and returns it. O(m + polish flips).
     pub fn finish(mut self) -> Result<AnnealResult> {
         self.sync_best();
-        let mut best = TacState::new(
-            self.best,
-            self.state.uv().to_vec(),
-            self.state.xyz().to_vec(),
-            self.params.p,
-        )?;
-        let max_flips = 1_000 * best.mesh().n_half_edges().max(1);
-        let polish_flips = if self.params.polish {
-            lop(
-                &mut TacLop {
-                    state: &mut best,
-                    order: self.order,
-                },
-                max_flips,
-            )
-        } else {
-            0
-        };
-        let energy = best.resync_energy();
+        let (mesh, energy, polish_flips) =
+            polish(self.best, self.state.uv(), self.state.xyz(), &self.params)?;
         Ok(AnnealResult {
-            mesh: best.into_mesh(),
+            mesh,
             initial_energy: self.initial_energy,
             energy,
             initial_temperature: self.initial_temperature,
@@ -476,6 +494,78 @@ impl Annealer {
             stopped_early: self.stopped_early,
         })
     }
+}
+
+/// The edge stream and the Metropolis uniforms of a run on `seed`: edges come from the
+/// seed's own stream (the sequence a sequential draw would give), the uniforms from a
+/// second generator seeded by that stream's first two outputs. O(1).
+fn streams(state: &TacState, seed: u64) -> (SlotDraws, Pcg64Mcg) {
+    let slot_rng = Pcg64Mcg::seed_from_u64(seed);
+    let uniforms = Pcg64Mcg::from_rng(&mut slot_rng.clone());
+    let n_half_edges = state.mesh().n_half_edges() as u64;
+    (SlotDraws::new(slot_rng, n_half_edges), uniforms)
+}
+
+/// T0 at which the median uphill energy change of `params.calibration_samples` proposals
+/// drawn from `slots` is accepted with probability `params.initial_acceptance`; 0 when no
+/// sampled proposal goes uphill. O(calibration_samples).
+fn calibrate(state: &mut TacState, params: &AnnealParams, slots: &mut SlotDraws) -> f64 {
+    let order = params.order();
+    let mut uphill = Vec::new();
+    if state.count_interior_half_edges() > 0 {
+        for _ in 0..params.calibration_samples {
+            let h = slots.next_interior(state);
+            if let Some(mv) = state.evaluate(h, Detail::Energy) {
+                if !order.is_tie(&mv) && mv.delta_energy > 0.0 {
+                    uphill.push(mv.delta_energy);
+                }
+            }
+        }
+    }
+    if uphill.is_empty() {
+        return 0.0;
+    }
+    let mid = uphill.len() / 2;
+    let median = *uphill.select_nth_unstable_by(mid, f64::total_cmp).1;
+    -median / params.initial_acceptance.ln()
+}
+
+/// The T0 a run from `state` with `params` calibrates (see [`Annealer::new`]), for
+/// schedules shared by several runs. O(calibration_samples + m).
+pub(crate) fn initial_temperature(state: &mut TacState, params: &AnnealParams) -> f64 {
+    calibrate(state, params, &mut streams(state, params.seed).0)
+}
+
+/// Geometric cooling per sweep that takes T0 to `final_ratio` × T0 in `sweeps` sweeps.
+/// O(1).
+pub(crate) fn cooling(final_ratio: f64, sweeps: usize) -> f64 {
+    final_ratio.powf(1.0 / sweeps.max(1) as f64)
+}
+
+/// The end of every run: `best` as a state, polished by LOP under the tac-then-angle order
+/// when `params.polish`; returns the mesh, its energy (recomputed from the sums) and the
+/// polish's flips. O(m + polish flips).
+pub(crate) fn polish(
+    best: HalfEdgeMesh,
+    uv: &[[f64; 2]],
+    xyz: &[glam::DVec3],
+    params: &AnnealParams,
+) -> Result<(HalfEdgeMesh, f64, usize)> {
+    let mut best = TacState::new(best, uv.to_vec(), xyz.to_vec(), params.p)?;
+    let max_flips = 1_000 * best.mesh().n_half_edges().max(1);
+    let polish_flips = if params.polish {
+        lop(
+            &mut TacLop {
+                state: &mut best,
+                order: params.order(),
+            },
+            max_flips,
+        )
+    } else {
+        0
+    };
+    let energy = best.resync_energy();
+    Ok((best.into_mesh(), energy, polish_flips))
 }
 
 /// Runs a whole annealing in one call (no interruption): the [`Ensemble`] of

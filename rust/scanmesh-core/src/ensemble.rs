@@ -9,15 +9,76 @@
 //! [`AnnealParams::for_chain`] derives, so the result depends on (seed, chains) only, not on
 //! the thread count or on where the caller's chunks end.
 
-use crate::anneal::{AnnealParams, AnnealResult, Annealer};
+use crate::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
 use crate::tac_state::TacState;
+use crate::tiles::TiledAnnealer;
 use crate::Result;
 use rayon::prelude::*;
 use std::time::Instant;
 
 /// A resumable set of annealing chains, advanced together on the rayon pool.
 pub struct Ensemble {
-    chains: Vec<Annealer>,
+    chains: Vec<Chain>,
+}
+
+/// One chain: the sequential annealer, or the tiled one when [`AnnealParams::tiles`] > 1.
+// Unboxed: a few chains per run, and the annealer's hot fields stay one load away.
+#[allow(clippy::large_enum_variant)]
+enum Chain {
+    Plain(Annealer),
+    Tiled(TiledAnnealer),
+}
+
+impl Chain {
+    fn new(state: TacState, params: AnnealParams) -> Result<Self> {
+        Ok(if params.tiles > 1 {
+            Chain::Tiled(TiledAnnealer::new(state, params)?)
+        } else {
+            Chain::Plain(Annealer::new(state, params)?)
+        })
+    }
+
+    fn is_done(&self) -> bool {
+        match self {
+            Chain::Plain(a) => a.is_done(),
+            Chain::Tiled(a) => a.is_done(),
+        }
+    }
+
+    fn trace(&self) -> &[SweepRecord] {
+        match self {
+            Chain::Plain(a) => a.trace(),
+            Chain::Tiled(a) => a.trace(),
+        }
+    }
+
+    fn sweep_len(&self) -> usize {
+        match self {
+            Chain::Plain(a) => a.sweep_len(),
+            Chain::Tiled(a) => a.sweep_len(),
+        }
+    }
+
+    fn energy(&self) -> f64 {
+        match self {
+            Chain::Plain(a) => a.state().energy(),
+            Chain::Tiled(a) => a.energy(),
+        }
+    }
+
+    fn advance_until(&mut self, max_proposals: usize, deadline: Option<Instant>) -> usize {
+        match self {
+            Chain::Plain(a) => a.advance_until(max_proposals, deadline),
+            Chain::Tiled(a) => a.advance_until(max_proposals, deadline),
+        }
+    }
+
+    fn finish(self) -> Result<AnnealResult> {
+        match self {
+            Chain::Plain(a) => a.finish(),
+            Chain::Tiled(a) => a.finish(),
+        }
+    }
 }
 
 /// What [`Ensemble::finish`] says about the chains besides the winner.
@@ -37,7 +98,7 @@ impl Ensemble {
         let count = params.chain_count(state.count_interior_half_edges() / 2);
         let chains = (0..count)
             .into_par_iter()
-            .map(|chain| Annealer::new(state.clone(), params.for_chain(chain)))
+            .map(|chain| Chain::new(state.clone(), params.for_chain(chain)))
             .collect::<Result<Vec<_>>>()?;
         Ok(Ensemble { chains })
     }
@@ -54,7 +115,7 @@ impl Ensemble {
 
     /// True when every chain has finished its sweeps or stopped early. O(chains).
     pub fn is_done(&self) -> bool {
-        self.chains.iter().all(Annealer::is_done)
+        self.chains.iter().all(Chain::is_done)
     }
 
     /// Proposals per sweep of each chain (interior edges). O(1).
@@ -71,7 +132,7 @@ impl Ensemble {
     pub fn energy(&self) -> f64 {
         self.chains
             .iter()
-            .map(|c| c.state().energy())
+            .map(Chain::energy)
             .fold(f64::INFINITY, f64::min)
     }
 
@@ -100,7 +161,7 @@ impl Ensemble {
         let results = self
             .chains
             .into_par_iter()
-            .map(Annealer::finish)
+            .map(Chain::finish)
             .collect::<Result<Vec<_>>>()?;
         let energies: Vec<f64> = results.iter().map(|r| r.energy).collect();
         // `min_by` keeps the first of equal minima: ties go to the lower chain.

@@ -12,6 +12,7 @@
 //! - [`lop`]: Lawson's greedy flipping for any criterion;
 //! - [`anneal`]: simulated annealing on tac;
 //! - [`ensemble`]: independent annealing chains side by side, the best one kept;
+//! - [`tiles`]: one annealing chain on several cores, the plane cut into stripes;
 //! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks);
 //! - [`lines`]: scan lines detected from point order or given by id, split at gaps;
 //! - [`fuchs`]: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths;
@@ -40,6 +41,7 @@ pub mod tac_state;
 #[cfg(test)]
 mod testing;
 pub mod text;
+pub mod tiles;
 pub mod trim;
 
 pub use error::{Error, Result};

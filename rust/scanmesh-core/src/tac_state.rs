@@ -191,6 +191,32 @@ impl TacState {
         Ok(state)
     }
 
+    /// Like [`new`](Self::new), but with each vertex's angle sum and interior flag given
+    /// (`sums[v]`, `interior[v]`) instead of measured on `mesh`: for a piece cut out of a
+    /// larger triangulation (see [`crate::tiles`]), whose border vertices have triangles
+    /// outside the piece. The energy counts the given interior vertices. O(m).
+    pub(crate) fn with_vertex_sums(
+        mesh: HalfEdgeMesh,
+        uv: Vec<[f64; 2]>,
+        xyz: Vec<DVec3>,
+        p: f64,
+        sums: &[f64],
+        interior: &[bool],
+    ) -> Result<Self> {
+        let mut state = TacState::new(mesh, uv, xyz, p)?;
+        for ((r, &s), &i) in state.vert.iter_mut().zip(sums).zip(interior) {
+            r.sum = s;
+            r.interior = i;
+        }
+        state.energy = state.recompute_energy();
+        Ok(state)
+    }
+
+    /// The sum of the 3-D corner angles around `v` (radians), as maintained. O(1).
+    pub fn angle_sum(&self, v: u32) -> f64 {
+        self.vert[v as usize].sum
+    }
+
     /// Builds the state from input-ordered data: normalizes positions (scale-free), checks that
     /// `triangles` form a valid planar triangulation of `uv`, and relabels everything in
     /// Z-order for memory locality. Map results back with the returned [`Relabel`].

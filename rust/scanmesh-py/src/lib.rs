@@ -455,7 +455,7 @@ impl Annealer {
 #[pymethods]
 impl Annealer {
     #[new]
-    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples, chains))]
+    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples, chains, tiles))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -473,6 +473,7 @@ impl Annealer {
         polish: bool,
         calibration_samples: usize,
         chains: usize,
+        tiles: usize,
     ) -> PyResult<Self> {
         let params = AnnealParams {
             sweeps,
@@ -486,6 +487,7 @@ impl Annealer {
             polish,
             calibration_samples,
             chains,
+            tiles,
         };
         params.check().map_err(to_py)?;
         let (state, relabel) = tac_state(&points, &uv, &faces, p)?;
@@ -922,6 +924,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     defaults.set_item("polish", d.polish)?;
     defaults.set_item("calibration_samples", d.calibration_samples)?;
     defaults.set_item("chains", d.chains)?;
+    defaults.set_item("tiles", d.tiles)?;
     m.add("ANNEAL_DEFAULTS", defaults)?;
     m.add_function(wrap_pyfunction!(project, m)?)?;
     m.add_function(wrap_pyfunction!(delaunay, m)?)?;
