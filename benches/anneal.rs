@@ -6,6 +6,9 @@
 //!   end of the schedule (cold: uphill moves are rejected, coplanar ties still flip);
 //! - `six_corner_angles`: the floor the issue names: the six new corner angles of a proposal
 //!   alone, for the same random edges, with no convexity test, energy or bookkeeping;
+//! - `tiles` (wall clock only): the sustained hot rate on the rod of one chain annealed in
+//!   1, 2, 4 and 8 stripes at once on the rayon pool ([`TiledAnnealer`]), phase changes
+//!   included: the ratio to 1 tile is the multi-core speed-up of one run;
 //! - `scaling`: the sustained hot rate on one synthetic surface (a jittered grid over a
 //!   gently curved height field) at about 14,000 and 1,000,000 points, to show how much
 //!   memory locality costs once the state (about 200 MB at 1M) outgrows the caches.
@@ -19,6 +22,7 @@ use scanmesh_core::glam::DVec3;
 use scanmesh_core::mesh::prev;
 use scanmesh_core::projection::{project, Plane};
 use scanmesh_core::tac_state::TacState;
+use scanmesh_core::tiles::TiledAnnealer;
 use scanmesh_core::trim::{median_spacing, trim_long_edges, DEFAULT_MAX_EDGE_FACTOR};
 use std::hint::black_box;
 use std::time::Duration;
@@ -150,6 +154,37 @@ fn grid_points(n: usize) -> Vec<DVec3> {
     points
 }
 
+fn tiles(c: &mut Criterion) {
+    let state = rod_state();
+    let mut group = c.benchmark_group("tiles");
+    group.throughput(Throughput::Elements(CHUNK as u64));
+    group.sample_size(20);
+    for tiles in [1, 2, 4, 8] {
+        let params = AnnealParams {
+            sweeps: usize::MAX / 2,
+            final_temperature_ratio: 1.0,
+            patience: 0,
+            tiles,
+            ..AnnealParams::default()
+        };
+        let mut annealer = TiledAnnealer::new(state.clone(), params).unwrap();
+        // A call runs each tile up to its budget and returns at a phase's end, so the count
+        // per call varies: time whole calls and scale to CHUNK proposals.
+        group.bench_function(BenchmarkId::new("rod_14k", tiles), |b| {
+            b.iter_custom(|iters| {
+                let target = iters as usize * CHUNK;
+                let started = std::time::Instant::now();
+                let mut ran = 0;
+                while ran < target {
+                    ran += annealer.advance_until((target - ran).div_ceil(tiles), None);
+                }
+                started.elapsed().mul_f64(target as f64 / ran as f64)
+            })
+        });
+    }
+    group.finish();
+}
+
 fn scaling<M: Measurement>(c: &mut Criterion<M>, prefix: &str) {
     let mut group = c.benchmark_group(format!("{prefix}scaling"));
     group.throughput(Throughput::Elements(CHUNK as u64));
@@ -216,6 +251,7 @@ impl Measurement for ThreadCpu {
 fn wall(c: &mut Criterion) {
     proposals(c, "");
     six_corner_angles(c, "");
+    tiles(c);
     scaling(c, "");
 }
 
