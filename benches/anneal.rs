@@ -6,9 +6,11 @@
 //!   end of the schedule (cold: uphill moves are rejected, coplanar ties still flip);
 //! - `six_corner_angles`: the floor the issue names: the six new corner angles of a proposal
 //!   alone, for the same random edges, with no convexity test, energy or bookkeeping;
-//! - `tiles` (wall clock only): the sustained hot rate on the rod of one chain annealed in
-//!   1, 2, 4 and 8 stripes at once on the rayon pool ([`TiledAnnealer`]), phase changes
-//!   included: the ratio to 1 tile is the multi-core speed-up of one run;
+//! - `tiles` (wall clock only): the sustained hot rate of one chain annealed in stripes at
+//!   once ([`TiledAnnealer`], phase changes included): on the rod in 1, 2, 4 and 8 stripes
+//!   on the rayon pool (the ratio to 1 stripe is the multi-core speed-up of one run), and
+//!   on the 1M grid in 1 and 64 stripes on one thread (what smaller pieces do for cache
+//!   locality alone) and in 64 on the pool;
 //! - `scaling`: the sustained hot rate on one synthetic surface (a jittered grid over a
 //!   gently curved height field) at about 14,000 and 1,000,000 points, to show how much
 //!   memory locality costs once the state (about 200 MB at 1M) outgrows the caches.
@@ -155,11 +157,25 @@ fn grid_points(n: usize) -> Vec<DVec3> {
 }
 
 fn tiles(c: &mut Criterion) {
-    let state = rod_state();
     let mut group = c.benchmark_group("tiles");
     group.throughput(Throughput::Elements(CHUNK as u64));
     group.sample_size(20);
-    for tiles in [1, 2, 4, 8] {
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let rod = rod_state();
+    let grid = trimmed_state(&grid_points(1_000_000));
+    let cases = [
+        ("rod_14k", &rod, 1, false),
+        ("rod_14k", &rod, 2, false),
+        ("rod_14k", &rod, 4, false),
+        ("rod_14k", &rod, 8, false),
+        ("grid_1M", &grid, 1, true),
+        ("grid_1M", &grid, 64, true),
+        ("grid_1M", &grid, 64, false),
+    ];
+    for (name, state, tiles, serial) in cases {
         let params = AnnealParams {
             sweeps: usize::MAX / 2,
             final_temperature_ratio: 1.0,
@@ -168,15 +184,24 @@ fn tiles(c: &mut Criterion) {
             ..AnnealParams::default()
         };
         let mut annealer = TiledAnnealer::new(state.clone(), params).unwrap();
+        let threads = if serial { "1_thread" } else { "pool" };
         // A call runs each tile up to its budget and returns at a phase's end, so the count
         // per call varies: time whole calls and scale to CHUNK proposals.
-        group.bench_function(BenchmarkId::new("rod_14k", tiles), |b| {
+        let id = BenchmarkId::new(format!("{name}/{threads}"), tiles);
+        group.bench_function(id, |b| {
             b.iter_custom(|iters| {
                 let target = iters as usize * CHUNK;
                 let started = std::time::Instant::now();
                 let mut ran = 0;
-                while ran < target {
-                    ran += annealer.advance_until((target - ran).div_ceil(tiles), None);
+                let mut step = |a: &mut TiledAnnealer| {
+                    while ran < target {
+                        ran += a.advance_until((target - ran).div_ceil(tiles), None);
+                    }
+                };
+                if serial {
+                    one_thread.install(|| step(&mut annealer));
+                } else {
+                    step(&mut annealer);
                 }
                 started.elapsed().mul_f64(target as f64 / ran as f64)
             })
