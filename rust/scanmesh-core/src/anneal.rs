@@ -552,14 +552,14 @@ pub(crate) fn polish(
     params: &AnnealParams,
 ) -> Result<(HalfEdgeMesh, f64, usize)> {
     let mut best = TacState::new(best, uv.to_vec(), xyz.to_vec(), params.p)?;
-    let max_flips = 1_000 * best.mesh().n_half_edges().max(1);
+    let budget = crate::lop::max_flips(best.mesh().n_half_edges());
     let polish_flips = if params.polish {
         lop(
             &mut TacLop {
                 state: &mut best,
                 order: params.order(),
             },
-            max_flips,
+            budget,
         )
     } else {
         0

@@ -14,7 +14,7 @@ use scanmesh_core::fuchs::{Solver, Weight};
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::lines;
 use scanmesh_core::locality::Relabel;
-use scanmesh_core::lop::{lop as run_lop, PlanarMaxMinLop, TacLop, TacOrder};
+use scanmesh_core::lop::{lop as run_lop, max_flips, PlanarMaxMinLop, TacLop, TacOrder};
 use scanmesh_core::mesh::HalfEdgeMesh;
 use scanmesh_core::projection::{self, Plane};
 use scanmesh_core::strips::{self, Method, StripParams};
@@ -400,12 +400,13 @@ fn lop<'py>(
                 sliver_guard,
             };
             py.detach(|| {
+                let budget = max_flips(state.mesh().n_half_edges());
                 let flips = run_lop(
                     &mut TacLop {
                         state: &mut state,
                         order,
                     },
-                    usize::MAX,
+                    budget,
                 );
                 (state.into_mesh(), flips)
             })
@@ -413,12 +414,13 @@ fn lop<'py>(
         "max-min" => py.detach(|| {
             let plane = state.uv().to_vec();
             let mut mesh = state.into_mesh();
+            let budget = max_flips(mesh.n_half_edges());
             let flips = run_lop(
                 &mut PlanarMaxMinLop {
                     mesh: &mut mesh,
                     uv: &plane,
                 },
-                usize::MAX,
+                budget,
             );
             (mesh, flips)
         }),
