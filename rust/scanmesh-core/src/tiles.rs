@@ -57,6 +57,7 @@ pub struct TiledAnnealer {
     best_energy: f64,
     since_best: usize,
     stopped_early: bool,
+    proposals: u64,
 }
 
 /// A phase in progress: the frozen triangles, the energy of the vertices in no tile, and
@@ -125,6 +126,7 @@ impl TiledAnnealer {
             best_energy: energy,
             since_best: 0,
             stopped_early: false,
+            proposals: 0,
             params,
         })
     }
@@ -142,6 +144,13 @@ impl TiledAnnealer {
     /// Interior edges of the whole triangulation (about the proposals of one sweep). O(1).
     pub fn sweep_len(&self) -> usize {
         self.interior_edges
+    }
+
+    /// Proposals made in the finished phases: a tile's sweep proposes once per interior edge
+    /// of the tile, so edges frozen across stripe borders make this smaller than sweeps ×
+    /// [`sweep_len`](Self::sweep_len). O(1).
+    pub fn proposals(&self) -> u64 {
+        self.proposals
     }
 
     /// Current energy of the whole triangulation (radians^p). O(tiles).
@@ -342,7 +351,13 @@ impl TiledAnnealer {
             self.temperature *= self.cooling;
         }
         // Summed in the order of the sweep records' best, so the two agree to the bit.
-        let phase_best = ends.iter().fold(phase.constant, |sum, e| sum + e.best_energy);
+        self.proposals += ends
+            .iter()
+            .map(|e| (e.sweep_len * e.trace.len()) as u64)
+            .sum::<u64>();
+        let phase_best = ends
+            .iter()
+            .fold(phase.constant, |sum, e| sum + e.best_energy);
         let mut triangles = phase.frozen.clone();
         for e in &ends {
             triangles.extend(globalize(&e.vertices, e.state.mesh()));
