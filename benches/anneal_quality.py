@@ -196,7 +196,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study", choices=["schedule", "guard", "paper"])
     parser.add_argument(
-        "--tiles", type=int, default=2, help="paper: stripes of the tiled run (default 2)"
+        "--tiles", type=int, default=8, help="paper: stripes of the tiled run (default 8)"
     )
     parser.add_argument(
         "--picture",
