@@ -108,7 +108,7 @@ def anneal_surface(
         128) to make 8,000 proposals per sweep in all: on small inputs restarts find the
         optimum far more often than one longer chain (BENCHMARKS.md, "Certified optimum").
         ``tiles`` (1): anneal each chain in this many stripes of the plane at once, on the
-        cores (at most 64): each phase of 50 sweeps freezes the triangles that cross a
+        cores (at most 64): each phase of 100 sweeps freezes the triangles that cross a
         stripe border, the stripes shift by half a stripe every phase, and the energy stays
         exact; for large scans and long runs on several cores. The result depends on the
         seed and ``tiles``, not on the number of cores.
