@@ -429,7 +429,8 @@ impl Annealer {
     /// Replays the flips up to the best state onto the `best` copy (flips rewrite slots
     /// deterministically, so the replay reproduces it exactly). O(flips replayed).
     fn sync_best(&mut self) {
-        // Unanchored: `finish` builds a `TacState`, which reanchors.
+        // Unanchored: what reads `best` next builds a `TacState` (which reanchors) or takes
+        // its triangles (tiles).
         for &h in &self.log[..self.pending] {
             self.best.flip_unanchored(h);
         }

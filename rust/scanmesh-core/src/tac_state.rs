@@ -138,7 +138,45 @@ impl TacState {
     /// Builds the caches. `uv` are the planar positions the flips are checked in (use
     /// [`crate::delaunay::unit_square`] of the projection), `xyz` the 3-D positions the angles
     /// are measured on (normalize with [`crate::geometry::Normalizer`] to be scale-safe). O(m).
-    pub fn new(mut mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
+    pub fn new(mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
+        let mut state = TacState::without_sums(mesh, uv, xyz, p)?;
+        for v in 0..state.mesh.n_vertices() as u32 {
+            state.vert[v as usize].sum = state.fan_sum(v);
+        }
+        state.energy = state.recompute_energy();
+        Ok(state)
+    }
+
+    /// Like [`new`](Self::new), but with each vertex's angle sum and interior flag given
+    /// (`sums[v]`, `interior[v]`) instead of measured on `mesh`: for a piece cut out of a
+    /// larger triangulation (see [`crate::tiles`]), whose border vertices have triangles
+    /// outside the piece. The energy counts the given interior vertices. O(m).
+    pub(crate) fn with_vertex_sums(
+        mesh: HalfEdgeMesh,
+        uv: Vec<[f64; 2]>,
+        xyz: Vec<DVec3>,
+        p: f64,
+        sums: &[f64],
+        interior: &[bool],
+    ) -> Result<Self> {
+        let mut state = TacState::without_sums(mesh, uv, xyz, p)?;
+        for ((r, &s), &i) in state.vert.iter_mut().zip(sums).zip(interior) {
+            r.sum = s;
+            r.interior = i;
+        }
+        state.energy = state.recompute_energy();
+        Ok(state)
+    }
+
+    /// What [`new`](Self::new) and [`with_vertex_sums`](Self::with_vertex_sums) share: the
+    /// checks, the anchors, the vertex records (interior as on `mesh`, sums 0) and every
+    /// corner angle; energy 0. O(m).
+    fn without_sums(
+        mut mesh: HalfEdgeMesh,
+        uv: Vec<[f64; 2]>,
+        xyz: Vec<DVec3>,
+        p: f64,
+    ) -> Result<Self> {
         if !(p.is_finite() && p >= 1.0) {
             return Err(Error::InvalidParameter {
                 name: "p",
@@ -184,31 +222,6 @@ impl TacState {
             let angles = triangle_angles(a, b, c);
             state.corner[3 * t..3 * t + 3].copy_from_slice(&angles);
         }
-        for v in 0..state.mesh.n_vertices() as u32 {
-            state.vert[v as usize].sum = state.fan_sum(v);
-        }
-        state.energy = state.recompute_energy();
-        Ok(state)
-    }
-
-    /// Like [`new`](Self::new), but with each vertex's angle sum and interior flag given
-    /// (`sums[v]`, `interior[v]`) instead of measured on `mesh`: for a piece cut out of a
-    /// larger triangulation (see [`crate::tiles`]), whose border vertices have triangles
-    /// outside the piece. The energy counts the given interior vertices. O(m).
-    pub(crate) fn with_vertex_sums(
-        mesh: HalfEdgeMesh,
-        uv: Vec<[f64; 2]>,
-        xyz: Vec<DVec3>,
-        p: f64,
-        sums: &[f64],
-        interior: &[bool],
-    ) -> Result<Self> {
-        let mut state = TacState::new(mesh, uv, xyz, p)?;
-        for ((r, &s), &i) in state.vert.iter_mut().zip(sums).zip(interior) {
-            r.sum = s;
-            r.interior = i;
-        }
-        state.energy = state.recompute_energy();
         Ok(state)
     }
 

@@ -213,8 +213,7 @@ impl TiledAnnealer {
             let r = self.rank[v as usize] as u64;
             ((2 * r * k as u64 + shift * n as u64) / (2 * n as u64)) as usize % k
         };
-        let n_tiles = k;
-        let mut pieces: Vec<Vec<[u32; 3]>> = vec![Vec::new(); n_tiles];
+        let mut pieces: Vec<Vec<[u32; 3]>> = vec![Vec::new(); k];
         let mut frozen = Vec::new();
         for &tri in &self.triangles {
             let t = tile_of(tri[0]);
@@ -227,7 +226,7 @@ impl TiledAnnealer {
         // Local indices: each vertex belongs to one tile, so one array serves all tiles.
         const UNSET: u32 = u32::MAX;
         let mut local = vec![UNSET; n];
-        let mut vertices: Vec<Vec<u32>> = vec![Vec::new(); n_tiles];
+        let mut vertices: Vec<Vec<u32>> = vec![Vec::new(); k];
         for (t, piece) in pieces.iter().enumerate() {
             for &v in piece.iter().flatten() {
                 if local[v as usize] == UNSET {
