@@ -82,8 +82,12 @@ def delaunay(
         untrimmed = faces
         with Stage(progress, "trim", len(untrimmed), blocking=True):
             faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit)
-            # (K,) int64 points that lost every triangle to trimming (outliers, stray points)
-            trimmed = np.setdiff1d(untrimmed, faces).astype(np.int64)
+            # (K,) int64 points that lost every triangle to trimming (outliers, stray points);
+            # flags, not np.setdiff1d, whose sorts of the 6M-entry face arrays took 2 s at 1M points
+            was_used = np.zeros(len(pts), dtype=bool)
+            was_used[untrimmed.ravel()] = True
+            was_used[faces.ravel()] = False
+            trimmed = np.flatnonzero(was_used).astype(np.int64)
         if len(faces) == 0:
             raise DegenerateInputError(
                 f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse"
