@@ -11,8 +11,10 @@ triangulates the same points, projected along the scanning direction. Per mesh: 
 smallest 3-D angle, sliver share (the row ``scanmesh compare`` prints, from the same
 function), closest-point height error against the CAD mesh at 100,000 random points on the
 mesh's area (:func:`scanmesh.truth.height_error`, as ``scanmesh compare --truth``), the mean
-angle between mesh and true normals at the same points (:func:`scanmesh.truth.normal_error`)
-and wall time of the triangulation. Baselines: spade Delaunay (method ``delaunay``, trimmed at
+angle between mesh and true normals at the same points (:func:`scanmesh.truth.normal_error`),
+the domain against the part's shadow on the plane (air covered, shadow missed, in % of the
+shadow: :func:`scanmesh.truth.domain_error`, also in ``scanmesh compare --truth``) and wall
+time of the triangulation. Baselines: spade Delaunay (method ``delaunay``, trimmed at
 5 x median spacing) and ``scipy.spatial.Delaunay`` on the same projected points, trimmed by
 the same code at the same length.
 """
@@ -33,7 +35,7 @@ import numpy as np
 
 import scanmesh
 from scanmesh.cli import _auto_view, _quality_row
-from scanmesh.truth import TrueSurface, height_error, normal_error
+from scanmesh.truth import TrueSurface, domain_error, height_error, normal_error
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 CAD = SHARED / "cad"
@@ -116,6 +118,8 @@ def measure(part: str, figures: Path | None) -> list[dict]:
         n = normal_error(surface, truth, n_samples=N_SAMPLES, seed=SEED)
         row.update({k: h[k] for k in ("h_rms", "h_mean", "h_max")})
         row.update({k: n[k] for k in ("n_mean_deg", "n_median_deg")})
+        d = domain_error(surface, truth)
+        row.update({k: d[k] for k in ("air_share", "missed_share")})
         rows.append(row)
         if method in ("delaunay", "shortest-path", "anneal"):
             shown[method] = (surface, row)
@@ -148,9 +152,10 @@ def print_table(rows: list[dict]) -> None:
     )
     print(
         "| method | time (s) | tac_1 | tac_2 | tac_inf | tac_1 / Del. | min angle (°) | slivers"
-        " | h_rms | h_mean | h_max | h_rms / Del. | normal mean (°) | normal median (°) |"
+        " | h_rms | h_mean | h_max | h_rms / Del. | normal mean (°) | normal median (°) | air |"
+        " missed |"
     )
-    print("|---|" + "---|" * 13)
+    print("|---|" + "---|" * 15)
     base = rows[0]
     for r in rows:
         label = {"delaunay": "spade Delaunay", "scipy": "scipy Delaunay"}.get(
@@ -161,7 +166,8 @@ def print_table(rows: list[dict]) -> None:
             f" {r['tac_inf']:.3g} | {r['tac_1'] / base['tac_1']:.3f} | {r['min_angle_deg']:.2g} |"
             f" {100 * r['sliver_fraction']:.2f} % | {r['h_rms']:.3g} | {r['h_mean']:.3g} |"
             f" {r['h_max']:.3g} | {r['h_rms'] / base['h_rms']:.3f} | {r['n_mean_deg']:.2f} |"
-            f" {r['n_median_deg']:.2g} |",
+            f" {r['n_median_deg']:.2g} | {100 * r['air_share']:.3f} % |"
+            f" {100 * r['missed_share']:.2f} % |",
             flush=True,
         )
 

@@ -26,6 +26,7 @@ needs_conrod = pytest.mark.skipif(not CONROD.is_file(), reason="shared data not 
 QUALITY_KEYS = ("tac_1", "tac_2", "tac_inf", "min_angle_deg", "sliver_fraction")
 COMPARE_KEYS = ("method", "time_s", *QUALITY_KEYS)
 HEIGHT_KEYS = ("h_rms", "h_mean", "h_max")
+DOMAIN_KEYS = ("air_share", "missed_share")
 
 
 def run(*args: str | os.PathLike, cwd: Path | None = None, timeout: float = 300):
@@ -324,10 +325,14 @@ def test_compare_json_has_every_key(scan, cap_truth, tmp_path):
     data = json.loads(result.stdout)
     assert [row["method"] for row in data["methods"]] == methods
     for row in data["methods"]:
-        for key in (*COMPARE_KEYS, *HEIGHT_KEYS):
+        for key in (*COMPARE_KEYS, *HEIGHT_KEYS, *DOMAIN_KEYS):
             assert isinstance(row[key], (int, float, str)), key
         # the scan samples the truth, so the meshes are close to it (chords of a paraboloid)
         assert 0 < row["h_mean"] <= row["h_rms"] <= row["h_max"] < 0.01
+        # the truth reaches 0.05 past the scan on every side: a band missed, no air
+        assert row["air_share"] < 0.002
+        assert 0.1 < row["missed_share"] < 0.3
+    assert "air" in data["domain_error"]["measure"]
     assert_png(tmp_path / "cmp.png")
 
 
@@ -343,7 +348,7 @@ def test_compare_table_without_truth(scan):
     assert any(line.startswith("anneal") for line in lines)
     result = run("compare", scan, "--methods", "delaunay", "--json")
     row = json.loads(result.stdout)["methods"][0]
-    assert not set(HEIGHT_KEYS) & set(row)
+    assert not set(HEIGHT_KEYS + DOMAIN_KEYS) & set(row)
 
 
 @pytest.mark.skipif(

@@ -1,4 +1,5 @@
-"""truth.TrueSurface.closest and truth.normal_error: brute force and analytic cases."""
+"""truth.TrueSurface.closest, truth.normal_error and truth.domain_error: brute force and
+analytic cases."""
 
 from __future__ import annotations
 
@@ -8,8 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
+import scanmesh
 from scanmesh.errors import ParameterError
-from scanmesh.truth import TrueSurface, normal_error, point_triangle_distance
+from scanmesh.truth import TrueSurface, domain_error, normal_error, point_triangle_distance
 
 
 def grid_mesh(n: int, height) -> tuple[np.ndarray, np.ndarray]:
@@ -89,3 +91,62 @@ def test_normal_error_checks_samples():
     v, f = grid_mesh(3, lambda x, y: 0 * x)
     with pytest.raises(ParameterError):
         normal_error((v, f), flat_truth(), n_samples=0)
+
+
+def box(lo, hi) -> trimesh.Trimesh:
+    """A closed box from corner lo to corner hi (its shadow along z: a rectangle)."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    return trimesh.creation.box(extents=hi - lo).apply_translation((lo + hi) / 2)
+
+
+def test_domain_error_of_a_shifted_square():
+    # mesh: the unit square; truth's shadow: [0.25, 1.25] x [0, 1]
+    v, f = grid_mesh(5, lambda x, y: 0 * x)
+    err = domain_error((v, f), box([0.25, 0, -0.1], [1.25, 1, 0.1]), plane="z", n_rays=200_000)
+    tol = 4 * err["step"]  # one ray spacing along each of the two unit-long edges, twice
+    assert err["air"] == pytest.approx(0.25, abs=tol)
+    assert err["missed"] == pytest.approx(0.25, abs=tol)
+    assert err["truth_area"] == pytest.approx(1.0, abs=2 * tol)
+    assert err["mesh_area"] == pytest.approx(1.0, abs=2 * tol)
+    assert err["air_share"] == pytest.approx(err["air"] / err["truth_area"])
+    # the same mesh on the truth's own shadow: nothing in air, nothing missed
+    same = domain_error((v, f), box([0, 0, -0.1], [1, 1, 0.1]), plane="z", n_rays=200_000)
+    assert same["air"] < tol and same["missed"] < tol
+
+
+def l_shape_scan(spacing: float = 0.1):
+    """Grid points over the L [0,2]x[0,1] + [0,1]x[1,2] (z = 0) and the L as two boxes."""
+    g = np.arange(0, 2 + spacing / 2, spacing)
+    x, y = (a.ravel() for a in np.meshgrid(g, g))
+    keep = (y <= 1 + 1e-9) | (x <= 1 + 1e-9)
+    pts = np.column_stack([x[keep], y[keep], np.zeros(keep.sum())])
+    truth = trimesh.util.concatenate([box([0, 0, -0.1], [2, 1, 0]), box([0, 1, -0.1], [1, 2, 0])])
+    return pts, truth
+
+
+def test_domain_error_sees_the_hull_bridge_a_concave_corner():
+    pts, truth = l_shape_scan()
+    hull = scanmesh.delaunay(pts, plane="z", max_edge=math.inf)
+    err = domain_error(hull, truth, n_rays=400_000)  # the Surface's own plane
+    tol = 6 * err["step"]
+    # the convex hull covers the notch (2,1), (1,2), (1,1): area 1/2, all of it air
+    assert err["air"] == pytest.approx(0.5, abs=tol)
+    assert err["missed"] < tol
+    assert err["truth_area"] == pytest.approx(3.0, abs=tol)
+    assert domain_error(hull, truth, plane="z", n_rays=400_000)["air"] == err["air"]
+    # default trimming opens the notch again, all but triangles within max_edge of its
+    # corner: the right triangle with legs max_edge at (1, 1) bounds the air they cover
+    surface = scanmesh.delaunay(pts, plane="z")
+    trimmed = domain_error(surface, truth, n_rays=400_000)
+    assert trimmed["air"] <= surface.options["max_edge"] ** 2 / 2 + tol
+    assert trimmed["missed"] < tol
+
+
+def test_domain_error_checks_its_arguments():
+    pts, truth = l_shape_scan(0.5)
+    surface = scanmesh.delaunay(pts, plane="z")
+    with pytest.raises(ParameterError, match="plane is required"):
+        domain_error((surface.vertices, surface.faces), truth)
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ParameterError, match="n_rays"):
+            domain_error(surface, truth, n_rays=bad)

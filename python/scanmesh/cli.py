@@ -287,7 +287,6 @@ def _method_options(args: argparse.Namespace, method: str) -> dict[str, Any]:
     return options
 
 
-
 # --------------------------------------------------------------------------- reconstruct
 
 
@@ -432,10 +431,12 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         row.update(_quality_row(surface))
         row["faces"] = int(len(surface.faces))
         if truth is not None:
-            from scanmesh.truth import height_error
+            from scanmesh.truth import domain_error, height_error
 
             err = height_error(surface, truth, seed=args.seed or 0)
             row.update({k: err[k] for k in ("h_rms", "h_mean", "h_max")})
+            dom = domain_error(surface, truth)
+            row.update({k: dom[k] for k in ("air_share", "missed_share")})
         rows.append(row)
         surfaces.append(surface)
 
@@ -459,9 +460,10 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         data: dict[str, Any] = {"input": str(source), "points": int(len(scan.points))}
         data["methods"] = rows
         if truth is not None:
-            from scanmesh.truth import MEASURE
+            from scanmesh.truth import DOMAIN_MEASURE, MEASURE
 
             data["height_error"] = {"measure": MEASURE, "n_samples": 100_000}
+            data["domain_error"] = {"measure": DOMAIN_MEASURE}
         if failed:
             data["failed"] = failed
         print(_dumps(data))
@@ -480,7 +482,7 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
         f"{'min angle':>11}{'slivers':>9}"
     )
     if with_truth:
-        head += f"{'h_rms':>11}{'h_mean':>11}{'h_max':>11}"
+        head += f"{'h_rms':>11}{'h_mean':>11}{'h_max':>11}{'air':>8}{'missed':>8}"
     con.out(head)
     for r in rows:
         line = (
@@ -490,6 +492,7 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
         )
         if with_truth:
             line += f"{r['h_rms']:>11.3e}{r['h_mean']:>11.3e}{r['h_max']:>11.3e}"
+            line += f"{100 * r['air_share']:>7.2f}%{100 * r['missed_share']:>7.2f}%"
         con.out(line)
     con.out(
         "tac in radians (smaller is smoother); min angle: smallest 3-D corner angle;"
@@ -499,7 +502,9 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
     if with_truth:
         con.out(
             "h_*: closest-point distance to the truth at 100,000 random points on each"
-            " mesh's area (model units)"
+            " mesh's area (model units); air: area the mesh covers outside the truth's"
+            " shadow on the plane, missed: shadow area the mesh leaves open (both in % of the"
+            " shadow)"
         )
 
 
