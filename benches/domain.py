@@ -1,0 +1,124 @@
+"""How honest is each domain? Air covered and shadow missed against the CAD truth.
+
+    python benches/domain.py                    # every part of benches/quality.py
+    python benches/domain.py --parts conrod --anneal   # and annealing on each domain
+
+A planar method chooses the part of the plane its mesh covers: trimmed Delaunay keeps
+triangles whose edges are at most ``k`` x the median spacing, the strips keep what lies
+between consecutive scan lines. Flips never change it, so annealing inherits the domain of
+its initial mesh. Per part (the scans of ``benches/quality.py``) and domain: the area covered
+where the true part casts no shadow on the projection plane ("air") and the part's shadow
+left uncovered ("missed"), both in % of the shadow (:func:`scanmesh.truth.domain_error`,
+4 million rays), and the interior vertices (the ones tac is summed over). With ``--anneal``,
+default annealing (seed 0) from each trimmed Delaunay, scored against Delaunay on the same
+domain and against the default Delaunay: tac_1, height RMS (100,000 samples) and slivers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+from quality import CAD, PARTS, machine, scan
+
+import scanmesh
+from scanmesh.delaunay import MAX_EDGE_FACTOR
+from scanmesh.truth import TrueSurface, domain_error, height_error
+
+#: Trimming lengths in multiples of the median spacing (5 is the default).
+FACTORS = (3.0, 4.0, 5.0, 6.0, 7.0, 8.0, math.inf)
+
+
+def interior_vertices(faces: np.ndarray) -> int:
+    """Vertices that no boundary edge (an edge of one face only) touches."""
+    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    key = e[:, 0] * (int(faces.max()) + 1) + e[:, 1]
+    uniq, counts = np.unique(key, return_counts=True)
+    boundary = uniq[counts == 1]
+    n = int(faces.max()) + 1
+    on_boundary = np.zeros(n, dtype=bool)
+    on_boundary[boundary // n] = on_boundary[boundary % n] = True
+    used = np.zeros(n, dtype=bool)
+    used[faces.ravel()] = True
+    return int((used & ~on_boundary).sum())
+
+
+def domains(points: np.ndarray, lines: np.ndarray, plane: str):
+    """(label, trimming factor or None, Surface) of every domain compared."""
+    default = scanmesh.delaunay(points, plane=plane)
+    spacing = default.options["max_edge"] / MAX_EDGE_FACTOR
+    for k in FACTORS:
+        label = f"Delaunay, trim {k:g}x" + (" (default)" if k == MAX_EDGE_FACTOR else "")
+        if k == MAX_EDGE_FACTOR:
+            yield label, k, default
+        else:
+            yield label, k, scanmesh.delaunay(points, plane=plane, max_edge=k * spacing)
+    strips = scanmesh.reconstruct(points, "shortest-path", lines=lines, plane=plane)
+    yield "strips (shortest path)", None, strips
+
+
+def anneal_table(part: str, rows: list[tuple]) -> None:
+    """Annealing from each finitely trimmed Delaunay; ratios against Delaunay."""
+    cad, _, plane = PARTS[part]
+    points, _ = scan(part)
+    truth = TrueSurface(CAD / cad)
+    print(
+        f"\n**{part}**: annealing (defaults, seed 0) from each trimmed Delaunay\n\n"
+        "| trim | Delaunay tac_1 | anneal tac_1 | / same-trim Del. | / default Del. |"
+        " Delaunay h_rms | anneal h_rms | / same-trim Del. | / default Del. | slivers |"
+        " air | missed |"
+    )
+    print("|---|" + "---|" * 11)
+    scored = []
+    for _, k, surface, d in rows:
+        if k is None or not math.isfinite(k):
+            continue
+        annealed = scanmesh.reconstruct(
+            points, "anneal", plane=plane, max_edge=surface.options["max_edge"], seed=0
+        )
+        h = [height_error(s, truth, seed=0)["h_rms"] for s in (surface, annealed)]
+        scored.append((k, surface.quality.tac_1, annealed.quality.tac_1, *h, annealed, d))
+    base = next(r for r in scored if r[0] == MAX_EDGE_FACTOR)
+    for k, del_tac, tac, del_h, h, annealed, d in scored:
+        print(
+            f"| {k:g}x | {del_tac:.4g} | {tac:.4g} | {tac / del_tac:.3f} | {tac / base[1]:.3f} |"
+            f" {del_h:.3g} | {h:.3g} | {h / del_h:.3f} | {h / base[3]:.3f} |"
+            f" {100 * annealed.quality.sliver_fraction:.2f} % | {100 * d['air_share']:.3f} % |"
+            f" {100 * d['missed_share']:.2f} % |",
+            flush=True,
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--parts", nargs="+", choices=list(PARTS), default=list(PARTS))
+    parser.add_argument("--anneal", action="store_true", help="also anneal on each domain")
+    args = parser.parse_args()
+    print(f"machine: {machine()}\n")
+    print("| part | domain | air | missed | air + missed | interior vertices | ray spacing |")
+    print("|---|---|---|---|---|---|---|")
+    measured = {}
+    for part in args.parts:
+        cad, _, plane = PARTS[part]
+        points, lines = scan(part)
+        truth = TrueSurface(CAD / cad)
+        measured[part] = []
+        for label, k, surface in domains(points, lines, plane):
+            d = domain_error(surface, truth)
+            measured[part].append((label, k, surface, d))
+            print(
+                f"| {part} | {label} | {100 * d['air_share']:.3f} % |"
+                f" {100 * d['missed_share']:.2f} % |"
+                f" {100 * (d['air_share'] + d['missed_share']):.2f} % |"
+                f" {interior_vertices(surface.faces):,} | {d['step']:.2g} |",
+                flush=True,
+            )
+    if args.anneal:
+        for part, rows in measured.items():
+            anneal_table(part, rows)
+    print(f"\nmachine after: {machine()}")
+
+
+if __name__ == "__main__":
+    main()
