@@ -1,9 +1,10 @@
 """Speed against peers, in one run: strips, spade Delaunay and scipy Delaunay from 10k to 10M
 points of a synthetic scan, annealing proposals per second, and peak memory.
 
-    python benches/speed.py                          # 10k, 100k, 1M (and 10M: --sizes)
+    python benches/speed.py                          # 10k, 100k, 1M, then annealing
     python benches/speed.py --sizes 10000 100000 1000000 10000000 --timeout 300
     python benches/speed.py --anneal                 # annealing proposals per second only
+    python benches/speed.py --no-anneal              # the peers table only
 
 The scan: a smooth height field z = f(x, y) sampled on straight scan lines along x (lines
 stacked along y, equal spacing in both directions, positions jittered by up to 5 % of the
@@ -158,28 +159,38 @@ def interior_edges(faces: np.ndarray) -> int:
 
 
 def anneal_speed() -> None:
+    """Proposals per second of whole annealing runs: one chain on one core, then one chain
+    in stripes on every core (``tiles``). Proposals are counted as full sweeps (sweeps run x
+    interior edges), which slightly flatters tiled runs: their border edges wait a phase."""
     import scanmesh
 
     print(f"machine: {machine()}\n")
-    print("| scan | points | interior edges | sweeps run | anneal time (s) | proposals/s |")
-    print("|---|---|---|---|---|---|")
+    print(
+        "| scan | points | interior edges | tiles | sweeps run | anneal time (s) | proposals/s |"
+        " / one chain |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
     rod, _ = scanmesh.load_demo()
-    cases = [
-        ("rod (demo), along y", rod, "y", 300),
-    ]
+    cases = [("rod (demo), along y", rod, "y", 300, 8)]
     for n in (100_000, 1_000_000):
         pts, _ = synthetic_scan(n)
-        cases.append((f"synthetic {n:,}", pts, "z", 30 if n < 1_000_000 else 5))
-    for name, pts, plane, sweeps in cases:
+        cases.append((f"synthetic {n:,}", pts, "z", 30 if n < 1_000_000 else 20, 64))
+    for name, pts, plane, sweeps, many in cases:
         start = scanmesh.reconstruct(pts, "delaunay", plane=plane)
         edges = interior_edges(start.faces)
-        s = scanmesh.reconstruct(pts, "anneal", plane=plane, sweeps=sweeps, patience=0, seed=1)
-        done = len(s.trace["energy"])
-        t = s.timings["anneal"]
-        print(
-            f"| {name} | {len(pts):,} | {edges:,} | {done} | {t:.2f} | {done * edges / t:,.0f} |",
-            flush=True,
-        )
+        one_chain = None
+        for tiles in (1, many):
+            s = scanmesh.reconstruct(
+                pts, "anneal", plane=plane, sweeps=sweeps, patience=0, seed=1, tiles=tiles
+            )
+            done = len(s.trace["energy"])
+            rate = done * edges / s.timings["anneal"]
+            one_chain = one_chain or rate
+            print(
+                f"| {name} | {len(pts):,} | {edges:,} | {tiles} | {done} |"
+                f" {s.timings['anneal']:.2f} | {rate:,.0f} | {rate / one_chain:.2f} |",
+                flush=True,
+            )
     print(f"\nmachine after: {machine()}")
 
 
@@ -190,6 +201,7 @@ def main() -> None:
     parser.add_argument("--repeat-large", type=int, default=1, help="runs per size from 1M")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per process")
     parser.add_argument("--anneal", action="store_true", help="annealing proposals/s only")
+    parser.add_argument("--no-anneal", action="store_true", help="the peers table only")
     parser.add_argument("--child", nargs=2, metavar=("METHOD", "N"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -198,6 +210,9 @@ def main() -> None:
         anneal_speed()
     else:
         peers(args.sizes, args.repeat, args.repeat_large, args.timeout)
+        if not args.no_anneal:
+            print()
+            anneal_speed()
 
 
 if __name__ == "__main__":
