@@ -2,6 +2,7 @@
 
     python benches/domain.py                    # every part of benches/quality.py
     python benches/domain.py --parts conrod --anneal   # and annealing on each domain
+    python benches/domain.py --parts conrod --figure benches/figures/domain_rod_corner.png
 
 A planar method chooses the part of the plane its mesh covers: trimmed Delaunay keeps
 triangles whose edges are at most ``k`` x the median spacing, the strips keep what lies
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 import numpy as np
 from quality import CAD, PARTS, machine, scan
@@ -90,10 +92,63 @@ def anneal_table(part: str, rows: list[tuple]) -> None:
         )
 
 
+#: The rod's big-eye corner where the shaft's side meets the eye (x, z window, inches).
+ROD_CORNER = ((0.70, 0.93), (0.53, 0.67))
+
+
+def corner_figure(path: Path, rows: list[tuple], truth: TrueSurface, factors=(3.0, 5.0, 8.0)):
+    """The rod's big-eye corner under several trimming lengths: mesh edges over the part's
+    shadow, air (mesh outside the shadow) in red, missed shadow in blue (rays every 1/400
+    of the window, as domain_error casts them)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    from scanmesh.digitizer import cast_grid
+
+    (x0, x1), (z0, z1) = ROD_CORNER
+    step = (x1 - x0) / 400
+    shape = (int((x1 - x0) / step) + 1, int((z1 - z0) / step) + 1)
+
+    def covered(tri: np.ndarray) -> np.ndarray:
+        _, face = cast_grid(tri, np.zeros(tri.shape[:2]), (x0, z0), (step, step), shape)
+        return (face >= 0).reshape(shape[1], shape[0])
+
+    shadow = covered(truth.triangles[:, :, [0, 2]])
+    chosen = [r for r in rows if r[1] in factors]
+    fig, axes = plt.subplots(1, len(chosen), figsize=(5.2 * len(chosen), 3.6))
+    colours = ListedColormap(["white", "#fde3b5", "#d62728", "#1f77b4"])
+    for ax, (label, _, surface, d) in zip(np.atleast_1d(axes), chosen, strict=True):
+        v = surface.vertices[:, [0, 2]]
+        mesh = covered(v[surface.faces])
+        # 0 outside both, 1 shadow and mesh, 2 air, 3 missed
+        code = np.where(shadow & mesh, 1, np.where(mesh, 2, np.where(shadow, 3, 0)))
+        ax.imshow(code, origin="lower", extent=(x0, x1, z0, z1), cmap=colours, vmin=0, vmax=3)
+        ax.triplot(v[:, 0], v[:, 1], surface.faces, lw=0.5, color="0.3")
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(z0, z1)
+        ax.set_aspect("equal")
+        ax.set_title(
+            f"{label}: air {100 * d['air_share']:.3f} %, missed {100 * d['missed_share']:.2f} %"
+            " (whole rod)",
+            fontsize=9,
+        )
+        ax.set_xlabel("x (in)")
+    np.atleast_1d(axes)[0].set_ylabel("z (in)")
+    fig.suptitle("rod, big-eye corner: shadow (tan), air (red), missed (blue)", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--parts", nargs="+", choices=list(PARTS), default=list(PARTS))
     parser.add_argument("--anneal", action="store_true", help="also anneal on each domain")
+    parser.add_argument("--figure", type=Path, help="PNG of the rod's corner (with conrod)")
     args = parser.parse_args()
     print(f"machine: {machine()}\n")
     print("| part | domain | air | missed | air + missed | interior vertices | ray spacing |")
@@ -114,6 +169,8 @@ def main() -> None:
                 f" {interior_vertices(surface.faces):,} | {d['step']:.2g} |",
                 flush=True,
             )
+    if args.figure is not None and "conrod" in measured:
+        corner_figure(args.figure, measured["conrod"], TrueSurface(CAD / PARTS["conrod"][0]))
     if args.anneal:
         for part, rows in measured.items():
             anneal_table(part, rows)
