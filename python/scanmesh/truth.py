@@ -1,11 +1,12 @@
-"""Distance of a reconstructed mesh to a known true surface (height error against a CAD truth).
+"""A reconstructed mesh against a known true surface (a CAD truth): height error, normal
+error (:func:`normal_error`) and domain error (:func:`domain_error`).
 
-The measure: points sampled uniformly at random on the reconstructed mesh's area (weighted by
-triangle area, so a large wrong triangle counts as much as it covers), and for each sample its
-**closest-point distance** to the true surface (unsigned, in the model's units): the distance
-``trimesh.proximity.closest_point`` returns. It is not the distance along the projection
-normal: where a mesh bridges a step or a hole, the closest-point distance is the distance to
-the wall, never more.
+The height measure: points sampled uniformly at random on the reconstructed mesh's area
+(weighted by triangle area, so a large wrong triangle counts as much as it covers), and for
+each sample its **closest-point distance** to the true surface (unsigned, in the model's
+units): the distance ``trimesh.proximity.closest_point`` returns. It is not the distance
+along the projection normal: where a mesh bridges a step or a hole, the closest-point
+distance is the distance to the wall, never more.
 
 The distances are exact (checked against brute force over every triangle) and computed here
 rather than by trimesh, whose nearest-vertex search box makes 100,000 queries on a CAD part
