@@ -26,6 +26,7 @@ from quality import CAD, PARTS, machine, scan
 
 import scanmesh
 from scanmesh.delaunay import MAX_EDGE_FACTOR
+from scanmesh.optimal import _interior_mask
 from scanmesh.truth import TrueSurface, domain_error, height_error
 
 #: Trimming lengths in multiples of the median spacing (5 is the default).
@@ -33,17 +34,10 @@ FACTORS = (3.0, 4.0, 5.0, 6.0, 7.0, 8.0, math.inf)
 
 
 def interior_vertices(faces: np.ndarray) -> int:
-    """Vertices that no boundary edge (an edge of one face only) touches."""
-    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    key = e[:, 0] * (int(faces.max()) + 1) + e[:, 1]
-    uniq, counts = np.unique(key, return_counts=True)
-    boundary = uniq[counts == 1]
+    """Used vertices that no boundary edge (an edge of one face only) touches."""
     n = int(faces.max()) + 1
-    on_boundary = np.zeros(n, dtype=bool)
-    on_boundary[boundary // n] = on_boundary[boundary % n] = True
-    used = np.zeros(n, dtype=bool)
-    used[faces.ravel()] = True
-    return int((used & ~on_boundary).sum())
+    used = np.bincount(faces.ravel(), minlength=n) > 0
+    return int((_interior_mask(n, faces) & used).sum())
 
 
 def domains(points: np.ndarray, lines: np.ndarray, plane: str):
