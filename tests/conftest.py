@@ -13,15 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-#: ../shared/data beside the repository (CI clones the repo with shared/ next to it).
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
-
-
-@pytest.fixture(scope="session")
-def shared_data() -> Path:
-    """The folder of real models and scans; the suite needs it."""
-    assert SHARED_DATA.is_dir(), f"shared data not found at {SHARED_DATA}"
-    return SHARED_DATA
+#: The real models and scans the tests read, inside the repository (tests/data/ATTRIBUTION.md
+#: names each file's source, licence and SHA-256). The only place a test finds its data.
+DATA = Path(__file__).resolve().parent / "data"
 
 
 def bumpy_patch(n: int, seed: int) -> np.ndarray:

@@ -17,11 +17,10 @@ import pytest
 import trimesh
 from PIL import Image
 
+from conftest import DATA
 from scanmesh.truth import TrueSurface, height_error, point_triangle_distance
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
-needs_conrod = pytest.mark.skipif(not CONROD.is_file(), reason="shared data not present")
 
 QUALITY_KEYS = ("tac_1", "tac_2", "tac_inf", "min_angle_deg", "sliver_fraction")
 COMPARE_KEYS = ("method", "time_s", *QUALITY_KEYS)
@@ -108,8 +107,6 @@ def cap_truth(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def rod_scan(tmp_path_factory) -> Path:
     """``scanmesh simulate`` of the connecting rod along its thickness axis (about 1,500 points)."""
-    if not CONROD.is_file():
-        pytest.skip("shared data not present")
     out = tmp_path_factory.mktemp("rod") / "rod.xyz"
     result = run("simulate", CONROD, "-o", out, "--up", "y", "--along", "x", "--n-points", 1500)
     assert result.returncode == 0, result.stderr
@@ -377,7 +374,6 @@ def test_compare_reports_a_failing_method_and_goes_on(tmp_path):
 # --------------------------------------------------------------------------- simulate, info
 
 
-@needs_conrod
 def test_simulate_writes_a_scan_that_reads_back(rod_scan):
     from scanmesh import read
 
@@ -387,7 +383,6 @@ def test_simulate_writes_a_scan_that_reads_back(rod_scan):
     np.testing.assert_allclose(np.unique(np.round(scan.points[:, 1], 4)), [0.1969, 0.3937])
 
 
-@needs_conrod
 def test_simulate_noise_table_and_spacing(tmp_path):
     out = tmp_path / "noisy.xyz"
     result = run(
@@ -420,7 +415,6 @@ def test_simulate_noise_table_and_spacing(tmp_path):
     assert np.std(rows[table, 1]) == pytest.approx(0.001, rel=0.2)
 
 
-@needs_conrod
 def test_simulate_refuses_to_overwrite_the_mesh(tmp_path):
     copy = tmp_path / "rod.stl"
     copy.write_bytes(CONROD.read_bytes())
@@ -429,7 +423,6 @@ def test_simulate_refuses_to_overwrite_the_mesh(tmp_path):
     assert copy.read_bytes() == CONROD.read_bytes()
 
 
-@needs_conrod
 def test_info_text_and_json(rod_scan):
     result = run("info", rod_scan, "--json")
     assert result.returncode == 0, result.stderr
@@ -466,7 +459,6 @@ def test_info_steep_share_of_a_flat_and_a_folded_scan(tmp_path):
 # --------------------------------------------------------------------------- render, demo
 
 
-@needs_conrod
 def test_render_a_mesh(tmp_path):
     out = tmp_path / "rod.png"
     result = run("render", CONROD, "-o", out, "--size", "320x240", "--wire")
@@ -570,7 +562,6 @@ def test_point_triangle_distance_matches_trimesh_and_handles_degenerate_triangle
     np.testing.assert_allclose(point_triangle_distance(tri, pts), ref, rtol=0, atol=1e-12)
 
 
-@needs_conrod
 def test_true_surface_distance_is_exact():
     truth = TrueSurface(CONROD)
     rng = np.random.default_rng(1)

@@ -5,16 +5,15 @@ from __future__ import annotations
 import gzip
 import hashlib
 from importlib import resources
-from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
 
 import scanmesh
+from conftest import DATA
 from scanmesh.demo import SCAN_SETTINGS, TRUTH_FILE, TRUTH_SHA256, demo_truth, load_demo
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
 PACKAGE_DATA = resources.files("scanmesh.data")
 
@@ -63,11 +62,9 @@ def test_truth_is_the_connecting_rod():
 def test_shipped_stl_is_the_source_byte_for_byte():
     raw = gzip.decompress(PACKAGE_DATA.joinpath(TRUTH_FILE).read_bytes())
     assert hashlib.sha256(raw).hexdigest() == TRUTH_SHA256
-    if CONROD.is_file():
-        assert raw == CONROD.read_bytes()
+    assert raw == CONROD.read_bytes()
 
 
-@pytest.mark.skipif(not CONROD.is_file(), reason="shared data not present")
 def test_demo_regenerates_from_the_source(demo):
     points, line_ids = scanmesh.simulate_scan(CONROD, **SCAN_SETTINGS)
     np.testing.assert_array_equal(points, demo[0])

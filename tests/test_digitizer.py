@@ -3,16 +3,15 @@
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
 
+from conftest import DATA
 from scanmesh.digitizer import cast_grid, scan_frame, simulate_scan
 from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError, ScanmeshError
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
 
 
@@ -279,7 +278,6 @@ def test_n_points_with_fixed_line_spacing(sphere):
     assert line_ids.max() + 1 == 11
 
 
-@pytest.mark.skipif(not CONROD.is_file(), reason="shared data not present")
 def test_conrod_scan_along_its_thickness():
     mesh = trimesh.load_mesh(CONROD)
     points, line_ids = simulate_scan(CONROD, up="y", along="x", n_points=14_339)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import scanmesh
+from conftest import DATA
 from scanmesh.lines import GAP_FACTOR, ScanLines, as_line_ids, scan_lines
 from scanmesh.readers import read_dem, read_vtk
 
@@ -134,12 +135,12 @@ def test_lines_of_one_point_are_lines():
     assert [len(s) for line in lines.lines for s in line] == [3, 1, 2]
 
 
-def test_real_scans_are_detected_as_their_files_say(shared_data):
-    fran = read_vtk(shared_data / "scans" / "fran_cut.vtk")
+def test_real_scans_are_detected_as_their_files_say():
+    fran = read_vtk(DATA / "scans" / "fran_cut.vtk")
     found = scanmesh.detect_lines(fran.points)
     np.testing.assert_array_equal(found, fran.line_ids)
     assert found.max() == 44
-    dem = read_dem(shared_data / "terrain" / "SainteHelens.dem")
+    dem = read_dem(DATA / "terrain" / "SainteHelens.dem")
     found = scanmesh.detect_lines(dem.points)
     np.testing.assert_array_equal(found, dem.line_ids)
     counts = np.bincount(found)

@@ -1,6 +1,6 @@
-"""Readers: every format on the real files in shared/data, synthetic variants, and bad input.
+"""Readers: every format on the real files in tests/data, synthetic variants, and bad input.
 
-Expectations come from shared/data/README.md and from independent reads (trimesh, laspy, a
+Expectations come from tests/data/ATTRIBUTION.md and from independent reads (trimesh, laspy, a
 plain-Python parse), never from the reader under test.
 """
 
@@ -16,6 +16,7 @@ import pytest
 import trimesh
 
 import scanmesh
+from conftest import DATA
 from scanmesh import FileFormatError, ScanmeshError
 from scanmesh.readers import (
     ScanPoints,
@@ -29,16 +30,9 @@ from scanmesh.readers import (
     read_xyz,
 )
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 FRAN = DATA / "scans" / "fran_cut.vtk"
 DEM = DATA / "terrain" / "SainteHelens.dem"
 LAZ = DATA / "lidar" / "autzen_trim.laz"
-
-
-def need(path: Path) -> Path:
-    if not path.exists():
-        pytest.skip(f"{path} is not there (shared data missing)")
-    return path
 
 
 def write(path: Path, text: str | bytes) -> Path:
@@ -542,14 +536,14 @@ def test_ply_matches_trimesh(tmp_path, fmt):
     assert sp.line_ids is None
 
 
-@pytest.mark.parametrize("name", ["cad/octagonal_pocket.ply", "cad/turbineblade.ply"])
+@pytest.mark.parametrize("name", ["cad/octagonal_pocket.ply", "cad/turbineblade_cut.ply"])
 def test_real_ply_files_match_trimesh(name):
-    path = need(DATA / name)
+    path = DATA / name
     sp = read(path)
     ref = trimesh.load(path, process=False)
     np.testing.assert_array_equal(sp.points, np.asarray(ref.vertices, dtype=float))
-    if name.endswith("turbineblade.ply"):
-        assert len(sp) == 99_519  # README
+    if name.endswith("turbineblade_cut.ply"):
+        assert len(sp) == 2_000  # tests/data/ATTRIBUTION.md
 
 
 def test_ply_truncated_binary(tmp_path):
@@ -665,7 +659,7 @@ def plain_vtk_points(path: Path) -> np.ndarray:
 
 
 def test_fran_cut_profiles():
-    path = need(FRAN)
+    path = FRAN
     sp = read(path)
     np.testing.assert_array_equal(sp.points, plain_vtk_points(path))
     # README: 2,205 points = 45 profiles x 49 points, stored profile by profile
@@ -681,7 +675,7 @@ def test_fran_cut_profiles():
 
 def test_fran_cut_without_cells_gives_no_lines(tmp_path):
     """The lines come from the cells, not from knowing the file: drop them and they are gone."""
-    text = need(FRAN).read_text()
+    text = FRAN.read_text()
     path = write(tmp_path / "bare.vtk", text[: text.index("POLYGONS")])
     sp = read_vtk(path)
     assert len(sp) == 2205 and sp.line_ids is None
@@ -836,7 +830,7 @@ def test_vtk_bad_input(tmp_path):
 
 
 def test_sainte_helens_dem():
-    path = need(DEM)
+    path = DEM
     sp = read(path)
     # README: 327 south->north profiles of 8 to 464 points, 148,885 points, heights 682-2,543 m
     assert len(sp) == 148_885
@@ -859,7 +853,7 @@ def test_sainte_helens_dem():
 
 
 def test_dem_voids_are_skipped(tmp_path):
-    data = bytearray(need(DEM).read_bytes())
+    data = bytearray(DEM.read_bytes())
     # profile 2 starts at byte 2048; its first three elevations follow the 144-byte header
     first = data[2048 + 144 : 2048 + 162]
     assert first.split()[0].decode().isdigit()
@@ -873,7 +867,7 @@ def test_dem_voids_are_skipped(tmp_path):
 
 
 def test_dem_bad_input(tmp_path):
-    data = need(DEM).read_bytes()
+    data = DEM.read_bytes()
     path = write(tmp_path / "cut.dem", data[:50_000])
     with raises_naming(FileFormatError, path, "truncated"):
         read_dem(path)
@@ -903,7 +897,7 @@ def las_reference(path):
 
 
 def test_autzen_all_returns():
-    path = need(LAZ)
+    path = LAZ
     las, xyz = las_reference(path)
     sp = read_las(path, select="all")
     np.testing.assert_array_equal(sp.points, xyz)
@@ -917,7 +911,7 @@ def test_autzen_all_returns():
 
 
 def test_autzen_first_returns_and_ground():
-    path = need(LAZ)
+    path = LAZ
     las, xyz = las_reference(path)
     first = np.asarray(las.return_number) == 1
     sp = read(path)  # first returns by default
@@ -963,7 +957,7 @@ def test_synthetic_las_sweeps(tmp_path):
 
 def test_las_bad_input(tmp_path, monkeypatch):
     pytest.importorskip("laspy")
-    data = need(LAZ).read_bytes()
+    data = LAZ.read_bytes()
     path = write(tmp_path / "cut.laz", data[:200_000])
     with raises_naming(FileFormatError, path):
         read_las(path)

@@ -9,6 +9,7 @@ import pytest
 import scipy.spatial
 
 import scanmesh
+from conftest import DATA
 from scanmesh import _core
 from scanmesh.readers import read_dem, read_vtk
 from scanmesh.strips import (
@@ -191,8 +192,8 @@ def test_crossing_lines_warn_and_still_give_the_3d_mesh():
     np.testing.assert_array_equal(unchecked.faces, surface.faces)
 
 
-def test_shortest_path_is_never_above_lookahead_on_real_strips(rod_scan, shared_data):
-    fran = read_vtk(shared_data / "scans" / "fran_cut.vtk")
+def test_shortest_path_is_never_above_lookahead_on_real_strips(rod_scan):
+    fran = read_vtk(DATA / "scans" / "fran_cut.vtk")
     scans = {"rod": rod_scan, "fran": (fran.points, fran.line_ids)}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CrossingLinesWarning)  # fran folds in any plane
@@ -219,8 +220,8 @@ def test_every_solver_finds_the_same_optimum_on_real_strips(rod_scan):
 # Real scans.
 
 
-def test_fran_cut_is_a_valid_mesh_of_every_point(shared_data):
-    fran = read_vtk(shared_data / "scans" / "fran_cut.vtk")
+def test_fran_cut_is_a_valid_mesh_of_every_point():
+    fran = read_vtk(DATA / "scans" / "fran_cut.vtk")
     points = fran.points
     # A cylindrical scan over 93 degrees folds in every projection plane: the strips say so
     # but are still one consistently oriented 3-D surface.
@@ -239,8 +240,8 @@ def test_fran_cut_is_a_valid_mesh_of_every_point(shared_data):
     assert quality.min_angle_deg > 10
 
 
-def test_sainte_helens_is_a_valid_mesh_of_every_point(shared_data):
-    dem = read_dem(shared_data / "terrain" / "SainteHelens.dem")
+def test_sainte_helens_is_a_valid_mesh_of_every_point():
+    dem = read_dem(DATA / "terrain" / "SainteHelens.dem")
     surface = quiet(dem.points, lines=dem.line_ids)
     assert len(np.unique(surface.faces)) == len(dem.points) == 148_885
     _core.validate(planar_uv(surface), surface.faces)
