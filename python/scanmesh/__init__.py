@@ -14,6 +14,8 @@ The public API:
 - :class:`ScanmeshError` - base of every input error (a ``ValueError``).
 """
 
+from importlib import metadata as _metadata
+
 from scanmesh.delaunay import delaunay
 from scanmesh.demo import load_demo
 from scanmesh.digitizer import simulate_scan
@@ -22,6 +24,7 @@ from scanmesh.errors import (
     DegenerateInputError,
     FileFormatError,
     InvalidMeshError,
+    MissingExtraError,
     NotAHeightFieldWarning,
     ParameterError,
     ScanmeshError,
@@ -35,7 +38,9 @@ from scanmesh.readers import ScanPoints, read
 from scanmesh.reconstruct import METHODS, reconstruct
 from scanmesh.surface import Surface
 
-__version__ = "0.1.0"
+#: The one version, written in Cargo.toml ([workspace.package]) and read back from the
+#: installed package metadata.
+__version__ = _metadata.version("scanmesh")
 
 __all__ = [
     "reconstruct",
@@ -58,6 +63,7 @@ __all__ = [
     "ParameterError",
     "InvalidMeshError",
     "FileFormatError",
+    "MissingExtraError",
     "ScanmeshWarning",
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",

@@ -15,6 +15,12 @@ class FileFormatError(ScanmeshError):
     """
 
 
+class MissingExtraError(ScanmeshError, ImportError):
+    """A feature needs a package that is installed only with one of scanmesh's extras; the
+    message names the feature, the package and the ``pip install "scanmesh[extra]"`` line.
+    Also an ``ImportError``, so ``except ImportError`` catches it."""
+
+
 class ScanmeshWarning(UserWarning):
     """Base of scanmesh's warnings: the result is honest but the input deserves a look."""
 
@@ -34,6 +40,7 @@ __all__ = [
     "ParameterError",
     "InvalidMeshError",
     "FileFormatError",
+    "MissingExtraError",
     "ScanmeshWarning",
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",

@@ -88,6 +88,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_points
+from scanmesh._extras import require
 from scanmesh.delaunay import delaunay
 from scanmesh.errors import ParameterError
 from scanmesh.projection import Frame, PlaneSpec, project
@@ -277,8 +278,10 @@ def optimal_surface(
         Bad points (shape, non-finite, too few distinct, collinear), p other than 1 or
         inf, a non-positive time limit, or more than MAX_OPTIMAL_POINTS distinct points.
     """
-    # scipy is imported here, not at module load: `import scanmesh` stays light.
-    from scipy.optimize import Bounds, LinearConstraint, milp
+    # scipy (the "optimal" extra) is imported here, not at module load: `import scanmesh`
+    # stays light and works without it.
+    optimize = require("scipy.optimize", "optimal", "method='optimal' (the HiGHS MILP)")
+    Bounds, LinearConstraint, milp = optimize.Bounds, optimize.LinearConstraint, optimize.milp
 
     p = _check_p(p, exact=True)
     try:

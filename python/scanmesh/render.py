@@ -1,5 +1,8 @@
 """Pictures: flat-shaded meshes, side-by-side comparisons and annealing convergence plots.
 
+Faces are drawn in one colour or coloured by a figure of each face (:func:`face_colors`:
+its tac, its distance to a true surface, or its height), on the viridis scale.
+
 Meshes are drawn by a small orthographic z-buffer in numpy (the grid caster of
 :mod:`scanmesh.digitizer`, one ray per pixel), which renders a million triangles in about
 a second where matplotlib's polygon painter takes far longer (BENCHMARKS.md, "Rendering
@@ -13,13 +16,16 @@ from __future__ import annotations
 import io
 import math
 import os
+import struct
+import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from scanmesh._extras import require
 from scanmesh.digitizer import AxisSpec, cast_grid, parse_axis
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.writers import write_atomic
@@ -36,6 +42,24 @@ COLOR = (0.64, 0.74, 0.88)
 WIRE = (0.12, 0.16, 0.24)
 #: Empty border around the part, as a share of the picture.
 MARGIN = 0.04
+
+#: What ``color_by=`` (``--color``) can colour faces by.
+COLOR_BY = ("tac", "error", "height")
+#: Colour of faces with no figure (tac of a face with no interior corner).
+NO_VALUE = (0.75, 0.75, 0.75)
+#: The viridis scale (matplotlib's), sampled at 9 even steps from low to high: dark blue
+#: to yellow, even in lightness, readable by the colour-blind and in grey print.
+VIRIDIS = (
+    (0.2670, 0.0049, 0.3294),
+    (0.2788, 0.1755, 0.4834),
+    (0.2297, 0.3224, 0.5457),
+    (0.1727, 0.4488, 0.5579),
+    (0.1276, 0.5669, 0.5506),
+    (0.1579, 0.6838, 0.5017),
+    (0.3692, 0.7889, 0.3829),
+    (0.6785, 0.8637, 0.1895),
+    (0.9932, 0.9062, 0.1439),
+)
 
 #: The keys plot_convergence draws, with the names it also accepts for them.
 TRACE_KEYS = {
@@ -78,6 +102,122 @@ def _used(faces: np.ndarray, n_vertices: int) -> np.ndarray:
     return mask
 
 
+def auto_view(vertices: np.ndarray, faces: np.ndarray, frame: Any = None) -> dict[str, Any]:
+    """Camera for a scan: three-quarter view from the side the surface faces, tilted across
+    its shorter planar extent (so a long part is seen from the side, not end-on).
+
+    ``frame`` (a :class:`scanmesh.Frame`) gives the plane; without one, the principal axes
+    of the used vertices do, the normal turned to the side the faces are wound towards.
+    Returns ``{"view": (3,) tuple, "up": (3,) tuple}`` for :func:`shade_mesh`. O(N + M).
+    """
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces.ravel()] = True
+    pts = vertices[used]
+    if frame is not None:
+        u, v, n = (np.asarray(a, dtype=np.float64) for a in (frame.u, frame.v, frame.normal))
+    else:
+        centred = pts - pts.mean(axis=0)
+        _, _, axes = np.linalg.svd(centred, full_matrices=False)
+        u, v, n = axes[0], axes[1], axes[2]
+        tri = vertices[faces]
+        area = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]).sum(axis=0)
+        if float(np.dot(area, n)) < 0:
+            n, v = -n, -v
+    rel = pts - pts.mean(axis=0)
+    if np.ptp(rel @ u) < np.ptp(rel @ v):
+        short, long_ = u, v
+    else:
+        short, long_ = v, u
+    view = 0.9 * n - 1.0 * short - 0.3 * long_
+    return {"view": tuple(float(x) for x in view), "up": tuple(float(x) for x in n)}
+
+
+class ColorScale(NamedTuple):
+    """What the face colours of :func:`face_colors` mean: ``lo`` is the darkest (viridis
+    blue), ``hi`` the brightest (yellow); values beyond are drawn as the end colours."""
+
+    by: str
+    lo: float
+    hi: float
+    unit: str
+
+    def describe(self) -> str:
+        """One line for people: ``"tac 0 (dark) to 0.12 rad (yellow)"``."""
+        return f"{self.by} {self.lo:.4g} (dark) to {self.hi:.4g} {self.unit} (yellow)".rstrip()
+
+
+def face_values(
+    mesh: Any, by: str, *, truth: Any = None, up: AxisSpec = "z"
+) -> tuple[np.ndarray, str]:
+    """One figure per face of a mesh, and its unit.
+
+    by : "tac"
+        the mean tac (radians) of the face's interior corners (NaN when it has none): where
+        the surface bends, or the triangulation zig-zags.
+    by : "error"
+        the closest-point distance (model units) from the face's centroid to ``truth`` (a
+        CAD part: path, trimesh.Trimesh or :class:`scanmesh.truth.TrueSurface`): where the
+        mesh leaves the part.
+    by : "height"
+        the centroid's coordinate along ``up`` (model units).
+
+    Returns ((M,) float64, unit). O(N + M), plus the truth's distance queries for "error".
+    """
+    vertices, faces = _mesh_arrays(mesh)
+    if by == "tac":
+        from scanmesh.quality import quality
+
+        tac = quality(vertices, faces).tac[faces]  # (M, 3), NaN on boundary corners
+        counted = np.isfinite(tac).sum(axis=1)
+        total = np.where(np.isfinite(tac), tac, 0.0).sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(counted > 0, total / counted, np.nan), "rad"
+    if truth is not None and by != "error":
+        raise ParameterError(f"a truth is used only to colour by error, not by {by!r}")
+    centroid = vertices[faces].mean(axis=1)
+    if by == "error":
+        if truth is None:
+            raise ParameterError("colouring by error needs the true surface (truth=, --truth)")
+        from scanmesh.truth import TrueSurface
+
+        surface = truth if isinstance(truth, TrueSurface) else TrueSurface(truth)
+        return surface.distance(centroid), ""
+    if by == "height":
+        return centroid @ parse_axis(up, "up"), ""
+    raise ParameterError(f"color_by must be one of {', '.join(COLOR_BY)}, got {by!r}")
+
+
+def colormap(values: ArrayLike, lo: float, hi: float) -> np.ndarray:
+    """(K, 3) float64 RGB in 0..1 of ``values`` on the viridis scale from ``lo`` to ``hi``
+    (clipped); NaN values get ``NO_VALUE``."""
+    x = np.asarray(values, dtype=np.float64)
+    t = np.clip((x - lo) / (hi - lo if hi > lo else 1.0), 0.0, 1.0)
+    stops = np.linspace(0.0, 1.0, len(VIRIDIS))
+    rgb = np.column_stack([np.interp(t, stops, channel) for channel in np.transpose(VIRIDIS)])
+    rgb[~np.isfinite(x)] = NO_VALUE
+    return rgb
+
+
+def face_colors(
+    mesh: Any, by: str, *, truth: Any = None, up: AxisSpec = "z"
+) -> tuple[np.ndarray, ColorScale]:
+    """(M, 3) float64 RGB per face coloured by :func:`face_values`, and its scale.
+
+    The scale runs from the smallest to the largest figure, except tac, which runs from 0
+    to its 99th percentile: a few spikes (bores, creases) would otherwise leave the rest
+    of the surface one colour.
+    """
+    values, unit = face_values(mesh, by, truth=truth, up=up)
+    finite = values[np.isfinite(values)]
+    if len(finite) == 0:
+        lo = hi = 0.0
+    elif by == "tac":
+        lo, hi = 0.0, float(np.percentile(finite, 99))
+    else:
+        lo, hi = float(finite.min()), float(finite.max())
+    return colormap(values, lo, hi), ColorScale(by, lo, hi, unit)
+
+
 def camera(view: AxisSpec = DEFAULT_VIEW, up: AxisSpec = "z") -> np.ndarray:
     """A (3, 3) float64 camera frame, rows (right, screen up, toward the eye).
 
@@ -112,7 +252,7 @@ def shade_mesh(
     view: AxisSpec = DEFAULT_VIEW,
     up: AxisSpec = "z",
     wire: bool = False,
-    color: Sequence[float] = COLOR,
+    color: ArrayLike = COLOR,
     background: Sequence[float] = (1.0, 1.0, 1.0),
     supersample: int = 2,
     bounds: tuple[ArrayLike, ArrayLike] | None = None,
@@ -129,6 +269,8 @@ def shade_mesh(
         Direction from the part to the eye, and the model direction shown upwards.
     wire : bool
         Draw the visible triangle edges (best when triangles span many pixels).
+    color : (3,) or (M, 3) float
+        RGB in 0..1: one colour for the whole mesh, or one per face (:func:`face_colors`).
     supersample : int
         Render this many times larger and average down (anti-aliasing).
     bounds : ((2,), (2,)) float, optional
@@ -144,6 +286,12 @@ def shade_mesh(
     ss = int(supersample)
     if width < 1 or height < 1 or ss < 1:
         raise ParameterError(f"size and supersample must be positive, got {size}, {supersample}")
+    rgb = np.asarray(color, dtype=np.float64)
+    if rgb.shape not in ((3,), (len(faces), 3)):
+        raise ParameterError(
+            f"color must be one RGB triple or one per face ({len(faces)}, 3), got {rgb.shape}"
+        )
+    rgb = np.broadcast_to(rgb, (len(faces), 3))
     frame = camera(view, up)
     local = vertices @ frame.T  # (V, 3) right, up, toward the eye
     tri = local[faces]  # (F, 3, 3)
@@ -168,7 +316,7 @@ def shade_mesh(
     light = np.asarray(LIGHT) / np.linalg.norm(LIGHT)
     face_rgb = np.zeros((len(faces), 3))
     intensity = AMBIENT + (1 - AMBIENT) * np.abs(normal @ light)
-    face_rgb[seen] = intensity[:, None] * np.asarray(color, dtype=np.float64)[None, :]
+    face_rgb[seen] = intensity[:, None] * rgb[seen]
     image = np.empty((h, w, 3))
     image[:] = np.asarray(background, dtype=np.float64)
     image[drawn] = face_rgb[face[drawn]]
@@ -205,21 +353,49 @@ def render_mesh(
     up: AxisSpec = "z",
     wire: bool = False,
     supersample: int = 2,
+    color_by: str | None = None,
+    truth: Any = None,
 ) -> Path:
-    """Write a flat-shaded picture of a mesh to a PNG file (see :func:`shade_mesh`)."""
-    from PIL import Image
+    """Write a flat-shaded picture of a mesh to a PNG file (see :func:`shade_mesh`).
 
+    ``color_by`` ("tac", "error" with ``truth``, or "height" along ``up``) colours each
+    face by that figure (:func:`face_colors`); default: one colour.
+    """
     target = _png_path(path)
-    image = shade_mesh(mesh, size=size, view=view, up=up, wire=wire, supersample=supersample)
-    buf = io.BytesIO()
-    Image.fromarray(image, mode="RGB").save(buf, format="PNG")
-    return write_atomic(target, [buf.getvalue()])
+    color = COLOR if color_by is None else face_colors(mesh, color_by, truth=truth, up=up)[0]
+    image = shade_mesh(
+        mesh, size=size, view=view, up=up, wire=wire, color=color, supersample=supersample
+    )
+    return write_atomic(target, [png_bytes(image)])
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """A PNG file (8-bit RGB, no filter, zlib level 6) of an (H, W, 3) uint8 image.
+
+    Written here so flat-shaded pictures need no imaging library. O(H W).
+    """
+    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 3:
+        raise ParameterError(f"an image must be (H, W, 3) uint8, got {image.shape} {image.dtype}")
+    height, width = image.shape[:2]
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    rows = np.zeros((height, 1 + 3 * width), dtype=np.uint8)  # filter byte 0 on each row
+    rows[:, 1:] = image.reshape(height, 3 * width)
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # 8 bits, RGB
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6))
+        + chunk(b"IEND", b"")
+    )
 
 
 def _figure(width_in: float, height_in: float, dpi: int = 100):
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width_in, height_in), dpi=dpi)
+    figure = require("matplotlib.figure", "plots", "pictures with titles and plots")
+    return figure.Figure(figsize=(width_in, height_in), dpi=dpi)
 
 
 def _save_figure(fig, path: Path, dpi: int = 100) -> Path:
