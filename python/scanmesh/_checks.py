@@ -86,7 +86,7 @@ def as_line_ids(line_ids: ArrayLike, n_points: int) -> np.ndarray:
         if bad.any():
             row = int(np.argmax(bad))
             raise ScanmeshError(
-                f"lines[{row}] = {arr[row]!r}: line ids must be integers (floats: whole, at"
+                f"lines[{row}] = {arr[row].item()!r}: line ids must be integers (floats: whole, at"
                 " most 2**53 in magnitude); a non-integral, non-finite or larger id would"
                 " merge or reorder lines"
             )
@@ -173,7 +173,8 @@ class Option:
             number < self.high if self.high_open else number <= self.high
         )
         if not (low_ok and high_ok):
-            raise ParameterError(f"{name} must be{self._range()}, got {value!r}")
+            what = "a whole number" if self.kind == "int" else "a number"
+            raise ParameterError(f"{name} must be {what}{self._range()}, got {value!r}")
         return number
 
     def _range(self) -> str:
