@@ -223,3 +223,30 @@ def test_errors_are_scanmesh_errors_not_type_errors():
             scanmesh.reconstruct(pts, method, plane=b"z")
         with pytest.raises(ScanmeshError):
             scanmesh.reconstruct(pts, method, plane={"a": 1})
+
+
+def test_the_command_speaks_flags_and_reports_what_it_used(scan_file, tmp_path, capsys):
+    import json
+
+    out, report = tmp_path / "out.stl", tmp_path / "r.json"
+    # a negative vector right after its flag; a steep view, so a warning comes
+    args = ["reconstruct", str(scan_file), "-o", str(out), "--report", str(report)]
+    flags = ["--method", "delaunay", "--plane", "-1,0,0.2", "--max-edge", "inf", "-q"]
+    assert main([*args, *flags]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == ""  # -q: no summary either
+    assert "--plane" in captured.err and "plane=" not in captured.err
+    data = json.loads(report.read_text())
+    assert data["scanmesh"] == scanmesh.__version__
+    normal = np.asarray(data["plane"]["normal"])
+    np.testing.assert_allclose(np.abs(normal), np.abs([-1, 0, 0.2]) / math.hypot(1, 0.2))
+    assert data["plane"]["asked"] == [-1.0, 0.0, 0.2]
+    assert any("--plane" in w for w in data["warnings"])
+    assert {"read", "project", "triangulate"} <= set(data["timings"])
+
+
+def test_demo_refuses_an_output_folder_whose_parent_is_missing(tmp_path, capsys):
+    target = tmp_path / "missing" / "out"
+    assert main(["demo", "-o", str(target)]) == 1
+    assert "does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "missing").exists()

@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import threading
 import time
@@ -227,6 +228,8 @@ class _Console:
     def __init__(self, quiet: bool, as_json: bool) -> None:
         self.quiet = quiet
         self.json = as_json
+        #: every warning of the run, in the command's words (for --report)
+        self.warnings: list[str] = []
 
     @property
     def progress(self) -> bool:
@@ -234,9 +237,15 @@ class _Console:
         return not self.quiet and sys.stderr.isatty()
 
     def out(self, text: str = "") -> None:
-        """Human output (nothing with --json)."""
-        if not self.json:
+        """Human output (nothing with --json or --quiet)."""
+        if not (self.json or self.quiet):
             print(text, flush=True)
+
+    def warn(self, message, category, filename, lineno, file=None, line=None) -> None:
+        """``warnings.showwarning``: one line on stderr naming flags, kept for --report."""
+        text = _speak_flags(" ".join(str(message).split()))
+        self.warnings.append(text)
+        print(f"scanmesh: warning: {text}", file=sys.stderr, flush=True)
 
     def note(self, text: str) -> None:
         """A remark on stderr (nothing with --quiet)."""
@@ -403,9 +412,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     _check_mesh_ending(out)
     _check_png(preview)
 
-    t0 = time.perf_counter()
     scan = planar_scan(source, plane=args.plane, progress=con.progress)
-    t_read = time.perf_counter() - t0
     t1 = time.perf_counter()
     surface = reconstruct(scan, args.method, progress=con.progress, **shared, **options)
     elapsed = time.perf_counter() - t1
@@ -417,7 +424,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     t_write = time.perf_counter() - t2
     with Stage(con.progress, "quality", len(surface.faces), blocking=True):
         measured()
-    data = _report(source, out, scan, surface, t_read, elapsed)
+    data = _report(source, out, scan, surface, con, elapsed)
     data["timings"]["write"] = t_write
     if report is not None:
         _write_text(report, _dumps(data) + "\n")
@@ -449,16 +456,21 @@ def _n_lines(line_ids: np.ndarray | None) -> int | None:
     return None if line_ids is None else int(count_lines(line_ids))
 
 
-def _report(source, out, scan, surface, t_read: float, elapsed: float) -> dict[str, Any]:
+def _report(source, out, scan, surface, con: _Console, elapsed: float) -> dict[str, Any]:
+    from scanmesh import __version__
+
     used = np.zeros(len(surface.vertices), dtype=bool)
     used[surface.faces.ravel()] = True
     data: dict[str, Any] = {
+        "scanmesh": __version__,
         "input": str(source),
         "output": str(out),
         "method": surface.method,
         "options": surface.options,
+        "plane": {"asked": scan.plane or "best-fit", "normal": scan.frame.normal},
+        "warnings": con.warnings,
         "time_s": elapsed,
-        "timings": {"read": t_read, **surface.timings},
+        "timings": {**scan.timings, **surface.timings},
         "quality": surface.quality.as_dict(),
         "counts": {
             "points": int(len(surface.vertices)),
@@ -766,6 +778,7 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
     """Anneal the embedded connecting-rod scan; write demo_rod.stl and demo_rod.png."""
     from scanmesh.delaunay import delaunay
     from scanmesh.demo import SCAN_SETTINGS, demo_truth, load_demo
+    from scanmesh.errors import ParameterError
     from scanmesh.reconstruct import reconstruct
     from scanmesh.render import render_mesh
     from scanmesh.scan import planar_scan
@@ -773,7 +786,10 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
     from scanmesh.writers import save_mesh
 
     folder = Path(args.output_dir)
-    folder.mkdir(parents=True, exist_ok=True)
+    parent = folder.parent if str(folder.parent) else Path(".")
+    if not parent.is_dir():
+        raise ParameterError(f"cannot write into {folder}: folder {parent} does not exist")
+    folder.mkdir(exist_ok=True)
     mesh_path, png_path = folder / DEMO_MESH, folder / DEMO_PREVIEW
     points, line_ids = load_demo()
     plane = SCAN_SETTINGS["up"]  # scanned along the rod's thickness axis
@@ -1016,8 +1032,50 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"scanmesh: warning: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+#: Python advice in messages, and what the command's user types instead.
+_PYTHON_WORDS = (
+    (re.compile(r"reconstruct\(method='([\w-]+)'\)"), r"--method \1"),
+    (re.compile(r"Surface\.options\['(\w+)'\]"), r"the --report's options.\1"),
+    (re.compile(r"Surface\.duplicates"), "the --report's counts.duplicates"),
+    (re.compile(r"\bmath\.inf\b"), "inf"),
+)
+
+
+def _speak_flags(text: str) -> str:
+    """A library message in the command's words: ``name=`` of an option or a shared
+    keyword becomes its flag (``--max-edge``), Python calls become flags."""
+    from scanmesh.methods import SHARED
+
+    names = set(_method_flags()) | set(SHARED) | {"plane"}
+    for pattern, replacement in _PYTHON_WORDS:
+        text = pattern.sub(replacement, text)
+    return re.sub(
+        r"\b([a-z][a-z_]*)=(?!=)",
+        lambda m: "--" + m.group(1).replace("_", "-") + " " if m.group(1) in names else m.group(0),
+        text,
+    ).replace(" ,", ",").replace(" )", ")")
+
+
+#: Flags whose value may start with a minus sign (a vector like -1,-1,1).
+VECTOR_FLAGS = ("--plane", "--up", "--along", "--view")
+
+
+def _join_vectors(argv: Sequence[str]) -> list[str]:
+    """``--view -1,-1,1`` as ``--view=-1,-1,1``: argparse takes a value starting with '-'
+    for a flag unless it looks like one negative number."""
+    out: list[str] = []
+    items = list(argv)
+    k = 0
+    while k < len(items):
+        item = items[k]
+        nxt = items[k + 1] if k + 1 < len(items) else None
+        if item in VECTOR_FLAGS and nxt is not None and nxt.startswith("-") and _vector(nxt):
+            out.append(f"{item}={nxt}")
+            k += 2
+            continue
+        out.append(item)
+        k += 1
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -1026,11 +1084,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         parser = build_parser()
-        args = parser.parse_args(argv)
+        args = parser.parse_args(_join_vectors(sys.argv[1:] if argv is None else argv))
         con = _Console(quiet=getattr(args, "quiet", False), as_json=getattr(args, "json", False))
         run: Callable[[argparse.Namespace, _Console], int] = args.func
         with warnings.catch_warnings():
-            warnings.showwarning = _show_warning
+            warnings.simplefilter("always")  # every warning reaches the report
+            warnings.showwarning = con.warn
             return run(args, con)
     except KeyboardInterrupt:
         print("scanmesh: interrupted", file=sys.stderr, flush=True)
@@ -1041,7 +1100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except (ScanmeshError, FileNotFoundError, OSError) as exc:
-        print(f"scanmesh: error: {_one_line(exc)}", file=sys.stderr, flush=True)
+        print(f"scanmesh: error: {_speak_flags(_one_line(exc))}", file=sys.stderr, flush=True)
         return 1
 
 
