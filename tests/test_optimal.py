@@ -14,6 +14,7 @@ from scanmesh import _core
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
+    InvalidMeshError,
     ParameterError,
     ScanmeshError,
 )
@@ -327,15 +328,16 @@ def test_an_incumbent_cuts_the_search_but_not_the_optimum(seed):
 def test_a_wrong_incumbent_is_refused_not_trusted():
     pts = bumpy(10, 6)
     best = optimal_surface(pts, plane="z")
-    with pytest.raises(ParameterError, match="do not triangulate"):
+    # every bad incumbent is an InvalidMeshError, the one class for bad faces
+    with pytest.raises(InvalidMeshError, match="do not triangulate"):
         optimal_surface(pts, plane="z", incumbent=best.faces[1:])  # a hole: lower tac
     bad = best.faces.copy()
     bad[0, 1] = bad[0, 0]
-    with pytest.raises(ParameterError, match="face 0 "):
+    with pytest.raises(InvalidMeshError, match="face 0 "):
         optimal_surface(pts, plane="z", incumbent=bad)
-    with pytest.raises(ParameterError, match=f"face {len(best.faces)} .*repeats"):
+    with pytest.raises(InvalidMeshError, match=f"face {len(best.faces)} .*repeats"):
         optimal_surface(pts, plane="z", incumbent=np.r_[best.faces, best.faces[:1]])
-    with pytest.raises(ParameterError, match="integer faces"):
+    with pytest.raises(InvalidMeshError, match=r"shape \(M, 3\)"):
         optimal_surface(pts, plane="z", incumbent=np.zeros((3, 2)))
-    with pytest.raises(ParameterError, match="index points"):
+    with pytest.raises(InvalidMeshError, match="refers to a vertex outside"):
         optimal_surface(pts, plane="z", incumbent=best.faces + 100)

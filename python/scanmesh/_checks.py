@@ -43,19 +43,28 @@ def as_points(points: ArrayLike, name: str = "points") -> np.ndarray:
     return arr
 
 
-def as_faces(faces: ArrayLike, n_vertices: int) -> np.ndarray:
-    """Return ``faces`` as a C-contiguous (M, 3) int64 array of valid vertex indices."""
-    arr = np.asarray(faces)
+def as_faces(faces: ArrayLike, n_vertices: int, name: str = "faces") -> np.ndarray:
+    """Return ``faces`` as a C-contiguous (M, 3) int64 array of valid vertex indices.
+
+    The one check of faces given by a caller; every problem is an ``InvalidMeshError``.
+    """
+    try:
+        arr = np.asarray(faces)
+    except (TypeError, ValueError) as exc:
+        raise InvalidMeshError(f"{name} cannot be read as an array: {exc}") from None
     if arr.ndim != 2 or arr.shape[1] != 3:
-        raise InvalidMeshError(f"faces must have shape (M, 3), got {arr.shape}")
+        raise InvalidMeshError(f"{name} must have shape (M, 3), got {arr.shape}")
     if arr.size and not np.issubdtype(arr.dtype, np.integer):
         if not np.issubdtype(arr.dtype, np.floating) or not np.all(arr == np.round(arr)):
-            raise InvalidMeshError(f"faces must hold integer vertex indices, got dtype {arr.dtype}")
+            raise InvalidMeshError(
+                f"{name} must hold integer vertex indices, got dtype {arr.dtype}"
+            )
     arr = np.ascontiguousarray(arr, dtype=np.int64)
     if arr.size and (arr.min() < 0 or arr.max() >= n_vertices):
         row = int(np.argwhere((arr < 0) | (arr >= n_vertices))[0, 0])
         raise InvalidMeshError(
-            f"face {row} {arr[row].tolist()} refers to a vertex outside 0..{n_vertices - 1}"
+            f"{name}: face {row} {arr[row].tolist()} refers to a vertex outside"
+            f" 0..{n_vertices - 1}"
         )
     return arr
 

@@ -87,9 +87,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import Option, check_options
+from scanmesh._checks import Option, as_faces, check_options
 from scanmesh.delaunay import delaunay
-from scanmesh.errors import ParameterError
+from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.projection import PlaneSpec
 from scanmesh.scan import PlanarScan, as_scan
 from scanmesh.surface import Surface
@@ -433,34 +433,21 @@ def _incumbent_faces(
     of the hull: every face an empty candidate triangle and the flow equations met (the
     module docstring's theorem), so a wrong incumbent cannot cut the optimum off."""
     faces = incumbent.faces if isinstance(incumbent, Surface) else incumbent
-    try:
-        arr = np.asarray(faces)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"incumbent cannot be read as faces: {exc}") from None
-    if arr.ndim != 2 or arr.shape[1] != 3 or arr.dtype.kind not in "iu":
-        raise ParameterError(
-            f"incumbent must be (M, 3) integer faces or a Surface, got shape {arr.shape}"
-            f" of {arr.dtype}"
-        )
+    arr = as_faces(faces, len(inst.points), "incumbent faces")
     local = np.full(len(inst.points), -1, dtype=np.int64)
     local[inst.keep] = np.arange(len(inst.keep))
-    if len(arr) and (arr.min() < 0 or arr.max() >= len(inst.points)):
-        raise ParameterError(
-            f"incumbent faces must index points 0..{len(inst.points) - 1},"
-            f" found {arr.min()}..{arr.max()}"
-        )
     index = {tuple(sorted(t)): k for k, t in enumerate(tri.tolist())}
     chosen = np.zeros(len(tri), dtype=np.int64)
     for row, face in enumerate(local[arr].tolist()):
         k = index.get(tuple(sorted(face)), -1)
         if k < 0 or chosen[k]:
-            raise ParameterError(
+            raise InvalidMeshError(
                 f"incumbent face {row} {arr[row].tolist()} is not an empty triangle of"
                 " distinct hull points (or repeats one)"
             )
         chosen[k] = 1
     if np.any(geo.flow @ chosen != geo.flow_rhs):
-        raise ParameterError(
+        raise InvalidMeshError(
             "incumbent faces do not triangulate the convex hull of the points (a gap or an"
             " overlap); pass a Surface built with max_edge=math.inf"
         )
