@@ -56,7 +56,8 @@ def measure(points, lines, n_points: int, seeds, truth: TrueSurface) -> list[dic
         if method == "scipy":
             surface = scipy_delaunay(points, "y")
         else:
-            surface = scanmesh.reconstruct(points, method, lines=lines, plane="y", **options)
+            scan = scanmesh.planar_scan(points, plane="y", lines=lines)  # lines travel with it
+            surface = scanmesh.reconstruct(scan, method, **options)
         elapsed = time.perf_counter() - t0
         q = surface.quality
         tac = np.nan_to_num(q.tac)

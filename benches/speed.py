@@ -80,7 +80,8 @@ def child(method: str, n: int, repeat: int) -> None:
         if method == "scipy":
             surface = scipy_delaunay(points, "z")
         else:
-            surface = scanmesh.reconstruct(points, method, lines=ids, plane="z")
+            scan = scanmesh.planar_scan(points, plane="z", lines=ids)  # lines travel with it
+            surface = scanmesh.reconstruct(scan, method)
         elapsed = time.perf_counter() - t0
         if elapsed < best:
             best, stages = elapsed, dict(surface.timings)

@@ -186,7 +186,9 @@ def test_any_dtype_and_layout_gives_the_same_faces(method):
     pts, ids = line_scan(5, 10)
     pts = np.round(pts * 4) / 4  # exactly representable in float32 and as quarters
     # (the rounding to quarters makes stairs: steep triangles, warned about and ignored)
-    ref = canonical(run(pts, method, lines=ids).faces)
+    # lines= only where the method uses it (LOP and annealing start from Delaunay here)
+    lined = {"lines": ids} if method == "shortest-path" else {}
+    ref = canonical(run(pts, method, **lined).faces)
     variants = {
         "float32": pts.astype(np.float32),
         "fortran": np.asfortranarray(pts),
@@ -197,7 +199,7 @@ def test_any_dtype_and_layout_gives_the_same_faces(method):
     for name, v in variants.items():
         if v is None:
             v = (pts * 4).astype(np.int64)  # a uniform scale: the same connectivity
-        got = canonical(run(v, method, lines=ids).faces)
+        got = canonical(run(v, method, **lined).faces)
         np.testing.assert_array_equal(got, ref, err_msg=name)
 
 
@@ -385,7 +387,9 @@ pts = np.column_stack([x.ravel(), y.ravel(), np.sin(x.ravel() / 30) * np.cos(y.r
 ids = np.repeat(np.arange(800), 3000)
 print("started", flush=True)
 try:
-    scanmesh.reconstruct(pts, METHOD, lines=ids, plane="z", max_edge=MAX_EDGE)
+    # each method gets the keyword it uses: line ids for strips, max_edge for Delaunay
+    kw = {"lines": ids} if METHOD == "shortest-path" else {"max_edge": MAX_EDGE}
+    scanmesh.reconstruct(pts, METHOD, plane="z", **kw)
 except KeyboardInterrupt:
     print(f"interrupted {time.monotonic()!r}", flush=True)
     sys.exit(0)

@@ -2,7 +2,8 @@
 
 The public API:
 
-- :func:`reconstruct` - every method behind one call;
+- :func:`reconstruct` - every method behind one call (the table: ``scanmesh.methods``);
+- :func:`planar_scan` - points checked and projected once, reusable by every method;
 - :func:`delaunay` - planar Delaunay of projected points, trimmed to the outline;
 - :func:`quality` - tac norms and the max-min angle of any mesh;
 - :func:`detect_lines` - scan lines from the order of the points;
@@ -10,7 +11,7 @@ The public API:
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
 - :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
 - :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
-- :class:`Surface`, :class:`Quality`, :class:`Frame` - the results;
+- :class:`Surface`, :class:`Quality`, :class:`Frame`, :class:`PlanarScan` - the results;
 - :class:`ScanmeshError` - base of every input error (a ``ValueError``).
 """
 
@@ -31,11 +32,13 @@ from scanmesh.errors import (
     ScanmeshWarning,
 )
 from scanmesh.lines import detect_lines
+from scanmesh.methods import METHODS
 from scanmesh.optimal import brute_force_surface, optimal_surface
 from scanmesh.projection import Frame, project
 from scanmesh.quality import Quality, quality
 from scanmesh.readers import ScanPoints, read
-from scanmesh.reconstruct import METHODS, reconstruct
+from scanmesh.reconstruct import reconstruct
+from scanmesh.scan import PlanarScan, planar_scan
 from scanmesh.surface import Surface
 
 #: The one version, written in Cargo.toml ([workspace.package]) and read back from the
@@ -45,6 +48,8 @@ __version__ = _metadata.version("scanmesh")
 __all__ = [
     "reconstruct",
     "METHODS",
+    "planar_scan",
+    "PlanarScan",
     "delaunay",
     "simulate_scan",
     "load_demo",

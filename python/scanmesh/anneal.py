@@ -1,21 +1,21 @@
-"""Simulated annealing and Lawson's LOP on the tac criterion, over a planar triangulation."""
+"""Simulated annealing on the tac criterion, over a planar triangulation and its scan."""
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from scanmesh import _core
-from scanmesh.errors import ParameterError
-from scanmesh.projection import project
+from scanmesh._checks import Option, check_options
+from scanmesh.lop import P_OPTION, SLIVER_GUARD_OPTION, TIE_TOLERANCE_OPTION, planar_start
 from scanmesh.surface import Surface
 
 #: Defaults of the annealing schedule, read from the Rust core (one source of truth).
 ANNEAL_DEFAULTS: dict[str, Any] = dict(_core.ANNEAL_DEFAULTS)
+
+#: Most tiles per chain (the core's limit).
+MAX_TILES: int = 64
 
 #: Each native call runs at most this long (seconds) before Python checks for Ctrl-C and
 #: reports progress: bounded in time, not in proposals, so the latency holds on slow machines.
@@ -31,30 +31,88 @@ TRACE_COLUMNS = ("temperature", "energy", "best", "acceptance")
 Progress = bool | Callable[[int, int, float], None]
 
 
-def _check_schedule(options: dict[str, Any]) -> dict[str, Any]:
-    unknown = sorted(set(options) - set(ANNEAL_DEFAULTS))
-    if unknown:
-        raise ParameterError(
-            f"unknown annealing option(s) {unknown}; known: {sorted(ANNEAL_DEFAULTS)}"
-        )
-    params = {**ANNEAL_DEFAULTS, **{k: v for k, v in options.items() if v is not None}}
-    for name in ("sweeps", "patience", "chains", "tiles"):
-        value = params[name]
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-            raise ParameterError(f"{name} must be a whole number >= 0, got {value!r}")
-    p = float(params["p"])
-    if not (p >= 1.0) or math.isinf(p):
-        raise ParameterError(f"p must be a finite number >= 1 for annealing, got {params['p']!r}")
-    params["p"] = p
-    return params
+#: Most chains one run may ask for (automatic runs use at most 128): each holds a copy of
+#: the mesh, so the count is bounded by memory as well as by time.
+MAX_CHAINS: int = 1024
 
+#: A bound on counts of sweeps and proposals that no run could reach in a lifetime; it keeps
+#: absurd values (2**64, 10**30) from overflowing the core's integers.
+MAX_COUNT: int = 10**9
 
-def _seed(seed: int | None) -> int:
-    if seed is None:
-        return 0
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64:
-        raise ParameterError(f"seed must be an integer in 0..2**64-1, got {seed!r}")
-    return int(seed)
+#: The most calibration proposals: T0 is a median, a few thousand samples fix it.
+MAX_CALIBRATION_SAMPLES: int = 10**6
+
+#: ``seed``, the shared keyword of the random methods: None means 0.
+SEED_OPTION = Option(
+    "seed", "int", None, "seed of every random choice (default 0)", low=0, high=2**64 - 1
+)
+
+#: The annealing schedule's options, defaults from the core.
+OPTIONS: tuple[Option, ...] = (
+    Option(
+        "sweeps",
+        "int",
+        ANNEAL_DEFAULTS["sweeps"],
+        "sweeps (one proposal per interior edge each)",
+        low=0,
+        high=MAX_COUNT,
+    ),
+    P_OPTION,
+    Option(
+        "initial_acceptance",
+        "float",
+        ANNEAL_DEFAULTS["initial_acceptance"],
+        "probability of accepting the median uphill move at T0",
+        low=0.0,
+        high=1.0,
+        low_open=True,
+        high_open=True,
+    ),
+    Option(
+        "final_temperature_ratio",
+        "float",
+        ANNEAL_DEFAULTS["final_temperature_ratio"],
+        "final temperature as a share of T0",
+        low=0.0,
+        high=1.0,
+        low_open=True,
+    ),
+    Option(
+        "patience",
+        "int",
+        ANNEAL_DEFAULTS["patience"],
+        "stop after this many sweeps without a new best once frozen (0: never)",
+        low=0,
+        high=MAX_COUNT,
+    ),
+    SLIVER_GUARD_OPTION,
+    TIE_TOLERANCE_OPTION,
+    Option("polish", "bool", ANNEAL_DEFAULTS["polish"], "run LOP from the best state at the end"),
+    Option(
+        "calibration_samples",
+        "int",
+        ANNEAL_DEFAULTS["calibration_samples"],
+        "proposals sampled to calibrate T0",
+        low=0,
+        high=MAX_CALIBRATION_SAMPLES,
+    ),
+    Option(
+        "chains",
+        "int",
+        ANNEAL_DEFAULTS["chains"],
+        "independent chains, the best kept (0: automatic)",
+        low=0,
+        high=MAX_CHAINS,
+    ),
+    Option(
+        "tiles",
+        "int",
+        ANNEAL_DEFAULTS["tiles"],
+        "anneal each chain in this many stripes of the plane at once",
+        low=1,
+        high=MAX_TILES,
+    ),
+)
 
 
 def _progress_bar(progress: Progress, total: int) -> Callable[[int, int, float], None] | None:
@@ -90,7 +148,8 @@ def anneal_surface(
     ----------
     initial : Surface
         A planar triangulation (from :func:`scanmesh.delaunay` or the strip methods) with
-        its ``frame``; flips keep its outline and holes.
+        its ``scan``; flips keep its outline and holes and are judged on the scan's planar
+        coordinates, the ones the initial triangulation was built on.
     seed : int, optional
         Seed of the PCG-64 generator (default 0): the same seed gives the same faces.
     progress : bool or callable
@@ -101,9 +160,10 @@ def anneal_surface(
         ``sweeps`` (1000), ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
         ``patience``, ``sliver_guard`` (True), ``tie_tolerance``, ``polish`` (True),
         ``calibration_samples``, ``chains`` (0: automatic); defaults in
-        ``ANNEAL_DEFAULTS``. ``chains`` independent runs start from ``initial`` with
-        seeds derived from ``seed``, side by side on the cores, and the best final energy
-        wins (the result depends on the seed, not on the number of cores). Automatic: one chain
+        ``ANNEAL_DEFAULTS`` and the checks in :data:`OPTIONS`. ``chains`` independent runs
+        start from ``initial`` with seeds derived from ``seed``, side by side on the cores
+        (at most MAX_CHAINS), and the best final energy wins (the result depends on the
+        seed, not on the number of cores). Automatic: one chain
         from 8,000 interior edges (about 2,700 points) up, otherwise enough chains (at most
         128) to make 8,000 proposals per sweep in all: on small inputs restarts find the
         optimum far more often than one longer chain (BENCHMARKS.md, "Certified optimum").
@@ -124,15 +184,14 @@ def anneal_surface(
     KeyboardInterrupt
         On Ctrl-C, within one chunk (``CHUNK_SECONDS``, 20 ms); the run is discarded.
     """
-    params = _check_schedule(schedule)
-    seed_value = _seed(seed)
-    if initial.frame is None:
-        raise ParameterError(
-            "the initial surface has no projection frame (build it with delaunay())"
-        )
+    params = check_options(OPTIONS, schedule, "annealing")
+    seed_value = 0 if seed is None else SEED_OPTION.check(seed)
+    start = planar_start(initial, "annealing")
+    scan = start.scan
+    assert scan is not None
     t0 = time.perf_counter()
-    uv, _ = project(initial.vertices, initial.frame.normal)
-    runner = _core.Annealer(initial.vertices, uv, initial.faces, seed=seed_value, **params)
+    # The very planar coordinates the initial triangulation was built and trimmed on.
+    runner = _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params)
     total = runner.chains * params["sweeps"]
     report = _progress_bar(progress, total)
     try:
@@ -149,55 +208,15 @@ def anneal_surface(
     faces, trace, summary = runner.finish()
     elapsed = time.perf_counter() - t0
     return Surface(
-        vertices=initial.vertices,
+        vertices=scan.points,
         faces=faces,
         method="anneal",
         options={
-            **initial.options, **params, "seed": seed_value, "initial": initial.method, **summary
+            **start.options, **params, "seed": seed_value, "initial": start.method, **summary
         },
-        frame=initial.frame,
-        duplicates=initial.duplicates,
-        timings={**initial.timings, "anneal": elapsed},
+        scan=scan,
+        duplicates=start.duplicates,
+        timings={**start.timings, "anneal": elapsed},
         trace={name: trace[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)},
-        line_ids=initial.line_ids,
-    )
-
-
-def lop_surface(
-    initial: Surface,
-    *,
-    criterion: str = "tac",
-    p: float = 1.0,
-    sliver_guard: bool = True,
-    tie_tolerance: float | None = None,
-) -> Surface:
-    """Lawson's LOP from ``initial``: flip while a flip improves ``criterion``.
-
-    ``criterion="tac"`` minimizes sum tac^p (annealing at T = 0; energy ties go to the larger
-    smallest angle when ``sliver_guard``); ``"max-min"`` maximizes the smallest angle in the
-    projection plane and so converges to the Delaunay triangulation.
-    """
-    if criterion not in ("tac", "max-min"):
-        raise ParameterError(f"unknown LOP criterion {criterion!r}: use 'tac' or 'max-min'")
-    if initial.frame is None:
-        raise ParameterError(
-            "the initial surface has no projection frame (build it with delaunay())"
-        )
-    p = float(p)
-    if not (p >= 1.0) or math.isinf(p):
-        raise ParameterError(f"p must be a finite number >= 1, got {p!r}")
-    tie = ANNEAL_DEFAULTS["tie_tolerance"] if tie_tolerance is None else float(tie_tolerance)
-    t0 = time.perf_counter()
-    uv, _ = project(initial.vertices, initial.frame.normal)
-    faces, flips = _core.lop(initial.vertices, uv, initial.faces, criterion, p, sliver_guard, tie)
-    return Surface(
-        vertices=initial.vertices,
-        faces=faces,
-        method="lop",
-        options={**initial.options, "criterion": criterion, "p": p, "sliver_guard": sliver_guard,
-                 "flips": flips, "initial": initial.method},
-        frame=initial.frame,
-        duplicates=initial.duplicates,
-        timings={**initial.timings, "lop": time.perf_counter() - t0},
-        line_ids=initial.line_ids,
+        line_ids=start.line_ids,
     )

@@ -12,6 +12,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import threading
 import time
@@ -227,6 +228,8 @@ class _Console:
     def __init__(self, quiet: bool, as_json: bool) -> None:
         self.quiet = quiet
         self.json = as_json
+        #: every warning of the run, in the command's words (for --report)
+        self.warnings: list[str] = []
 
     @property
     def progress(self) -> bool:
@@ -234,9 +237,15 @@ class _Console:
         return not self.quiet and sys.stderr.isatty()
 
     def out(self, text: str = "") -> None:
-        """Human output (nothing with --json)."""
-        if not self.json:
+        """Human output (nothing with --json or --quiet)."""
+        if not (self.json or self.quiet):
             print(text, flush=True)
+
+    def warn(self, message, category, filename, lineno, file=None, line=None) -> None:
+        """``warnings.showwarning``: one line on stderr naming flags, kept for --report."""
+        text = _speak_flags(" ".join(str(message).split()))
+        self.warnings.append(text)
+        print(f"scanmesh: warning: {text}", file=sys.stderr, flush=True)
 
     def note(self, text: str) -> None:
         """A remark on stderr (nothing with --quiet)."""
@@ -275,16 +284,112 @@ def _background(fn: Callable[[], Any]) -> Callable[[], Any]:
     return result
 
 
-#: Command-line options that go to the annealer (each is refused for other methods).
-ANNEAL_FLAGS = ("sweeps", "tiles")
+def _method_flags() -> dict[str, tuple[Any, list[str]]]:
+    """Every method option the command takes, by name: (the Option, the methods using it).
+
+    Options without a textual form (a weight mapping, an incumbent triangulation) stay
+    API-only; ``initial`` is offered by name."""
+    from scanmesh.methods import TABLE
+
+    flags: dict[str, tuple[Any, list[str]]] = {}
+    for spec in TABLE.values():
+        for option in spec.options:
+            if option.kind == "any" and option.name != "initial":
+                continue
+            flags.setdefault(option.name, (option, []))[1].append(spec.name)
+    return flags
+
+
+def _flag_text(kind: str) -> Callable[[str], Any]:
+    """argparse type of a flag: the text as a number (range checks come from the table)."""
+
+    def convert(text: str) -> Any:
+        try:
+            return int(text) if kind == "int" else float(text)
+        except ValueError:
+            what = "a whole number" if kind == "int" else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+
+    return convert
+
+
+def _add_method_flags(parser: argparse.ArgumentParser) -> None:
+    from scanmesh.methods import INITIALS
+
+    group = parser.add_argument_group("method options (each applies to the methods named)")
+    for option, users in _method_flags().values():
+        default = option.default
+        shown = f"{default:g}" if isinstance(default, float) else str(default)
+        text = f"{option.doc} ({', '.join(users)}; default {shown})".replace("%", "%%")
+        if option.kind == "bool":
+            group.add_argument(
+                option.flag, action=argparse.BooleanOptionalAction, default=None, help=text
+            )
+        elif option.name == "initial":
+            group.add_argument(option.flag, choices=INITIALS, default=None, help=text)
+        elif option.kind == "choice":
+            group.add_argument(option.flag, choices=option.choices, default=None, help=text)
+        else:
+            group.add_argument(
+                option.flag,
+                type=_flag_text(option.kind),
+                default=None,
+                metavar="N" if option.kind == "int" else "X",
+                help=text,
+            )
+
+
+def _given_flags(args: argparse.Namespace) -> dict[str, Any]:
+    """The method flags on the command line (name -> value)."""
+    return {
+        name: getattr(args, name)
+        for name in _method_flags()
+        if getattr(args, name, None) is not None
+    }
+
+
+def _refuse_stray_flags(args: argparse.Namespace, methods: Sequence[str]) -> None:
+    """A usage error for a flag none of ``methods`` uses (nothing is silently dropped)."""
+    from scanmesh.methods import TABLE
+
+    flags = _method_flags()
+    for name in _given_flags(args):
+        option, users = flags[name]
+        if not set(users) & set(methods):
+            args._parser.error(f"{option.flag} applies to --method {', '.join(users)} only")
+    for name in ("max_edge", "seed"):
+        if getattr(args, name, None) is not None and not any(
+            name in TABLE[m].shared for m in methods
+        ):
+            users = [m for m, spec in TABLE.items() if name in spec.shared]
+            flag = "--" + name.replace("_", "-")
+            args._parser.error(f"{flag} applies to --method {', '.join(users)} only")
 
 
 def _method_options(args: argparse.Namespace, method: str) -> dict[str, Any]:
-    options: dict[str, Any] = {}
-    for name in ANNEAL_FLAGS:
-        if method == "anneal" and getattr(args, name, None) is not None:
-            options[name] = getattr(args, name)
-    return options
+    """The method flags ``method`` uses, checked by the table with the flag's name."""
+    from scanmesh.methods import TABLE
+
+    options = {o.name: o for o in TABLE[method].options}
+    return {
+        name: options[name].check(value, options[name].flag)
+        for name, value in _given_flags(args).items()
+        if name in options
+    }
+
+
+def _shared(args: argparse.Namespace, method: str, options: dict[str, Any]) -> dict[str, Any]:
+    """--max-edge and --seed for a method that uses them (seed 0 when not given)."""
+    from scanmesh.methods import SHARED, TABLE
+
+    spec = TABLE[method]
+    used = spec.shared if spec.uses is None else spec.uses(spec.check(options, {}))
+    shared: dict[str, Any] = {}
+    if "max_edge" in used and args.max_edge is not None:
+        shared["max_edge"] = SHARED["max_edge"].check(args.max_edge, "--max-edge")
+    if "seed" in used:
+        shared["seed"] = 0 if args.seed is None else SHARED["seed"].check(args.seed, "--seed")
+    return shared
 
 
 # --------------------------------------------------------------------------- reconstruct
@@ -294,32 +399,22 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     """Read scan points, triangulate them, write the mesh (and a report and a preview)."""
     from scanmesh._progress import Stage
     from scanmesh.reconstruct import reconstruct
+    from scanmesh.scan import planar_scan
     from scanmesh.writers import save_mesh
 
     source, out = Path(args.input), Path(args.output)
     report = Path(args.report) if args.report else None
     preview = Path(args.preview) if args.preview else None
-    for name in ANNEAL_FLAGS:
-        if getattr(args, name) is not None and args.method != "anneal":
-            args._parser.error(f"--{name} applies to --method anneal only")
+    _refuse_stray_flags(args, [args.method])
+    options = _method_options(args, args.method)
+    shared = _shared(args, args.method, options)
     _check_outputs([source], [out, report, preview])
     _check_mesh_ending(out)
     _check_png(preview)
 
-    t0 = time.perf_counter()
-    scan = _read_scan(source, con.progress)
-    t_read = time.perf_counter() - t0
+    scan = planar_scan(source, plane=args.plane, progress=con.progress)
     t1 = time.perf_counter()
-    surface = reconstruct(
-        scan.points,
-        args.method,
-        lines=scan.line_ids,
-        plane=args.plane,
-        max_edge=args.max_edge,
-        seed=args.seed,
-        progress=con.progress,
-        **_method_options(args, args.method),
-    )
+    surface = reconstruct(scan, args.method, progress=con.progress, **shared, **options)
     elapsed = time.perf_counter() - t1
     t2 = time.perf_counter()
     # The quality report (tac over every vertex: about as long as the strips at 10M points)
@@ -329,7 +424,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     t_write = time.perf_counter() - t2
     with Stage(con.progress, "quality", len(surface.faces), blocking=True):
         measured()
-    data = _report(source, out, scan, surface, t_read, elapsed)
+    data = _report(source, out, scan, surface, con, elapsed)
     data["timings"]["write"] = t_write
     if report is not None:
         _write_text(report, _dumps(data) + "\n")
@@ -355,20 +450,31 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     return 0
 
 
-def _report(source, out, scan, surface, t_read: float, elapsed: float) -> dict[str, Any]:
+def _n_lines(line_ids: np.ndarray | None) -> int | None:
+    from scanmesh.readers import count_lines
+
+    return None if line_ids is None else int(count_lines(line_ids))
+
+
+def _report(source, out, scan, surface, con: _Console, elapsed: float) -> dict[str, Any]:
+    from scanmesh import __version__
+
     used = np.zeros(len(surface.vertices), dtype=bool)
     used[surface.faces.ravel()] = True
     data: dict[str, Any] = {
+        "scanmesh": __version__,
         "input": str(source),
         "output": str(out),
         "method": surface.method,
         "options": surface.options,
+        "plane": {"asked": scan.plane or "best-fit", "normal": scan.frame.normal},
+        "warnings": con.warnings,
         "time_s": elapsed,
-        "timings": {"read": t_read, **surface.timings},
+        "timings": {**scan.timings, **surface.timings},
         "quality": surface.quality.as_dict(),
         "counts": {
             "points": int(len(surface.vertices)),
-            "lines": int(scan.n_lines) if scan.line_ids is not None else None,
+            "lines": _n_lines(scan.line_ids),
             "faces": int(len(surface.faces)),
             "used_points": int(used.sum()),
             "unused_points": int((~used).sum()),
@@ -390,13 +496,14 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     """Run several methods on the same points; one table (and one picture)."""
     from scanmesh.errors import ScanmeshError
     from scanmesh.reconstruct import reconstruct
+    from scanmesh.scan import planar_scan
 
     source = Path(args.input)
     picture = Path(args.picture) if args.picture else None
     methods = list(dict.fromkeys(args.methods or COMPARE_METHODS))
-    for name in ANNEAL_FLAGS:
-        if getattr(args, name, None) is not None and "anneal" not in methods:
-            args._parser.error(f"--{name} applies to the anneal method only")
+    _refuse_stray_flags(args, methods)
+    options = {m: _method_options(args, m) for m in methods}
+    shared = {m: _shared(args, m, options[m]) for m in methods}
     inputs = [source] + ([Path(args.truth)] if args.truth else [])
     _check_outputs(inputs, [picture])
     _check_png(picture)
@@ -405,29 +512,41 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         from scanmesh.truth import TrueSurface
 
         truth = TrueSurface(args.truth)
-    scan = _read_scan(source, con.progress)
+    scan = planar_scan(source, plane=args.plane, progress=con.progress)
 
     rows, surfaces, failed = [], [], {}
+    # One trimmed Delaunay triangulation: a row of its own and the start of LOP and annealing.
+    built: list[tuple[Any, float]] = []
+
+    def delaunay_base() -> tuple[Any, float]:
+        if not built:
+            t = time.perf_counter()
+            base = reconstruct(
+                scan, "delaunay", progress=con.progress, **_shared(args, "delaunay", {})
+            )
+            built.append((base, time.perf_counter() - t))
+        return built[0]
+
     for method in methods:
         if con.progress:
             con.note(f"{method} ...")
-        t0 = time.perf_counter()
+        kwargs = {**shared[method], **options[method]}
         try:
-            surface = reconstruct(
-                scan.points,
-                method,
-                lines=scan.line_ids,
-                plane=args.plane,
-                max_edge=args.max_edge,
-                seed=args.seed,
-                progress=con.progress,
-                **_method_options(args, method),
-            )
+            if method == "delaunay":
+                surface, seconds = delaunay_base()
+            else:
+                start = 0.0
+                if method in ("lop", "anneal") and kwargs.get("initial", "delaunay") == "delaunay":
+                    kwargs.pop("max_edge", None)
+                    kwargs["initial"], start = delaunay_base()
+                t0 = time.perf_counter()
+                surface = reconstruct(scan, method, progress=con.progress, **kwargs)
+                seconds = start + time.perf_counter() - t0
         except (ScanmeshError, ImportError) as exc:
             failed[method] = _one_line(exc)
             print(f"scanmesh: {method} failed: {failed[method]}", file=sys.stderr, flush=True)
             continue
-        row: dict[str, Any] = {"method": method, "time_s": time.perf_counter() - t0}
+        row: dict[str, Any] = {"method": method, "time_s": seconds}
         row.update(_quality_row(surface))
         row["faces"] = int(len(surface.faces))
         if truth is not None:
@@ -475,7 +594,8 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
 
 
 def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth: bool) -> None:
-    lines = f" on {scan.n_lines:,} lines" if scan.line_ids is not None else ""
+    n_lines = _n_lines(scan.line_ids)
+    lines = f" on {n_lines:,} lines" if n_lines is not None else ""
     con.out(f"{source}: {len(scan.points):,} points{lines}")
     head = (
         f"{'method':<14}{'time s':>9}{'faces':>9}{'tac_1':>11}{'tac_2':>10}{'tac_inf':>9}"
@@ -658,13 +778,18 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
     """Anneal the embedded connecting-rod scan; write demo_rod.stl and demo_rod.png."""
     from scanmesh.delaunay import delaunay
     from scanmesh.demo import SCAN_SETTINGS, demo_truth, load_demo
+    from scanmesh.errors import ParameterError
     from scanmesh.reconstruct import reconstruct
     from scanmesh.render import render_mesh
+    from scanmesh.scan import planar_scan
     from scanmesh.truth import MEASURE, TrueSurface, height_error
     from scanmesh.writers import save_mesh
 
     folder = Path(args.output_dir)
-    folder.mkdir(parents=True, exist_ok=True)
+    parent = folder.parent if str(folder.parent) else Path(".")
+    if not parent.is_dir():
+        raise ParameterError(f"cannot write into {folder}: folder {parent} does not exist")
+    folder.mkdir(exist_ok=True)
     mesh_path, png_path = folder / DEMO_MESH, folder / DEMO_PREVIEW
     points, line_ids = load_demo()
     plane = SCAN_SETTINGS["up"]  # scanned along the rod's thickness axis
@@ -672,14 +797,14 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
         f"demo: a connecting rod scanned along its thickness ({plane}): {len(points):,} points"
         f" on {int(line_ids.max()) + 1} lines"
     )
+    # One scan and one Delaunay triangulation: a column of the table and annealing's start.
     t0 = time.perf_counter()
-    base = delaunay(points, plane=plane)
+    scan = planar_scan(points, plane=plane, lines=line_ids)
+    base = delaunay(scan)
     t_base = time.perf_counter() - t0
     t0 = time.perf_counter()
-    surface = reconstruct(
-        points, "anneal", lines=line_ids, plane=plane, seed=0, progress=con.progress
-    )
-    t_anneal = time.perf_counter() - t0
+    surface = reconstruct(scan, "anneal", initial=base, seed=0, progress=con.progress)
+    t_anneal = t_base + time.perf_counter() - t0
     save_mesh(mesh_path, surface.vertices, surface.faces)
     render_mesh(surface, png_path, **_auto_view(surface.vertices, surface.faces, surface.frame))
     truth = TrueSurface(demo_truth())
@@ -738,7 +863,7 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``scanmesh`` command."""
     from scanmesh import __version__
-    from scanmesh.reconstruct import METHODS
+    from scanmesh.methods import METHODS
 
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument(
@@ -768,22 +893,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="drop Delaunay triangles with a longer planar edge (default 5 x median spacing;"
         " inf keeps the convex hull)",
     )
-    shape.add_argument("--seed", type=_count, default=0, metavar="S", help="random seed (0)")
     shape.add_argument(
-        "--sweeps",
-        type=_count,
-        default=None,
-        metavar="N",
-        help="annealing sweeps (default 1000; a sweep proposes one flip per interior edge)",
+        "--seed", type=_count, default=None, metavar="S", help="random seed (anneal; 0)"
     )
-    shape.add_argument(
-        "--tiles",
-        type=_count,
-        default=None,
-        metavar="K",
-        help="anneal in K stripes of the plane at once, on the cores (default 1; results"
-        " depend on K, not on the core count)",
-    )
+    _add_method_flags(shape)
 
     parser = argparse.ArgumentParser(
         prog="scanmesh",
@@ -919,8 +1032,50 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"scanmesh: warning: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+#: Python advice in messages, and what the command's user types instead.
+_PYTHON_WORDS = (
+    (re.compile(r"reconstruct\(method='([\w-]+)'\)"), r"--method \1"),
+    (re.compile(r"Surface\.options\['(\w+)'\]"), r"the --report's options.\1"),
+    (re.compile(r"Surface\.duplicates"), "the --report's counts.duplicates"),
+    (re.compile(r"\bmath\.inf\b"), "inf"),
+)
+
+
+def _speak_flags(text: str) -> str:
+    """A library message in the command's words: ``name=`` of an option or a shared
+    keyword becomes its flag (``--max-edge``), Python calls become flags."""
+    from scanmesh.methods import SHARED
+
+    names = set(_method_flags()) | set(SHARED) | {"plane"}
+    for pattern, replacement in _PYTHON_WORDS:
+        text = pattern.sub(replacement, text)
+    return re.sub(
+        r"\b([a-z][a-z_]*)=(?!=)",
+        lambda m: "--" + m.group(1).replace("_", "-") + " " if m.group(1) in names else m.group(0),
+        text,
+    ).replace(" ,", ",").replace(" )", ")")
+
+
+#: Flags whose value may start with a minus sign (a vector like -1,-1,1).
+VECTOR_FLAGS = ("--plane", "--up", "--along", "--view")
+
+
+def _join_vectors(argv: Sequence[str]) -> list[str]:
+    """``--view -1,-1,1`` as ``--view=-1,-1,1``: argparse takes a value starting with '-'
+    for a flag unless it looks like one negative number."""
+    out: list[str] = []
+    items = list(argv)
+    k = 0
+    while k < len(items):
+        item = items[k]
+        nxt = items[k + 1] if k + 1 < len(items) else None
+        if item in VECTOR_FLAGS and nxt is not None and nxt.startswith("-") and _vector(nxt):
+            out.append(f"{item}={nxt}")
+            k += 2
+            continue
+        out.append(item)
+        k += 1
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -929,11 +1084,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         parser = build_parser()
-        args = parser.parse_args(argv)
+        args = parser.parse_args(_join_vectors(sys.argv[1:] if argv is None else argv))
         con = _Console(quiet=getattr(args, "quiet", False), as_json=getattr(args, "json", False))
         run: Callable[[argparse.Namespace, _Console], int] = args.func
         with warnings.catch_warnings():
-            warnings.showwarning = _show_warning
+            warnings.simplefilter("always")  # every warning reaches the report
+            warnings.showwarning = con.warn
             return run(args, con)
     except KeyboardInterrupt:
         print("scanmesh: interrupted", file=sys.stderr, flush=True)
@@ -944,7 +1100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except (ScanmeshError, FileNotFoundError, OSError) as exc:
-        print(f"scanmesh: error: {_one_line(exc)}", file=sys.stderr, flush=True)
+        print(f"scanmesh: error: {_speak_flags(_one_line(exc))}", file=sys.stderr, flush=True)
         return 1
 
 

@@ -10,29 +10,40 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import as_points
+from scanmesh._checks import Option
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError, ParameterError
-from scanmesh.projection import PlaneSpec, project
+from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError
+from scanmesh.projection import PlaneSpec
+from scanmesh.scan import PlanarScan, as_scan
 from scanmesh.surface import Surface
 
 #: Default ``max_edge`` in multiples of the median nearest-neighbour spacing (planar).
 MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 
 
+#: ``max_edge``, the shared trimming keyword: None means MAX_EDGE_FACTOR x median spacing.
+MAX_EDGE_OPTION = Option(
+    "max_edge",
+    "float",
+    None,
+    "drop triangles with a longer planar edge (input units; default 5 x median spacing,"
+    " math.inf keeps the convex hull)",
+    low=0.0,
+    low_open=True,
+    finite=False,
+)
+
+
 def resolve_max_edge(uv: np.ndarray, faces: np.ndarray, max_edge: float | None) -> float:
     """The trimming length: ``max_edge`` itself, or MAX_EDGE_FACTOR x median spacing for None."""
     if max_edge is None:
         return MAX_EDGE_FACTOR * _core.median_spacing(uv, faces)
-    value = float(max_edge)
-    if math.isnan(value) or value <= 0:
-        raise ParameterError(f"max_edge must be positive (or math.inf), got {max_edge!r}")
-    return value
+    return MAX_EDGE_OPTION.check(max_edge)
 
 
 def delaunay(
-    points: ArrayLike,
+    points: ArrayLike | PlanarScan,
     *,
     plane: PlaneSpec = None,
     max_edge: float | None = None,
@@ -42,10 +53,12 @@ def delaunay(
 
     Parameters
     ----------
-    points : (N, 3) float
-        Scan points; any real dtype and memory layout.
+    points : (N, 3) float or PlanarScan
+        Scan points; any real dtype and memory layout. A PlanarScan
+        (:func:`scanmesh.planar_scan`) is triangulated in its own plane, not projected again.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
-        Projection plane (see :func:`scanmesh.projection.project`).
+        Projection plane (see :func:`scanmesh.projection.project`); with a PlanarScan,
+        None or the scan's own.
     max_edge : float, optional
         Triangles with a longer planar edge (input units) are dropped, so holes and concave
         outlines stay open. Default: ``MAX_EDGE_FACTOR`` (5) x the median nearest-neighbour
@@ -69,9 +82,10 @@ def delaunay(
         Wrong shape, non-finite values, fewer than 3 distinct points, collinear points, or
         a trimming length that leaves no triangle.
     """
-    t0 = time.perf_counter()
-    pts = as_points(points)
-    uv, frame = project(pts, plane)
+    scan = as_scan(points, plane=plane)
+    if max_edge is not None:
+        MAX_EDGE_OPTION.check(max_edge)  # before the work, not after it
+    pts, uv = scan.points, scan.uv
     t1 = time.perf_counter()
     with Stage(progress, "delaunay", len(pts), blocking=True):
         faces, duplicate_of = interruptible(len(pts), _core.delaunay, uv)
@@ -109,8 +123,9 @@ def delaunay(
         vertices=pts,
         faces=faces,
         method="delaunay",
-        options={"plane": plane, "max_edge": limit, "trimmed": trimmed},
-        frame=frame,
+        options={"plane": scan.plane, "max_edge": limit, "trimmed": trimmed},
+        scan=scan,
         duplicates=duplicates,
-        timings={"project": t1 - t0, "triangulate": t2 - t1, "trim": t3 - t2},
+        timings={**scan.timings, "triangulate": t2 - t1, "trim": t3 - t2},
+        line_ids=scan.line_ids,
     )

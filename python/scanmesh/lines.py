@@ -20,9 +20,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import as_points
-from scanmesh.errors import ParameterError, ScanmeshError
-from scanmesh.projection import PlaneSpec, project
+from scanmesh._checks import Option
+from scanmesh._checks import as_line_ids as as_line_ids  # the rule's public home
+from scanmesh.projection import PlaneSpec
+from scanmesh.scan import PlanarScan, as_scan
 
 #: Default gap factor k: a step longer than k x the median step is a gap or a jump.
 GAP_FACTOR: float = _core.DEFAULT_GAP_FACTOR
@@ -52,37 +53,25 @@ class ScanLines:
         return sum(len(line) for line in self.lines)
 
 
-def _gap_factor(gap_factor: float) -> float:
-    value = float(gap_factor)
-    if not (np.isfinite(value) and value > 0):
-        raise ParameterError(f"gap_factor must be a positive number, got {gap_factor!r}")
-    return value
-
-
-def as_line_ids(line_ids: ArrayLike, n_points: int) -> np.ndarray:
-    """Return ``line_ids`` as a C-contiguous (N,) int64 array, or raise naming the problem.
-
-    Integral floats are accepted; NaN, fractions and other shapes are not.
-    """
-    arr = np.asarray(line_ids)
-    if arr.shape != (n_points,):
-        raise ScanmeshError(f"lines must be one id per point, shape ({n_points},), got {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.integer):
-        if not np.issubdtype(arr.dtype, np.floating):
-            raise ScanmeshError(f"lines must hold integer line ids, got dtype {arr.dtype}")
-        if not np.all(np.isfinite(arr)) or not np.all(arr == np.round(arr)):
-            raise ScanmeshError("lines must hold integer line ids, got non-integral values")
-    return np.ascontiguousarray(arr, dtype=np.int64)
+#: The gap factor as an option of the strip methods and of the functions here.
+GAP_FACTOR_OPTION = Option(
+    "gap_factor",
+    "float",
+    GAP_FACTOR,
+    "a step longer than this many median steps splits a line (a hole)",
+    low=0.0,
+    low_open=True,
+)
 
 
 def detect_lines(
-    points: ArrayLike, *, plane: PlaneSpec = None, gap_factor: float = GAP_FACTOR
+    points: ArrayLike | PlanarScan, *, plane: PlaneSpec = None, gap_factor: float = GAP_FACTOR
 ) -> np.ndarray:
     """Line id of every point, detected from the order of the points.
 
     Parameters
     ----------
-    points : (N, 3) float
+    points : (N, 3) float or PlanarScan
         Scan points in scan order.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Plane the lines are followed in (see :func:`scanmesh.project`).
@@ -95,13 +84,12 @@ def detect_lines(
     (N,) int64
         Line ids numbered 0..L-1 in scan order; non-decreasing.
     """
-    pts = as_points(points)
-    uv, _ = project(pts, plane)
-    return _core.detect_lines(uv, _gap_factor(gap_factor))
+    k = GAP_FACTOR_OPTION.check(gap_factor)
+    return _core.detect_lines(as_scan(points, plane=plane).uv, k)
 
 
 def scan_lines(
-    points: ArrayLike,
+    points: ArrayLike | PlanarScan,
     line_ids: ArrayLike | None = None,
     *,
     plane: PlaneSpec = None,
@@ -117,10 +105,10 @@ def scan_lines(
 
     Parameters
     ----------
-    points : (N, 3) float
+    points : (N, 3) float or PlanarScan
         Scan points.
     line_ids : (N,) int, optional
-        A line id per point.
+        A line id per point (a PlanarScan's own are used when it has them).
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane for detection and gaps.
     gap_factor : float
@@ -130,9 +118,8 @@ def scan_lines(
     -------
     ScanLines
     """
-    pts = as_points(points)
-    uv, _ = project(pts, plane)
-    k = _gap_factor(gap_factor)
-    ids = _core.detect_lines(uv, k) if line_ids is None else as_line_ids(line_ids, len(pts))
-    lines, median_step, gap, duplicates = _core.scan_segments(uv, ids, k)
+    k = GAP_FACTOR_OPTION.check(gap_factor)
+    scan = as_scan(points, plane=plane, lines=line_ids)
+    ids = _core.detect_lines(scan.uv, k) if scan.line_ids is None else scan.line_ids
+    lines, median_step, gap, duplicates = _core.scan_segments(scan.uv, ids, k)
     return ScanLines(lines=lines, median_step=median_step, gap=gap, duplicates=duplicates)

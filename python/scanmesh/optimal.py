@@ -87,11 +87,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import as_points
+from scanmesh._checks import Option, as_faces, check_options
 from scanmesh._extras import require
 from scanmesh.delaunay import delaunay
-from scanmesh.errors import ParameterError
-from scanmesh.projection import Frame, PlaneSpec, project
+from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.projection import PlaneSpec
+from scanmesh.scan import PlanarScan, as_scan
 from scanmesh.surface import Surface
 
 if TYPE_CHECKING:
@@ -121,11 +122,8 @@ MAX_OPTIMAL_POINTS: int = 400
 class _Instance:
     """One input, projected, with coincident points merged (delaunay()'s handling)."""
 
-    #: (N, 3) float64 the input points
-    points: np.ndarray
-    #: (N, 2) float64 their planar coordinates
-    uv: np.ndarray
-    frame: Frame
+    #: the checked, projected input
+    scan: PlanarScan
     #: (n,) int64 input index of each distinct point (the local index is the position)
     keep: np.ndarray
     #: (K, 2) int64 (unused point, the coincident point standing for it)
@@ -138,24 +136,32 @@ class _Instance:
     seconds: float
 
 
-def _instance(points: ArrayLike, plane: PlaneSpec) -> _Instance:
+    @property
+    def points(self) -> np.ndarray:
+        """(N, 3) float64 the input points."""
+        return self.scan.points
+
+    @property
+    def uv(self) -> np.ndarray:
+        """(N, 2) float64 their planar coordinates."""
+        return self.scan.uv
+
+
+def _instance(points: ArrayLike | PlanarScan, plane: PlaneSpec) -> _Instance:
     t0 = time.perf_counter()
-    pts = as_points(points)
+    scan = as_scan(points, plane=plane)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        base = delaunay(pts, plane=plane, max_edge=math.inf)
+        base = delaunay(scan, max_edge=math.inf)
     for w in caught:  # re-issued so that they point at the caller's line
         warnings.warn(w.message, w.category, stacklevel=4)
-    uv, frame = project(pts, plane)
-    used = np.ones(len(pts), dtype=bool)
+    used = np.ones(len(scan.points), dtype=bool)
     used[base.duplicates[:, 0]] = False
     keep = np.flatnonzero(used)
-    local = np.full(len(pts), -1, dtype=np.int64)
+    local = np.full(len(scan.points), -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
     return _Instance(
-        points=pts,
-        uv=uv,
-        frame=frame,
+        scan=scan,
         keep=keep,
         duplicates=base.duplicates,
         delaunay_local=local[base.faces],
@@ -164,19 +170,37 @@ def _instance(points: ArrayLike, plane: PlaneSpec) -> _Instance:
     )
 
 
-def _check_p(p: float, *, exact: bool) -> float:
-    try:
-        value = float(p)
-    except (TypeError, ValueError):
-        raise ParameterError(f"p must be a number >= 1 or math.inf, got {p!r}") from None
-    if exact and value not in (1.0, math.inf):
-        raise ParameterError(
-            f"optimal_surface solves p = 1 and p = math.inf exactly, got p={p!r};"
-            " brute_force_surface takes any p >= 1 on a few points"
-        )
-    if not value >= 1.0:
-        raise ParameterError(f"p must be >= 1 or math.inf, got {p!r}")
-    return value
+#: The optimum's options.
+OPTIONS: tuple[Option, ...] = (
+    Option(
+        "p",
+        "float",
+        1.0,
+        "the tac norm minimized exactly: 1 or math.inf",
+        choices=(1.0, math.inf),
+        finite=False,
+    ),
+    Option(
+        "time_limit",
+        "float",
+        60.0,
+        "seconds for the fan cuts and HiGHS together (math.inf: none)",
+        low=0.0,
+        low_open=True,
+        finite=False,
+    ),
+    Option("strengthen", "bool", False, "experimental: fan cuts by column generation first"),
+    Option(
+        "incumbent",
+        "any",
+        None,
+        "a known triangulation (faces or Surface) whose tac norm cuts the search",
+        convert=lambda value: value,  # checked against the hull by _incumbent_faces
+    ),
+)
+
+#: brute_force_surface's p: any norm >= 1.
+_ANY_P = Option("p", "float", 1.0, "the tac norm", low=1.0, finite=False)
 
 
 def _unit(points: np.ndarray) -> np.ndarray:
@@ -218,7 +242,7 @@ def _interior_mask(n: int, triangles: np.ndarray) -> np.ndarray:
 
 
 def optimal_surface(
-    points: ArrayLike,
+    points: ArrayLike | PlanarScan,
     *,
     p: float = 1,
     plane: PlaneSpec = None,
@@ -283,13 +307,12 @@ def optimal_surface(
     optimize = require("scipy.optimize", "optimal", "method='optimal' (the HiGHS MILP)")
     Bounds, LinearConstraint, milp = optimize.Bounds, optimize.LinearConstraint, optimize.milp
 
-    p = _check_p(p, exact=True)
-    try:
-        limit = float(time_limit)
-    except (TypeError, ValueError):
-        raise ParameterError(f"time_limit must be seconds > 0, got {time_limit!r}") from None
-    if not limit > 0:
-        raise ParameterError(f"time_limit must be seconds > 0 (or math.inf), got {time_limit!r}")
+    params = check_options(
+        OPTIONS,
+        {"p": p, "time_limit": time_limit, "strengthen": strengthen, "incumbent": incumbent},
+        "optimal_surface",
+    )
+    p, limit = params["p"], params["time_limit"]
     inst = _instance(points, plane)
     n = len(inst.keep)
     if n > MAX_OPTIMAL_POINTS:
@@ -304,7 +327,7 @@ def optimal_surface(
     t1 = time.perf_counter()
     cuts = None
     if strengthen and len(geo.interior):
-        from scanmesh.anneal import lop_surface
+        from scanmesh.lop import lop_surface
 
         local = np.full(len(inst.points), -1, dtype=np.int64)
         local[inst.keep] = np.arange(len(inst.keep))
@@ -351,7 +374,7 @@ def optimal_surface(
         candidates.append(("highs", inst.keep[tri[chosen]]))
     if not certified:
         # Stopped early: return the best triangulation known, HiGHS's or a local optimum.
-        from scanmesh.anneal import lop_surface
+        from scanmesh.lop import lop_surface
 
         candidates.append(("lop", lop_surface(inst.delaunay, p=1.0).faces))
         candidates.append(("delaunay", inst.delaunay.faces))
@@ -370,13 +393,13 @@ def optimal_surface(
         vertices=inst.points,
         faces=np.ascontiguousarray(candidates[best][1], dtype=np.int64),
         method="optimal",
-        frame=inst.frame,
+        scan=inst.scan,
         duplicates=inst.duplicates,
         certified=certified,
         gap=0.0 if value <= bound or value == 0.0 else (value - bound) / value,
         options={
             "p": p,
-            "plane": plane,
+            "plane": inst.scan.plane,
             "time_limit": limit,
             "max_edge": math.inf,
             "candidate_triangles": int(len(tri)),
@@ -413,34 +436,21 @@ def _incumbent_faces(
     of the hull: every face an empty candidate triangle and the flow equations met (the
     module docstring's theorem), so a wrong incumbent cannot cut the optimum off."""
     faces = incumbent.faces if isinstance(incumbent, Surface) else incumbent
-    try:
-        arr = np.asarray(faces)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"incumbent cannot be read as faces: {exc}") from None
-    if arr.ndim != 2 or arr.shape[1] != 3 or arr.dtype.kind not in "iu":
-        raise ParameterError(
-            f"incumbent must be (M, 3) integer faces or a Surface, got shape {arr.shape}"
-            f" of {arr.dtype}"
-        )
+    arr = as_faces(faces, len(inst.points), "incumbent faces")
     local = np.full(len(inst.points), -1, dtype=np.int64)
     local[inst.keep] = np.arange(len(inst.keep))
-    if len(arr) and (arr.min() < 0 or arr.max() >= len(inst.points)):
-        raise ParameterError(
-            f"incumbent faces must index points 0..{len(inst.points) - 1},"
-            f" found {arr.min()}..{arr.max()}"
-        )
     index = {tuple(sorted(t)): k for k, t in enumerate(tri.tolist())}
     chosen = np.zeros(len(tri), dtype=np.int64)
     for row, face in enumerate(local[arr].tolist()):
         k = index.get(tuple(sorted(face)), -1)
         if k < 0 or chosen[k]:
-            raise ParameterError(
+            raise InvalidMeshError(
                 f"incumbent face {row} {arr[row].tolist()} is not an empty triangle of"
                 " distinct hull points (or repeats one)"
             )
         chosen[k] = 1
     if np.any(geo.flow @ chosen != geo.flow_rhs):
-        raise ParameterError(
+        raise InvalidMeshError(
             "incumbent faces do not triangulate the convex hull of the points (a gap or an"
             " overlap); pass a Surface built with max_edge=math.inf"
         )
@@ -830,7 +840,7 @@ def brute_force_surface(
         (ties: in breadth-first order from Delaunay). ``options["n_triangulations"]`` is
         how many were compared.
     """
-    p = _check_p(p, exact=False)
+    p = _ANY_P.check(p)
     inst = _instance(points, plane)
     t0 = time.perf_counter()
     every = _all_local(inst, max_triangulations)  # (K, M, 3) local indices
@@ -855,12 +865,12 @@ def brute_force_surface(
         method="brute-force",
         options={
             "p": p,
-            "plane": plane,
+            "plane": inst.scan.plane,
             "max_edge": math.inf,
             "n_triangulations": int(len(every)),
             "max_triangulations": int(max_triangulations),
         },
-        frame=inst.frame,
+        scan=inst.scan,
         duplicates=inst.duplicates,
         timings={"project_delaunay": inst.seconds, "enumerate": t1 - t0, "score": t2 - t1},
         certified=True,

@@ -11,6 +11,9 @@ from scanmesh import _core
 from scanmesh._checks import as_points
 from scanmesh.errors import ParameterError
 
+#: The named planes: the least-squares plane and the three axes.
+PLANE_NAMES = ("best-fit", "x", "y", "z")
+
 #: A plane choice: None or "best-fit" (least squares), an axis name, or a normal 3-vector.
 PlaneSpec = None | str | ArrayLike
 
@@ -47,17 +50,43 @@ def project(points: ArrayLike, plane: PlaneSpec = None) -> tuple[np.ndarray, Fra
     frame : Frame
         The plane.
     """
-    pts = as_points(points)
+    return project_checked(as_points(points), plane)
+
+
+def project_checked(points: np.ndarray, plane: PlaneSpec) -> tuple[np.ndarray, Frame]:
+    """:func:`project` of points already checked by ``as_points`` (no second check)."""
+    name, normal = plane_choice(plane)
+    uv, frame = _core.project(points, name, normal)
+    return uv, Frame(*frame)
+
+
+def plane_choice(plane: PlaneSpec) -> tuple[str | None, np.ndarray | None]:
+    """A plane spec as the core takes it: (name, None) or (None, (3,) float64 normal).
+
+    Raises ParameterError for anything else (bytes, a mapping, a normal that is not three
+    finite real numbers, not all zero).
+    """
     if plane is None or isinstance(plane, str):
         name = "best-fit" if plane is None else plane.lower()
-        if name not in ("best-fit", "x", "y", "z"):
+        if name not in PLANE_NAMES:
             raise ParameterError(
                 f"plane must be None, 'best-fit', 'x', 'y', 'z' or a 3-vector, got {plane!r}"
             )
-        uv, frame = _core.project(pts, name)
-    else:
-        normal = np.asarray(plane, dtype=np.float64).ravel()
-        if normal.shape != (3,):
-            raise ParameterError(f"plane normal must have 3 components, got {normal.shape[0]}")
-        uv, frame = _core.project(pts, None, np.ascontiguousarray(normal))
-    return uv, Frame(*frame)
+        return name, None
+    shown = repr(plane) if len(repr(plane)) < 80 else repr(plane)[:76] + " ..."
+    if isinstance(plane, (bytes, bytearray, dict)) or not hasattr(plane, "__len__"):
+        raise ParameterError(
+            f"plane must be None, 'best-fit', 'x', 'y', 'z' or a 3-vector, got {shown}"
+        )
+    try:
+        normal = np.asarray(plane)
+    except (TypeError, ValueError):
+        normal = np.asarray(None)
+    if normal.dtype.kind not in "iuf" or normal.ndim != 1:
+        raise ParameterError(f"plane normal must be three real numbers, got {shown}")
+    if normal.shape != (3,):
+        raise ParameterError(f"plane normal must have 3 components, got {normal.shape[0]}")
+    normal = np.ascontiguousarray(normal, dtype=np.float64)
+    if not np.all(np.isfinite(normal)) or not np.any(normal):
+        raise ParameterError(f"plane normal must be finite and non-zero, got {shown}")
+    return None, normal

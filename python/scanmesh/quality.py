@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_faces, as_points
+from scanmesh.scan import PlanarScan
 
 #: A triangle whose smallest 3-D angle is below this (degrees) counts as a sliver.
 SLIVER_ANGLE_DEG: float = _core.SLIVER_ANGLE_DEG
@@ -61,25 +62,22 @@ class Quality:
         }
 
 
-def quality(vertices: ArrayLike, faces: ArrayLike, *, plane: object = None) -> Quality:
+def quality(vertices: ArrayLike | PlanarScan, faces: ArrayLike) -> Quality:
     """Measure a mesh: tac norms over interior vertices, smallest angle, sliver share.
 
     Parameters
     ----------
-    vertices : (N, 3) float
-        Vertex positions (any real dtype).
+    vertices : (N, 3) float or PlanarScan
+        Vertex positions (any real dtype), or the scan a mesh was built on (its points,
+        already checked). Every figure is measured in 3-D: no plane is involved.
     faces : (M, 3) int
         Triangles as vertex indices; orientation does not matter.
-    plane : ignored
-        Accepted for symmetry with the triangulation functions: every figure here is
-        measured in 3-D, so no plane is involved.
 
     Returns
     -------
     Quality
     """
-    del plane
-    pts = as_points(vertices, "vertices")
+    pts = vertices.points if isinstance(vertices, PlanarScan) else as_points(vertices, "vertices")
     tri = as_faces(faces, len(pts))
     tac, min_angle = _core.mesh_quality(pts, tri)
     interior = ~np.isnan(tac)

@@ -1,54 +1,26 @@
-"""``reconstruct()``: one entry point for every triangulation method."""
+"""``reconstruct()``: one entry point for every triangulation method (see ``methods.py``)."""
 
 from __future__ import annotations
 
 import os
-import time
 import warnings
 from typing import Any
 
-import numpy as np
 from numpy.typing import ArrayLike
 
-from scanmesh._checks import as_points
-from scanmesh._progress import Progress, Stage, anneal_progress
-from scanmesh.anneal import anneal_surface, lop_surface
-from scanmesh.delaunay import delaunay
-from scanmesh.errors import NotAHeightFieldWarning, ParameterError
+from scanmesh._progress import Progress, Stage
+from scanmesh.errors import NotAHeightFieldWarning
+from scanmesh.methods import METHODS, Keywords
+from scanmesh.methods import method as find_method
 from scanmesh.projection import PlaneSpec
+from scanmesh.scan import PlanarScan, planar_scan
 from scanmesh.surface import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION, Surface
 
-#: Methods of :func:`reconstruct`, fast to slow.
-METHODS = ("delaunay", "lookahead", "shortest-path", "lop", "anneal", "optimal")
-
-#: Initial triangulations annealing and LOP can start from.
-INITIALS = ("delaunay", "shortest-path")
-
-
-def _load(
-    source: ArrayLike | str | os.PathLike, progress: Progress
-) -> tuple[np.ndarray, np.ndarray | None]:
-    if isinstance(source, (str, os.PathLike)):
-        from scanmesh.readers import read
-
-        scan = read(source, progress=progress)
-        return scan.points, scan.line_ids
-    return as_points(source), None
-
-
-def _strips(
-    points: np.ndarray, method: str, lines: Any, plane: PlaneSpec, options: dict,
-    progress: Progress,
-) -> Surface:
-    from scanmesh.strips import strip_surface
-
-    return strip_surface(
-        points, lines=lines, method=method, plane=plane, progress=progress, **options
-    )
+__all__ = ["reconstruct", "METHODS"]
 
 
 def reconstruct(
-    source: ArrayLike | str | os.PathLike,
+    source: ArrayLike | str | os.PathLike | PlanarScan,
     method: str = "anneal",
     *,
     lines: ArrayLike | None = None,
@@ -62,23 +34,28 @@ def reconstruct(
 
     Parameters
     ----------
-    source : (N, 3) float array or path
+    source : (N, 3) float array, path or PlanarScan
         The points, or a scan file (see :func:`scanmesh.read` for the formats; a file's scan
-        lines are used unless ``lines`` is given).
+        lines are used unless ``lines`` is given), or a :func:`scanmesh.planar_scan` made
+        once and reused across methods (``plane`` and ``lines`` then belong to it).
     method : str
         ``"delaunay"`` (max-min angle optimum in the plane), ``"lookahead"`` and
         ``"shortest-path"`` (Fuchs-matrix strips between consecutive scan lines), ``"lop"``
         (greedy tac flips), ``"anneal"`` (simulated annealing on tac), ``"optimal"``
         (certified tac optimum, small inputs only).
     lines : (N,) int, optional
-        Scan line id of each point (strip methods; detected from point order when absent).
+        Scan line id of each point (strip methods, and LOP and annealing from
+        ``initial="shortest-path"``; detected from point order when absent).
     plane : None, "best-fit", "x", "y", "z" or (3,) float
-        Projection plane of the planar methods (default: least-squares plane).
+        Projection plane (default: least-squares plane).
     max_edge : float, optional
-        Trimming length for Delaunay-based methods (default 5 x median spacing; ``math.inf``
-        keeps the convex hull).
+        Trimming length of the Delaunay triangulation (methods "delaunay", and "lop" and
+        "anneal" from it; default 5 x median spacing; ``math.inf`` keeps the convex hull).
     seed : int, optional
         Seed for annealing (default 0). The same seed gives the same faces.
+
+    A keyword the chosen method does not use is refused (``scanmesh.methods.TABLE`` says
+    which method uses which).
     progress : bool or callable
         True shows a progress bar (on stderr) for every stage that runs longer than a second.
         A callable is called as ``progress(done, total, value)``. If it accepts a keyword
@@ -93,10 +70,14 @@ def reconstruct(
         stages that are one native call or one pass (lines, strips, Delaunay, trimming,
         steep) report their start and end only. See ``scanmesh._progress``.
     **options
-        Method options. ``anneal``: ``initial`` ("delaunay" or "shortest-path"), ``sweeps``,
-        ``p``, ``sliver_guard``, ... (see :data:`scanmesh.anneal.ANNEAL_DEFAULTS`). ``lop``:
-        ``initial``, ``criterion`` ("tac" or "max-min"), ``p``, ``sliver_guard``. Strip
-        methods: ``weight``, ``alpha``. ``optimal``: ``p``, ``time_limit``.
+        Method options, each with its type, range, default and doc in
+        ``scanmesh.methods.TABLE[method].options``. ``anneal``: ``initial`` ("delaunay",
+        "shortest-path", or a Surface built on the same PlanarScan), ``sweeps``, ``p``,
+        ``sliver_guard``, ``chains``, ``tiles``, ...; ``lop``: ``initial``, ``criterion``
+        ("tac" or "max-min"), ``p``, ``sliver_guard``, ``tie_tolerance``; ``lookahead``:
+        ``weight``, ``alpha``, ``gap_factor``, ``check``; ``shortest-path``: ``weight``,
+        ``solver``, ``band``, ``gap_factor``, ``check``; ``optimal``: ``p``,
+        ``time_limit``, ``strengthen``, ``incumbent``.
 
     Returns
     -------
@@ -118,56 +99,20 @@ def reconstruct(
         ``surface.STEEP_ANGLE_DEG`` (75 degrees) over the projection plane (see
         ``Surface.steep_fraction``).
     """
-    if method not in METHODS:
-        raise ParameterError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    t0 = time.perf_counter()
-    points, file_lines = _load(source, progress)
-    if lines is None:
-        lines = file_lines
-    t_read = time.perf_counter() - t0
-
-    def initial_surface(name: str) -> Surface:
-        if name not in INITIALS:
-            raise ParameterError(f"unknown initial {name!r}; choose one of {', '.join(INITIALS)}")
-        if name == "delaunay":
-            return delaunay(points, plane=plane, max_edge=max_edge, progress=progress)
-        return _strips(points, "shortest-path", lines, plane, {}, progress)
-
-    if method == "delaunay":
-        _no_options(method, options)
-        surface = delaunay(points, plane=plane, max_edge=max_edge, progress=progress)
-    elif method in ("lookahead", "shortest-path"):
-        surface = _strips(points, method, lines, plane, options, progress)
-    elif method == "lop":
-        start = initial_surface(options.pop("initial", "delaunay"))
-        surface = lop_surface(start, **options)
-    elif method == "anneal":
-        start = initial_surface(options.pop("initial", "delaunay"))
-        surface = anneal_surface(
-            start, seed=seed, progress=anneal_progress(progress), **options
-        )
-    else:
-        from scanmesh.optimal import optimal_surface
-
-        surface = optimal_surface(points, plane=plane, **options)
-    if t_read > 0 and isinstance(source, (str, os.PathLike)):
-        surface.timings = {"read": t_read, **surface.timings}
-    if surface.line_ids is None and lines is not None:
-        surface.line_ids = np.asarray(lines)
+    spec = find_method(method)
+    params = spec.check(options, {"lines": lines, "max_edge": max_edge, "seed": seed})
+    # The one place the points are read (scan.read_scan_file), checked and projected.
+    scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
+    surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
     with Stage(progress, "steep", len(surface.faces), blocking=True):
         steep = surface.steep_fraction
     if steep is not None and steep > STEEP_WARN_FRACTION:
         warnings.warn(
             f"{100 * steep:.0f} % of the triangles are steep (normal more than"
             f" {STEEP_ANGLE_DEG:g} deg from the projection normal): the surface is probably"
-            f" not a height field over this plane (plane={plane!r}); try another plane=,"
+            f" not a height field over this plane (plane={scan.plane!r}); try another plane=,"
             " e.g. 'x', 'y', 'z' or a normal vector",
             NotAHeightFieldWarning,
             stacklevel=2,
         )
     return surface
-
-
-def _no_options(method: str, options: dict[str, Any]) -> None:
-    if options:
-        raise ParameterError(f"method {method!r} takes no option(s) {sorted(options)}")

@@ -12,12 +12,13 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import as_points
+from scanmesh._checks import Option, check_options
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import (
@@ -26,9 +27,10 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshWarning,
 )
-from scanmesh.lines import GAP_FACTOR, _gap_factor, as_line_ids
-from scanmesh.projection import PlaneSpec, project
+from scanmesh.lines import GAP_FACTOR_OPTION
+from scanmesh.projection import PlaneSpec
 from scanmesh.readers import count_lines
+from scanmesh.scan import PlanarScan, as_scan
 from scanmesh.surface import Surface
 
 #: The path criteria, in the order the core takes their coefficients. Lengths are measured
@@ -93,6 +95,10 @@ def _spans_plane(uv: np.ndarray) -> bool:
     return bool(np.linalg.matrix_rank(uv - uv.mean(axis=0)) == 2)
 
 
+#: Weight coefficients are numbers >= 0 (one of them positive).
+_COEFFICIENT = Option("weight", "float", 0.0, "a criterion's coefficient", low=0.0)
+
+
 def weight_coefficients(weight: WeightSpec) -> tuple[float, float, float, float]:
     """The (length, area, angle, dihedral) coefficients of a weight spec."""
     if isinstance(weight, str):
@@ -101,39 +107,85 @@ def weight_coefficients(weight: WeightSpec) -> tuple[float, float, float, float]
         spec: Mapping[str, float] = {weight: 1.0}
     elif isinstance(weight, Mapping):
         spec = weight
-        unknown = sorted(set(spec) - set(CRITERIA))
+        unknown = sorted(set(spec) - set(CRITERIA), key=repr)
         if unknown:
             raise ParameterError(f"unknown weight criteria {unknown}; known: {CRITERIA}")
     else:
         raise ParameterError(f"weight must be a criterion name or a mapping, got {weight!r}")
-    coefficients = tuple(float(spec.get(name, 0.0)) for name in CRITERIA)
-    if not all(np.isfinite(c) and c >= 0 for c in coefficients) or not any(coefficients):
-        raise ParameterError(
-            f"weight coefficients must be finite and >= 0, one of them positive, got {dict(spec)}"
-        )
+    coefficients = tuple(
+        _COEFFICIENT.check(spec[name], f"weight[{name!r}]") if name in spec else 0.0
+        for name in CRITERIA
+    )
+    if not any(coefficients):
+        raise ParameterError(f"weight needs one positive coefficient, got {dict(spec)}")
     return coefficients  # type: ignore[return-value]
 
 
+def _weight(weight: WeightSpec) -> dict[str, float]:
+    return dict(zip(CRITERIA, weight_coefficients(weight), strict=True))
+
+
+#: Most look-ahead steps: each decision costs O(alpha^2), and from about the lines' length
+#: on the walk is the shortest path anyway (use method "shortest-path").
+MAX_ALPHA: int = 256
+
+#: Largest initial band of the banded solver (it widens as needed; wider is the whole matrix).
+MAX_BAND: int = 2**31 - 1
+
+WEIGHT_OPTION = Option(
+    "weight",
+    "any",
+    _weight(DEFAULT_WEIGHT),
+    "a criterion of CRITERIA or a mapping of them to coefficients (angle + 0.3 dihedral)",
+    convert=_weight,
+)
+CHECK_OPTION = Option(
+    "check", "bool", True, "validate the mesh in the plane (False skips it at large sizes)"
+)
+
+#: The options of each strip method, by method name.
+OPTIONS: dict[str, tuple[Option, ...]] = {
+    "shortest-path": (
+        WEIGHT_OPTION,
+        Option("solver", "choice", "banded", "shortest-path solver", choices=SOLVERS),
+        Option(
+            "band",
+            "int",
+            _core.DEFAULT_BAND,
+            "initial half width of the banded solver (matrix columns)",
+            low=1,
+            high=MAX_BAND,
+        ),
+        GAP_FACTOR_OPTION,
+        CHECK_OPTION,
+    ),
+    "lookahead": (
+        WEIGHT_OPTION,
+        Option(
+            "alpha", "int", DEFAULT_ALPHA, "look-ahead depth in steps", low=1, high=MAX_ALPHA
+        ),
+        GAP_FACTOR_OPTION,
+        CHECK_OPTION,
+    ),
+}
+
+
 def strip_surface(
-    points: ArrayLike,
+    points: ArrayLike | PlanarScan,
     *,
     lines: ArrayLike | None = None,
     method: str = "shortest-path",
-    weight: WeightSpec = DEFAULT_WEIGHT,
-    alpha: int = DEFAULT_ALPHA,
     plane: PlaneSpec = None,
-    gap_factor: float = GAP_FACTOR,
-    solver: str = "banded",
-    band: int = _core.DEFAULT_BAND,
-    check: bool = True,
     progress: Progress = False,
+    **options: Any,
 ) -> Surface:
     """Triangulate scan-line points strip by strip.
 
     Parameters
     ----------
-    points : (N, 3) float
-        Scan points, line after line.
+    points : (N, 3) float or PlanarScan
+        Scan points, line after line (a PlanarScan is used in its own plane, with its line
+        ids when it has them).
     lines : (N,) int, optional
         A line id per point (same id = one line, in input order; lines by ascending id).
         None detects the lines from the point order (:func:`scanmesh.detect_lines`).
@@ -147,7 +199,7 @@ def strip_surface(
         (12.8 degrees) at 16 % less tac_1 than angle alone, where dihedral alone falls to
         4.8 degrees (figures in BENCHMARKS.md).
     alpha : int
-        Look-ahead depth in steps (``method="lookahead"`` only), >= 1.
+        Look-ahead depth in steps (``method="lookahead"`` only), 1..MAX_ALPHA.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane: lines are followed, clipped and oriented in it, and the mesh is
         counter-clockwise seen against its normal.
@@ -155,9 +207,9 @@ def strip_surface(
         A step longer than this many median steps splits a line (a hole); strips never
         bridge it.
     solver : "banded", "dp" or "dijkstra"
-        Shortest-path solver (same optimum; see :data:`SOLVERS`).
+        Shortest-path solver (same optimum; see :data:`SOLVERS`; shortest-path only).
     band : int
-        Initial half width of the banded solver, in matrix columns.
+        Initial half width of the banded solver, in matrix columns (shortest-path only).
     check : bool
         Validate the mesh in the plane (O(m log m); at a million points it takes longer
         than the strips themselves). False skips it: no CrossingLinesWarning, and
@@ -166,6 +218,9 @@ def strip_surface(
         True shows progress bars; a callable taking ``stage=`` is called for the stages
         "lines" and "strips" (in points; see :func:`scanmesh.reconstruct`). Each is one
         native call, so it reports its start and its end.
+
+    ``weight``, ``alpha``, ``gap_factor``, ``solver``, ``band`` and ``check`` are the
+    method's options (:data:`OPTIONS`); an option of the other method is refused.
 
     Returns
     -------
@@ -193,24 +248,17 @@ def strip_surface(
     """
     if method not in METHODS:
         raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
-    if solver not in SOLVERS:
-        raise ParameterError(f"solver must be one of {SOLVERS}, got {solver!r}")
-    coefficients = weight_coefficients(weight)
-    if isinstance(alpha, bool) or not isinstance(alpha, (int, np.integer)) or alpha < 1:
-        raise ParameterError(f"alpha must be an integer >= 1, got {alpha!r}")
-    if isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 1:
-        raise ParameterError(f"band must be an integer >= 1, got {band!r}")
-    k = _gap_factor(gap_factor)
-    t0 = time.perf_counter()
-    pts = as_points(points)
-    uv, frame = project(pts, plane)
+    params = check_options(OPTIONS[method], options, f"method {method!r}")
+    k = params["gap_factor"]
+    scan = as_scan(points, plane=plane, lines=lines)
+    pts, uv = scan.points, scan.uv
     if not _spans_plane(uv):
         raise DegenerateInputError(
             "all points are collinear after projection onto the plane: choose another plane"
         )
     t1 = time.perf_counter()
     with Stage(progress, "lines", len(pts), blocking=True):
-        ids = _core.detect_lines(uv, k) if lines is None else as_line_ids(lines, len(pts))
+        ids = _core.detect_lines(uv, k) if scan.line_ids is None else scan.line_ids
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
     with Stage(progress, "strips", len(pts), blocking=True):
@@ -220,13 +268,13 @@ def strip_surface(
             pts,
             uv,
             ids,
-            coefficients,
+            tuple(params["weight"].values()),
             method,
-            int(alpha),
-            solver,
-            int(band),
+            params.get("alpha", DEFAULT_ALPHA),
+            params.get("solver", "banded"),
+            params.get("band", _core.DEFAULT_BAND),
             k,
-            bool(check),
+            params["check"],
         )
     t3 = time.perf_counter()
     if n_strips == 0:
@@ -257,26 +305,22 @@ def strip_surface(
             CoincidentPointsWarning,
             stacklevel=2,
         )
-    options = {
-        "lines": "detected" if lines is None else "given",
-        "weight": dict(zip(CRITERIA, coefficients, strict=True)),
-        "alpha": int(alpha) if method == "lookahead" else None,
-        "solver": solver if method == "shortest-path" else None,
-        "band": int(band),
-        "plane": plane,
-        "gap_factor": k,
-        "n_lines": n_lines,
-        "n_strips": int(n_strips),
-        "cost": float(cost),
-        "unused": unused,
-        "planar_valid": (planar_error is None) if check else None,
-    }
     return Surface(
         vertices=pts,
         faces=faces,
         method=method,
-        options=options,
-        frame=frame,
+        options={
+            "lines": "detected" if scan.line_ids is None else "given",
+            **params,
+            "plane": scan.plane,
+            "n_lines": n_lines,
+            "n_strips": int(n_strips),
+            "cost": float(cost),
+            "unused": unused,
+            "planar_valid": (planar_error is None) if params["check"] else None,
+        },
+        scan=scan,
         duplicates=duplicates,
-        timings={"project": t1 - t0, "lines": t2 - t1, "strips": t3 - t2},
+        timings={**scan.timings, "lines": t2 - t1, "strips": t3 - t2},
+        line_ids=scan.line_ids,
     )

@@ -13,8 +13,10 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh._progress import Progress
+from scanmesh.errors import ParameterError
 from scanmesh.projection import Frame
 from scanmesh.quality import Quality, quality
+from scanmesh.scan import PlanarScan
 
 if TYPE_CHECKING:
     import trimesh
@@ -68,7 +70,7 @@ class Surface:
     method: str = "delaunay"
     #: the options the method ran with
     options: dict[str, Any] = field(default_factory=dict)
-    #: the projection plane, for planar methods
+    #: the projection plane, for planar methods (the scan's frame when ``scan`` is given)
     frame: Frame | None = None
     #: (K, 2) int64 pairs (unused point, the coincident point standing for it)
     duplicates: np.ndarray = field(default_factory=lambda: np.empty((0, 2), dtype=np.int64))
@@ -84,11 +86,20 @@ class Surface:
     #: exact methods: remaining relative gap (objective - lower bound) / objective, 0 when
     #: proven; None for heuristics
     gap: float | None = None
+    #: the checked, projected points the faces were built on (planar methods), with the
+    #: file they were read from
+    scan: PlanarScan | None = None
+
+    def __post_init__(self) -> None:
+        if self.scan is not None:
+            if self.frame is not None and self.frame is not self.scan.frame:
+                raise ParameterError("a Surface's frame must be its scan's frame")
+            self.frame = self.scan.frame
 
     @cached_property
     def quality(self) -> Quality:
         """tac norms, smallest angle and sliver share of this mesh (computed once)."""
-        return quality(self.vertices, self.faces)
+        return quality(self.vertices if self.scan is None else self.scan, self.faces)
 
     @cached_property
     def steep_fraction(self) -> float | None:
@@ -107,10 +118,14 @@ class Surface:
 
     def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
         """Write the mesh by file ending (.stl binary, .ply, .obj, .off), atomically;
-        ``progress`` as in :func:`scanmesh.writers.save_mesh` (stage "write")."""
+        ``progress`` as in :func:`scanmesh.writers.save_mesh` (stage "write").
+
+        Refuses (ParameterError, before writing) to replace the scan file the surface was
+        reconstructed from."""
         from scanmesh.writers import save_mesh
 
-        return save_mesh(path, self.vertices, self.faces, progress=progress)
+        source = None if self.scan is None else self.scan.source
+        return save_mesh(path, self.vertices, self.faces, protect=source, progress=progress)
 
     def __repr__(self) -> str:
         return (

@@ -1,0 +1,115 @@
+"""Lawson's local optimization procedure (LOP) on a planar triangulation: flip while it helps.
+
+From a Delaunay or strip triangulation, an interior edge is flipped while the flip lowers
+sum tac^p (the tac order, annealing at temperature zero) or raises the smallest planar
+angle ("max-min", which converges to the Delaunay triangulation). Flips are judged on the
+scan's own planar coordinates, the ones the initial triangulation was built on.
+"""
+
+from __future__ import annotations
+
+import time
+
+from scanmesh import _core
+from scanmesh._checks import Option, check_options
+from scanmesh.errors import ParameterError
+from scanmesh.surface import Surface
+
+#: Defaults shared with annealing, read from the Rust core (one source of truth).
+_CORE_DEFAULTS = dict(_core.ANNEAL_DEFAULTS)
+
+#: The tac exponent p of the energy sum tac^p (LOP and annealing).
+P_OPTION = Option("p", "float", 1.0, "exponent p of the energy sum tac^p", low=1.0)
+
+#: Energy ties break toward well-shaped triangles (LOP and annealing's polish).
+SLIVER_GUARD_OPTION = Option(
+    "sliver_guard", "bool", True, "break energy ties toward the larger smallest angle"
+)
+
+#: Energy changes of at most this size are ties (LOP and annealing).
+TIE_TOLERANCE_OPTION = Option(
+    "tie_tolerance",
+    "float",
+    float(_CORE_DEFAULTS["tie_tolerance"]),
+    "energy changes of at most this size (radians^p) are ties",
+    low=0.0,
+)
+
+#: LOP's options.
+OPTIONS: tuple[Option, ...] = (
+    Option(
+        "criterion",
+        "choice",
+        "tac",
+        "flip to lower sum tac^p ('tac') or to raise the smallest planar angle ('max-min')",
+        choices=("tac", "max-min"),
+    ),
+    P_OPTION,
+    SLIVER_GUARD_OPTION,
+    TIE_TOLERANCE_OPTION,
+)
+
+
+def planar_start(initial: Surface, stage: str) -> Surface:
+    """``initial`` if it carries the scan it was built on, else ParameterError."""
+    if not isinstance(initial, Surface) or initial.scan is None:
+        raise ParameterError(
+            f"{stage} starts from a planar triangulation with its scan (a Surface from"
+            f" delaunay() or the strip methods), got {initial!r}"
+        )
+    return initial
+
+
+def lop_surface(
+    initial: Surface,
+    *,
+    criterion: str = "tac",
+    p: float = 1.0,
+    sliver_guard: bool = True,
+    tie_tolerance: float = TIE_TOLERANCE_OPTION.default,
+) -> Surface:
+    """Lawson's LOP from ``initial``: flip while a flip improves ``criterion``.
+
+    ``criterion="tac"`` minimizes sum tac^p (annealing at T = 0; energy ties go to the larger
+    smallest angle when ``sliver_guard``); ``"max-min"`` maximizes the smallest angle in the
+    projection plane and so converges to the Delaunay triangulation. Flips are judged in
+    ``initial.scan``'s planar coordinates. O(flips x log m) after an O(m) start; the flip
+    budget is finite (ARCHITECTURE.md, "Why").
+
+    Returns
+    -------
+    Surface
+        method "lop", on the same scan, with ``options["flips"]`` the flips made.
+    """
+    start = planar_start(initial, "LOP")
+    params = check_options(
+        OPTIONS,
+        {"criterion": criterion, "p": p, "sliver_guard": sliver_guard,
+         "tie_tolerance": tie_tolerance},
+        "LOP",
+    )
+    scan = start.scan
+    assert scan is not None
+    t0 = time.perf_counter()
+    faces, flips = _core.lop(
+        scan.points,
+        scan.uv,
+        start.faces,
+        params["criterion"],
+        params["p"],
+        params["sliver_guard"],
+        params["tie_tolerance"],
+    )
+    return Surface(
+        vertices=scan.points,
+        faces=faces,
+        method="lop",
+        options={**start.options, **params, "flips": flips, "initial": start.method},
+        scan=scan,
+        duplicates=start.duplicates,
+        timings={**start.timings, "lop": time.perf_counter() - t0},
+        line_ids=start.line_ids,
+    )
+
+
+__all__ = ["lop_surface", "OPTIONS"]

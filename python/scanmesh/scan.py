@@ -1,0 +1,150 @@
+"""One scan, checked and projected once: the value every triangulation stage takes.
+
+``planar_scan`` checks the points (``as_points``) and the line ids (``as_line_ids``) and
+projects the points onto the plane, once. Delaunay, trimming, strips, LOP, annealing, the
+optimum and the quality report all read the same planar coordinates from it, so the
+annealer tests convexity on exactly the roundings the Delaunay triangulation and its
+trimming were judged on, and ``Surface.frame`` is the frame every stage worked in.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from scanmesh._checks import as_line_ids, as_points
+from scanmesh._progress import Progress
+from scanmesh.errors import ParameterError
+from scanmesh.projection import Frame, PlaneSpec, plane_choice, project_checked
+
+
+@dataclass(frozen=True, eq=False)
+class PlanarScan:
+    """Scan points with their projection: made by :func:`planar_scan`, never changed.
+
+    The arrays are the caller's when they already had the right type (no copy); ``uv`` is
+    read-only.
+    """
+
+    #: (N, 3) float64 the points, checked (finite, at least 3)
+    points: np.ndarray
+    #: (N, 2) float64 planar coordinates in ``frame``, input units
+    uv: np.ndarray
+    #: the plane ``uv`` is measured in
+    frame: Frame
+    #: (N,) int64 scan line of each point (given or from the file), or None
+    line_ids: np.ndarray | None
+    #: the plane asked for (None: best fit), as given
+    plane: PlaneSpec
+    #: the file the points were read from, or None
+    source: Path | None = None
+    #: seconds spent reading ("read", files only) and checking and projecting ("project")
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        lines = "" if self.line_ids is None else ", with line ids"
+        origin = "" if self.source is None else f", from {str(self.source)!r}"
+        return f"PlanarScan({len(self.points)} points, plane={self.plane!r}{lines}{origin})"
+
+
+def planar_scan(
+    source: ArrayLike | str | os.PathLike | PlanarScan,
+    *,
+    plane: PlaneSpec = None,
+    lines: ArrayLike | None = None,
+    progress: Progress = False,
+) -> PlanarScan:
+    """Check and project scan points once.
+
+    Parameters
+    ----------
+    source : (N, 3) float array, path or PlanarScan
+        The points, or a scan file (:func:`scanmesh.read`; its line ids are used unless
+        ``lines`` is given). A PlanarScan is returned as it is (``plane`` and ``lines``
+        must then be left out or agree with it).
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane (see :func:`scanmesh.project`).
+    lines : (N,) int, optional
+        Scan line id of each point (see :func:`scanmesh.lines.as_line_ids`: integers, never cast).
+    progress : bool or callable
+        Reading a file reports the stage "read" (see :func:`scanmesh.reconstruct`).
+
+    Raises
+    ------
+    ScanmeshError
+        Bad points, line ids, plane or file.
+    """
+    if isinstance(source, (str, os.PathLike)):
+        t0 = time.perf_counter()
+        path = Path(source)
+        scan = read_scan_file(path, progress)
+        seconds = time.perf_counter() - t0
+        ids = scan.line_ids if lines is None else lines
+        made = as_scan(scan.points, plane=plane, lines=ids)
+        return PlanarScan(
+            points=made.points,
+            uv=made.uv,
+            frame=made.frame,
+            line_ids=made.line_ids,
+            plane=plane,
+            source=path,
+            timings={"read": seconds, **made.timings},
+        )
+    return as_scan(source, plane=plane, lines=lines)
+
+
+def read_scan_file(path: Path, progress: Progress):  # noqa: ANN201 - readers.ScanPoints
+    """The one place a scan file is read for triangulation (reader options belong here)."""
+    from scanmesh.readers import read
+
+    return read(path, progress=progress)
+
+
+def as_scan(
+    points: ArrayLike | PlanarScan, *, plane: PlaneSpec = None, lines: ArrayLike | None = None
+) -> PlanarScan:
+    """``points`` as a PlanarScan: projected now from an array (a path is refused as points),
+    or a PlanarScan checked to agree with ``plane`` and ``lines``."""
+    if isinstance(points, PlanarScan):
+        if plane is not None and not same_plane(plane, points.plane):
+            raise ParameterError(
+                f"plane={plane!r} differs from the plane the scan was projected on"
+                f" ({points.plane!r}): make a new planar_scan for another plane"
+            )
+        if lines is not None and not (
+            points.line_ids is not None and np.array_equal(np.asarray(lines), points.line_ids)
+        ):
+            raise ParameterError(
+                "lines= differs from the scan's line ids: give them to planar_scan instead"
+            )
+        return points
+    t0 = time.perf_counter()
+    pts = as_points(points)
+    ids = None if lines is None else as_line_ids(lines, len(pts))
+    uv, frame = project_checked(pts, plane)
+    uv.flags.writeable = False
+    return PlanarScan(
+        points=pts,
+        uv=uv,
+        frame=frame,
+        line_ids=ids,
+        plane=plane,
+        timings={"project": time.perf_counter() - t0},
+    )
+
+
+def same_plane(a: PlaneSpec, b: PlaneSpec) -> bool:
+    """True when two plane specs name the same plane (None and "best-fit" alike)."""
+    name_a, normal_a = plane_choice(a)
+    name_b, normal_b = plane_choice(b)
+    if name_a is not None or name_b is not None:
+        return name_a == name_b
+    return bool(np.array_equal(normal_a, normal_b))
+
+
+__all__ = ["PlanarScan", "planar_scan", "as_scan"]

@@ -1,0 +1,157 @@
+"""PlanarScan: one check and one projection per call, shared by every stage."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import scanmesh
+from conftest import bumpy_patch
+from scanmesh import ParameterError, ScanmeshError, planar_scan
+
+
+@pytest.fixture
+def spy(monkeypatch):
+    """Record the planar coordinates each native stage receives."""
+    from scanmesh import _core
+
+    seen: dict[str, list[np.ndarray]] = {}
+
+    def wrap(name, position):
+        real = getattr(_core, name)
+
+        def call(*args, **kwargs):
+            seen.setdefault(name, []).append(np.array(args[position], copy=True))
+            return real(*args, **kwargs)
+
+        monkeypatch.setattr(_core, name, call)
+
+    wrap("delaunay", 0)
+    wrap("trim_long_edges", 0)
+    wrap("lop", 1)
+    wrap("Annealer", 1)
+    wrap("project", 0)
+    return seen
+
+
+#: Column order that makes each plane's axis the height of the bumpy patch.
+HEIGHT_ALONG = {"x": [2, 0, 1], "y": [0, 2, 1], "z": [0, 1, 2]}
+
+
+@pytest.mark.parametrize("plane", [None, "x", "y", "z", (0.1, 0.2, 1.0)])
+@pytest.mark.parametrize("method", ["lop", "anneal"])
+def test_flips_use_the_very_coordinates_delaunay_was_built_on(spy, method, plane):
+    pts = bumpy_patch(150, 3)[:, HEIGHT_ALONG.get(plane, [0, 1, 2])]
+    options = {"sweeps": 5} if method == "anneal" else {}
+    scanmesh.reconstruct(pts, method, plane=plane, **options)
+    assert len(spy["project"]) == 1, "the points are projected once per call"
+    flips = spy["Annealer" if method == "anneal" else "lop"][0]
+    for stage in ("delaunay", "trim_long_edges"):
+        assert flips.tobytes() == spy[stage][0].tobytes(), stage
+
+
+def test_surface_frame_is_the_frame_of_the_coordinates():
+    pts = bumpy_patch(120, 5)[:, HEIGHT_ALONG["y"]]
+    s = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=5)
+    scan = s.scan
+    assert s.frame is scan.frame
+    # uv really is ((p - origin) . u, (p - origin) . v) in that frame
+    rel = pts - scan.frame.origin
+    np.testing.assert_allclose(scan.uv[:, 0], rel @ scan.frame.u, atol=1e-12)
+    np.testing.assert_allclose(scan.uv[:, 1], rel @ scan.frame.v, atol=1e-12)
+    assert not scan.uv.flags.writeable
+
+
+def test_one_scan_serves_every_method_without_projecting_again(spy):
+    pts = bumpy_patch(100, 7)
+    scan = planar_scan(pts, plane="z")
+    base = scanmesh.reconstruct(scan, "delaunay")
+    lop = scanmesh.reconstruct(scan, "lop", initial=base)
+    annealed = scanmesh.reconstruct(scan, "anneal", initial=base, sweeps=5)
+    assert len(spy["project"]) == 1 and len(spy["delaunay"]) == 1
+    assert lop.scan is scan and annealed.scan is scan and base.scan is scan
+    # the same faces as separate calls from the points
+    again = scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=5)
+    np.testing.assert_array_equal(again.faces, annealed.faces)
+
+
+def test_a_scan_refuses_another_plane_or_other_lines():
+    pts = bumpy_patch(60, 1)
+    scan = planar_scan(pts, plane="z")
+    assert scanmesh.delaunay(scan, plane="Z").scan is scan  # the same plane, named alike
+    with pytest.raises(ParameterError, match="differs from the plane"):
+        scanmesh.delaunay(scan, plane="x")
+    with pytest.raises(ParameterError, match="lines= differs"):
+        scanmesh.reconstruct(scan, "shortest-path", lines=np.zeros(len(pts), dtype=int))
+    other = scanmesh.delaunay(pts, plane="z")
+    with pytest.raises(ParameterError, match="another scan"):
+        scanmesh.reconstruct(scan, "anneal", initial=other)
+
+
+@pytest.mark.parametrize(
+    "ids, match",
+    [
+        (np.full(40, 1e300), "lines\\[0\\] = 1e\\+300"),
+        (np.r_[np.zeros(20), np.full(20, 2.0**60)], "lines\\[20\\]"),
+        (np.r_[np.zeros(39), np.nan], "lines\\[39\\] = nan"),
+        (np.r_[np.zeros(20), np.full(20, 0.5)], "non-integral"),
+        (np.r_[np.zeros(20, np.uint64), np.full(20, 2**63, np.uint64)], "signed 64-bit"),
+        (np.array([True] * 40), "integer line ids"),
+        (np.array(["a"] * 40), "integer line ids"),
+        (np.zeros(39, dtype=int), "one id per point"),
+    ],
+)
+def test_line_ids_are_never_cast(ids, match):
+    pts = bumpy_patch(40, 2)
+    for method in ("shortest-path", "lookahead"):
+        with pytest.raises(ScanmeshError, match=match):
+            scanmesh.reconstruct(pts, method, lines=ids)
+    with pytest.raises(ScanmeshError, match=match):
+        planar_scan(pts, lines=ids)
+
+
+def test_whole_float_and_unsigned_ids_are_the_integers_they_name():
+    pts = bumpy_patch(40, 2)
+    ids = np.repeat(np.arange(4), 10)
+    scan = planar_scan(pts, lines=ids.astype(np.float64) * 2.0**40)
+    np.testing.assert_array_equal(scan.line_ids, ids * 2**40)
+    assert planar_scan(pts, lines=ids.astype(np.uint64)).line_ids.dtype == np.int64
+
+
+def test_save_refuses_to_replace_the_scan_it_was_made_from(tmp_path):
+    pts = bumpy_patch(80, 4)
+    scan_file = tmp_path / "scan.ply"  # a point cloud in a format meshes are written in
+    header = f"ply\nformat ascii 1.0\nelement vertex {len(pts)}\n"
+    header += "property double x\nproperty double y\nproperty double z\nend_header\n"
+    scan_file.write_text(header + "".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()))
+    before = scan_file.read_bytes()
+    surface = scanmesh.reconstruct(scan_file, "delaunay")
+    assert surface.scan.source == scan_file
+    (tmp_path / "sub").mkdir()
+    for name in ("scan.ply", "./sub/../scan.ply"):
+        with pytest.raises(ParameterError, match="input file"):
+            surface.save(tmp_path / name)
+    assert scan_file.read_bytes() == before
+    written = surface.save(tmp_path / "mesh.ply")
+    assert written.stat().st_size > 0
+    # a surface from an array has no file to protect
+    assert scanmesh.delaunay(pts).scan.source is None
+
+
+def test_quality_of_a_scan_measures_the_same():
+    pts = bumpy_patch(90, 6)
+    s = scanmesh.delaunay(pts)
+    direct = scanmesh.quality(pts, s.faces)
+    assert s.quality.tac_1 == direct.tac_1
+    assert scanmesh.quality(s.scan, s.faces).tac_2 == direct.tac_2
+    with pytest.raises(TypeError):
+        scanmesh.quality(pts, s.faces, plane="z")  # no keyword accepted and ignored
+
+
+def test_projection_rejects_non_vectors():
+    pts = bumpy_patch(30, 1)
+    for plane in ({"a": 1}, b"z", 1j, [1j, 0, 1], ["a", "b", "c"], 3.0, [math.inf, 0, 1]):
+        with pytest.raises(ParameterError, match="plane"):
+            planar_scan(pts, plane=plane)
