@@ -1,0 +1,160 @@
+"""Measurement noise of a scan: its standard deviation along the projection normal.
+
+Design. Along a scan line the true surface is smooth between creases, steps and holes, and
+the points are dense. So each point with two neighbours on either side in its line segment
+is predicted by the cubic through those four neighbours (Lagrange interpolation in the
+planar arc length, so uneven spacing is handled), and the prediction residual of its
+height is divided by ``sqrt(1 + sum(w_j**2))`` (w_j the interpolation weights): with
+independent noise of deviation sigma every such normalized residual has deviation sigma.
+
+- A cubic stencil, not a second difference: a second difference of a curved noise-free
+  surface is curvature x s^2 / 2 (s/20 on a cylinder 10 spacings in radius), while the
+  cubic's error is of order s^4 times the fourth derivative, so smooth curved parts of a
+  noise-free scan give residuals far below s/200.
+- Creases and steps spoil only the few windows that straddle them (four per crossing),
+  and gaps are never bridged (windows stay inside the segments of
+  :func:`scanmesh.lines.scan_lines`, which split lines at holes). Those residuals are
+  outliers, so the scale is robust: it starts from the median absolute residual
+  (x 1.4826) and is refined by a few rounds of a trimmed RMS (residuals within
+  ``TRIM`` x the current estimate, corrected for the truncation of a Gaussian), which
+  drops the straddling windows once the estimate is below their size. The median alone
+  is biased up by such outliers (20 % outliers: +30 %); the trimmed rounds are not.
+
+Cost: O(N) numpy work after the line detection (a few seconds at 1M points at most).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from scanmesh._checks import as_points
+from scanmesh.errors import DegenerateInputError
+from scanmesh.lines import scan_lines
+from scanmesh.projection import PlaneSpec, project
+
+#: Residuals beyond TRIM x the current estimate are left out of the refined estimate.
+TRIM: float = 2.5
+
+#: Rounds of the trimmed refinement (it settles in 3-4 on scans with steps and creases).
+ROUNDS: int = 8
+
+#: Fewest residual windows an estimate is made from.
+MIN_WINDOWS: int = 20
+
+#: 1 / (the median of |z| for a standard normal z): turns a median absolute value into sigma.
+MAD_SCALE: float = 1.482602218505602
+
+
+def _truncated_variance(c: float) -> float:
+    """Variance of a standard normal restricted to [-c, c]."""
+    pdf = math.exp(-0.5 * c * c) / math.sqrt(2 * math.pi)
+    mass = math.erf(c / math.sqrt(2))
+    return 1.0 - 2.0 * c * pdf / mass
+
+
+def line_residuals(
+    points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = None
+) -> np.ndarray:
+    """Normalized cubic-prediction residuals of the heights along the scan lines.
+
+    Parameters
+    ----------
+    points, lines, plane
+        As :func:`noise`.
+
+    Returns
+    -------
+    (W,) float64
+        One residual per point that has two neighbours on either side in its line segment
+        (model units); each has the noise's deviation where the surface is smooth. O(N).
+    """
+    pts = as_points(points)
+    uv, frame = project(pts, plane)
+    height = pts @ np.asarray(frame.normal, dtype=np.float64)
+    segments = [seg for line in scan_lines(pts, lines, plane=plane).lines for seg in line]
+    segments = [seg for seg in segments if len(seg) >= 5]
+    if not segments:
+        return np.zeros(0)
+    order = np.concatenate(segments)
+    lengths = np.array([len(seg) for seg in segments])
+    starts = np.cumsum(lengths) - lengths
+    # arc length along each segment (the planar steps, restarted per segment)
+    step = np.linalg.norm(np.diff(uv[order], axis=0), axis=1)
+    arc = np.concatenate(([0.0], np.cumsum(step)))
+    arc -= np.repeat(arc[starts], lengths)
+    pos = np.arange(len(order)) - np.repeat(starts, lengths)
+    centre = np.flatnonzero((pos >= 2) & (pos <= np.repeat(lengths, lengths) - 3))
+    offsets = (-2, -1, 1, 2)
+    t0 = arc[centre]
+    ts = [arc[centre + o] for o in offsets]
+    hs = [height[order[centre + o]] for o in offsets]
+    predicted = np.zeros(len(centre))
+    norm2 = np.ones(len(centre))
+    for j in range(4):
+        w = np.ones(len(centre))
+        for m in range(4):
+            if m != j:
+                w *= (t0 - ts[m]) / (ts[j] - ts[m])
+        predicted += w * hs[j]
+        norm2 += w * w
+    return (height[order[centre]] - predicted) / np.sqrt(norm2)
+
+
+def robust_scale(residuals: np.ndarray) -> float:
+    """Standard deviation of the Gaussian core of ``residuals``, ignoring outliers.
+
+    The median absolute value (x :data:`MAD_SCALE`), then :data:`ROUNDS` rounds of the RMS
+    of the residuals within :data:`TRIM` x the estimate, divided by the truncated normal's
+    deviation. O(W) per round.
+    """
+    r = np.abs(np.asarray(residuals, dtype=np.float64))
+    sigma = MAD_SCALE * float(np.median(r))
+    correction = math.sqrt(_truncated_variance(TRIM))
+    for _ in range(ROUNDS):
+        if sigma == 0.0:
+            break
+        kept = r[r <= TRIM * sigma]
+        new = math.sqrt(float(np.mean(kept * kept))) / correction
+        if abs(new - sigma) <= 1e-6 * sigma:
+            sigma = new
+            break
+        sigma = new
+    return sigma
+
+
+def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = None) -> float:
+    """Estimate the standard deviation of the scan's noise along the projection normal.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        Scan points, in scan order unless ``lines`` is given.
+    lines : (N,) int, optional
+        Scan line id of each point (detected from the point order when absent, see
+        :func:`scanmesh.detect_lines`).
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane; heights are measured along its normal.
+
+    Returns
+    -------
+    float
+        sigma in model units: 0 (or nearly) for a noise-free scan of piecewise smooth
+        surfaces. See the module docstring for the method; O(N).
+
+    Raises
+    ------
+    DegenerateInputError
+        Fewer than :data:`MIN_WINDOWS` points have two neighbours on either side in their
+        scan line (too few points, or points not in scan order: pass ``lines``).
+    """
+    residuals = line_residuals(points, lines, plane)
+    if len(residuals) < MIN_WINDOWS:
+        raise DegenerateInputError(
+            f"the noise estimate needs at least {MIN_WINDOWS} points with two neighbours on"
+            f" either side in their scan line, found {len(residuals)}; are the points in scan"
+            " order (or pass lines=)?"
+        )
+    return robust_scale(residuals)
