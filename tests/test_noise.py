@@ -8,7 +8,7 @@ import trimesh
 
 import scanmesh
 from scanmesh.errors import DegenerateInputError
-from scanmesh.noise import robust_scale
+from scanmesh.noise import line_residuals, robust_scale
 
 #: Point spacing of the simulated scans (model units).
 SPACING = 0.5
@@ -122,3 +122,20 @@ def test_too_few_windows_is_a_clear_error():
     points = np.random.default_rng(0).random((4, 3))
     with pytest.raises(DegenerateInputError, match="noise estimate needs"):
         scanmesh.noise(points, np.zeros(4, dtype=np.int64), plane="z")
+
+
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_shuffled_points_use_neighbourhoods(part):
+    """Points in no scan order: the neighbourhood fits give the same accuracy."""
+    mesh = PARTS[part]()
+    rng = np.random.default_rng(1)
+    for fraction in (0.0, 1 / 30, 1 / 5):
+        sigma = fraction * SPACING
+        points, _ = scanmesh.simulate_scan(mesh, up="z", spacing=SPACING, noise=sigma, seed=2)
+        shuffled = points[rng.permutation(len(points))]
+        assert len(line_residuals(shuffled, plane="z")) < len(points) / 2  # no usable order
+        estimate = scanmesh.noise(shuffled, plane="z")
+        if sigma == 0:
+            assert estimate < SPACING / 200
+        else:
+            assert abs(estimate / sigma - 1) < 0.2, (part, fraction, estimate / sigma)

@@ -20,7 +20,16 @@ independent noise of deviation sigma every such normalized residual has deviatio
   drops the straddling windows once the estimate is below their size. The median alone
   is biased up by such outliers (20 % outliers: +30 %); the trimmed rounds are not.
 
-Cost: O(N) numpy work after the line detection (a few seconds at 1M points at most).
+Points not in scan order (fewer than half of them get a window along their line) are
+predicted from their neighbourhood instead: the quadratic least-squares fit of the height
+over the plane through the :data:`NEIGHBOURS` nearest other points, its residual at the
+point normalized the same way (by ``sqrt(1 + var(fit at the point) / sigma**2)``). A
+quadratic is exact on curved smooth parts up to the third-order terms; creases are outliers
+again, and a neighbourhood straddling one is rarer than a window along a line crossing it
+is not, so the line stencil is preferred when the order allows it.
+
+Cost: O(N) numpy work after the line detection (a few seconds at 1M points at most);
+O(N log N) for the neighbourhood search.
 """
 
 from __future__ import annotations
@@ -40,6 +49,12 @@ TRIM: float = 2.5
 
 #: Rounds of the trimmed refinement (it settles in 3-4 on scans with steps and creases).
 ROUNDS: int = 8
+
+#: Neighbours of the quadratic fit when the points are not in scan order.
+NEIGHBOURS: int = 12
+
+#: Points fitted per vectorized chunk of the neighbourhood fit (bounds memory).
+CHUNK: int = 1 << 16
 
 #: Fewest residual windows an estimate is made from.
 MIN_WINDOWS: int = 20
@@ -103,6 +118,45 @@ def line_residuals(
     return (height[order[centre]] - predicted) / np.sqrt(norm2)
 
 
+def neighbourhood_residuals(points: ArrayLike, plane: PlaneSpec = None) -> np.ndarray:
+    """Normalized residuals of each point's height against the quadratic fitted to its
+    :data:`NEIGHBOURS` nearest other points in the plane (see the module docstring).
+
+    Returns
+    -------
+    (M,) float64
+        One residual per point whose neighbourhood fit is well posed (model units).
+        O(N log N).
+    """
+    from scipy.spatial import cKDTree
+
+    pts = as_points(points)
+    uv, frame = project(pts, plane)
+    height = pts @ np.asarray(frame.normal, dtype=np.float64)
+    if len(pts) <= NEIGHBOURS:
+        return np.zeros(0)
+    _, near = cKDTree(uv).query(uv, k=NEIGHBOURS + 1)
+    out = []
+    for first in range(0, len(pts), CHUNK):
+        idx = near[first : first + CHUNK, 1:]  # (n, k) without the point itself
+        centre = uv[first : first + CHUNK]
+        d = uv[idx] - centre[:, None, :]
+        scale = np.sqrt(np.mean(np.sum(d * d, axis=2), axis=1))[:, None]  # conditioning
+        x, y = d[..., 0] / scale, d[..., 1] / scale
+        design = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=2)  # (n, k, 6)
+        gram = np.einsum("nki,nkj->nij", design, design)
+        # neighbourhoods on a line (degenerate fits) are skipped; scaled, a sound one has a
+        # determinant of order k^6
+        ok = np.linalg.det(gram) > 1e-9 * NEIGHBOURS**6
+        rhs = np.zeros((int(ok.sum()), 6, 2))
+        rhs[:, :, 0] = np.einsum("nki,nk->ni", design[ok], height[idx[ok]])
+        rhs[:, 0, 1] = 1.0  # the second column gives (X^T X)^-1 [0, 0]
+        sol = np.linalg.solve(gram[ok], rhs)
+        r = height[first : first + CHUNK][ok] - sol[:, 0, 0]
+        out.append(r / np.sqrt(1.0 + sol[:, 0, 1]))
+    return np.concatenate(out)
+
+
 def robust_scale(residuals: np.ndarray) -> float:
     """Standard deviation of the Gaussian core of ``residuals``, ignoring outliers.
 
@@ -134,7 +188,8 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
         Scan points, in scan order unless ``lines`` is given.
     lines : (N,) int, optional
         Scan line id of each point (detected from the point order when absent, see
-        :func:`scanmesh.detect_lines`).
+        :func:`scanmesh.detect_lines`). Points in no usable order are measured against
+        their neighbourhoods instead.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane; heights are measured along its normal.
 
@@ -147,14 +202,15 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
     Raises
     ------
     DegenerateInputError
-        Fewer than :data:`MIN_WINDOWS` points have two neighbours on either side in their
-        scan line (too few points, or points not in scan order: pass ``lines``).
+        Fewer than :data:`MIN_WINDOWS` residuals (too few points).
     """
-    residuals = line_residuals(points, lines, plane)
+    pts = as_points(points)
+    residuals = line_residuals(pts, lines, plane)
+    if 2 * len(residuals) < len(pts):
+        residuals = neighbourhood_residuals(pts, plane)
     if len(residuals) < MIN_WINDOWS:
         raise DegenerateInputError(
-            f"the noise estimate needs at least {MIN_WINDOWS} points with two neighbours on"
-            f" either side in their scan line, found {len(residuals)}; are the points in scan"
-            " order (or pass lines=)?"
+            f"the noise estimate needs at least {MIN_WINDOWS} points with a local fit, found"
+            f" {len(residuals)} among {len(pts)} points"
         )
     return robust_scale(residuals)
