@@ -139,3 +139,55 @@ def test_shuffled_points_use_neighbourhoods(part):
             assert estimate < SPACING / 200
         else:
             assert abs(estimate / sigma - 1) < 0.2, (part, fraction, estimate / sigma)
+
+
+def test_noise_aware_annealing_beats_delaunay_on_a_noisy_ridge():
+    """sigma = s/10 on the ridge: the default annealing (tie tolerance from the noise) lands
+    closer to the true surface than Delaunay with few slivers; annealing with exact ties
+    only (the old default) chases the noise with slivers."""
+    from scanmesh.anneal import ANNEAL_DEFAULTS
+    from scanmesh.truth import height_error
+
+    mesh = ridge()
+    sigma = SPACING / 10
+    points, lines = scanmesh.simulate_scan(mesh, up="z", spacing=SPACING, noise=sigma, seed=4)
+    base = scanmesh.reconstruct(points, "delaunay", plane="z")
+    aware = scanmesh.reconstruct(points, "anneal", lines=lines, plane="z", seed=0)
+    exact = scanmesh.reconstruct(
+        points,
+        "anneal",
+        lines=lines,
+        plane="z",
+        seed=0,
+        tie_tolerance=ANNEAL_DEFAULTS["tie_tolerance"],
+    )
+    assert abs(aware.options["noise"] / sigma - 1) < 0.2
+    assert aware.options["tie_tolerance"] > 1e3 * ANNEAL_DEFAULTS["tie_tolerance"]
+    assert exact.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
+
+    def rms(surface):
+        return height_error(surface, mesh, n_samples=20_000)["h_rms"]
+
+    assert rms(aware) < rms(base)
+    assert aware.quality.sliver_fraction <= 0.05
+    assert exact.quality.sliver_fraction > 2 * aware.quality.sliver_fraction
+
+
+def test_noise_free_scans_anneal_with_exact_ties():
+    """No noise: the tolerance stays the exact-tie default and the faces are those of an
+    explicit exact-tie run."""
+    from scanmesh.anneal import ANNEAL_DEFAULTS
+
+    points, lines = scanmesh.simulate_scan(box_with_bore(), up="z", spacing=0.8)
+    default = scanmesh.reconstruct(points, "anneal", lines=lines, plane="z", seed=1)
+    exact = scanmesh.reconstruct(
+        points,
+        "anneal",
+        lines=lines,
+        plane="z",
+        seed=1,
+        tie_tolerance=ANNEAL_DEFAULTS["tie_tolerance"],
+    )
+    assert default.options["noise"] < SPACING * 1e-9  # rounding only
+    assert default.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
+    assert np.array_equal(default.faces, exact.faces)

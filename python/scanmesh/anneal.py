@@ -11,6 +11,7 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh.errors import ParameterError
+from scanmesh.noise import noise_tolerance
 from scanmesh.projection import project
 from scanmesh.surface import Surface
 
@@ -131,6 +132,9 @@ def anneal_surface(
             "the initial surface has no projection frame (build it with delaunay())"
         )
     t0 = time.perf_counter()
+    sigma, params["tie_tolerance"] = noise_tolerance(
+        initial, params["p"], schedule.get("tie_tolerance"), ANNEAL_DEFAULTS["tie_tolerance"]
+    )
     uv, _ = project(initial.vertices, initial.frame.normal)
     runner = _core.Annealer(initial.vertices, uv, initial.faces, seed=seed_value, **params)
     total = runner.chains * params["sweeps"]
@@ -153,7 +157,8 @@ def anneal_surface(
         faces=faces,
         method="anneal",
         options={
-            **initial.options, **params, "seed": seed_value, "initial": initial.method, **summary
+            **initial.options, **params, "seed": seed_value, "initial": initial.method,
+            "noise": sigma, **summary
         },
         frame=initial.frame,
         duplicates=initial.duplicates,

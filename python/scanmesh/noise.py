@@ -20,21 +20,24 @@ independent noise of deviation sigma every such normalized residual has deviatio
   drops the straddling windows once the estimate is below their size. The median alone
   is biased up by such outliers (20 % outliers: +30 %); the trimmed rounds are not.
 
-Points not in scan order (fewer than half of them get a window along their line) are
-predicted from their neighbourhood instead: the quadratic least-squares fit of the height
-over the plane through the :data:`NEIGHBOURS` nearest other points, its residual at the
-point normalized the same way (by ``sqrt(1 + var(fit at the point) / sigma**2)``). A
-quadratic is exact on curved smooth parts up to the third-order terms; creases are outliers
-again, and a neighbourhood straddling one is rarer than a window along a line crossing it
-is not, so the line stencil is preferred when the order allows it.
+Across the lines a second estimate: each point against the quadratic least-squares fit of
+the height over the plane through its :data:`NEIGHBOURS` nearest other points, the
+residual normalized the same way (by ``sqrt(1 + var(fit at the point) / sigma**2)``), and
+scaled robustly the same way. It also works for points in no scan order, and it sees noise
+that the line stencil cannot: real scanners often shift a whole profile at once (noise
+correlated along a line, independent between lines), which a fit along the line absorbs.
+On the Cyberware face scan ``fran_cut.vtk`` the neighbourhood estimate is 3.8 times the
+line estimate; on simulated white noise the two agree within a few per cent. The larger of
+the two is the estimate.
 
-Cost: O(N) numpy work after the line detection (a few seconds at 1M points at most);
-O(N log N) for the neighbourhood search.
+Cost: O(N) numpy work after the line detection, and O(N log N) for the neighbourhood
+search.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -43,6 +46,9 @@ from scanmesh._checks import as_points
 from scanmesh.errors import DegenerateInputError
 from scanmesh.lines import scan_lines
 from scanmesh.projection import PlaneSpec, project
+
+if TYPE_CHECKING:
+    from scanmesh.surface import Surface
 
 #: Residuals beyond TRIM x the current estimate are left out of the refined estimate.
 TRIM: float = 2.5
@@ -118,29 +124,32 @@ def line_residuals(
     return (height[order[centre]] - predicted) / np.sqrt(norm2)
 
 
-def neighbourhood_residuals(points: ArrayLike, plane: PlaneSpec = None) -> np.ndarray:
-    """Normalized residuals of each point's height against the quadratic fitted to its
-    :data:`NEIGHBOURS` nearest other points in the plane (see the module docstring).
+def neighbourhood_fit(points: ArrayLike, plane: PlaneSpec = None) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's height predicted by the quadratic least-squares fit over the plane to its
+    :data:`NEIGHBOURS` nearest other points.
 
     Returns
     -------
-    (M,) float64
-        One residual per point whose neighbourhood fit is well posed (model units).
-        O(N log N).
+    predicted : (N,) float64
+        The fit's height at the point (model units, along the projection normal); NaN where
+        the neighbourhood is degenerate (on a line) or there are too few points.
+    spread : (N,) float64
+        ``sqrt(1 + var(fit at the point) / sigma**2)``: the deviation of the residual
+        ``height - predicted`` in units of the noise's. O(N log N).
     """
     from scipy.spatial import cKDTree
 
     pts = as_points(points)
     uv, frame = project(pts, plane)
     height = pts @ np.asarray(frame.normal, dtype=np.float64)
+    predicted = np.full(len(pts), np.nan)
+    spread = np.full(len(pts), np.nan)
     if len(pts) <= NEIGHBOURS:
-        return np.zeros(0)
+        return predicted, spread
     _, near = cKDTree(uv).query(uv, k=NEIGHBOURS + 1)
-    out = []
     for first in range(0, len(pts), CHUNK):
         idx = near[first : first + CHUNK, 1:]  # (n, k) without the point itself
-        centre = uv[first : first + CHUNK]
-        d = uv[idx] - centre[:, None, :]
+        d = uv[idx] - uv[first : first + CHUNK, None, :]
         scale = np.sqrt(np.mean(np.sum(d * d, axis=2), axis=1))[:, None]  # conditioning
         x, y = d[..., 0] / scale, d[..., 1] / scale
         design = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=2)  # (n, k, 6)
@@ -152,9 +161,20 @@ def neighbourhood_residuals(points: ArrayLike, plane: PlaneSpec = None) -> np.nd
         rhs[:, :, 0] = np.einsum("nki,nk->ni", design[ok], height[idx[ok]])
         rhs[:, 0, 1] = 1.0  # the second column gives (X^T X)^-1 [0, 0]
         sol = np.linalg.solve(gram[ok], rhs)
-        r = height[first : first + CHUNK][ok] - sol[:, 0, 0]
-        out.append(r / np.sqrt(1.0 + sol[:, 0, 1]))
-    return np.concatenate(out)
+        rows = first + np.flatnonzero(ok)
+        predicted[rows] = sol[:, 0, 0]
+        spread[rows] = np.sqrt(1.0 + sol[:, 0, 1])
+    return predicted, spread
+
+
+def neighbourhood_residuals(points: ArrayLike, plane: PlaneSpec = None) -> np.ndarray:
+    """Normalized residuals of the heights against :func:`neighbourhood_fit` (see the module
+    docstring), one per point whose fit is well posed (model units). O(N log N)."""
+    pts = as_points(points)
+    _, frame = project(pts, plane)
+    predicted, spread = neighbourhood_fit(pts, plane)
+    ok = np.isfinite(predicted)
+    return (pts[ok] @ np.asarray(frame.normal, dtype=np.float64) - predicted[ok]) / spread[ok]
 
 
 def robust_scale(residuals: np.ndarray) -> float:
@@ -188,8 +208,8 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
         Scan points, in scan order unless ``lines`` is given.
     lines : (N,) int, optional
         Scan line id of each point (detected from the point order when absent, see
-        :func:`scanmesh.detect_lines`). Points in no usable order are measured against
-        their neighbourhoods instead.
+        :func:`scanmesh.detect_lines`); points in no usable order are measured against
+        their neighbourhoods only.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane; heights are measured along its normal.
 
@@ -197,20 +217,85 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
     -------
     float
         sigma in model units: 0 (or nearly) for a noise-free scan of piecewise smooth
-        surfaces. See the module docstring for the method; O(N).
+        surfaces. The larger of the estimates along the lines and over neighbourhoods (see
+        the module docstring); O(N log N).
 
     Raises
     ------
     DegenerateInputError
-        Fewer than :data:`MIN_WINDOWS` residuals (too few points).
+        Neither estimate has :data:`MIN_WINDOWS` residuals (too few points).
     """
     pts = as_points(points)
-    residuals = line_residuals(pts, lines, plane)
-    if 2 * len(residuals) < len(pts):
-        residuals = neighbourhood_residuals(pts, plane)
-    if len(residuals) < MIN_WINDOWS:
+    found = [line_residuals(pts, lines, plane), neighbourhood_residuals(pts, plane)]
+    estimates = [robust_scale(r) for r in found if len(r) >= MIN_WINDOWS]
+    if not estimates:
         raise DegenerateInputError(
             f"the noise estimate needs at least {MIN_WINDOWS} points with a local fit, found"
-            f" {len(residuals)} among {len(pts)} points"
+            f" {max(len(r) for r in found)} among {len(pts)} points"
         )
-    return robust_scale(residuals)
+    return max(estimates)
+
+
+#: Tie tolerance of annealing on tac_1 per (sigma / spacing)^2: a flip whose tac_1 change
+#: is within this of zero is a tie (BENCHMARKS.md, "Noise": chosen on the rod and the
+#: fandisk at sigma = s/30 and s/10).
+TIE_PER_NOISE: float = 20.0
+
+
+def median_edge(uv: np.ndarray, faces: np.ndarray) -> float:
+    """Median planar length of the triangles' edges (each interior edge counted twice). O(F)."""
+    tri = uv[np.asarray(faces, dtype=np.int64)]
+    lengths = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+    return float(np.median(lengths)) if lengths.size else 0.0
+
+
+def tie_tolerance(sigma: float, spacing: float, p: float = 1.0, floor: float = 0.0) -> float:
+    """The annealing tie tolerance for noise ``sigma`` on a mesh of edge length ``spacing``.
+
+    Noise of deviation sigma tilts the triangles around a vertex by about sigma / spacing
+    radians, and its angle defect (tac) by the square of that: flips whose tac change is
+    within ``TIE_PER_NOISE * (sigma / spacing)**2`` only chase the noise, so annealing
+    treats them as ties (free moves; the sliver guard picks among them). Raised to the
+    power ``p`` for the energy sum tac^p; never below ``floor`` (the exact-tie tolerance).
+    O(1).
+    """
+    if spacing <= 0 or not math.isfinite(sigma / spacing):
+        return floor
+    return max((TIE_PER_NOISE * (sigma / spacing) ** 2) ** p, floor)
+
+
+def noise_tolerance(
+    initial: Surface, p: float, given: float | None, floor: float
+) -> tuple[float | None, float]:
+    """The noise of an annealing run's scan and the tie tolerance it anneals with.
+
+    Parameters
+    ----------
+    initial : Surface
+        The initial triangulation (its vertices, scan lines if known, frame and faces).
+    p : float
+        The energy exponent.
+    given : float or None
+        A tie tolerance the caller chose (kept as it is), or None: derive it from the noise
+        (:func:`tie_tolerance` with the median edge of ``initial`` as the spacing).
+    floor : float
+        The exact-tie tolerance (the default), the least tolerance returned.
+
+    Returns
+    -------
+    sigma : float or None
+        :func:`noise` of the vertices (None when too few points give an estimate).
+    tolerance : float
+        O(N) (O(N log N) for points in no scan order).
+    """
+    assert initial.frame is not None
+    try:
+        sigma = noise(initial.vertices, initial.line_ids, plane=initial.frame.normal)
+    except DegenerateInputError:
+        sigma = None
+    if given is not None:
+        return sigma, float(given)
+    if sigma is None:
+        return None, floor
+    uv, _ = project(initial.vertices, initial.frame.normal)
+    return sigma, tie_tolerance(sigma, median_edge(uv, initial.faces), p, floor)
