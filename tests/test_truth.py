@@ -11,7 +11,14 @@ import trimesh
 
 import scanmesh
 from scanmesh.errors import ParameterError
-from scanmesh.truth import TrueSurface, domain_error, normal_error, point_triangle_distance
+from scanmesh.truth import (
+    TrueSurface,
+    domain_error,
+    holdout_error,
+    locate,
+    normal_error,
+    point_triangle_distance,
+)
 
 
 def grid_mesh(n: int, height) -> tuple[np.ndarray, np.ndarray]:
@@ -150,3 +157,84 @@ def test_domain_error_checks_its_arguments():
     for bad in (0, -3, 2.5, True):
         with pytest.raises(ParameterError, match="n_rays"):
             domain_error(surface, truth, n_rays=bad)
+
+
+def paraboloid_scan(noise: float = 0.0, n_lines: int = 30, per_line: int = 40):
+    """Scan lines (along x) of z = x^2 + y^2 over [-1, 1]^2, with Gaussian noise in z."""
+    x, y = np.meshgrid(np.linspace(-1, 1, per_line), np.linspace(-1, 1, n_lines))
+    z = x**2 + y**2 + np.random.default_rng(5).normal(0.0, noise, x.shape)
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    return points, np.repeat(np.arange(n_lines), per_line)
+
+
+@pytest.mark.parametrize("by", ["points", "lines"])
+def test_holdout_matches_trimesh_ray_casting(by):
+    points, lines = paraboloid_scan(noise=0.01)
+    result = holdout_error(points, "anneal", fraction=0.2, seed=4, by=by, lines=lines, plane="z")
+    kept = result["kept"]
+    withheld = np.setdiff1d(np.arange(len(points)), kept)
+    assert result["n_withheld"] == len(withheld)
+    mesh = trimesh.Trimesh(points[kept], result["surface"].faces, process=False)
+    withheld_points = points[withheld]
+    origins = withheld_points + [0.0, 0.0, 10.0]
+    caster = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
+    hits, ray, _ = caster.intersects_location(
+        origins, np.tile([0.0, 0.0, -1.0], (len(origins), 1)), multiple_hits=False
+    )
+    dist = np.abs(withheld_points[ray, 2] - hits[:, 2])
+    assert result["n_measured"] == len(ray)
+    assert result["outside"] == len(withheld) - len(ray)
+    assert result["rms"] == pytest.approx(np.sqrt(np.mean(dist**2)), rel=1e-9)
+    assert result["max"] == pytest.approx(dist.max(), rel=1e-9)
+    assert result["p99"] == pytest.approx(np.percentile(dist, 99), rel=1e-9)
+    if by == "lines":
+        out_lines = np.unique(lines[withheld])
+        assert len(out_lines) == 6  # 20 % of 30 lines
+        assert not np.isin(lines[kept], out_lines).any()  # whole lines only
+
+
+def test_holdout_on_a_plane_is_exact_and_seeded():
+    points, lines = paraboloid_scan()
+    points[:, 2] = 0.3 * points[:, 0] - 0.2 * points[:, 1] + 1.0
+    first = holdout_error(points, "delaunay", fraction=0.1, seed=1, plane="z")
+    again = holdout_error(points, "delaunay", fraction=0.1, seed=1, plane="z")
+    other = holdout_error(points, "delaunay", fraction=0.1, seed=2, plane="z")
+    assert first["n_withheld"] == 120
+    assert first["rms"] < 1e-12 and first["max"] < 1e-12
+    assert np.array_equal(first["kept"], again["kept"])
+    assert not np.array_equal(first["kept"], other["kept"])
+    assert first["n_measured"] + first["outside"] == first["n_withheld"]
+
+
+def test_holdout_refuses_bad_arguments():
+    points, lines = paraboloid_scan()
+    for kwargs, match in [
+        ({"fraction": 0.0}, "fraction"),
+        ({"fraction": 1.0}, "fraction"),
+        ({"fraction": 0.0001}, "withholds 0"),
+        ({"by": "rows"}, "by must be"),
+        ({"seed": -1}, "seed"),
+    ]:
+        with pytest.raises(ParameterError, match=match):
+            holdout_error(points, "delaunay", plane="z", **kwargs)
+
+
+def test_locate_matches_brute_force():
+    rng = np.random.default_rng(2)
+    v, faces = grid_mesh(12, lambda x, y: 0 * x)
+    v[:, :2] += rng.uniform(-0.02, 0.02, (len(v), 2))  # uneven, still a valid triangulation
+    tri_uv = v[faces][:, :, :2]
+    q = rng.uniform(-0.1, 1.1, (2000, 2))
+    found = locate(q, tri_uv)
+    a, b, c = tri_uv[:, 0], tri_uv[:, 1], tri_uv[:, 2]
+
+    def side(p0, p1):
+        return (p1[None, :, 0] - p0[None, :, 0]) * (q[:, None, 1] - p0[None, :, 1]) - (
+            p1[None, :, 1] - p0[None, :, 1]
+        ) * (q[:, None, 0] - p0[None, :, 0])
+
+    s = np.stack([side(a, b), side(b, c), side(c, a)])
+    inside = np.all(s >= 0, axis=0) | np.all(s <= 0, axis=0)  # (Q, F)
+    expected = np.where(inside.any(axis=1), inside.argmax(axis=1), -1)
+    assert np.array_equal(found, expected)
+    assert (found >= 0).sum() > 1000 and (found < 0).sum() > 100

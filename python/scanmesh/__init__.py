@@ -7,6 +7,7 @@ The public API:
 - :func:`delaunay` - planar Delaunay of projected points, trimmed to the outline;
 - :func:`quality` - tac norms and the max-min angle of any mesh;
 - :func:`detect_lines` - scan lines from the order of the points;
+- :func:`noise` - the scan noise along the projection normal (robust, from the scan lines);
 - :func:`optimal_surface`, :func:`brute_force_surface` - the certified tac optimum (small inputs);
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
 - :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
@@ -33,6 +34,7 @@ from scanmesh.errors import (
 )
 from scanmesh.lines import detect_lines
 from scanmesh.methods import METHODS
+from scanmesh.noise import noise
 from scanmesh.optimal import brute_force_surface, optimal_surface
 from scanmesh.projection import Frame, project
 from scanmesh.quality import Quality, quality
@@ -55,6 +57,7 @@ __all__ = [
     "load_demo",
     "quality",
     "detect_lines",
+    "noise",
     "optimal_surface",
     "brute_force_surface",
     "read",

@@ -9,6 +9,7 @@ from typing import Any
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh.lop import P_OPTION, SLIVER_GUARD_OPTION, TIE_TOLERANCE_OPTION, planar_start
+from scanmesh.noise import noise_tolerance
 from scanmesh.surface import Surface
 
 #: Defaults of the annealing schedule, read from the Rust core (one source of truth).
@@ -190,6 +191,9 @@ def anneal_surface(
     scan = start.scan
     assert scan is not None
     t0 = time.perf_counter()
+    sigma, params["tie_tolerance"] = noise_tolerance(
+        start, params["p"], schedule.get("tie_tolerance"), ANNEAL_DEFAULTS["tie_tolerance"]
+    )
     # The very planar coordinates the initial triangulation was built and trimmed on.
     runner = _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params)
     total = runner.chains * params["sweeps"]
@@ -212,7 +216,8 @@ def anneal_surface(
         faces=faces,
         method="anneal",
         options={
-            **start.options, **params, "seed": seed_value, "initial": start.method, **summary
+            **start.options, **params, "seed": seed_value, "initial": start.method,
+            "noise": sigma, **summary
         },
         scan=scan,
         duplicates=start.duplicates,

@@ -1,0 +1,301 @@
+"""Measurement noise of a scan: its standard deviation along the projection normal.
+
+Design. Along a scan line the true surface is smooth between creases, steps and holes, and
+the points are dense. So each point with two neighbours on either side in its line segment
+is predicted by the cubic through those four neighbours (Lagrange interpolation in the
+planar arc length, so uneven spacing is handled), and the prediction residual of its
+height is divided by ``sqrt(1 + sum(w_j**2))`` (w_j the interpolation weights): with
+independent noise of deviation sigma every such normalized residual has deviation sigma.
+
+- A cubic stencil, not a second difference: a second difference of a curved noise-free
+  surface is curvature x s^2 / 2 (s/20 on a cylinder 10 spacings in radius), while the
+  cubic's error is of order s^4 times the fourth derivative, so smooth curved parts of a
+  noise-free scan give residuals far below s/200.
+- Creases and steps spoil only the few windows that straddle them (four per crossing),
+  and gaps are never bridged (windows stay inside the segments of
+  :func:`scanmesh.lines.scan_lines`, which split lines at holes). Those residuals are
+  outliers, so the scale is robust: it starts from the median absolute residual
+  (x 1.4826) and is refined by a few rounds of a trimmed RMS (residuals within
+  ``TRIM`` x the current estimate, corrected for the truncation of a Gaussian), which
+  drops the straddling windows once the estimate is below their size. The median alone
+  is biased up by such outliers (20 % outliers: +30 %); the trimmed rounds are not.
+
+Across the lines a second estimate: each point against the quadratic least-squares fit of
+the height over the plane through its :data:`NEIGHBOURS` nearest other points, the
+residual normalized the same way (by ``sqrt(1 + var(fit at the point) / sigma**2)``), and
+scaled robustly the same way. It also works for points in no scan order, and it sees noise
+that the line stencil cannot: real scanners often shift a whole profile at once (noise
+correlated along a line, independent between lines), which a fit along the line absorbs.
+On the Cyberware face scan ``fran_cut.vtk`` the neighbourhood estimate is 3.8 times the
+line estimate; on simulated white noise the two agree within a few per cent. The larger of
+the two is the estimate.
+
+Cost: O(N) numpy work after the line detection, and O(N log N) for the neighbourhood
+search.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from scanmesh._checks import as_points
+from scanmesh.errors import DegenerateInputError
+from scanmesh.lines import scan_lines
+from scanmesh.projection import PlaneSpec, project
+
+if TYPE_CHECKING:
+    from scanmesh.surface import Surface
+
+#: Residuals beyond TRIM x the current estimate are left out of the refined estimate.
+TRIM: float = 2.5
+
+#: Rounds of the trimmed refinement (it settles in 3-4 on scans with steps and creases).
+ROUNDS: int = 8
+
+#: Neighbours of the quadratic fit when the points are not in scan order.
+NEIGHBOURS: int = 12
+
+#: Points fitted per vectorized chunk of the neighbourhood fit (bounds memory).
+CHUNK: int = 1 << 16
+
+#: Fewest residual windows an estimate is made from.
+MIN_WINDOWS: int = 20
+
+#: 1 / (the median of |z| for a standard normal z): turns a median absolute value into sigma.
+MAD_SCALE: float = 1.482602218505602
+
+
+def _truncated_variance(c: float) -> float:
+    """Variance of a standard normal restricted to [-c, c]."""
+    pdf = math.exp(-0.5 * c * c) / math.sqrt(2 * math.pi)
+    mass = math.erf(c / math.sqrt(2))
+    return 1.0 - 2.0 * c * pdf / mass
+
+
+def line_residuals(
+    points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = None
+) -> np.ndarray:
+    """Normalized cubic-prediction residuals of the heights along the scan lines.
+
+    Parameters
+    ----------
+    points, lines, plane
+        As :func:`noise`.
+
+    Returns
+    -------
+    (W,) float64
+        One residual per point that has two neighbours on either side in its line segment
+        (model units); each has the noise's deviation where the surface is smooth. O(N).
+    """
+    pts = as_points(points)
+    uv, frame = project(pts, plane)
+    height = pts @ np.asarray(frame.normal, dtype=np.float64)
+    segments = [seg for line in scan_lines(pts, lines, plane=plane).lines for seg in line]
+    segments = [seg for seg in segments if len(seg) >= 5]
+    if not segments:
+        return np.zeros(0)
+    order = np.concatenate(segments)
+    lengths = np.array([len(seg) for seg in segments])
+    starts = np.cumsum(lengths) - lengths
+    # arc length along each segment (the planar steps, restarted per segment)
+    step = np.linalg.norm(np.diff(uv[order], axis=0), axis=1)
+    arc = np.concatenate(([0.0], np.cumsum(step)))
+    arc -= np.repeat(arc[starts], lengths)
+    pos = np.arange(len(order)) - np.repeat(starts, lengths)
+    centre = np.flatnonzero((pos >= 2) & (pos <= np.repeat(lengths, lengths) - 3))
+    offsets = (-2, -1, 1, 2)
+    t0 = arc[centre]
+    ts = [arc[centre + o] for o in offsets]
+    hs = [height[order[centre + o]] for o in offsets]
+    predicted = np.zeros(len(centre))
+    norm2 = np.ones(len(centre))
+    for j in range(4):
+        w = np.ones(len(centre))
+        for m in range(4):
+            if m != j:
+                w *= (t0 - ts[m]) / (ts[j] - ts[m])
+        predicted += w * hs[j]
+        norm2 += w * w
+    return (height[order[centre]] - predicted) / np.sqrt(norm2)
+
+
+def neighbourhood_fit(points: ArrayLike, plane: PlaneSpec = None) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's height predicted by the quadratic least-squares fit over the plane to its
+    :data:`NEIGHBOURS` nearest other points.
+
+    Returns
+    -------
+    predicted : (N,) float64
+        The fit's height at the point (model units, along the projection normal); NaN where
+        the neighbourhood is degenerate (on a line) or there are too few points.
+    spread : (N,) float64
+        ``sqrt(1 + var(fit at the point) / sigma**2)``: the deviation of the residual
+        ``height - predicted`` in units of the noise's. O(N log N).
+    """
+    from scipy.spatial import cKDTree
+
+    pts = as_points(points)
+    uv, frame = project(pts, plane)
+    height = pts @ np.asarray(frame.normal, dtype=np.float64)
+    predicted = np.full(len(pts), np.nan)
+    spread = np.full(len(pts), np.nan)
+    if len(pts) <= NEIGHBOURS:
+        return predicted, spread
+    _, near = cKDTree(uv).query(uv, k=NEIGHBOURS + 1)
+    for first in range(0, len(pts), CHUNK):
+        idx = near[first : first + CHUNK, 1:]  # (n, k) without the point itself
+        d = uv[idx] - uv[first : first + CHUNK, None, :]
+        scale = np.sqrt(np.mean(np.sum(d * d, axis=2), axis=1))[:, None]  # conditioning
+        x, y = d[..., 0] / scale, d[..., 1] / scale
+        design = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=2)  # (n, k, 6)
+        gram = np.einsum("nki,nkj->nij", design, design)
+        # neighbourhoods on a line (degenerate fits) are skipped; scaled, a sound one has a
+        # determinant of order k^6
+        ok = np.linalg.det(gram) > 1e-9 * NEIGHBOURS**6
+        rhs = np.zeros((int(ok.sum()), 6, 2))
+        rhs[:, :, 0] = np.einsum("nki,nk->ni", design[ok], height[idx[ok]])
+        rhs[:, 0, 1] = 1.0  # the second column gives (X^T X)^-1 [0, 0]
+        sol = np.linalg.solve(gram[ok], rhs)
+        rows = first + np.flatnonzero(ok)
+        predicted[rows] = sol[:, 0, 0]
+        spread[rows] = np.sqrt(1.0 + sol[:, 0, 1])
+    return predicted, spread
+
+
+def neighbourhood_residuals(points: ArrayLike, plane: PlaneSpec = None) -> np.ndarray:
+    """Normalized residuals of the heights against :func:`neighbourhood_fit` (see the module
+    docstring), one per point whose fit is well posed (model units). O(N log N)."""
+    pts = as_points(points)
+    _, frame = project(pts, plane)
+    predicted, spread = neighbourhood_fit(pts, plane)
+    ok = np.isfinite(predicted)
+    return (pts[ok] @ np.asarray(frame.normal, dtype=np.float64) - predicted[ok]) / spread[ok]
+
+
+def robust_scale(residuals: np.ndarray) -> float:
+    """Standard deviation of the Gaussian core of ``residuals``, ignoring outliers.
+
+    The median absolute value (x :data:`MAD_SCALE`), then :data:`ROUNDS` rounds of the RMS
+    of the residuals within :data:`TRIM` x the estimate, divided by the truncated normal's
+    deviation. O(W) per round.
+    """
+    r = np.abs(np.asarray(residuals, dtype=np.float64))
+    sigma = MAD_SCALE * float(np.median(r))
+    correction = math.sqrt(_truncated_variance(TRIM))
+    for _ in range(ROUNDS):
+        if sigma == 0.0:
+            break
+        kept = r[r <= TRIM * sigma]
+        new = math.sqrt(float(np.mean(kept * kept))) / correction
+        if abs(new - sigma) <= 1e-6 * sigma:
+            sigma = new
+            break
+        sigma = new
+    return sigma
+
+
+def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = None) -> float:
+    """Estimate the standard deviation of the scan's noise along the projection normal.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        Scan points, in scan order unless ``lines`` is given.
+    lines : (N,) int, optional
+        Scan line id of each point (detected from the point order when absent, see
+        :func:`scanmesh.detect_lines`); points in no usable order are measured against
+        their neighbourhoods only.
+    plane : None, "best-fit", "x", "y", "z" or (3,) float
+        Projection plane; heights are measured along its normal.
+
+    Returns
+    -------
+    float
+        sigma in model units: 0 (or nearly) for a noise-free scan of piecewise smooth
+        surfaces. The larger of the estimates along the lines and over neighbourhoods (see
+        the module docstring); O(N log N).
+
+    Raises
+    ------
+    DegenerateInputError
+        Neither estimate has :data:`MIN_WINDOWS` residuals (too few points).
+    """
+    pts = as_points(points)
+    found = [line_residuals(pts, lines, plane), neighbourhood_residuals(pts, plane)]
+    estimates = [robust_scale(r) for r in found if len(r) >= MIN_WINDOWS]
+    if not estimates:
+        raise DegenerateInputError(
+            f"the noise estimate needs at least {MIN_WINDOWS} points with a local fit, found"
+            f" {max(len(r) for r in found)} among {len(pts)} points"
+        )
+    return max(estimates)
+
+
+#: Tie tolerance of annealing on tac_1 per (sigma / spacing)^2: a flip whose tac_1 change
+#: is within this of zero is a tie (BENCHMARKS.md, "Noise": chosen on the rod and the
+#: fandisk at sigma = s/30 and s/10).
+TIE_PER_NOISE: float = 20.0
+
+
+def median_edge(uv: np.ndarray, faces: np.ndarray) -> float:
+    """Median planar length of the triangles' edges (each interior edge counted twice). O(F)."""
+    tri = uv[np.asarray(faces, dtype=np.int64)]
+    lengths = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+    return float(np.median(lengths)) if lengths.size else 0.0
+
+
+def tie_tolerance(sigma: float, spacing: float, p: float = 1.0, floor: float = 0.0) -> float:
+    """The annealing tie tolerance for noise ``sigma`` on a mesh of edge length ``spacing``.
+
+    Noise of deviation sigma tilts the triangles around a vertex by about sigma / spacing
+    radians, and its angle defect (tac) by the square of that: flips whose tac change is
+    within ``TIE_PER_NOISE * (sigma / spacing)**2`` only chase the noise, so annealing
+    treats them as ties (free moves; the sliver guard picks among them). Raised to the
+    power ``p`` for the energy sum tac^p; never below ``floor`` (the exact-tie tolerance).
+    O(1).
+    """
+    if spacing <= 0 or not math.isfinite(sigma / spacing):
+        return floor
+    return max((TIE_PER_NOISE * (sigma / spacing) ** 2) ** p, floor)
+
+
+def noise_tolerance(
+    initial: Surface, p: float, given: float | None, floor: float
+) -> tuple[float | None, float]:
+    """The noise of an annealing run's scan and the tie tolerance it anneals with.
+
+    Parameters
+    ----------
+    initial : Surface
+        The initial triangulation (its vertices, scan lines if known, frame and faces).
+    p : float
+        The energy exponent.
+    given : float or None
+        A tie tolerance the caller chose (kept as it is), or None: derive it from the noise
+        (:func:`tie_tolerance` with the median edge of ``initial`` as the spacing).
+    floor : float
+        The exact-tie tolerance (the default), the least tolerance returned.
+
+    Returns
+    -------
+    sigma : float or None
+        :func:`noise` of the vertices (None when too few points give an estimate).
+    tolerance : float
+        O(N) (O(N log N) for points in no scan order).
+    """
+    assert initial.frame is not None
+    try:
+        sigma = noise(initial.vertices, initial.line_ids, plane=initial.frame.normal)
+    except DegenerateInputError:
+        sigma = None
+    if given is not None:
+        return sigma, float(given)
+    if sigma is None:
+        return None, floor
+    uv, _ = project(initial.vertices, initial.frame.normal)
+    return sigma, tie_tolerance(sigma, median_edge(uv, initial.faces), p, floor)

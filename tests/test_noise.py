@@ -1,0 +1,193 @@
+"""scanmesh.noise: the noise estimate on simulated scans of CAD-like parts of known noise."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+import scanmesh
+from scanmesh.errors import DegenerateInputError
+from scanmesh.noise import line_residuals, robust_scale
+
+#: Point spacing of the simulated scans (model units).
+SPACING = 0.5
+
+
+def box_with_bore(w: float = 40.0, d: float = 30.0, r: float = 7.0, n: int = 96) -> trimesh.Trimesh:
+    """A block's top (height 10) with a blind round bore (floor at 4) and a raised step.
+
+    Built as the surfaces seen from above (no boolean backend needed): an annulus between
+    the bore and the block outline, the bore's floor and a box standing on the top.
+    """
+    top = 10.0
+    corners = np.arctan2([d / 2, d / 2, -d / 2, -d / 2], [w / 2, -w / 2, -w / 2, w / 2])
+    theta = np.unique(
+        np.concatenate([np.linspace(0, 2 * np.pi, n, endpoint=False), corners % (2 * np.pi)])
+    )
+    c, s = np.cos(theta), np.sin(theta)
+    with np.errstate(divide="ignore"):
+        reach = np.minimum(np.abs(w / 2 / c), np.abs(d / 2 / s))  # ray to the block outline
+    inner = np.column_stack([r * c, r * s, np.full_like(c, top)])
+    outer = np.column_stack([reach * c, reach * s, np.full_like(c, top)])
+    m = len(theta)
+    i = np.arange(m)
+    j = (i + 1) % m
+    faces = np.concatenate([np.column_stack([i, m + i, m + j]), np.column_stack([i, m + j, j])])
+    ring = trimesh.Trimesh(np.vstack([inner, outer]), faces, process=False)
+    floor = trimesh.creation.cylinder(radius=r, height=4.0, sections=n)
+    floor.apply_translation([0, 0, 2.0])
+    step = trimesh.creation.box((w / 4, d, 4.0))
+    step.apply_translation([3 * w / 8, 0, top + 2.0])
+    return trimesh.util.concatenate([ring, floor, step])
+
+
+def lying_cylinder() -> trimesh.Trimesh:
+    """A cylinder of radius 10 lying along y (curved across x, straight along y)."""
+    c = trimesh.creation.cylinder(radius=10.0, height=40.0, sections=256)
+    c.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    return c
+
+
+def ridge() -> trimesh.Trimesh:
+    """A roof: two planes meeting at a crease along x, on a block."""
+    v = np.array(
+        [
+            [0, 0, 0],
+            [40, 0, 0],
+            [40, 30, 0],
+            [0, 30, 0],
+            [0, 0, 5],
+            [40, 0, 5],
+            [40, 15, 12],
+            [0, 15, 12],
+            [40, 30, 5],
+            [0, 30, 5],
+        ],
+        dtype=float,
+    )
+    return trimesh.convex.convex_hull(v)
+
+
+PARTS = {"box_with_bore": box_with_bore, "cylinder": lying_cylinder, "ridge": ridge}
+
+
+@pytest.mark.parametrize("along", ["x", "y"])
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_estimate_within_20_percent(part, along):
+    mesh = PARTS[part]()
+    for fraction in (1 / 200, 1 / 30, 1 / 10, 1 / 5):
+        sigma = fraction * SPACING
+        points, lines = scanmesh.simulate_scan(
+            mesh, up="z", along=along, spacing=SPACING, noise=sigma, seed=7
+        )
+        estimate = scanmesh.noise(points, lines, plane="z")
+        assert abs(estimate / sigma - 1) < 0.2, (part, along, fraction, estimate / sigma)
+
+
+@pytest.mark.parametrize("along", ["x", "y"])
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_noise_free_scans_estimate_nearly_zero(part, along):
+    points, lines = scanmesh.simulate_scan(PARTS[part](), up="z", along=along, spacing=SPACING)
+    assert scanmesh.noise(points, lines, plane="z") < SPACING / 200
+
+
+def test_lines_detected_from_order_and_tilted_plane():
+    """No line ids (detected from the order), and a part tilted 30 degrees about x scanned
+    along the tilted normal: the estimate follows the projection normal."""
+    sigma = SPACING / 20
+    tilt = trimesh.transformations.rotation_matrix(np.pi / 6, [1, 0, 0])
+    mesh = box_with_bore()
+    mesh.apply_transform(tilt)
+    normal = tilt[:3, :3] @ np.array([0.0, 0.0, 1.0])
+    points, _ = scanmesh.simulate_scan(
+        mesh, up=normal, along="x", spacing=SPACING, noise=sigma, seed=3
+    )
+    assert abs(scanmesh.noise(points, plane=normal) / sigma - 1) < 0.2
+
+
+def test_median_alone_is_biased_by_steps_the_refined_scale_is_not():
+    """A fifth of the residuals are gross outliers (windows straddling steps): the median's
+    estimate is far too high, the trimmed refinement is not."""
+    rng = np.random.default_rng(0)
+    core = rng.normal(0.0, 1.0, 8000)
+    outliers = rng.choice([-1, 1], 2000) * rng.uniform(5, 50, 2000)
+    r = np.concatenate([core, outliers])
+    mad_only = 1.482602218505602 * np.median(np.abs(r))
+    assert mad_only > 1.2
+    assert abs(robust_scale(r) - 1.0) < 0.05
+
+
+def test_too_few_windows_is_a_clear_error():
+    points = np.random.default_rng(0).random((4, 3))
+    with pytest.raises(DegenerateInputError, match="noise estimate needs"):
+        scanmesh.noise(points, np.zeros(4, dtype=np.int64), plane="z")
+
+
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_shuffled_points_use_neighbourhoods(part):
+    """Points in no scan order: the neighbourhood fits give the same accuracy."""
+    mesh = PARTS[part]()
+    rng = np.random.default_rng(1)
+    for fraction in (0.0, 1 / 30, 1 / 5):
+        sigma = fraction * SPACING
+        points, _ = scanmesh.simulate_scan(mesh, up="z", spacing=SPACING, noise=sigma, seed=2)
+        shuffled = points[rng.permutation(len(points))]
+        assert len(line_residuals(shuffled, plane="z")) < len(points) / 2  # no usable order
+        estimate = scanmesh.noise(shuffled, plane="z")
+        if sigma == 0:
+            assert estimate < SPACING / 200
+        else:
+            assert abs(estimate / sigma - 1) < 0.2, (part, fraction, estimate / sigma)
+
+
+def test_noise_aware_annealing_beats_delaunay_on_a_noisy_ridge():
+    """sigma = s/10 on the ridge: the default annealing (tie tolerance from the noise) lands
+    closer to the true surface than Delaunay with few slivers; annealing with exact ties
+    only (the old default) chases the noise with slivers."""
+    from scanmesh.anneal import ANNEAL_DEFAULTS
+    from scanmesh.truth import height_error
+
+    mesh = ridge()
+    sigma = SPACING / 10
+    points, lines = scanmesh.simulate_scan(mesh, up="z", spacing=SPACING, noise=sigma, seed=4)
+    base = scanmesh.reconstruct(points, "delaunay", plane="z")
+    aware = scanmesh.reconstruct(points, "anneal", lines=lines, plane="z", seed=0)
+    exact = scanmesh.reconstruct(
+        points,
+        "anneal",
+        lines=lines,
+        plane="z",
+        seed=0,
+        tie_tolerance=ANNEAL_DEFAULTS["tie_tolerance"],
+    )
+    assert abs(aware.options["noise"] / sigma - 1) < 0.2
+    assert aware.options["tie_tolerance"] > 1e3 * ANNEAL_DEFAULTS["tie_tolerance"]
+    assert exact.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
+
+    def rms(surface):
+        return height_error(surface, mesh, n_samples=20_000)["h_rms"]
+
+    assert rms(aware) < rms(base)
+    assert aware.quality.sliver_fraction <= 0.05
+    assert exact.quality.sliver_fraction > 2 * aware.quality.sliver_fraction
+
+
+def test_noise_free_scans_anneal_with_exact_ties():
+    """No noise: the tolerance stays the exact-tie default and the faces are those of an
+    explicit exact-tie run."""
+    from scanmesh.anneal import ANNEAL_DEFAULTS
+
+    points, lines = scanmesh.simulate_scan(box_with_bore(), up="z", spacing=0.8)
+    default = scanmesh.reconstruct(points, "anneal", lines=lines, plane="z", seed=1)
+    exact = scanmesh.reconstruct(
+        points,
+        "anneal",
+        lines=lines,
+        plane="z",
+        seed=1,
+        tie_tolerance=ANNEAL_DEFAULTS["tie_tolerance"],
+    )
+    assert default.options["noise"] < SPACING * 1e-9  # rounding only
+    assert default.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
+    assert np.array_equal(default.faces, exact.faces)
