@@ -6,6 +6,7 @@
 //! many proposals as interior edges), early stop once frozen, the best state kept, then a
 //! greedy polish (LOP) under the order (tac first, then smallest angle).
 
+use crate::budget;
 use crate::delaunay::NONE;
 use crate::ensemble::Ensemble;
 use crate::lop::{lop, TacLop, TacOrder};
@@ -134,6 +135,87 @@ impl AnnealParams {
             });
         }
         Ok(())
+    }
+
+    /// Refuses a run from `state` that would plan more flip proposals than
+    /// [`budget::MAX_PROPOSALS`], calibrate longer than
+    /// [`budget::MAX_CALIBRATION_PROPOSALS`] before it can be interrupted, or need more
+    /// memory than this process may have ([`budget::memory_available`]); the error
+    /// ([`Error::TooCostly`]) names the option that asks for it and what it would need.
+    /// Returns the number of chains. O(m).
+    pub fn check_cost(&self, state: &TacState) -> Result<usize> {
+        let edges = (state.count_interior_half_edges() / 2) as u64;
+        let chains = self.chain_count(edges as usize);
+        let n = chains as u64;
+        // Chains are named when set beyond what automatic counts give and the run would fit
+        // with that many; otherwise the per-chain option is the cause.
+        let chains_to_blame =
+            |per_chain: u64, limit: u64| self.chains > MAX_AUTO_CHAINS && per_chain <= limit;
+        let samples = self.calibration_samples as u64;
+        let calibration = n.saturating_mul(samples);
+        if calibration > budget::MAX_CALIBRATION_PROPOSALS {
+            let limit = budget::MAX_CALIBRATION_PROPOSALS / MAX_AUTO_CHAINS as u64;
+            let (name, value) = if chains_to_blame(samples, limit) {
+                ("chains", self.chains)
+            } else {
+                ("calibration_samples", self.calibration_samples)
+            };
+            return Err(Error::TooCostly {
+                name,
+                value: value.to_string(),
+                needs: budget::describe_proposals(
+                    calibration,
+                    &format!("calibration proposals ({chains} chains) before the first sweep"),
+                ),
+                limit: format!(
+                    "{:.0e}, the most a run may make before it can be interrupted",
+                    budget::MAX_CALIBRATION_PROPOSALS as f64
+                ),
+            });
+        }
+        let per_chain = (self.sweeps as u64)
+            .saturating_mul(edges)
+            .saturating_add(samples);
+        let proposals = n.saturating_mul(per_chain);
+        if proposals > budget::MAX_PROPOSALS {
+            let limit = budget::MAX_PROPOSALS / MAX_AUTO_CHAINS as u64;
+            let (name, value) = if chains_to_blame(per_chain, limit) {
+                ("chains", self.chains)
+            } else {
+                ("sweeps", self.sweeps)
+            };
+            return Err(Error::TooCostly {
+                name,
+                value: value.to_string(),
+                needs: budget::describe_proposals(
+                    proposals,
+                    &format!("flip proposals ({chains} chains, {edges} interior edges)"),
+                ),
+                limit: format!("the limit of {:.0e}", budget::MAX_PROPOSALS as f64),
+            });
+        }
+        // Per chain: its state, the best copy (and the tiles' pieces), the calibration
+        // sample, the flip log (at most about three sweeps) and the sweep records, kept and
+        // copied once for the caller.
+        let state_bytes = state.heap_bytes();
+        let copies = if self.tiles > 1 { 4 } else { 2 };
+        let record = std::mem::size_of::<SweepRecord>() as u64;
+        let per_chain = (copies * state_bytes)
+            .saturating_add(8 * samples)
+            .saturating_add(12 * edges)
+            .saturating_add((self.sweeps as u64).saturating_mul(2 * record))
+            .saturating_add(std::mem::size_of::<Annealer>() as u64);
+        let bytes = n.saturating_mul(per_chain);
+        let room = budget::memory_available().unwrap_or(u64::MAX);
+        if bytes > room {
+            let (name, value) = if self.chains > 1 && per_chain <= room {
+                ("chains", self.chains)
+            } else {
+                ("sweeps", self.sweeps)
+            };
+            budget::check_memory(name, value, bytes)?;
+        }
+        Ok(chains)
     }
 
     /// Number of chains to run on a triangulation with `interior_edges` interior edges:
@@ -875,6 +957,74 @@ mod tests {
             "{recomputed} vs {best_seen}"
         );
         r.mesh.validate(st.uv()).unwrap();
+    }
+
+    #[test]
+    fn runs_that_cost_too_much_are_refused_before_they_start() {
+        let st = bumpy_state(50, 1, 1.0);
+        let named = |params: AnnealParams| match params.check_cost(&st) {
+            Err(Error::TooCostly { name, .. }) => name,
+            other => panic!("{params:?}: {other:?}"),
+        };
+        let auto = AnnealParams::default();
+        // Too many chains calibrating before the run can be interrupted (was an abort).
+        assert_eq!(
+            named(AnnealParams {
+                chains: 1_000_000,
+                ..auto.clone()
+            }),
+            "chains"
+        );
+        // One chain's calibration alone too long (was a run without end).
+        assert_eq!(
+            named(AnnealParams {
+                calibration_samples: 1_000_000_000,
+                chains: 1,
+                ..auto.clone()
+            }),
+            "calibration_samples"
+        );
+        assert_eq!(
+            named(AnnealParams {
+                sweeps: usize::MAX,
+                ..auto.clone()
+            }),
+            "sweeps"
+        );
+        let e = AnnealParams {
+            sweeps: 1 << 40,
+            chains: 1,
+            ..auto.clone()
+        }
+        .check_cost(&st)
+        .unwrap_err();
+        assert!(
+            e.to_string().starts_with("sweeps=1099511627776 needs"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("hours on one core"), "{e}");
+        // The sweep records of 10^10 sweeps outgrow any machine's memory.
+        if crate::budget::memory_available().is_some() {
+            assert_eq!(
+                named(AnnealParams {
+                    sweeps: 10_000_000_000,
+                    chains: 1,
+                    ..auto.clone()
+                }),
+                "sweeps"
+            );
+        }
+        // The defaults and the ensemble built on them pass.
+        let chains = auto.check_cost(&st).unwrap();
+        assert_eq!(chains, auto.chain_count(st.count_interior_half_edges() / 2));
+        assert!(Ensemble::new(
+            st.clone(),
+            AnnealParams {
+                chains: 1_000_000,
+                ..auto
+            }
+        )
+        .is_err());
     }
 
     #[test]

@@ -10,6 +10,7 @@
 //! the thread count or on where the caller's chunks end.
 
 use crate::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
+use crate::budget;
 use crate::tac_state::TacState;
 use crate::tiles::TiledAnnealer;
 use crate::Result;
@@ -92,14 +93,24 @@ pub struct EnsembleSummary {
 
 impl Ensemble {
     /// Starts `params.chain_count(interior edges)` chains from copies of `state`, each
-    /// calibrating its own T0. O(chains × (calibration_samples + m)) work, in parallel;
-    /// memory O(chains × m).
+    /// calibrating its own T0, after checking the parameters and what the run will cost
+    /// ([`AnnealParams::check_cost`]); the copies are fallible, so memory that runs out
+    /// ends in an error naming `chains`. O(chains × (calibration_samples + m)) work, in
+    /// parallel; memory O(chains × m).
     pub fn new(state: TacState, params: AnnealParams) -> Result<Self> {
-        let count = params.chain_count(state.count_interior_half_edges() / 2);
-        let chains = (0..count)
-            .into_par_iter()
-            .map(|chain| Chain::new(state.clone(), params.for_chain(chain)))
-            .collect::<Result<Vec<_>>>()?;
+        params.check_for(&state)?;
+        let count = params.check_cost(&state)?;
+        let out_of_memory =
+            || budget::allocation_failed("chains", count, count as u64 * state.heap_bytes());
+        let mut chains = Vec::new();
+        chains
+            .try_reserve_exact(count)
+            .map_err(|_| out_of_memory())?;
+        chains.par_extend((0..count).into_par_iter().map(|chain| {
+            let copy = state.try_clone().map_err(|_| out_of_memory())?;
+            Chain::new(copy, params.for_chain(chain))
+        }));
+        let chains = chains.into_iter().collect::<Result<Vec<_>>>()?;
         Ok(Ensemble { chains })
     }
 

@@ -33,6 +33,18 @@ pub enum Error {
         /// What was expected instead.
         expected: &'static str,
     },
+    /// A parameter asks for more work or memory than the run can be given (see
+    /// [`crate::budget`]).
+    TooCostly {
+        /// The parameter's name.
+        name: &'static str,
+        /// Its value, printed.
+        value: String,
+        /// What it would need ("about 14.9 GiB of memory").
+        needs: String,
+        /// The limit it exceeds.
+        limit: String,
+    },
     /// A face refers to a vertex that does not exist, repeats a vertex, or is degenerate.
     InvalidFace {
         /// Index of the face.
@@ -79,6 +91,12 @@ impl fmt::Display for Error {
             } => {
                 write!(f, "invalid {name}={value}: expected {expected}")
             }
+            Error::TooCostly {
+                name,
+                value,
+                needs,
+                limit,
+            } => write!(f, "{name}={value} needs {needs}, more than {limit}"),
             Error::InvalidFace { face, reason } => write!(f, "face {face}: {reason}"),
             Error::Invariant(what) => write!(f, "mesh invariant violated: {what}"),
             Error::Interrupted => write!(f, "interrupted"),

@@ -23,6 +23,7 @@
 #![warn(missing_docs)]
 
 pub mod anneal;
+pub mod budget;
 pub mod criteria;
 pub mod delaunay;
 pub mod ensemble;

@@ -215,6 +215,25 @@ impl HalfEdgeMesh {
         unreachable!("repeated_edge_by_sort called on half-edges without a repeated edge")
     }
 
+    /// A copy whose allocations may fail instead of aborting: for copies an option
+    /// multiplies (annealing chains). O(m + n).
+    pub fn try_clone(&self) -> std::result::Result<Self, std::collections::TryReserveError> {
+        use crate::budget::try_copy;
+        Ok(HalfEdgeMesh {
+            start: try_copy(&self.start)?,
+            twin: try_copy(&self.twin)?,
+            vertex_edge: try_copy(&self.vertex_edge)?,
+            on_boundary: try_copy(&self.on_boundary)?,
+            anchored: self.anchored,
+        })
+    }
+
+    /// Bytes its arrays take (for memory estimates). O(1).
+    pub fn heap_bytes(&self) -> u64 {
+        (4 * (self.start.len() + self.twin.len() + self.vertex_edge.len()) + self.on_boundary.len())
+            as u64
+    }
+
     /// Number of vertices (used or not). O(1).
     pub fn n_vertices(&self) -> usize {
         self.vertex_edge.len()

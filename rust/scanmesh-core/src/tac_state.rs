@@ -281,6 +281,33 @@ impl TacState {
         total
     }
 
+    /// A copy whose allocations may fail instead of aborting: for copies an option
+    /// multiplies (annealing chains). O(m + n).
+    pub fn try_clone(&self) -> std::result::Result<Self, std::collections::TryReserveError> {
+        use crate::budget::try_copy;
+        Ok(TacState {
+            mesh: self.mesh.try_clone()?,
+            uv: try_copy(&self.uv)?,
+            xyz: try_copy(&self.xyz)?,
+            corner: try_copy(&self.corner)?,
+            stale: try_copy(&self.stale)?,
+            vert: try_copy(&self.vert)?,
+            p: self.p,
+            energy: self.energy,
+        })
+    }
+
+    /// Bytes its arrays take (for memory estimates). O(1).
+    pub fn heap_bytes(&self) -> u64 {
+        use std::mem::size_of_val;
+        self.mesh.heap_bytes()
+            + (size_of_val(&self.uv[..])
+                + size_of_val(&self.xyz[..])
+                + size_of_val(&self.corner[..])
+                + size_of_val(&self.stale[..])
+                + size_of_val(&self.vert[..])) as u64
+    }
+
     /// The triangulation; unanchored after [`propose`](Self::propose) flipped a tie. O(1).
     pub fn mesh(&self) -> &HalfEdgeMesh {
         &self.mesh

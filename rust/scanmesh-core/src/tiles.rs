@@ -64,11 +64,12 @@ pub struct TiledAnnealer {
     proposals: u64,
 }
 
-/// A phase in progress: the frozen triangles, the energy of the vertices in no tile, and
-/// the tiles' runs.
+/// A phase in progress: the frozen triangles, the energy of the vertices in no tile, the
+/// sweeps it runs and the tiles' runs.
 struct Phase {
     frozen: Vec<[u32; 3]>,
     constant: f64,
+    sweeps: usize,
     tiles: Vec<Tile>,
 }
 
@@ -282,6 +283,7 @@ impl TiledAnnealer {
         self.running = Some(Phase {
             frozen,
             constant,
+            sweeps,
             tiles,
         });
     }
@@ -307,13 +309,16 @@ impl TiledAnnealer {
             })
             .collect();
         // Sweeps every tile finished (all of the phase's, unless the run was interrupted);
-        // a tile without interior edges runs none and keeps its energy.
+        // a tile without interior edges runs none and keeps its energy. When no tile has an
+        // interior edge (stripes narrower than a triangle: tiny inputs, many tiles) the
+        // phase's sweeps pass with every edge frozen; counting none would start the same
+        // empty phase again forever.
         let swept = ends
             .iter()
             .filter(|e| e.sweep_len > 0)
             .map(|e| e.trace.len())
             .min()
-            .unwrap_or(0);
+            .unwrap_or(phase.sweeps);
         for j in 0..swept {
             let (mut energy, mut best, mut accepted, mut proposed) =
                 (phase.constant, phase.constant, 0.0, 0);
@@ -584,6 +589,19 @@ mod tests {
         let r = a.finish().unwrap();
         r.mesh.validate(st.uv()).unwrap();
         assert!(r.energy <= r.initial_energy);
+    }
+
+    #[test]
+    fn stripes_without_interior_edges_still_end() {
+        // 8 points in 3 stripes, or 300 in 64: some or every phase has no tile with an
+        // interior edge. Each phase must still count its sweeps, or the run never ends.
+        for (n, tiles) in [(8, 3), (8, crate::anneal::MAX_TILES), (300, 64)] {
+            let st = bumpy_state(n, 37, 1.0);
+            let r = run(&st, params(tiles, 250, 2));
+            assert_eq!(r.trace.len(), 250, "{n} points in {tiles} tiles");
+            r.mesh.validate(st.uv()).unwrap();
+            assert!(r.energy <= r.initial_energy + 1e-12);
+        }
     }
 
     #[test]

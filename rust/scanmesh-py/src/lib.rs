@@ -61,7 +61,7 @@ fn to_py(e: Error) -> PyErr {
         Error::NonFinite { .. } | Error::TooFewPoints { .. } | Error::Collinear { .. } => {
             DegenerateInputError::new_err(msg)
         }
-        Error::InvalidParameter { .. } => ParameterError::new_err(msg),
+        Error::InvalidParameter { .. } | Error::TooCostly { .. } => ParameterError::new_err(msg),
         Error::InvalidFace { .. } | Error::Invariant(_) => InvalidMeshError::new_err(msg),
         Error::Interrupted => PyKeyboardInterrupt::new_err(msg),
     }
