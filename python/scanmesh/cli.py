@@ -237,9 +237,14 @@ class _Console:
         return not self.quiet and sys.stderr.isatty()
 
     def out(self, text: str = "") -> None:
-        """Human output (nothing with --json or --quiet)."""
-        if not (self.json or self.quiet):
+        """Human output: the results asked for (nothing with --json)."""
+        if not self.json:
             print(text, flush=True)
+
+    def summary(self, text: str) -> None:
+        """What was done and written (nothing with --json or --quiet)."""
+        if not self.quiet:
+            self.out(text)
 
     def warn(self, message, category, filename, lineno, file=None, line=None) -> None:
         """``warnings.showwarning``: one line on stderr naming flags, kept for --report."""
@@ -438,15 +443,15 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     q = data["quality"]
     counts = data["counts"]
     lines = f" on {counts['lines']:,} lines" if counts["lines"] else ""
-    con.out(f"{source}: {counts['points']:,} points{lines}")
-    con.out(f"{surface.method}: {counts['faces']:,} faces in {elapsed:.2f} s")
-    con.out(
+    con.summary(f"{source}: {counts['points']:,} points{lines}")
+    con.summary(f"{surface.method}: {counts['faces']:,} faces in {elapsed:.2f} s")
+    con.summary(
         f"  tac_1 {q['tac_1']:.4g}  tac_2 {q['tac_2']:.4g}  tac_inf {q['tac_inf']:.4g}"
         f"  smallest angle {_fmt(q['min_angle_deg'], '.2f')} deg"
         f"  slivers {100 * q['sliver_fraction']:.2f} %"
     )
     written = [str(out)] + [str(p) for p in (report, preview) if p is not None]
-    con.out(f"wrote {', '.join(written)}")
+    con.summary(f"wrote {', '.join(written)}")
     return 0
 
 
@@ -589,7 +594,7 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     else:
         _print_table(con, source, scan, rows, truth is not None)
         if picture is not None and surfaces:
-            con.out(f"wrote {picture}")
+            con.summary(f"wrote {picture}")
     return 1 if failed else 0
 
 
@@ -680,7 +685,7 @@ def cmd_simulate(args: argparse.Namespace, con: _Console) -> int:
             )
         )
     else:
-        con.out(f"wrote {out}: {len(points):,} points on {n_lines:,} lines ({elapsed:.2f} s)")
+        con.summary(f"wrote {out}: {len(points):,} points on {n_lines:,} lines ({elapsed:.2f} s)")
     return 0
 
 
@@ -690,18 +695,20 @@ def cmd_simulate(args: argparse.Namespace, con: _Console) -> int:
 def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     """Points, lines, extent, spacing and the share of steep triangles of a scan file."""
     from scanmesh.delaunay import MAX_EDGE_FACTOR, delaunay
+    from scanmesh.scan import planar_scan
 
     source = Path(args.input)
-    scan = _read_scan(source, con.progress)
+    scan = _read_scan(source, con.progress)  # the reader's details (format, line source)
     pts = scan.points
+    planar = planar_scan(pts, plane=args.plane)  # projected once for Delaunay and lines
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # coincident points are counted below
-        surface = delaunay(pts, plane=args.plane)
+        surface = delaunay(planar)
     # delaunay() trims at MAX_EDGE_FACTOR x the median nearest-neighbour spacing
     spacing = float(surface.options["max_edge"]) / MAX_EDGE_FACTOR
     normal = np.asarray(surface.frame.normal, dtype=np.float64)
     steep = surface.steep_fraction
-    lines, lines_from = _lines_info(scan, args.plane)
+    lines, lines_from = _lines_info(scan, planar)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     data = {
         "input": str(source),
@@ -735,15 +742,13 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     return 0
 
 
-def _lines_info(scan, plane) -> tuple[int | None, str]:
-    """Scan lines: from the file, else detected from the point order (when available)."""
+def _lines_info(scan, planar) -> tuple[int | None, str]:
+    """Scan lines: from the file, else detected from the point order of the PlanarScan."""
+    from scanmesh.lines import detect_lines
+
     if scan.line_ids is not None:
         return int(scan.n_lines), f"from the file: {scan.extra.get('line_ids_from') or 'ids'}"
-    try:
-        from scanmesh.lines import detect_lines
-    except ImportError:
-        return None, "not in the file"
-    ids = detect_lines(scan.points, plane=plane)
+    ids = detect_lines(planar)
     return int(len(np.unique(ids))), "detected from the point order"
 
 
@@ -767,7 +772,7 @@ def cmd_render(args: argparse.Namespace, con: _Console) -> int:
     if args.up is not None:
         camera["up"] = args.up
     render_mesh((vertices, faces), out, size=args.size, wire=args.wire, **camera)
-    con.out(f"wrote {out}")
+    con.summary(f"wrote {out}")
     return 0
 
 
@@ -853,7 +858,7 @@ def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
         "height error: closest-point distance to the CAD model at 100,000 random points on"
         " each mesh"
     )
-    con.out(f"wrote {mesh_path} and {png_path}")
+    con.summary(f"wrote {mesh_path} and {png_path}")
     return 0
 
 

@@ -199,6 +199,18 @@ OPTIONS: tuple[Option, ...] = (
     ),
 )
 
+#: The most triangulations one enumeration may hold (each is a (M, 3) array).
+MAX_ENUMERATED: int = 10**8
+
+_MAX_COUNT = Option(
+    "max_count",
+    "int",
+    MAX_TRIANGULATIONS,
+    "most triangulations to list",
+    low=1,
+    high=MAX_ENUMERATED,
+)
+
 #: brute_force_surface's p: any norm >= 1.
 _ANY_P = Option("p", "float", 1.0, "the tac norm", low=1.0, finite=False)
 
@@ -804,11 +816,8 @@ def triangulations(
     return inst.keep[_all_local(inst, max_count)]
 
 
-def _all_local(inst: _Instance, max_count: int) -> np.ndarray:
-    if isinstance(max_count, bool) or not isinstance(max_count, (int, np.integer)):
-        raise ParameterError(f"max_count must be a whole number >= 1, got {max_count!r}")
-    if max_count < 1:
-        raise ParameterError(f"max_count must be >= 1, got {max_count!r}")
+def _all_local(inst: _Instance, max_count: int, name: str = "max_count") -> np.ndarray:
+    max_count = _MAX_COUNT.check(max_count, name)
     uv = np.ascontiguousarray(inst.uv[inst.keep])
     return _core.triangulations(uv, inst.delaunay_local, int(max_count))
 
@@ -843,7 +852,7 @@ def brute_force_surface(
     p = _ANY_P.check(p)
     inst = _instance(points, plane)
     t0 = time.perf_counter()
-    every = _all_local(inst, max_triangulations)  # (K, M, 3) local indices
+    every = _all_local(inst, max_triangulations, "max_triangulations")  # (K, M, 3) local indices
     t1 = time.perf_counter()
     n = len(inst.keep)
     angles = _corner_angles(_unit(inst.points), inst.keep[every])  # (K, M, 3)

@@ -13,6 +13,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -21,6 +22,9 @@ from scanmesh._checks import as_line_ids, as_points
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.projection import Frame, PlaneSpec, plane_choice, project_checked
+
+if TYPE_CHECKING:
+    from scanmesh.readers import ScanPoints
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,8 +102,9 @@ def planar_scan(
     return as_scan(source, plane=plane, lines=lines)
 
 
-def read_scan_file(path: Path, progress: Progress):  # noqa: ANN201 - readers.ScanPoints
-    """The one place a scan file is read for triangulation (reader options belong here)."""
+def read_scan_file(path: Path, progress: Progress) -> ScanPoints:
+    """The one place a scan file is read for triangulation: reader options (such as the
+    columns to use) are passed on here."""
     from scanmesh.readers import read
 
     return read(path, progress=progress)
