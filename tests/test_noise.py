@@ -185,3 +185,12 @@ def test_noise_free_scans_anneal_with_exact_ties():
     assert default.options["noise"] < SPACING * 1e-9  # rounding only
     assert default.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
     assert np.array_equal(default.faces, exact.faces)
+
+
+def test_tie_tolerance_scales_with_noise_and_ignores_facet_level_estimates():
+    from scanmesh.noise import NOISE_FREE, TIE_PER_NOISE, tie_tolerance
+
+    assert tie_tolerance(0.1, 1.0, floor=1e-10) == pytest.approx(TIE_PER_NOISE * 0.01)
+    assert tie_tolerance(0.2, 2.0, p=2.0, floor=1e-10) == pytest.approx((TIE_PER_NOISE * 0.01) ** 2)
+    assert tie_tolerance(0.5 * NOISE_FREE, 1.0, floor=1e-10) == 1e-10
+    assert tie_tolerance(0.1, 0.0, floor=1e-10) == 1e-10

@@ -243,6 +243,12 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
 TIE_PER_NOISE: float = 20.0
 
 
+#: Below this sigma / spacing a scan counts as noise-free and anneals with exact ties: the
+#: estimate then measures the facets of a tessellated CAD model (turbine blade: s/1000) or
+#: rounding, and a tolerance from it only shuffles near-ties (fandisk: slivers 7.6 -> 7.9 %).
+NOISE_FREE: float = 1 / 500
+
+
 def median_edge(uv: np.ndarray, faces: np.ndarray) -> float:
     """Median planar length of the triangles' edges (each interior edge counted twice). O(F)."""
     tri = uv[np.asarray(faces, dtype=np.int64)]
@@ -257,10 +263,10 @@ def tie_tolerance(sigma: float, spacing: float, p: float = 1.0, floor: float = 0
     radians, and its angle defect (tac) by the square of that: flips whose tac change is
     within ``TIE_PER_NOISE * (sigma / spacing)**2`` only chase the noise, so annealing
     treats them as ties (free moves; the sliver guard picks among them). Raised to the
-    power ``p`` for the energy sum tac^p; never below ``floor`` (the exact-tie tolerance).
-    O(1).
+    power ``p`` for the energy sum tac^p; never below ``floor`` (the exact-tie tolerance),
+    and ``floor`` itself when sigma / spacing is below :data:`NOISE_FREE`. O(1).
     """
-    if spacing <= 0 or not math.isfinite(sigma / spacing):
+    if spacing <= 0 or not math.isfinite(sigma / spacing) or sigma / spacing < NOISE_FREE:
         return floor
     return max((TIE_PER_NOISE * (sigma / spacing) ** 2) ** p, floor)
 
