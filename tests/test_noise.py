@@ -141,6 +141,16 @@ def test_shuffled_points_use_neighbourhoods(part):
             assert abs(estimate / sigma - 1) < 0.2, (part, fraction, estimate / sigma)
 
 
+def default_and_exact_ties(points, lines, seed):
+    """Annealing with the default (noise-aware) tie tolerance and with exact ties only."""
+    from scanmesh.anneal import ANNEAL_DEFAULTS
+
+    return [
+        scanmesh.reconstruct(points, "anneal", lines=lines, plane="z", seed=seed, **extra)
+        for extra in ({}, {"tie_tolerance": ANNEAL_DEFAULTS["tie_tolerance"]})
+    ]
+
+
 def test_noise_aware_annealing_beats_delaunay_on_a_noisy_ridge():
     """sigma = s/10 on the ridge: the default annealing (tie tolerance from the noise) lands
     closer to the true surface than Delaunay with few slivers; annealing with exact ties
@@ -152,15 +162,7 @@ def test_noise_aware_annealing_beats_delaunay_on_a_noisy_ridge():
     sigma = SPACING / 10
     points, lines = scanmesh.simulate_scan(mesh, up="z", spacing=SPACING, noise=sigma, seed=4)
     base = scanmesh.reconstruct(points, "delaunay", plane="z")
-    aware = scanmesh.reconstruct(points, "anneal", lines=lines, plane="z", seed=0)
-    exact = scanmesh.reconstruct(
-        points,
-        "anneal",
-        lines=lines,
-        plane="z",
-        seed=0,
-        tie_tolerance=ANNEAL_DEFAULTS["tie_tolerance"],
-    )
+    aware, exact = default_and_exact_ties(points, lines, seed=0)
     assert abs(aware.options["noise"] / sigma - 1) < 0.2
     assert aware.options["tie_tolerance"] > 1e3 * ANNEAL_DEFAULTS["tie_tolerance"]
     assert exact.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
@@ -179,15 +181,16 @@ def test_noise_free_scans_anneal_with_exact_ties():
     from scanmesh.anneal import ANNEAL_DEFAULTS
 
     points, lines = scanmesh.simulate_scan(box_with_bore(), up="z", spacing=0.8)
-    default = scanmesh.reconstruct(points, "anneal", lines=lines, plane="z", seed=1)
-    exact = scanmesh.reconstruct(
-        points,
-        "anneal",
-        lines=lines,
-        plane="z",
-        seed=1,
-        tie_tolerance=ANNEAL_DEFAULTS["tie_tolerance"],
-    )
+    default, exact = default_and_exact_ties(points, lines, seed=1)
     assert default.options["noise"] < SPACING * 1e-9  # rounding only
     assert default.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
     assert np.array_equal(default.faces, exact.faces)
+
+
+def test_tie_tolerance_scales_with_noise_and_ignores_facet_level_estimates():
+    from scanmesh.noise import NOISE_FREE, TIE_PER_NOISE, tie_tolerance
+
+    assert tie_tolerance(0.1, 1.0, floor=1e-10) == pytest.approx(TIE_PER_NOISE * 0.01)
+    assert tie_tolerance(0.2, 2.0, p=2.0, floor=1e-10) == pytest.approx((TIE_PER_NOISE * 0.01) ** 2)
+    assert tie_tolerance(0.5 * NOISE_FREE, 1.0, floor=1e-10) == 1e-10
+    assert tie_tolerance(0.1, 0.0, floor=1e-10) == 1e-10
