@@ -5,10 +5,11 @@ its tac, its distance to a true surface, or its height), on the viridis scale.
 
 Meshes are drawn by a small orthographic z-buffer in numpy (the grid caster of
 :mod:`scanmesh.digitizer`, one ray per pixel), which renders a million triangles in about
-a second where matplotlib's polygon painter takes far longer (BENCHMARKS.md, "Rendering
-(issue 5)"). Flat shading shows every facet, so a rough triangulation looks rough: the
+a second where matplotlib's polygon painter takes far longer (docs/benchmarks/speed.md,
+"Rendering"). Flat shading shows every facet, so a rough triangulation looks rough: the
 pictures are meant to judge smoothness, as in the 1997 paper's figures 1 and 2.
-Text (titles, axes) is drawn by matplotlib without pyplot, so nothing needs a display.
+PNG files are written here (:func:`png_bytes`); titles and plots are drawn by matplotlib
+without pyplot (the "plots" extra), so nothing needs a display.
 """
 
 from __future__ import annotations
