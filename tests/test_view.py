@@ -24,6 +24,7 @@ from scanmesh import MissingExtraError, ParameterError
 from scanmesh import view as view_module
 from scanmesh.render import auto_view, face_colors, shade_mesh
 from scanmesh.view import html_page, notebook_html, save_glb, save_html, show
+from test_render import tilted_sheet
 
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
 CHROMIUM = next(
@@ -33,17 +34,6 @@ needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="needs a chromium b
 SIZE = (400, 300)
 #: Rows at the top hold the page's note (two lines of text over the drawing).
 NOTE_ROWS = 45
-
-
-def sheet(n: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    x, y = np.meshgrid(np.linspace(0, 2, n), np.linspace(0, 1, n))
-    z = 0.4 * x + 0.15 * np.sin(4 * x) * np.cos(5 * y)
-    vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
-    k = np.arange(n * n).reshape(n, n)[:-1, :-1].ravel()
-    faces = np.concatenate(
-        [np.column_stack([k, k + 1, k + n]), np.column_stack([k + 1, k + n + 1, k + n])]
-    )
-    return vertices, faces
 
 
 @pytest.fixture(scope="module")
@@ -109,7 +99,7 @@ def test_the_page_draws_in_a_browser_as_the_png_renderer_does(tmp_path, rod):
 
 @needs_chromium
 def test_colours_and_light_in_the_browser_match_the_png(tmp_path):
-    vertices, faces = sheet()
+    vertices, faces = tilted_sheet()
     camera = {"view": (-0.3, -1.0, 0.8), "up": "z"}
     page = save_html((vertices, faces), tmp_path / "sheet.html", color_by="height", **camera)
     shot = screenshot(page, tmp_path / "shot.png").astype(int)
@@ -169,7 +159,7 @@ def test_html_and_glb_through_surface(tmp_path, rod):
 
 
 def test_glb_colours_each_face(tmp_path):
-    vertices, faces = sheet(6)
+    vertices, faces = tilted_sheet(6)
     save_glb((vertices, faces), tmp_path / "s.glb", color_by="height", up="z")
     (mesh,) = trimesh.load(tmp_path / "s.glb").geometry.values()
     want = np.rint(face_colors((vertices, faces), "height", up="z")[0] * 255)

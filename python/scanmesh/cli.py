@@ -606,31 +606,29 @@ def _lines_info(scan, plane) -> tuple[int | None, str]:
 # --------------------------------------------------------------------------- render
 
 
+def _mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(V, 3) float64 vertices and (F, 3) int64 faces of a mesh file, as trimesh reads it."""
+    from scanmesh.digitizer import load_mesh
+
+    mesh = load_mesh(path)
+    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+
+
 def cmd_render(args: argparse.Namespace, con: _Console) -> int:
     """A flat-shaded PNG picture of a mesh file."""
-    from scanmesh.digitizer import load_mesh
     from scanmesh.render import render_mesh
 
     mesh_path, out = Path(args.mesh), Path(args.output)
     _check_outputs([mesh_path], [out])
     _check_png(out)
-    mesh = load_mesh(mesh_path)
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
+    vertices, faces = _mesh_file(mesh_path)
     camera = _auto_view(vertices, faces)
     if args.view is not None:
         camera["view"] = args.view
     if args.up is not None:
         camera["up"] = args.up
-    render_mesh(
-        (vertices, faces),
-        out,
-        size=args.size,
-        wire=args.wire,
-        color_by=args.color,
-        truth=args.truth,
-        **camera,
-    )
+    colors = {"color_by": args.color, "truth": args.truth}
+    render_mesh((vertices, faces), out, size=args.size, wire=args.wire, **colors, **camera)
     con.out(f"wrote {out}")
     return 0
 
@@ -643,7 +641,6 @@ def cmd_view(args: argparse.Namespace, con: _Console) -> int:
     import tempfile
     import webbrowser
 
-    from scanmesh.digitizer import load_mesh
     from scanmesh.errors import ParameterError
     from scanmesh.view import save_glb, save_html
 
@@ -652,23 +649,14 @@ def cmd_view(args: argparse.Namespace, con: _Console) -> int:
     if out is not None and out.suffix.lower() not in (".html", ".htm", ".glb"):
         raise ParameterError(f"cannot write {out}: a view is written as .html or .glb")
     _check_outputs([mesh_path], [out])
-    mesh = load_mesh(mesh_path)
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
+    mesh = _mesh_file(mesh_path)
     if out is None:  # a fresh folder: nothing of the user's is overwritten
         out = Path(tempfile.mkdtemp(prefix="scanmesh-view-")) / f"{mesh_path.stem}.html"
+    colors = {"color_by": args.color, "truth": args.truth, "up": args.up}
     if out.suffix.lower() == ".glb":
-        save_glb((vertices, faces), out, color_by=args.color, truth=args.truth, up=args.up)
+        save_glb(mesh, out, **colors)
     else:
-        save_html(
-            (vertices, faces),
-            out,
-            color_by=args.color,
-            truth=args.truth,
-            view=args.view,
-            up=args.up,
-            title=mesh_path.name,
-        )
+        save_html(mesh, out, view=args.view, title=mesh_path.name, **colors)
     con.out(f"wrote {out}")
     if not args.no_open and out.suffix.lower() != ".glb":
         if not webbrowser.open(out.resolve().as_uri()):
