@@ -9,7 +9,12 @@ from PIL import Image
 
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.render import (
+    NO_VALUE,
+    VIRIDIS,
     WIRE,
+    colormap,
+    face_colors,
+    face_values,
     plot_convergence,
     render_compare,
     render_mesh,
@@ -219,3 +224,115 @@ def test_convergence_plot_with_energy_only(tmp_path):
         {"energy": np.linspace(10, 1, n), "sweep": np.arange(n) * 10}, tmp_path / "e.png"
     )
     assert read_png(path).shape == (700, 800, 3)
+
+
+# --------------------------------------------------------------------------- colour by
+
+
+def tilted_sheet(n: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """A bumpy height field over the unit square: (vertices, faces), every inner vertex
+    interior."""
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    z = 0.5 * x + 0.1 * np.sin(5 * x) * np.cos(4 * y)
+    vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    k = np.arange(n * n).reshape(n, n)[:-1, :-1].ravel()
+    faces = np.concatenate(
+        [np.column_stack([k, k + 1, k + n]), np.column_stack([k + 1, k + n + 1, k + n])]
+    )
+    return vertices, faces
+
+
+def test_tac_of_a_face_is_the_mean_defect_of_its_interior_corners():
+    vertices, faces = tilted_sheet()
+    values, unit = face_values((vertices, faces), "tac")
+    assert unit == "rad" and values.shape == (len(faces),)
+    # independent: trimesh's signed angle defect, absolute, on vertices not on the border
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    defect = np.abs(mesh.vertex_defects)
+    border = np.zeros(len(vertices), dtype=bool)
+    border[
+        np.unique(mesh.edges[trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)])
+    ] = True
+    for f, value in zip(faces, values, strict=True):
+        inner = [v for v in f if not border[v]]
+        if inner:
+            assert value == pytest.approx(np.mean(defect[inner]), abs=1e-9)
+        else:
+            assert np.isnan(value)
+
+
+def test_height_and_error_of_a_face():
+    vertices, faces = tilted_sheet()
+    height, _ = face_values((vertices, faces), "height", up=(0, 0, 2))
+    np.testing.assert_allclose(height, vertices[faces].mean(axis=1)[:, 2], atol=1e-12)
+    tilted, _ = face_values((vertices, faces), "height", up=(1, 0, 1))
+    np.testing.assert_allclose(tilted, vertices[faces].mean(axis=1) @ [0.5**0.5, 0, 0.5**0.5])
+    # the sheet lifted by 0.01 against itself: every centroid is about 0.01 off the truth
+    truth = trimesh.Trimesh(vertices, faces, process=False)
+    lifted = vertices + [0, 0, 0.01]
+    error, _ = face_values((lifted, faces), "error", truth=truth)
+    ref = trimesh.proximity.closest_point(truth, lifted[faces].mean(axis=1))[1]
+    np.testing.assert_allclose(error, ref, atol=1e-9)
+    assert 0.005 < error.min() and error.max() <= 0.01 + 1e-12
+
+
+def test_colour_scale_ends_and_missing_values():
+    rgb = colormap([0.0, 1.0, 2.0, np.nan, -5.0, 9.0], 0.0, 2.0)
+    np.testing.assert_allclose(rgb[[0, 4]], [VIRIDIS[0]] * 2)
+    np.testing.assert_allclose(rgb[[2, 5]], [VIRIDIS[-1]] * 2)
+    np.testing.assert_allclose(rgb[1], VIRIDIS[len(VIRIDIS) // 2])
+    np.testing.assert_allclose(rgb[3], NO_VALUE)
+    vertices, faces = tilted_sheet()
+    colors, scale = face_colors((vertices, faces), "height")
+    z = vertices[faces].mean(axis=1)[:, 2]
+    assert (scale.lo, scale.hi) == (z.min(), z.max()) and "height" in scale.describe()
+    np.testing.assert_allclose(colors[np.argmin(z)], VIRIDIS[0])
+    np.testing.assert_allclose(colors[np.argmax(z)], VIRIDIS[-1])
+    one, none = face_colors((vertices, faces), None)
+    assert none is None and one.shape == (len(faces), 3)
+
+
+def test_colour_by_bad_input(tmp_path):
+    vertices, faces = tilted_sheet()
+    with pytest.raises(ParameterError, match="tac, error, height"):
+        face_colors((vertices, faces), "curvature")
+    with pytest.raises(ParameterError, match="truth"):
+        face_colors((vertices, faces), "error")
+    with pytest.raises(ParameterError, match="only to colour by error"):
+        face_colors((vertices, faces), "height", truth=(vertices, faces))
+    with pytest.raises(ParameterError, match="only to colour by error"):
+        render_mesh((vertices, faces), tmp_path / "x.png", truth=(vertices, faces))
+    with pytest.raises(ParameterError, match="one per face"):
+        shade_mesh((vertices, faces), color=np.ones((3, 3)))
+    assert not list(tmp_path.iterdir())
+
+
+def test_faces_are_drawn_in_their_own_colours(tmp_path):
+    """Two faces side by side, seen from above: the left red, the right blue."""
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    faces = np.array([[0, 1, 3], [1, 2, 3]])
+    image = shade_mesh(
+        (vertices, faces), size=(60, 60), view="z", up="y", color=[[1, 0, 0], [0, 0, 1]]
+    )
+    assert image[50, 8, 0] > 150 and image[50, 8, 2] == 0  # lower left: face 0
+    assert image[8, 50, 2] > 150 and image[8, 50, 0] == 0  # upper right: face 1
+
+
+def test_render_by_height_shows_the_scale(tmp_path):
+    vertices, faces = tilted_sheet()
+    out = render_mesh(
+        (vertices, faces),
+        tmp_path / "h.png",
+        size=(120, 90),
+        view=(0, -1, 1),
+        up="z",
+        color_by="height",
+        supersample=1,
+    )
+    image = read_png(out).astype(float)
+    drawn = not_background(image.astype(int))
+    # low (x = 0, left) is viridis blue-purple, high (x = 1, right) yellow-green
+    cols = np.flatnonzero(drawn.any(axis=0))
+    left = image[:, cols[:5]][drawn[:, cols[:5]]]
+    right = image[:, cols[-5:]][drawn[:, cols[-5:]]]
+    assert np.all(left[:, 2] > left[:, 1]) and np.all(right[:, 1] > right[:, 2])

@@ -1,4 +1,4 @@
-"""The ``scanmesh`` command: reconstruct, compare, simulate, info, render and demo.
+"""The ``scanmesh`` command: reconstruct, compare, simulate, info, render, view and demo.
 
 Exit status: 0 on success, 2 for a usage error (argparse), 1 for bad input (a scanmesh
 error or a file that cannot be read or written) with one line on stderr, 130 on Ctrl-C.
@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh.render import auto_view as _auto_view
 from scanmesh.surface import STEEP_ANGLE_DEG
 
 #: Methods ``scanmesh compare`` runs by default: all but the exact one (small inputs only).
@@ -184,31 +185,6 @@ def _check_png(path: Path | None) -> None:
 
     if path is not None and path.suffix.lower() != ".png":
         raise ParameterError(f"pictures are written as PNG: {path} should end in .png")
-
-
-def _auto_view(vertices: np.ndarray, faces: np.ndarray, frame: Any = None) -> dict[str, Any]:
-    """Camera for a scan: three-quarter view from the side the surface faces, tilted across
-    its shorter planar extent (so a long part is seen from the side, not end-on)."""
-    used = np.zeros(len(vertices), dtype=bool)
-    used[faces.ravel()] = True
-    pts = vertices[used]
-    if frame is not None:
-        u, v, n = (np.asarray(a, dtype=np.float64) for a in (frame.u, frame.v, frame.normal))
-    else:
-        centred = pts - pts.mean(axis=0)
-        _, _, axes = np.linalg.svd(centred, full_matrices=False)
-        u, v, n = axes[0], axes[1], axes[2]
-        tri = vertices[faces]
-        area = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]).sum(axis=0)
-        if float(np.dot(area, n)) < 0:
-            n, v = -n, -v
-    rel = pts - pts.mean(axis=0)
-    if np.ptp(rel @ u) < np.ptp(rel @ v):
-        short, long_ = u, v
-    else:
-        short, long_ = v, u
-    view = 0.9 * n - 1.0 * short - 0.3 * long_
-    return {"view": tuple(float(x) for x in view), "up": tuple(float(x) for x in n)}
 
 
 def _quality_row(surface: Any) -> dict[str, Any]:
@@ -755,24 +731,61 @@ def _lines_info(scan, planar) -> tuple[int | None, str]:
 # --------------------------------------------------------------------------- render
 
 
+def _mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(V, 3) float64 vertices and (F, 3) int64 faces of a mesh file, as trimesh reads it."""
+    from scanmesh.digitizer import load_mesh
+
+    mesh = load_mesh(path)
+    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+
+
 def cmd_render(args: argparse.Namespace, con: _Console) -> int:
     """A flat-shaded PNG picture of a mesh file."""
-    from scanmesh.digitizer import load_mesh
     from scanmesh.render import render_mesh
 
     mesh_path, out = Path(args.mesh), Path(args.output)
     _check_outputs([mesh_path], [out])
     _check_png(out)
-    mesh = load_mesh(mesh_path)
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
+    vertices, faces = _mesh_file(mesh_path)
     camera = _auto_view(vertices, faces)
     if args.view is not None:
         camera["view"] = args.view
     if args.up is not None:
         camera["up"] = args.up
-    render_mesh((vertices, faces), out, size=args.size, wire=args.wire, **camera)
+    colors = {"color_by": args.color, "truth": args.truth}
+    render_mesh((vertices, faces), out, size=args.size, wire=args.wire, **colors, **camera)
     con.summary(f"wrote {out}")
+    return 0
+
+
+# --------------------------------------------------------------------------- view
+
+
+def cmd_view(args: argparse.Namespace, con: _Console) -> int:
+    """A self-contained HTML page (or GLB file) showing a mesh in 3-D, opened in a browser."""
+    import tempfile
+    import webbrowser
+
+    from scanmesh.errors import ParameterError
+    from scanmesh.view import save_glb, save_html
+
+    mesh_path = Path(args.mesh)
+    out = Path(args.output) if args.output else None
+    if out is not None and out.suffix.lower() not in (".html", ".htm", ".glb"):
+        raise ParameterError(f"cannot write {out}: a view is written as .html or .glb")
+    _check_outputs([mesh_path], [out])
+    mesh = _mesh_file(mesh_path)
+    if out is None:  # a fresh folder: nothing of the user's is overwritten
+        out = Path(tempfile.mkdtemp(prefix="scanmesh-view-")) / f"{mesh_path.stem}.html"
+    colors = {"color_by": args.color, "truth": args.truth, "up": args.up}
+    if out.suffix.lower() == ".glb":
+        save_glb(mesh, out, **colors)
+    else:
+        save_html(mesh, out, view=args.view, title=mesh_path.name, **colors)
+    con.summary(f"wrote {out}")
+    if not args.no_open and out.suffix.lower() != ".glb":
+        if not webbrowser.open(out.resolve().as_uri()):
+            con.out("no web browser found here: open the file in one")
     return 0
 
 
@@ -1006,7 +1019,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--up", type=_axis, help="model direction shown upwards")
     p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH", help="(800x600)")
     p.add_argument("--wire", action="store_true", help="draw the triangle edges")
+    _color_flags(p)
     p.set_defaults(func=cmd_render, _parser=p)
+
+    p = sub.add_parser(
+        "view",
+        parents=[common],
+        help="3-D view of a mesh in the web browser (an offline HTML page)",
+        description="Write a self-contained HTML page that shows a mesh in 3-D (drag to"
+        " turn, wheel to zoom; no network needed) and open it in the web browser.",
+    )
+    p.add_argument("mesh", metavar="MESH", help="mesh file")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="FILE",
+        help="page to write (.html), or a .glb file for other viewers (default: a new"
+        " temporary folder)",
+    )
+    p.add_argument("--view", type=_axis, help="first view: direction from the part to the eye")
+    p.add_argument("--up", type=_axis, help="model direction shown upwards")
+    p.add_argument("--no-open", action="store_true", help="write the page, do not open it")
+    _color_flags(p)
+    p.set_defaults(func=cmd_view, _parser=p)
 
     p = sub.add_parser(
         "demo",
@@ -1024,6 +1059,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_demo, _parser=p)
     return parser
+
+
+def _color_flags(p: argparse.ArgumentParser) -> None:
+    from scanmesh.render import COLOR_BY
+
+    p.add_argument(
+        "--color",
+        choices=COLOR_BY,
+        default=None,
+        help="colour faces by tac, by error (distance to --truth) or by height (along --up"
+        " or the surface's normal); default one colour",
+    )
+    p.add_argument("--truth", metavar="PART", help="true surface (mesh file) for --color error")
 
 
 # --------------------------------------------------------------------------- main

@@ -5,10 +5,11 @@ its tac, its distance to a true surface, or its height), on the viridis scale.
 
 Meshes are drawn by a small orthographic z-buffer in numpy (the grid caster of
 :mod:`scanmesh.digitizer`, one ray per pixel), which renders a million triangles in about
-a second where matplotlib's polygon painter takes far longer (BENCHMARKS.md, "Rendering
-(issue 5)"). Flat shading shows every facet, so a rough triangulation looks rough: the
+a second where matplotlib's polygon painter takes far longer (docs/benchmarks/speed.md,
+"Rendering"). Flat shading shows every facet, so a rough triangulation looks rough: the
 pictures are meant to judge smoothness, as in the 1997 paper's figures 1 and 2.
-Text (titles, axes) is drawn by matplotlib without pyplot, so nothing needs a display.
+PNG files are written here (:func:`png_bytes`); titles and plots are drawn by matplotlib
+without pyplot (the "plots" extra), so nothing needs a display.
 """
 
 from __future__ import annotations
@@ -173,7 +174,7 @@ def face_values(
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(counted > 0, total / counted, np.nan), "rad"
     if truth is not None and by != "error":
-        raise ParameterError(f"a truth is used only to colour by error, not by {by!r}")
+        raise ParameterError(f"a truth is used only to colour by error, not by {by!r} (--color)")
     centroid = vertices[faces].mean(axis=1)
     if by == "error":
         if truth is None:
@@ -199,14 +200,23 @@ def colormap(values: ArrayLike, lo: float, hi: float) -> np.ndarray:
 
 
 def face_colors(
-    mesh: Any, by: str, *, truth: Any = None, up: AxisSpec = "z"
-) -> tuple[np.ndarray, ColorScale]:
-    """(M, 3) float64 RGB per face coloured by :func:`face_values`, and its scale.
+    mesh: Any, by: str | None, *, truth: Any = None, up: AxisSpec = "z"
+) -> tuple[np.ndarray, ColorScale | None]:
+    """(M, 3) float64 RGB per face coloured by :func:`face_values`, and its scale; for
+    ``by=None`` the one colour ``COLOR`` and no scale.
 
     The scale runs from the smallest to the largest figure, except tac, which runs from 0
     to its 99th percentile: a few spikes (bores, creases) would otherwise leave the rest
     of the surface one colour.
     """
+    if by is None:
+        if truth is not None:
+            raise ParameterError(
+                "a truth is used only to colour by error (color_by='error', --color error)"
+            )
+        return np.broadcast_to(
+            np.asarray(COLOR, dtype=np.float64), (len(_mesh_arrays(mesh)[1]), 3)
+        ), None
     values, unit = face_values(mesh, by, truth=truth, up=up)
     finite = values[np.isfinite(values)]
     if len(finite) == 0:
@@ -362,7 +372,7 @@ def render_mesh(
     face by that figure (:func:`face_colors`); default: one colour.
     """
     target = _png_path(path)
-    color = COLOR if color_by is None else face_colors(mesh, color_by, truth=truth, up=up)[0]
+    color = face_colors(mesh, color_by, truth=truth, up=up)[0]
     image = shade_mesh(
         mesh, size=size, view=view, up=up, wire=wire, color=color, supersample=supersample
     )

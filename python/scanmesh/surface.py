@@ -117,15 +117,44 @@ class Surface:
         return trimesh.Trimesh(vertices=self.vertices, faces=self.faces, process=False)
 
     def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
-        """Write the mesh by file ending (.stl binary, .ply, .obj, .off), atomically;
+        """Write the mesh by file ending (.stl binary, .ply, .obj, .off; .html and .glb
+        through :meth:`to_html` and :func:`scanmesh.view.save_glb`), atomically;
         ``progress`` as in :func:`scanmesh.writers.save_mesh` (stage "write").
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
         reconstructed from."""
+        suffix = Path(path).suffix.lower()
+        if suffix in (".html", ".htm"):
+            return self.to_html(path)
+        if suffix == ".glb":
+            from scanmesh.view import save_glb
+
+            return save_glb(self, path)
         from scanmesh.writers import save_mesh
 
         source = None if self.scan is None else self.scan.source
         return save_mesh(path, self.vertices, self.faces, protect=source, progress=progress)
+
+    def to_html(self, path: str | os.PathLike, **options: Any) -> Path:
+        """Write a self-contained HTML page showing this mesh in 3-D (opens offline in any
+        browser); ``options`` (``color_by``, ``truth``, ``view``, ``up``, ``title``) as in
+        :func:`scanmesh.view.html_page`."""
+        from scanmesh.view import save_html
+
+        return save_html(self, path, **options)
+
+    def show(self, **options: Any) -> None:
+        """Open an interactive 3-D window (PyVista or trimesh's viewer, when installed);
+        ``options`` as in :func:`scanmesh.view.show`."""
+        from scanmesh.view import show
+
+        show(self, **options)
+
+    def _repr_html_(self) -> str | None:
+        """Notebook display: the 3-D view of :meth:`to_html` (None for very large meshes)."""
+        from scanmesh.view import notebook_html
+
+        return notebook_html(self)
 
     def __repr__(self) -> str:
         return (
