@@ -141,7 +141,7 @@ def test_las_filters(tmp_path):
     x = lambda **kw: read(path, **kw).points[:, 0].astype(int).tolist()  # noqa: E731
     assert x() == [0, 2, 3, 6, 7, 9, 10, 11]  # first returns
     assert x(returns="last") == [1, 2, 5, 6, 8, 9, 10, 11]
-    assert x(returns=2) == [1, 4, 8]
+    assert x(returns=2) == x(returns="2") == [1, 4, 8]
     assert x(returns="all", classes=2) == [0, 2, 5, 6, 8, 9, 11]
     assert x(classes="2,6") == [0, 2, 6, 9, 10, 11]
     with pytest.raises(FileFormatError, match="no points selected.*classes=9"):
@@ -241,7 +241,9 @@ def test_format_by_content_when_the_ending_says_nothing(tmp_path):
 
 def test_an_option_the_format_does_not_take_is_refused(tmp_path):
     path = write(tmp_path / "p.xyz", "0 0 0\n1 0 0\n0 1 0\n")
-    with pytest.raises(ParameterError, match=r"returns= does not apply to xyz.*columns="):
+    with pytest.raises(
+        ParameterError, match=r"returns= \(--returns\) does not apply to xyz.*columns="
+    ):
         read(path, returns="first")
     with pytest.raises(ParameterError, match="cell="):
         read(path, cell=2.0)
@@ -327,6 +329,7 @@ def test_columns_by_name_or_index(tmp_path):
     np.testing.assert_array_equal(sp.line_ids, table[:, 6])
     sp = read(path, columns=[3, 2, 1, 6])
     np.testing.assert_array_equal(sp.points, table[:, [3, 2, 1]])
+    np.testing.assert_array_equal(read(path, columns="3,2,1,6").points, sp.points)
     sp = read(path, columns="x y z")  # the first three, the rest ignored
     np.testing.assert_array_equal(sp.points, table[:, :3])
     assert sp.line_ids is None and sp.extra["ignored_columns"] == [3, 4, 5, 6]
@@ -400,3 +403,76 @@ def test_up_is_recorded_and_read_back(tmp_path):
         "property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
     )
     np.testing.assert_array_equal(read(write(tmp_path / "u.ply", ply)).up, [1, 0, 0])
+
+
+def test_cyberware_range_grid_lines_are_its_columns(tmp_path):
+    # a Cyberware frame is a column: x constant down it, stepping by echo_lgincr along rows
+    rows, cols, step = 4, 5, 0.5
+    pts, cells = [], []
+    for r in range(rows):
+        for c in range(cols):
+            if (r, c) == (2, 1):  # a hole
+                cells.append("0")
+                continue
+            cells.append(f"1 {len(pts)}")
+            pts.append((c * step, r * 0.25, np.sin(c + r)))
+    head = [
+        "ply",
+        "format ascii 1.0",
+        "obj_info is_cyberware_data 1",
+        f"obj_info num_cols {cols}",
+        f"obj_info num_rows {rows}",
+        f"obj_info echo_lgincr {step}",
+        f"element vertex {len(pts)}",
+        "property float x",
+        "property float y",
+        "property float z",
+        f"element range_grid {rows * cols}",
+        "property list uchar int vertex_indices",
+        "end_header",
+    ]
+    body = [f"{x} {y} {z:.6f}" for x, y, z in pts] + cells
+    path = write(tmp_path / "cyber.ply", "\n".join(head + body) + "\n")
+    sp = read(path)
+    x = np.array(pts)[:, 0]
+    np.testing.assert_array_equal(sp.line_ids, np.round(x / step).astype(int))
+    assert sp.n_lines == cols and sp.grid.shape == (cols, rows)
+    assert sp.grid[1, 2] == -1  # column 1, row 2
+    for line, members in enumerate(sp.grid):  # each frame: one x, rows in order
+        members = members[members >= 0]
+        assert np.all(sp.points[members, 0] == line * step)
+        assert np.all(np.diff(sp.points[members, 1]) > 0)
+    # other range grids go row by row, or as asked
+    assert read(path, lines="rows").n_lines == rows
+    plain = write(
+        tmp_path / "plain.ply",
+        path.read_text()
+        .replace("obj_info is_cyberware_data 1\n", "")
+        .replace(f"obj_info echo_lgincr {step}\n", ""),
+    )
+    assert read(plain).n_lines == rows and read(plain, lines="columns").n_lines == cols
+
+
+def test_the_command_reads_columns_and_records_up(tmp_path):
+    import json
+
+    def run(*args):
+        out = subprocess.run(
+            [sys.executable, "-m", "scanmesh", *map(str, args)], capture_output=True, text=True
+        )
+        assert out.returncode == 0, out.stderr
+        return out.stdout
+
+    table = np.column_stack([np.random.default_rng(8).random((40, 3)), np.repeat(np.arange(4), 10)])
+    path = tmp_path / "t.xyz"
+    np.savetxt(path, table[:, [3, 0, 1, 2]], fmt="%.17g")  # line id first
+    info = json.loads(run("info", path, "--columns", "line,x,y,z", "--json"))
+    assert info["points"] == 40 and info["lines"] == 4
+    info = json.loads(run("info", path, "--columns", "1,2,3,0", "--json"))
+    assert info["lines"] == 4
+    mesh = tmp_path / "box.stl"
+    import trimesh
+
+    trimesh.creation.box(extents=(4, 3, 1)).export(mesh)
+    run("simulate", mesh, "-o", tmp_path / "s.xyz", "--up", "y", "--spacing", "0.5")
+    np.testing.assert_array_equal(read(tmp_path / "s.xyz").up, [0, 1, 0])

@@ -244,10 +244,34 @@ class _Console:
             print(f"scanmesh: {text}", file=sys.stderr, flush=True)
 
 
-def _read_scan(path: Path, progress: bool = False):
+def _add_read_flags(p: argparse.ArgumentParser) -> None:
+    """Flags that choose what is read from a scan file (see scanmesh.formats)."""
+    p.add_argument(
+        "--columns",
+        metavar="COLS",
+        help="columns of x, y, z (and line) in file"
+        " order, e.g. x,y,z,intensity,line, or their indices, e.g. 0,1,2,4",
+    )
+    p.add_argument(
+        "--returns",
+        metavar="WHICH",
+        help="LAS/LAZ: first (default), last, all or return numbers, e.g. 1,2",
+    )
+    p.add_argument("--classes", metavar="C", help="LAS/LAZ: ASPRS classes to keep, e.g. 2")
+    p.add_argument(
+        "--grid",
+        action="store_true",
+        help="read a matrix of heights (text, CSV, .npy), each row a scan line",
+    )
+    p.add_argument("--cell", type=float, metavar="SIZE", help="cell size of a height grid")
+
+
+def _read_scan(path: Path, progress: bool = False, args: argparse.Namespace | None = None):
     from scanmesh.readers import read
 
-    return read(path, progress=progress)
+    flags = ("columns", "returns", "classes", "grid", "cell")
+    options = {k: getattr(args, k) for k in flags if getattr(args, k, None) not in (None, False)}
+    return read(path, progress=progress, **options)
 
 
 def _background(fn: Callable[[], Any]) -> Callable[[], Any]:
@@ -307,7 +331,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     _check_png(preview)
 
     t0 = time.perf_counter()
-    scan = _read_scan(source, con.progress)
+    scan = _read_scan(source, con.progress, args)
     t_read = time.perf_counter() - t0
     t1 = time.perf_counter()
     surface = reconstruct(
@@ -405,7 +429,7 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         from scanmesh.truth import TrueSurface
 
         truth = TrueSurface(args.truth)
-    scan = _read_scan(source, con.progress)
+    scan = _read_scan(source, con.progress, args)
 
     rows, surfaces, failed = [], [], {}
     for method in methods:
@@ -545,7 +569,9 @@ def cmd_simulate(args: argparse.Namespace, con: _Console) -> int:
     elapsed = time.perf_counter() - t0
     if len(points) == 0:
         raise ParameterError(f"no ray hit {mesh}; check --up and the spacing")
-    write_points(out, points, line_ids, protect=[mesh])
+    from scanmesh.digitizer import parse_axis
+
+    write_points(out, points, line_ids, up=parse_axis(args.up, "up"), protect=[mesh])
     n_lines = int(line_ids.max()) + 1 if len(line_ids) else 0
     if con.json:
         print(
@@ -572,7 +598,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     from scanmesh.delaunay import MAX_EDGE_FACTOR, delaunay
 
     source = Path(args.input)
-    scan = _read_scan(source, con.progress)
+    scan = _read_scan(source, con.progress, args)
     pts = scan.points
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # coincident points are counted below
@@ -803,6 +829,7 @@ def build_parser() -> argparse.ArgumentParser:
         " write the mesh by its file ending (.stl, .ply, .obj, .off).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
+    _add_read_flags(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="mesh file to write")
     p.add_argument("--method", choices=METHODS, default="anneal", help="method (anneal)")
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
@@ -818,6 +845,7 @@ def build_parser() -> argparse.ArgumentParser:
         " distance at 100,000 random points on the mesh's area).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
+    _add_read_flags(p)
     p.add_argument("--truth", metavar="MESH", help="the true surface (a CAD mesh file)")
     p.add_argument(
         "--methods",
@@ -867,6 +895,7 @@ def build_parser() -> argparse.ArgumentParser:
         " normal).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
+    _add_read_flags(p)
     p.add_argument(
         "--plane",
         type=_plane,

@@ -174,9 +174,9 @@ def read(
         unknown.append("cell")
     if unknown:
         raise ParameterError(
-            f"{', '.join(f'{k}=' for k in unknown)} does not apply to {fmt.name} files"
-            f" ({target.name}); {fmt.name} takes"
-            f" {', '.join(f'{k}=' for k in fmt.options) or 'no options'}"
+            f"{', '.join(f'{k}= (--{k})' for k in unknown)} does not apply to {fmt.name}"
+            f" files ({target.name}); {fmt.name} takes"
+            f" {', '.join(f'{k}= (--{k})' for k in fmt.options) or 'no options'}"
             + (" (grid=True reads a matrix of heights)" if "cell" in unknown else "")
         )
     if fmt is _ESRI:

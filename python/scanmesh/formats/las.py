@@ -105,11 +105,12 @@ def read_las(
         ``points`` (N, 3) float64 scaled coordinates; ``line_ids`` (N,) int64 sweep index.
     """
     path = Path(path)
-    if isinstance(returns, str) and returns not in RETURNS:
+    named = isinstance(returns, str) and returns in RETURNS
+    if isinstance(returns, str) and not named and not returns.replace(",", "").isdigit():
         raise ParameterError(
             f"returns must be 'first', 'last', 'all' or return numbers, got {returns!r}"
         )
-    wanted_returns = None if isinstance(returns, str) else _ints(returns, "returns")
+    wanted_returns = None if named else _ints(returns, "returns")
     wanted_classes = None if classes is None else _ints(classes, "classes")
     try:
         import laspy

@@ -9,8 +9,8 @@ Which columns hold what, in order of preference:
    many fields as the data: the columns by name, others ignored;
 3. otherwise the first three columns are x, y, z. A 4th is the line id only when it is one
    (integers below 2**53, each value in one run of consecutive rows, as scan lines are
-   written); anything else there (an intensity, a time) is ignored and recorded in
-   ``extra["ignored_columns"]``. Five or more unnamed columns are refused: name them.
+   written, two or more rows per value on average); anything else there (an intensity, a
+   time) is ignored and recorded in ``extra["ignored_columns"]``. Five or more unnamed columns are refused: name them.
 
 Without a line-id column, blank lines separate scan lines. A comment ``# scanmesh up x y z``
 above the data records the digitizer's up direction (``ScanPoints.up``).
@@ -71,6 +71,8 @@ def parse_up(path: Path, comments: list[str]) -> np.ndarray | None:
 
 def _given_columns(path: Path, columns: Columns, ncols: int) -> dict[str, int]:
     """Roles from ``columns=`` (see the module doc), checked against ``ncols`` columns."""
+    if isinstance(columns, str) and re.fullmatch(r"[\d,;\s]+", columns):
+        columns = [int(c) for c in re.split(r"[,;\s]+", columns.strip())]  # "0,1,2,4"
     if isinstance(columns, str):
         names = [w.strip().lower() for w in re.split(r"[,;\s]+", columns.strip()) if w.strip()]
         if len(names) > ncols:
@@ -121,13 +123,14 @@ def _named_columns(header: str, delimiter: str | None, ncols: int) -> dict[str, 
 
 
 def _is_line_column(ids: np.ndarray) -> bool:
-    """True when ``ids`` look like scan-line ids: integers below 2**53, each in one run."""
+    """True when ``ids`` look like scan-line ids: integers below 2**53, each value in one run
+    of rows, the runs two rows long or more on average."""
     if not len(ids) or not np.isfinite(ids).all() or (np.abs(ids) >= 2**53).any():
         return False
     if (ids != np.round(ids)).any():
         return False
     runs = 1 + int(np.count_nonzero(ids[1:] != ids[:-1]))
-    return runs == len(np.unique(ids))
+    return runs == len(np.unique(ids)) and 2 * runs <= len(ids)
 
 
 def _line_column(path: Path, data: bytes, table: Table, col: int) -> np.ndarray:
