@@ -10,7 +10,8 @@ Which columns hold what, in order of preference:
 3. otherwise the first three columns are x, y, z. A 4th is the line id only when it is one
    (integers below 2**53, each value in one run of consecutive rows, as scan lines are
    written, two or more rows per value on average); anything else there (an intensity, a
-   time) is ignored and recorded in ``extra["ignored_columns"]``. Five or more unnamed columns are refused: name them.
+   time) is ignored and recorded in ``extra["ignored_columns"]``. Five or more unnamed
+   columns are refused: name them.
 
 Without a line-id column, blank lines separate scan lines. A comment ``# scanmesh up x y z``
 above the data records the digitizer's up direction (``ScanPoints.up``).
