@@ -50,10 +50,10 @@ def scan_file(tmp_path_factory) -> Path:
 
 
 def test_stage_progress_through_reconstruct(scan_file, monkeypatch):
-    from scanmesh import readers
+    from scanmesh.formats import table
     from scanmesh.writers import save_mesh
 
-    monkeypatch.setattr(readers, "CHUNK_BYTES", 1 << 19)
+    monkeypatch.setattr(table, "CHUNK_BYTES", 1 << 19)
     rec = Recorder()
     surface = scanmesh.reconstruct(scan_file, "shortest-path", plane="z", progress=rec)
     rec.check_monotone()
@@ -78,23 +78,46 @@ def test_stage_progress_through_delaunay_and_annealing():
     assert all(isinstance(v, float) for _, _, v in stages["anneal"])
     # the original convention still sees annealing only
     legacy = []
-    scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=5, patience=0,
-                         progress=lambda done, total, energy: legacy.append(total))
+    scanmesh.reconstruct(
+        pts,
+        "anneal",
+        plane="z",
+        sweeps=5,
+        patience=0,
+        progress=lambda done, total, energy: legacy.append(total),
+    )
     assert legacy and set(legacy) == {legacy[-1]}
 
 
 def test_progress_callback_with_kwargs_sees_every_stage(scan_file):
     seen = []
-    scanmesh.reconstruct(scan_file, "delaunay", plane="z",
-                         progress=lambda *a, **k: seen.append(k["stage"]))
+    scanmesh.reconstruct(
+        scan_file, "delaunay", plane="z", progress=lambda *a, **k: seen.append(k["stage"])
+    )
     assert list(dict.fromkeys(seen)) == ["read", "delaunay", "trim", "steep"]
 
 
 def test_command_end_to_end_on_100k_points(scan_file, tmp_path, capsys):
     out = tmp_path / "mesh.stl"
     report = tmp_path / "report.json"
-    assert main(["reconstruct", str(scan_file), "-o", str(out), "--method", "shortest-path",
-                 "--plane", "z", "--report", str(report), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "reconstruct",
+                str(scan_file),
+                "-o",
+                str(out),
+                "--method",
+                "shortest-path",
+                "--plane",
+                "z",
+                "--report",
+                str(report),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     data = out.read_bytes()
     (count,) = struct.unpack("<I", data[80:84])
     assert len(data) == 84 + 50 * count and count > 190_000

@@ -4,7 +4,12 @@ the guard that keeps a command from overwriting its own input."""
 from __future__ import annotations
 
 import os
+import signal
+import stat
 import struct
+import subprocess
+import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +18,7 @@ import trimesh
 
 from scanmesh import ParameterError, ScanmeshError
 from scanmesh.readers import read, read_xyz
-from scanmesh.writers import save_mesh, write_points
+from scanmesh.writers import save_mesh, write_atomic, write_points
 
 
 def grid_mesh(nx=6, ny=5):
@@ -166,7 +171,7 @@ def test_write_points_overwrites_atomically(tmp_path):
     path = tmp_path / "p.xyz"
     path.write_text("old\n")
     write_points(path, [[1, 2, 3]], [5])
-    assert path.read_text() == "1 2 3 5\n"
+    assert path.read_text() == "x y z line\n1 2 3 5\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.xyz"]
 
 
@@ -176,7 +181,7 @@ def test_write_points_in_blocks(tmp_path, monkeypatch):
     monkeypatch.setattr(writers, "POINTS_PER_BLOCK", 7)
     pts = np.arange(150.0).reshape(50, 3) / 7
     path = write_points(tmp_path / "b.xyz", pts, np.arange(50) // 10)
-    assert path.read_text().count("\n") == 50
+    assert path.read_text().count("\n") == 51  # the header row and 50 points
     sp = read(Path(path))
     np.testing.assert_array_equal(sp.points, pts)
     np.testing.assert_array_equal(sp.line_ids, np.arange(50) // 10)
@@ -185,15 +190,15 @@ def test_write_points_in_blocks(tmp_path, monkeypatch):
 def test_stl_from_numpy_matches_trimesh_in_blocks(tmp_path, monkeypatch):
     """The numpy STL writer gives trimesh's records (normals, float32 corners), block size
     does not matter, and a degenerate triangle gets a zero normal."""
-    from scanmesh import writers
+    from scanmesh.formats import stl
 
     verts, faces = grid_mesh(9, 7)
     faces = np.vstack([faces, [[0, 1, 0]]])  # a repeated corner: zero area
     expect = trimesh.Trimesh(vertices=verts, faces=faces, process=False).export(file_type="stl")
-    record = writers.STL_RECORD
+    record = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
     want = np.frombuffer(expect, dtype=record, offset=84)
     for block in (1, 7, 1 << 19):
-        monkeypatch.setattr(writers, "STL_FACES_PER_BLOCK", block)
+        monkeypatch.setattr(stl, "STL_FACES_PER_BLOCK", block)
         data = save_mesh(tmp_path / f"b{block}.stl", verts, faces).read_bytes()
         assert len(data) == 84 + 50 * len(faces)
         assert not data.startswith(b"solid")
@@ -214,10 +219,10 @@ def test_stl_bad_faces_are_refused_before_writing(tmp_path):
 
 
 def test_interrupted_stl_leaves_no_file(tmp_path, monkeypatch):
-    from scanmesh import writers
+    from scanmesh.formats import stl
 
     verts, faces = grid_mesh()
-    monkeypatch.setattr(writers, "STL_FACES_PER_BLOCK", 4)
+    monkeypatch.setattr(stl, "STL_FACES_PER_BLOCK", 4)
 
     def stop(done, total, value, stage):
         if done >= 8:
@@ -229,11 +234,13 @@ def test_interrupted_stl_leaves_no_file(tmp_path, monkeypatch):
 
 
 def test_write_progress_counts_faces(tmp_path, monkeypatch):
-    from scanmesh import writers
+    from scanmesh.formats import obj, ply, stl
 
     verts, faces = grid_mesh(9, 7)
-    monkeypatch.setattr(writers, "STL_FACES_PER_BLOCK", 10)
-    for ending in (".stl", ".ply"):
+    monkeypatch.setattr(stl, "STL_FACES_PER_BLOCK", 10)
+    monkeypatch.setattr(ply, "FACES_PER_BLOCK", 10)
+    monkeypatch.setattr(obj, "ROWS_PER_BLOCK", 10)
+    for ending in (".stl", ".ply", ".obj", ".off"):
         seen: list[tuple[str, int, int]] = []
 
         def record(d, t, v, stage, seen=seen):
@@ -243,3 +250,126 @@ def test_write_progress_counts_faces(tmp_path, monkeypatch):
         assert {s for s, _, _ in seen} == {"write"}
         done = [d for _, d, _ in seen]
         assert done == sorted(done) and done[-1] == len(faces) and seen[0][1] == 0
+
+
+# --------------------------------------------------------------------------- the writer rule
+
+
+def test_a_device_is_written_in_place_never_replaced(tmp_path):
+    verts, faces = grid_mesh()
+    null = Path("/dev/null")
+    before = os.stat(null)
+    write_points(null, verts)
+    write_atomic(null, [b"a report\n"])
+    after = os.stat(null)
+    assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev
+    # a link to a device (like /dev/stdout) stays a link to it
+    link = tmp_path / "out.stl"
+    link.symlink_to(null)
+    save_mesh(link, verts, faces)
+    assert link.is_symlink() and os.readlink(link) == str(null)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.stl"]
+
+
+def test_a_fifo_gets_the_bytes_and_stays_a_fifo(tmp_path):
+    verts, faces = grid_mesh()
+    fifo = tmp_path / "m.obj"
+    os.mkfifo(fifo)
+    reader = subprocess.Popen(
+        [sys.executable, "-c", f"import sys; sys.stdout.write(open({str(fifo)!r}).read())"],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    save_mesh(fifo, verts, faces)
+    got, _ = reader.communicate(timeout=60)
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    assert got.count("\nf ") == len(faces) and got.count("\nv ") == len(verts)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.obj"]
+
+
+def test_a_link_to_a_regular_file_stays_a_link(tmp_path):
+    verts, faces = grid_mesh()
+    real = tmp_path / "real.ply"
+    real.write_bytes(b"old")
+    link = tmp_path / "link.ply"
+    link.symlink_to(real)
+    save_mesh(link, verts, faces)
+    assert link.is_symlink() and os.readlink(link) == str(real)
+    back = trimesh.load(real, process=False)
+    np.testing.assert_array_equal(back.faces, faces)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.ply", "real.ply"]
+
+
+def test_sigterm_while_writing_removes_the_temporary(tmp_path):
+    out = tmp_path / "m.obj"
+    script = f"""
+    import sys, time
+    import numpy as np
+    from scanmesh.writers import save_mesh
+    verts = np.random.default_rng(0).random((1000, 3))
+    faces = np.random.default_rng(1).integers(0, 1000, (300_000, 3))
+
+    def progress(done, total, value, stage):
+        if done:
+            print("started", flush=True)
+            time.sleep(30)  # SIGTERM arrives here, mid-file
+
+    save_mesh({str(out)!r}, verts, faces, progress=progress)
+    """
+    proc = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(script)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert proc.stdout.readline().strip() == "started"
+        assert [p.name for p in tmp_path.iterdir()][0].endswith(".part")
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == -signal.SIGTERM  # it still dies by the signal
+    finally:
+        proc.kill()
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("ending", [".ply", ".obj", ".off"])
+def test_vertex_normals_round_trip(tmp_path, ending):
+    verts, faces = grid_mesh()
+    path = save_mesh(tmp_path / f"n{ending}", verts, faces, normals=True)
+    back = trimesh.load(path, process=False)  # force="mesh" would recompute the normals
+    np.testing.assert_array_equal(back.faces, faces)
+    # the normals stored are the area-weighted face normals, unit length, computed apart
+    tri = verts[faces]
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    want = np.zeros_like(verts)
+    for k in range(3):
+        for f, v in enumerate(faces[:, k]):
+            want[v] += face_n[f]
+    want /= np.linalg.norm(want, axis=1, keepdims=True)
+    if ending == ".off":  # trimesh reads no NOFF normals: parse the text
+        rows = path.read_text().splitlines()[2 : 2 + len(verts)]
+        stored = np.array([[float(v) for v in r.split()[3:]] for r in rows])
+    else:
+        stored = np.asarray(back.vertex_normals)
+    np.testing.assert_allclose(stored, want, atol=1e-12)
+    with pytest.raises(ParameterError, match="normals"):
+        save_mesh(tmp_path / "n.stl", verts, faces, normals=True)
+
+
+def test_ctrl_c_while_writing_a_large_obj_leaves_nothing(tmp_path):
+    from conftest import seconds_to_interrupt
+
+    out = tmp_path / "big.obj"
+    script = f"""
+    import sys, time
+    import numpy as np
+    from scanmesh.writers import save_mesh
+    verts = np.random.default_rng(0).random((1_000_000, 3))
+    faces = np.random.default_rng(1).integers(0, 1_000_000, (2_000_000, 3))
+    print("started", flush=True)
+    try:
+        save_mesh({str(out)!r}, verts, faces)
+    except KeyboardInterrupt:
+        print(f"interrupted {{time.monotonic()!r}}", flush=True)
+        sys.exit(0)
+    print("finished", flush=True)
+    """
+    assert seconds_to_interrupt(script, 1.0) < 0.5
+    assert list(tmp_path.iterdir()) == []

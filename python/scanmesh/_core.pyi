@@ -160,10 +160,14 @@ def strip_mesh(
     npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], int, float, str | None
 ]: ...
 def parse_text_table(
-    data: bytes, start: int, stop: int, ncols: int, comma: bool
-) -> (
-    tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64], int] | None
-): ...
+    data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    int,
+    tuple[int, int, str] | None,
+]: ...
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.uint8]: ...

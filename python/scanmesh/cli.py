@@ -234,10 +234,38 @@ class _Console:
             print(f"scanmesh: {text}", file=sys.stderr, flush=True)
 
 
-def _read_scan(path: Path, progress: bool = False):
+def _add_read_flags(p: argparse.ArgumentParser) -> None:
+    """Flags that choose what is read from a scan file (see scanmesh.formats)."""
+    p.add_argument(
+        "--columns",
+        metavar="COLS",
+        help="columns of x, y, z (and line) in file"
+        " order, e.g. x,y,z,intensity,line, or their indices, e.g. 0,1,2,4",
+    )
+    p.add_argument(
+        "--returns",
+        metavar="WHICH",
+        help="LAS/LAZ: first (default), last, all or return numbers, e.g. 1,2",
+    )
+    p.add_argument("--classes", metavar="C", help="LAS/LAZ: ASPRS classes to keep, e.g. 2")
+    p.add_argument(
+        "--grid",
+        action="store_true",
+        help="read a matrix of heights (text, CSV, .npy), each row a scan line",
+    )
+    p.add_argument("--cell", type=float, metavar="SIZE", help="cell size of a height grid")
+
+
+def _read_options(args: argparse.Namespace | None) -> dict[str, Any]:
+    """The reader flags given (--columns, --returns, --classes, --grid, --cell) as read() keywords."""
+    flags = ("columns", "returns", "classes", "grid", "cell")
+    return {k: getattr(args, k) for k in flags if getattr(args, k, None) not in (None, False)}
+
+
+def _read_scan(path: Path, progress: bool = False, args: argparse.Namespace | None = None):
     from scanmesh.readers import read
 
-    return read(path, progress=progress)
+    return read(path, progress=progress, **_read_options(args))
 
 
 def _background(fn: Callable[[], Any]) -> Callable[[], Any]:
@@ -393,7 +421,9 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     _check_mesh_ending(out)
     _check_png(preview)
 
-    scan = planar_scan(source, plane=args.plane, progress=con.progress)
+    scan = planar_scan(
+        source, plane=args.plane, progress=con.progress, read_options=_read_options(args)
+    )
     t1 = time.perf_counter()
     surface = reconstruct(scan, args.method, progress=con.progress, **shared, **options)
     elapsed = time.perf_counter() - t1
@@ -493,7 +523,9 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         from scanmesh.truth import TrueSurface
 
         truth = TrueSurface(args.truth)
-    scan = planar_scan(source, plane=args.plane, progress=con.progress)
+    scan = planar_scan(
+        source, plane=args.plane, progress=con.progress, read_options=_read_options(args)
+    )
 
     rows, surfaces, failed = [], [], {}
     # One trimmed Delaunay triangulation: a row of its own and the start of LOP and annealing.
@@ -646,7 +678,9 @@ def cmd_simulate(args: argparse.Namespace, con: _Console) -> int:
     elapsed = time.perf_counter() - t0
     if len(points) == 0:
         raise ParameterError(f"no ray hit {mesh}; check --up and the spacing")
-    write_points(out, points, line_ids, protect=[mesh])
+    from scanmesh.digitizer import parse_axis
+
+    write_points(out, points, line_ids, up=parse_axis(args.up, "up"), protect=[mesh])
     n_lines = int(line_ids.max()) + 1 if len(line_ids) else 0
     if con.json:
         print(
@@ -674,7 +708,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     from scanmesh.scan import planar_scan
 
     source = Path(args.input)
-    scan = _read_scan(source, con.progress)  # the reader's details (format, line source)
+    scan = _read_scan(source, con.progress, args)  # the reader's details (format, line source)
     pts = scan.points
     planar = planar_scan(pts, plane=args.plane)  # projected once for Delaunay and lines
     with warnings.catch_warnings():
@@ -934,6 +968,7 @@ def build_parser() -> argparse.ArgumentParser:
         " write the mesh by its file ending (.stl, .ply, .obj, .off).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
+    _add_read_flags(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="mesh file to write")
     p.add_argument("--method", choices=METHODS, default="anneal", help="method (anneal)")
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
@@ -949,6 +984,7 @@ def build_parser() -> argparse.ArgumentParser:
         " distance at 100,000 random points on the mesh's area).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
+    _add_read_flags(p)
     p.add_argument("--truth", metavar="MESH", help="the true surface (a CAD mesh file)")
     p.add_argument(
         "--methods",
@@ -998,6 +1034,7 @@ def build_parser() -> argparse.ArgumentParser:
         " normal).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
+    _add_read_flags(p)
     p.add_argument(
         "--plane",
         type=_plane,

@@ -13,7 +13,8 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -62,6 +63,7 @@ def planar_scan(
     plane: PlaneSpec = None,
     lines: ArrayLike | None = None,
     progress: Progress = False,
+    read_options: Mapping[str, Any] | None = None,
 ) -> PlanarScan:
     """Check and project scan points once.
 
@@ -77,6 +79,9 @@ def planar_scan(
         Scan line id of each point (see :func:`scanmesh.lines.as_line_ids`: integers, never cast).
     progress : bool or callable
         Reading a file reports the stage "read" (see :func:`scanmesh.reconstruct`).
+    read_options : mapping, optional
+        Keywords of :func:`scanmesh.read` (``columns``, ``returns``, ``classes``, ``grid``,
+        ``cell``, ...) for a path; refused for arrays.
 
     Raises
     ------
@@ -86,7 +91,7 @@ def planar_scan(
     if isinstance(source, (str, os.PathLike)):
         t0 = time.perf_counter()
         path = Path(source)
-        scan = read_scan_file(path, progress)
+        scan = read_scan_file(path, progress, read_options or {})
         seconds = time.perf_counter() - t0
         ids = scan.line_ids if lines is None else lines
         made = as_scan(scan.points, plane=plane, lines=ids)
@@ -99,15 +104,19 @@ def planar_scan(
             source=path,
             timings={"read": seconds, **made.timings},
         )
+    if read_options:
+        raise ParameterError(
+            f"reader options {sorted(read_options)} apply to files only, not to arrays"
+        )
     return as_scan(source, plane=plane, lines=lines)
 
 
-def read_scan_file(path: Path, progress: Progress) -> ScanPoints:
-    """The one place a scan file is read for triangulation: reader options (such as the
-    columns to use) are passed on here."""
+def read_scan_file(path: Path, progress: Progress, options: Mapping[str, Any]) -> ScanPoints:
+    """The one place a scan file is read for triangulation, with the reader's options
+    (such as the columns to use)."""
     from scanmesh.readers import read
 
-    return read(path, progress=progress)
+    return read(path, progress=progress, **options)
 
 
 def as_scan(

@@ -88,11 +88,17 @@ def _spans_plane(uv: np.ndarray) -> bool:
     rank 2 means the whole has rank 2 (up to matrix_rank's size-dependent tolerance). Only
     a sample of rank < 2 (collinear input, the case that raises) pays for the full SVD.
     """
-    if len(uv) > RANK_SAMPLE:
-        sample = uv[:: len(uv) // RANK_SAMPLE]
-        if np.linalg.matrix_rank(sample - sample.mean(axis=0)) == 2:
-            return True
-    return bool(np.linalg.matrix_rank(uv - uv.mean(axis=0)) == 2)
+    if len(uv) > RANK_SAMPLE and _rank(uv[:: len(uv) // RANK_SAMPLE]) == 2:
+        return True
+    return _rank(uv) == 2
+
+
+def _rank(uv: np.ndarray) -> int:
+    """Numerical rank of the centred rows, scaled first: near 1e308 the mean and the SVD
+    would overflow (LinAlgError, or a false rank)."""
+    big = float(np.abs(uv).max()) if uv.size else 0.0
+    scaled = uv / big if big > 0 else uv
+    return int(np.linalg.matrix_rank(scaled - scaled.mean(axis=0)))
 
 
 #: Weight coefficients are numbers >= 0 (one of them positive).

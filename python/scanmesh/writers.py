@@ -1,39 +1,38 @@
-"""Writing meshes and points to disk atomically: a temporary file in the target folder, then a
-rename, so a failure or an interruption never leaves a half-written file."""
+"""Writing meshes and points without ever leaving a half-written file where one was.
+
+The one writer rule (:func:`write_atomic`): a regular file (new or existing) is written to
+a hidden temporary ``.<name>.*.part`` beside it and renamed over it, so a failure, Ctrl-C
+or SIGTERM leaves neither a partial file nor a damaged old one (the temporary is removed);
+a symbolic link to a regular file keeps being a link (the file it names is replaced); a
+device, FIFO, socket or ``/proc`` file descriptor link (``/dev/null``, ``/dev/stdout``, a
+named pipe) is written directly, never replaced by a regular file. The formats' encoders
+live in :mod:`scanmesh.formats`.
+"""
 
 from __future__ import annotations
 
 import os
-import struct
+import signal
+import stat
 import tempfile
+import threading
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from scanmesh import _core
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import ParameterError
+from scanmesh.formats import MESH_FORMATS
+from scanmesh.formats.xyz import xyz_rows
 
-#: File endings we write, mapped to trimesh's export type.
-FORMATS = {".stl": "stl", ".ply": "ply", ".obj": "obj", ".off": "off"}
+#: File endings we write meshes to, mapped to their format.
+FORMATS = MESH_FORMATS
 
 #: Points per block when formatting XYZ text (bounds the temporary strings' memory).
-POINTS_PER_BLOCK: int = 1 << 18
-
-#: Triangles per block of a binary STL: each block's 50-byte records (26 MB) are encoded
-#: natively and written before the next, so memory stays bounded however large the mesh
-#: (20 million triangles would be 1 GB at once) and progress and Ctrl-C answer per block.
-STL_FACES_PER_BLOCK: int = 1 << 19
-
-#: One binary STL record: normal, three corners (float32, little-endian), attribute count.
-STL_RECORD = np.dtype(
-    [("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")]
-)
-
-#: The 80-byte binary STL header (it must not start with "solid", the ASCII STL keyword).
-STL_HEADER: bytes = b"binary STL written by scanmesh".ljust(80, b" ")
+POINTS_PER_BLOCK: int = 1 << 16
 
 #: Line ids must be below this in magnitude: text readers parse numbers as float64.
 MAX_LINE_ID: int = 2**53
@@ -50,7 +49,7 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def _check_protected(target: Path, protect: PathSpec | Iterable[PathSpec] | None) -> None:
-    """Refuse to write over any path in ``protect`` (the command's input files)."""
+    """Refuse to write over any path in ``protect`` (the input files)."""
     if protect is None:
         return
     paths = [protect] if isinstance(protect, str | os.PathLike) else list(protect)
@@ -73,46 +72,97 @@ def _umask() -> int:
 FILE_MODE = 0o666 & ~_umask()
 
 
-def write_atomic(path: str | os.PathLike, chunks: Iterable[bytes | memoryview]) -> Path:
-    """Write byte chunks to a temporary file beside ``path``, then rename it over ``path``.
+class _Terminated(BaseException):
+    """SIGTERM arrived while a temporary file was being written."""
+
+
+class _TermGuard:
+    """Within the block, SIGTERM raises ``_Terminated`` (so the temporary is removed) when
+    the process would otherwise die at once (default handler, main thread); on leaving by
+    ``_Terminated`` the default action is taken again, so the process still ends by SIGTERM."""
+
+    def __enter__(self) -> _TermGuard:
+        self.active = (
+            threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+        )
+        if self.active:
+            signal.signal(signal.SIGTERM, self._raise)
+        return self
+
+    @staticmethod
+    def _raise(signum: int, frame: Any) -> None:
+        raise _Terminated
+
+    def __exit__(self, kind: type | None, *rest: object) -> None:
+        if self.active:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            if kind is _Terminated:
+                os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _direct_target(target: Path) -> bool:
+    """True when ``target`` must be written in place: it exists and is not a regular file
+    (device, FIFO, socket), or it is a link into ``/proc`` (``/dev/stdout``)."""
+    try:
+        info = os.stat(target)
+    except OSError:
+        return False  # a new file (or a dangling link: replaced like a new file)
+    if not stat.S_ISREG(info.st_mode):
+        if stat.S_ISDIR(info.st_mode):
+            raise ParameterError(f"cannot write {target}: it is a folder")
+        return True
+    return target.is_symlink() and str(target.resolve()).startswith("/proc/")
+
+
+def write_atomic(path: PathSpec, chunks: Iterable[bytes | memoryview]) -> Path:
+    """Write byte chunks to ``path`` by the writer rule of this module (atomic replace for
+    regular files, in place for devices, FIFOs and pipes).
 
     Chunks may be any C-contiguous buffer (bytes, a memoryview of a numpy array), written
     as they are, without a copy.
 
-    A failure or an interruption leaves neither a partial file nor a damaged old one.
+    Returns
+    -------
+    Path
+        ``path``.
     """
     target = Path(path)
-    folder = target.parent if str(target.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=folder)
-    try:
-        os.chmod(tmp, FILE_MODE)
-        with os.fdopen(fd, "wb") as handle:
+    if _direct_target(target):
+        with open(target, "wb") as handle:
             for chunk in chunks:
                 handle.write(chunk)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        return target
+    final = target.resolve() if target.is_symlink() and target.exists() else target
+    folder = final.parent if str(final.parent) else Path(".")
+    with _TermGuard():
+        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".part", dir=folder)
+        try:
+            os.chmod(tmp, FILE_MODE)
+            with os.fdopen(fd, "wb") as handle:
+                for chunk in chunks:
+                    handle.write(chunk)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.replace(tmp, final)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
     return target
 
 
-def _stl_blocks(vertices: np.ndarray, faces: np.ndarray, stage: Stage) -> Iterator[memoryview]:
-    """Binary STL, block by block: header and count, then ``STL_FACES_PER_BLOCK`` records at
-    a time, each block one native byte array written as it is (no per-face Python step).
-
-    Normals are unit normals of the float64 triangles (zero for a degenerate one), as
-    trimesh writes them; corners are rounded to float32 as STL stores them.
-    """
-    yield memoryview(STL_HEADER + struct.pack("<I", len(faces)))
-    points = np.ascontiguousarray(vertices, dtype=np.float64)
-    for start in range(0, len(faces), STL_FACES_PER_BLOCK):
-        block = np.ascontiguousarray(faces[start : start + STL_FACES_PER_BLOCK], dtype=np.int64)
-        # native: gather, float64 normal, float32 rounding in parallel without the GIL
-        # (numpy took ~15 s for 20M faces, more than writing the 1 GB)
-        yield memoryview(_core.stl_records(points, block))
-        stage.update(start + len(block))
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(N, 3) unit vertex normals: the area-weighted sum of the adjacent faces' normals
+    (faces counter-clockwise seen from the side they face); zero for an unused vertex.
+    O(N + M)."""
+    tri = vertices[faces]
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length: twice the area
+    out = np.zeros_like(vertices)
+    for k in range(3):
+        np.add.at(out, faces[:, k], face_n)
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    np.divide(out, length, out=out, where=length > 0)
+    return out
 
 
 def save_mesh(
@@ -120,26 +170,28 @@ def save_mesh(
     vertices: np.ndarray,
     faces: np.ndarray,
     *,
+    normals: bool | ArrayLike = False,
     protect: PathSpec | Iterable[PathSpec] | None = None,
     progress: Progress = False,
 ) -> Path:
-    """Write a triangle mesh in the format of the file ending (.stl binary, .ply, .obj, .off).
-
-    Binary STL is written straight from numpy in blocks (memory bounded by
-    ``STL_FACES_PER_BLOCK`` whatever the mesh size, no trimesh object); the other formats
-    through trimesh. Either way atomically (:func:`write_atomic`).
+    """Write a triangle mesh in the format of the file ending (.stl binary, .ply binary,
+    .obj, .off), by the writer rule of :func:`write_atomic`, block by block (memory bounded
+    whatever the mesh size; progress and Ctrl-C answer between blocks).
 
     Parameters
     ----------
     path : str or PathLike
         The output file.
     vertices : (N, 3) float
-        Vertex positions.
+        Vertex positions (written with full float64 precision, except STL's float32).
     faces : (M, 3) int
-        Triangles as vertex indices; vertex order and indices are kept (``process=False``).
+        Triangles as vertex indices; vertex order and indices are kept.
+    normals : bool or (N, 3) float
+        Vertex normals to store (PLY, OBJ, OFF): True computes them
+        (:func:`vertex_normals`), an array gives them.
     protect : path or iterable of paths, optional
-        Files that must not be overwritten (the command's input): writing to one of them
-        raises ``ParameterError`` before anything is written.
+        Files that must not be overwritten (the input): writing to one of them raises
+        ``ParameterError`` before anything is written.
     progress : bool or callable
         True shows a progress bar; a callable taking ``stage=`` is called as
         ``progress(faces_done, faces_total, None, stage="write")`` (see ``reconstruct``).
@@ -150,8 +202,8 @@ def save_mesh(
         ``path``.
     """
     target = Path(path)
-    kind = FORMATS.get(target.suffix.lower())
-    if kind is None:
+    fmt = FORMATS.get(target.suffix.lower())
+    if fmt is None:
         raise ParameterError(
             f"cannot write {target}: unknown ending {target.suffix!r}; use one of {sorted(FORMATS)}"
         )
@@ -164,16 +216,24 @@ def save_mesh(
         )
     if tris.size and (tris.dtype.kind not in "iu" or tris.min() < 0 or tris.max() >= len(verts)):
         raise ParameterError(f"faces must be integer indices into the {len(verts)} vertices")
-    with Stage(progress, "write", len(tris), blocking=kind != "stl") as stage:
-        if kind == "stl":
-            return write_atomic(target, _stl_blocks(verts, tris, stage))
-        import trimesh
-
-        mesh = trimesh.Trimesh(vertices=verts, faces=tris, process=False)
-        data = mesh.export(file_type=kind)
-        if isinstance(data, str):
-            data = data.encode()
-        return write_atomic(target, [data])
+    vn = None
+    if normals is not False and normals is not None:
+        if not fmt.normals:
+            raise ParameterError(
+                f"cannot store vertex normals in {target.suffix} files; use .ply, .obj or .off"
+            )
+        vn = (
+            vertex_normals(verts, tris.astype(np.int64))
+            if normals is True
+            else np.asarray(normals, dtype=np.float64)
+        )
+        if vn.shape != verts.shape or not np.isfinite(vn).all():
+            raise ParameterError(
+                f"normals must be finite and shaped like the vertices {verts.shape}"
+            )
+    assert fmt.writer is not None
+    with Stage(progress, "write", len(tris)) as stage:
+        return write_atomic(target, fmt.writer(verts, tris, vn, stage))
 
 
 def write_points(
@@ -181,12 +241,14 @@ def write_points(
     points: ArrayLike,
     line_ids: ArrayLike | None = None,
     *,
+    up: ArrayLike | None = None,
     protect: PathSpec | Iterable[PathSpec] | None = None,
 ) -> Path:
-    """Write points as XYZ text, one ``x y z`` (or ``x y z line_id``) row per point, atomically.
+    """Write points as XYZ text: a header row naming the columns (``x y z`` or
+    ``x y z line``), then one row per point, by the writer rule of :func:`write_atomic`.
 
-    Coordinates are written with 17 significant digits, so :func:`scanmesh.readers.read_xyz`
-    reads back exactly the same float64 values.
+    Coordinates are written with 17 significant digits, so :func:`scanmesh.read` reads
+    back exactly the same float64 values.
 
     Parameters
     ----------
@@ -196,6 +258,8 @@ def write_points(
         The points.
     line_ids : (N,) int, optional
         Scan-line id per point, written as a 4th column.
+    up : (3,) float, optional
+        The digitizer's up direction, recorded as a ``# scanmesh up x y z`` comment.
     protect : path or iterable of paths, optional
         Files that must not be overwritten (see :func:`save_mesh`).
 
@@ -220,23 +284,19 @@ def write_points(
                 f"line_ids must be ({len(pts)},) integers, one per point; got {ids.dtype}"
                 f" {ids.shape}"
             )
+        if ids.size and ids.dtype.kind == "u" and int(ids.max()) >= MAX_LINE_ID:
+            raise ParameterError(f"line ids must be below 2**53, got {int(ids.max())}")
         ids = ids.astype(np.int64)
         if ids.size and int(np.abs(ids).max()) >= MAX_LINE_ID:
             raise ParameterError(
                 f"line ids must be below 2**53 in magnitude to be read back exactly, got"
                 f" {ids.min()}..{ids.max()}"
             )
+    direction = None
+    if up is not None:
+        direction = np.asarray(up, dtype=np.float64)
+        if direction.shape != (3,) or not np.isfinite(direction).all() or not direction.any():
+            raise ParameterError(f"up must be a non-zero finite 3-vector, got {up!r}")
     _check_protected(target, protect)
-
-    def blocks() -> Iterable[bytes]:
-        row = "%.17g %.17g %.17g" + (" %d" if ids is not None else "") + "\n"
-        for start in range(0, len(pts), POINTS_PER_BLOCK):
-            block = pts[start : start + POINTS_PER_BLOCK]
-            if ids is None:
-                values = block.ravel().tolist()
-            else:  # '%d' of a float holding an integer below 2**53 is exact
-                line = ids[start : start + POINTS_PER_BLOCK].astype(np.float64)
-                values = np.column_stack([block, line]).ravel().tolist()
-            yield ((row * len(block)) % tuple(values)).encode("ascii")
-
-    return write_atomic(target, blocks())
+    blocks: Iterator[bytes] = xyz_rows(pts, ids, POINTS_PER_BLOCK, direction)
+    return write_atomic(target, blocks)

@@ -59,13 +59,17 @@ pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let half = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
     let scale = if half > 0.0 { 1.0 / half } else { 1.0 };
     let flush = |x: f64| if x.abs() < 1e-40 { 0.0 } else { x };
+    // below about 5.6e-309 (subnormal) 1 / half overflows: divide instead (rarely taken,
+    // so the usual roundings stay those of the multiplication)
+    let map = |x: f64, c: f64| {
+        if scale.is_finite() {
+            flush((x - c) * scale)
+        } else {
+            flush((x - c) / half)
+        }
+    };
     uv.iter()
-        .map(|p| {
-            [
-                flush((p[0] - center[0]) * scale),
-                flush((p[1] - center[1]) * scale),
-            ]
-        })
+        .map(|p| [map(p[0], center[0]), map(p[1], center[1])])
         .collect()
 }
 

@@ -1,40 +1,53 @@
-//! Numeric text tables: rows of whitespace- or comma-separated floats parsed from bytes.
+//! Numeric text tables: rows of floats separated by whitespace or one delimiter byte.
 //!
-//! The text readers (XYZ, CSV) hand this module one chunk of whole lines at a time, so a
-//! 10-million-point file is parsed without a Python step per point and the caller can
-//! honour Ctrl-C between chunks. The rules are those of the readers' numpy path, which
-//! stays the reference and the error reporter:
+//! The text readers (XYZ, CSV, PLY and VTK bodies) hand this module one chunk of whole
+//! lines at a time, so a 10-million-point file is parsed without a Python step per point
+//! and the caller can honour Ctrl-C between chunks. The rules:
 //!
 //! - a line is the bytes up to `\n`; tokens are maximal runs of bytes other than space,
-//!   tab, CR, LF (and, in comma mode, `,`);
-//! - a line without tokens is blank (in comma mode it must hold no comma either);
+//!   tab, CR, LF (and, with a delimiter such as `,` or `;`, the delimiter);
+//! - a line without tokens is blank (with a delimiter it must hold none either);
 //! - a line whose first token starts with `#` is a comment;
-//! - every other line is a data row of exactly `ncols` numbers (in comma mode with exactly
-//!   `ncols - 1` commas, so an empty field is an error, not a skipped column);
+//! - every other line is a data row of exactly `ncols` numbers (with a delimiter, exactly
+//!   `ncols - 1` delimiters, so an empty field is an error, not a skipped column); with
+//!   `ncols == 0` a row may hold any number of values (free layout: VTK blocks, PLY lists);
 //! - a number is `[+-]?(digits[.digits]|.digits)([eE][+-]?digits)?`, `nan`, `inf` or
 //!   `infinity` (any case, optional sign): what numpy's text parser accepts.
 //!
-//! Numbers are converted by `fast_float2` (Eisel-Lemire with an exact fallback: correctly
-//! rounded, so `%.17g` text reads back bit for bit).
+//! A refused chunk is reported as the first bad line with the byte offset of the offending
+//! token (or of the line) and why, so the caller names file, line and text without
+//! parsing again. Numbers are converted by `fast_float2` (Eisel-Lemire with an exact
+//! fallback: correctly rounded, so `%.17g` text reads back bit for bit).
 
 use rayon::prelude::*;
 
-/// Why a chunk was refused: the first offending line (0-based within the chunk) and the
-/// byte offset (within the chunk) of the offending token or line start. The caller turns
-/// it into a message naming the file, line and text.
+/// Why a line was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TextErrorKind {
+    /// the token at the offset is not a number
+    NotANumber,
+    /// the line holds another number of values (or delimiters) than `ncols`
+    WrongCount,
+}
+
+/// Why a chunk was refused: the first offending line (0-based within the chunk), the byte
+/// offset (within the chunk) of the offending token or, for a wrong count, of the line
+/// start, and the kind of problem.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct TextError {
     /// 0-based line index within the chunk
     pub line: usize,
     /// byte offset within the chunk where the problem starts
     pub offset: usize,
+    /// what is wrong there
+    pub kind: TextErrorKind,
 }
 
 /// A parsed chunk: `values` row-major (rows × ncols), the line of every row and the blank
 /// lines (the readers split scan lines at blank lines).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Table {
-    /// row-major values, `ncols` per data row
+    /// row-major values, `ncols` per data row (any number per row in free layout)
     pub values: Vec<f64>,
     /// 0-based line index (within the chunk) of each data row
     pub row_lines: Vec<i64>,
@@ -44,17 +57,36 @@ pub struct Table {
     pub n_lines: usize,
 }
 
-/// Separator bytes: bit 0 = whitespace separator, bit 1 = comma.
-const fn separator_table() -> [u8; 256] {
-    let mut t = [0u8; 256];
-    t[b' ' as usize] = 1;
-    t[b'\t' as usize] = 1;
-    t[b'\r' as usize] = 1;
-    t[b'\n' as usize] = 1;
-    t[b',' as usize] = 2;
+/// Whitespace separator bytes: space, tab, CR, LF.
+const fn whitespace_table() -> [bool; 256] {
+    let mut t = [false; 256];
+    t[b' ' as usize] = true;
+    t[b'\t' as usize] = true;
+    t[b'\r' as usize] = true;
+    t[b'\n' as usize] = true;
     t
 }
-const SEPARATORS: [u8; 256] = separator_table();
+const WHITESPACE: [bool; 256] = whitespace_table();
+
+/// What separates tokens: whitespace, and the delimiter byte when there is one.
+#[derive(Clone, Copy)]
+struct Separators {
+    delimiter: Option<u8>,
+}
+
+impl Separators {
+    /// 0 for a token byte, 1 for whitespace, 2 for the delimiter.
+    #[inline]
+    fn kind(self, b: u8) -> u8 {
+        if WHITESPACE[b as usize] {
+            1
+        } else if Some(b) == self.delimiter {
+            2
+        } else {
+            0
+        }
+    }
+}
 
 /// One number token, or None when it is not entirely a number in the accepted grammar.
 fn number(token: &[u8]) -> Option<f64> {
@@ -70,15 +102,17 @@ fn number(token: &[u8]) -> Option<f64> {
 /// parsed in parallel (smaller ones are not worth a thread hand-off).
 pub const PARALLEL_MIN_BYTES: usize = 1 << 18;
 
-/// Parses `buf`, a chunk of whole lines, as rows of `ncols` numbers (see the module rules).
+/// Parses `buf`, a chunk of whole lines, as rows of `ncols` numbers (see the module rules;
+/// `ncols == 0` for a free layout).
 ///
-/// `comma` selects comma mode (commas separate too, and count). Returns the first bad line
-/// as a [`TextError`]; never panics on any input. Long chunks are parsed in parallel pieces
-/// (same result as one piece: tested). O(len) work.
-pub fn parse_table(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextError> {
+/// `delimiter` (e.g. `Some(b',')`, `Some(b';')`) separates too, and counts; whitespace
+/// always separates. Returns the first bad line as a [`TextError`]; never panics on any
+/// input. Long chunks are parsed in parallel pieces (same result as one piece: tested).
+/// O(len) work; the values take at most 4 × len bytes (a value needs 2 bytes of text).
+pub fn parse_table(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Table, TextError> {
     let threads = rayon::current_num_threads();
     if buf.len() < PARALLEL_MIN_BYTES || threads < 2 {
-        return parse_piece(buf, ncols, comma);
+        return parse_piece(buf, ncols, delimiter);
     }
     // cut points: just after the first line break at or past each k/threads of the chunk
     let mut cuts = vec![0usize];
@@ -93,7 +127,7 @@ pub fn parse_table(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextE
     cuts.dedup();
     let pieces: Vec<Result<Table, TextError>> = cuts
         .par_windows(2)
-        .map(|w| parse_piece(&buf[w[0]..w[1]], ncols, comma))
+        .map(|w| parse_piece(&buf[w[0]..w[1]], ncols, delimiter))
         .collect();
     let mut out = Table::default();
     for (piece, &offset) in pieces.into_iter().zip(&cuts) {
@@ -101,6 +135,7 @@ pub fn parse_table(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextE
         let piece = piece.map_err(|e| TextError {
             line: e.line + out.n_lines,
             offset: e.offset + offset,
+            kind: e.kind,
         })?;
         out.values.extend_from_slice(&piece.values);
         out.row_lines
@@ -113,10 +148,10 @@ pub fn parse_table(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextE
 }
 
 /// [`parse_table`] on one thread.
-fn parse_piece(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextError> {
-    let mask = if comma { 3u8 } else { 1u8 };
-    // A row costs at least 2 bytes per value: reserve for the densest plausible chunk /4
-    // (about what real scans hold) and let the vector grow past it if needed.
+fn parse_piece(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Table, TextError> {
+    let seps = Separators { delimiter };
+    // A value costs at least 2 bytes of text: reserve for a plausible density (about what
+    // real scans hold) and let the vector grow, by what was read, past it if needed.
     let mut table = Table {
         values: Vec::with_capacity(buf.len() / 4),
         ..Table::default()
@@ -128,7 +163,7 @@ fn parse_piece(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextError
             .iter()
             .position(|&b| b == b'\n')
             .map_or(buf.len(), |k| start + k);
-        parse_line(buf, start, end, line, ncols, comma, mask, &mut table)?;
+        parse_line(buf, start, end, line, ncols, seps, &mut table)?;
         line += 1;
         start = end + 1;
     }
@@ -137,62 +172,62 @@ fn parse_piece(buf: &[u8], ncols: usize, comma: bool) -> Result<Table, TextError
 }
 
 /// Parses line `line` (bytes `start..end`, without its `\n`) into `table`.
-#[allow(clippy::too_many_arguments)]
 fn parse_line(
     buf: &[u8],
     start: usize,
     end: usize,
     line: usize,
     ncols: usize,
-    comma: bool,
-    mask: u8,
+    seps: Separators,
     table: &mut Table,
 ) -> Result<(), TextError> {
     let text = &buf[start..end];
-    let bad = |offset: usize| TextError { line, offset };
+    let bad = |offset: usize, kind: TextErrorKind| TextError { line, offset, kind };
+    let free = ncols == 0;
     let mut tokens = 0usize;
-    let mut commas = 0usize;
+    let mut delimiters = 0usize;
     let mut i = 0usize;
     let row_start = table.values.len();
     while i < text.len() {
-        let kind = SEPARATORS[text[i] as usize] & mask;
+        let kind = seps.kind(text[i]);
         if kind != 0 {
-            commas += usize::from(kind == 2);
+            delimiters += usize::from(kind == 2);
             i += 1;
             continue;
         }
         let t0 = i;
-        while i < text.len() && SEPARATORS[text[i] as usize] & mask == 0 {
+        while i < text.len() && seps.kind(text[i]) == 0 {
             i += 1;
         }
         let token = &text[t0..i];
         if tokens == 0 && token[0] == b'#' {
             table.values.truncate(row_start);
-            return Ok(()); // a comment line: its commas do not count
+            return Ok(()); // a comment line: its delimiters do not count
         }
         tokens += 1;
-        if tokens > ncols {
+        if !free && tokens > ncols {
             table.values.truncate(row_start);
-            return Err(bad(start));
+            return Err(bad(start, TextErrorKind::WrongCount));
         }
         match number(token) {
             Some(v) => table.values.push(v),
             None => {
                 table.values.truncate(row_start);
-                return Err(bad(start + t0));
+                return Err(bad(start + t0, TextErrorKind::NotANumber));
             }
         }
     }
     if tokens == 0 {
-        if commas > 0 {
-            return Err(bad(start));
+        if delimiters > 0 {
+            return Err(bad(start, TextErrorKind::WrongCount));
         }
         table.blank_lines.push(line as i64);
         return Ok(());
     }
-    if tokens != ncols || (comma && commas != ncols - 1) {
+    let wrong_delimiters = seps.delimiter.is_some() && delimiters + 1 != tokens;
+    if (!free && tokens != ncols) || wrong_delimiters {
         table.values.truncate(row_start);
-        return Err(bad(start));
+        return Err(bad(start, TextErrorKind::WrongCount));
     }
     table.row_lines.push(line as i64);
     Ok(())
@@ -204,30 +239,62 @@ mod tests {
 
     #[test]
     fn rows_comments_and_blank_lines() {
-        let t = parse_table(b"1 2 3\n# note, here\n\n4\t5 6\r\n  \n7 8 9", 3, false).unwrap();
+        let t = parse_table(b"1 2 3\n# note, here\n\n4\t5 6\r\n  \n7 8 9", 3, None).unwrap();
         assert_eq!(t.values, vec![1., 2., 3., 4., 5., 6., 7., 8., 9.]);
         assert_eq!(t.row_lines, vec![0, 3, 5]);
         assert_eq!(t.blank_lines, vec![2, 4]);
         assert_eq!(t.n_lines, 6);
         // a chunk that ends with a line break has no extra empty line
-        assert_eq!(parse_table(b"1 2\n", 2, false).unwrap().n_lines, 1);
+        assert_eq!(parse_table(b"1 2\n", 2, None).unwrap().n_lines, 1);
     }
 
     #[test]
     fn comma_mode_counts_fields() {
-        let t = parse_table(b"1,2,3\n4, 5 ,6\n", 3, true).unwrap();
+        let t = parse_table(b"1,2,3\n4, 5 ,6\n", 3, Some(b',')).unwrap();
         assert_eq!(t.values, vec![1., 2., 3., 4., 5., 6.]);
         // an empty field is refused, not skipped; a line of commas is not blank
         assert_eq!(
-            parse_table(b"1,2,3\n1,,2,3\n", 3, true),
-            Err(TextError { line: 1, offset: 6 })
+            parse_table(b"1,2,3\n1,,2,3\n", 3, Some(b',')),
+            Err(TextError {
+                line: 1,
+                offset: 6,
+                kind: TextErrorKind::WrongCount
+            })
         );
         assert_eq!(
-            parse_table(b"1,2,3\n,,\n", 3, true),
-            Err(TextError { line: 1, offset: 6 })
+            parse_table(b"1,2,3\n,,\n", 3, Some(b',')),
+            Err(TextError {
+                line: 1,
+                offset: 6,
+                kind: TextErrorKind::WrongCount
+            })
         );
         // without comma mode a comma is part of a token, and so not a number
-        assert!(parse_table(b"1,2,3\n", 3, false).is_err());
+        assert!(parse_table(b"1,2,3\n", 3, None).is_err());
+    }
+
+    #[test]
+    fn free_layout_and_other_delimiters() {
+        // ncols 0: any number of values per row, rows still listed
+        let t = parse_table(b"3 1 2 3\n\n1 7\n", 0, None).unwrap();
+        assert_eq!(t.values, vec![3., 1., 2., 3., 1., 7.]);
+        assert_eq!(t.row_lines, vec![0, 2]);
+        assert_eq!(t.blank_lines, vec![1]);
+        // a semicolon delimiter counts like a comma; a comma is then part of a token
+        let t = parse_table(b"1;2;3\n4 ; 5;6\n", 3, Some(b';')).unwrap();
+        assert_eq!(t.values, vec![1., 2., 3., 4., 5., 6.]);
+        assert_eq!(
+            parse_table(b"1,5;2;3\n", 3, Some(b';')),
+            Err(TextError {
+                line: 0,
+                offset: 0,
+                kind: TextErrorKind::NotANumber
+            })
+        );
+        assert_eq!(
+            parse_table(b"1;2;;3\n", 0, Some(b';')).unwrap_err().kind,
+            TextErrorKind::WrongCount
+        );
     }
 
     #[test]
@@ -259,16 +326,28 @@ mod tests {
     #[test]
     fn errors_name_the_first_bad_line() {
         assert_eq!(
-            parse_table(b"1 2 3\n4 x 6\n", 3, false),
-            Err(TextError { line: 1, offset: 8 })
+            parse_table(b"1 2 3\n4 x 6\n", 3, None),
+            Err(TextError {
+                line: 1,
+                offset: 8,
+                kind: TextErrorKind::NotANumber
+            })
         );
         assert_eq!(
-            parse_table(b"1 2 3\n4 5\n", 3, false),
-            Err(TextError { line: 1, offset: 6 })
+            parse_table(b"1 2 3\n4 5\n", 3, None),
+            Err(TextError {
+                line: 1,
+                offset: 6,
+                kind: TextErrorKind::WrongCount
+            })
         );
         assert_eq!(
-            parse_table(b"1 2 3\n4 5 6 7\n", 3, false),
-            Err(TextError { line: 1, offset: 6 })
+            parse_table(b"1 2 3\n4 5 6 7\n", 3, None),
+            Err(TextError {
+                line: 1,
+                offset: 6,
+                kind: TextErrorKind::WrongCount
+            })
         );
     }
 
@@ -287,7 +366,7 @@ mod tests {
                 want.push(v);
             }
         }
-        let t = parse_table(text.as_bytes(), 1, false).unwrap();
+        let t = parse_table(text.as_bytes(), 1, None).unwrap();
         assert_eq!(t.values, want);
     }
 
@@ -307,21 +386,22 @@ mod tests {
             .build()
             .unwrap();
         let parallel = pool
-            .install(|| parse_table(text.as_bytes(), 3, false))
+            .install(|| parse_table(text.as_bytes(), 3, None))
             .unwrap();
-        assert_eq!(parallel, parse_piece(text.as_bytes(), 3, false).unwrap());
+        assert_eq!(parallel, parse_piece(text.as_bytes(), 3, None).unwrap());
         // an error in a later piece names its line and offset in the whole chunk
         let bad_at = text.len() - 20;
         let line_start = text[..bad_at].rfind('\n').unwrap() + 1;
         let mut broken = text.clone().into_bytes();
         broken[line_start] = b'x';
         let line = text[..line_start].matches('\n').count();
-        let e = pool.install(|| parse_table(&broken, 3, false)).unwrap_err();
+        let e = pool.install(|| parse_table(&broken, 3, None)).unwrap_err();
         assert_eq!(
             e,
             TextError {
                 line,
-                offset: line_start
+                offset: line_start,
+                kind: TextErrorKind::NotANumber,
             }
         );
     }
@@ -330,8 +410,10 @@ mod tests {
     fn any_bytes_never_panic() {
         let samples: [&[u8]; 6] = [b"", b"\n\n", b"#", b"\xff\xfe 1 2", b"1 2 3\n\x00", b",,,"];
         for s in samples {
-            for comma in [false, true] {
-                let _ = parse_table(s, 3, comma);
+            for delimiter in [None, Some(b','), Some(b';')] {
+                for ncols in [0, 3] {
+                    let _ = parse_table(s, ncols, delimiter);
+                }
             }
         }
     }

@@ -799,12 +799,15 @@ fn stl_records<'py>(
     Ok(Array1::from_vec(bytes).into_pyarray(py))
 }
 
-/// Parses bytes `data[start:stop]` (whole lines) as rows of `ncols` whitespace- or, with
-/// `comma`, comma-separated numbers (rules in `scanmesh_core::text`), without the GIL.
-/// Returns (values (R, ncols) float64, row_lines (R,) int64 and blank_lines (B,) int64,
-/// both 0-based line indices within the range, number of lines), or None when a line
-/// breaks the rules: the readers then locate it and name file, line and text themselves.
+/// Parses bytes `data[start:stop]` (whole lines) as rows of `ncols` numbers (`ncols` 0: any
+/// number per row) separated by whitespace and, when given, the one-character `delimiter`
+/// (rules in `scanmesh_core::text`), without the GIL. Returns (values (R, ncols) float64,
+/// or (V, 1) holding every value with `ncols` 0, row_lines (R,) int64 and blank_lines (B,) int64, both 0-based line indices
+/// within the range, number of lines, problem): problem is None, or for a refused range
+/// (line index, byte offset within the range, "number" | "count") of its first bad line,
+/// the other fields then empty.
 #[pyfunction]
+#[pyo3(signature = (data, start, stop, ncols, delimiter=None))]
 #[allow(clippy::type_complexity)]
 fn parse_text_table<'py>(
     py: Python<'py>,
@@ -812,26 +815,52 @@ fn parse_text_table<'py>(
     start: usize,
     stop: usize,
     ncols: usize,
-    comma: bool,
-) -> PyResult<Option<(Floats2<'py>, Ints1<'py>, Ints1<'py>, usize)>> {
-    if start > stop || stop > data.len() || ncols == 0 {
+    delimiter: Option<char>,
+) -> PyResult<(
+    Floats2<'py>,
+    Ints1<'py>,
+    Ints1<'py>,
+    usize,
+    Option<(usize, usize, &'static str)>,
+)> {
+    if start > stop || stop > data.len() {
         return Err(ParameterError::new_err(format!(
-            "need 0 <= start <= stop <= {} and ncols >= 1, got start {start}, stop {stop}, ncols {ncols}",
+            "need 0 <= start <= stop <= {}, got start {start}, stop {stop}",
             data.len()
         )));
     }
-    let chunk = &data[start..stop];
-    let Ok(table) = py.detach(|| text::parse_table(chunk, ncols, comma)) else {
-        return Ok(None);
+    let delimiter = match delimiter {
+        None => None,
+        Some(c) if c.is_ascii_punctuation() && c != '#' && c != '.' && c != '-' && c != '+' => {
+            Some(c as u8)
+        }
+        Some(c) => {
+            return Err(ParameterError::new_err(format!(
+                "delimiter must be one ASCII punctuation character other than # . + -, got {c:?}"
+            )))
+        }
     };
-    let rows = table.row_lines.len();
-    let values = Array2::from_shape_vec((rows, ncols), table.values).expect("ncols per row");
-    Ok(Some((
+    let chunk = &data[start..stop];
+    let width = ncols.max(1);
+    let (table, problem) = match py.detach(|| text::parse_table(chunk, ncols, delimiter)) {
+        Ok(table) => (table, None),
+        Err(e) => {
+            let kind = match e.kind {
+                text::TextErrorKind::NotANumber => "number",
+                text::TextErrorKind::WrongCount => "count",
+            };
+            (text::Table::default(), Some((e.line, e.offset, kind)))
+        }
+    };
+    let rows = table.values.len() / width;
+    let values = Array2::from_shape_vec((rows, width), table.values).expect("width per row");
+    Ok((
         values.into_pyarray(py),
         Array1::from_vec(table.row_lines).into_pyarray(py),
         Array1::from_vec(table.blank_lines).into_pyarray(py),
         table.n_lines,
-    )))
+        problem,
+    ))
 }
 
 /// The cheapest fan (star in some triangulation) around each of `vertices`: the minimum of

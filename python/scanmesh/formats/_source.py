@@ -1,0 +1,118 @@
+"""A file being read: its bytes under one bound, and places in it named for messages.
+
+The bound, used by every reader: a regular file is read up to its size, a pipe or FIFO
+(``/dev/stdin`` in a pipeline) as it comes, chunk by chunk, and anything else (a device
+such as ``/dev/zero``, a directory) is refused before a byte is read; and any count a file
+declares (points, elements, records, cells, VLRs) is checked with :func:`check_declared`
+against the bytes that are left before anything is allocated for it. Allocation so
+follows bytes actually present, and the peak memory of a refused file stays a small
+multiple of its size.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+
+from scanmesh.errors import FileFormatError
+
+#: Bytes read from a pipe per call.
+PIPE_CHUNK: int = 1 << 20
+
+
+def check_regular(path: Path, pipes: bool = False) -> int:
+    """The size of ``path`` in bytes (-1 for a pipe or FIFO when ``pipes``), or a
+    FileFormatError when it is missing, unreadable or not a regular file (symbolic links
+    are followed)."""
+    try:
+        info = os.stat(path)
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
+    if pipes and stat.S_ISFIFO(info.st_mode):
+        return -1
+    if not stat.S_ISREG(info.st_mode):
+        kind = (
+            "a directory"
+            if stat.S_ISDIR(info.st_mode)
+            else "a FIFO"
+            if stat.S_ISFIFO(info.st_mode)
+            else "a device"
+            if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode)
+            else "not a regular file"
+        )
+        raise FileFormatError(
+            f"{path}: cannot read the file: it is {kind}; scanmesh reads regular files only"
+        )
+    if not os.access(path, os.R_OK):
+        raise FileFormatError(f"{path}: cannot read the file: permission denied")
+    return info.st_size
+
+
+def read_bytes(path: Path) -> bytes:
+    """The content of the regular file, pipe or FIFO ``path`` (see :func:`check_regular`)."""
+    size = check_regular(path, pipes=True)
+    try:
+        with open(path, "rb") as handle:
+            if size >= 0:
+                return handle.read(size)  # a file growing meanwhile is read up to its size
+            chunks = []  # a pipe: memory follows what arrives
+            while chunk := handle.read(PIPE_CHUNK):
+                chunks.append(chunk)
+            return b"".join(chunks)
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
+
+
+def check_declared(
+    path: Path, count: int, min_bytes: int, available: int, what: str, where: str = ""
+) -> None:
+    """Refuse a declared ``count`` of items of at least ``min_bytes`` bytes each when the
+    ``available`` bytes cannot hold them (the one rule every reader applies before it
+    allocates for a count read from the file). ``where`` (e.g. ", line 4") follows the path."""
+    if count < 0:
+        raise FileFormatError(f"{path}{where}: the file declares {count} {what}")
+    if count * min_bytes > available:
+        raise FileFormatError(
+            f"{path}{where}: the file declares {count:,} {what}, which need at least"
+            f" {count * min_bytes:,} bytes, but only {available:,} remain (truncated or"
+            " corrupt?)"
+        )
+
+
+def quote(text: bytes | str, limit: int = 80) -> str:
+    """Offending text for a message: decoded, stripped, shortened."""
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", errors="replace")
+    text = text.strip()
+    return repr(text if len(text) <= limit else text[: limit - 3] + "...")
+
+
+def line_at(data: bytes, offset: int) -> tuple[int, bytes]:
+    """1-based line number and text of the line holding byte ``offset``."""
+    offset = max(0, min(offset, len(data)))
+    start = data.rfind(b"\n", 0, offset) + 1
+    end = data.find(b"\n", offset)
+    return data.count(b"\n", 0, offset) + 1, data[start : end if end >= 0 else len(data)]
+
+
+def check_text(path: Path, data: bytes, what: str, start: int = 0) -> None:
+    """Reject binary content (a NUL byte at or after ``start``) in a file that must be text."""
+    nul = data.find(b"\x00", start)
+    if nul >= 0:
+        line, _ = line_at(data, nul)
+        raise FileFormatError(
+            f"{path}, line {line}: binary data (byte 0x00 at offset {nul}); {what} must be text"
+        )
+
+
+def check_finite(path: Path, points: np.ndarray, what: str = "point") -> None:
+    """Raise naming the first non-finite coordinate of (N, 3) ``points``."""
+    bad = ~np.isfinite(points)
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        raise FileFormatError(
+            f"{path}: {what} {row} has a non-finite {'xyz'[col]}={float(points[row, col])!r}"
+        )
