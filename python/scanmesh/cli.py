@@ -257,7 +257,8 @@ def _add_read_flags(p: argparse.ArgumentParser) -> None:
 
 
 def _read_options(args: argparse.Namespace | None) -> dict[str, Any]:
-    """The reader flags given (--columns, --returns, --classes, --grid, --cell) as read() keywords."""
+    """The reader flags given (--columns, --returns, --classes, --grid, --cell), as keywords
+    of read()."""
     flags = ("columns", "returns", "classes", "grid", "cell")
     return {k: getattr(args, k) for k in flags if getattr(args, k, None) not in (None, False)}
 
