@@ -155,3 +155,42 @@ def test_projection_rejects_non_vectors():
     for plane in ({"a": 1}, b"z", 1j, [1j, 0, 1], ["a", "b", "c"], 3.0, [math.inf, 0, 1]):
         with pytest.raises(ParameterError, match="plane"):
             planar_scan(pts, plane=plane)
+
+
+def _small_input(rng: np.random.Generator, k: int) -> np.ndarray:
+    """Random points, exact integer height grids and nearly planar tilted patches."""
+    n = int(rng.integers(5, 61))
+    if k % 3 == 0:
+        return rng.random((n, 3))
+    if k % 3 == 1:
+        side = int(math.sqrt(n)) + 1
+        x, y = np.meshgrid(np.arange(side), np.arange(side))
+        return np.column_stack([x.ravel(), y.ravel(), (x * y % 3).ravel()]).astype(float)[:n]
+    pts = rng.random((n, 3))
+    pts[:, 2] = 0.3 * pts[:, 0] + 1e-3 * rng.random(n)
+    return pts
+
+
+@pytest.mark.filterwarnings("ignore::scanmesh.ScanmeshWarning")
+def test_flips_accept_every_triangulation_delaunay_returns():
+    """LOP and annealing used to re-project along the frame normal and then found Delaunay's
+    own faces "not counter-clockwise" (InvalidMeshError on 28 of 400 such inputs)."""
+    rng = np.random.default_rng(0)
+    for k in range(160):
+        pts = _small_input(rng, k)
+        plane = [None, "z", "x", (0.2, 0.1, 1.0)][k % 4]
+        scan = planar_scan(pts, plane=plane)
+        base = scanmesh.delaunay(scan, max_edge=math.inf)
+        for method, options in (("lop", {}), ("anneal", {"sweeps": 3, "patience": 0})):
+            s = scanmesh.reconstruct(scan, method, initial=base, **options)
+            assert len(s.faces) == len(base.faces), (k, method)
+
+
+def test_a_flat_grid_is_flipped_not_refused():
+    x, y = np.meshgrid(np.arange(10.0), np.arange(10.0))
+    flat = np.column_stack([x.ravel(), y.ravel(), np.zeros(100)])
+    base = scanmesh.delaunay(flat, max_edge=math.inf)
+    for method in ("lop", "anneal"):
+        s = scanmesh.reconstruct(flat, method, max_edge=math.inf)
+        assert len(s.faces) == len(base.faces)
+        assert s.quality.tac_1 == pytest.approx(0.0, abs=1e-9)
