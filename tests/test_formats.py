@@ -22,6 +22,7 @@ import pytest
 import scanmesh
 from scanmesh import FileFormatError, ParameterError
 from scanmesh.formats import format_of, read
+from scanmesh.writers import write_points
 
 
 def write(path: Path, data: str | bytes) -> Path:
@@ -216,7 +217,7 @@ def test_extreme_magnitudes_read_and_triangulate(tmp_path):
     ids = np.repeat(np.arange(5), 6)
     for scale in (1e-310, 1e307):  # subnormal, and near the float64 maximum
         path = tmp_path / "s.xyz"
-        scanmesh.writers.write_points(path, base * scale, ids)
+        write_points(path, base * scale, ids)
         sp = read(path)
         np.testing.assert_array_equal(sp.points, base * scale)
         # (below 1e-308 the strips' planar check still rescales by 1 / extent, which
@@ -394,12 +395,12 @@ def test_esri_ascii_grid(tmp_path):
 
 def test_up_is_recorded_and_read_back(tmp_path):
     pts = np.random.default_rng(6).random((20, 3))
-    path = scanmesh.writers.write_points(tmp_path / "u.xyz", pts, up=[0, 2, 0])
+    path = write_points(tmp_path / "u.xyz", pts, up=[0, 2, 0])
     assert path.read_text().startswith("# scanmesh up 0 2 0\n")
     sp = read(path)
     np.testing.assert_array_equal(sp.up, [0, 1, 0])
     np.testing.assert_array_equal(sp.points, pts)
-    assert read(scanmesh.writers.write_points(tmp_path / "n.xyz", pts)).up is None
+    assert read(write_points(tmp_path / "n.xyz", pts)).up is None
     ply = (
         "ply\nformat ascii 1.0\ncomment scanmesh up 1 0 0\nelement vertex 3\nproperty float x\n"
         "property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
