@@ -493,7 +493,9 @@ def valid_files(tmp_path: Path) -> dict[str, bytes]:
         + "".join(f"{x} {y} {z} {i // 4}\n" for i, (x, y, z) in enumerate(pts.tolist())),
         "a.csv": "x,y,z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in pts.tolist()),
         "a.asc": "ncols 4\nnrows 3\nxllcorner 0\nyllcorner 0\ncellsize 1\nNODATA_value -1\n"
-        + "".join(" ".join(f"{v:.3f}" for v in row) + "\n" for row in pts.ravel()[:12].reshape(3, 4)),
+        + "".join(
+            " ".join(f"{v:.3f}" for v in row) + "\n" for row in pts.ravel()[:12].reshape(3, 4)
+        ),
         "a.ply": "ply\nformat ascii 1.0\nobj_info num_cols 4\nobj_info num_rows 3\n"
         "element vertex 12\nproperty float x\nproperty float y\nproperty float z\n"
         "element range_grid 12\nproperty list uchar int vertex_indices\nend_header\n"
