@@ -816,6 +816,7 @@ def test_vtk_structured_grid_rows(tmp_path):
     text = vtk_text(pts, header="STRUCTURED_GRID").replace("POINTS", "DIMENSIONS 4 3 1\nPOINTS")
     sp = read_vtk(write(tmp_path / "sg.vtk", text))
     np.testing.assert_array_equal(sp.line_ids, np.repeat(np.arange(3), 4))
+    np.testing.assert_array_equal(sp.points[sp.grid][..., 1], np.repeat([[0], [1], [2]], 4, 1))
 
 
 def test_vtk_bad_input(tmp_path):
