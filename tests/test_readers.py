@@ -1006,3 +1006,15 @@ def test_read_is_exported_and_dispatches_case_insensitively(tmp_path):
     sp = scanmesh.read(write(tmp_path / "UP.XYZ", "1 2 3\n"))
     assert sp.extra["format"] == "xyz" and len(sp) == 1
     assert "UP.XYZ" in repr(sp)
+
+
+def test_dem_declared_counts_are_checked_against_the_size(tmp_path):
+    data = bytearray(need(DEM).read_bytes())
+    profiles = bytearray(data)
+    profiles[858:864] = b"999999"  # the A record's number of profiles
+    with raises_naming(FileFormatError, tmp_path / "p.dem", "999,999 profiles"):
+        read_dem(write(tmp_path / "p.dem", bytes(profiles)))
+    elevations = bytearray(data)
+    elevations[1024 + 12 : 1024 + 18] = b"999999"  # profile 1's number of elevations
+    with raises_naming(FileFormatError, tmp_path / "e.dem", "999,999 elevations in profile 1"):
+        read_dem(write(tmp_path / "e.dem", bytes(elevations)))
