@@ -279,7 +279,7 @@ def test_ctrl_c_while_reading_a_large_ascii_ply(tmp_path):
         sys.exit(0)
     print("finished", flush=True)
     """
-    assert seconds_to_interrupt(script, 0.3) < 0.5
+    assert seconds_to_interrupt(script, 0.1) < 0.5  # early: a fast machine reads it in 0.3 s
 
 
 # --------------------------------------------------------------------------- columns, grids
