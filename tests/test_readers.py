@@ -810,6 +810,7 @@ def test_vtk_structured_grid_rows(tmp_path):
     text = vtk_text(pts, header="STRUCTURED_GRID").replace("POINTS", "DIMENSIONS 4 3 1\nPOINTS")
     sp = read_vtk(write(tmp_path / "sg.vtk", text))
     np.testing.assert_array_equal(sp.line_ids, np.repeat(np.arange(3), 4))
+    np.testing.assert_array_equal(sp.points[sp.grid][..., 1], np.repeat([[0], [1], [2]], 4, 1))
 
 
 def test_vtk_bad_input(tmp_path):
@@ -999,3 +1000,15 @@ def test_read_is_exported_and_dispatches_case_insensitively(tmp_path):
     sp = scanmesh.read(write(tmp_path / "UP.XYZ", "1 2 3\n"))
     assert sp.extra["format"] == "xyz" and len(sp) == 1
     assert "UP.XYZ" in repr(sp)
+
+
+def test_dem_declared_counts_are_checked_against_the_size(tmp_path):
+    data = bytearray(need(DEM).read_bytes())
+    profiles = bytearray(data)
+    profiles[858:864] = b"999999"  # the A record's number of profiles
+    with raises_naming(FileFormatError, tmp_path / "p.dem", "999,999 profiles"):
+        read_dem(write(tmp_path / "p.dem", bytes(profiles)))
+    elevations = bytearray(data)
+    elevations[1024 + 12 : 1024 + 18] = b"999999"  # profile 1's number of elevations
+    with raises_naming(FileFormatError, tmp_path / "e.dem", "999,999 elevations in profile 1"):
+        read_dem(write(tmp_path / "e.dem", bytes(elevations)))

@@ -271,6 +271,18 @@ def test_a_device_is_written_in_place_never_replaced(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.stl"]
 
 
+def test_a_descriptor_link_writes_into_the_open_file(tmp_path):
+    # /dev/stdout redirected to a file: /dev/stdout -> /proc/self/fd/1 -> the file
+    out = tmp_path / "redirected.txt"
+    with open(out, "wb") as handle:
+        link = tmp_path / "stdout"
+        link.symlink_to(f"/proc/self/fd/{handle.fileno()}")
+        write_atomic(link, [b"report\n"])
+        assert os.fstat(handle.fileno()).st_ino == os.stat(out).st_ino  # not replaced
+    assert out.read_bytes() == b"report\n"
+    assert link.is_symlink()
+
+
 def test_a_fifo_gets_the_bytes_and_stays_a_fifo(tmp_path):
     verts, faces = grid_mesh()
     fifo = tmp_path / "m.obj"

@@ -360,17 +360,20 @@ def read_vtk(path: str | os.PathLike) -> ScanPoints:
         if (np.bincount(members, minlength=n) == 1).all():
             line_ids = owner
             extra["line_ids_from"] = f"{len(lines)} poly-line cells"
+    width = None
     if line_ids is None and (faces or strips):
         width = _grid_width(n, faces, strips)
         if width is not None:
-            line_ids = np.arange(n, dtype=np.int64) // width
             extra["line_ids_from"] = (
                 f"face connectivity: a grid of {n // width} rows x {width} points"
             )
-    if line_ids is None and dims is not None and dataset == "STRUCTURED_GRID":
-        nx = dims[0]
-        if nx > 0 and n % nx == 0:
-            line_ids = np.arange(n, dtype=np.int64) // nx
-            extra["line_ids_from"] = f"STRUCTURED_GRID dimensions {dims}: rows of {nx} points"
+    if line_ids is None and width is None and dims is not None and dataset == "STRUCTURED_GRID":
+        if dims[0] > 0 and n % dims[0] == 0:
+            width = dims[0]
+            extra["line_ids_from"] = f"STRUCTURED_GRID dimensions {dims}: rows of {width} points"
+    grid = None
+    if width is not None:  # a row-major grid: each row a line, kept as ScanPoints.grid
+        line_ids = np.arange(n, dtype=np.int64) // width
+        grid = np.arange(n, dtype=np.int64).reshape(-1, width)
     extra.setdefault("line_ids_from", None)
-    return ScanPoints(points=points, line_ids=line_ids, source=path, extra=extra)
+    return ScanPoints(points=points, line_ids=line_ids, source=path, extra=extra, grid=grid)
