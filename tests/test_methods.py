@@ -69,7 +69,6 @@ def test_unknown_keywords_are_parameter_errors(method):
         ("lookahead", "seed", 1),
         ("lop", "seed", 1),
         ("lop", "lines", "ids"),
-        ("anneal", "lines", "ids"),
         ("optimal", "max_edge", 2.0),
         ("optimal", "seed", 1),
         ("optimal", "lines", "ids"),
@@ -79,6 +78,12 @@ def test_keywords_a_method_does_not_use_are_refused(method, keyword, value):
     pts, ids = _points()
     with pytest.raises(ParameterError, match=f"does not use {keyword}="):
         scanmesh.reconstruct(pts, method, plane="z", **{keyword: ids if value == "ids" else value})
+
+
+def test_annealing_estimates_its_noise_along_the_given_lines():
+    pts, ids = _points()
+    surface = scanmesh.reconstruct(pts, "anneal", plane="z", lines=ids, sweeps=5)
+    assert surface.options["noise"] == pytest.approx(scanmesh.noise(pts, lines=ids, plane="z"))
 
 
 def test_keywords_follow_the_initial_triangulation():

@@ -99,6 +99,13 @@ def _initial_uses(params: dict[str, Any]) -> frozenset[str]:
     return frozenset({"max_edge"} if initial == "delaunay" else {"lines"})
 
 
+def _anneal_uses(params: dict[str, Any]) -> frozenset[str]:
+    """Annealing uses its initial triangulation's keywords, the seed, and the scan lines:
+    its noise estimate (the tie tolerance) follows them when they are given."""
+    built = isinstance(params["initial"], Surface)
+    return _initial_uses(params) | {"seed"} | (frozenset() if built else {"lines"})
+
+
 def _check_initial(value: Any) -> str | Surface:
     if isinstance(value, Surface):
         return value
@@ -202,7 +209,7 @@ TABLE: dict[str, Method] = {
             frozenset({"lines", "max_edge", "seed"}),
             (INITIAL_OPTION, *anneal.OPTIONS),
             "simulated annealing on tac",
-            uses=lambda params: _initial_uses(params) | {"seed"},
+            uses=_anneal_uses,
         ),
         Method(
             "optimal",
