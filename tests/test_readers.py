@@ -1003,7 +1003,7 @@ def test_read_is_exported_and_dispatches_case_insensitively(tmp_path):
 
 
 def test_dem_declared_counts_are_checked_against_the_size(tmp_path):
-    data = bytearray(need(DEM).read_bytes())
+    data = bytearray(DEM.read_bytes())
     profiles = bytearray(data)
     profiles[858:864] = b"999999"  # the A record's number of profiles
     with raises_naming(FileFormatError, tmp_path / "p.dem", "999,999 profiles"):
