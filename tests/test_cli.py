@@ -17,6 +17,7 @@ import pytest
 import trimesh
 from PIL import Image
 
+import scanmesh
 from conftest import DATA
 from scanmesh.truth import TrueSurface, height_error, point_triangle_distance
 
@@ -405,9 +406,11 @@ def test_simulate_noise_table_and_spacing(tmp_path):
     )
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
-    rows = np.loadtxt(out)
+    scan = scanmesh.read(out)  # a header row names x y z line; the up comment is read back
+    rows = np.column_stack([scan.points, scan.line_ids])
     assert rows.shape == (data["points"], 4)
     assert len(np.unique(rows[:, 3])) == data["lines"]
+    assert scan.up is not None and list(scan.up) == [0.0, 1.0, 0.0]
     # --table: rays that miss the rod (outside it, through its bores) touch the table at its
     # lowest y, -0.3937; noise moves every point a little along y
     table = np.abs(rows[:, 1] + 0.3937) < 0.01
@@ -501,7 +504,7 @@ def test_ctrl_c_exits_130_without_partial_output(tmp_path):
             "-o",
             out,
             "--sweeps",
-            "1000000000",
+            "1000000",  # hours of work; 1e9 would be refused (more than 1e12 proposals)
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -524,7 +527,7 @@ def test_ctrl_c_exits_130_without_partial_output(tmp_path):
         )
         os.write(fd, rows.encode())
         os.close(fd)
-        time.sleep(1.5)  # annealing a billion sweeps now
+        time.sleep(1.5)  # annealing a million sweeps of many chains now
         assert proc.poll() is None
         proc.send_signal(signal.SIGINT)
         stdout, stderr = proc.communicate(timeout=60)
