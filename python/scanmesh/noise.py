@@ -227,6 +227,12 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
         Neither estimate has :data:`MIN_WINDOWS` residuals (too few points).
     """
     pts = as_points(points)
+    # scaled by a power of two (exact) to about unit size, so that no fit over- or underflows
+    largest = float(np.max(np.abs(pts))) if len(pts) else 0.0
+    if largest == 0.0:
+        return 0.0
+    scale = math.ldexp(1.0, math.frexp(largest)[1] - 1)  # largest / scale in [1, 2)
+    pts = pts / scale
     found = [line_residuals(pts, lines, plane), neighbourhood_residuals(pts, plane)]
     estimates = [robust_scale(r) for r in found if len(r) >= MIN_WINDOWS]
     if not estimates:
@@ -234,7 +240,7 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
             f"the noise estimate needs at least {MIN_WINDOWS} points with a local fit, found"
             f" {max(len(r) for r in found)} among {len(pts)} points"
         )
-    return max(estimates)
+    return max(estimates) * scale
 
 
 #: Tie tolerance of annealing on tac_1 per (sigma / spacing)^2: a flip whose tac_1 change
