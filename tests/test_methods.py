@@ -31,7 +31,8 @@ def _cases():
         for option in spec.options:
             if option.kind == "any" and option.name != "initial":
                 continue
-            bad = list(NOT_A_NUMBER)
+            # None is a value of its own for an automatic option (worked out from the data)
+            bad = [v for v in NOT_A_NUMBER if not (v is None and option.automatic)]
             if option.kind == "int":
                 bad += HUGE + [-1, 2.5, True]
             elif option.kind == "float":
@@ -84,6 +85,16 @@ def test_annealing_estimates_its_noise_along_the_given_lines():
     pts, ids = _points()
     surface = scanmesh.reconstruct(pts, "anneal", plane="z", lines=ids, sweeps=5)
     assert surface.options["noise"] == pytest.approx(scanmesh.noise(pts, lines=ids, plane="z"))
+
+
+def test_annealing_tie_tolerance_is_automatic_unless_given():
+    pts, ids = _points()
+    auto = scanmesh.reconstruct(pts, "anneal", plane="z", lines=ids, sweeps=5)
+    given = scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=5, tie_tolerance=0.25)
+    assert given.options["tie_tolerance"] == 0.25
+    assert auto.options["tie_tolerance"] != 0.25
+    # the automatic choice comes from the noise estimate (see test_noise) and is reported
+    assert auto.options["tie_tolerance"] >= scanmesh.anneal.ANNEAL_DEFAULTS["tie_tolerance"]
 
 
 def test_keywords_follow_the_initial_triangulation():

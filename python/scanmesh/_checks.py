@@ -140,6 +140,8 @@ class Option:
     finite: bool = True
     #: "any": turns a value into the checked one or raises ParameterError
     convert: Callable[[Any], Any] | None = None
+    #: True when None is a value of its own ("work it out from the data"), kept as None
+    automatic: bool = False
 
     @property
     def flag(self) -> str:
@@ -150,6 +152,8 @@ class Option:
         """``value`` as the type the method takes, or ParameterError naming ``label``
         (default: the option's name) and the value."""
         name = label or self.name
+        if value is None and self.automatic:
+            return None
         if self.kind == "any":
             assert self.convert is not None
             return self.convert(value)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from typing import Any
@@ -87,7 +88,13 @@ OPTIONS: tuple[Option, ...] = (
         high=MAX_COUNT,
     ),
     SLIVER_GUARD_OPTION,
-    TIE_TOLERANCE_OPTION,
+    # None: from the scan's noise (noise.noise_tolerance); exact ties on noise-free scans
+    dataclasses.replace(
+        TIE_TOLERANCE_OPTION,
+        default=None,
+        doc=TIE_TOLERANCE_OPTION.doc + " (automatic: from the scan's noise estimate)",
+        automatic=True,
+    ),
     Option("polish", "bool", ANNEAL_DEFAULTS["polish"], "run LOP from the best state at the end"),
     Option(
         "calibration_samples",
@@ -192,7 +199,7 @@ def anneal_surface(
     assert scan is not None
     t0 = time.perf_counter()
     sigma, params["tie_tolerance"] = noise_tolerance(
-        start, params["p"], schedule.get("tie_tolerance"), ANNEAL_DEFAULTS["tie_tolerance"]
+        start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
     )
     # The very planar coordinates the initial triangulation was built and trimmed on.
     runner = _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params)

@@ -330,6 +330,8 @@ def _add_method_flags(parser: argparse.ArgumentParser) -> None:
     for option, users in _method_flags().values():
         default = option.default
         shown = f"{default:g}" if isinstance(default, float) else str(default)
+        if default is None and option.automatic:
+            shown = "automatic"
         text = f"{option.doc} ({', '.join(users)}; default {shown})".replace("%", "%%")
         if option.kind == "bool":
             group.add_argument(

@@ -43,10 +43,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from scanmesh._checks import as_points
 from scanmesh.errors import DegenerateInputError
 from scanmesh.lines import scan_lines
-from scanmesh.projection import PlaneSpec, project
+from scanmesh.projection import PlaneSpec
+from scanmesh.scan import PlanarScan, as_scan
 
 if TYPE_CHECKING:
     from scanmesh.surface import Surface
@@ -81,7 +81,7 @@ def _truncated_variance(c: float) -> float:
 
 
 def line_residuals(
-    points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = None
+    points: ArrayLike | PlanarScan, lines: ArrayLike | None = None, plane: PlaneSpec = None
 ) -> np.ndarray:
     """Normalized cubic-prediction residuals of the heights along the scan lines.
 
@@ -96,10 +96,20 @@ def line_residuals(
         One residual per point that has two neighbours on either side in its line segment
         (model units); each has the noise's deviation where the surface is smooth. O(N).
     """
-    pts = as_points(points)
-    uv, frame = project(pts, plane)
-    height = pts @ np.asarray(frame.normal, dtype=np.float64)
-    segments = [seg for line in scan_lines(pts, lines, plane=plane).lines for seg in line]
+    scan = as_scan(points, plane=plane, lines=lines)
+    return _line_residuals(scan, scan.uv, _heights(scan))
+
+
+def _heights(scan: PlanarScan, scale: float = 1.0) -> np.ndarray:
+    """(N,) float64 heights of the scan's points along its normal, divided by ``scale``
+    first (a power of two: exact) so that nothing overflows."""
+    return (scan.points / scale) @ np.asarray(scan.frame.normal, dtype=np.float64)
+
+
+def _line_residuals(scan: PlanarScan, uv: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """:func:`line_residuals` from the scan's lines, with its planar coordinates ``uv`` and
+    ``height`` (both in one unit, possibly scaled)."""
+    segments = [seg for line in scan_lines(scan).lines for seg in line]
     segments = [seg for seg in segments if len(seg) >= 5]
     if not segments:
         return np.zeros(0)
@@ -128,7 +138,9 @@ def line_residuals(
     return (height[order[centre]] - predicted) / np.sqrt(norm2)
 
 
-def neighbourhood_residuals(points: ArrayLike, plane: PlaneSpec = None) -> np.ndarray:
+def neighbourhood_residuals(
+    points: ArrayLike | PlanarScan, plane: PlaneSpec = None
+) -> np.ndarray:
     """Normalized residuals of the heights against the quadratic least-squares fit over the
     plane to each point's :data:`NEIGHBOURS` nearest other points (see the module docstring).
 
@@ -142,16 +154,19 @@ def neighbourhood_residuals(points: ArrayLike, plane: PlaneSpec = None) -> np.nd
         One residual per fitted point whose neighbourhood is not degenerate (model units).
         O(N log N).
     """
+    scan = as_scan(points, plane=plane)
+    return _neighbourhood_residuals(scan.uv, _heights(scan))
+
+
+def _neighbourhood_residuals(uv: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """:func:`neighbourhood_residuals` of points at planar ``uv`` with ``height`` (one unit)."""
     from scipy.spatial import cKDTree
 
-    pts = as_points(points)
-    uv, frame = project(pts, plane)
-    height = pts @ np.asarray(frame.normal, dtype=np.float64)
-    if len(pts) <= NEIGHBOURS:
+    if len(uv) <= NEIGHBOURS or not np.isfinite(uv).all():
         return np.zeros(0)
-    centres = np.arange(len(pts))
-    if len(pts) > MAX_FITS:
-        centres = np.sort(np.random.default_rng(0).choice(len(pts), MAX_FITS, replace=False))
+    centres = np.arange(len(uv))
+    if len(uv) > MAX_FITS:
+        centres = np.sort(np.random.default_rng(0).choice(len(uv), MAX_FITS, replace=False))
     _, near = cKDTree(uv).query(uv[centres], k=NEIGHBOURS + 1)
     out = []
     for first in range(0, len(centres), CHUNK):
@@ -200,13 +215,16 @@ def robust_scale(residuals: np.ndarray) -> float:
     return sigma
 
 
-def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = None) -> float:
+def noise(
+    points: ArrayLike | PlanarScan, lines: ArrayLike | None = None, plane: PlaneSpec = None
+) -> float:
     """Estimate the standard deviation of the scan's noise along the projection normal.
 
     Parameters
     ----------
-    points : (N, 3) float
-        Scan points, in scan order unless ``lines`` is given.
+    points : (N, 3) float or PlanarScan
+        Scan points, in scan order unless ``lines`` is given; a PlanarScan (its lines and
+        plane) is used as it is, with no projection.
     lines : (N,) int, optional
         Scan line id of each point (detected from the point order when absent, see
         :func:`scanmesh.detect_lines`); points in no usable order are measured against
@@ -226,19 +244,19 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
     DegenerateInputError
         Neither estimate has :data:`MIN_WINDOWS` residuals (too few points).
     """
-    pts = as_points(points)
+    scan = as_scan(points, plane=plane, lines=lines)
     # scaled by a power of two (exact) to about unit size, so that no fit over- or underflows
-    largest = float(np.max(np.abs(pts))) if len(pts) else 0.0
+    largest = float(np.max(np.abs(scan.points)))
     if largest == 0.0:
         return 0.0
     scale = math.ldexp(1.0, math.frexp(largest)[1] - 1)  # largest / scale in [1, 2)
-    pts = pts / scale
-    found = [line_residuals(pts, lines, plane), neighbourhood_residuals(pts, plane)]
+    uv, height = scan.uv / scale, _heights(scan, scale)
+    found = [_line_residuals(scan, uv, height), _neighbourhood_residuals(uv, height)]
     estimates = [robust_scale(r) for r in found if len(r) >= MIN_WINDOWS]
     if not estimates:
         raise DegenerateInputError(
             f"the noise estimate needs at least {MIN_WINDOWS} points with a local fit, found"
-            f" {max(len(r) for r in found)} among {len(pts)} points"
+            f" {max(len(r) for r in found)} among {len(scan.points)} points"
         )
     return max(estimates) * scale
 
@@ -285,7 +303,8 @@ def noise_tolerance(
     Parameters
     ----------
     initial : Surface
-        The initial triangulation (its vertices, scan lines if known, frame and faces).
+        The initial triangulation, with the PlanarScan it was built on (points, planar
+        coordinates, scan lines if known: nothing is projected again).
     p : float
         The energy exponent.
     given : float or None
@@ -301,14 +320,14 @@ def noise_tolerance(
     tolerance : float
         O(N) (O(N log N) for points in no scan order).
     """
-    assert initial.frame is not None
+    scan = initial.scan
+    assert scan is not None
     try:
-        sigma = noise(initial.vertices, initial.line_ids, plane=initial.frame.normal)
+        sigma = noise(scan)
     except DegenerateInputError:
         sigma = None
     if given is not None:
         return sigma, float(given)
     if sigma is None:
         return None, floor
-    uv, _ = project(initial.vertices, initial.frame.normal)
-    return sigma, tie_tolerance(sigma, median_edge(uv, initial.faces), p, floor)
+    return sigma, tie_tolerance(sigma, median_edge(scan.uv, initial.faces), p, floor)
