@@ -232,4 +232,23 @@ def method(name: str) -> Method:
     return TABLE[name]
 
 
-__all__ = ["Method", "Keywords", "TABLE", "METHODS", "SHARED", "method", "initial_surface"]
+def used_keywords(name: str, options: Mapping[str, Any]) -> frozenset[str]:
+    """The shared keywords (of :data:`SHARED`) method ``name`` uses with these options
+    (``options`` may hold shared keywords and ``plane`` too: they are left aside)."""
+    spec = method(name)
+    if spec.uses is None:
+        return spec.shared
+    own = {k: v for k, v in options.items() if k not in SHARED and k != "plane"}
+    return spec.uses(check_options(spec.options, own, f"method {name!r}"))
+
+
+__all__ = [
+    "Method",
+    "Keywords",
+    "TABLE",
+    "METHODS",
+    "SHARED",
+    "method",
+    "initial_surface",
+    "used_keywords",
+]

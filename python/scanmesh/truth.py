@@ -735,6 +735,7 @@ def holdout_error(
 
     from scanmesh._checks import as_points
     from scanmesh.lines import as_line_ids, detect_lines
+    from scanmesh.methods import used_keywords
     from scanmesh.reconstruct import reconstruct
 
     if by not in HOLDOUT_BY:
@@ -780,13 +781,12 @@ def holdout_error(
         )
     kept = np.flatnonzero(~withheld)
     out = np.flatnonzero(withheld)
-    surface = reconstruct(
-        pts[kept],
-        method,
-        lines=None if lines is None else lines[kept],
-        seed=seed,
-        **options,
-    )
+    # lines and seed go to the method only where it uses them (it refuses the others)
+    used = used_keywords(method, options)
+    shared: dict[str, Any] = {"seed": seed} if "seed" in used else {}
+    if "lines" in used and lines is not None:
+        shared["lines"] = lines[kept]
+    surface = reconstruct(pts[kept], method, **shared, **options)
     frame = surface.frame
     axes = np.column_stack([frame.u, frame.v])
     tri = pts[kept][surface.faces]  # (F, 3, 3)
