@@ -15,13 +15,14 @@ import numpy as np
 import pytest
 
 import scanmesh
+from conftest import DATA
 from scanmesh import MissingExtraError, ScanmeshError
 from scanmesh.render import plot_convergence, render_compare, render_mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 
 #: Modules only the extras install.
-EXTRA_MODULES = ("scipy", "matplotlib", "PIL", "laspy")
+EXTRA_MODULES = ("matplotlib", "PIL", "laspy")
 
 #: Put in front of a child's script: importing any extra's module fails, as on a core install.
 BLOCK_EXTRAS = f"""
@@ -80,10 +81,7 @@ def test_core_install_reconstructs_judges_and_draws_without_any_extra(tmp_path):
 @pytest.mark.parametrize(
     ("call", "extra"),
     [
-        (
-            "scanmesh.reconstruct(np.random.default_rng(0).random((8, 3)) * 0.1, 'optimal')",
-            "optimal",
-        ),
+        ("scanmesh.read(DATA / 'lidar' / 'autzen_trim.laz')", "las"),
         ("plot_convergence({'energy': [3.0, 2.0, 1.0]}, 'c.png')", "plots"),
         (
             "render_compare([scanmesh.delaunay(np.random.default_rng(0).random((9, 3)))], 'p.png')",
@@ -95,7 +93,9 @@ def test_a_feature_without_its_extra_names_the_extra(tmp_path, call, extra):
     result = run_without_extras(
         f"""
         import numpy as np, scanmesh
+        from pathlib import Path
         from scanmesh.render import plot_convergence, render_compare
+        DATA = Path({str(DATA)!r})
         try:
             {call}
         except scanmesh.MissingExtraError as exc:
@@ -110,17 +110,16 @@ def test_a_feature_without_its_extra_names_the_extra(tmp_path, call, extra):
 
 
 def test_the_command_names_the_extra_and_fails_cleanly(tmp_path):
-    scan = tmp_path / "s.xyz"
-    np.savetxt(scan, np.random.default_rng(0).random((10, 3)))
+    scan = DATA / "lidar" / "autzen_trim.laz"
     result = run_without_extras(
         f"""
         from scanmesh.cli import main
-        sys.exit(main(["reconstruct", {str(scan)!r}, "-o", "m.stl", "--method", "optimal"]))
+        sys.exit(main(["reconstruct", {str(scan)!r}, "-o", "m.stl", "--method", "delaunay"]))
         """,
         tmp_path,
     )
     assert result.returncode == 1
-    assert "scanmesh: error:" in result.stderr and "scanmesh[optimal]" in result.stderr
+    assert "scanmesh: error:" in result.stderr and "scanmesh[las]" in result.stderr
     assert "Traceback" not in result.stderr and not (tmp_path / "m.stl").exists()
 
 

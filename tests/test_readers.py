@@ -988,7 +988,7 @@ def test_las_bad_input(tmp_path, monkeypatch):
 def test_las_without_laspy_says_how_to_install(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "laspy", None)  # import laspy now raises ImportError
     path = write(tmp_path / "x.laz", b"LASF")
-    with raises_naming(FileFormatError, path, "pip install scanmesh[las]"):
+    with raises_naming(scanmesh.MissingExtraError, path, 'pip install "scanmesh[las]"'):
         read(path)
 
 

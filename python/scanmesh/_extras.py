@@ -1,6 +1,6 @@
 """Optional dependencies: the features that need a package the core install leaves out.
 
-The core install (numpy, trimesh, rtree, tqdm) reads, reconstructs, judges, writes meshes
+The core install (numpy, scipy, trimesh, rtree, tqdm) reads, reconstructs, judges, writes meshes
 and PNG pictures; each extra adds one feature's packages (pyproject.toml lists them).
 """
 

@@ -88,7 +88,6 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import Option, as_faces, check_options
-from scanmesh._extras import require
 from scanmesh.delaunay import delaunay
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.projection import PlaneSpec
@@ -316,8 +315,7 @@ def optimal_surface(
     """
     # scipy (the "optimal" extra) is imported here, not at module load: `import scanmesh`
     # stays light and works without it.
-    optimize = require("scipy.optimize", "optimal", "method='optimal' (the HiGHS MILP)")
-    Bounds, LinearConstraint, milp = optimize.Bounds, optimize.LinearConstraint, optimize.milp
+    from scipy.optimize import Bounds, LinearConstraint, milp
 
     params = check_options(
         OPTIONS,

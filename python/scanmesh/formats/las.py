@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scanmesh._extras import require
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import check_declared, check_finite, check_regular
 from scanmesh.formats.points import ScanPoints
@@ -112,13 +113,7 @@ def read_las(
         )
     wanted_returns = None if named else _ints(returns, "returns")
     wanted_classes = None if classes is None else _ints(classes, "classes")
-    try:
-        import laspy
-    except ImportError:
-        raise FileFormatError(
-            f"{path}: reading LAS/LAZ files needs laspy; install it with"
-            " `pip install scanmesh[las]`"
-        ) from None
+    laspy = require("laspy", "las", f"{path}: reading LAS/LAZ files")
     _check_header(path, check_regular(path))
     try:
         las = laspy.read(path)
