@@ -29,6 +29,10 @@ from scanmesh.surface import STEEP_ANGLE_DEG
 #: Methods ``scanmesh compare`` runs by default: all but the exact one (small inputs only).
 COMPARE_METHODS = ("delaunay", "lookahead", "shortest-path", "lop", "anneal")
 
+#: Share of the points ``scanmesh compare`` withholds without ``--truth`` (the holdout
+#: error: the truth-free judge of a method, ``scanmesh.truth.holdout_error``).
+HOLDOUT_FRACTION = 0.1
+
 #: File endings ``scanmesh simulate`` writes (XYZ text, read back by ``scanmesh.read``).
 POINT_ENDINGS = (".xyz", ".txt", ".asc")
 
@@ -100,6 +104,14 @@ def _non_negative(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not (value >= 0) or not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"{text!r} is not a number >= 0")
+    return value
+
+
+def _holdout_fraction(text: str) -> float:
+    """--holdout: a share in [0, 1)."""
+    value = _non_negative(text)
+    if value >= 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a share below 1")
     return value
 
 
@@ -482,6 +494,7 @@ def _report(source, out, scan, surface, con: _Console, elapsed: float) -> dict[s
         "method": surface.method,
         "options": surface.options,
         "plane": {"asked": scan.plane or "best-fit", "normal": scan.frame.normal},
+        "noise": surface.options.get("noise"),
         "warnings": con.warnings,
         "time_s": elapsed,
         "timings": {**scan.timings, **surface.timings},
@@ -572,6 +585,8 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
             row.update({k: err[k] for k in ("h_rms", "h_mean", "h_max")})
             dom = domain_error(surface, truth)
             row.update({k: dom[k] for k in ("air_share", "missed_share")})
+        elif args.holdout > 0:
+            row.update(_holdout_row(scan, method, args, options[method], shared[method]))
         rows.append(row)
         surfaces.append(surface)
 
@@ -599,6 +614,10 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
 
             data["height_error"] = {"measure": MEASURE, "n_samples": 100_000}
             data["domain_error"] = {"measure": DOMAIN_MEASURE}
+        elif args.holdout > 0:
+            from scanmesh.truth import HOLDOUT_MEASURE
+
+            data["holdout_error"] = {"measure": HOLDOUT_MEASURE, "fraction": args.holdout}
         if failed:
             data["failed"] = failed
         print(_dumps(data))
@@ -609,6 +628,36 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     return 1 if failed else 0
 
 
+def _holdout_row(scan, method: str, args, options: dict, shared: dict) -> dict[str, Any]:
+    """The holdout error of ``method`` on ``scan`` (rebuilt from the kept points with the
+    same options; the seed of --seed chooses the withheld points)."""
+    from scanmesh.errors import ScanmeshError
+    from scanmesh.truth import holdout_error
+
+    given = {k: v for k, v in shared.items() if k not in ("lines", "seed")}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the full run already warned about this scan
+            err = holdout_error(
+                scan.points,
+                method,
+                fraction=args.holdout,
+                seed=args.seed or 0,
+                plane=scan.plane,
+                lines=scan.line_ids,
+                **given,
+                **options,
+            )
+    except ScanmeshError as exc:  # e.g. too few points left for the method
+        print(f"scanmesh: {method} holdout failed: {_one_line(exc)}", file=sys.stderr)
+        return {"holdout_rms": None, "holdout_p99": None, "holdout_outside": None}
+    return {
+        "holdout_rms": err["rms"],
+        "holdout_p99": err["p99"],
+        "holdout_outside": err["outside"],
+    }
+
+
 def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth: bool) -> None:
     n_lines = _n_lines(scan.line_ids)
     lines = f" on {n_lines:,} lines" if n_lines is not None else ""
@@ -617,8 +666,11 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
         f"{'method':<14}{'time s':>9}{'faces':>9}{'tac_1':>11}{'tac_2':>10}{'tac_inf':>9}"
         f"{'min angle':>11}{'slivers':>9}"
     )
+    with_holdout = not with_truth and any("holdout_rms" in r for r in rows)
     if with_truth:
         head += f"{'h_rms':>11}{'h_mean':>11}{'h_max':>11}{'air':>8}{'missed':>8}"
+    elif with_holdout:
+        head += f"{'holdout rms':>13}{'p99':>11}"
     con.out(head)
     for r in rows:
         line = (
@@ -629,6 +681,8 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
         if with_truth:
             line += f"{r['h_rms']:>11.3e}{r['h_mean']:>11.3e}{r['h_max']:>11.3e}"
             line += f"{100 * r['air_share']:>7.2f}%{100 * r['missed_share']:>7.2f}%"
+        elif with_holdout:
+            line += f"{_fmt(r['holdout_rms'], '.3e'):>13}{_fmt(r['holdout_p99'], '.3e'):>11}"
         con.out(line)
     con.out(
         "tac in radians (smaller is smoother); min angle: smallest 3-D corner angle;"
@@ -641,6 +695,12 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
             " mesh's area (model units); air: area the mesh covers outside the truth's"
             " shadow on the plane, missed: shadow area the mesh leaves open (both in % of the"
             " shadow)"
+        )
+    elif with_holdout:
+        con.out(
+            "holdout: each method rebuilt without a seeded share of the points (--holdout);"
+            " the withheld points' height above or below that mesh along the plane normal"
+            " (model units), the error a user without a CAD model can judge by"
         )
 
 
@@ -713,7 +773,8 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     source = Path(args.input)
     scan = _read_scan(source, con.progress, args)  # the reader's details (format, line source)
     pts = scan.points
-    planar = planar_scan(pts, plane=args.plane)  # projected once for Delaunay and lines
+    # projected once for Delaunay, the lines and the noise estimate
+    planar = planar_scan(pts, plane=args.plane, lines=scan.line_ids)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # coincident points are counted below
         surface = delaunay(planar)
@@ -722,6 +783,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     normal = np.asarray(surface.frame.normal, dtype=np.float64)
     steep = surface.steep_fraction
     lines, lines_from = _lines_info(scan, planar)
+    sigma = _noise_or_none(planar)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     data = {
         "input": str(source),
@@ -732,6 +794,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
         "extent": {"min": lo, "max": hi, "size": hi - lo},
         "plane_normal": normal,
         "median_spacing": spacing,
+        "noise": sigma,
         "delaunay_faces": int(len(surface.faces)),
         "coincident_points": int(len(surface.duplicates)),
         "steep_share": steep,
@@ -747,12 +810,28 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
         con.out(f"  {label:<18}{'  '.join(f'{x:.6g}' for x in vec)}")
     con.out(f"  plane normal      {'  '.join(f'{x:.4g}' for x in normal)}")
     con.out(f"  median spacing    {spacing:.6g} (nearest neighbour, in the plane)")
+    if sigma is not None:
+        con.out(
+            f"  noise             {sigma:.3g} (sigma along the plane normal; {sigma / spacing:.2g}"
+            " x spacing)"
+        )
     con.out(f"  coincident        {len(surface.duplicates):,} points (in the plane)")
     con.out(
         f"  steep share       {100 * steep:.2f} % of {len(surface.faces):,} Delaunay triangles"
         f" tilt more than {STEEP_ANGLE_DEG:g} deg from the plane normal"
     )
     return 0
+
+
+def _noise_or_none(planar) -> float | None:
+    """scanmesh.noise of the scan, or None when too few points allow an estimate."""
+    from scanmesh.errors import DegenerateInputError
+    from scanmesh.noise import noise
+
+    try:
+        return noise(planar)
+    except DegenerateInputError:
+        return None
 
 
 def _lines_info(scan, planar) -> tuple[int | None, str]:
@@ -998,6 +1077,15 @@ def build_parser() -> argparse.ArgumentParser:
         f" {', '.join(METHODS)})",
     )
     p.add_argument("--picture", metavar="P.png", help="write the meshes side by side")
+    p.add_argument(
+        "--holdout",
+        type=_holdout_fraction,
+        default=HOLDOUT_FRACTION,
+        metavar="F",
+        help="without --truth: withhold this share of the points, rebuild each method from"
+        f" the rest and measure the withheld points' height error ({HOLDOUT_FRACTION:g};"
+        " 0: off)",
+    )
     p.set_defaults(func=cmd_compare, _parser=p)
 
     p = sub.add_parser(
