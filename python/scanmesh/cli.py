@@ -372,8 +372,11 @@ def _given_flags(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
-def _refuse_stray_flags(args: argparse.Namespace, methods: Sequence[str]) -> None:
-    """A usage error for a flag none of ``methods`` uses (nothing is silently dropped)."""
+def _refuse_stray_flags(
+    args: argparse.Namespace, methods: Sequence[str], seeded: bool = False
+) -> None:
+    """A usage error for a flag none of ``methods`` uses (nothing is silently dropped);
+    ``seeded``: the command itself uses --seed (compare's error sampling and holdout)."""
     from scanmesh.methods import TABLE
 
     flags = _method_flags()
@@ -381,7 +384,7 @@ def _refuse_stray_flags(args: argparse.Namespace, methods: Sequence[str]) -> Non
         option, users = flags[name]
         if not set(users) & set(methods):
             args._parser.error(f"{option.flag} applies to --method {', '.join(users)} only")
-    for name in ("max_edge", "seed"):
+    for name in ("max_edge",) if seeded else ("max_edge", "seed"):
         if getattr(args, name, None) is not None and not any(
             name in TABLE[m].shared for m in methods
         ):
@@ -404,10 +407,9 @@ def _method_options(args: argparse.Namespace, method: str) -> dict[str, Any]:
 
 def _shared(args: argparse.Namespace, method: str, options: dict[str, Any]) -> dict[str, Any]:
     """--max-edge and --seed for a method that uses them (seed 0 when not given)."""
-    from scanmesh.methods import SHARED, TABLE
+    from scanmesh.methods import SHARED, used_keywords
 
-    spec = TABLE[method]
-    used = spec.shared if spec.uses is None else spec.uses(spec.check(options, {}))
+    used = used_keywords(method, options)
     shared: dict[str, Any] = {}
     if "max_edge" in used and args.max_edge is not None:
         shared["max_edge"] = SHARED["max_edge"].check(args.max_edge, "--max-edge")
@@ -528,7 +530,8 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     source = Path(args.input)
     picture = Path(args.picture) if args.picture else None
     methods = list(dict.fromkeys(args.methods or COMPARE_METHODS))
-    _refuse_stray_flags(args, methods)
+    # --seed also seeds the height error's samples and the holdout's withheld points
+    _refuse_stray_flags(args, methods, seeded=True)
     options = {m: _method_options(args, m) for m in methods}
     shared = {m: _shared(args, m, options[m]) for m in methods}
     inputs = [source] + ([Path(args.truth)] if args.truth else [])
