@@ -8,8 +8,7 @@
 
 use crate::budget;
 use crate::delaunay::NONE;
-use crate::ensemble::Ensemble;
-use crate::lop::{lop, TacLop, TacOrder};
+use crate::lop::{tac_lop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{Detail, PrefetchHints, Proposal, TacState};
 use crate::{Error, Result};
@@ -635,27 +634,13 @@ pub(crate) fn polish(
     params: &AnnealParams,
 ) -> Result<(HalfEdgeMesh, f64, usize)> {
     let mut best = TacState::new(best, uv.to_vec(), xyz.to_vec(), params.p)?;
-    let budget = crate::lop::max_flips(best.mesh().n_half_edges());
     let polish_flips = if params.polish {
-        lop(
-            &mut TacLop {
-                state: &mut best,
-                order: params.order(),
-            },
-            budget,
-        )
+        tac_lop(&mut best, params.order())
     } else {
         0
     };
     let energy = best.resync_energy();
     Ok((best.into_mesh(), energy, polish_flips))
-}
-
-/// Runs a whole annealing in one call (no interruption): the [`Ensemble`] of
-/// [`AnnealParams::chain_count`] chains on the rayon pool, returning the winner. The result
-/// depends on the seed only, not on the thread count. O(chains × sweeps × m) work.
-pub fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
-    Ok(Ensemble::new(state, params)?.run()?.0)
 }
 
 /// Proposals between the prefetch stages of a drawn edge (see [`TacState::prefetch`]):
@@ -768,9 +753,19 @@ fn unit_f64(rng: &mut Pcg64Mcg) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::lop::{lop, TacLop};
     use crate::tac_state::tests::{bumpy_state, plateau_state};
+
+    /// One plain chain run to its end in one call.
+    pub(crate) fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
+        let mut run = Annealer::new(state, params)?;
+        while !run.is_done() {
+            run.advance(usize::MAX);
+        }
+        run.finish()
+    }
 
     fn quick(seed: u64) -> AnnealParams {
         AnnealParams {
@@ -1014,17 +1009,9 @@ mod tests {
                 "sweeps"
             );
         }
-        // The defaults and the ensemble built on them pass.
+        // The defaults pass.
         let chains = auto.check_cost(&st).unwrap();
         assert_eq!(chains, auto.chain_count(st.count_interior_half_edges() / 2));
-        assert!(Ensemble::new(
-            st.clone(),
-            AnnealParams {
-                chains: 1_000_000,
-                ..auto
-            }
-        )
-        .is_err());
     }
 
     #[test]
