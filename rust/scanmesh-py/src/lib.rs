@@ -8,9 +8,9 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::{
-    check_finite, run_lop, stitch, tac_and_min_angles, AnnealParams, Ensemble, Error, HalfEdgeMesh,
-    LopCriterion, Method, Norm, Plane, Relabel, Solver, StripParams, SweepRecord, TacOrder,
-    TacState, Weight, NONE,
+    check_finite, run_lop, stitch_lines, tac_and_min_angles, AnnealParams, Ensemble, Error,
+    HalfEdgeMesh, LopCriterion, Method, Norm, Plane, Relabel, Solver, StripParams, SweepRecord,
+    TacOrder, TacState, Weight, NONE,
 };
 use std::borrow::Cow;
 
@@ -717,14 +717,8 @@ fn strip_mesh<'py>(
         method,
         check,
     };
-    // Only the duplicates of the scan lines outlive the stitching: the lines go before the
-    // faces are converted.
-    let (duplicates, mesh) = py
-        .detach(|| {
-            let scan = scanmesh_core::segment_lines(&plane, &ids, gap_factor)?;
-            let mesh = stitch(&pts, &plane, &scan, &params)?;
-            Ok((scan.duplicates, mesh))
-        })
+    let (mesh, duplicates) = py
+        .detach(|| stitch_lines(&pts, &plane, &ids, gap_factor, &params))
         .map_err(to_py)?;
     let unused = Array1::from_iter(mesh.unused.iter().map(|&k| i64::from(k))).into_pyarray(py);
     Ok((
