@@ -146,53 +146,54 @@ impl AnnealParams {
         let edges = (state.count_interior_half_edges() / 2) as u64;
         let chains = self.chain_count(edges as usize);
         let n = chains as u64;
-        // Chains are named when set beyond what automatic counts give and the run would fit
-        // with that many; otherwise the per-chain option is the cause.
-        let chains_to_blame =
-            |per_chain: u64, limit: u64| self.chains > MAX_AUTO_CHAINS && per_chain <= limit;
-        let samples = self.calibration_samples as u64;
-        let calibration = n.saturating_mul(samples);
-        if calibration > budget::MAX_CALIBRATION_PROPOSALS {
-            let limit = budget::MAX_CALIBRATION_PROPOSALS / MAX_AUTO_CHAINS as u64;
-            let (name, value) = if chains_to_blame(samples, limit) {
-                ("chains", self.chains)
-            } else {
-                ("calibration_samples", self.calibration_samples)
-            };
-            return Err(Error::TooCostly {
+        // One rule for both limits on proposals: `chains` is named when set beyond what
+        // automatic counts give and the run would fit with that many; otherwise the
+        // per-chain option (`other`) is the cause.
+        let refuse = |total: u64,
+                      limit: u64,
+                      per_chain: u64,
+                      other: (&'static str, usize),
+                      what: String,
+                      limit_text: String| {
+            if total <= limit {
+                return Ok(());
+            }
+            let (name, value) =
+                if self.chains > MAX_AUTO_CHAINS && per_chain <= limit / MAX_AUTO_CHAINS as u64 {
+                    ("chains", self.chains)
+                } else {
+                    other
+                };
+            Err(Error::TooCostly {
                 name,
                 value: value.to_string(),
-                needs: budget::describe_proposals(
-                    calibration,
-                    &format!("calibration proposals ({chains} chains) before the first sweep"),
-                ),
-                limit: format!(
-                    "{:.0e}, the most a run may make before it can be interrupted",
-                    budget::MAX_CALIBRATION_PROPOSALS as f64
-                ),
-            });
-        }
+                needs: budget::describe_proposals(total, &what),
+                limit: limit_text,
+            })
+        };
+        let samples = self.calibration_samples as u64;
+        refuse(
+            n.saturating_mul(samples),
+            budget::MAX_CALIBRATION_PROPOSALS,
+            samples,
+            ("calibration_samples", self.calibration_samples),
+            format!("calibration proposals ({chains} chains) before the first sweep"),
+            format!(
+                "{:.0e}, the most a run may make before it can be interrupted",
+                budget::MAX_CALIBRATION_PROPOSALS as f64
+            ),
+        )?;
         let per_chain = (self.sweeps as u64)
             .saturating_mul(edges)
             .saturating_add(samples);
-        let proposals = n.saturating_mul(per_chain);
-        if proposals > budget::MAX_PROPOSALS {
-            let limit = budget::MAX_PROPOSALS / MAX_AUTO_CHAINS as u64;
-            let (name, value) = if chains_to_blame(per_chain, limit) {
-                ("chains", self.chains)
-            } else {
-                ("sweeps", self.sweeps)
-            };
-            return Err(Error::TooCostly {
-                name,
-                value: value.to_string(),
-                needs: budget::describe_proposals(
-                    proposals,
-                    &format!("flip proposals ({chains} chains, {edges} interior edges)"),
-                ),
-                limit: format!("the limit of {:.0e}", budget::MAX_PROPOSALS as f64),
-            });
-        }
+        refuse(
+            n.saturating_mul(per_chain),
+            budget::MAX_PROPOSALS,
+            per_chain,
+            ("sweeps", self.sweeps),
+            format!("flip proposals ({chains} chains, {edges} interior edges)"),
+            format!("the limit of {:.0e}", budget::MAX_PROPOSALS as f64),
+        )?;
         // Per chain: its state, the best copy (and the tiles' pieces), the calibration
         // sample, the flip log (at most about three sweeps) and the sweep records, kept and
         // copied once for the caller.
