@@ -1,8 +1,8 @@
 //! The synthetic height scan and the default weight shared by the strip benches
 //! (`strips.rs`, criterion; `strips_best.rs`, best-of runs).
 
-use scanmesh_core::fuchs::Weight;
 use scanmesh_core::glam::DVec3;
+use scanmesh_core::Weight;
 
 #[path = "jitter.rs"]
 mod jitter;

@@ -11,11 +11,11 @@
 //! - `solvers`: every solver and look-ahead depth on the embedded ~14,000-point rod scan.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use scanmesh_core::delaunay::delaunay;
-use scanmesh_core::fuchs::{Solver, Weight, DEFAULT_BAND};
-use scanmesh_core::lines::{detect_lines, segment_lines, DEFAULT_GAP_FACTOR};
-use scanmesh_core::projection::{project, Plane};
-use scanmesh_core::strips::{stitch, Method, StripParams};
+use scanmesh_core::delaunay;
+use scanmesh_core::{detect_lines, segment_lines, DEFAULT_GAP_FACTOR};
+use scanmesh_core::{project, Plane};
+use scanmesh_core::{stitch, Method, StripParams};
+use scanmesh_core::{Solver, Weight, DEFAULT_BAND};
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -17,10 +17,10 @@
 //!
 //! Defaults: 1,000,000 points, 10 runs.
 
-use scanmesh_core::delaunay::delaunay;
-use scanmesh_core::fuchs::{Solver, DEFAULT_BAND};
-use scanmesh_core::lines::{segment_lines, DEFAULT_GAP_FACTOR};
-use scanmesh_core::strips::{stitch, Method, StripParams};
+use scanmesh_core::delaunay;
+use scanmesh_core::{segment_lines, DEFAULT_GAP_FACTOR};
+use scanmesh_core::{stitch, Method, StripParams};
+use scanmesh_core::{Solver, DEFAULT_BAND};
 use std::hint::black_box;
 use std::time::Instant;
 

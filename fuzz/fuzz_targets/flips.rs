@@ -3,8 +3,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use scanmesh_core::delaunay::delaunay;
-use scanmesh_core::tac_state::{Detail, TacState};
+use scanmesh_core::delaunay;
+use scanmesh_core::{Detail, TacState};
 
 mod common;
 

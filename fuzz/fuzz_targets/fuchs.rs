@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use scanmesh_core::fuchs::{
+use scanmesh_core::{
     lookahead, path_cost, shortest_path_banded, shortest_path_dijkstra, shortest_path_dp, Weight,
 };
 use scanmesh_core::glam::DVec3;

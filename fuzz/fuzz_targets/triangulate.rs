@@ -3,9 +3,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use scanmesh_core::delaunay::{delaunay, unit_square, NONE};
-use scanmesh_core::mesh::HalfEdgeMesh;
-use scanmesh_core::trim::{median_spacing, trim_long_edges};
+use scanmesh_core::{delaunay, unit_square, NONE};
+use scanmesh_core::HalfEdgeMesh;
+use scanmesh_core::{median_spacing, trim_long_edges};
 use scanmesh_core::Error;
 
 mod common;

@@ -8,8 +8,7 @@
 
 use crate::budget;
 use crate::delaunay::NONE;
-use crate::ensemble::Ensemble;
-use crate::lop::{lop, TacLop, TacOrder};
+use crate::lop::{tac_lop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{Detail, PrefetchHints, Proposal, TacState};
 use crate::{Error, Result};
@@ -147,53 +146,54 @@ impl AnnealParams {
         let edges = (state.count_interior_half_edges() / 2) as u64;
         let chains = self.chain_count(edges as usize);
         let n = chains as u64;
-        // Chains are named when set beyond what automatic counts give and the run would fit
-        // with that many; otherwise the per-chain option is the cause.
-        let chains_to_blame =
-            |per_chain: u64, limit: u64| self.chains > MAX_AUTO_CHAINS && per_chain <= limit;
-        let samples = self.calibration_samples as u64;
-        let calibration = n.saturating_mul(samples);
-        if calibration > budget::MAX_CALIBRATION_PROPOSALS {
-            let limit = budget::MAX_CALIBRATION_PROPOSALS / MAX_AUTO_CHAINS as u64;
-            let (name, value) = if chains_to_blame(samples, limit) {
-                ("chains", self.chains)
-            } else {
-                ("calibration_samples", self.calibration_samples)
-            };
-            return Err(Error::TooCostly {
+        // One rule for both limits on proposals: `chains` is named when set beyond what
+        // automatic counts give and the run would fit with that many; otherwise the
+        // per-chain option (`other`) is the cause.
+        let refuse = |total: u64,
+                      limit: u64,
+                      per_chain: u64,
+                      other: (&'static str, usize),
+                      what: String,
+                      limit_text: String| {
+            if total <= limit {
+                return Ok(());
+            }
+            let (name, value) =
+                if self.chains > MAX_AUTO_CHAINS && per_chain <= limit / MAX_AUTO_CHAINS as u64 {
+                    ("chains", self.chains)
+                } else {
+                    other
+                };
+            Err(Error::TooCostly {
                 name,
                 value: value.to_string(),
-                needs: budget::describe_proposals(
-                    calibration,
-                    &format!("calibration proposals ({chains} chains) before the first sweep"),
-                ),
-                limit: format!(
-                    "{:.0e}, the most a run may make before it can be interrupted",
-                    budget::MAX_CALIBRATION_PROPOSALS as f64
-                ),
-            });
-        }
+                needs: budget::describe_proposals(total, &what),
+                limit: limit_text,
+            })
+        };
+        let samples = self.calibration_samples as u64;
+        refuse(
+            n.saturating_mul(samples),
+            budget::MAX_CALIBRATION_PROPOSALS,
+            samples,
+            ("calibration_samples", self.calibration_samples),
+            format!("calibration proposals ({chains} chains) before the first sweep"),
+            format!(
+                "{:.0e}, the most a run may make before it can be interrupted",
+                budget::MAX_CALIBRATION_PROPOSALS as f64
+            ),
+        )?;
         let per_chain = (self.sweeps as u64)
             .saturating_mul(edges)
             .saturating_add(samples);
-        let proposals = n.saturating_mul(per_chain);
-        if proposals > budget::MAX_PROPOSALS {
-            let limit = budget::MAX_PROPOSALS / MAX_AUTO_CHAINS as u64;
-            let (name, value) = if chains_to_blame(per_chain, limit) {
-                ("chains", self.chains)
-            } else {
-                ("sweeps", self.sweeps)
-            };
-            return Err(Error::TooCostly {
-                name,
-                value: value.to_string(),
-                needs: budget::describe_proposals(
-                    proposals,
-                    &format!("flip proposals ({chains} chains, {edges} interior edges)"),
-                ),
-                limit: format!("the limit of {:.0e}", budget::MAX_PROPOSALS as f64),
-            });
-        }
+        refuse(
+            n.saturating_mul(per_chain),
+            budget::MAX_PROPOSALS,
+            per_chain,
+            ("sweeps", self.sweeps),
+            format!("flip proposals ({chains} chains, {edges} interior edges)"),
+            format!("the limit of {:.0e}", budget::MAX_PROPOSALS as f64),
+        )?;
         // Per chain: its state, the best copy (and the tiles' pieces), the calibration
         // sample, the flip log (at most about three sweeps) and the sweep records, kept and
         // copied once for the caller.
@@ -635,27 +635,13 @@ pub(crate) fn polish(
     params: &AnnealParams,
 ) -> Result<(HalfEdgeMesh, f64, usize)> {
     let mut best = TacState::new(best, uv.to_vec(), xyz.to_vec(), params.p)?;
-    let budget = crate::lop::max_flips(best.mesh().n_half_edges());
     let polish_flips = if params.polish {
-        lop(
-            &mut TacLop {
-                state: &mut best,
-                order: params.order(),
-            },
-            budget,
-        )
+        tac_lop(&mut best, params.order())
     } else {
         0
     };
     let energy = best.resync_energy();
     Ok((best.into_mesh(), energy, polish_flips))
-}
-
-/// Runs a whole annealing in one call (no interruption): the [`Ensemble`] of
-/// [`AnnealParams::chain_count`] chains on the rayon pool, returning the winner. The result
-/// depends on the seed only, not on the thread count. O(chains × sweeps × m) work.
-pub fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
-    Ok(Ensemble::new(state, params)?.run()?.0)
 }
 
 /// Proposals between the prefetch stages of a drawn edge (see [`TacState::prefetch`]):
@@ -768,9 +754,19 @@ fn unit_f64(rng: &mut Pcg64Mcg) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::lop::{lop, TacLop};
     use crate::tac_state::tests::{bumpy_state, plateau_state};
+
+    /// One plain chain run to its end in one call.
+    pub(crate) fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
+        let mut run = Annealer::new(state, params)?;
+        while !run.is_done() {
+            run.advance(usize::MAX);
+        }
+        run.finish()
+    }
 
     fn quick(seed: u64) -> AnnealParams {
         AnnealParams {
@@ -1014,17 +1010,9 @@ mod tests {
                 "sweeps"
             );
         }
-        // The defaults and the ensemble built on them pass.
+        // The defaults pass.
         let chains = auto.check_cost(&st).unwrap();
         assert_eq!(chains, auto.chain_count(st.count_interior_half_edges() / 2));
-        assert!(Ensemble::new(
-            st.clone(),
-            AnnealParams {
-                chains: 1_000_000,
-                ..auto
-            }
-        )
-        .is_err());
     }
 
     #[test]

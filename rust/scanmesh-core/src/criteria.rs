@@ -3,11 +3,10 @@
 //! Both are measured in 3-D on any triangle list (not only planar triangulations), so that
 //! every method, and meshes from elsewhere, are judged by the same code.
 
-use crate::geometry::{smallest_angle, triangle_angles, Normalizer};
+use crate::geometry::{triangle_angles, Normalizer};
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
-use std::cmp::Ordering;
 use std::f64::consts::TAU;
 
 /// A p-norm on a quality vector: `(Σ x^p)^(1/p)` for p ≥ 1, or the maximum (p = ∞).
@@ -56,18 +55,6 @@ impl Norm {
             }
         }
     }
-}
-
-/// Compares two tac vectors under `norm`: `Less` when `a` is the better (smaller) one. O(n).
-pub fn compare_tac(a: &[f64], b: &[f64], norm: Norm) -> Ordering {
-    norm.of(a).total_cmp(&norm.of(b))
-}
-
-/// Compares two triangulations by their smallest angles m(Δ): `Less` when `a` is better,
-/// i.e. its smallest angle is **larger** (the optimum maximizes it; see DESIGN.md on the
-/// paper's sign slip). O(1).
-pub fn compare_max_min(min_angle_a: f64, min_angle_b: f64) -> Ordering {
-    min_angle_b.total_cmp(&min_angle_a)
 }
 
 /// Checks face indices: in range and three distinct vertices; the error names the face. O(m).
@@ -172,22 +159,6 @@ fn is_interior(
     all_twice && link_is_one_cycle(link)
 }
 
-/// Which vertices are interior: used, every incident edge shared by exactly two faces, and
-/// the incident faces form one closed fan (a single cycle of neighbours). Works on any
-/// triangle list, oriented or not. O(n + m) time and memory (each vertex's check is local
-/// to its fan, O(d²) for degree d), in parallel over the vertices.
-pub fn interior_vertices(n_vertices: usize, faces: &[[u32; 3]]) -> Result<Vec<bool>> {
-    check_faces(n_vertices, faces)?;
-    let fans = Fans::new(n_vertices, faces);
-    Ok((0..n_vertices)
-        .into_par_iter()
-        .map_init(
-            || (Vec::new(), Vec::new()),
-            |(link, ends), v| is_interior(v as u32, fans.of(v), faces, link, ends),
-        )
-        .collect())
-}
-
 /// True when the undirected link edges (every node of degree 2) form a single cycle. O(d²), d small.
 fn link_is_one_cycle(link: &[(u32, u32)]) -> bool {
     let mut used = vec![false; link.len()];
@@ -275,38 +246,20 @@ fn tac_from_angles(n_vertices: usize, faces: &[[u32; 3]], angles: &[[f64; 3]]) -
         .collect()
 }
 
-/// tac of every vertex: `|2π − Σ angles|` on interior vertices, NaN elsewhere, angles
-/// measured on the points mapped into the unit box. O(n + m), in parallel.
-pub fn tac(points: &[DVec3], faces: &[[u32; 3]]) -> Result<Vec<f64>> {
-    Ok(tac_and_min_angles(points, faces)?.0)
-}
-
-/// tac per vertex (as [`tac`]) and smallest 3-D angle per face (as [`min_angles`]), with
-/// every corner angle computed once. O(n + m) time, in parallel; memory 24 bytes per face
+/// tac of every vertex (`|2π − Σ angles|` on interior vertices, NaN elsewhere, angles
+/// measured on the points mapped into the unit box) and the smallest 3-D angle of every
+/// face, with every corner angle computed once. O(n + m) time, in parallel; memory 24 bytes per face
 /// for the angles and 12 per face + 8 per vertex for the fan table, besides the outputs.
 pub fn tac_and_min_angles(points: &[DVec3], faces: &[[u32; 3]]) -> Result<(Vec<f64>, Vec<f64>)> {
     check_faces(points.len(), faces)?;
     let normalizer = Normalizer::fit(points);
     let angles = corner_angles(points, faces, |p| normalizer.apply(p));
     let tac = tac_from_angles(points.len(), faces, &angles);
-    // The same minimum as `smallest_angle`, from the stored angles.
     let min_angle = angles
         .par_iter()
         .map(|a| a[0].min(a[1]).min(a[2]))
         .collect();
     Ok((tac, min_angle))
-}
-
-/// Smallest 3-D corner angle (radians) of each face. O(m), in parallel over the faces.
-pub fn min_angles(points: &[DVec3], faces: &[[u32; 3]]) -> Vec<f64> {
-    let normalizer = Normalizer::fit(points);
-    faces
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| normalizer.apply(points[v as usize]));
-            smallest_angle(a, b, c)
-        })
-        .collect()
 }
 
 /// Number of `faces` whose normal (right-hand rule) is tilted more than `max_tilt`
@@ -368,52 +321,8 @@ where
         .count())
 }
 
-/// Everything a quality report says about one mesh.
-#[derive(Debug, Clone)]
-pub struct Quality {
-    /// tac per vertex (radians), NaN on vertices that are not interior.
-    pub tac: Vec<f64>,
-    /// Smallest 3-D angle per face (radians).
-    pub min_angle: Vec<f64>,
-    /// Number of interior vertices.
-    pub n_interior: usize,
-    /// tac 1-, 2- and ∞-norms.
-    pub tac_1: f64,
-    /// See `tac_1`.
-    pub tac_2: f64,
-    /// See `tac_1`.
-    pub tac_inf: f64,
-    /// m(Δ): the smallest angle of the mesh (radians; NaN with no faces).
-    pub min_angle_overall: f64,
-    /// Share of faces whose smallest angle is below the sliver threshold.
-    pub sliver_fraction: f64,
-}
-
 /// Sliver threshold: a triangle with a smallest angle under 5° counts as a sliver.
 pub const SLIVER_ANGLE_DEG: f64 = 5.0;
-
-/// Measures `faces` over `points` (finite). O(n + m), the per-vertex and per-face work in
-/// parallel; the norms are serial sums, so the result does not depend on the thread count.
-pub fn quality(points: &[DVec3], faces: &[[u32; 3]]) -> Result<Quality> {
-    let (tac, min_angle) = tac_and_min_angles(points, faces)?;
-    let n_interior = tac.iter().filter(|x| !x.is_nan()).count();
-    let threshold = SLIVER_ANGLE_DEG.to_radians();
-    let slivers = min_angle.iter().filter(|&&a| a < threshold).count();
-    Ok(Quality {
-        tac_1: Norm::P(1.0).of(&tac),
-        tac_2: Norm::P(2.0).of(&tac),
-        tac_inf: Norm::Max.of(&tac),
-        n_interior,
-        min_angle_overall: min_angle.iter().copied().fold(f64::NAN, f64::min),
-        sliver_fraction: if faces.is_empty() {
-            0.0
-        } else {
-            slivers as f64 / faces.len() as f64
-        },
-        tac,
-        min_angle,
-    })
-}
 
 #[cfg(test)]
 mod tests {
@@ -442,20 +351,15 @@ mod tests {
     #[test]
     fn flat_grid_has_zero_tac_and_one_interior_vertex() {
         let (pts, faces) = tent(0.0);
-        let q = quality(&pts, &faces).unwrap();
-        assert_eq!(q.n_interior, 1);
-        assert!(q.tac[4].abs() < 1e-14);
-        assert!(q
-            .tac
-            .iter()
-            .enumerate()
-            .all(|(i, t)| (i == 4) != t.is_nan()));
+        let (tac, _) = tac_and_min_angles(&pts, &faces).unwrap();
+        assert!(tac[4].abs() < 1e-14);
+        assert!(tac.iter().enumerate().all(|(i, t)| (i == 4) != t.is_nan()));
     }
 
     #[test]
     fn raised_centre_has_the_angle_defect() {
         let (pts, faces) = tent(1.0);
-        let q = quality(&pts, &faces).unwrap();
+        let (tac, _) = tac_and_min_angles(&pts, &faces).unwrap();
         let manual: f64 = faces
             .iter()
             .filter_map(|t| {
@@ -467,10 +371,10 @@ mod tests {
                 ))
             })
             .sum();
-        assert!((q.tac[4] - (TAU - manual)).abs() < 1e-14);
-        assert!(q.tac[4] > 0.5);
-        assert_eq!(q.tac_1, q.tac[4]);
-        assert_eq!(q.tac_inf, q.tac[4]);
+        assert!((tac[4] - (TAU - manual)).abs() < 1e-14);
+        assert!(tac[4] > 0.5);
+        assert_eq!(Norm::P(1.0).of(&tac), tac[4]);
+        assert_eq!(Norm::Max.of(&tac), tac[4]);
     }
 
     #[test]
@@ -483,15 +387,6 @@ mod tests {
         assert!(Norm::new(0.5).is_err());
         assert!(Norm::new(f64::NAN).is_err());
         assert_eq!(Norm::new(f64::INFINITY).unwrap(), Norm::Max);
-        assert_eq!(
-            compare_tac(&[1.0, 1.0], &[1.5, 0.0], Norm::P(1.0)),
-            Ordering::Greater
-        );
-        assert_eq!(
-            compare_tac(&[1.0, 1.0], &[1.5, 0.0], Norm::Max),
-            Ordering::Less
-        );
-        assert_eq!(compare_max_min(0.5, 0.2), Ordering::Less);
     }
 
     #[test]
@@ -505,8 +400,11 @@ mod tests {
             [0, 5, 6],
             [0, 6, 4],
         ];
-        let interior = interior_vertices(7, &faces).unwrap();
-        assert!(!interior[0]);
+        let points: Vec<DVec3> = (0..7)
+            .map(|k| DVec3::new(k as f64, (k * k) as f64, (k % 2) as f64))
+            .collect();
+        let (tac, _) = tac_and_min_angles(&points, &faces).unwrap();
+        assert!(tac[0].is_nan());
     }
 
     /// The former implementation, kept as the oracle: edge uses by binary search in the
@@ -601,17 +499,19 @@ mod tests {
             let (interior, tac_ref) = reference_tac(&points, &faces);
             assert!(interior.iter().filter(|&&i| i).count() > rows * cols / 5);
             assert!(interior.iter().filter(|&&i| !i).count() > 2 * (rows + cols));
-            assert_eq!(interior_vertices(points.len(), &faces).unwrap(), interior);
-            let q = quality(&points, &faces).unwrap();
-            for (v, (x, y)) in q.tac.iter().zip(&tac_ref).enumerate() {
+            let (tac, min_angle) = tac_and_min_angles(&points, &faces).unwrap();
+            for (v, (x, y)) in tac.iter().zip(&tac_ref).enumerate() {
                 assert_eq!(x.to_bits(), y.to_bits(), "vertex {v}: {x} vs {y}");
             }
-            let per_face = min_angles(&points, &faces);
-            assert!(q
-                .min_angle
-                .iter()
-                .zip(&per_face)
-                .all(|(x, y)| x.to_bits() == y.to_bits()));
+            assert_eq!(
+                tac.iter().map(|t| !t.is_nan()).collect::<Vec<_>>(),
+                interior
+            );
+            let unit = Normalizer::fit(&points).apply_all(&points);
+            assert!(faces.iter().zip(&min_angle).all(|(t, &m)| {
+                let [a, b, c] = t.map(|v| unit[v as usize]);
+                m == crate::geometry::smallest_angle(a, b, c)
+            }));
         }
     }
 
@@ -660,12 +560,13 @@ mod tests {
 
     #[test]
     fn bad_faces_are_errors() {
+        let points = [DVec3::ZERO, DVec3::X, DVec3::Y];
         assert!(matches!(
-            interior_vertices(3, &[[0, 1, 5]]),
+            tac_and_min_angles(&points, &[[0, 1, 5]]),
             Err(Error::InvalidFace { face: 0, .. })
         ));
         assert!(matches!(
-            interior_vertices(3, &[[0, 1, 2], [2, 2, 1]]),
+            tac_and_min_angles(&points, &[[0, 1, 2], [2, 2, 1]]),
             Err(Error::InvalidFace { face: 1, .. })
         ));
     }

@@ -283,6 +283,11 @@ mod tests {
             p: 0.5,
             ..params(4, 1)
         };
-        assert!(Ensemble::new(st, bad).is_err());
+        assert!(Ensemble::new(st.clone(), bad).is_err());
+        // A million chains would calibrate for minutes before the first chunk.
+        match Ensemble::new(st, params(1_000_000, 1)) {
+            Err(crate::Error::TooCostly { name: "chains", .. }) => {}
+            other => panic!("{:?}", other.map(|e| e.len())),
+        }
     }
 }

@@ -93,17 +93,6 @@ impl Weight {
         dihedral: 1.0,
     };
 
-    /// The named single-criterion weight: "length", "area", "angle" or "dihedral". O(1).
-    pub fn by_name(name: &str) -> Option<Weight> {
-        match name {
-            "length" => Some(Weight::LENGTH),
-            "area" => Some(Weight::AREA),
-            "angle" => Some(Weight::ANGLE),
-            "dihedral" => Some(Weight::DIHEDRAL),
-            _ => None,
-        }
-    }
-
     /// Checks that every coefficient is finite and ≥ 0 and one is positive. O(1).
     pub fn check(&self) -> Result<()> {
         let all = [self.length, self.area, self.angle, self.dihedral];

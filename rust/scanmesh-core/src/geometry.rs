@@ -77,23 +77,17 @@ pub fn triangle_angles(a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
     ]
 }
 
-/// Smallest corner angle (radians) of triangle (a, b, c). O(1).
-#[inline]
-pub fn smallest_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+/// Smallest corner angle (radians) of triangle (a, b, c), for tests' reference costs. O(1).
+#[cfg(test)]
+pub(crate) fn smallest_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let [x, y, z] = triangle_angles(a, b, c);
     x.min(y).min(z)
 }
 
-/// Area of triangle (a, b, c) in squared input units. O(1).
-#[inline]
-pub fn triangle_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+/// Area of triangle (a, b, c) in squared input units, for tests' reference costs. O(1).
+#[cfg(test)]
+pub(crate) fn triangle_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     0.5 * (b - a).cross(c - a).length()
-}
-
-/// Unit normal of triangle (a, b, c) by the right-hand rule, or zero when it is degenerate. O(1).
-#[inline]
-pub fn triangle_normal(a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
-    (b - a).cross(c - a).normalize_or_zero()
 }
 
 /// Angle in radians at corner `p` of the planar triangle (p, a, b), atan2 form. O(1).

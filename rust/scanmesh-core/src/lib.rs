@@ -1,49 +1,73 @@
 //! scanmesh-core: triangulated surfaces from digitized scan-line points.
 //!
-//! Pure Rust, no Python. Modules, one concept each:
-//! - [`geometry`]: corner angles (atan2 form), areas, exact orientation, normalization;
-//! - [`projection`]: points to a plane (least squares, an axis, a normal);
-//! - [`delaunay`]: planar Delaunay through spade, with the map back to input indices;
-//! - [`mesh`]: flat half-edge triangulation with flips and `validate()`;
-//! - [`criteria`]: max-min angle and tac (total absolute curvature) with p-norms;
-//! - [`trim`]: removing long hull triangles so outlines and holes stay open;
-//! - [`tac_state`]: incremental tac energy under flips;
-//! - [`locality`]: Z-order relabelling so annealing's memory accesses stay close;
-//! - [`lop`]: Lawson's greedy flipping for any criterion;
-//! - [`anneal`]: simulated annealing on tac;
-//! - [`ensemble`]: independent annealing chains side by side, the best one kept;
-//! - [`tiles`]: one annealing chain on several cores, the plane cut into stripes;
-//! - [`enumerate`]: empty triangles and every triangulation of a small point set (exact checks);
-//! - [`lines`]: scan lines detected from point order or given by id, split at gaps;
-//! - [`fuchs`]: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths;
-//! - [`strips`]: strips between consecutive lines stitched into one mesh (rayon);
-//! - [`text`]: numeric text tables (XYZ, CSV rows) parsed from bytes.
+//! Pure Rust, no Python. The public API is the list re-exported below (modules are
+//! private); the modules, one concept each:
+//! - `geometry`: corner angles (atan2 form), areas, exact orientation, normalization;
+//! - `projection`: points to a plane (least squares, an axis, a normal);
+//! - `delaunay`: planar Delaunay through spade, with the map back to input indices;
+//! - `mesh`: flat half-edge triangulation with flips and `validate()`;
+//! - `criteria`: max-min angle and tac (total absolute curvature) with p-norms;
+//! - `trim`: removing long hull triangles so outlines and holes stay open;
+//! - `tac_state`: incremental tac energy under flips;
+//! - `locality`: Z-order relabelling so annealing's memory accesses stay close;
+//! - `lop`: Lawson's greedy flipping for any criterion;
+//! - `anneal`: simulated annealing on tac;
+//! - `budget`: what options may cost in work and memory, fallible copies;
+//! - `ensemble`: independent annealing chains side by side, the best one kept;
+//! - `tiles`: one annealing chain on several cores, the plane cut into stripes;
+//! - `enumerate`: empty triangles and every triangulation of a small point set (exact checks);
+//! - `lines`: scan lines detected from point order or given by id, split at gaps;
+//! - `fuchs`: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths;
+//! - `strips`: strips between consecutive lines stitched into one mesh (rayon);
+//! - `text`: numeric text tables (XYZ, CSV rows) parsed from bytes.
 // `deny`, not `forbid`: the one exception is the cache prefetch hint in `locality::prefetch`.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod anneal;
-pub mod budget;
-pub mod criteria;
-pub mod delaunay;
-pub mod ensemble;
-pub mod enumerate;
+mod anneal;
+mod budget;
+mod criteria;
+mod delaunay;
+mod ensemble;
+mod enumerate;
 mod error;
-pub mod fuchs;
-pub mod geometry;
-pub mod lines;
-pub mod locality;
-pub mod lop;
-pub mod mesh;
-pub mod projection;
-pub mod stl;
-pub mod strips;
-pub mod tac_state;
+mod fuchs;
+mod geometry;
+mod lines;
+mod locality;
+mod lop;
+mod mesh;
+mod projection;
+mod stl;
+mod strips;
+mod tac_state;
 #[cfg(test)]
 mod testing;
-pub mod text;
-pub mod tiles;
-pub mod trim;
+mod text;
+mod tiles;
+mod trim;
 
+pub use anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
+pub use budget::{MAX_CALIBRATION_PROPOSALS, MAX_PROPOSALS};
+pub use criteria::{steep_count, tac_and_min_angles, Norm, SLIVER_ANGLE_DEG};
+pub use delaunay::{delaunay, unit_square, Delaunay, NONE};
+pub use ensemble::{Ensemble, EnsembleSummary};
+pub use enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
 pub use error::{Error, Result};
+pub use fuchs::{
+    lookahead, path_cost, shortest_path_banded, shortest_path_dijkstra, shortest_path_dp, Solution,
+    Solver, Step, Weight, DEFAULT_BAND,
+};
+pub use geometry::{check_finite, normalize_plane, triangle_angles};
 pub use glam;
+pub use lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
+pub use locality::Relabel;
+pub use lop::{run_lop, tac_lop, LopCriterion, TacOrder};
+pub use mesh::{next, prev, HalfEdgeMesh};
+pub use projection::{project, Frame, Plane, Projection};
+pub use stl::records as stl_records;
+pub use strips::{stitch, stitch_lines, Method, StripMesh, StripParams};
+pub use tac_state::{Detail, FlipMove, TacState};
+pub use text::{parse_table, Table, TextError, TextErrorKind};
+pub use tiles::TiledAnnealer;
+pub use trim::{median_spacing, trim_long_edges, DEFAULT_MAX_EDGE_FACTOR};

@@ -7,6 +7,7 @@ use crate::delaunay::NONE;
 use crate::geometry::planar_smallest_angle;
 use crate::mesh::{next, prev, HalfEdgeMesh};
 use crate::tac_state::{Detail, FlipMove, TacState};
+use crate::{Error, Result};
 
 /// Smallest improvement in a smallest angle (radians) that counts: below it, rounding could
 /// make both diagonals of a cocircular quadrilateral look better than the other, and loop.
@@ -24,6 +25,22 @@ pub struct TacOrder {
 }
 
 impl TacOrder {
+    /// The order with `tie_tolerance` (radians^p, finite and ≥ 0, else an error naming it)
+    /// and `sliver_guard`. O(1).
+    pub fn new(tie_tolerance: f64, sliver_guard: bool) -> Result<Self> {
+        if !(tie_tolerance >= 0.0 && tie_tolerance.is_finite()) {
+            return Err(Error::InvalidParameter {
+                name: "tie_tolerance",
+                value: tie_tolerance.to_string(),
+                expected: "a finite value >= 0",
+            });
+        }
+        Ok(TacOrder {
+            tie_tolerance,
+            sliver_guard,
+        })
+    }
+
     /// True when `mv` is a tie under this order. O(1).
     #[inline]
     pub fn is_tie(&self, mv: &FlipMove) -> bool {
@@ -71,6 +88,46 @@ pub const MAX_FLIPS_PER_HALF_EDGE: usize = 50;
 /// more. O(1).
 pub fn max_flips(n_half_edges: usize) -> usize {
     MAX_FLIPS_PER_HALF_EDGE * n_half_edges.max(1)
+}
+
+/// What [`run_lop`] improves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LopCriterion {
+    /// The tac energy of the state (Σ tac^p) under this order.
+    Tac(TacOrder),
+    /// The smallest angle in the plane; converges to a Delaunay triangulation.
+    PlanarMaxMin,
+}
+
+/// LOP from `state`'s triangulation under `criterion`, within the flip budget
+/// [`max_flips`]: the final triangulation and the flips made. O(flips + m).
+pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> (HalfEdgeMesh, usize) {
+    match criterion {
+        LopCriterion::Tac(order) => {
+            let flips = tac_lop(&mut state, order);
+            (state.into_mesh(), flips)
+        }
+        LopCriterion::PlanarMaxMin => {
+            let uv = state.uv().to_vec();
+            let mut mesh = state.into_mesh();
+            let budget = max_flips(mesh.n_half_edges());
+            let flips = lop(
+                &mut PlanarMaxMinLop {
+                    mesh: &mut mesh,
+                    uv: &uv,
+                },
+                budget,
+            );
+            (mesh, flips)
+        }
+    }
+}
+
+/// LOP of `state`'s tac energy under `order` within the flip budget [`max_flips`];
+/// returns the flips made. O(flips + m).
+pub fn tac_lop(state: &mut TacState, order: TacOrder) -> usize {
+    let budget = max_flips(state.mesh().n_half_edges());
+    lop(&mut TacLop { state, order }, budget)
 }
 
 /// Runs LOP to a local optimum: every interior edge is examined; after a flip the edges

@@ -325,6 +325,23 @@ pub fn stitch(
     stitch_with(points, uv, scan, params, true).map(|(mesh, _)| mesh)
 }
 
+/// The whole strip method from a line id per point: the scan lines
+/// ([`crate::lines::segment_lines`], split at gaps of `gap_factor` median steps), then
+/// [`stitch`]. Returns the mesh and the (dropped point, point it coincides with) pairs the
+/// lines found; the lines themselves are dropped before returning, so they never live
+/// beside the caller's copy of the faces. Time and errors: those of the two stages.
+pub fn stitch_lines(
+    points: &[DVec3],
+    uv: &[[f64; 2]],
+    line_ids: &[i64],
+    gap_factor: f64,
+    params: &StripParams,
+) -> Result<(StripMesh, Vec<(u32, u32)>)> {
+    let scan = crate::lines::segment_lines(uv, line_ids, gap_factor)?;
+    let mesh = stitch(points, uv, &scan, params)?;
+    Ok((mesh, scan.duplicates))
+}
+
 /// Why the stitched mesh is not a valid planar triangulation, by the global check
 /// ([`HalfEdgeMesh::from_triangles`] and [`HalfEdgeMesh::validate`] on the unit-box
 /// positions `uv`): the oracle of the local check, and what names its errors. O(m α(m)).

@@ -60,10 +60,14 @@ pub enum Detail {
     Shape,
 }
 
-/// Four points count as coplanar when the volume of their tetrahedron is below this times
-/// the cube of the longest edge from the first: out-of-plane offsets of 1e-13 relative
-/// change angle sums far below the tie tolerance. Scans of machined parts are mostly flat,
-/// and there every flip is such an exact tie.
+/// A quadrilateral counts as coplanar when the sine of its bend across either diagonal is
+/// at most this: angle sums then change far below the tie tolerance. Scans of machined
+/// parts are mostly flat, and there every flip is such an exact tie.
+///
+/// Why the bend and not the volume: a volume small against the longest edge cubed (the
+/// former test) still bends a quadrilateral of slivers or of tiny triangles next to long
+/// ones (clustered points) by a visible angle, and such a "tie" changed an angle sum by
+/// 9e-8 without the state knowing (found by the property tests).
 pub const COPLANAR_RELATIVE: f64 = 1e-13;
 
 /// Optional lines for [`TacState::prefetch`]: each helps on some inputs and crowds the
@@ -108,17 +112,24 @@ struct VertexRecord {
     interior: bool,
 }
 
-/// True when the tetrahedron (a, b, c, d) is flat relative to its size (see
-/// [`COPLANAR_RELATIVE`]). O(1).
+/// True when the quadrilateral of triangles (a, b, c) and (b, a, d) is flat (see
+/// [`COPLANAR_RELATIVE`]): its bend across diagonal ab and across cd. The sine of the
+/// dihedral angle across ab is `6V·|ab| / (|n_abc|·|n_bad|)` for the tetrahedron's volume V
+/// and the triangles' normals n (twice their areas), so the test is scale-free and has no
+/// division: `(6V)² |ab|² ≤ ε² |n1|² |n2|²`, and the same for cd. A degenerate triangle
+/// (zero normal) is never flat: its angles are computed. O(1).
 #[inline]
 pub fn is_coplanar(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> bool {
-    let (u, v, w) = (b - a, c - a, d - a);
-    let volume6 = u.dot(v.cross(w)).abs();
-    let longest = u
-        .length_squared()
-        .max(v.length_squared())
-        .max(w.length_squared());
-    volume6 <= COPLANAR_RELATIVE * longest * longest.sqrt()
+    let (ab, ac, ad) = (b - a, c - a, d - a);
+    let volume6 = ab.dot(ac.cross(ad));
+    let v2 = volume6 * volume6;
+    let e2 = COPLANAR_RELATIVE * COPLANAR_RELATIVE;
+    let cd = d - c;
+    let (bc, bd) = (c - b, d - b);
+    let bent = |diagonal: DVec3, n1: DVec3, n2: DVec3| {
+        v2 * diagonal.length_squared() >= e2 * n1.length_squared() * n2.length_squared()
+    };
+    !(bent(ab, ab.cross(ac), ab.cross(ad)) || bent(cd, ac.cross(ad), bc.cross(bd)))
 }
 
 /// Energy contribution `|2π − S|^p` of an interior vertex with angle sum `s`. O(1).
@@ -601,6 +612,34 @@ impl TacState {
 pub(crate) mod tests {
     use super::*;
     use crate::delaunay::{delaunay, unit_square};
+
+    #[test]
+    fn coplanar_means_unbent_not_thin() {
+        // A flat quadrilateral, rounded: a tie.
+        let plane = |x: f64, y: f64| DVec3::new(x, y, 0.3 * x + 0.7 * y);
+        let flat = [
+            plane(0.0, 0.0),
+            plane(1.0, 0.1),
+            plane(0.4, 0.9),
+            plane(0.6, -0.8),
+        ];
+        assert!(is_coplanar(flat[0], flat[1], flat[2], flat[3]));
+        // A short diagonal ab between two long triangles whose far corners c, d nearly line
+        // up with a, d raised by 9e-10: the tetrahedron's volume is below 1e-13 of the
+        // longest edge cubed (the former test called it flat), but the quadrilateral bends by
+        // 9e-10 rad where the new angle at a is 1e-9 short of π, so a's angle sum moves by
+        // more than the tie tolerance: no tie.
+        let (a, b) = (DVec3::ZERO, DVec3::new(1e-4, 0.0, 0.0));
+        let (c, d) = (DVec3::new(5e-10, 1.0, 0.0), DVec3::new(5e-10, -1.0, 9e-10));
+        assert!(b.dot((c - a).cross(d - a)).abs() < COPLANAR_RELATIVE);
+        assert!(!is_coplanar(a, b, c, d));
+        let (old1, old2) = (triangle_angles(a, b, c), triangle_angles(b, a, d));
+        let new1 = triangle_angles(d, c, a);
+        let at_a = new1[2] - (old1[0] + old2[1]);
+        assert!(at_a.abs() > 1e-10, "{at_a}");
+        // Zero area: never a tie, whatever the volume.
+        assert!(!is_coplanar(a, b, DVec3::new(2.0, 0.0, 0.0), d));
+    }
 
     /// A bumpy height field sampled at random planar points.
     pub(crate) fn bumpy_state(n: usize, seed: u64, p: f64) -> TacState {

@@ -440,7 +440,7 @@ fn tile_seed(seed: u64, phase: usize, tile: usize) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::anneal::anneal;
+    use crate::anneal::tests::anneal;
     use crate::lop::{lop, TacLop};
     use crate::tac_state::tests::{bumpy_state, plateau_state};
 

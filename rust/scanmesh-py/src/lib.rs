@@ -6,21 +6,12 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2}
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
-use scanmesh_core::anneal::{self as sa, AnnealParams};
-use scanmesh_core::criteria::{self, Norm};
-use scanmesh_core::delaunay::NONE;
-use scanmesh_core::ensemble::Ensemble;
-use scanmesh_core::fuchs::{Solver, Weight};
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::lines;
-use scanmesh_core::locality::Relabel;
-use scanmesh_core::lop::{lop as run_lop, max_flips, PlanarMaxMinLop, TacLop, TacOrder};
-use scanmesh_core::mesh::HalfEdgeMesh;
-use scanmesh_core::projection::{self, Plane};
-use scanmesh_core::strips::{self, Method, StripParams};
-use scanmesh_core::tac_state::TacState;
-use scanmesh_core::text;
-use scanmesh_core::{trim, Error};
+use scanmesh_core::{
+    check_finite, parse_table, run_lop, stitch_lines, tac_and_min_angles, AnnealParams, Ensemble,
+    Error, HalfEdgeMesh, LopCriterion, Method, Norm, Plane, Relabel, Solver, StripParams,
+    SweepRecord, Table, TacOrder, TacState, TextErrorKind, Weight, NONE,
+};
 use std::borrow::Cow;
 
 create_exception!(
@@ -224,7 +215,7 @@ fn project<'py>(
         }
     };
     let p = py
-        .detach(|| projection::project(&pts, plane))
+        .detach(|| scanmesh_core::project(&pts, plane))
         .map_err(to_py)?;
     let f = p.frame;
     let frame: Vec<f64> = [f.origin, f.u, f.v, f.normal]
@@ -247,9 +238,7 @@ fn delaunay<'py>(
     uv: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<(Ints2<'py>, Ints1<'py>)> {
     let pts = points2(&uv)?;
-    let d = py
-        .detach(|| scanmesh_core::delaunay::delaunay(&pts))
-        .map_err(to_py)?;
+    let d = py.detach(|| scanmesh_core::delaunay(&pts)).map_err(to_py)?;
     let dup: Vec<i64> = d
         .duplicate_of
         .iter()
@@ -269,7 +258,7 @@ fn median_spacing(
 ) -> PyResult<f64> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    Ok(trim::median_spacing(&pts, &t))
+    Ok(scanmesh_core::median_spacing(&pts, &t))
 }
 
 /// Drops faces whose longest planar edge exceeds `max_edge`, then resolves pinches.
@@ -288,7 +277,7 @@ fn trim_long_edges<'py>(
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
     let kept = py
-        .detach(|| trim::trim_long_edges(&pts, &t, max_edge))
+        .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge))
         .map_err(to_py)?;
     Ok(faces_out(py, &kept))
 }
@@ -301,7 +290,7 @@ fn validate(
     uv: PyReadonlyArray2<'_, f64>,
     faces_: PyReadonlyArray2<'_, i64>,
 ) -> PyResult<()> {
-    let pts = scanmesh_core::delaunay::unit_square(&points2(&uv)?);
+    let pts = scanmesh_core::unit_square(&points2(&uv)?);
     let t = faces(&faces_, pts.len())?;
     py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts)))
         .map_err(to_py)
@@ -317,11 +306,9 @@ fn mesh_quality<'py>(
 ) -> PyResult<(Floats1<'py>, Floats1<'py>)> {
     let pts = points3_view(&points)?;
     let t = faces(&faces_, pts.len())?;
-    scanmesh_core::geometry::check_finite(&pts).map_err(to_py)?;
+    check_finite(&pts).map_err(to_py)?;
     // tac and angles only: Python takes the norms it reports from the tac vector.
-    let (tac, min_angle) = py
-        .detach(|| criteria::tac_and_min_angles(&pts, &t))
-        .map_err(to_py)?;
+    let (tac, min_angle) = py.detach(|| tac_and_min_angles(&pts, &t)).map_err(to_py)?;
     Ok((
         Array1::from_vec(tac).into_pyarray(py),
         Array1::from_vec(min_angle).into_pyarray(py),
@@ -346,7 +333,7 @@ fn steep_count(
         return Err(shape_error("normal", "(3,)", n.shape()));
     }
     let n = DVec3::new(n[0], n[1], n[2]);
-    py.detach(|| criteria::steep_count(&pts, &t, n, max_tilt))
+    py.detach(|| scanmesh_core::steep_count(&pts, &t, n, max_tilt))
         .map_err(to_py)
 }
 
@@ -387,49 +374,17 @@ fn lop<'py>(
     sliver_guard: bool,
     tie_tolerance: f64,
 ) -> PyResult<(Ints2<'py>, usize)> {
-    let (mut state, relabel) = tac_state(&points, &uv, &faces_, p)?;
-    let (mesh, flips) = match criterion {
-        "tac" => {
-            if !(tie_tolerance >= 0.0 && tie_tolerance.is_finite()) {
-                return Err(ParameterError::new_err(format!(
-                    "tie_tolerance must be finite and >= 0, got {tie_tolerance}"
-                )));
-            }
-            let order = TacOrder {
-                tie_tolerance,
-                sliver_guard,
-            };
-            py.detach(|| {
-                let budget = max_flips(state.mesh().n_half_edges());
-                let flips = run_lop(
-                    &mut TacLop {
-                        state: &mut state,
-                        order,
-                    },
-                    budget,
-                );
-                (state.into_mesh(), flips)
-            })
-        }
-        "max-min" => py.detach(|| {
-            let plane = state.uv().to_vec();
-            let mut mesh = state.into_mesh();
-            let budget = max_flips(mesh.n_half_edges());
-            let flips = run_lop(
-                &mut PlanarMaxMinLop {
-                    mesh: &mut mesh,
-                    uv: &plane,
-                },
-                budget,
-            );
-            (mesh, flips)
-        }),
+    let criterion = match criterion {
+        "tac" => LopCriterion::Tac(TacOrder::new(tie_tolerance, sliver_guard).map_err(to_py)?),
+        "max-min" => LopCriterion::PlanarMaxMin,
         other => {
             return Err(ParameterError::new_err(format!(
                 "unknown LOP criterion {other:?}: use 'tac' or 'max-min'"
             )))
         }
     };
+    let (state, relabel) = tac_state(&points, &uv, &faces_, p)?;
+    let (mesh, flips) = py.detach(|| run_lop(state, criterion));
     Ok((
         faces_out(py, &relabel.triangles_to_input(&mesh.triangles())),
         flips,
@@ -576,7 +531,7 @@ impl Annealer {
     }
 }
 
-fn trace_out<'py>(py: Python<'py>, trace: &[sa::SweepRecord]) -> Floats2<'py> {
+fn trace_out<'py>(py: Python<'py>, trace: &[SweepRecord]) -> Floats2<'py> {
     let flat: Vec<f64> = trace
         .iter()
         .flat_map(|r| [r.temperature, r.energy, r.best, r.acceptance])
@@ -592,7 +547,7 @@ fn trace_out<'py>(py: Python<'py>, trace: &[sa::SweepRecord]) -> Floats2<'py> {
 fn empty_triangles<'py>(py: Python<'py>, uv: PyReadonlyArray2<'py, f64>) -> PyResult<Ints2<'py>> {
     let pts = points2(&uv)?;
     let t = py
-        .detach(|| scanmesh_core::enumerate::empty_triangles(&pts))
+        .detach(|| scanmesh_core::empty_triangles(&pts))
         .map_err(to_py)?;
     Ok(faces_out(py, &t))
 }
@@ -610,7 +565,7 @@ fn triangulations<'py>(
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
     let all = py
-        .detach(|| scanmesh_core::enumerate::triangulations(&pts, &t, max_count))
+        .detach(|| scanmesh_core::triangulations(&pts, &t, max_count))
         .map_err(to_py)?;
     let flat: Vec<i64> = all
         .iter()
@@ -633,7 +588,7 @@ fn detect_lines<'py>(
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let pts = points2(&uv)?;
     let ids = py
-        .detach(|| lines::detect_lines(&pts, gap_factor))
+        .detach(|| scanmesh_core::detect_lines(&pts, gap_factor))
         .map_err(to_py)?;
     Ok(Array1::from_iter(ids.into_iter().map(i64::from)).into_pyarray(py))
 }
@@ -669,7 +624,7 @@ fn scan_segments<'py>(
     let pts = points2(&uv)?;
     let ids = line_ids_in(&line_ids, pts.len())?;
     let scan = py
-        .detach(|| lines::segment_lines(&pts, &ids, gap_factor))
+        .detach(|| scanmesh_core::segment_lines(&pts, &ids, gap_factor))
         .map_err(to_py)?;
     let out = scan
         .lines
@@ -762,14 +717,8 @@ fn strip_mesh<'py>(
         method,
         check,
     };
-    // Only the duplicates of the scan lines outlive the stitching: the lines go before the
-    // faces are converted.
-    let (duplicates, mesh) = py
-        .detach(|| {
-            let scan = lines::segment_lines(&plane, &ids, gap_factor)?;
-            let mesh = strips::stitch(&pts, &plane, &scan, &params)?;
-            Ok((scan.duplicates, mesh))
-        })
+    let (mesh, duplicates) = py
+        .detach(|| stitch_lines(&pts, &plane, &ids, gap_factor, &params))
         .map_err(to_py)?;
     let unused = Array1::from_iter(mesh.unused.iter().map(|&k| i64::from(k))).into_pyarray(py);
     Ok((
@@ -794,14 +743,14 @@ fn stl_records<'py>(
     let pts = points3_view(&points)?;
     let t = face_rows(&faces_)?;
     let bytes = py
-        .detach(|| scanmesh_core::stl::records(&pts, &t))
+        .detach(|| scanmesh_core::stl_records(&pts, &t))
         .map_err(to_py)?;
     Ok(Array1::from_vec(bytes).into_pyarray(py))
 }
 
 /// Parses bytes `data[start:stop]` (whole lines) as rows of `ncols` numbers (`ncols` 0: any
 /// number per row) separated by whitespace and, when given, the one-character `delimiter`
-/// (rules in `scanmesh_core::text`), without the GIL. Returns (values (R, ncols) float64,
+/// (rules in scanmesh-core's `parse_table`), without the GIL. Returns (values (R, ncols) float64,
 /// or (V, 1) holding every value with `ncols` 0, row_lines (R,) int64 and blank_lines (B,) int64, both 0-based line indices
 /// within the range, number of lines, problem): problem is None, or for a refused range
 /// (line index, byte offset within the range, "number" | "count") of its first bad line,
@@ -842,14 +791,14 @@ fn parse_text_table<'py>(
     };
     let chunk = &data[start..stop];
     let width = ncols.max(1);
-    let (table, problem) = match py.detach(|| text::parse_table(chunk, ncols, delimiter)) {
+    let (table, problem) = match py.detach(|| parse_table(chunk, ncols, delimiter)) {
         Ok(table) => (table, None),
         Err(e) => {
             let kind = match e.kind {
-                text::TextErrorKind::NotANumber => "number",
-                text::TextErrorKind::WrongCount => "count",
+                TextErrorKind::NotANumber => "number",
+                TextErrorKind::WrongCount => "count",
             };
-            (text::Table::default(), Some((e.line, e.offset, kind)))
+            (Table::default(), Some((e.line, e.offset, kind)))
         }
     };
     let rows = table.values.len() / width;
@@ -904,7 +853,7 @@ fn cheapest_fans<'py>(
     }
     let w = w.as_array().to_vec();
     let fans = py
-        .detach(|| scanmesh_core::enumerate::cheapest_fans(&pts, &t, &d, &c, &vs, &w))
+        .detach(|| scanmesh_core::cheapest_fans(&pts, &t, &d, &c, &vs, &w))
         .map_err(to_py)?;
     let bounds: Vec<f64> = fans.iter().map(|f| f.lower_bound).collect();
     let (mut owner, mut values, mut flat, mut offsets) =
@@ -941,8 +890,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("ParameterError", py.get_type::<ParameterError>())?;
     m.add("InvalidMeshError", py.get_type::<InvalidMeshError>())?;
-    m.add("SLIVER_ANGLE_DEG", criteria::SLIVER_ANGLE_DEG)?;
-    m.add("DEFAULT_MAX_EDGE_FACTOR", trim::DEFAULT_MAX_EDGE_FACTOR)?;
+    m.add("SLIVER_ANGLE_DEG", scanmesh_core::SLIVER_ANGLE_DEG)?;
+    m.add(
+        "DEFAULT_MAX_EDGE_FACTOR",
+        scanmesh_core::DEFAULT_MAX_EDGE_FACTOR,
+    )?;
     let d = AnnealParams::default();
     let defaults = pyo3::types::PyDict::new(py);
     defaults.set_item("sweeps", d.sweeps)?;
@@ -965,8 +917,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_quality, m)?)?;
     m.add_function(wrap_pyfunction!(tac_norm, m)?)?;
     m.add_function(wrap_pyfunction!(steep_count, m)?)?;
-    m.add("DEFAULT_GAP_FACTOR", lines::DEFAULT_GAP_FACTOR)?;
-    m.add("DEFAULT_BAND", scanmesh_core::fuchs::DEFAULT_BAND)?;
+    m.add("DEFAULT_GAP_FACTOR", scanmesh_core::DEFAULT_GAP_FACTOR)?;
+    m.add("DEFAULT_BAND", scanmesh_core::DEFAULT_BAND)?;
     m.add_function(wrap_pyfunction!(detect_lines, m)?)?;
     m.add_function(wrap_pyfunction!(scan_segments, m)?)?;
     m.add_function(wrap_pyfunction!(strip_mesh, m)?)?;
