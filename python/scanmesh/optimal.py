@@ -122,7 +122,7 @@ class _Instance:
 
     #: (N, 3) float64 the input points
     points: np.ndarray
-    #: (N, 2) float64 their planar coordinates
+    #: (N, 2) float64 their planar coordinates, scaled by a power of two into [-1, 1]
     uv: np.ndarray
     frame: Frame
     #: (n,) int64 input index of each distinct point (the local index is the position)
@@ -146,6 +146,11 @@ def _instance(points: ArrayLike, plane: PlaneSpec) -> _Instance:
     for w in caught:  # re-issued so that they point at the caller's line
         warnings.warn(w.message, w.category, stacklevel=4)
     uv, frame = project(pts, plane)
+    # Scaled by a power of two (exact: every orientation sign kept) so that |uv| <= 1: the
+    # exact predicates and planar angles overflow at 1e300 and underflow at 1e-300.
+    largest = float(np.abs(uv).max())
+    if largest > 0:
+        uv = np.ldexp(uv, -math.frexp(largest)[1])
     used = np.ones(len(pts), dtype=bool)
     used[base.duplicates[:, 0]] = False
     keep = np.flatnonzero(used)
