@@ -20,6 +20,11 @@ from scanmesh.surface import Surface
 #: Default ``max_edge`` in multiples of the median nearest-neighbour spacing (planar).
 MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 
+#: A triangle whose longest 3-D edge exceeds this multiple of the local 3-D spacing (the
+#: median edge length at its best-sampled corner) bridges a depth jump and is dropped
+#: whenever ``max_edge`` is finite.
+JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
+
 
 def resolve_max_edge(uv: np.ndarray, faces: np.ndarray, max_edge: float | None) -> float:
     """The trimming length: ``max_edge`` itself, or MAX_EDGE_FACTOR x median spacing for None."""
@@ -49,8 +54,10 @@ def delaunay(
     max_edge : float, optional
         Triangles with a longer planar edge (input units) are dropped, so holes and concave
         outlines stay open. Default: ``MAX_EDGE_FACTOR`` (5) x the median nearest-neighbour
-        spacing. ``math.inf`` keeps the whole convex hull (less the zero-area slivers that
-        close straight stretches of it).
+        spacing. With a finite ``max_edge``, triangles that bridge a depth jump (a wall, a
+        step, a bore: longest 3-D edge above ``JUMP_FACTOR`` (3) x the local 3-D spacing)
+        are dropped too. ``math.inf`` keeps the whole convex hull (less the zero-area
+        slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
         "delaunay" (points) and "trim" (faces), each one native call reported at its start
@@ -82,7 +89,8 @@ def delaunay(
     # that close straight stretches of the hull.
     untrimmed = faces
     with Stage(progress, "trim", len(untrimmed), blocking=True):
-        faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit)
+        jumps = JUMP_FACTOR if math.isfinite(limit) else math.inf
+        faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit, pts, jumps)
         # (K,) int64 points that lost every triangle to trimming (outliers, stray points);
         # flags, not np.setdiff1d, whose sorts of the 6M-entry face arrays took 2 s at 1M points
         was_used = np.zeros(len(pts), dtype=bool)
