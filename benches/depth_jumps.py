@@ -1,7 +1,8 @@
 """Depth jumps: parts with bores, walls and steps scanned along their axis.
 
     python benches/depth_jumps.py                  # every part, every method, Markdown table
-    python benches/depth_jumps.py --parts rocker   # one part
+    python benches/depth_jumps.py --parts "rocker arm"   # one part
+    python benches/depth_jumps.py --cad /work/shared/data/cad   # from a worktree
 
 Each part is scanned by the virtual digitizer (:func:`scanmesh.simulate_scan`, about
 15,000 points, no noise) along the axis it is machined from: the octagonal pocket along z,
@@ -31,6 +32,7 @@ import argparse
 import math
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -80,11 +82,11 @@ def rocker_arm() -> trimesh.Trimesh:
     return trimesh.boolean.difference([body, *cuts], engine="manifold")
 
 
-def parts() -> dict[str, tuple[object, str]]:
-    """part -> (CAD mesh or path, scanning axis)."""
+def parts(cad: Path) -> dict[str, tuple[object, str]]:
+    """part -> (CAD mesh or path, scanning axis), the CAD files read from ``cad``."""
     return {
-        "octagonal_pocket": (CAD / "octagonal_pocket.ply", "z"),
-        "fandisk": (CAD / "fandisk.obj", "y"),
+        "octagonal_pocket": (cad / "octagonal_pocket.ply", "z"),
+        "fandisk": (cad / "fandisk.obj", "y"),
         "rocker arm": (rocker_arm(), "z"),
     }
 
@@ -246,10 +248,11 @@ def table(rows: list[dict]) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--parts", nargs="*", help="subset of: octagonal_pocket fandisk 'rocker arm'")
+    ap.add_argument("--cad", type=Path, default=CAD, help=f"CAD folder (default {CAD})")
     args = ap.parse_args()
     print(f"machine: {machine()}")
     rows = []
-    for part, (cad, axis) in parts().items():
+    for part, (cad, axis) in parts(args.cad).items():
         if args.parts and part not in args.parts:
             continue
         rows += measure(part, cad, axis)
