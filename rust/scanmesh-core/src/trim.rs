@@ -17,8 +17,9 @@ pub const DEFAULT_MAX_EDGE_FACTOR: f64 = 5.0;
 /// [`DepthJumps`]) bridges a wall, a step or a bore and is dropped. Chosen by
 /// benches/depth_jumps.py on three CAD parts scanned along their axis (15,000 points): at 3
 /// the height RMS against the truth is 0.16 (pocket), 0.10 (fandisk) and 0.05 (rocker arm)
-/// times that of planar trimming alone; 2 gains little more and misses 1-2 % more of the
-/// shadow, 4 keeps curtains on the rocker arm.
+/// times that of planar trimming alone. 2 takes the pocket's to 0 but misses 0.8 (pocket)
+/// and 1.7 (fandisk) points more of the shadow; 4 measures the same on the pocket and the
+/// rocker arm and misses 0.7 points less of the fandisk's shadow at 5 % more height RMS.
 pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 
 /// The depth-jump rule of [`trim_long_edges`]: the 3-D points (same indices as the planar
