@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import textwrap
 
@@ -11,6 +12,7 @@ import pytest
 import scanmesh
 from conftest import bumpy_patch, seconds_to_interrupt
 from scanmesh import _core
+from scanmesh.anneal import anneal_surface, lop_surface
 
 
 def canonical(faces):
@@ -18,10 +20,24 @@ def canonical(faces):
 
 
 @pytest.fixture(scope="module")
-def rod_results(rod_scan):
+def rod_with_curtains(rod_scan):
+    """The rod's Delaunay trimmed in the plane only: its tac lives in the curtains across
+    the rod's steps (depth-jump trimming drops them, leaving flat faces with no tac), so it
+    is the mesh on which the optimizers have something to do."""
     pts, _ = rod_scan
-    return {m: scanmesh.reconstruct(pts, m, plane="y", **({"sweeps": 150} if m == "anneal" else {}))
-            for m in ("delaunay", "lop", "anneal")}
+    d = scanmesh.delaunay(pts, plane="y")
+    uv, _ = scanmesh.project(pts, "y")
+    hull, _ = _core.delaunay(uv)
+    return dataclasses.replace(d, faces=_core.trim_long_edges(uv, hull, d.options["max_edge"]))
+
+
+@pytest.fixture(scope="module")
+def rod_results(rod_with_curtains):
+    return {
+        "delaunay": rod_with_curtains,
+        "lop": lop_surface(rod_with_curtains),
+        "anneal": anneal_surface(rod_with_curtains, sweeps=150),
+    }
 
 
 def test_anneal_beats_lop_beats_delaunay_on_the_rod(rod_results):
@@ -41,10 +57,9 @@ def test_results_are_valid_planar_triangulations(rod_results, rod_scan):
         assert s.quality.n_interior == d.quality.n_interior
 
 
-def test_sliver_guard_keeps_tac_and_removes_slivers(rod_scan):
-    pts, _ = rod_scan
-    guarded = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=60, seed=3)
-    raw = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=60, seed=3, sliver_guard=False)
+def test_sliver_guard_keeps_tac_and_removes_slivers(rod_with_curtains):
+    guarded = anneal_surface(rod_with_curtains, sweeps=60, seed=3)
+    raw = anneal_surface(rod_with_curtains, sweeps=60, seed=3, sliver_guard=False)
     assert guarded.quality.tac_1 <= raw.quality.tac_1 * 1.02
     assert guarded.quality.sliver_fraction < 0.5 * raw.quality.sliver_fraction
 
@@ -182,10 +197,10 @@ def test_large_inputs_run_one_chain_unless_asked():
     assert three.options["chains"] == 3 and len(three.options["chain_energies"]) == 3
 
 
-def test_tiles_anneal_the_rod_as_well_as_one_chain(rod_results, rod_scan):
+def test_tiles_anneal_the_rod_as_well_as_one_chain(rod_results, rod_with_curtains, rod_scan):
     pts, _ = rod_scan
     uv, _ = scanmesh.project(pts, "y")
-    tiled = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=150, tiles=3)
+    tiled = anneal_surface(rod_with_curtains, sweeps=150, tiles=3)
     _core.validate(uv, tiled.faces)
     assert len(tiled.faces) == len(rod_results["delaunay"].faces)
     assert tiled.options["tiles"] == 3
@@ -193,5 +208,5 @@ def test_tiles_anneal_the_rod_as_well_as_one_chain(rod_results, rod_scan):
     assert tiled.quality.tac_1 < 1.15 * rod_results["anneal"].quality.tac_1
     assert len(tiled.trace["energy"]) == 150
     assert np.all(np.diff(tiled.trace["best"]) <= 0)
-    again = scanmesh.reconstruct(pts, "anneal", plane="y", sweeps=150, tiles=3)
+    again = anneal_surface(rod_with_curtains, sweeps=150, tiles=3)
     np.testing.assert_array_equal(again.faces, tiled.faces)

@@ -475,7 +475,9 @@ def test_info_steep_share_of_a_flat_and_a_folded_scan(tmp_path):
         == 0
     )
     wall = points.copy()
-    wall[:, 2] = np.where(wall[:, 0] > 0.5, 5.0, 0.0)  # a cliff between two columns
+    # a sampled 87° ramp over 4 columns (a cliff between two columns would be a depth jump,
+    # whose triangles trimming drops)
+    wall[:, 2] = 5.0 * np.clip((wall[:, 0] - 0.4) / 0.2, 0.0, 1.0)
     data = json.loads(
         run("info", write_xyz(tmp_path / "w.xyz", wall), "--json", "--plane", "z").stdout
     )

@@ -14,6 +14,7 @@ __all__ = [
     "ParameterError",
     "InvalidMeshError",
     "SLIVER_ANGLE_DEG",
+    "DEFAULT_JUMP_FACTOR",
     "DEFAULT_MAX_EDGE_FACTOR",
     "ANNEAL_DEFAULTS",
     "project",
@@ -44,6 +45,7 @@ class ParameterError(ScanmeshError): ...
 class InvalidMeshError(ScanmeshError): ...
 
 SLIVER_ANGLE_DEG: float
+DEFAULT_JUMP_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 
 def project(
@@ -56,7 +58,11 @@ def delaunay(
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
 def median_spacing(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> float: ...
 def trim_long_edges(
-    uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64], max_edge: float
+    uv: npt.NDArray[np.float64],
+    faces_: npt.NDArray[np.int64],
+    max_edge: float,
+    points: npt.NDArray[np.float64] | None = None,
+    jump_factor: float = ...,
 ) -> npt.NDArray[np.int64]: ...
 def validate(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> None: ...
 def mesh_quality(

@@ -21,6 +21,11 @@ from scanmesh.surface import Surface
 #: Default ``max_edge`` in multiples of the median nearest-neighbour spacing (planar).
 MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 
+#: A triangle whose longest 3-D edge exceeds this multiple of the local 3-D spacing (the
+#: median edge length at its best-sampled corner) bridges a depth jump and is dropped
+#: whenever ``max_edge`` is finite.
+JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
+
 
 #: ``max_edge``, the shared trimming keyword: None means MAX_EDGE_FACTOR x median spacing.
 MAX_EDGE_OPTION = Option(
@@ -62,7 +67,10 @@ def delaunay(
     max_edge : float, optional
         Triangles with a longer planar edge (input units) are dropped, so holes and concave
         outlines stay open. Default: ``MAX_EDGE_FACTOR`` (5) x the median nearest-neighbour
-        spacing. ``math.inf`` keeps the whole convex hull.
+        spacing. With a finite ``max_edge``, triangles that bridge a depth jump (a wall, a
+        step, a bore: longest 3-D edge above ``JUMP_FACTOR`` (3) x the local 3-D spacing)
+        are dropped too. ``math.inf`` keeps the whole convex hull (less the zero-area
+        slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
         "delaunay" (points) and "trim" (faces), each one native call reported at its start
@@ -91,23 +99,24 @@ def delaunay(
         faces, duplicate_of = interruptible(len(pts), _core.delaunay, uv)
     t2 = time.perf_counter()
     limit = resolve_max_edge(uv, faces, max_edge)
-    trimmed = np.empty(0, dtype=np.int64)
-    if math.isfinite(limit):
-        untrimmed = faces
-        with Stage(progress, "trim", len(untrimmed), blocking=True):
-            faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit)
-            # (K,) int64 points that lost every triangle to trimming (outliers, stray points);
-            # flags, not np.setdiff1d, whose sorts of the 6M-entry face arrays took 2 s at 1M points
-            was_used = np.zeros(len(pts), dtype=bool)
-            was_used[untrimmed.ravel()] = True
-            was_used[faces.ravel()] = False
-            trimmed = np.flatnonzero(was_used).astype(np.int64)
-        if len(faces) == 0:
-            raise DegenerateInputError(
-                f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse"
-                " for it, or fold onto themselves in the projection plane (try another plane=,"
-                " or a larger max_edge)"
-            )
+    # Trimmed at max_edge=inf too: trimming also peels the numerically collinear slivers
+    # that close straight stretches of the hull.
+    untrimmed = faces
+    with Stage(progress, "trim", len(untrimmed), blocking=True):
+        jumps = JUMP_FACTOR if math.isfinite(limit) else math.inf
+        faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit, pts, jumps)
+        # (K,) int64 points that lost every triangle to trimming (outliers, stray points);
+        # flags, not np.setdiff1d, whose sorts of the 6M-entry face arrays took 2 s at 1M points
+        was_used = np.zeros(len(pts), dtype=bool)
+        was_used[untrimmed.ravel()] = True
+        was_used[faces.ravel()] = False
+        trimmed = np.flatnonzero(was_used).astype(np.int64)
+    if len(faces) == 0:
+        raise DegenerateInputError(
+            f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse"
+            " for it, or fold onto themselves in the projection plane (try another plane=,"
+            " or a larger max_edge)"
+        )
     t3 = time.perf_counter()
     dropped = np.flatnonzero(duplicate_of >= 0)
     duplicates = np.column_stack([dropped, duplicate_of[dropped]]).astype(np.int64)

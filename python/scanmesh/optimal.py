@@ -123,6 +123,8 @@ class _Instance:
 
     #: the checked, projected input
     scan: PlanarScan
+    #: (N, 2) float64 its planar coordinates, scaled by a power of two into [-1, 1]
+    uv: np.ndarray
     #: (n,) int64 input index of each distinct point (the local index is the position)
     keep: np.ndarray
     #: (K, 2) int64 (unused point, the coincident point standing for it)
@@ -140,11 +142,6 @@ class _Instance:
         """(N, 3) float64 the input points."""
         return self.scan.points
 
-    @property
-    def uv(self) -> np.ndarray:
-        """(N, 2) float64 their planar coordinates."""
-        return self.scan.uv
-
 
 def _instance(points: ArrayLike | PlanarScan, plane: PlaneSpec) -> _Instance:
     t0 = time.perf_counter()
@@ -154,6 +151,12 @@ def _instance(points: ArrayLike | PlanarScan, plane: PlaneSpec) -> _Instance:
         base = delaunay(scan, max_edge=math.inf)
     for w in caught:  # re-issued so that they point at the caller's line
         warnings.warn(w.message, w.category, stacklevel=4)
+    # Scaled by a power of two (exact: every orientation sign kept) so that |uv| <= 1: the
+    # exact predicates and planar angles overflow at 1e300 and underflow at 1e-300.
+    uv = scan.uv
+    largest = float(np.abs(uv).max())
+    if largest > 0:
+        uv = np.ldexp(uv, -math.frexp(largest)[1])
     used = np.ones(len(scan.points), dtype=bool)
     used[base.duplicates[:, 0]] = False
     keep = np.flatnonzero(used)
@@ -161,6 +164,7 @@ def _instance(points: ArrayLike | PlanarScan, plane: PlaneSpec) -> _Instance:
     local[keep] = np.arange(len(keep))
     return _Instance(
         scan=scan,
+        uv=uv,
         keep=keep,
         duplicates=base.duplicates,
         delaunay_local=local[base.faces],

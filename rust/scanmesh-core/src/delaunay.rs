@@ -42,35 +42,52 @@ impl HasPosition for IndexedPoint {
     }
 }
 
-/// Maps planar coordinates into [-1, 1]² and flushes values below 1e-40 to zero.
+/// Scales planar coordinates by a power of two into [-1, 1]² and flushes values below 1e-40
+/// to zero.
 ///
 /// spade accepts only coordinates that are 0 or of magnitude 2^-142..2^201; after this map
-/// every input from 1e-300 to 1e300 qualifies. Orientation and in-circle signs are unchanged
-/// (a translation and a uniform scale), except for the flushed sub-1e-40 offsets. O(n).
+/// every input from 1e-300 to 1e300 qualifies. Multiplying by a power of two is exact, so
+/// every orientation and in-circle sign is that of the caller's own coordinates (collinear
+/// stays exactly collinear, the root of valid faces on exact grids), except where a
+/// coordinate below 1e-40 of the largest magnitude is flushed. No translation: it would
+/// round. O(n).
 pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in uv {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let center = [lo[0] * 0.5 + hi[0] * 0.5, lo[1] * 0.5 + hi[1] * 0.5];
-    let half = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
-    let scale = if half > 0.0 { 1.0 / half } else { 1.0 };
-    let flush = |x: f64| if x.abs() < 1e-40 { 0.0 } else { x };
-    // below about 5.6e-309 (subnormal) 1 / half overflows: divide instead (rarely taken,
-    // so the usual roundings stay those of the multiplication)
-    let map = |x: f64, c: f64| {
-        if scale.is_finite() {
-            flush((x - c) * scale)
+    let largest = uv
+        .iter()
+        .flat_map(|p| [p[0].abs(), p[1].abs()])
+        .fold(0.0, f64::max);
+    // largest = f × 2^e with f in [0.5, 1): scaling by 2^-e brings it into [0.5, 1), done
+    // in two steps because 2^-e alone over- or underflows at the ends of the f64 range.
+    let e = binary_exponent(largest);
+    let (first, second) = (pow2(-e / 2), pow2(-e - (-e / 2)));
+    let flush = |x: f64| {
+        let y = x * first * second;
+        if y.abs() < 1e-40 {
+            0.0
         } else {
-            flush((x - c) / half)
+            y
         }
     };
-    uv.iter()
-        .map(|p| [map(p[0], center[0]), map(p[1], center[1])])
-        .collect()
+    uv.iter().map(|p| [flush(p[0]), flush(p[1])]).collect()
+}
+
+/// The e with `x = f × 2^e`, f in [0.5, 1), for finite x > 0; 0 for x = 0. O(1).
+fn binary_exponent(x: f64) -> i32 {
+    if x == 0.0 {
+        return 0;
+    }
+    let biased = ((x.to_bits() >> 52) & 0x7ff) as i32;
+    if biased == 0 {
+        // Subnormal: scale into the normal range first (exact).
+        return binary_exponent(x * pow2(64)) - 64;
+    }
+    biased - 1022
+}
+
+/// 2^k for k in -1022..=1023, exactly. O(1).
+fn pow2(k: i32) -> f64 {
+    debug_assert!((-1022..=1023).contains(&k));
+    f64::from_bits(((k + 1023) as u64) << 52)
 }
 
 /// Delaunay triangulation of `uv` (planar points, finite). O(n log n).
@@ -219,6 +236,48 @@ mod tests {
             delaunay(&nan),
             Err(Error::NonFinite { index: 2, .. })
         ));
+    }
+
+    #[test]
+    fn exact_grids_keep_collinear_rows_collinear() {
+        // A 10 x 10 grid off the origin, at scales where 1/half-extent is not a power of
+        // two: every cell split in two (2 (n - 1)² triangles), no zero-area hull faces.
+        for (scale, offset) in [(1.0, 0.3), (1e-300, 7.0), (1e300, -2.5), (3.0, 0.0)] {
+            let uv: Vec<[f64; 2]> = (0..100)
+                .map(|k| [((k % 10) as f64 + offset) * scale, (k / 10) as f64 * scale])
+                .collect();
+            let d = delaunay(&uv).unwrap();
+            assert_eq!(d.triangles.len(), 2 * 9 * 9, "scale {scale}");
+            let unit = unit_square(&uv);
+            for t in &d.triangles {
+                let [a, b, c] = t.map(|v| unit[v as usize]);
+                assert!(orient2d(a, b, c) > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn unit_square_keeps_every_orientation_sign() {
+        let mut pts = random_points(60, 5);
+        // Exactly collinear triples that a rounding scale would bend.
+        pts.extend([[0.1, 0.1], [0.2, 0.2], [0.3, 0.3], [1.0 / 3.0, 1.0 / 3.0]]);
+        // At 2^±990 the reference signs are those of `pts` (the scaling is exact, and
+        // orient2d of the scaled coordinates themselves would under- or overflow); at 3
+        // (a rounding scale, whose 1 / half-extent is not a power of two) the scaled ones'.
+        for s in [2f64.powi(-990), 3.0, 2f64.powi(990)] {
+            let scaled: Vec<[f64; 2]> = pts.iter().map(|p| [p[0] * s, p[1] * s]).collect();
+            let reference = if s == 3.0 { &scaled } else { &pts };
+            let unit = unit_square(&scaled);
+            assert!(unit.iter().flatten().all(|x| x.abs() <= 1.0));
+            for i in 0..pts.len() {
+                for j in (i + 1)..pts.len() {
+                    for k in [(i + j) % pts.len(), pts.len() - 1] {
+                        let sign = |p: &[[f64; 2]]| orient2d(p[i], p[j], p[k]).signum();
+                        assert_eq!(sign(reference), sign(&unit), "scale {s}: {i} {j} {k}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -70,4 +70,6 @@ pub use strips::{stitch, stitch_lines, Method, StripMesh, StripParams};
 pub use tac_state::{Detail, FlipMove, TacState};
 pub use text::{parse_table, Table, TextError, TextErrorKind};
 pub use tiles::TiledAnnealer;
-pub use trim::{median_spacing, trim_long_edges, DEFAULT_MAX_EDGE_FACTOR};
+pub use trim::{
+    median_spacing, trim_long_edges, DepthJumps, DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
+};

@@ -54,7 +54,7 @@ impl Relabel {
     /// Orders vertices by the Morton code of their planar position (ties by input index,
     /// so the result is deterministic). O(n log n).
     pub fn morton(uv: &[[f64; 2]]) -> Relabel {
-        let unit = crate::delaunay::unit_square(uv);
+        let (unit, _) = crate::geometry::normalize_plane(uv);
         let cell = |x: f64| (((x + 1.0) * 0.5).clamp(0.0, 1.0) * u32::MAX as f64) as u64;
         let mut keyed: Vec<(u64, u32)> = unit
             .iter()

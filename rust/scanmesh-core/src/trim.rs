@@ -1,14 +1,89 @@
-//! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps.
+//! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
+//! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
 use crate::delaunay::{unit_square, NONE};
-use crate::geometry::planar_distance;
+use crate::geometry::{planar_distance, Normalizer};
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::Result;
+use glam::DVec3;
 
 /// Default `max_edge` as a multiple of the median nearest-neighbour spacing. Five spacings
 /// keep scans whose lines are up to about 4.5 times farther apart than their points, and
 /// still open a bore or a missed region a few lines wide.
 pub const DEFAULT_MAX_EDGE_FACTOR: f64 = 5.0;
+
+/// Default depth-jump factor: a triangle whose longest 3-D edge is steeper than 45° and
+/// exceeds this multiple of the local 3-D spacing at its best-sampled corner (see
+/// [`DepthJumps`]) bridges a wall, a step or a bore and is dropped. Chosen by
+/// benches/depth_jumps.py on three CAD parts scanned along their axis (15,000 points): at 3
+/// the height RMS against the truth is 0.16 (pocket), 0.10 (fandisk) and 0.05 (rocker arm)
+/// times that of planar trimming alone. 2 takes the pocket's to 0 but misses 0.8 (pocket)
+/// and 1.7 (fandisk) points more of the shadow; 4 measures the same on the pocket and the
+/// rocker arm and misses 0.7 points less of the fandisk's shadow at 5 % more height RMS.
+pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
+
+/// The depth-jump rule of [`trim_long_edges`]: the 3-D points (same indices as the planar
+/// ones) and the factor (`∞` turns it off).
+#[derive(Debug, Clone, Copy)]
+pub struct DepthJumps<'a> {
+    /// 3-D positions of the points.
+    pub points: &'a [DVec3],
+    /// A triangle is dropped when its longest 3-D edge exceeds `factor` times the smallest
+    /// local spacing of its corners.
+    pub factor: f64,
+}
+
+/// Local 3-D spacing of each vertex: the (lower) median 3-D length of the distinct edges of
+/// `triangles` at it, in the units of `points`; `∞` for vertices of no triangle.
+///
+/// The median adapts to the scan: on lines 4 times farther apart than their points it is
+/// about the line distance, on a steep slope the length down the slope, while a vertex on
+/// the rim of a wall or a bore has most of its edges on its own side and keeps a short
+/// one. O(m log m).
+pub fn local_spacing(points: &[DVec3], triangles: &[[u32; 3]]) -> Vec<f64> {
+    let mut edges: Vec<(u32, u32)> = triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    // Lengths on points in the unit box: no overflow at 1e300 or underflow at 1e-300.
+    let norm = Normalizer::fit(points);
+    let length =
+        |a: u32, b: u32| (norm.apply(points[a as usize]) - norm.apply(points[b as usize])).length();
+    let mut start = vec![0usize; points.len() + 1];
+    for &(a, b) in &edges {
+        start[a as usize + 1] += 1;
+        start[b as usize + 1] += 1;
+    }
+    for v in 0..points.len() {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut lengths = vec![0.0; start[points.len()]];
+    for &(a, b) in &edges {
+        let d = length(a, b);
+        for v in [a, b] {
+            lengths[fill[v as usize]] = d;
+            fill[v as usize] += 1;
+        }
+    }
+    let scale = if norm.half_extent > 0.0 {
+        norm.half_extent
+    } else {
+        1.0
+    };
+    (0..points.len())
+        .map(|v| {
+            let own = &mut lengths[start[v]..start[v + 1]];
+            if own.is_empty() {
+                return f64::INFINITY;
+            }
+            let mid = own.len() / 2;
+            *own.select_nth_unstable_by(mid, f64::total_cmp).1 * scale
+        })
+        .collect()
+}
 
 /// Distances below this fraction of the planar extent are not spacings but near-duplicates
 /// (a point scanned twice, a surface folded onto itself in the plane); `median_spacing`
@@ -51,29 +126,71 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
     *finite.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-/// Drops triangles whose longest planar edge exceeds `max_edge`, then peels numerically
-/// degenerate triangles off the boundary and resolves pinches.
+/// Drops triangles whose longest planar edge exceeds `max_edge`, and with `jumps` those
+/// that bridge a depth jump; then peels numerically degenerate triangles off the boundary
+/// and resolves pinches.
 ///
-/// Straight stretches of a scanned outline put collinear points on the convex hull, and
+/// A depth jump (a wall, a step, the rim of a bore, an occluded gap) leaves the points on
+/// either side close in the plane but far apart in 3-D: a triangle is dropped when its
+/// longest 3-D edge is steeper than 45° over the plane (`uv` must be the orthogonal
+/// projection of `jumps.points`, in the same units) and exceeds `jumps.factor` times the
+/// smallest [`local_spacing`] of its corners (computed over the input triangles), so the
+/// hole stays open. Straight stretches
+/// of a scanned outline put collinear points on the convex hull, and
 /// Delaunay closes them with zero-area slivers whose angles (0, 0, π) make a boundary
 /// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a vertex where two fans touch only at a point; there the triangles of all
 /// fans but the largest are dropped (repeatedly, as a drop can pinch a neighbour), so the
-/// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` keeps everything. Input triangles must
-/// form a valid planar triangulation. O(m log m).
+/// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` and no `jumps` keep everything but
+/// the slivers. Input triangles must form a valid planar triangulation. O(m log m).
 pub fn trim_long_edges(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     max_edge: f64,
+    jumps: Option<DepthJumps>,
 ) -> Result<Vec<[u32; 3]>> {
     let longest = |t: &[u32; 3]| {
         (0..3)
             .map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]))
             .fold(0.0, f64::max)
     };
+    // 3-D work in the unit box: lengths of 1e300- or 1e-300-sized parts stay finite.
+    let jump = jumps.filter(|j| j.factor.is_finite()).map(|j| {
+        let norm = Normalizer::fit(j.points);
+        let unit = norm.apply_all(j.points);
+        let local = local_spacing(&unit, triangles);
+        let to_unit = if norm.half_extent > 0.0 {
+            1.0 / norm.half_extent
+        } else {
+            1.0
+        };
+        (j.factor, unit, local, to_unit)
+    });
+    let bridges_a_jump = |t: &[u32; 3]| {
+        jump.as_ref().is_some_and(|(factor, unit, local, to_unit)| {
+            let (k, longest3) = (0..3)
+                .map(|k| {
+                    (
+                        k,
+                        (unit[t[k] as usize] - unit[t[(k + 1) % 3] as usize]).length(),
+                    )
+                })
+                .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            let flat = planar_distance(uv[a], uv[b]) * to_unit;
+            // Steeper than 45°: the height step exceeds the planar length. Long flat edges
+            // are the planar rule's business (an outline, a hole seen in the plane).
+            let steep = longest3 * longest3 > 2.0 * flat * flat;
+            let nearest = t
+                .iter()
+                .map(|&v| local[v as usize])
+                .fold(f64::INFINITY, f64::min);
+            steep && longest3 > factor * nearest
+        })
+    };
     let mut kept: Vec<[u32; 3]> = triangles
         .iter()
         .copied()
-        .filter(|t| longest(t) <= max_edge)
+        .filter(|t| longest(t) <= max_edge && !bridges_a_jump(t))
         .collect();
     // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
     let unit = unit_square(uv);
@@ -144,6 +261,7 @@ fn pinched_fans_to_drop(mesh: &HalfEdgeMesh) -> Vec<u32> {
 mod tests {
     use super::*;
     use crate::delaunay::delaunay;
+    use glam::DVec3;
 
     /// A grid with the middle cells missing (a bore), triangulated over its convex hull.
     fn grid_with_hole() -> Vec<[f64; 2]> {
@@ -165,11 +283,13 @@ mod tests {
         let d = delaunay(&uv).unwrap();
         let s = median_spacing(&uv, &d.triangles);
         assert!((s - 1.0).abs() < 0.05, "{s}");
-        let kept = trim_long_edges(&uv, &d.triangles, DEFAULT_MAX_EDGE_FACTOR * s * 0.5).unwrap();
+        let kept =
+            trim_long_edges(&uv, &d.triangles, DEFAULT_MAX_EDGE_FACTOR * s * 0.5, None).unwrap();
         let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept).unwrap();
         mesh.validate(&uv).unwrap();
-        // The centre of the hole is covered by no triangle.
-        let centre = [9.5, 9.5];
+        // A point near the centre of the hole (off the grid's diagonals) is covered by no
+        // triangle.
+        let centre = [9.4, 9.3];
         let covers = |t: &[u32; 3]| {
             (0..3).all(|k| {
                 crate::geometry::orient2d(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize], centre)
@@ -178,8 +298,113 @@ mod tests {
         };
         assert!(!kept.iter().any(covers));
         assert!(d.triangles.iter().any(covers));
-        let untrimmed = trim_long_edges(&uv, &d.triangles, f64::INFINITY).unwrap();
+        let untrimmed = trim_long_edges(&uv, &d.triangles, f64::INFINITY, None).unwrap();
         assert_eq!(untrimmed.len(), d.triangles.len());
+    }
+
+    /// A jittered grid of `nx` × `ny` points, `dy` apart across lines, with height `z(x, y)`.
+    fn terrain(nx: usize, ny: usize, dy: f64, z: impl Fn(f64, f64) -> f64) -> Vec<DVec3> {
+        (0..nx * ny)
+            .map(|k| {
+                let (i, j) = ((k % nx) as f64, (k / nx) as f64);
+                let (x, y) = (i + 0.01 * ((k * 7) % 5) as f64, j * dy);
+                DVec3::new(x, y, z(x, y))
+            })
+            .collect()
+    }
+
+    fn planar(p: &[DVec3]) -> Vec<[f64; 2]> {
+        p.iter().map(|q| [q.x, q.y]).collect()
+    }
+
+    #[test]
+    fn local_spacing_is_the_median_edge_at_each_vertex() {
+        let p = terrain(12, 9, 1.0, |x, y| 0.3 * x * x - y);
+        let d = delaunay(&planar(&p)).unwrap();
+        let local = local_spacing(&p, &d.triangles);
+        // Brute force: every distinct edge at v, sorted, the upper middle one.
+        for (v, &got) in local.iter().enumerate() {
+            let mut at: Vec<f64> = Vec::new();
+            for t in &d.triangles {
+                for k in 0..3 {
+                    let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+                    let other = if a == v {
+                        b
+                    } else if b == v {
+                        a
+                    } else {
+                        continue;
+                    };
+                    let len = (p[v] - p[other]).length();
+                    if !at.contains(&len) {
+                        at.push(len);
+                    }
+                }
+            }
+            at.sort_by(f64::total_cmp);
+            assert!((got - at[at.len() / 2]).abs() <= 1e-12 * got, "vertex {v}");
+        }
+    }
+
+    #[test]
+    fn triangles_across_a_step_are_dropped_and_slopes_kept() {
+        let step = |h: f64| terrain(20, 20, 1.0, move |x, _| if x < 9.5 { 0.0 } else { h });
+        let trim = |p: &[DVec3]| {
+            let uv = planar(p);
+            let d = delaunay(&uv).unwrap();
+            let jumps = DepthJumps {
+                points: p,
+                factor: DEFAULT_JUMP_FACTOR,
+            };
+            let kept = trim_long_edges(&uv, &d.triangles, 5.0, Some(jumps)).unwrap();
+            HalfEdgeMesh::from_triangles(uv.len(), &kept)
+                .unwrap()
+                .validate(&uv)
+                .unwrap();
+            (d.triangles.len(), kept)
+        };
+        // A wall 10 spacings high: every triangle with corners on both terraces goes.
+        let high = step(10.0);
+        let (all, kept) = trim(&high);
+        let bridging = |t: &[u32; 3]| {
+            let low = t.iter().filter(|&&v| high[v as usize].z == 0.0).count();
+            low > 0 && low < 3
+        };
+        assert!(!kept.iter().any(bridging));
+        assert_eq!(
+            all - kept.len(),
+            2 * 19,
+            "one strip of cells along the wall"
+        );
+        // A step of half a spacing is no jump.
+        assert_eq!(trim(&step(0.5)).1.len(), all);
+        // A 60° slope across lines 4 times farther apart than their points is no jump either.
+        let slope = terrain(20, 8, 4.0, |_, y| y * 3f64.sqrt());
+        let (all, kept) = trim(&slope);
+        assert_eq!(kept.len(), all);
+        // Off with an infinite factor, and at any scale the same.
+        let uv = planar(&high);
+        let d = delaunay(&uv).unwrap();
+        let off = DepthJumps {
+            points: &high,
+            factor: f64::INFINITY,
+        };
+        assert_eq!(
+            trim_long_edges(&uv, &d.triangles, 5.0, Some(off))
+                .unwrap()
+                .len(),
+            d.triangles.len()
+        );
+        for s in [1e-300, 1e300] {
+            let scaled: Vec<DVec3> = high.iter().map(|&q| q * s).collect();
+            let uv_s = planar(&scaled);
+            let jumps = DepthJumps {
+                points: &scaled,
+                factor: DEFAULT_JUMP_FACTOR,
+            };
+            let got = trim_long_edges(&uv_s, &d.triangles, 5.0 * s, Some(jumps)).unwrap();
+            assert_eq!(got.len(), trim(&high).1.len(), "scale {s}");
+        }
     }
 
     #[test]
@@ -204,7 +429,7 @@ mod tests {
             slivers(&d.triangles) > 0,
             "the fixture must contain a sliver"
         );
-        let kept = trim_long_edges(&uv, &d.triangles, 10.0).unwrap();
+        let kept = trim_long_edges(&uv, &d.triangles, 10.0, None).unwrap();
         assert_eq!(slivers(&kept), 0);
         assert_eq!(kept.len(), d.triangles.len() - slivers(&d.triangles));
         HalfEdgeMesh::from_triangles(uv.len(), &kept)
@@ -227,7 +452,7 @@ mod tests {
             [1.0, 1.0 + 1e-9],
         ];
         let tris = vec![[0, 1, 2], [0, 2, 3], [2, 4, 5], [2, 5, 6]];
-        let kept = trim_long_edges(&uv, &tris, f64::INFINITY).unwrap();
+        let kept = trim_long_edges(&uv, &tris, f64::INFINITY, None).unwrap();
         assert_eq!(kept.len(), 2);
         HalfEdgeMesh::from_triangles(uv.len(), &kept)
             .unwrap()

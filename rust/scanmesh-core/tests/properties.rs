@@ -153,7 +153,7 @@ proptest! {
             }
         }
         let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
-        let trimmed = trim_long_edges(&uv, &d.triangles, limit).unwrap();
+        let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
         prop_assert!(trimmed.iter().all(|t| d.triangles.contains(t)));
         HalfEdgeMesh::from_triangles(uv.len(), &trimmed).unwrap().validate(&unit).unwrap();
     }
@@ -218,7 +218,7 @@ proptest! {
         let uv = planar(&pts);
         let Some(d) = triangulate(&uv) else { return Ok(()) };
         let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
-        let trimmed = trim_long_edges(&uv, &d.triangles, limit).unwrap();
+        let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
         let (mut state, _) = TacState::from_input(&pts, &uv, &trimmed, 1.0).unwrap();
         let vertices = used(uv.len(), &state.mesh().triangles());
         let order = TacOrder { tie_tolerance: 1e-10, sliver_guard: true };

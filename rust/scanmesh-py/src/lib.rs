@@ -261,23 +261,48 @@ fn median_spacing(
     Ok(scanmesh_core::median_spacing(&pts, &t))
 }
 
-/// Drops faces whose longest planar edge exceeds `max_edge`, then resolves pinches.
+/// Drops faces whose longest planar edge exceeds `max_edge` and, given the (N, 3) `points`,
+/// faces that bridge a depth jump (longest 3-D edge above `jump_factor` times the local
+/// spacing; `inf` turns it off); then peels collinear hull slivers and resolves pinches.
 #[pyfunction]
+#[pyo3(signature = (uv, faces_, max_edge, points=None, jump_factor=f64::INFINITY))]
 fn trim_long_edges<'py>(
     py: Python<'py>,
     uv: PyReadonlyArray2<'py, f64>,
     faces_: PyReadonlyArray2<'py, i64>,
     max_edge: f64,
+    points: Option<PyReadonlyArray2<'py, f64>>,
+    jump_factor: f64,
 ) -> PyResult<Ints2<'py>> {
     if max_edge.is_nan() || max_edge <= 0.0 {
         return Err(ParameterError::new_err(format!(
             "max_edge must be positive, got {max_edge}"
         )));
     }
+    if jump_factor.is_nan() || jump_factor <= 0.0 {
+        return Err(ParameterError::new_err(format!(
+            "jump_factor must be positive (or inf), got {jump_factor}"
+        )));
+    }
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
+    let xyz = points.as_ref().map(points3_view).transpose()?;
+    if let Some(p) = &xyz {
+        if p.len() != pts.len() {
+            return Err(ParameterError::new_err(format!(
+                "{} points for {} planar points",
+                p.len(),
+                pts.len()
+            )));
+        }
+        check_finite(p).map_err(to_py)?;
+    }
+    let jumps = xyz.as_deref().map(|p| scanmesh_core::DepthJumps {
+        points: p,
+        factor: jump_factor,
+    });
     let kept = py
-        .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge))
+        .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge, jumps))
         .map_err(to_py)?;
     Ok(faces_out(py, &kept))
 }
@@ -895,6 +920,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "DEFAULT_MAX_EDGE_FACTOR",
         scanmesh_core::DEFAULT_MAX_EDGE_FACTOR,
     )?;
+    m.add("DEFAULT_JUMP_FACTOR", scanmesh_core::DEFAULT_JUMP_FACTOR)?;
     let d = AnnealParams::default();
     let defaults = pyo3::types::PyDict::new(py);
     defaults.set_item("sweeps", d.sweeps)?;
