@@ -12,7 +12,8 @@ import pytest
 import scanmesh
 from conftest import bumpy_patch, seconds_to_interrupt
 from scanmesh import _core
-from scanmesh.anneal import anneal_surface, lop_surface
+from scanmesh.anneal import anneal_surface
+from scanmesh.lop import lop_surface
 
 
 def canonical(faces):
@@ -96,8 +97,6 @@ def test_lop_is_a_local_optimum_and_reruns_make_no_flip():
     pts = bumpy_patch(500, 4)
     once = scanmesh.reconstruct(pts, "lop")
     assert once.options["flips"] > 0
-    from scanmesh.lop import lop_surface
-
     again = lop_surface(once)
     assert again.options["flips"] == 0
     assert once.quality.tac_1 < scanmesh.delaunay(pts).quality.tac_1
