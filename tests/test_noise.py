@@ -153,9 +153,9 @@ def default_and_exact_ties(points, lines, seed, plane="z"):
 
 def test_noise_aware_annealing_beats_delaunay_on_a_noisy_rod():
     """sigma = s/10 on the connecting rod (the embedded demo's CAD truth, 5,000 points): the
-    default annealing (tie tolerance from the noise) lands far closer to the true surface
-    than Delaunay with few slivers; annealing with exact ties only (the old default) chases
-    the noise with slivers and lands farther."""
+    default annealing (tie tolerance from the noise) stays at Delaunay's height error with
+    few slivers; annealing with exact ties only (the old default) chases the noise with
+    slivers and lands farther from the true surface."""
     from scanmesh.anneal import ANNEAL_DEFAULTS
     from scanmesh.demo import demo_truth
     from scanmesh.lines import scan_lines
@@ -175,8 +175,11 @@ def test_noise_aware_annealing_beats_delaunay_on_a_noisy_rod():
     def rms(surface):
         return height_error(surface, truth, n_samples=20_000)["h_rms"]
 
-    assert rms(aware) < 0.8 * rms(base)  # measured 0.62
-    assert rms(aware) < rms(exact)  # measured 0.62 against 0.70
+    # Since depth-jump trimming drops the curtains between the rod's heights, Delaunay is
+    # at the noise floor here (measured 1.009 x Delaunay; 0.62 x before, with curtains):
+    # noise-aware annealing must not be worse than it, and must beat exact ties (1.13 x).
+    assert rms(aware) < 1.03 * rms(base)
+    assert rms(aware) < 0.95 * rms(exact)
     assert aware.quality.sliver_fraction <= 0.05  # measured 0.5 %
     assert exact.quality.sliver_fraction > 5 * aware.quality.sliver_fraction  # 15 %
 
