@@ -106,8 +106,9 @@ def test_the_command_reports_the_choice(tmp_path, pocket):
     plane = json.loads(report.read_text())["plane"]
     assert plane["choice"]["chosen"] == "up"
     np.testing.assert_allclose(plane["normal"], [0.0, -1.0, 0.0], atol=1e-12)
-    # best-fit is within SAME_DEG of up here, so it is not measured twice
-    assert set(plane["choice"]["steep"]) == {"up", "x", "z"}
+    # up scores under TIE: no other candidate can win, none is measured
+    assert plane["choice"]["steep"]["up"] + plane["choice"]["unused"]["up"] <= TIE
+    assert set(plane["choice"]["steep"]) == {"up"}
 
 
 @pytest.mark.parametrize("plane", ["best-fit", "x", (0.0, 1.0, 1.0)])
@@ -148,7 +149,22 @@ def test_the_choice_is_seeded():
     assert a.choice.chosen == "best-fit" and a.plane == "best-fit"
 
 
-def test_no_candidate_measures_the_least_squares_plane_of_a_triangle():
+def test_skipped_candidates_could_not_have_won(conrod, pocket):
+    """Measuring every candidate chooses the same plane as stopping once settled."""
+    import scanmesh.plane_choice as pc
+
+    for mesh, up in [(conrod, "x"), (conrod, "z"), (pocket, "x"), (pocket, "-z"), (pocket, "y")]:
+        pts, _ = scan(mesh, up, div=30)
+        for recorded in (None, parse_axis(up, "up")):
+            quick = choose_plane(pts, recorded)
+            full = {k: score(pts, n) for k, n in pc.candidates(pts, recorded).items()}
+            totals = {k: sum(m) for k, m in full.items() if m is not None}
+            lowest = min(totals.values())
+            assert quick.chosen == next(k for k, t in totals.items() if t <= lowest + TIE)
+            assert set(quick.steep) <= set(full)
+
+
+def test_a_triangle_keeps_its_own_plane():
     pts = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 1.0, 0.5]])
     choice = choose_plane(pts)
     assert choice.chosen == "best-fit"

@@ -68,7 +68,7 @@ class PlaneChoice:
     #: candidate label -> share of the points no quick triangle uses (coincident in that
     #: plane, or trimmed); the choice minimises steep + unused
     unused: dict[str, float | None]
-    #: candidate label -> its unit normal
+    #: candidate label -> its unit normal (the candidates measured)
     normals: dict[str, tuple[float, ...]]
     #: points the candidates were measured on
     sampled: int
@@ -149,12 +149,25 @@ def score(points: np.ndarray, normal: np.ndarray) -> tuple[float, float] | None:
     return steep_fraction(points, faces, normal), 1.0 - float(used.mean())
 
 
+def settled(measured: dict[str, tuple[float, float] | None]) -> bool:
+    """True when the candidates not yet measured cannot change the choice: the last one
+    scores at most ``TIE`` (so it is within TIE of any lower score) and every earlier one
+    more than TIE above it (so none of them is within TIE of the lowest)."""
+    *earlier, last = measured.values()
+    if last is None or sum(last) > TIE:
+        return False
+    return all(m is None or sum(m) > sum(last) + TIE for m in earlier)
+
+
 def choose_plane(points: np.ndarray, up: np.ndarray | None = None) -> PlaneChoice:
     """The candidate plane over which ``points`` are most a height field.
 
     ``points`` (N, 3) float64, checked; ``up`` (3,) float the direction recorded with the
     scan, or None. Every candidate is measured on at most ``SAMPLE`` points (seeded), so
-    the choice is deterministic; O(S log S) per candidate, S = min(N, SAMPLE). When every
+    the choice is deterministic; O(S log S) per candidate, S = min(N, SAMPLE). Candidates
+    are measured in order of preference and the rest skipped once :func:`settled` (a scan
+    along its recorded up, or a flat patch over its least-squares plane, costs one quick
+    triangulation; ``steep`` and ``unused`` list what was measured). When every
     candidate degenerates, the least-squares plane is returned (its projection then says
     what is wrong with the points).
     """
@@ -164,7 +177,12 @@ def choose_plane(points: np.ndarray, up: np.ndarray | None = None) -> PlaneChoic
     else:
         sample = points
     normals = candidates(sample, up)
-    measured = {label: score(sample, normal) for label, normal in normals.items()}
+    measured: dict[str, tuple[float, float] | None] = {}
+    for label, normal in normals.items():
+        measured[label] = score(sample, normal)
+        if settled(measured):
+            break
+    normals = {k: normals[k] for k in measured}
     totals = {k: sum(m) for k, m in measured.items() if m is not None}
     chosen = "best-fit"
     if totals:
@@ -183,4 +201,13 @@ def choose_plane(points: np.ndarray, up: np.ndarray | None = None) -> PlaneChoic
     )
 
 
-__all__ = ["PlaneChoice", "choose_plane", "candidates", "quick_faces", "score", "SAMPLE", "TIE"]
+__all__ = [
+    "PlaneChoice",
+    "choose_plane",
+    "candidates",
+    "quick_faces",
+    "score",
+    "settled",
+    "SAMPLE",
+    "TIE",
+]
