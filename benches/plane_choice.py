@@ -27,6 +27,9 @@ import scanmesh
 from scanmesh.digitizer import parse_axis
 from scanmesh.writers import write_points
 
+#: ../shared/data/cad beside the repository (as the other benches find the shared data)
+SHARED_CAD = Path(__file__).resolve().parents[2] / "shared" / "data" / "cad"
+
 UPS = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 
@@ -46,14 +49,13 @@ def run(source, **kw) -> tuple[float, float, str, float]:
 
 
 def main() -> None:
-    here = Path(__file__).resolve().parent
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("folder", nargs="?", default=here.parent.parent.parent / "shared/data/cad")
+    parser.add_argument("folder", nargs="?", type=Path, default=SHARED_CAD)
     args = parser.parse_args()
     parts = sorted(p for p in Path(args.folder).iterdir() if p.suffix in (".stl", ".ply", ".obj"))
     print(
         "| part | up | points | steep (array) | chosen (array) | steep (file) | chosen (file)"
-        " | steep (unused) best-fit, old | choice s | delaunay s |"
+        " | steep (unused) best-fit, old | choice s (array) | delaunay s (chosen) |"
     )
     print("|---|---|---:|---:|---|---:|---|---:|---:|---:|")
     worst = 0.0
