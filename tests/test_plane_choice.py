@@ -172,9 +172,13 @@ def test_a_triangle_keeps_its_own_plane():
 
 
 def test_collinear_points_are_still_refused():
-    line = np.column_stack([np.arange(5.0), 2 * np.arange(5.0), np.zeros(5)])
-    with pytest.raises(scanmesh.ScanmeshError, match="[Cc]ollinear"):
-        scanmesh.planar_scan(line)
+    for line in (
+        np.column_stack([np.arange(5.0), 2 * np.arange(5.0), np.zeros(5)]),
+        np.outer(np.arange(10.0), [1.0, 2.0, 3.0]),  # rounds off the line in some planes
+    ):
+        assert choose_plane(line).steep == {}
+        with pytest.raises(scanmesh.ScanmeshError, match="[Cc]ollinear"):
+            scanmesh.planar_scan(line)
 
 
 def test_steep_share_matches_scipy_and_numpy():
@@ -199,3 +203,13 @@ def test_steep_share_matches_scipy_and_numpy():
     used = np.zeros(len(pts), dtype=bool)
     used[faces.ravel()] = True
     assert score(pts, normal) == pytest.approx((expected, 1.0 - used.mean()), abs=1e-12)
+
+
+def test_huge_and_tiny_coordinates_choose_the_same_plane(pocket):
+    """The choice is scale-free and never overflows (1e308-sized coordinates)."""
+    pts, _ = scan(pocket, "x", div=30)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow RuntimeWarning
+        choices = [choose_plane(pts * k) for k in (1.0, 1e300, 1e-300)]
+    assert len({c.chosen for c in choices}) == 1
+    assert choices[0].chosen == "x"

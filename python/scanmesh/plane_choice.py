@@ -87,14 +87,18 @@ class PlaneChoice:
 
 
 def candidates(points: np.ndarray, up: np.ndarray | None) -> dict[str, np.ndarray]:
-    """Candidate unit normals by label, in order of preference, without near-repeats.
+    """Candidate unit normals by label, in order of preference, without near-repeats (none
+    for points on a line).
 
-    ``points`` (M, 3) float64 (the subsample); the principal axes are its covariance's
-    eigenvectors, signed so that their largest component is positive (as the core signs
-    the least-squares normal). O(M)."""
+    ``points`` (M, 3) float64 (the subsample, in the unit box); the principal axes are its
+    covariance's eigenvectors, signed so that their largest component is positive (as the
+    core signs the least-squares normal). O(M)."""
     centred = points - points.mean(axis=0)
-    scaled = centred / (float(np.abs(centred).max()) or 1.0)
-    _, vectors = np.linalg.eigh(scaled.T @ scaled)  # eigenvalues ascending
+    values, vectors = np.linalg.eigh(centred.T @ centred)  # eigenvalues ascending
+    if values[1] <= values[2] * 1e-14:
+        # a line (the core's test): no plane to choose, and rounding in a projection could
+        # make one look like a sliver triangle; the least-squares projection refuses it
+        return {}
     raw: list[tuple[str, np.ndarray]] = []
     if up is not None:
         raw.append(("up", np.asarray(up, dtype=np.float64)))
@@ -176,7 +180,13 @@ def choose_plane(points: np.ndarray, up: np.ndarray | None = None) -> PlaneChoic
         sample = points[np.sort(rng.choice(len(points), SAMPLE, replace=False))]
     else:
         sample = points
-    normals = candidates(sample, up)
+    # into the unit box (translation and scale change no angle): 1e308-sized coordinates
+    # would overflow in the covariance and the projections
+    lo, hi = sample.min(axis=0), sample.max(axis=0)
+    half = float(np.max(hi / 2 - lo / 2))
+    if half > 0:
+        sample = (sample - (lo / 2 + hi / 2)) / half
+    normals = candidates(sample, up) if half > 0 else {}
     measured: dict[str, tuple[float, float] | None] = {}
     for label, normal in normals.items():
         measured[label] = score(sample, normal)
