@@ -495,7 +495,12 @@ def _report(source, out, scan, surface, con: _Console, elapsed: float) -> dict[s
         "output": str(out),
         "method": surface.method,
         "options": surface.options,
-        "plane": {"asked": scan.plane or "best-fit", "normal": scan.frame.normal},
+        "plane": {
+            "asked": "chosen by the data" if scan.choice else scan.plane,
+            "used": scan.plane,
+            "normal": scan.frame.normal,
+            "choice": scan.choice.as_dict(scan.frame.normal) if scan.choice else None,
+        },
         "noise": surface.options.get("noise"),
         "warnings": con.warnings,
         "time_s": elapsed,
@@ -771,13 +776,14 @@ def cmd_simulate(args: argparse.Namespace, con: _Console) -> int:
 def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     """Points, lines, extent, spacing and the share of steep triangles of a scan file."""
     from scanmesh.delaunay import MAX_EDGE_FACTOR, delaunay
-    from scanmesh.scan import planar_scan
+    from scanmesh.scan import as_scan
 
     source = Path(args.input)
     scan = _read_scan(source, con.progress, args)  # the reader's details (format, line source)
     pts = scan.points
-    # projected once for Delaunay, the lines and the noise estimate
-    planar = planar_scan(pts, plane=args.plane, lines=scan.line_ids)
+    # projected once for Delaunay, the lines and the noise estimate, on the plane chosen
+    # (with the file's up) for None
+    planar = as_scan(pts, plane=args.plane, lines=scan.line_ids, up=scan.up)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # coincident points are counted below
         surface = delaunay(planar)
@@ -796,6 +802,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
         "lines_from": lines_from,
         "extent": {"min": lo, "max": hi, "size": hi - lo},
         "plane_normal": normal,
+        "plane_choice": planar.choice.as_dict(normal) if planar.choice else None,
         "median_spacing": spacing,
         "noise": sigma,
         "delaunay_faces": int(len(surface.faces)),
@@ -811,7 +818,8 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     con.out(f"  scan lines        {_fmt(lines, ',')} ({lines_from})")
     for label, vec in (("min", lo), ("max", hi), ("size", hi - lo)):
         con.out(f"  {label:<18}{'  '.join(f'{x:.6g}' for x in vec)}")
-    con.out(f"  plane normal      {'  '.join(f'{x:.4g}' for x in normal)}")
+    chosen = f" (chosen: {planar.choice.chosen})" if planar.choice else ""
+    con.out(f"  plane normal      {'  '.join(f'{x:.4g}' for x in normal)}{chosen}")
     con.out(f"  median spacing    {spacing:.6g} (nearest neighbour, in the plane)")
     if sigma is not None:
         con.out(
@@ -1020,7 +1028,9 @@ def build_parser() -> argparse.ArgumentParser:
         type=_plane,
         default=None,
         metavar="P",
-        help="projection plane: best-fit (default), x, y, z or a normal vector nx,ny,nz",
+        help="projection plane: best-fit, x, y, z or a normal vector nx,ny,nz (default:"
+        " chosen by the data, fewest steep triangles among the file's up, best-fit, the"
+        " axes and the principal axes)",
     )
     shape.add_argument(
         "--max-edge",
@@ -1134,7 +1144,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_plane,
         default=None,
         metavar="P",
-        help="projection plane (best-fit, x, y, z or nx,ny,nz)",
+        help="projection plane (best-fit, x, y, z or nx,ny,nz; default: chosen by the data)",
     )
     p.set_defaults(func=cmd_info, _parser=p)
 

@@ -41,7 +41,10 @@ def project(points: ArrayLike, plane: PlaneSpec = None) -> tuple[np.ndarray, Fra
         Scan points.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         None and "best-fit" use the least-squares plane (normal = smallest principal axis);
-        an axis name looks along that axis; a vector looks along it.
+        an axis name looks along that axis; a vector looks along it. (Here None is the
+        least-squares plane; :func:`scanmesh.planar_scan` and :func:`scanmesh.reconstruct`
+        choose the plane by the data for None, see :mod:`scanmesh.plane_choice`, and record
+        it in ``PlanarScan.plane``.)
 
     Returns
     -------
@@ -55,12 +58,12 @@ def project(points: ArrayLike, plane: PlaneSpec = None) -> tuple[np.ndarray, Fra
 
 def project_checked(points: np.ndarray, plane: PlaneSpec) -> tuple[np.ndarray, Frame]:
     """:func:`project` of points already checked by ``as_points`` (no second check)."""
-    name, normal = plane_choice(plane)
+    name, normal = plane_args(plane)
     uv, frame = _core.project(points, name, normal)
     return uv, Frame(*frame)
 
 
-def plane_choice(plane: PlaneSpec) -> tuple[str | None, np.ndarray | None]:
+def plane_args(plane: PlaneSpec) -> tuple[str | None, np.ndarray | None]:
     """A plane spec as the core takes it: (name, None) or (None, (3,) float64 normal).
 
     Raises ParameterError for anything else (bytes, a mapping, a normal that is not three

@@ -47,7 +47,11 @@ def reconstruct(
         Scan line id of each point (strip methods, and LOP and annealing from
         ``initial="shortest-path"``; detected from point order when absent).
     plane : None, "best-fit", "x", "y", "z" or (3,) float
-        Projection plane (default: least-squares plane).
+        Projection plane, obeyed as given. None (default): chosen by the data (see
+        :func:`scanmesh.planar_scan`): among the direction a file records (its ``up``), the
+        least-squares plane, x, y, z and the principal axes, the one over which the surface
+        is most a height field (fewest steep triangles); ``options["plane_choice"]`` says
+        which (``"chosen"``, ``"normal"``, and the ``"steep"`` share of every candidate).
     max_edge : float, optional
         Trimming length of the Delaunay triangulation (methods "delaunay", and "lop" and
         "anneal" from it; default 5 x median spacing; ``math.inf`` keeps the convex hull).
@@ -104,6 +108,9 @@ def reconstruct(
     # The one place the points are read (scan.read_scan_file), checked and projected.
     scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
     surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
+    if scan.choice is not None:
+        choice = scan.choice.as_dict(scan.frame.normal)
+        surface.options = {**surface.options, "plane_choice": choice}
     with Stage(progress, "steep", len(surface.faces), blocking=True):
         steep = surface.steep_fraction
     if steep is not None and steep > STEEP_WARN_FRACTION:

@@ -1,7 +1,10 @@
 """One scan, checked and projected once: the value every triangulation stage takes.
 
 ``planar_scan`` checks the points (``as_points``) and the line ids (``as_line_ids``) and
-projects the points onto the plane, once. Delaunay, trimming, strips, LOP, annealing, the
+projects the points onto the plane, once; for ``plane=None`` it first chooses the plane by
+the data (:mod:`scanmesh.plane_choice`: fewest steep triangles among the file's recorded
+``up``, the least-squares plane, the axes and the principal axes), so every stage works on
+the chosen plane. Delaunay, trimming, strips, LOP, annealing, the
 optimum and the quality report all read the same planar coordinates from it, so the
 annealer tests convexity on exactly the roundings the Delaunay triangulation and its
 trimming were judged on, and ``Surface.frame`` is the frame every stage worked in.
@@ -22,9 +25,10 @@ from numpy.typing import ArrayLike
 from scanmesh._checks import as_line_ids, as_points
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
-from scanmesh.projection import Frame, PlaneSpec, plane_choice, project_checked
+from scanmesh.projection import Frame, PlaneSpec, plane_args, project_checked
 
 if TYPE_CHECKING:
+    from scanmesh.plane_choice import PlaneChoice
     from scanmesh.readers import ScanPoints
 
 
@@ -44,11 +48,17 @@ class PlanarScan:
     frame: Frame
     #: (N,) int64 scan line of each point (given or from the file), or None
     line_ids: np.ndarray | None
-    #: the plane asked for (None: best fit), as given
+    #: the plane the points were projected on: ``plane=`` as given, or for ``plane=None``
+    #: the one chosen ("best-fit", "x", "y", "z" or a normal), so ``project(points, plane)``
+    #: gives ``uv`` again
     plane: PlaneSpec
     #: the file the points were read from, or None
     source: Path | None = None
-    #: seconds spent reading ("read", files only) and checking and projecting ("project")
+    #: how ``plane=None`` was resolved (None when a plane was given); its
+    #: ``as_dict(frame.normal)`` is ``Surface.options["plane_choice"]``
+    choice: PlaneChoice | None = None
+    #: seconds spent reading ("read", files only), choosing the plane ("plane", for
+    #: ``plane=None``) and checking and projecting ("project")
     timings: dict[str, float] = field(default_factory=dict)
 
     def __repr__(self) -> str:
@@ -74,7 +84,13 @@ def planar_scan(
         ``lines`` is given). A PlanarScan is returned as it is (``plane`` and ``lines``
         must then be left out or agree with it).
     plane : None, "best-fit", "x", "y", "z" or (3,) float
-        Projection plane (see :func:`scanmesh.project`).
+        Projection plane (see :func:`scanmesh.project`), obeyed as given. None (default):
+        chosen by the data (:func:`scanmesh.plane_choice.choose_plane`): among the
+        direction the file records (``ScanPoints.up``), the least-squares plane, the axes x,
+        y, z and the principal axes, the one with the fewest steep triangles on a quick
+        Delaunay triangulation of at most 20,000 points (seeded), the recorded ``up`` first
+        on ties. ``PlanarScan.plane`` is then the chosen plane, ``PlanarScan.choice`` says
+        what each candidate measured.
     lines : (N,) int, optional
         Scan line id of each point (see :func:`scanmesh.lines.as_line_ids`: integers, never cast).
     progress : bool or callable
@@ -94,14 +110,15 @@ def planar_scan(
         scan = read_scan_file(path, progress, read_options or {})
         seconds = time.perf_counter() - t0
         ids = scan.line_ids if lines is None else lines
-        made = as_scan(scan.points, plane=plane, lines=ids)
+        made = as_scan(scan.points, plane=plane, lines=ids, up=scan.up)
         return PlanarScan(
             points=made.points,
             uv=made.uv,
             frame=made.frame,
             line_ids=made.line_ids,
-            plane=plane,
+            plane=made.plane,
             source=path,
+            choice=made.choice,
             timings={"read": seconds, **made.timings},
         )
     if read_options:
@@ -120,10 +137,16 @@ def read_scan_file(path: Path, progress: Progress, options: Mapping[str, Any]) -
 
 
 def as_scan(
-    points: ArrayLike | PlanarScan, *, plane: PlaneSpec = None, lines: ArrayLike | None = None
+    points: ArrayLike | PlanarScan,
+    *,
+    plane: PlaneSpec = None,
+    lines: ArrayLike | None = None,
+    up: np.ndarray | None = None,
 ) -> PlanarScan:
-    """``points`` as a PlanarScan: projected now from an array (a path is refused as points),
-    or a PlanarScan checked to agree with ``plane`` and ``lines``."""
+    """``points`` as a PlanarScan: projected now from an array (a path is refused as points)
+    on ``plane``, or for None on the plane chosen by the data (``up``: the direction the
+    file records, a candidate); or a PlanarScan checked to agree with ``plane`` and
+    ``lines``."""
     if isinstance(points, PlanarScan):
         if plane is not None and not same_plane(plane, points.plane):
             raise ParameterError(
@@ -140,6 +163,16 @@ def as_scan(
     t0 = time.perf_counter()
     pts = as_points(points)
     ids = None if lines is None else as_line_ids(lines, len(pts))
+    choice = None
+    timings = {}
+    if plane is None:
+        # imported here: plane_choice measures steepness (scanmesh.surface), which imports us
+        from scanmesh.plane_choice import choose_plane
+
+        choice = choose_plane(pts, up)
+        plane = choice.spec
+        timings["plane"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
     uv, frame = project_checked(pts, plane)
     uv.flags.writeable = False
     return PlanarScan(
@@ -148,14 +181,15 @@ def as_scan(
         frame=frame,
         line_ids=ids,
         plane=plane,
-        timings={"project": time.perf_counter() - t0},
+        choice=choice,
+        timings={**timings, "project": time.perf_counter() - t1},
     )
 
 
 def same_plane(a: PlaneSpec, b: PlaneSpec) -> bool:
     """True when two plane specs name the same plane (None and "best-fit" alike)."""
-    name_a, normal_a = plane_choice(a)
-    name_b, normal_b = plane_choice(b)
+    name_a, normal_a = plane_args(a)
+    name_b, normal_b = plane_args(b)
     if name_a is not None or name_b is not None:
         return name_a == name_b
     return bool(np.array_equal(normal_a, normal_b))
