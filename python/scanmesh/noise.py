@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from scanmesh._checks import as_points
+from scanmesh._checks import as_points, power_of_two_unit
 from scanmesh.errors import DegenerateInputError
 from scanmesh.lines import scan_lines
 from scanmesh.projection import PlaneSpec, project
@@ -226,7 +226,9 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
     DegenerateInputError
         Neither estimate has :data:`MIN_WINDOWS` residuals (too few points).
     """
-    pts = as_points(points)
+    # Residuals scale with the coordinates: measured on an exactly rescaled copy, so that
+    # squared distances and fits neither overflow at 1e300 nor vanish at 1e-300.
+    pts, exponent = power_of_two_unit(as_points(points))
     found = [line_residuals(pts, lines, plane), neighbourhood_residuals(pts, plane)]
     estimates = [robust_scale(r) for r in found if len(r) >= MIN_WINDOWS]
     if not estimates:
@@ -234,7 +236,7 @@ def noise(points: ArrayLike, lines: ArrayLike | None = None, plane: PlaneSpec = 
             f"the noise estimate needs at least {MIN_WINDOWS} points with a local fit, found"
             f" {max(len(r) for r in found)} among {len(pts)} points"
         )
-    return max(estimates)
+    return math.ldexp(max(estimates), exponent)
 
 
 #: Tie tolerance of annealing on tac_1 per (sigma / spacing)^2: a flip whose tac_1 change

@@ -87,7 +87,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import Option, as_faces, check_options
+from scanmesh._checks import Option, as_faces, check_options, power_of_two_unit
 from scanmesh._extras import require
 from scanmesh.delaunay import delaunay
 from scanmesh.errors import InvalidMeshError, ParameterError
@@ -333,7 +333,9 @@ def optimal_surface(
             f" MAX_OPTIMAL_POINTS={MAX_OPTIMAL_POINTS}; use reconstruct(method='anneal')"
         )
     t0 = time.perf_counter()
-    uv = np.ascontiguousarray(inst.uv[inst.keep])
+    # Exactly rescaled: the same orientations, but no overflow at 1e300 or underflow at
+    # 1e-300 in the predicates and planar angles.
+    uv = np.ascontiguousarray(power_of_two_unit(inst.uv[inst.keep])[0])
     tri = _core.empty_triangles(uv)  # (T, 3) local indices, counter-clockwise
     geo = _geometry(inst, uv, tri)
     t1 = time.perf_counter()
@@ -818,7 +820,7 @@ def triangulations(
 
 def _all_local(inst: _Instance, max_count: int, name: str = "max_count") -> np.ndarray:
     max_count = _MAX_COUNT.check(max_count, name)
-    uv = np.ascontiguousarray(inst.uv[inst.keep])
+    uv = np.ascontiguousarray(power_of_two_unit(inst.uv[inst.keep])[0])
     return _core.triangulations(uv, inst.delaunay_local, int(max_count))
 
 
