@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -30,7 +31,9 @@ def main() -> int:
     ap.add_argument("--examples", type=int, default=5000, help="number of seeds")
     ap.add_argument("--timeout", type=float, default=30.0, help="seconds per example")
     ap.add_argument("--memory-mb", type=int, default=2048, help="address space of the child")
-    ap.add_argument("--batch", type=int, default=500, help="examples per child process")
+    ap.add_argument(
+        "--batch", type=int, default=500, help="examples per child process and per progress line"
+    )
     ap.add_argument("--case", type=int, help="print the reproducer of one seed and run it here")
     args = ap.parse_args()
     if args.case is not None:
@@ -38,12 +41,23 @@ def main() -> int:
         print(run_case(args.case))
         return 0
     t0 = time.perf_counter()
-    findings, outcomes = run_many(
-        range(args.start, args.start + args.examples),
-        args.timeout,
-        args.memory_mb * 2**20,
-        args.batch,
-    )
+    findings: dict[str, list[tuple[int, str]]] = {}
+    outcomes: Counter[str] = Counter()
+    end = args.start + args.examples
+    for first in range(args.start, end, args.batch):
+        found, counted = run_many(
+            range(first, min(first + args.batch, end)), args.timeout, args.memory_mb * 2**20
+        )
+        for name, hits in found.items():
+            findings.setdefault(name, []).extend(hits)
+        outcomes.update(counted)
+        print(
+            f"{min(first + args.batch, end) - args.start} examples,"
+            f" {sum(len(v) for v in findings.values())} finding(s),"
+            f" {time.perf_counter() - t0:.0f} s",
+            file=sys.stderr,
+            flush=True,
+        )
     seconds = time.perf_counter() - t0
     print(
         f"{args.examples} examples (seeds {args.start}..{args.start + args.examples - 1})"

@@ -122,6 +122,7 @@ PLANES_BAD: tuple[Any, ...] = (
 VALID_KINDS = (
     "random",
     "integer-grid",
+    "flat-grid",
     "scan-lines",
     "collinear-heavy",
     "duplicates",
@@ -140,6 +141,8 @@ def valid_value(option: Option, value: Any) -> bool | None:
     The rules of the Option docs, written out again so that the check is not its own judge."""
     if option.kind == "any":
         return None
+    if value is None and option.default is None:
+        return True  # None is "not given" (max_edge, seed)
     if option.kind == "bool":
         return isinstance(value, (bool, np.bool_))
     if option.kind == "choice":
@@ -217,6 +220,10 @@ def _points(kind: str, n: int, rng: np.random.Generator) -> tuple[Any, np.ndarra
         k = rng.permutation(side * side)[: max(n, 5)]
         x, y = (k % side).astype(float), (k // side).astype(float)
         return np.column_stack([x, y, (x * y) % 3 - x // 2]), None
+    if kind == "flat-grid":
+        side = int(rng.integers(3, 11))
+        x, y = np.meshgrid(np.arange(side, dtype=float), np.arange(side, dtype=float))
+        return np.column_stack([x.ravel(), y.ravel(), np.zeros(side * side)]), None
     if kind == "scan-lines":
         rows = int(rng.integers(2, 7))
         per = max(2, n // rows)

