@@ -474,6 +474,7 @@ def reproducer(seed: int) -> str:
         f"# case {seed}: {case['kind']} points, bad inputs {case['bad']}\n"
         f"import sys; sys.path.insert(0, 'tests')\n"
         f"from api_fuzz import make_case; import scanmesh, numpy as np\n"
+        f"from numpy import array, bool_, float32, float64, inf, int64, nan, uint64\n"
         f"points = make_case({seed})['points']\n"
         f"scanmesh.reconstruct(points, {case['method']!r}{', ' if args else ''}{args})"
     )
