@@ -69,6 +69,18 @@ def as_faces(faces: ArrayLike, n_vertices: int, name: str = "faces") -> np.ndarr
     return arr
 
 
+def power_of_two_unit(arr: np.ndarray) -> tuple[np.ndarray, int]:
+    """(``arr`` x 2**-e, e): scaled by a power of two to at most 1 in magnitude.
+
+    The scaling is exact (no rounding, so orientations, collinearity and ratios are those
+    of ``arr``), and it keeps products of coordinates from overflowing at 1e300 or
+    underflowing to zero at 1e-300 (README: every method takes 1e-300..1e300). O(N).
+    """
+    big = float(np.abs(arr).max()) if arr.size else 0.0
+    exponent = math.frexp(big)[1] if big > 0.0 else 0
+    return np.ldexp(arr, -exponent), exponent
+
+
 #: Float line ids are accepted up to this magnitude, where every integer is still a float
 #: (2**53); beyond it neighbouring ids would merge.
 MAX_FLOAT_ID: float = 2.0**53

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from scanmesh._checks import power_of_two_unit
 from scanmesh.errors import DegenerateInputError
 from scanmesh.lines import scan_lines
 from scanmesh.projection import PlaneSpec
@@ -97,13 +98,13 @@ def line_residuals(
         (model units); each has the noise's deviation where the surface is smooth. O(N).
     """
     scan = as_scan(points, plane=plane, lines=lines)
-    return _line_residuals(scan, scan.uv, _heights(scan))
+    return _line_residuals(scan, scan.uv, _heights(scan.points, scan))
 
 
-def _heights(scan: PlanarScan, scale: float = 1.0) -> np.ndarray:
-    """(N,) float64 heights of the scan's points along its normal, divided by ``scale``
-    first (a power of two: exact) so that nothing overflows."""
-    return (scan.points / scale) @ np.asarray(scan.frame.normal, dtype=np.float64)
+def _heights(points: np.ndarray, scan: PlanarScan) -> np.ndarray:
+    """(N,) float64 heights of ``points`` (the scan's, or an exactly rescaled copy) along
+    the scan's normal."""
+    return points @ np.asarray(scan.frame.normal, dtype=np.float64)
 
 
 def _line_residuals(scan: PlanarScan, uv: np.ndarray, height: np.ndarray) -> np.ndarray:
@@ -155,7 +156,7 @@ def neighbourhood_residuals(
         O(N log N).
     """
     scan = as_scan(points, plane=plane)
-    return _neighbourhood_residuals(scan.uv, _heights(scan))
+    return _neighbourhood_residuals(scan.uv, _heights(scan.points, scan))
 
 
 def _neighbourhood_residuals(uv: np.ndarray, height: np.ndarray) -> np.ndarray:
@@ -245,12 +246,11 @@ def noise(
         Neither estimate has :data:`MIN_WINDOWS` residuals (too few points).
     """
     scan = as_scan(points, plane=plane, lines=lines)
-    # scaled by a power of two (exact) to about unit size, so that no fit over- or underflows
-    largest = float(np.max(np.abs(scan.points)))
-    if largest == 0.0:
-        return 0.0
-    scale = math.ldexp(1.0, math.frexp(largest)[1] - 1)  # largest / scale in [1, 2)
-    uv, height = scan.uv / scale, _heights(scan, scale)
+    # Residuals scale with the coordinates: measured on an exactly rescaled copy, so that
+    # squared distances and fits neither overflow at 1e300 nor vanish at 1e-300.
+    unit, exponent = power_of_two_unit(scan.points)
+    uv = np.ldexp(scan.uv, -exponent)
+    height = _heights(unit, scan)
     found = [_line_residuals(scan, uv, height), _neighbourhood_residuals(uv, height)]
     estimates = [robust_scale(r) for r in found if len(r) >= MIN_WINDOWS]
     if not estimates:
@@ -258,7 +258,7 @@ def noise(
             f"the noise estimate needs at least {MIN_WINDOWS} points with a local fit, found"
             f" {max(len(r) for r in found)} among {len(scan.points)} points"
         )
-    return max(estimates) * scale
+    return math.ldexp(max(estimates), exponent)
 
 
 #: Tie tolerance of annealing on tac_1 per (sigma / spacing)^2: a flip whose tac_1 change

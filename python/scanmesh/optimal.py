@@ -87,7 +87,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import Option, as_faces, check_options
+from scanmesh._checks import Option, as_faces, check_options, power_of_two_unit
 from scanmesh.delaunay import delaunay
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.projection import PlaneSpec
@@ -153,10 +153,7 @@ def _instance(points: ArrayLike | PlanarScan, plane: PlaneSpec) -> _Instance:
         warnings.warn(w.message, w.category, stacklevel=4)
     # Scaled by a power of two (exact: every orientation sign kept) so that |uv| <= 1: the
     # exact predicates and planar angles overflow at 1e300 and underflow at 1e-300.
-    uv = scan.uv
-    largest = float(np.abs(uv).max())
-    if largest > 0:
-        uv = np.ldexp(uv, -math.frexp(largest)[1])
+    uv, _ = power_of_two_unit(scan.uv)
     used = np.ones(len(scan.points), dtype=bool)
     used[base.duplicates[:, 0]] = False
     keep = np.flatnonzero(used)
@@ -335,6 +332,8 @@ def optimal_surface(
             f" MAX_OPTIMAL_POINTS={MAX_OPTIMAL_POINTS}; use reconstruct(method='anneal')"
         )
     t0 = time.perf_counter()
+    # Exactly rescaled: the same orientations, but no overflow at 1e300 or underflow at
+    # 1e-300 in the predicates and planar angles.
     uv = np.ascontiguousarray(inst.uv[inst.keep])
     tri = _core.empty_triangles(uv)  # (T, 3) local indices, counter-clockwise
     geo = _geometry(inst, uv, tri)
@@ -563,7 +562,7 @@ class _Cuts:
 
 def _fan_cuts(
     geo: _Geometry, uv: np.ndarray, p: float, starts: list[np.ndarray], deadline: float
-) -> _Cuts:
+) -> _Cuts | None:
     """Column generation over fans at the root, turned into valid cuts on y_v = tac(v).
 
     Master LP: x in the triangulation polytope, and per interior vertex v a convex
@@ -575,7 +574,8 @@ def _fan_cuts(
     satisfies ``w_v |s_F| >= -sum_{t in F} pi_tv + m_v`` where m_v is the exact pricing
     minimum, so ``y_v >= -sum_t (pi_tv / w_v) x_t + m_v / w_v`` holds for every
     triangulation: a valid cut, whatever the state of convergence. Stops when no fan has
-    negative reduced cost or at ``deadline`` (perf_counter seconds).
+    negative reduced cost or at ``deadline`` (perf_counter seconds). None when no start
+    triangulation is made of the enumerated triangles.
     """
     import scipy.sparse as sp
     from scipy.optimize import linprog
@@ -600,13 +600,19 @@ def _fan_cuts(
         return True
 
     for faces in starts:
-        ids = []
+        found = []
         for t in faces.tolist():
             k = t.index(min(t))
-            ids.append(index[tuple(t[k:] + t[:k])])
-        ids = np.asarray(ids)
+            found.append(index.get(tuple(t[k:] + t[:k])))
+        if None in found:
+            # A face the enumeration does not list: degenerate in these planar coordinates
+            # (though not where the core triangulated), so no fan of this start is a column.
+            continue
+        ids = np.asarray(found)
         for row, v in enumerate(geo.interior):
             add(row, ids[np.any(tri[ids] == v, axis=1)])
+    if not columns:
+        return None  # no usable start: the program goes without fan cuts
     x_link = sp.csr_array((np.ones(c_count), (np.arange(c_count), ct)), shape=(c_count, t_count))
     flow_x = geo.flow.astype(np.float64)
     weights = np.ones(n_i)
