@@ -28,18 +28,10 @@ from scanmesh.methods import TABLE
 #: Examples in CI; each runs in a child process (benches/api_fuzz.py runs 100,000).
 EXAMPLES = 300
 
-#: Finding classes owned by the Rust core, tolerated here so that CI guards everything else
-#: (reproducers in benches/api_fuzz.py's summary; remove an entry once the core is fixed):
-#: Delaunay works in the unit square (``unit_square``), so a face over three points that are
-#: collinear in 3-D (an exact grid) can be counter-clockwise there but not in the rounded
-#: planar coordinates ``scan.uv`` every method returns (issue 23, class 1). Delaunay,
-#: trimmed or not, passes such faces on to LOP, annealing and optimal's fallbacks.
-KNOWN_CORE = ("face not counter clockwise in scan uv",)
 
 
 def test_reconstruct_gives_a_valid_mesh_or_a_scanmesh_error_naming_the_bad_input() -> None:
     findings, outcomes = run_many(range(EXAMPLES), timeout=60.0, memory_bytes=3 * 2**30)
-    findings = {k: v for k, v in findings.items() if not k.endswith(KNOWN_CORE)}
     report = "\n".join(
         f"{name}: {len(hits)}, e.g. {hits[0][1]}\n{reproducer(hits[0][0])}"
         for name, hits in findings.items()

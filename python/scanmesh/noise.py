@@ -38,6 +38,7 @@ loaded machine.
 from __future__ import annotations
 
 import math
+import sys
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -280,6 +281,10 @@ def median_edge(uv: np.ndarray, faces: np.ndarray) -> float:
     return float(np.median(lengths)) if lengths.size else 0.0
 
 
+#: log of the largest float: the tie tolerance is capped there (finite, as the core needs).
+LOG_FLOAT_MAX: float = math.log(sys.float_info.max)
+
+
 def tie_tolerance(sigma: float, spacing: float, p: float = 1.0, floor: float = 0.0) -> float:
     """The annealing tie tolerance for noise ``sigma`` on a mesh of edge length ``spacing``.
 
@@ -292,7 +297,9 @@ def tie_tolerance(sigma: float, spacing: float, p: float = 1.0, floor: float = 0
     """
     if spacing <= 0 or not math.isfinite(sigma / spacing) or sigma / spacing < NOISE_FREE:
         return floor
-    return max((TIE_PER_NOISE * (sigma / spacing) ** 2) ** p, floor)
+    # (.)^p in logs: a large p overflows the power (the energy's own ties stay finite)
+    log_tolerance = p * math.log(TIE_PER_NOISE * (sigma / spacing) ** 2)
+    return max(math.exp(min(log_tolerance, LOG_FLOAT_MAX)), floor)
 
 
 def noise_tolerance(
