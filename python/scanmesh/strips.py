@@ -222,9 +222,11 @@ def strip_surface(
             ids,
             coefficients,
             method,
-            int(alpha),
+            # Depths and widths beyond the longest strip change nothing (each strip has
+            # fewer than len(pts) steps): capped, so that 10**30 is not an OverflowError.
+            int(min(alpha, len(pts))),
             solver,
-            int(band),
+            int(min(band, len(pts))),
             k,
             bool(check),
         )

@@ -145,6 +145,78 @@ pub enum Solver {
 /// (more widening rounds), 16.8 with w = 4.
 pub const DEFAULT_BAND: usize = 2;
 
+/// Most bytes the solver of one strip may hold (2 GiB): a strip whose solver would need
+/// more is refused with an error naming the option and the memory, before the work starts.
+/// Strips run in parallel, so a call may hold this much per thread. The full DP needs
+/// about n·m bytes (2 × 40,000 points: 1.6 GB), Dijkstra about 18·n·m.
+pub const MAX_STRIP_BYTES: u64 = 2 << 30;
+
+/// Most window cells look-ahead may evaluate on one strip: with α below n + m − 2 every
+/// decision runs a DP over up to min(α, n) · min(α, m) cells (above, one DP does it all).
+/// A cell costs up to about 0.1 µs with the dihedral weight (α = 100 on 2 × 1,500 points:
+/// 3.1e7 cells, 22 s on two cores shared with 15 other jobs), so the limit is about a
+/// minute.
+pub const MAX_LOOKAHEAD_CELLS: u64 = 500_000_000;
+
+/// `bytes` as "1.6 GB". O(1).
+fn human_bytes(bytes: u128) -> String {
+    let b = bytes as f64;
+    match b {
+        b if b >= 1e9 => format!("{:.1} GB", b / 1e9),
+        b if b >= 1e6 => format!("{:.1} MB", b / 1e6),
+        b => format!("{:.0} kB", (b / 1e3).ceil()),
+    }
+}
+
+/// What a strip asks of its solver, for the refusals: the option that chose the work
+/// (`solver`, `band`, `alpha`), its value and the strip's size.
+struct Ask {
+    option: &'static str,
+    value: String,
+    n: usize,
+    m: usize,
+}
+
+impl Ask {
+    /// Refuses `bytes` above [`MAX_STRIP_BYTES`], before anything is allocated. O(1).
+    fn check_bytes(&self, bytes: u128) -> Result<()> {
+        if bytes > u128::from(MAX_STRIP_BYTES) {
+            return Err(self.refusal(
+                format!("needs {} of memory", human_bytes(bytes)),
+                "at most 2 GiB per strip (the default banded solver needs a narrow band)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The error for this strip: `why` it is refused, and what would do instead.
+    fn refusal(&self, why: String, expected: &'static str) -> Error {
+        Error::InvalidParameter {
+            name: self.option,
+            value: format!(
+                "{} on a strip of {} × {} points ({why})",
+                self.value, self.n, self.m
+            ),
+            expected,
+        }
+    }
+
+    /// `len` copies of `fill`, allocated fallibly: memory the system refuses is this
+    /// strip's error, not an abort. O(len).
+    fn filled<T: Clone>(&self, len: usize, fill: T) -> Result<Vec<T>> {
+        let mut v = Vec::new();
+        v.try_reserve_exact(len).map_err(|_| {
+            let bytes = len as u128 * std::mem::size_of::<T>() as u128;
+            self.refusal(
+                format!("could not allocate {}", human_bytes(bytes)),
+                "a strip whose solver memory the system can provide",
+            )
+        })?;
+        v.resize(len, fill);
+        Ok(v)
+    }
+}
+
 /// The cheapest path by `solver`. See the solver functions for complexity. Errors: an empty
 /// line, a non-finite coordinate, a bad weight or a zero band width.
 pub fn shortest_path(a: &[DVec3], b: &[DVec3], w: Weight, solver: Solver) -> Result<Solution> {
@@ -198,6 +270,16 @@ impl<'a> Terms<'a> {
 
     fn n(&self) -> usize {
         self.a.len()
+    }
+
+    /// This strip as chosen by `option` = `value`, for refusals.
+    fn ask(&self, option: &'static str, value: String) -> Ask {
+        Ask {
+            option,
+            value,
+            n: self.n(),
+            m: self.m(),
+        }
     }
 
     fn m(&self) -> usize {
@@ -395,9 +477,14 @@ pub fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Result<Vec
 /// Time O(nm), memory O(nm) bytes of back-pointers plus O(m) costs.
 pub fn shortest_path_dp(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
+    full_dp(&t, &t.ask("solver", "'dp'".into()))
+}
+
+/// [`shortest_path_dp`] on checked terms; refusals name `ask`'s option.
+fn full_dp(t: &Terms, ask: &Ask) -> Result<Solution> {
     let lo = vec![0; t.n()];
     let hi = vec![t.m() - 1; t.n()];
-    Ok(dp_in_band(&t, &lo, &hi))
+    dp_in_band(t, &lo, &hi, ask)
 }
 
 /// A matrix cell: per entering direction (A = 0, B = 1), the cheapest cost so far and the
@@ -515,22 +602,22 @@ struct RowCache<'t, 'a> {
 }
 
 impl<'t, 'a> RowCache<'t, 'a> {
-    fn new(t: &'t Terms<'a>, width: usize) -> Self {
+    fn new(t: &'t Terms<'a>, width: usize, ask: &Ask) -> Result<Self> {
         let steps =
             |line: &[DVec3]| -> Vec<DVec3> { line.windows(2).map(|w| w[1] - w[0]).collect() };
         let (da, db) = (steps(t.a), steps(t.b));
         let squares = |v: &[DVec3]| v.iter().map(|d| d.length_squared()).collect();
-        RowCache {
+        Ok(RowCache {
             t,
             da2: squares(&da),
             db2: squares(&db),
             da,
             db,
-            cur: vec![Node::default(); width],
-            last: vec![Node::default(); width],
+            cur: ask.filled(width, Node::default())?,
+            last: ask.filled(width, Node::default())?,
             cur_lo: 0,
             last_lo: 0,
-        }
+        })
     }
 }
 
@@ -583,21 +670,31 @@ impl Steps for RowCache<'_, '_> {
 }
 
 /// DP restricted to row bands `lo[i]..=hi[i]` (nondecreasing, overlapping consecutive rows,
-/// lo[0] = 0, hi[n−1] = m−1). O(Σ band widths) time and back-pointer bytes.
-fn dp_in_band(t: &Terms, lo: &[usize], hi: &[usize]) -> Solution {
+/// lo[0] = 0, hi[n−1] = m−1). O(Σ band widths) time and back-pointer bytes, checked
+/// against [`MAX_STRIP_BYTES`] before anything is allocated (refusals name `ask`'s option).
+fn dp_in_band(t: &Terms, lo: &[usize], hi: &[usize], ask: &Ask) -> Result<Solution> {
     let width = (0..t.n()).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);
-    dp_in_band_with(t, RowCache::new(t, width), lo, hi)
+    let cells: u128 = (0..t.n()).map(|i| (hi[i] + 1 - lo[i]) as u128).sum();
+    let per_column = 2 * (std::mem::size_of::<Cell>() + std::mem::size_of::<Node>());
+    ask.check_bytes(cells + width as u128 * per_column as u128)?;
+    dp_in_band_with(t, RowCache::new(t, width, ask)?, lo, hi, ask)
 }
 
 /// [`dp_in_band`] with steps from `steps`.
-fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize]) -> Solution {
+fn dp_in_band_with(
+    t: &Terms,
+    mut steps: impl Steps,
+    lo: &[usize],
+    hi: &[usize],
+    ask: &Ask,
+) -> Result<Solution> {
     let (n, m) = (t.n(), t.m());
     let start_cost = t.node(0, 0);
     if n == 1 && m == 1 {
-        return Solution {
+        return Ok(Solution {
             path: Vec::new(),
             cost: start_cost,
-        };
+        });
     }
     // Row offsets into the flat back-pointer array: bit 0 = direction at the predecessor
     // for entering by A, bit 1 = the same for entering by B.
@@ -606,10 +703,10 @@ fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize])
     for i in 0..n {
         offset.push(offset[i] + hi[i] + 1 - lo[i]);
     }
-    let mut back = vec![0u8; offset[n]];
+    let mut back = ask.filled(offset[n], 0u8)?;
     let width = (0..n).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);
-    let mut prev = vec![UNREACHED; width];
-    let mut cur = vec![UNREACHED; width];
+    let mut prev = ask.filled(width, UNREACHED)?;
+    let mut cur = ask.filled(width, UNREACHED)?;
     for i in 0..n {
         steps.begin_row(i, lo[i], hi[i]);
         for j in lo[i]..=hi[i] {
@@ -662,7 +759,7 @@ fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize])
         }
     }
     path.reverse();
-    Solution { path, cost }
+    Ok(Solution { path, cost })
 }
 
 /// A heap entry ordered by ascending cost (BinaryHeap is a max-heap).
@@ -692,8 +789,10 @@ impl PartialOrd for Queued {
 /// The cheapest path by Dijkstra's algorithm with a binary heap, as in the seed paper.
 ///
 /// Graph: states (i, j, direction of the entering step), 2nm of them, each with at most
-/// two outgoing edges; all edge costs are non-negative. Time O(nm log(nm)), memory O(nm).
-/// Kept as the reference the DP is tested against; the DP is faster on the same DAG.
+/// two outgoing edges; all edge costs are non-negative. Time O(nm log(nm)), memory 9 bytes
+/// per state plus the heap (about 18·n·m bytes; refused above [`MAX_STRIP_BYTES`]; the
+/// heap grows fallibly). Kept as the reference the DP is tested against; the DP is faster
+/// on the same DAG.
 pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
     let (n, m) = (t.n(), t.m());
@@ -704,20 +803,27 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
             cost: start_cost,
         });
     }
-    // State index (i * m + j) * 2 + d; d = 0 entered by A, 1 by B.
-    let mut dist = vec![f64::INFINITY; 2 * n * m];
-    let mut pred = vec![usize::MAX; 2 * n * m];
-    let mut done = vec![false; 2 * n * m];
+    let ask = t.ask("solver", "'dijkstra'".into());
+    let states = 2 * n as u128 * m as u128;
+    ask.check_bytes(states * (std::mem::size_of::<f64>() as u128 + 1))?;
+    // State index (i * m + j) * 2 + d; d = 0 entered by A, 1 by B. The predecessor of a
+    // state is the cell its step came from; `pred` keeps the direction that entered that
+    // cell (bit 0) and whether the state is settled (bit 1).
+    let states = 2 * n * m;
+    let mut dist = ask.filled(states, f64::INFINITY)?;
+    let mut pred = ask.filled(states, 0u8)?;
+    const DONE: u8 = 2;
     let mut heap = BinaryHeap::new();
     let relax = |heap: &mut BinaryHeap<Queued>,
                  dist: &mut [f64],
-                 pred: &mut [usize],
-                 from,
+                 pred: &mut [u8],
+                 from_dir: u8,
                  i,
                  j,
                  s,
                  before: f64,
-                 previous: Option<Tri>| {
+                 previous: Option<Tri>|
+     -> Result<()> {
         let step = t.step(i, j, s);
         let cost = before + step.cost + previous.map_or(0.0, |p| t.turn_from(&p, step.normal));
         let (ti, tj, d) = match s {
@@ -727,44 +833,52 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
         let to = (ti * m + tj) * 2 + d;
         if cost < dist[to] {
             dist[to] = cost;
-            pred[to] = from;
+            pred[to] = from_dir;
+            if heap.len() == heap.capacity() {
+                heap.try_reserve(heap.len().max(64)).map_err(|_| {
+                    ask.refusal(
+                        "could not grow the heap".into(),
+                        "a strip whose solver memory the system can provide",
+                    )
+                })?;
+            }
             heap.push(Queued { cost, state: to });
         }
+        Ok(())
     };
     // The start has no entering triangle; its successors are relaxed directly.
-    const START: usize = usize::MAX - 1;
     if n > 1 {
         relax(
             &mut heap,
             &mut dist,
             &mut pred,
-            START,
+            0,
             0,
             0,
             Step::A,
             start_cost,
             None,
-        );
+        )?;
     }
     if m > 1 {
         relax(
             &mut heap,
             &mut dist,
             &mut pred,
-            START,
+            0,
             0,
             0,
             Step::B,
             start_cost,
             None,
-        );
+        )?;
     }
     let goal = ((n - 1) * m + m - 1) * 2;
     while let Some(Queued { cost, state }) = heap.pop() {
-        if done[state] {
+        if pred[state] & DONE != 0 {
             continue;
         }
-        done[state] = true;
+        pred[state] |= DONE;
         if state == goal || state == goal + 1 {
             break;
         }
@@ -776,31 +890,20 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
         } else {
             t.step(i, j - 1, Step::B)
         };
-        if i + 1 < n {
-            relax(
-                &mut heap,
-                &mut dist,
-                &mut pred,
-                state,
-                i,
-                j,
-                Step::A,
-                cost,
-                Some(entered),
-            );
-        }
-        if j + 1 < m {
-            relax(
-                &mut heap,
-                &mut dist,
-                &mut pred,
-                state,
-                i,
-                j,
-                Step::B,
-                cost,
-                Some(entered),
-            );
+        for (s, fits) in [(Step::A, i + 1 < n), (Step::B, j + 1 < m)] {
+            if fits {
+                relax(
+                    &mut heap,
+                    &mut dist,
+                    &mut pred,
+                    d as u8,
+                    i,
+                    j,
+                    s,
+                    cost,
+                    Some(entered),
+                )?;
+            }
         }
     }
     let mut state = if dist[goal] <= dist[goal + 1] {
@@ -810,9 +913,16 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
     };
     let cost = dist[state];
     let mut path = Vec::with_capacity(n + m - 2);
-    while state != START {
-        path.push(if state % 2 == 0 { Step::A } else { Step::B });
-        state = pred[state];
+    let (mut i, mut j) = (n - 1, m - 1);
+    while i > 0 || j > 0 {
+        let d = state % 2;
+        path.push(if d == 0 { Step::A } else { Step::B });
+        if d == 0 {
+            i -= 1;
+        } else {
+            j -= 1;
+        }
+        state = (i * m + j) * 2 + usize::from(pred[state] & 1);
     }
     path.reverse();
     Ok(Solution { path, cost })
@@ -869,10 +979,11 @@ pub fn shortest_path_banded(
         }
         (lo, hi)
     };
+    let ask = t.ask("solver", "'banded'".into());
     let mut width = half_width;
     loop {
         let (lo, hi) = band(2 * width);
-        let solution = dp_in_band(&t, &lo, &hi);
+        let solution = dp_in_band(&t, &lo, &hi, &ask)?;
         let full = lo.iter().all(|&x| x == 0) && hi.iter().all(|&x| x == m - 1);
         let (inner_lo, inner_hi) = band(width);
         if full || !leaves_band(&solution.path, &inner_lo, &inner_hi, m) {
@@ -1019,9 +1130,12 @@ impl Window {
 /// (A on ties), repeat. α = 1 with the length weight is the greedy shortest-diagonal rule.
 ///
 /// Each decision runs a small DP over the window of nodes within α steps, so the time is
-/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α, O((n + m) · n · m) for
-/// α ≥ n + m (where the walk follows an optimal path, since each window then reaches the
-/// end). Memory O(min(α, n) · min(α, m)). Errors: α = 0, and those of [`shortest_path`].
+/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α. From α = n + m − 2 on, every
+/// window reaches the end, the walk follows an optimal path, and a larger α changes
+/// nothing: that path is found by one DP instead ([`shortest_path_dp`]: the same cost; among
+/// tied optima, the DP's), in O(nm). Memory O(min(α, n) · min(α, m)). Errors: α = 0, a
+/// strip whose windows would exceed [`MAX_LOOKAHEAD_CELLS`] or [`MAX_STRIP_BYTES`], and
+/// those of [`shortest_path`].
 pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
     if alpha == 0 {
@@ -1032,7 +1146,26 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
         });
     }
     let (n, m) = (t.n(), t.m());
-    let mut window = Window { cells: Vec::new() };
+    let ask = t.ask("alpha", alpha.to_string());
+    if alpha >= n + m - 2 {
+        // Every window reaches the end: the walk follows an optimal path, which one DP finds.
+        return full_dp(&t, &ask);
+    }
+    let (rows, cols) = (alpha.min(n - 1) + 1, alpha.min(m - 1) + 1);
+    ask.check_bytes(rows as u128 * cols as u128 * std::mem::size_of::<Cell>() as u128)?;
+    let per_window =
+        (rows as u128 * cols as u128).min((alpha as u128 + 1) * (alpha as u128 + 2) / 2);
+    let work = 2 * (n + m - 2) as u128 * per_window;
+    if work > u128::from(MAX_LOOKAHEAD_CELLS) {
+        return Err(ask.refusal(
+            format!("{work:.1e} window cells, about {:.0} s", work as f64 * 1e-7),
+            "a look-ahead depth whose windows stay under 5e8 cells per strip \
+             (or alpha >= n + m - 2, which costs one shortest-path DP)",
+        ));
+    }
+    let mut window = Window {
+        cells: ask.filled(rows * cols, UNREACHED)?,
+    };
     let mut path = Vec::with_capacity(n + m - 2);
     let (mut i, mut j) = (0, 0);
     let mut entered: Option<Tri> = None;
@@ -1190,8 +1323,9 @@ mod tests {
             for (lo, hi) in [full, (lo, hi)] {
                 for w in WEIGHTS {
                     let t = Terms::new(&a, &b, w).unwrap();
-                    let fast = dp_in_band(&t, &lo, &hi);
-                    let slow = dp_in_band_with(&t, Direct(&t), &lo, &hi);
+                    let ask = t.ask("test", String::new());
+                    let fast = dp_in_band(&t, &lo, &hi, &ask).unwrap();
+                    let slow = dp_in_band_with(&t, Direct(&t), &lo, &hi, &ask).unwrap();
                     assert_eq!(fast.cost.to_bits(), slow.cost.to_bits(), "{trial} {w:?}");
                     assert_eq!(fast.path, slow.path);
                 }
@@ -1434,6 +1568,81 @@ mod tests {
         assert!(shortest_path_dijkstra(&nan, &a, Weight::LENGTH).is_err());
         assert!(path_cost(&a, &a, Weight::LENGTH, &[Step::A]).is_err());
         assert!(path_triangles(&[Step::A, Step::A], &[0, 1], &[2, 3]).is_err());
+    }
+
+    /// `result` is a refusal of `option` whose message says `what`.
+    fn assert_refused(result: Result<Solution>, option: &str, what: &str) {
+        match result {
+            Err(Error::InvalidParameter { name, value, .. }) => {
+                assert_eq!(name, option, "{value}");
+                assert!(value.contains(what), "{value}");
+            }
+            other => panic!("expected a refusal of {option}, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn oversized_strips_are_refused_before_the_work() {
+        let line = |n: usize, y: f64| -> Vec<DVec3> {
+            (0..n).map(|k| DVec3::new(k as f64, y, 0.0)).collect()
+        };
+        let (a, b) = (line(20_000, 0.0), line(20_000, 1.0));
+        // 8e8 states: 7.2 GB.
+        assert_refused(
+            shortest_path_dijkstra(&a, &b, Weight::ANGLE),
+            "solver",
+            "GB",
+        );
+        let (a, b) = (line(50_000, 0.0), line(50_000, 1.0));
+        // 2.5e9 cells of back-pointers.
+        assert_refused(shortest_path_dp(&a, &b, Weight::ANGLE), "solver", "GB");
+        let (a, b) = (line(1_500, 0.0), line(1_500, 1.0));
+        assert_refused(
+            lookahead(&a, &b, Weight::ANGLE, 1_000),
+            "alpha",
+            "window cells",
+        );
+    }
+
+    #[test]
+    fn memory_the_system_refuses_is_an_error() {
+        let a = vec![DVec3::ZERO, DVec3::X];
+        let t = Terms::new(&a, &a, Weight::ANGLE).unwrap();
+        let ask = t.ask("solver", "'dp'".into());
+        let huge = ask.filled(usize::MAX / 4, 0u8);
+        assert!(
+            matches!(&huge, Err(Error::InvalidParameter { name: "solver", value, .. })
+                if value.contains("could not allocate")),
+            "{huge:?}"
+        );
+    }
+
+    #[test]
+    fn lookahead_beyond_the_strip_is_the_optimum_at_dp_cost() {
+        let mut rng = Lcg(47);
+        for trial in 0..30 {
+            let (a, b) = if trial % 2 == 0 {
+                scan_pair(&mut rng, 5 + trial, 3 + 2 * trial)
+            } else {
+                (
+                    random_line(&mut rng, 1 + trial % 7),
+                    random_line(&mut rng, 2 + trial % 5),
+                )
+            };
+            let edge = a.len() + b.len() - 2;
+            for w in WEIGHTS {
+                let best = shortest_path_dp(&a, &b, w).unwrap();
+                for alpha in [edge.max(1), edge + 1, usize::MAX] {
+                    let look = lookahead(&a, &b, w, alpha).unwrap();
+                    assert!(close(look.cost, best.cost), "{trial} {w:?} {alpha}");
+                }
+                // Just below the edge, the windows still decide: a path, never below.
+                if edge > 1 {
+                    let look = lookahead(&a, &b, w, edge - 1).unwrap();
+                    assert!(look.cost >= best.cost - 1e-9 * best.cost.abs().max(1.0));
+                }
+            }
+        }
     }
 
     #[test]
