@@ -85,6 +85,25 @@ def test_bad_options_are_refused(kwargs, match):
         strip_surface(pts, lines=ids, **kwargs)
 
 
+def test_strips_too_large_for_their_solver_are_refused_before_the_work():
+    pts, ids = line_scan(2, 20_000)
+    # Dijkstra keeps 9 bytes for each of the 2 x 20,000^2 states: 7.2 GB.
+    with pytest.raises(scanmesh.ParameterError, match=r"solver='dijkstra' on .* GB"):
+        strip_surface(pts, lines=ids, plane="z", solver="dijkstra")
+    pts, ids = line_scan(2, 1_500)
+    with pytest.raises(scanmesh.ParameterError, match=r"alpha=1000 on .*window cells"):
+        strip_surface(pts, lines=ids, plane="z", method="lookahead", alpha=1000)
+
+
+@pytest.mark.parametrize("alpha", [10**9, 2**64, 10**30])
+def test_a_lookahead_deeper_than_every_strip_is_the_shortest_path(alpha):
+    pts, ids = line_scan(3, 300, jitter=0.3, seed=5)
+    best = quiet(pts, lines=ids, plane="z", solver="dp").options["cost"]
+    look = quiet(pts, lines=ids, plane="z", method="lookahead", alpha=alpha)
+    assert look.options["cost"] == pytest.approx(best, rel=1e-12)
+    assert look.options["alpha"] == alpha
+
+
 def test_bad_lines_and_points_are_refused():
     pts, ids = line_scan(4, 8)
     with pytest.raises(scanmesh.ScanmeshError, match="one id per point"):

@@ -276,9 +276,11 @@ def strip_surface(
             ids,
             tuple(params["weight"].values()),
             method,
-            params.get("alpha", DEFAULT_ALPHA),
+            # Depths and widths beyond the longest strip change nothing (each strip has
+            # fewer than len(pts) steps): capped, so that 10**30 is not an OverflowError.
+            int(min(params.get("alpha", DEFAULT_ALPHA), len(pts))),
             params.get("solver", "banded"),
-            params.get("band", _core.DEFAULT_BAND),
+            int(min(params.get("band", _core.DEFAULT_BAND), len(pts))),
             k,
             params["check"],
         )

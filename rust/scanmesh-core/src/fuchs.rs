@@ -16,6 +16,8 @@
 //! steps (dihedral angle). All are non-negative, which Dijkstra needs and which makes every
 //! look-ahead path cost at least the optimum.
 
+mod outside;
+
 use crate::geometry::{atan2_upper, check_finite};
 use crate::{Error, Result};
 use glam::DVec3;
@@ -128,11 +130,85 @@ pub enum Solver {
     Banded(usize),
 }
 
-/// Default initial w of [`shortest_path_banded`] (the DP band is twice as wide): optimal
-/// strips between scan lines of similar spacing stray one or two columns from the diagonal.
-/// Measured on a 1M-point rod scan: 8.9 band cells per point with w = 2, 13.9 with w = 1
-/// (more widening rounds), 16.8 with w = 4.
+/// Default initial half width w of [`shortest_path_banded`]: optimal strips between scan
+/// lines of similar spacing stray one or two columns from the diagonal, and two columns
+/// keep the far triangles' angle bound high enough to prove the band on almost every strip.
+/// Measured on the 1M-point synthetic scan (`strips_best vs`, old and new builds
+/// alternating, load 9-10 on 2 cores): checked strips 1.74-2.49 s against 1.78-2.63 s with
+/// the former unproven band (a DP of half width 2w accepted when its path kept within w).
 pub const DEFAULT_BAND: usize = 2;
+
+/// Most bytes the solver of one strip may hold (2 GiB): a strip whose solver would need
+/// more is refused with an error naming the option and the memory, before the work starts.
+/// Strips run in parallel, so a call may hold this much per thread. The full DP needs
+/// about n·m bytes (2 × 40,000 points: 1.6 GB), Dijkstra about 18·n·m.
+pub const MAX_STRIP_BYTES: u64 = 2 << 30;
+
+/// Most window cells look-ahead may evaluate on one strip: with α below n + m − 2 every
+/// decision runs a DP over up to min(α, n) · min(α, m) cells (above, one DP does it all).
+/// A cell costs up to about 0.1 µs with the dihedral weight (α = 100 on 2 × 1,500 points:
+/// 3.1e7 cells, 22 s on two cores shared with 15 other jobs), so the limit is about a
+/// minute.
+pub const MAX_LOOKAHEAD_CELLS: u64 = 500_000_000;
+
+/// `bytes` as "1.6 GB". O(1).
+fn human_bytes(bytes: u128) -> String {
+    let b = bytes as f64;
+    match b {
+        b if b >= 1e9 => format!("{:.1} GB", b / 1e9),
+        b if b >= 1e6 => format!("{:.1} MB", b / 1e6),
+        b => format!("{:.0} kB", (b / 1e3).ceil()),
+    }
+}
+
+/// What a strip asks of its solver, for the refusals: the option that chose the work
+/// (`solver`, `band`, `alpha`), its value and the strip's size.
+struct Ask {
+    option: &'static str,
+    value: String,
+    n: usize,
+    m: usize,
+}
+
+impl Ask {
+    /// Refuses `bytes` above [`MAX_STRIP_BYTES`], before anything is allocated. O(1).
+    fn check_bytes(&self, bytes: u128) -> Result<()> {
+        if bytes > u128::from(MAX_STRIP_BYTES) {
+            return Err(self.refusal(
+                format!("needs {} of memory", human_bytes(bytes)),
+                "at most 2 GiB per strip (the default banded solver needs a narrow band)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The error for this strip: `why` it is refused, and what would do instead.
+    fn refusal(&self, why: String, expected: &'static str) -> Error {
+        Error::InvalidParameter {
+            name: self.option,
+            value: format!(
+                "{} on a strip of {} × {} points ({why})",
+                self.value, self.n, self.m
+            ),
+            expected,
+        }
+    }
+
+    /// `len` copies of `fill`, allocated fallibly: memory the system refuses is this
+    /// strip's error, not an abort. O(len).
+    fn filled<T: Clone>(&self, len: usize, fill: T) -> Result<Vec<T>> {
+        let mut v = Vec::new();
+        v.try_reserve_exact(len).map_err(|_| {
+            let bytes = len as u128 * std::mem::size_of::<T>() as u128;
+            self.refusal(
+                format!("could not allocate {}", human_bytes(bytes)),
+                "a strip whose solver memory the system can provide",
+            )
+        })?;
+        v.resize(len, fill);
+        Ok(v)
+    }
+}
 
 /// The cheapest path by `solver`. See the solver functions for complexity. Errors: an empty
 /// line, a non-finite coordinate, a bad weight or a zero band width.
@@ -187,6 +263,16 @@ impl<'a> Terms<'a> {
 
     fn n(&self) -> usize {
         self.a.len()
+    }
+
+    /// This strip as chosen by `option` = `value`, for refusals.
+    fn ask(&self, option: &'static str, value: String) -> Ask {
+        Ask {
+            option,
+            value,
+            n: self.n(),
+            m: self.m(),
+        }
     }
 
     fn m(&self) -> usize {
@@ -274,7 +360,12 @@ impl<'a> Terms<'a> {
             // The smallest angle is at the corner opposite the shortest side (law of sines).
             let [pq, qr, rp] = sides;
             let k = usize::from(pq > qr || pq > rp) * (1 + usize::from(qr > rp));
-            cost += self.w.angle * (FRAC_PI_3 - atan2_upper(twice_area, dots[k]));
+            // That angle is at most π/3, so its cosine is positive; only a degenerate
+            // triangle (coincident corners) gives a dot product of 0 or below, and a
+            // -0.0 (the row cache negates differences) would make atan2 return π and the
+            // penalty negative. Its smallest angle is 0.
+            let dot = if dots[k] > 0.0 { dots[k] } else { 0.0 };
+            cost += self.w.angle * (FRAC_PI_3 - atan2_upper(twice_area, dot));
         }
         // The dihedral angle is scale-free: the cross product serves as the normal unscaled.
         let normal = if self.w.dihedral != 0.0 {
@@ -384,9 +475,14 @@ pub fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Result<Vec
 /// Time O(nm), memory O(nm) bytes of back-pointers plus O(m) costs.
 pub fn shortest_path_dp(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
+    full_dp(&t, &t.ask("solver", "'dp'".into()))
+}
+
+/// [`shortest_path_dp`] on checked terms; refusals name `ask`'s option.
+fn full_dp(t: &Terms, ask: &Ask) -> Result<Solution> {
     let lo = vec![0; t.n()];
     let hi = vec![t.m() - 1; t.n()];
-    Ok(dp_in_band(&t, &lo, &hi))
+    dp_in_band(t, &lo, &hi, ask)
 }
 
 /// A matrix cell: per entering direction (A = 0, B = 1), the cheapest cost so far and the
@@ -504,22 +600,22 @@ struct RowCache<'t, 'a> {
 }
 
 impl<'t, 'a> RowCache<'t, 'a> {
-    fn new(t: &'t Terms<'a>, width: usize) -> Self {
+    fn new(t: &'t Terms<'a>, width: usize, ask: &Ask) -> Result<Self> {
         let steps =
             |line: &[DVec3]| -> Vec<DVec3> { line.windows(2).map(|w| w[1] - w[0]).collect() };
         let (da, db) = (steps(t.a), steps(t.b));
         let squares = |v: &[DVec3]| v.iter().map(|d| d.length_squared()).collect();
-        RowCache {
+        Ok(RowCache {
             t,
             da2: squares(&da),
             db2: squares(&db),
             da,
             db,
-            cur: vec![Node::default(); width],
-            last: vec![Node::default(); width],
+            cur: ask.filled(width, Node::default())?,
+            last: ask.filled(width, Node::default())?,
             cur_lo: 0,
             last_lo: 0,
-        }
+        })
     }
 }
 
@@ -572,21 +668,72 @@ impl Steps for RowCache<'_, '_> {
 }
 
 /// DP restricted to row bands `lo[i]..=hi[i]` (nondecreasing, overlapping consecutive rows,
-/// lo[0] = 0, hi[n−1] = m−1). O(Σ band widths) time and back-pointer bytes.
-fn dp_in_band(t: &Terms, lo: &[usize], hi: &[usize]) -> Solution {
-    let width = (0..t.n()).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);
-    dp_in_band_with(t, RowCache::new(t, width), lo, hi)
+/// lo[0] = 0, hi[n−1] = m−1). O(Σ band widths) time and back-pointer bytes, checked
+/// against [`MAX_STRIP_BYTES`] before anything is allocated (refusals name `ask`'s option).
+fn dp_in_band(t: &Terms, lo: &[usize], hi: &[usize], ask: &Ask) -> Result<Solution> {
+    let width = check_band(t, lo, hi, ask)?;
+    let solution = dp_in_band_with(t, RowCache::new(t, width, ask)?, &mut Sealed, lo, hi, ask)?;
+    Ok(solution.expect("a sealed band has no way out"))
 }
 
-/// [`dp_in_band`] with steps from `steps`.
-fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize]) -> Solution {
+/// Checks the memory of a DP in the band `lo..=hi` against [`MAX_STRIP_BYTES`]; returns
+/// the widest row. O(n).
+fn check_band(t: &Terms, lo: &[usize], hi: &[usize], ask: &Ask) -> Result<usize> {
+    let width = (0..t.n()).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);
+    let cells: u128 = (0..t.n()).map(|i| (hi[i] + 1 - lo[i]) as u128).sum();
+    let per_column = 2 * (std::mem::size_of::<Cell>() + std::mem::size_of::<Node>());
+    ask.check_bytes(cells + width as u128 * per_column as u128)?;
+    Ok(width)
+}
+
+/// What a band DP knows of the paths outside its band: how cheaply they can come back in.
+/// A band DP that lets them in computes the shortest path of a relaxed graph, the band's
+/// exact cells plus lower bounds on everything outside (see `outside`), and its optimum,
+/// when it stays in the band, is the optimum of the whole matrix.
+trait Outside {
+    /// Lower bound on the cost of reaching (i, j) by an A-step from (i − 1, j) outside
+    /// the band (above it), with that step's triangle, or None.
+    fn in_from_above(&self, i: usize, j: usize) -> Option<(f64, Tri)>;
+    /// The same for a B-step from (i, j − 1) outside the band (below it).
+    fn in_from_below(&self, i: usize, j: usize) -> Option<(f64, Tri)>;
+    /// Takes note of the ways out of the band from row i, whose cells `row` (band
+    /// `lo..=hi`) are final.
+    fn leave(&mut self, i: usize, row: &[Cell], lo: usize, hi: usize);
+}
+
+/// A band with no way in from outside: the plain band DP.
+struct Sealed;
+
+impl Outside for Sealed {
+    #[inline(always)]
+    fn in_from_above(&self, _: usize, _: usize) -> Option<(f64, Tri)> {
+        None
+    }
+    #[inline(always)]
+    fn in_from_below(&self, _: usize, _: usize) -> Option<(f64, Tri)> {
+        None
+    }
+    #[inline(always)]
+    fn leave(&mut self, _: usize, _: &[Cell], _: usize, _: usize) {}
+}
+
+/// [`dp_in_band`] with steps from `steps` and the ways in from `outside`: the cheapest
+/// path, or None when the cheapest way to the end comes in from outside the band.
+fn dp_in_band_with(
+    t: &Terms,
+    mut steps: impl Steps,
+    outside: &mut impl Outside,
+    lo: &[usize],
+    hi: &[usize],
+    ask: &Ask,
+) -> Result<Option<Solution>> {
     let (n, m) = (t.n(), t.m());
     let start_cost = t.node(0, 0);
     if n == 1 && m == 1 {
-        return Solution {
+        return Ok(Some(Solution {
             path: Vec::new(),
             cost: start_cost,
-        };
+        }));
     }
     // Row offsets into the flat back-pointer array: bit 0 = direction at the predecessor
     // for entering by A, bit 1 = the same for entering by B.
@@ -595,16 +742,18 @@ fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize])
     for i in 0..n {
         offset.push(offset[i] + hi[i] + 1 - lo[i]);
     }
-    let mut back = vec![0u8; offset[n]];
+    let mut back = ask.filled(offset[n], 0u8)?;
     let width = (0..n).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);
-    let mut prev = vec![UNREACHED; width];
-    let mut cur = vec![UNREACHED; width];
+    let mut prev = ask.filled(width, UNREACHED)?;
+    let mut cur = ask.filled(width, UNREACHED)?;
     for i in 0..n {
         steps.begin_row(i, lo[i], hi[i]);
         for j in lo[i]..=hi[i] {
             let mut cell = UNREACHED;
             let mut bits = 0u8;
-            if i > 0 && j >= lo[i - 1] && j <= hi[i - 1] {
+            // Rows overlap and `lo` never decreases: (i − 1, j) is in the band unless j
+            // is past its end.
+            if i > 0 && j <= hi[i - 1] {
                 let step = steps.entering_by_a(i, j);
                 let (before, from) = best_from(
                     t,
@@ -615,6 +764,8 @@ fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize])
                 );
                 cell.enter(0, before + step.cost, &step);
                 bits |= from;
+            } else if let Some((cost, step)) = outside.in_from_above(i, j) {
+                cell.enter(0, cost, &step);
             }
             if j > lo[i] {
                 let step = steps.entering_by_b(i, j);
@@ -627,10 +778,13 @@ fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize])
                 );
                 cell.enter(1, before + step.cost, &step);
                 bits |= from << 1;
+            } else if let Some((cost, step)) = outside.in_from_below(i, j) {
+                cell.enter(1, cost, &step);
             }
             cur[j - lo[i]] = cell;
             back[offset[i] + j - lo[i]] = bits;
         }
+        outside.leave(i, &cur[..hi[i] + 1 - lo[i]], lo[i], hi[i]);
         std::mem::swap(&mut prev, &mut cur);
     }
     let last = prev[m - 1 - lo[n - 1]];
@@ -649,9 +803,13 @@ fn dp_in_band_with(t: &Terms, mut steps: impl Steps, lo: &[usize], hi: &[usize])
             dir = (bits >> 1) & 1;
             j -= 1;
         }
+        if j < lo[i] || j > hi[i] {
+            // Only a way in from outside leads out of the band.
+            return Ok(None);
+        }
     }
     path.reverse();
-    Solution { path, cost }
+    Ok(Some(Solution { path, cost }))
 }
 
 /// A heap entry ordered by ascending cost (BinaryHeap is a max-heap).
@@ -681,8 +839,10 @@ impl PartialOrd for Queued {
 /// The cheapest path by Dijkstra's algorithm with a binary heap, as in the seed paper.
 ///
 /// Graph: states (i, j, direction of the entering step), 2nm of them, each with at most
-/// two outgoing edges; all edge costs are non-negative. Time O(nm log(nm)), memory O(nm).
-/// Kept as the reference the DP is tested against; the DP is faster on the same DAG.
+/// two outgoing edges; all edge costs are non-negative. Time O(nm log(nm)), memory 9 bytes
+/// per state plus the heap (about 18·n·m bytes; refused above [`MAX_STRIP_BYTES`]; the
+/// heap grows fallibly). Kept as the reference the DP is tested against; the DP is faster
+/// on the same DAG.
 pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
     let (n, m) = (t.n(), t.m());
@@ -693,20 +853,27 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
             cost: start_cost,
         });
     }
-    // State index (i * m + j) * 2 + d; d = 0 entered by A, 1 by B.
-    let mut dist = vec![f64::INFINITY; 2 * n * m];
-    let mut pred = vec![usize::MAX; 2 * n * m];
-    let mut done = vec![false; 2 * n * m];
+    let ask = t.ask("solver", "'dijkstra'".into());
+    let states = 2 * n as u128 * m as u128;
+    ask.check_bytes(states * (std::mem::size_of::<f64>() as u128 + 1))?;
+    // State index (i * m + j) * 2 + d; d = 0 entered by A, 1 by B. The predecessor of a
+    // state is the cell its step came from; `pred` keeps the direction that entered that
+    // cell (bit 0) and whether the state is settled (bit 1).
+    let states = 2 * n * m;
+    let mut dist = ask.filled(states, f64::INFINITY)?;
+    let mut pred = ask.filled(states, 0u8)?;
+    const DONE: u8 = 2;
     let mut heap = BinaryHeap::new();
     let relax = |heap: &mut BinaryHeap<Queued>,
                  dist: &mut [f64],
-                 pred: &mut [usize],
-                 from,
+                 pred: &mut [u8],
+                 from_dir: u8,
                  i,
                  j,
                  s,
                  before: f64,
-                 previous: Option<Tri>| {
+                 previous: Option<Tri>|
+     -> Result<()> {
         let step = t.step(i, j, s);
         let cost = before + step.cost + previous.map_or(0.0, |p| t.turn_from(&p, step.normal));
         let (ti, tj, d) = match s {
@@ -716,44 +883,52 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
         let to = (ti * m + tj) * 2 + d;
         if cost < dist[to] {
             dist[to] = cost;
-            pred[to] = from;
+            pred[to] = from_dir;
+            if heap.len() == heap.capacity() {
+                heap.try_reserve(heap.len().max(64)).map_err(|_| {
+                    ask.refusal(
+                        "could not grow the heap".into(),
+                        "a strip whose solver memory the system can provide",
+                    )
+                })?;
+            }
             heap.push(Queued { cost, state: to });
         }
+        Ok(())
     };
     // The start has no entering triangle; its successors are relaxed directly.
-    const START: usize = usize::MAX - 1;
     if n > 1 {
         relax(
             &mut heap,
             &mut dist,
             &mut pred,
-            START,
+            0,
             0,
             0,
             Step::A,
             start_cost,
             None,
-        );
+        )?;
     }
     if m > 1 {
         relax(
             &mut heap,
             &mut dist,
             &mut pred,
-            START,
+            0,
             0,
             0,
             Step::B,
             start_cost,
             None,
-        );
+        )?;
     }
     let goal = ((n - 1) * m + m - 1) * 2;
     while let Some(Queued { cost, state }) = heap.pop() {
-        if done[state] {
+        if pred[state] & DONE != 0 {
             continue;
         }
-        done[state] = true;
+        pred[state] |= DONE;
         if state == goal || state == goal + 1 {
             break;
         }
@@ -765,31 +940,20 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
         } else {
             t.step(i, j - 1, Step::B)
         };
-        if i + 1 < n {
-            relax(
-                &mut heap,
-                &mut dist,
-                &mut pred,
-                state,
-                i,
-                j,
-                Step::A,
-                cost,
-                Some(entered),
-            );
-        }
-        if j + 1 < m {
-            relax(
-                &mut heap,
-                &mut dist,
-                &mut pred,
-                state,
-                i,
-                j,
-                Step::B,
-                cost,
-                Some(entered),
-            );
+        for (s, fits) in [(Step::A, i + 1 < n), (Step::B, j + 1 < m)] {
+            if fits {
+                relax(
+                    &mut heap,
+                    &mut dist,
+                    &mut pred,
+                    d as u8,
+                    i,
+                    j,
+                    s,
+                    cost,
+                    Some(entered),
+                )?;
+            }
         }
     }
     let mut state = if dist[goal] <= dist[goal + 1] {
@@ -799,37 +963,40 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
     };
     let cost = dist[state];
     let mut path = Vec::with_capacity(n + m - 2);
-    while state != START {
-        path.push(if state % 2 == 0 { Step::A } else { Step::B });
-        state = pred[state];
+    let (mut i, mut j) = (n - 1, m - 1);
+    while i > 0 || j > 0 {
+        let d = state % 2;
+        path.push(if d == 0 { Step::A } else { Step::B });
+        if d == 0 {
+            i -= 1;
+        } else {
+            j -= 1;
+        }
+        state = (i * m + j) * 2 + usize::from(pred[state] & 1);
     }
     path.reverse();
     Ok(Solution { path, cost })
 }
 
-/// The cheapest path by DP inside a band around the diagonal, widened until the path keeps
-/// well inside it.
+/// The cheapest path of the whole matrix by DP inside a band around the diagonal, widened
+/// until the band proves its path optimal.
 ///
 /// The diagonal c(i) is the j of the b point nearest a_i along the strip's direction (so
 /// lines of unequal extent, length or spacing get a diagonal that follows them). The DP
-/// runs in the band of half width 2w around it (initially w = `half_width`); its path is
-/// accepted when it keeps strictly inside the inner band of half width w (apart from edges
-/// of the matrix), and otherwise w doubles and the DP repeats; at the latest the band
-/// becomes the whole matrix. An accepted path is optimal among all paths within 2w, and
-/// the best path within w is the same.
-///
-/// Exactness: the result is the optimum whenever the optimum lies inside the final band.
-/// No band rule can prove that for arbitrary non-negative weights (a path inside a band is
-/// optimal only among paths inside it: a cheap detour far outside stays unseen, and on a
-/// near-planar strip the area weight makes most paths almost tie). Measured on 300 noisy
-/// scan-line strips of 5–125 points and every weight, a rule that accepted any path off
-/// the edges of its band missed 10 of 1,500 optima (area, dihedral); with the factor-2
-/// margin, none. On random points (no diagonal at all), 1 of 6,400. Tests compare it with
-/// the full DP on scan-like strips and on real scans.
+/// runs in the band of half width w around it (initially w = `half_width`) and lets paths
+/// back in from outside at lower bounds of what they cost there (`fuchs/outside.rs`: the
+/// length and the angle of a triangle whose corner lies far from the band bound its cost
+/// from below). When its cheapest path stays inside the band, no path through the outside
+/// can be cheaper, and that path is optimal over the whole matrix; otherwise w doubles and
+/// the DP repeats; at the latest the band becomes the whole matrix (the full DP). So the
+/// result is always the optimum (up to rounding: the same cost as [`shortest_path_dp`] to
+/// about 1e-12 relative; tested against it and Dijkstra on 100,000 fuzzed strips).
 ///
 /// Time O((n + m) · w) and memory O(n · w) bytes for the final w (each round doubles the
-/// width, so all rounds together cost less than twice the last). Errors as
-/// [`shortest_path`], and `half_width` = 0.
+/// width, so all rounds together cost less than twice the last); with the default weight
+/// on scan strips the first band proves itself on almost every strip. Weights with only
+/// area or dihedral angle bound nothing far away and widen to the full DP, O(nm) (refused
+/// above [`MAX_STRIP_BYTES`]). Errors as [`shortest_path`], and `half_width` = 0.
 pub fn shortest_path_banded(
     a: &[DVec3],
     b: &[DVec3],
@@ -849,7 +1016,10 @@ pub fn shortest_path_banded(
     // Rows of the band of half width `w` around the diagonal, made passable.
     let band = |w: usize| -> (Vec<usize>, Vec<usize>) {
         let mut lo: Vec<usize> = center.iter().map(|&c| c.saturating_sub(w)).collect();
-        let mut hi: Vec<usize> = center.iter().map(|&c| (c + w).min(m - 1)).collect();
+        let mut hi: Vec<usize> = center
+            .iter()
+            .map(|&c| c.saturating_add(w).min(m - 1))
+            .collect();
         lo[0] = 0;
         hi[n - 1] = m - 1;
         // Consecutive rows must share a column for a path to step down.
@@ -858,16 +1028,20 @@ pub fn shortest_path_banded(
         }
         (lo, hi)
     };
+    let ask = t.ask("solver", "'banded'".into());
     let mut width = half_width;
     loop {
-        let (lo, hi) = band(2 * width);
-        let solution = dp_in_band(&t, &lo, &hi);
-        let full = lo.iter().all(|&x| x == 0) && hi.iter().all(|&x| x == m - 1);
-        let (inner_lo, inner_hi) = band(width);
-        if full || !leaves_band(&solution.path, &inner_lo, &inner_hi, m) {
+        let (lo, hi) = band(width);
+        if lo.iter().all(|&x| x == 0) && hi.iter().all(|&x| x == m - 1) {
+            return dp_in_band(&t, &lo, &hi, &ask);
+        }
+        let row_width = check_band(&t, &lo, &hi, &ask)?;
+        let steps = RowCache::new(&t, row_width, &ask)?;
+        let mut bounds = outside::Bounds::new(&t, &lo, &hi);
+        if let Some(solution) = dp_in_band_with(&t, steps, &mut bounds, &lo, &hi, &ask)? {
             return Ok(solution);
         }
-        width *= 2;
+        width = width.saturating_mul(2);
     }
 }
 
@@ -917,26 +1091,6 @@ fn arc_length_fractions(line: &[DVec3]) -> Vec<f64> {
             }
         })
         .collect()
-}
-
-/// True when a node of `path` lies on or beyond an edge of the band that is not an edge of
-/// the matrix. O(n + m).
-fn leaves_band(path: &[Step], lo: &[usize], hi: &[usize], m: usize) -> bool {
-    let out = |i: usize, j: usize| (j <= lo[i] && lo[i] > 0) || (j >= hi[i] && hi[i] < m - 1);
-    let (mut i, mut j) = (0, 0);
-    if out(0, 0) {
-        return true;
-    }
-    for &s in path {
-        match s {
-            Step::A => i += 1,
-            Step::B => j += 1,
-        }
-        if out(i, j) {
-            return true;
-        }
-    }
-    false
 }
 
 /// Reusable buffers of the look-ahead window, so the walk allocates only when a window
@@ -1008,9 +1162,12 @@ impl Window {
 /// (A on ties), repeat. α = 1 with the length weight is the greedy shortest-diagonal rule.
 ///
 /// Each decision runs a small DP over the window of nodes within α steps, so the time is
-/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α, O((n + m) · n · m) for
-/// α ≥ n + m (where the walk follows an optimal path, since each window then reaches the
-/// end). Memory O(min(α, n) · min(α, m)). Errors: α = 0, and those of [`shortest_path`].
+/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α. From α = n + m − 2 on, every
+/// window reaches the end, the walk follows an optimal path, and a larger α changes
+/// nothing: that path is found by one DP instead ([`shortest_path_dp`]: the same cost; among
+/// tied optima, the DP's), in O(nm). Memory O(min(α, n) · min(α, m)). Errors: α = 0, a
+/// strip whose windows would exceed [`MAX_LOOKAHEAD_CELLS`] or [`MAX_STRIP_BYTES`], and
+/// those of [`shortest_path`].
 pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
     if alpha == 0 {
@@ -1021,7 +1178,26 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
         });
     }
     let (n, m) = (t.n(), t.m());
-    let mut window = Window { cells: Vec::new() };
+    let ask = t.ask("alpha", alpha.to_string());
+    if alpha >= n + m - 2 {
+        // Every window reaches the end: the walk follows an optimal path, which one DP finds.
+        return full_dp(&t, &ask);
+    }
+    let (rows, cols) = (alpha.min(n - 1) + 1, alpha.min(m - 1) + 1);
+    ask.check_bytes(rows as u128 * cols as u128 * std::mem::size_of::<Cell>() as u128)?;
+    let per_window =
+        (rows as u128 * cols as u128).min((alpha as u128 + 1) * (alpha as u128 + 2) / 2);
+    let work = 2 * (n + m - 2) as u128 * per_window;
+    if work > u128::from(MAX_LOOKAHEAD_CELLS) {
+        return Err(ask.refusal(
+            format!("{work:.1e} window cells, about {:.0} s", work as f64 * 1e-7),
+            "a look-ahead depth whose windows stay under 5e8 cells per strip \
+             (or alpha >= n + m - 2, which costs one shortest-path DP)",
+        ));
+    }
+    let mut window = Window {
+        cells: ask.filled(rows * cols, UNREACHED)?,
+    };
     let mut path = Vec::with_capacity(n + m - 2);
     let (mut i, mut j) = (0, 0);
     let mut entered: Option<Tri> = None;
@@ -1179,8 +1355,11 @@ mod tests {
             for (lo, hi) in [full, (lo, hi)] {
                 for w in WEIGHTS {
                     let t = Terms::new(&a, &b, w).unwrap();
-                    let fast = dp_in_band(&t, &lo, &hi);
-                    let slow = dp_in_band_with(&t, Direct(&t), &lo, &hi);
+                    let ask = t.ask("test", String::new());
+                    let fast = dp_in_band(&t, &lo, &hi, &ask).unwrap();
+                    let slow = dp_in_band_with(&t, Direct(&t), &mut Sealed, &lo, &hi, &ask)
+                        .unwrap()
+                        .unwrap();
                     assert_eq!(fast.cost.to_bits(), slow.cost.to_bits(), "{trial} {w:?}");
                     assert_eq!(fast.path, slow.path);
                 }
@@ -1315,6 +1494,109 @@ mod tests {
         }
     }
 
+    /// One strip of the fuzz corpus: seeded by `k`, one of five kinds.
+    fn fuzz_strip(rng: &mut Lcg, k: usize) -> (Vec<DVec3>, Vec<DVec3>) {
+        let mut size = |hi: usize| 1 + (rng.next() * hi as f64) as usize;
+        match k % 5 {
+            // No structure at all.
+            0 => {
+                let (n, m) = (size(9), size(9));
+                (random_line(rng, n), random_line(rng, m))
+            }
+            // Noisy scan lines, unequal counts.
+            1 => {
+                let (n, m) = (1 + size(16), 1 + size(16));
+                scan_pair(rng, n, m)
+            }
+            // Small integer coordinates (as the fuzz target decodes bytes): duplicates,
+            // collinear runs, coincident points across the lines.
+            2 => {
+                let (n, m) = (size(8), size(8));
+                let mut grid = |count: usize| -> Vec<DVec3> {
+                    (0..count)
+                        .map(|_| {
+                            let c = |r: &mut Lcg| (r.next() * 5.0).floor();
+                            DVec3::new(c(rng), c(rng), c(rng) - 2.0)
+                        })
+                        .collect()
+                };
+                (grid(n), grid(m))
+            }
+            // A dense line against a sparse one, and a line folding back on itself.
+            3 => {
+                let (n, m) = (size(4), 5 + size(20));
+                let (a, mut b) = scan_pair(rng, n, m);
+                if k % 2 == 0 {
+                    let half = b.len() / 2;
+                    b[half..].reverse();
+                }
+                (a, b)
+            }
+            // Scan lines far apart (slivers everywhere) or nearly on top of each other.
+            _ => {
+                let (n, m) = (2 + size(12), 2 + size(12));
+                let (mut a, b) = scan_pair(rng, n, m);
+                let lift = if k % 2 == 0 { 8.0 } else { 0.99 };
+                a.iter_mut().for_each(|p| p.y += lift);
+                (a, b)
+            }
+        }
+    }
+
+    /// A random weight: each coefficient 0 or one of several magnitudes, one positive.
+    fn fuzz_weight(rng: &mut Lcg) -> Weight {
+        const LEVELS: [f64; 6] = [0.0, 0.0, 1e-6, 0.3, 1.0, 100.0];
+        loop {
+            let mut c = || LEVELS[(rng.next() * LEVELS.len() as f64) as usize];
+            let w = Weight {
+                length: c(),
+                area: c(),
+                angle: c(),
+                dihedral: c(),
+            };
+            if w.check().is_ok() {
+                return w;
+            }
+        }
+    }
+
+    #[test]
+    fn banded_is_exact_on_a_fuzz_corpus_of_100_000_strips() {
+        let mut rng = Lcg(53);
+        let tol = |x: f64| 1e-9 * x.abs().max(1.0);
+        for k in 0..100_000 {
+            let (a, b) = fuzz_strip(&mut rng, k);
+            let w = if k % 3 == 0 {
+                WEIGHTS[k / 3 % WEIGHTS.len()]
+            } else {
+                fuzz_weight(&mut rng)
+            };
+            let dp = shortest_path_dp(&a, &b, w).unwrap();
+            let band = shortest_path_banded(&a, &b, w, 1 + k % 4).unwrap();
+            let context = || format!("strip {k}: n={} m={} {w:?}", a.len(), b.len());
+            assert!(
+                (band.cost - dp.cost).abs() <= tol(dp.cost),
+                "{}: banded {} dp {}",
+                context(),
+                band.cost,
+                dp.cost
+            );
+            let cost = path_cost(&a, &b, w, &band.path).unwrap();
+            assert!((cost - band.cost).abs() <= tol(cost), "{}", context());
+            // Dijkstra and look-ahead on every 8th strip: they are the slow references.
+            if k % 8 == 0 {
+                let dijkstra = shortest_path_dijkstra(&a, &b, w).unwrap();
+                assert!(
+                    (dijkstra.cost - dp.cost).abs() <= tol(dp.cost),
+                    "{}",
+                    context()
+                );
+                let look = lookahead(&a, &b, w, 1 + k % 5).unwrap();
+                assert!(look.cost >= dp.cost - tol(dp.cost), "{}", context());
+            }
+        }
+    }
+
     #[test]
     fn shortest_path_is_never_above_lookahead() {
         let mut rng = Lcg(31);
@@ -1423,6 +1705,81 @@ mod tests {
         assert!(shortest_path_dijkstra(&nan, &a, Weight::LENGTH).is_err());
         assert!(path_cost(&a, &a, Weight::LENGTH, &[Step::A]).is_err());
         assert!(path_triangles(&[Step::A, Step::A], &[0, 1], &[2, 3]).is_err());
+    }
+
+    /// `result` is a refusal of `option` whose message says `what`.
+    fn assert_refused(result: Result<Solution>, option: &str, what: &str) {
+        match result {
+            Err(Error::InvalidParameter { name, value, .. }) => {
+                assert_eq!(name, option, "{value}");
+                assert!(value.contains(what), "{value}");
+            }
+            other => panic!("expected a refusal of {option}, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn oversized_strips_are_refused_before_the_work() {
+        let line = |n: usize, y: f64| -> Vec<DVec3> {
+            (0..n).map(|k| DVec3::new(k as f64, y, 0.0)).collect()
+        };
+        let (a, b) = (line(20_000, 0.0), line(20_000, 1.0));
+        // 8e8 states: 7.2 GB.
+        assert_refused(
+            shortest_path_dijkstra(&a, &b, Weight::ANGLE),
+            "solver",
+            "GB",
+        );
+        let (a, b) = (line(50_000, 0.0), line(50_000, 1.0));
+        // 2.5e9 cells of back-pointers.
+        assert_refused(shortest_path_dp(&a, &b, Weight::ANGLE), "solver", "GB");
+        let (a, b) = (line(1_500, 0.0), line(1_500, 1.0));
+        assert_refused(
+            lookahead(&a, &b, Weight::ANGLE, 1_000),
+            "alpha",
+            "window cells",
+        );
+    }
+
+    #[test]
+    fn memory_the_system_refuses_is_an_error() {
+        let a = vec![DVec3::ZERO, DVec3::X];
+        let t = Terms::new(&a, &a, Weight::ANGLE).unwrap();
+        let ask = t.ask("solver", "'dp'".into());
+        let huge = ask.filled(usize::MAX / 4, 0u8);
+        assert!(
+            matches!(&huge, Err(Error::InvalidParameter { name: "solver", value, .. })
+                if value.contains("could not allocate")),
+            "{huge:?}"
+        );
+    }
+
+    #[test]
+    fn lookahead_beyond_the_strip_is_the_optimum_at_dp_cost() {
+        let mut rng = Lcg(47);
+        for trial in 0..30 {
+            let (a, b) = if trial % 2 == 0 {
+                scan_pair(&mut rng, 5 + trial, 3 + 2 * trial)
+            } else {
+                (
+                    random_line(&mut rng, 1 + trial % 7),
+                    random_line(&mut rng, 2 + trial % 5),
+                )
+            };
+            let edge = a.len() + b.len() - 2;
+            for w in WEIGHTS {
+                let best = shortest_path_dp(&a, &b, w).unwrap();
+                for alpha in [edge.max(1), edge + 1, usize::MAX] {
+                    let look = lookahead(&a, &b, w, alpha).unwrap();
+                    assert!(close(look.cost, best.cost), "{trial} {w:?} {alpha}");
+                }
+                // Just below the edge, the windows still decide: a path, never below.
+                if edge > 1 {
+                    let look = lookahead(&a, &b, w, edge - 1).unwrap();
+                    assert!(look.cost >= best.cost - 1e-9 * best.cost.abs().max(1.0));
+                }
+            }
+        }
     }
 
     #[test]
