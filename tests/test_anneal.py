@@ -114,6 +114,20 @@ def test_progress_callback_sees_every_sweep():
     assert [d for d, _, _ in seen] == sorted(d for d, _, _ in seen)
 
 
+def test_progress_ends_where_an_early_stop_ended_the_run():
+    pts = bumpy_patch(300, 5)
+    seen = []
+    s = scanmesh.reconstruct(
+        pts, "anneal", sweeps=5000, patience=5, chains=1,
+        progress=lambda done, total, energy: seen.append((done, total, energy)),
+    )
+    ran = len(s.trace["energy"])
+    assert ran < 5000  # stopped early
+    assert seen[-1][:2] == (ran, ran)  # the last report: done == total == sweeps run
+    assert all(d <= ran for d, _, _ in seen)
+    assert [d for d, _, _ in seen] == sorted(d for d, _, _ in seen)
+
+
 @pytest.mark.parametrize(
     "options, match",
     [

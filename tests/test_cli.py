@@ -466,6 +466,23 @@ def test_info_text_and_json(rod_scan):
         assert word in text
 
 
+def test_info_judges_a_mesh_file_by_the_same_criteria(tmp_path):
+    import trimesh
+
+    mesh = trimesh.load(CONROD)
+    expected = scanmesh.quality(mesh.vertices, mesh.faces)
+    for ending in (".stl", ".ply", ".obj"):
+        path = tmp_path / f"m{ending}"
+        mesh.export(path)
+        result = run("info", path, "--json")
+        assert result.returncode == 0, result.stderr
+        data = json.loads(result.stdout)
+        assert data["kind"] == "mesh" and data["faces"] == len(mesh.faces)
+        assert data["quality"]["tac_1"] == pytest.approx(expected.tac_1, rel=1e-6)
+        assert data["quality"]["sliver_fraction"] == pytest.approx(expected.sliver_fraction)
+    assert "tac_1" in run("info", tmp_path / "m.stl").stdout
+
+
 def test_info_steep_share_of_a_flat_and_a_folded_scan(tmp_path):
     points, ids = grid_scan()
     flat = points.copy()

@@ -133,6 +133,7 @@ def _progress_bar(progress: Progress, total: int) -> Callable[[int, int, float],
     bar = tqdm(total=total, unit="sweep", desc="annealing", leave=False)
 
     def update(done: int, _total: int, energy: float) -> None:
+        bar.total = _total
         bar.n = done
         bar.set_postfix(energy=f"{energy:.6g}", refresh=False)
         bar.refresh()
@@ -211,8 +212,9 @@ def anneal_surface(
             if report is not None:
                 report(runner.sweeps_done, total, runner.energy)
         if report is not None:
-            # Chains that stop early leave the count short of the total: close it.
-            report(total, total, runner.energy)
+            # Chains that stop early leave the count short of the planned total: the last
+            # report ends the stage where the run ended (the total shrinks to what ran).
+            report(runner.sweeps_done, runner.sweeps_done, runner.energy)
     finally:
         if report is not None and hasattr(report, "close"):
             report.close()

@@ -779,6 +779,8 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     from scanmesh.scan import as_scan
 
     source = Path(args.input)
+    if _is_mesh_file(source):
+        return _judge_mesh(source, con)
     scan = _read_scan(source, con.progress, args)  # the reader's details (format, line source)
     pts = scan.points
     # projected once for Delaunay, the lines and the noise estimate, on the plane chosen
@@ -831,6 +833,57 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
         f"  steep share       {100 * steep:.2f} % of {len(surface.faces):,} Delaunay triangles"
         f" tilt more than {STEEP_ANGLE_DEG:g} deg from the plane normal"
     )
+    return 0
+
+
+#: Endings that hold a mesh, never scan points: ``scanmesh info`` judges them.
+MESH_ENDINGS = (".stl", ".obj", ".off", ".glb")
+
+
+def _is_mesh_file(path: Path) -> bool:
+    """A mesh file: a mesh-only ending, or a PLY whose header declares faces."""
+    ending = path.suffix.lower()
+    if ending in MESH_ENDINGS:
+        return True
+    if ending != ".ply" or not path.is_file():
+        return False
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    header = head.split(b"end_header", 1)[0]
+    return any(
+        line.split()[:2] == [b"element", b"face"] and line.split()[2:3] != [b"0"]
+        for line in header.splitlines()
+    )
+
+
+def _judge_mesh(path: Path, con: _Console) -> int:
+    """``scanmesh info MESH``: the same quality figures every method is judged by."""
+    from scanmesh.quality import quality
+
+    vertices, faces = _mesh_file(path)
+    q = quality(vertices, faces)
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    data = {
+        "input": str(path),
+        "kind": "mesh",
+        "vertices": int(len(vertices)),
+        "faces": int(len(faces)),
+        "extent": {"min": lo, "max": hi, "size": hi - lo},
+        "quality": q.as_dict(),
+    }
+    if con.json:
+        print(_dumps(data))
+        return 0
+    con.out(f"{path} (a mesh)")
+    con.out(f"  vertices          {len(vertices):,}")
+    con.out(f"  faces             {len(faces):,}")
+    for label, vec in (("min", lo), ("max", hi), ("size", hi - lo)):
+        con.out(f"  {label:<18}{'  '.join(f'{x:.6g}' for x in vec)}")
+    con.out(f"  tac_1 / 2 / inf   {q.tac_1:.4g} / {q.tac_2:.4g} / {q.tac_inf:.4g} rad"
+            f" over {q.n_interior:,} interior vertices")
+    con.out(f"  min angle         {_fmt(q.min_angle_deg, '.2f')} deg")
+    con.out(f"  slivers           {100 * q.sliver_fraction:.2f} % (smallest angle below"
+            f" {_sliver_deg():g} deg)")
     return 0
 
 
@@ -1132,12 +1185,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "info",
         parents=[common, with_json],
-        help="describe a scan file",
-        description="Points, scan lines, extent, median spacing and the share of steep"
-        f" Delaunay triangles (normal more than {STEEP_ANGLE_DEG:g} deg from the projection"
-        " normal).",
+        help="describe a scan file, or judge a mesh file",
+        description="A scan: points, scan lines, extent, median spacing, noise and the share"
+        f" of steep Delaunay triangles (normal more than {STEEP_ANGLE_DEG:g} deg from the"
+        " projection normal). A mesh (.stl, .obj, .off, .glb, or a .ply with faces): tac"
+        " norms, smallest angle and sliver share, as every method is judged.",
     )
-    p.add_argument("input", metavar="IN", help="scan file")
+    p.add_argument("input", metavar="IN", help="scan or mesh file")
     _add_read_flags(p)
     p.add_argument(
         "--plane",
