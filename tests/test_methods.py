@@ -34,7 +34,9 @@ def _cases():
             # None is a value of its own for an automatic option (worked out from the data)
             bad = [v for v in NOT_A_NUMBER if not (v is None and option.automatic)]
             if option.kind == "int":
-                bad += HUGE + [-1, 2.5, True]
+                # huge positive counts are bad where the option has a ceiling
+                bad += [v for v in HUGE if v < 0 or option.high is not None]
+                bad += [-1, 2.5, True]
             elif option.kind == "float":
                 bad += [10**400, True, "1.0"]
             elif option.kind == "bool":

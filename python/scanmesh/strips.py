@@ -131,10 +131,6 @@ def _weight(weight: WeightSpec) -> dict[str, float]:
     return dict(zip(CRITERIA, weight_coefficients(weight), strict=True))
 
 
-#: Most look-ahead steps: each decision costs O(alpha^2), and from about the lines' length
-#: on the walk is the shortest path anyway (use method "shortest-path").
-MAX_ALPHA: int = 256
-
 #: Largest initial band of the banded solver (it widens as needed; wider is the whole matrix).
 MAX_BAND: int = 2**31 - 1
 
@@ -168,7 +164,13 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
     "lookahead": (
         WEIGHT_OPTION,
         Option(
-            "alpha", "int", DEFAULT_ALPHA, "look-ahead depth in steps", low=1, high=MAX_ALPHA
+            # no upper bound: a window past a strip's end is that strip's shortest path (one
+            # DP), and the core refuses a strip whose windows would cost too much
+            "alpha",
+            "int",
+            DEFAULT_ALPHA,
+            "look-ahead depth in steps (beyond a strip's length: its shortest path)",
+            low=1,
         ),
         GAP_FACTOR_OPTION,
         CHECK_OPTION,
@@ -205,7 +207,8 @@ def strip_surface(
         (12.8 degrees) at 16 % less tac_1 than angle alone, where dihedral alone falls to
         4.8 degrees (figures in BENCHMARKS.md).
     alpha : int
-        Look-ahead depth in steps (``method="lookahead"`` only), 1..MAX_ALPHA.
+        Look-ahead depth in steps (``method="lookahead"`` only), >= 1; a depth that
+        reaches a strip's end gives that strip's shortest path.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane: lines are followed, clipped and oriented in it, and the mesh is
         counter-clockwise seen against its normal.
