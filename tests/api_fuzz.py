@@ -368,7 +368,9 @@ def make_case(seed: int) -> dict[str, Any]:
         if rng.random() < (0.3 if name in spec.shared else 0.05):
             value = _option_draw(SHARED[name], rng, junk)
             kwargs[name] = value
-            if valid_value(SHARED[name], value) is False or name not in used:
+            if valid_value(SHARED[name], value) is False or (
+                value is not None and name not in used
+            ):
                 bad.append(name)
     if rng.random() < 0.4:
         if rng.random() < junk:

@@ -162,3 +162,19 @@ def test_optimal_strengthen_skips_a_start_with_a_face_the_enumeration_does_not_l
     ]  # fmt: skip
     surface = reconstruct(np.array(grid, dtype=float), "optimal", strengthen=True, time_limit=0.2)
     assert len(surface.faces) > 0
+
+
+def test_optimal_strengthen_skips_a_start_that_is_no_triangulation_in_its_plane() -> None:
+    # Found as RuntimeError "fan master LP failed (infeasible)": a start made of enumerated
+    # triangles with a gap or an overlap in the planar coordinates.
+    grid = [
+        [6, 7, -3], [8, 5, -3], [0, 4, 0], [6, 6, -3], [5, 1, 0], [1, 2, 2], [7, 0, -3],
+        [0, 1, 0], [8, 0, -4], [0, 7, 0], [6, 0, -3], [7, 8, -1], [3, 1, -1], [5, 2, -1],
+        [5, 8, -1], [0, 3, 0], [0, 8, 0], [4, 2, 0], [1, 6, 0], [5, 4, 0], [0, 0, 0],
+        [3, 7, -1], [1, 0, 0], [3, 0, -1], [0, 6, 0], [4, 0, -2], [1, 1, 1], [6, 4, -3],
+        [2, 2, 0], [7, 6, -3], [2, 6, -1], [2, 4, 1], [4, 6, -2], [1, 3, 0], [2, 0, -1],
+        [4, 3, -2], [4, 4, -1], [8, 4, -2], [5, 6, -2], [5, 5, -1], [2, 1, 1], [7, 7, -2],
+    ]  # fmt: skip
+    pts = np.array(grid, dtype=float)
+    surface = reconstruct(pts, "optimal", p=math.inf, strengthen=True, time_limit=0.001)
+    assert len(surface.faces) > 0

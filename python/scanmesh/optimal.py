@@ -574,8 +574,8 @@ def _fan_cuts(
     satisfies ``w_v |s_F| >= -sum_{t in F} pi_tv + m_v`` where m_v is the exact pricing
     minimum, so ``y_v >= -sum_t (pi_tv / w_v) x_t + m_v / w_v`` holds for every
     triangulation: a valid cut, whatever the state of convergence. Stops when no fan has
-    negative reduced cost or at ``deadline`` (perf_counter seconds). None when no start
-    triangulation is made of the enumerated triangles.
+    negative reduced cost or at ``deadline`` (perf_counter seconds). None when no start is
+    a triangulation of the enumerated triangles.
     """
     import scipy.sparse as sp
     from scipy.optimize import linprog
@@ -604,9 +604,12 @@ def _fan_cuts(
         for t in faces.tolist():
             k = t.index(min(t))
             found.append(index.get(tuple(t[k:] + t[:k])))
-        if None in found:
-            # A face the enumeration does not list: degenerate in these planar coordinates
-            # (though not where the core triangulated), so no fan of this start is a column.
+        chosen = np.zeros(t_count, dtype=np.int64)
+        chosen[[i for i in found if i is not None]] = 1
+        if None in found or np.any(geo.flow @ chosen != geo.flow_rhs):
+            # A face the enumeration does not list, or a gap or overlap: the start is not a
+            # triangulation in these planar coordinates (though it is where the core
+            # triangulated), so its fans would make the master LP infeasible.
             continue
         ids = np.asarray(found)
         for row, v in enumerate(geo.interior):
