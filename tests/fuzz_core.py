@@ -8,7 +8,7 @@ went wrong, or None. A stage may refuse its input with a ScanmeshError; anything
 (another exception, an invalid mesh, a point lost) is a finding.
 
 Used by tests/test_fuzz_core.py (a bounded number of seeds in CI) and by
-benches/fuzz_api.py (the long run, each case in a child process with a time limit).
+benches/fuzz_core.py (the long run, each case in a child process with a time limit).
 
 The validity check is independent of ``_core.validate``: orientation by exact rational
 arithmetic on the same unit-square coordinates (``scanmesh_core::delaunay::unit_square``

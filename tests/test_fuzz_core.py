@@ -1,6 +1,6 @@
 """The native flip optimizers under fuzzing (cases in fuzz_core.py), and the annealing runs
 that used to hang or abort: they end, or are refused with a ParameterError naming the
-option and what it would cost. The long run is benches/fuzz_api.py."""
+option and what it would cost. The long run is benches/fuzz_core.py."""
 
 from __future__ import annotations
 

@@ -2,9 +2,9 @@
 cases of tests/fuzz_core.py, each in a child process with a time limit, so that a hang or
 a crash (an abort in Rust) is a finding too, not the end of the run.
 
-    python benches/fuzz_api.py --cases 5000            # seeds 0..4999, a summary
-    python benches/fuzz_api.py --start 10000 --cases 100000 --timeout 60
-    python benches/fuzz_api.py --case 1427             # rerun one case in this process
+    python benches/fuzz_core.py --cases 5000            # seeds 0..4999, a summary
+    python benches/fuzz_core.py --start 10000 --cases 100000 --timeout 60
+    python benches/fuzz_core.py --case 1427             # rerun one case in this process
 
 Findings are grouped by stage and kind of fault, with the first seeds of each. With
 ``--caller-plane`` a Delaunay face degenerate in the caller's planar coordinates (though
