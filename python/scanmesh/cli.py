@@ -818,8 +818,7 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     con.out(f"{source}")
     con.out(f"  points            {len(pts):,}")
     con.out(f"  scan lines        {_fmt(lines, ',')} ({lines_from})")
-    for label, vec in (("min", lo), ("max", hi), ("size", hi - lo)):
-        con.out(f"  {label:<18}{'  '.join(f'{x:.6g}' for x in vec)}")
+    _print_extent(con, lo, hi)
     chosen = f" (chosen: {planar.choice.chosen})" if planar.choice else ""
     con.out(f"  plane normal      {'  '.join(f'{x:.4g}' for x in normal)}{chosen}")
     con.out(f"  median spacing    {spacing:.6g} (nearest neighbour, in the plane)")
@@ -838,6 +837,12 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
 
 #: Endings that hold a mesh, never scan points: ``scanmesh info`` judges them.
 MESH_ENDINGS = (".stl", ".obj", ".off", ".glb")
+
+
+def _print_extent(con: _Console, lo: np.ndarray, hi: np.ndarray) -> None:
+    """The min, max and size rows of ``scanmesh info``."""
+    for label, vec in (("min", lo), ("max", hi), ("size", hi - lo)):
+        con.out(f"  {label:<18}{'  '.join(f'{x:.6g}' for x in vec)}")
 
 
 def _is_mesh_file(path: Path) -> bool:
@@ -877,8 +882,7 @@ def _judge_mesh(path: Path, con: _Console) -> int:
     con.out(f"{path} (a mesh)")
     con.out(f"  vertices          {len(vertices):,}")
     con.out(f"  faces             {len(faces):,}")
-    for label, vec in (("min", lo), ("max", hi), ("size", hi - lo)):
-        con.out(f"  {label:<18}{'  '.join(f'{x:.6g}' for x in vec)}")
+    _print_extent(con, lo, hi)
     con.out(f"  tac_1 / 2 / inf   {q.tac_1:.4g} / {q.tac_2:.4g} / {q.tac_inf:.4g} rad"
             f" over {q.n_interior:,} interior vertices")
     con.out(f"  min angle         {_fmt(q.min_angle_deg, '.2f')} deg")
