@@ -314,8 +314,7 @@ def optimal_surface(
         Bad points (shape, non-finite, too few distinct, collinear), p other than 1 or
         inf, a non-positive time limit, or more than MAX_OPTIMAL_POINTS distinct points.
     """
-    # scipy (the "optimal" extra) is imported here, not at module load: `import scanmesh`
-    # stays light and works without it.
+    # scipy's optimize is imported here, not at module load: `import scanmesh` stays light.
     from scipy.optimize import Bounds, LinearConstraint, milp
 
     params = check_options(
