@@ -209,6 +209,23 @@ def test_collinear_hull_points_are_boundary_vertices():
             assert_full_triangulation(pts, exact.faces)
 
 
+def test_a_stopped_search_accounts_for_every_point():
+    """No time to find a solution: the fallback start (Delaunay's, whose trimming peels a
+    collinear hull sliver) is returned, and the point it leaves out is listed, not lost
+    (found by the API fuzz, case 26756)."""
+    points = np.array(
+        [[0, 2, 0], [0, 1, 0], [0, 0, 0], [1, 0, 0], [1, 2, 2],
+         [2, 2, 0], [2, 1, 1], [2, 0, -1], [1, 1, 1]],
+        dtype=np.float64,
+    )
+    surface = scanmesh.reconstruct(points, "optimal", time_limit=5e-324)
+    assert not surface.certified
+    in_faces = set(surface.faces.ravel().tolist())
+    listed = set(surface.options["trimmed"].tolist())
+    assert not in_faces & listed
+    assert in_faces | listed == set(range(len(points)))
+
+
 def test_no_interior_vertex_means_zero():
     exact = optimal_surface(convex_polygon(7), plane="z")
     assert exact.certified and exact.quality.n_interior == 0 and exact.quality.tac_1 == 0.0

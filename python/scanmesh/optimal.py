@@ -401,9 +401,15 @@ def optimal_surface(
         # Every triangulation better than the cutoff was searched for: the cutoff bounds.
         bound = known[1] * (1.0 - MIP_REL_GAP) if proven_by_cutoff else min(bound, known[1])
     t4 = time.perf_counter()
+    faces = np.ascontiguousarray(candidates[best][1], dtype=np.int64)
+    # A fallback start (Delaunay, LOP) may have lost a collinear hull point to trimming's
+    # sliver peeling: such points are listed, as every method accounts for each point.
+    accounted = np.zeros(len(inst.points), dtype=bool)
+    accounted[faces.ravel()] = True
+    accounted[inst.duplicates[:, 0]] = True
     surface = Surface(
         vertices=inst.points,
-        faces=np.ascontiguousarray(candidates[best][1], dtype=np.int64),
+        faces=faces,
         method="optimal",
         scan=inst.scan,
         duplicates=inst.duplicates,
@@ -426,6 +432,7 @@ def optimal_surface(
             "status": res.message,
             "solution_found": found,
             "source": source,
+            "trimmed": np.flatnonzero(~accounted).astype(np.int64),
         },
         timings={
             "project_delaunay": inst.seconds,
