@@ -276,3 +276,18 @@ def test_sainte_helens_is_a_valid_mesh_of_every_point():
     hull = scipy.spatial.ConvexHull(xy).volume
     assert 0.99 * hull < area <= hull * (1 + 1e-9)
     assert np.isfinite(surface.quality.tac_1) and surface.quality.min_angle_deg > 1
+
+
+def test_points_collinear_in_the_plane_make_no_zero_area_strip_triangle():
+    """Three of these integer points lie on x + y = 3 in the plane z: the strips' planar
+    check must see them exactly collinear (the mesh it accepts passes validate) instead of
+    rounding them apart (found by the API fuzz, case 47711)."""
+    from scanmesh import _core
+
+    points = np.array(
+        [[3, 0, -1], [1, 2, 2], [2, 1, 1], [3, 3, -1], [1, 3, 0]], dtype=np.float64
+    )
+    surface = scanmesh.reconstruct(points, "shortest-path", plane=(0.0, 0.0, 1.0))
+    assert surface.options["planar_valid"]
+    _core.validate(surface.scan.uv, surface.faces)  # raises on a flat or clockwise face
+

@@ -52,6 +52,12 @@ impl HasPosition for IndexedPoint {
 /// coordinate below 1e-40 of the largest magnitude is flushed. No translation: it would
 /// round. O(n).
 pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    unit_square_scaled(uv).0
+}
+
+/// [`unit_square`] and its scale as two powers of two whose product maps a length into the
+/// unit square (`x * s.0 * s.1`; one number could over- or underflow). O(n).
+pub(crate) fn unit_square_scaled(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, (f64, f64)) {
     let largest = uv
         .iter()
         .flat_map(|p| [p[0].abs(), p[1].abs()])
@@ -68,7 +74,8 @@ pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
             y
         }
     };
-    uv.iter().map(|p| [flush(p[0]), flush(p[1])]).collect()
+    let unit = uv.iter().map(|p| [flush(p[0]), flush(p[1])]).collect();
+    (unit, (first, second))
 }
 
 /// The e with `x = f × 2^e`, f in [0.5, 1), for finite x > 0; 0 for x = 0. O(1).

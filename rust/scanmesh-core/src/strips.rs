@@ -29,8 +29,9 @@
 
 mod check;
 
+use crate::delaunay::unit_square_scaled;
 use crate::fuchs::{lookahead, path_triangles, shortest_path, Solver, Weight};
-use crate::geometry::{check_finite, normalize_plane, orient2d, Normalizer};
+use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::lines::ScanLines;
 use crate::mesh::HalfEdgeMesh;
 use crate::{Error, Result};
@@ -411,7 +412,10 @@ fn stitch_with(
     } else {
         1.0
     };
-    let (unit_uv, to_unit_2d) = normalize_plane(uv);
+    // Scaled by a power of two, not moved: exact, so points collinear in the caller's
+    // plane stay collinear and the planar check refuses their zero-area triangles, as
+    // `mesh::validate` does (a shift would round them apart).
+    let (unit_uv, to_unit_2d) = unit_square_scaled(uv);
     let uv = &unit_uv[..];
     // Scale-free weights: lengths in median steps, areas in squared median steps. The
     // median step is planar; 3-D lengths are in the 3-D unit box.
@@ -426,7 +430,7 @@ fn stitch_with(
         area: w.area / (h * h),
         ..w
     };
-    let margin = 0.5 * scan.gap * to_unit_2d;
+    let margin = 0.5 * scan.gap * to_unit_2d.0 * to_unit_2d.1;
 
     let kept: Vec<usize> = (0..scan.lines.len())
         .filter(|&l| scan.lines[l].iter().any(|s| s.len() >= 2))
@@ -579,7 +583,6 @@ fn stitch_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::normalize_plane;
     use crate::lines::{segment_lines, DEFAULT_GAP_FACTOR};
 
     /// A height field z = f(x, y) sampled on `rows` lines y = r·dy of points x = c·dx,
@@ -815,7 +818,7 @@ mod tests {
         );
         // The oracle once more, on the mesh as returned.
         if !global.triangles.is_empty() {
-            let (unit, _) = normalize_plane(uv);
+            let unit = crate::delaunay::unit_square(uv);
             assert_eq!(
                 valid,
                 global_check(pts.len(), &global.triangles, &unit).is_none()
