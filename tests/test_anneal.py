@@ -223,3 +223,59 @@ def test_tiles_anneal_the_rod_as_well_as_one_chain(rod_results, rod_with_curtain
     assert np.all(np.diff(tiled.trace["best"]) <= 0)
     again = anneal_surface(rod_with_curtains, sweeps=150, tiles=3)
     np.testing.assert_array_equal(again.faces, tiled.faces)
+
+
+def test_time_limit_stops_a_long_run_with_the_best_state():
+    pts = bumpy_patch(5_000, 21)  # a million sweeps: hours
+    start = scanmesh.delaunay(pts)
+    left = []
+    s = anneal_surface(
+        start,
+        sweeps=1_000_000,
+        patience=0,
+        time_limit=0.3,
+        progress=lambda done, total, energy, seconds_left: left.append(seconds_left),
+    )
+    opts = s.options
+    assert opts["stopped"] == "time_limit" and opts["time_limit"] == 0.3
+    assert len(s.trace["energy"]) < 1_000_000
+    # the best state so far, polished: a valid triangulation of the same domain
+    _core.validate(start.scan.uv, s.faces)
+    assert len(s.faces) == len(start.faces)
+    accounted = set(s.faces.ravel().tolist()) | set(opts["trimmed"])
+    accounted |= set(s.duplicates[:, 0].tolist())
+    assert accounted == set(range(len(pts)))
+    assert opts["energy"] <= opts["initial_energy"]
+    assert s.quality.tac_1 == pytest.approx(opts["energy"], rel=1e-9)
+    # the time left never exceeds what the limit leaves, and ends at zero
+    assert all(x is not None and 0 <= x <= 0.3 for x in left) and left[-1] == 0
+
+
+def test_without_a_time_limit_results_and_stop_reasons_are_unchanged():
+    pts = bumpy_patch(500, 3)
+    a = scanmesh.reconstruct(pts, "anneal", sweeps=30, seed=11, patience=0)
+    b = scanmesh.reconstruct(pts, "anneal", sweeps=30, seed=11, patience=0, time_limit=1e6)
+    assert np.array_equal(a.faces, b.faces)
+    assert a.options["stopped"] == b.options["stopped"] == "sweeps"
+    assert a.options["time_limit"] is None
+    early = scanmesh.reconstruct(pts, "anneal", sweeps=5000, patience=5, chains=1)
+    assert early.options["stopped"] == "patience" and early.options["stopped_early"]
+
+
+@pytest.mark.parametrize("bad", [-1.0, 0.0, math.nan, math.inf, -math.inf, "5", True])
+def test_bad_time_limit_names_the_option_and_value(bad):
+    with pytest.raises(scanmesh.ParameterError, match=r"time_limit must .*got"):
+        scanmesh.reconstruct(bumpy_patch(50, 6), "anneal", time_limit=bad)
+
+
+def test_seconds_left_follows_the_work_done_and_the_limit():
+    from scanmesh.anneal import seconds_left
+
+    # half the proposals of the only sweep in 2 s: 2 s more
+    assert seconds_left(0, 1, 50, 100, 2.0, None) == pytest.approx(2.0)
+    # proposals beyond the planned count are kept within the sweep under way
+    assert seconds_left(1, 4, 400, 400, 3.0, None) == pytest.approx(3.0)
+    assert seconds_left(0, 10, 0, 100, 0.5, None) is None
+    assert seconds_left(0, 10, 0, 100, 0.5, 4.0) == 4.0
+    assert seconds_left(5, 10, 500, 1000, 10.0, 1.5) == 1.5
+    assert seconds_left(10, 10, 1000, 1000, 10.0, -0.2) == 0.0

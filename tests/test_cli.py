@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -299,6 +300,30 @@ def test_reconstruct_options_reach_the_method(scan, tmp_path):
     assert data["method"] == "lop"
     # the whole convex hull of a 20 x 15 grid: 2 x 19 x 14 triangles
     assert data["counts"]["faces"] == 2 * 19 * 14 == len(load_mesh(out).faces)
+
+
+def test_reconstruct_time_limit_stops_annealing_and_is_reported(tmp_path):
+    rng = np.random.default_rng(4)
+    xy = rng.random((3000, 2))
+    scan_file = write_xyz(tmp_path / "bumps.xyz", np.column_stack([xy, np.sin(6 * xy[:, 0])]))
+    out, report = tmp_path / "bumps.stl", tmp_path / "bumps.json"
+    args = ["reconstruct", scan_file, "-o", out, "--plane", "z", "--sweeps", "1000000"]
+    result = run(*args, "--patience", "0", "--time-limit", "0.5", "--report", report)
+    assert result.returncode == 0, result.stderr
+    data = json.loads(report.read_text())
+    assert data["options"]["stopped"] == "time_limit" and data["options"]["time_limit"] == 0.5
+    assert data["counts"]["sweeps_run"] < 1_000_000
+    assert data["options"]["energy"] <= data["options"]["initial_energy"]
+    assert len(load_mesh(out).faces) == data["counts"]["faces"]
+    # without the flag the schedule ends the run, and a bad limit names the flag and value
+    result = run(*args[:-2], "--sweeps", "3", "--json")
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout)["options"]["stopped"] == "sweeps"
+    for bad in ("-1", "nan", "inf", "0"):
+        message = assert_failed(run(*args, "--time-limit", bad))
+        expected = rf"--time-limit must be a (finite )?number > 0, got {float(bad)!r}"
+        assert re.search(expected, message)
+    assert list(tmp_path.glob("*.part")) == []
 
 
 # --------------------------------------------------------------------------- compare

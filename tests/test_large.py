@@ -74,7 +74,7 @@ def test_stage_progress_through_delaunay_and_annealing():
     scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=20, patience=0, progress=rec)
     rec.check_monotone()
     stages = rec.by_stage()
-    assert list(stages) == ["delaunay", "trim", "anneal", "steep"]
+    assert list(stages) == ["delaunay", "trim", "noise", "calibrate", "anneal", "polish", "steep"]
     assert all(isinstance(v, float) for _, _, v in stages["anneal"])
     # the original convention still sees annealing only
     legacy = []
@@ -127,6 +127,26 @@ def test_command_end_to_end_on_100k_points(scan_file, tmp_path, capsys):
     assert rep["counts"]["faces"] == count and rep["counts"]["lines"] == 100
     assert {"read", "strips", "write"} <= set(rep["timings"])
     assert capsys.readouterr().err == ""  # --quiet: no bars, no remarks
+
+
+def test_every_stage_of_an_annealing_command_reports(tmp_path, monkeypatch, capsys):
+    """The command's whole annealing run, stage by stage: nothing that can take long on a
+    large scan (the noise estimate, the annealer's start, the polish after the annealing
+    bar, the quality report) runs without progress."""
+    from scanmesh import cli
+
+    scan = synthetic_xyz(tmp_path / "small.xyz", 3000, 30)
+    rec = Recorder()
+    monkeypatch.setattr(cli._Console, "progress", property(lambda self: rec))
+    out = tmp_path / "small.stl"
+    args = ["reconstruct", str(scan), "-o", str(out), "--plane", "z", "--sweeps", "3"]
+    assert main([*args, "--method", "anneal"]) == 0
+    rec.check_monotone()
+    assert list(rec.by_stage()) == [
+        "read", "delaunay", "trim", "noise", "calibrate", "anneal", "polish", "steep",
+        "write", "quality",
+    ]
+    capsys.readouterr()
 
 
 def test_collinear_check_on_many_points_uses_every_point():

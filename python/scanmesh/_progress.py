@@ -6,7 +6,10 @@ that accepts a keyword argument ``stage`` (or ``**kwargs``) is called for every 
 ``progress(done, total, value, stage=name)``; one that does not is called for annealing
 only, as before (so existing ``(done, total, energy)`` callbacks keep working and never see
 bytes where they expect sweeps). Within a stage ``done`` never decreases and the last call
-has ``done == total``; ``value`` is the energy for annealing and None elsewhere.
+has ``done == total``; ``value`` is the energy for annealing and None elsewhere. Annealing
+also passes ``seconds_left=`` (its estimated time left: the sweeps still planned at the rate
+so far, at most what ``time_limit`` leaves) to a callable that accepts that keyword (or
+``**kwargs``).
 """
 
 from __future__ import annotations
@@ -26,7 +29,10 @@ STAGES: dict[str, str] = {
     "strips": "points",
     "delaunay": "points",
     "trim": "faces",
+    "noise": "points",
+    "calibrate": "faces",
     "anneal": "sweeps",
+    "polish": "faces",
     "steep": "faces",
     "write": "faces",
     "quality": "faces",
@@ -37,8 +43,8 @@ STAGES: dict[str, str] = {
 BAR_DELAY_SECONDS: float = 1.0
 
 
-def takes_stage(progress: Any) -> bool:
-    """True when ``progress`` is a callable that accepts a ``stage`` keyword argument."""
+def accepts(progress: Any, keyword: str) -> bool:
+    """True when ``progress`` is a callable that accepts the keyword argument ``keyword``."""
     if not callable(progress) or isinstance(progress, bool):
         return False
     try:
@@ -47,9 +53,14 @@ def takes_stage(progress: Any) -> bool:
         return False
     return any(
         p.kind is p.VAR_KEYWORD
-        or (p.name == "stage" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD))
+        or (p.name == keyword and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD))
         for p in params
     )
+
+
+def takes_stage(progress: Any) -> bool:
+    """True when ``progress`` is a callable that accepts a ``stage`` keyword argument."""
+    return accepts(progress, "stage")
 
 
 class Stage:
@@ -121,12 +132,14 @@ class Stage:
 
 def anneal_progress(progress: Progress) -> Progress:
     """What annealing gets: the progress as it is, or for a stage-aware callable one that
-    adds ``stage="anneal"`` (annealing keeps its own ``(done, total, energy)`` calls)."""
+    adds ``stage="anneal"`` (annealing keeps its own ``(done, total, energy)`` calls) and
+    passes ``seconds_left`` on if the callable takes it."""
     if not takes_stage(progress):
         return progress
     call: Callable[..., None] = progress  # type: ignore[assignment]
+    keep = accepts(progress, "seconds_left")
 
-    def report(done: int, total: int, energy: float) -> None:
-        call(done, total, energy, stage="anneal")
+    def report(done: int, total: int, energy: float, **extra: Any) -> None:
+        call(done, total, energy, stage="anneal", **(extra if keep else {}))
 
     return report

@@ -9,6 +9,7 @@ from typing import Any
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._progress import Progress, Stage, accepts, anneal_progress
 from scanmesh.lop import P_OPTION, SLIVER_GUARD_OPTION, TIE_TOLERANCE_OPTION, planar_start
 from scanmesh.noise import noise_tolerance
 from scanmesh.surface import Surface
@@ -29,8 +30,9 @@ CHUNK_PROPOSALS = 1_000_000
 #: Trace columns, in the order the core returns them.
 TRACE_COLUMNS = ("temperature", "energy", "best", "acceptance")
 
-#: progress= accepts a bool or a callable(sweeps_done, sweeps_total, energy) -> None.
-Progress = bool | Callable[[int, int, float], None]
+#: What ``options["stopped"]`` says ended the run: the time limit, every chain frozen
+#: without a new best for ``patience`` sweeps (the winning chain's), or every sweep run.
+STOP_REASONS = ("time_limit", "patience", "sweeps")
 
 
 #: Most chains one run may ask for (automatic runs use at most 128): each holds a copy of
@@ -47,6 +49,17 @@ MAX_CALIBRATION_SAMPLES: int = 10**6
 #: ``seed``, the shared keyword of the random methods: None means 0.
 SEED_OPTION = Option(
     "seed", "int", None, "seed of every random choice (default 0)", low=0, high=2**64 - 1
+)
+
+#: ``time_limit``: wall seconds of annealing, then the best state so far (None: no limit).
+TIME_LIMIT_OPTION = Option(
+    "time_limit",
+    "float",
+    None,
+    "seconds of annealing (the sweeps), then the best state so far",
+    low=0.0,
+    low_open=True,
+    automatic=True,
 )
 
 #: The annealing schedule's options, defaults from the core.
@@ -120,28 +133,107 @@ OPTIONS: tuple[Option, ...] = (
         low=1,
         high=MAX_TILES,
     ),
+    TIME_LIMIT_OPTION,
 )
 
 
-def _progress_bar(progress: Progress, total: int) -> Callable[[int, int, float], None] | None:
+def _progress_bar(progress: Progress, total: int) -> Callable[..., None] | None:
+    """A reporter ``(done, total, energy, seconds_left=)`` for ``progress``, or None."""
     if callable(progress):
-        return progress
+        if accepts(progress, "seconds_left"):
+            return progress
+        call = progress
+
+        def plain(done: int, _total: int, energy: float, seconds_left: float | None) -> None:
+            call(done, _total, energy)
+
+        return plain
     if not progress:
         return None
     from tqdm import tqdm
 
-    bar = tqdm(total=total, unit="sweep", desc="annealing", leave=False)
+    # tqdm's own estimate assumes every planned sweep runs: the time left is ours.
+    bar = tqdm(
+        total=total,
+        unit="sweep",
+        desc="annealing",
+        leave=False,
+        bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]",
+    )
 
-    def update(done: int, _total: int, energy: float) -> None:
+    def update(done: int, _total: int, energy: float, seconds_left: float | None) -> None:
         bar.total = _total
         bar.n = done
-        bar.set_postfix(energy=f"{energy:.6g}", refresh=False)
+        left = "?" if seconds_left is None else tqdm.format_interval(seconds_left)
+        bar.set_postfix(energy=f"{energy:.6g}", left=left, refresh=False)
         bar.refresh()
         if done >= _total:
             bar.close()
 
     update.close = bar.close  # type: ignore[attr-defined]
     return update
+
+
+def seconds_left(
+    sweeps_done: int,
+    sweeps_total: int,
+    proposals_done: int,
+    proposals_total: int,
+    elapsed: float,
+    limit_left: float | None,
+) -> float | None:
+    """Estimated seconds until the run ends: the work still planned at the rate so far, at
+    most ``limit_left`` (what the time limit leaves); None before anything ran without a
+    limit. Within a sweep the share done is read from the proposals, kept between the
+    sweeps done and the next one (a chain's sweep need not be ``sweep_len`` proposals)."""
+    if sweeps_total <= 0 or proposals_total <= 0:
+        share = 1.0
+    else:
+        share = min(
+            max(sweeps_done / sweeps_total, proposals_done / proposals_total),
+            (sweeps_done + 1) / sweeps_total,
+            1.0,
+        )
+    estimate = elapsed * (1.0 - share) / share if share > 0 else None
+    if limit_left is None:
+        return estimate
+    limit_left = max(limit_left, 0.0)
+    return limit_left if estimate is None else min(estimate, limit_left)
+
+
+def _drive(
+    runner: _core.Annealer, total: int, progress: Progress, time_limit: float | None
+) -> str | None:
+    """Advances ``runner`` chunk by chunk until it is done (None) or ``time_limit`` seconds
+    have passed ("time_limit"), reporting each chunk to ``progress`` (``total``: the sweeps
+    planned)."""
+    report = _progress_bar(progress, total)
+    planned = total * runner.sweep_len
+    try:
+        ran, t_run = 0, time.perf_counter()
+        deadline = None if time_limit is None else t_run + time_limit
+        while not runner.done:
+            now = time.perf_counter()
+            if deadline is not None and now >= deadline:
+                break
+            chunk = CHUNK_SECONDS if deadline is None else min(CHUNK_SECONDS, deadline - now)
+            ran += runner.advance(CHUNK_PROPOSALS, chunk)
+            if report is not None:
+                now = time.perf_counter()
+                limit_left = None if deadline is None else deadline - now
+                left = seconds_left(
+                    runner.sweeps_done, total, ran, planned, now - t_run, limit_left
+                )
+                report(runner.sweeps_done, total, runner.energy, seconds_left=left)
+        if report is not None:
+            # Chains that stop early (or the time limit) leave the count short of the
+            # planned total: the last report ends the stage where the run ended (the total
+            # shrinks to what ran).
+            report(runner.sweeps_done, runner.sweeps_done, runner.energy, seconds_left=0.0)
+    finally:
+        if report is not None and hasattr(report, "close"):
+            report.close()
+    return None if runner.done else "time_limit"
 
 
 def anneal_surface(
@@ -162,9 +254,11 @@ def anneal_surface(
     seed : int, optional
         Seed of the PCG-64 generator (default 0): the same seed gives the same faces.
     progress : bool or callable
-        True shows a progress bar per sweep with the energy; a callable receives
-        ``(sweeps_done, sweeps_total, energy)`` after every chunk (sweeps of all chains
-        together: ``sweeps_total`` = chains x sweeps).
+        True shows a progress bar per sweep with the energy and the estimated time left; a
+        callable receives ``(sweeps_done, sweeps_total, energy)`` after every chunk (sweeps
+        of all chains together: ``sweeps_total`` = chains x sweeps), and
+        ``seconds_left=`` (see :func:`seconds_left`; None while unknown) if it takes that
+        keyword or ``**kwargs``.
     **schedule
         ``sweeps`` (1000), ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
         ``patience``, ``sliver_guard`` (True), ``tie_tolerance``, ``polish`` (True),
@@ -181,12 +275,20 @@ def anneal_surface(
         stripe border, the stripes shift by half a stripe every phase, and the energy stays
         exact; for large scans and long runs on several cores. The result depends on the
         seed and ``tiles``, not on the number of cores.
+        ``time_limit`` (None: no limit): wall seconds of annealing proper (the sweeps),
+        after which it stops and keeps the best state so far, polished as at the end of a
+        full run. The noise estimate and the calibration before, and the polish after,
+        come on top (each shows its own progress). A run stopped by the limit depends on
+        the machine's speed, not on the seed alone.
 
     Returns
     -------
     Surface
         method "anneal", with ``trace`` (per sweep temperature, energy, best, acceptance)
-        and ``options`` holding the settings used, the initial energy and T0.
+        and ``options`` holding the settings used, the initial energy and T0, and
+        ``options["stopped"]``: why annealing ended, one of :data:`STOP_REASONS`
+        (``"time_limit"``; ``"patience"``: frozen without a new best; ``"sweeps"``: every
+        sweep ran).
 
     Raises
     ------
@@ -194,39 +296,33 @@ def anneal_surface(
         On Ctrl-C, within one chunk (``CHUNK_SECONDS``, 20 ms); the run is discarded.
     """
     params = check_options(OPTIONS, schedule, "annealing")
+    time_limit = params.pop("time_limit")
     seed_value = 0 if seed is None else SEED_OPTION.check(seed)
     start = planar_start(initial, "annealing")
     scan = start.scan
     assert scan is not None
     t0 = time.perf_counter()
-    sigma, params["tie_tolerance"] = noise_tolerance(
-        start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
-    )
-    # The very planar coordinates the initial triangulation was built and trimmed on.
-    runner = _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params)
+    with Stage(progress, "noise", len(scan.points), blocking=True):
+        sigma, params["tie_tolerance"] = noise_tolerance(
+            start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
+        )
+    with Stage(progress, "calibrate", len(start.faces), blocking=True):
+        # The very planar coordinates the initial triangulation was built and trimmed on.
+        runner = _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params)
     total = runner.chains * params["sweeps"]
-    report = _progress_bar(progress, total)
-    try:
-        while not runner.done:
-            runner.advance(CHUNK_PROPOSALS, CHUNK_SECONDS)
-            if report is not None:
-                report(runner.sweeps_done, total, runner.energy)
-        if report is not None:
-            # Chains that stop early leave the count short of the planned total: the last
-            # report ends the stage where the run ended (the total shrinks to what ran).
-            report(runner.sweeps_done, runner.sweeps_done, runner.energy)
-    finally:
-        if report is not None and hasattr(report, "close"):
-            report.close()
-    faces, trace, summary = runner.finish()
+    stopped = _drive(runner, total, anneal_progress(progress), time_limit)
+    with Stage(progress, "polish", len(start.faces), blocking=True):
+        faces, trace, summary = runner.finish()
+    if stopped is None:
+        stopped = "patience" if summary["stopped_early"] else "sweeps"
     elapsed = time.perf_counter() - t0
     return Surface(
         vertices=scan.points,
         faces=faces,
         method="anneal",
         options={
-            **start.options, **params, "seed": seed_value, "initial": start.method,
-            "noise": sigma, **summary
+            **start.options, **params, "seed": seed_value, "time_limit": time_limit,
+            "initial": start.method, "noise": sigma, **summary, "stopped": stopped
         },
         scan=scan,
         duplicates=start.duplicates,

@@ -335,16 +335,35 @@ def _flag_text(kind: str) -> Callable[[str], Any]:
     return convert
 
 
+#: Options whose None means "no limit" rather than "worked out from the data".
+UNLIMITED_BY_NONE = frozenset({"time_limit"})
+
+
+def _flag_help(name: str, users: list[str]) -> str:
+    """Help of the flag of option ``name``: its doc and default, per method where the
+    methods using it differ in either (e.g. --time-limit of annealing and of optimal)."""
+    from scanmesh.methods import TABLE
+
+    def default(option: Any) -> str:
+        if option.default is None:
+            return "no limit" if option.name in UNLIMITED_BY_NONE else "automatic"
+        return f"{option.default:g}" if isinstance(option.default, float) else str(option.default)
+
+    texts: dict[tuple[str, str], list[str]] = {}
+    for user in users:
+        option = next(o for o in TABLE[user].options if o.name == name)
+        texts.setdefault((option.doc, default(option)), []).append(user)
+    return "; ".join(
+        f"{doc} ({', '.join(methods)}; default {shown})" for (doc, shown), methods in texts.items()
+    )
+
+
 def _add_method_flags(parser: argparse.ArgumentParser) -> None:
     from scanmesh.methods import INITIALS
 
     group = parser.add_argument_group("method options (each applies to the methods named)")
     for option, users in _method_flags().values():
-        default = option.default
-        shown = f"{default:g}" if isinstance(default, float) else str(default)
-        if default is None and option.automatic:
-            shown = "automatic"
-        text = f"{option.doc} ({', '.join(users)}; default {shown})".replace("%", "%%")
+        text = _flag_help(option.name, users).replace("%", "%%")
         if option.kind == "bool":
             group.add_argument(
                 option.flag, action=argparse.BooleanOptionalAction, default=None, help=text

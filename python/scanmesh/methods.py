@@ -14,7 +14,7 @@ from typing import Any
 
 from scanmesh import anneal, lop, optimal, strips
 from scanmesh._checks import Option, check_options
-from scanmesh._progress import Progress, anneal_progress
+from scanmesh._progress import Progress
 from scanmesh.delaunay import MAX_EDGE_OPTION, delaunay
 from scanmesh.errors import ParameterError
 from scanmesh.scan import PlanarScan
@@ -161,9 +161,7 @@ def _run_lop(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
 def _run_anneal(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
     rest = dict(params)
     start = initial_surface(scan, rest.pop("initial"), kw)
-    return anneal.anneal_surface(
-        start, seed=kw.seed, progress=anneal_progress(kw.progress), **rest
-    )
+    return anneal.anneal_surface(start, seed=kw.seed, progress=kw.progress, **rest)
 
 
 def _run_optimal(scan: PlanarScan, params: dict[str, Any], _kw: Keywords) -> Surface:

@@ -66,22 +66,27 @@ def reconstruct(
         argument ``stage`` (or ``**kwargs``) it is called for every stage, as
         ``progress(done, total, value, stage=name)`` with ``name`` in ``"read"`` (bytes;
         text files report every chunk), ``"lines"`` and ``"strips"`` (points), ``"delaunay"``
-        (points), ``"trim"`` (faces), ``"anneal"`` (sweeps; ``value`` is the energy; every
-        ~20 ms), ``"steep"`` (faces: the height-field check below) and, from
-        :meth:`Surface.save` / the command, ``"write"`` (faces). Otherwise
-        it is called for annealing only, as ``progress(sweeps_done, sweeps_total, energy)``.
-        Within a stage ``done`` never decreases and the last call has ``done == total``;
-        stages that are one native call or one pass (lines, strips, Delaunay, trimming,
-        steep) report their start and end only. See ``scanmesh._progress``.
+        (points), ``"trim"`` (faces), for annealing ``"noise"`` (points: the noise estimate
+        behind the tie tolerance), ``"calibrate"`` (faces: the annealer's mesh and T0),
+        ``"anneal"`` (sweeps; ``value`` is the energy; every ~20 ms; a callable that takes
+        ``seconds_left`` gets the estimated time left) and ``"polish"`` (faces: the best
+        state, polished), ``"steep"`` (faces: the height-field check below) and, from
+        :meth:`Surface.save` / the command, ``"write"`` (faces; the command also reports
+        ``"quality"``). Otherwise it is called for annealing only, as
+        ``progress(sweeps_done, sweeps_total, energy)``. Within a stage ``done`` never
+        decreases and the last call has ``done == total``; stages that are one native call
+        or one pass (lines, strips, Delaunay, trimming, noise, calibrate, polish, steep)
+        report their start and end only. See ``scanmesh._progress``.
     **options
         Method options, each with its type, range, default and doc in
         ``scanmesh.methods.TABLE[method].options``. ``anneal``: ``initial`` ("delaunay",
         "shortest-path", or a Surface built on the same PlanarScan), ``sweeps``, ``p``,
-        ``sliver_guard``, ``chains``, ``tiles``, ...; ``lop``: ``initial``, ``criterion``
-        ("tac" or "max-min"), ``p``, ``sliver_guard``, ``tie_tolerance``; ``lookahead``:
-        ``weight``, ``alpha``, ``gap_factor``, ``check``; ``shortest-path``: ``weight``,
-        ``solver``, ``band``, ``gap_factor``, ``check``; ``optimal``: ``p``,
-        ``time_limit``, ``strengthen``, ``incumbent``.
+        ``sliver_guard``, ``chains``, ``tiles``, ``time_limit`` (seconds of sweeps, then
+        the best state so far; ``options["stopped"]`` says what ended the run), ...;
+        ``lop``: ``initial``, ``criterion`` ("tac" or "max-min"), ``p``, ``sliver_guard``,
+        ``tie_tolerance``; ``lookahead``: ``weight``, ``alpha``, ``gap_factor``, ``check``;
+        ``shortest-path``: ``weight``, ``solver``, ``band``, ``gap_factor``, ``check``;
+        ``optimal``: ``p``, ``time_limit``, ``strengthen``, ``incumbent``.
 
     Returns
     -------
