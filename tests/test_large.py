@@ -132,7 +132,7 @@ def test_command_end_to_end_on_100k_points(scan_file, tmp_path, capsys):
 def test_every_stage_of_an_annealing_command_reports(tmp_path, monkeypatch, capsys):
     """The command's whole annealing run, stage by stage: nothing that can take long on a
     large scan (the noise estimate, the annealer's start, the polish after the annealing
-    bar, the quality report) runs without progress."""
+    bar, the quality report, the preview) runs without progress."""
     from scanmesh import cli
 
     scan = synthetic_xyz(tmp_path / "small.xyz", 3000, 30)
@@ -140,11 +140,11 @@ def test_every_stage_of_an_annealing_command_reports(tmp_path, monkeypatch, caps
     monkeypatch.setattr(cli._Console, "progress", property(lambda self: rec))
     out = tmp_path / "small.stl"
     args = ["reconstruct", str(scan), "-o", str(out), "--plane", "z", "--sweeps", "3"]
-    assert main([*args, "--method", "anneal"]) == 0
+    assert main([*args, "--method", "anneal", "--preview", str(tmp_path / "small.png")]) == 0
     rec.check_monotone()
     assert list(rec.by_stage()) == [
         "read", "delaunay", "trim", "noise", "calibrate", "anneal", "polish", "steep",
-        "write", "quality",
+        "write", "quality", "preview",
     ]
     capsys.readouterr()
 

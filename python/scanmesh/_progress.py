@@ -36,6 +36,7 @@ STAGES: dict[str, str] = {
     "steep": "faces",
     "write": "faces",
     "quality": "faces",
+    "preview": "faces",
 }
 
 #: A bar appears only for a stage still running after this many seconds (short steps stay

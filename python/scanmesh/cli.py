@@ -478,7 +478,9 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     if preview is not None:
         from scanmesh.render import render_mesh
 
-        render_mesh(surface, preview, **_auto_view(surface.vertices, surface.faces, surface.frame))
+        with Stage(con.progress, "preview", len(surface.faces), blocking=True):
+            view = _auto_view(surface.vertices, surface.faces, surface.frame)
+            render_mesh(surface, preview, **view)
     if con.json:
         print(_dumps(data))
         return 0

@@ -72,11 +72,12 @@ def reconstruct(
         ``seconds_left`` gets the estimated time left) and ``"polish"`` (faces: the best
         state, polished), ``"steep"`` (faces: the height-field check below) and, from
         :meth:`Surface.save` / the command, ``"write"`` (faces; the command also reports
-        ``"quality"``). Otherwise it is called for annealing only, as
-        ``progress(sweeps_done, sweeps_total, energy)``. Within a stage ``done`` never
-        decreases and the last call has ``done == total``; stages that are one native call
-        or one pass (lines, strips, Delaunay, trimming, noise, calibrate, polish, steep)
-        report their start and end only. See ``scanmesh._progress``.
+        ``"quality"`` and, with --preview, ``"preview"``). Otherwise it is called for
+        annealing only, as ``progress(sweeps_done, sweeps_total, energy)``. Within a stage
+        ``done`` never decreases and the last call has ``done == total``; stages that are
+        one native call or one pass (lines, strips, Delaunay, trimming, noise, calibrate,
+        polish, steep, quality, preview) report their start and end only. See
+        ``scanmesh._progress``.
     **options
         Method options, each with its type, range, default and doc in
         ``scanmesh.methods.TABLE[method].options``. ``anneal``: ``initial`` ("delaunay",
