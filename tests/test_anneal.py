@@ -186,6 +186,30 @@ def test_ctrl_c_stops_a_long_run_quickly(tmp_path, tiles):
     assert seconds_to_interrupt(script, 0.3) < 0.2
 
 
+def test_ctrl_c_stops_the_polish_of_a_large_run_quickly():
+    """The polish after the sweeps is one native call of seconds on a large hot state: it
+    runs in a worker thread, so Ctrl-C does not wait for it."""
+    script = """
+        import sys, time
+        import numpy as np
+        import scanmesh
+        rng = np.random.default_rng(0)
+        xy = rng.random((200000, 2))
+        pts = np.column_stack([xy, np.sin(5 * xy[:, 0]) * np.cos(3 * xy[:, 1])])
+        def progress(done, total, value, stage):
+            if stage == "polish" and done == 0:
+                print("started", flush=True)
+        try:
+            scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=2, patience=0,
+                                 progress=progress)
+        except KeyboardInterrupt:
+            print(f"interrupted {time.monotonic()!r}", flush=True)
+            sys.exit(0)
+        print("finished", flush=True)
+        """
+    assert seconds_to_interrupt(script, 0.05) < 0.5
+
+
 def test_small_inputs_run_several_chains_and_keep_the_best():
     pts = bumpy_patch(40, 8)
     many = scanmesh.reconstruct(pts, "anneal", seed=4, max_edge=math.inf)

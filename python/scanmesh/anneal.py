@@ -9,6 +9,7 @@ from typing import Any
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage, accepts, anneal_progress
 from scanmesh.lop import P_OPTION, SLIVER_GUARD_OPTION, TIE_TOLERANCE_OPTION, planar_start
 from scanmesh.noise import noise_tolerance
@@ -293,7 +294,8 @@ def anneal_surface(
     Raises
     ------
     KeyboardInterrupt
-        On Ctrl-C, within one chunk (``CHUNK_SECONDS``, 20 ms); the run is discarded.
+        On Ctrl-C, within one chunk (``CHUNK_SECONDS``, 20 ms), also while the annealer
+        starts or polishes a large input; the run is discarded.
     """
     params = check_options(OPTIONS, schedule, "annealing")
     time_limit = params.pop("time_limit")
@@ -306,13 +308,17 @@ def anneal_surface(
         sigma, params["tie_tolerance"] = noise_tolerance(
             start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
         )
+    n = len(scan.points)
     with Stage(progress, "calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
-        runner = _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params)
+        runner = interruptible(
+            n,
+            lambda: _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params),
+        )
     total = runner.chains * params["sweeps"]
     stopped = _drive(runner, total, anneal_progress(progress), time_limit)
     with Stage(progress, "polish", len(start.faces), blocking=True):
-        faces, trace, summary = runner.finish()
+        faces, trace, summary = interruptible(n, runner.finish)
     if stopped is None:
         stopped = "patience" if summary["stopped_early"] else "sweeps"
     elapsed = time.perf_counter() - t0
