@@ -286,6 +286,22 @@ def test_without_a_time_limit_results_and_stop_reasons_are_unchanged():
     assert early.options["stopped"] == "patience" and early.options["stopped_early"]
 
 
+def test_stage_callables_get_the_time_left_only_when_they_take_it():
+    pts = bumpy_patch(400, 7)
+    extras = []
+    scanmesh.reconstruct(pts, "anneal", sweeps=5, progress=lambda *a, **k: extras.append(k))
+    anneal_calls = [k for k in extras if k["stage"] == "anneal"]
+    assert anneal_calls and all("seconds_left" in k for k in anneal_calls)
+    assert all(set(k) == {"stage"} for k in extras if k["stage"] != "anneal")
+    stages = []
+
+    def stage_only(done, total, value, stage):  # no seconds_left: never sent one
+        stages.append(stage)
+
+    scanmesh.reconstruct(pts, "anneal", sweeps=5, progress=stage_only)
+    assert "anneal" in stages and "polish" in stages
+
+
 @pytest.mark.parametrize("bad", [-1.0, 0.0, math.nan, math.inf, -math.inf, "5", True])
 def test_bad_time_limit_names_the_option_and_value(bad):
     with pytest.raises(scanmesh.ParameterError, match=r"time_limit must .*got"):
