@@ -207,7 +207,8 @@ def _option_draw(option: Option, rng: np.random.Generator, junk: float) -> Any:
         return _valid_draw(option, rng)
     value = JUNK[rng.integers(len(JUNK))]
     cap = COST_CAPS.get(option.name)
-    if cap is not None and valid_value(option, value) and value > cap:
+    # (None is valid where it means "no limit": fine where the capped sweeps bound the run)
+    if cap is not None and value is not None and valid_value(option, value) and value > cap:
         return _valid_draw(option, rng)
     return value
 
@@ -334,8 +335,10 @@ def make_case(seed: int) -> dict[str, Any]:
     n = len(points)
     kwargs: dict[str, Any] = {}
     for option in spec.options:
-        # An expensive default (1000 sweeps, a minute of HiGHS) is always replaced, capped.
-        expensive = option.name in COST_CAPS and option.default > COST_CAPS[option.name]
+        # An expensive default (1000 sweeps, a minute of HiGHS) is always replaced, capped
+        # (annealing's time_limit, None by default, is bounded by the capped sweeps).
+        cap = COST_CAPS.get(option.name)
+        expensive = cap is not None and option.default is not None and option.default > cap
         if expensive or rng.random() < 0.4:
             value = _option_draw(option, rng, junk)
             kwargs[option.name] = value
