@@ -259,7 +259,8 @@ def anneal_surface(
         callable receives ``(sweeps_done, sweeps_total, energy)`` after every chunk (sweeps
         of all chains together: ``sweeps_total`` = chains x sweeps), and
         ``seconds_left=`` (see :func:`seconds_left`; None while unknown) if it takes that
-        keyword or ``**kwargs``.
+        keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
+        around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
     **schedule
         ``sweeps`` (1000), ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
         ``patience``, ``sliver_guard`` (True), ``tie_tolerance``, ``polish`` (True),
