@@ -305,11 +305,11 @@ def anneal_surface(
     scan = start.scan
     assert scan is not None
     t0 = time.perf_counter()
-    with Stage(progress, "noise", len(scan.points), blocking=True):
+    n = len(scan.points)
+    with Stage(progress, "noise", n, blocking=True):
         sigma, params["tie_tolerance"] = noise_tolerance(
             start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
         )
-    n = len(scan.points)
     with Stage(progress, "calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
