@@ -1162,7 +1162,9 @@ impl Window {
 /// (A on ties), repeat. α = 1 with the length weight is the greedy shortest-diagonal rule.
 ///
 /// Each decision runs a small DP over the window of nodes within α steps, so the time is
-/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α. From α = n + m − 2 on, every
+/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α; at α = 1 the window is the
+/// two steps themselves, compared without a DP (the same path bit for bit, about two step
+/// evaluations per triangle). From α = n + m − 2 on, every
 /// window reaches the end, the walk follows an optimal path, and a larger α changes
 /// nothing: that path is found by one DP instead ([`shortest_path_dp`]: the same cost; among
 /// tied optima, the DP's), in O(nm). Memory O(min(α, n) · min(α, m)). Errors: α = 0, a
