@@ -1162,7 +1162,9 @@ impl Window {
 /// (A on ties), repeat. α = 1 with the length weight is the greedy shortest-diagonal rule.
 ///
 /// Each decision runs a small DP over the window of nodes within α steps, so the time is
-/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α. From α = n + m − 2 on, every
+/// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α; at α = 1 the window is the
+/// two steps themselves, compared without a DP (the same path bit for bit, about two step
+/// evaluations per triangle). From α = n + m − 2 on, every
 /// window reaches the end, the walk follows an optimal path, and a larger α changes
 /// nothing: that path is found by one DP instead ([`shortest_path_dp`]: the same cost; among
 /// tied optima, the DP's), in O(nm). Memory O(min(α, n) · min(α, m)). Errors: α = 0, a
@@ -1183,6 +1185,9 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
         // Every window reaches the end: the walk follows an optimal path, which one DP finds.
         return full_dp(&t, &ask);
     }
+    if alpha == 1 {
+        return Ok(greedy(&t));
+    }
     let (rows, cols) = (alpha.min(n - 1) + 1, alpha.min(m - 1) + 1);
     ask.check_bytes(rows as u128 * cols as u128 * std::mem::size_of::<Cell>() as u128)?;
     let per_window =
@@ -1195,29 +1200,87 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
              (or alpha >= n + m - 2, which costs one shortest-path DP)",
         ));
     }
-    let mut window = Window {
+    let window = Window {
         cells: ask.filled(rows * cols, UNREACHED)?,
     };
+    Ok(windowed(&t, window, alpha))
+}
+
+/// The α-look-ahead walk of [`lookahead`] on checked terms, each decision by a window DP
+/// in `window` (sized for α). O((n + m) · min(α, n) · min(α, m)).
+fn windowed(t: &Terms, mut window: Window, alpha: usize) -> Solution {
+    walk(t, |i, j, entered| {
+        let via_a = window.best(t, i, j, *entered, Step::A, alpha);
+        let via_b = window.best(t, i, j, *entered, Step::B, alpha);
+        let s = if via_a <= via_b { Step::A } else { Step::B };
+        let step = t.step(i, j, s);
+        (s, step, with_turn(t, step, entered))
+    })
+}
+
+/// [`lookahead`] with α = 1 on checked terms: each decision compares the two steps out of
+/// the node by their own cost plus their turn, which is all a window of one step holds, so
+/// each step is evaluated once and the one taken is not evaluated again (the greedy walk
+/// of VTK's ruled surface, under any weight). The same arithmetic as the windows (a cell
+/// reached by one step holds `step.cost + turn`), so the same path and cost bit for bit;
+/// tested against the windowed walk. O(n + m) time, O(n + m) memory for the path.
+fn greedy(t: &Terms) -> Solution {
+    walk(t, |i, j, entered| {
+        let (step_a, step_b) = (t.step(i, j, Step::A), t.step(i, j, Step::B));
+        // Turns are ≥ 0 (and adding one never rounds a sum down), so when the cheaper
+        // step with its turn still beats the other before any turn, the other's turn
+        // (an atan2) cannot change the choice; ties go to A as in the windows.
+        let (via_a, via_b) = if step_a.cost <= step_b.cost {
+            let via_a = with_turn(t, step_a, entered);
+            if via_a <= step_b.cost {
+                (via_a, f64::INFINITY)
+            } else {
+                (via_a, with_turn(t, step_b, entered))
+            }
+        } else {
+            let via_b = with_turn(t, step_b, entered);
+            if via_b < step_a.cost {
+                (f64::INFINITY, via_b)
+            } else {
+                (with_turn(t, step_a, entered), via_b)
+            }
+        };
+        if via_a <= via_b {
+            (Step::A, step_a, via_a)
+        } else {
+            (Step::B, step_b, via_b)
+        }
+    })
+}
+
+/// The cost `step` adds after the triangle `entered` (none at the start): its own cost
+/// plus the turn. O(1).
+#[inline(always)]
+fn with_turn(t: &Terms, step: Tri, entered: &Option<Tri>) -> f64 {
+    step.cost + entered.map_or(0.0, |e| t.turn_from(&e, step.normal))
+}
+
+/// The walk of the look-ahead variants from (0, 0) to (n − 1, m − 1): on the last row or
+/// column the step is forced, elsewhere `choose(i, j, entered)` returns the step to take,
+/// its [`Tri`] and the cost it adds ([`with_turn`]). O(n + m) calls of `choose`.
+fn walk(
+    t: &Terms,
+    mut choose: impl FnMut(usize, usize, &Option<Tri>) -> (Step, Tri, f64),
+) -> Solution {
+    let (n, m) = (t.n(), t.m());
     let mut path = Vec::with_capacity(n + m - 2);
     let (mut i, mut j) = (0, 0);
     let mut entered: Option<Tri> = None;
     let mut cost = t.node(0, 0);
     while i + 1 < n || j + 1 < m {
-        let s = if i + 1 == n {
-            Step::B
-        } else if j + 1 == m {
-            Step::A
+        let (s, step, added) = if i + 1 == n || j + 1 == m {
+            let s = if i + 1 == n { Step::B } else { Step::A };
+            let step = t.step(i, j, s);
+            (s, step, with_turn(t, step, &entered))
         } else {
-            let via_a = window.best(&t, i, j, entered, Step::A, alpha);
-            let via_b = window.best(&t, i, j, entered, Step::B, alpha);
-            if via_a <= via_b {
-                Step::A
-            } else {
-                Step::B
-            }
+            choose(i, j, &entered)
         };
-        let step = t.step(i, j, s);
-        cost += step.cost + entered.map_or(0.0, |e| t.turn_from(&e, step.normal));
+        cost += added;
         entered = Some(step);
         path.push(s);
         match s {
@@ -1225,7 +1288,7 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
             Step::B => j += 1,
         }
     }
-    Ok(Solution { path, cost })
+    Solution { path, cost }
 }
 
 #[cfg(test)]
@@ -1272,6 +1335,15 @@ mod tests {
         let a = line(n, 0.0, 0.0);
         let shift = 0.4 * (n as f64 * 0.618).fract();
         (a, line(m, 1.0, shift))
+    }
+
+    /// Case `k` of a mixed corpus: every third a pair of random lines, else a scan pair.
+    fn mixed_pair(rng: &mut Lcg, k: usize, n: usize, m: usize) -> (Vec<DVec3>, Vec<DVec3>) {
+        if k % 3 == 0 {
+            (random_line(rng, n), random_line(rng, m))
+        } else {
+            scan_pair(rng, n, m)
+        }
     }
 
     const WEIGHTS: [Weight; 5] = [
@@ -1404,11 +1476,7 @@ mod tests {
         let mut rng = Lcg(17);
         for trial in 0..60 {
             let (n, m) = (2 + trial % 40, 2 + (trial * 7) % 45);
-            let (a, b) = if trial % 3 == 0 {
-                (random_line(&mut rng, n), random_line(&mut rng, m))
-            } else {
-                scan_pair(&mut rng, n, m)
-            };
+            let (a, b) = mixed_pair(&mut rng, trial, n, m);
             for w in WEIGHTS {
                 let s = shortest_path_banded(&a, &b, w, DEFAULT_BAND).unwrap();
                 let reference = reference_path_cost(&a, &b, w, &s.path);
@@ -1655,6 +1723,25 @@ mod tests {
                 i += 1;
             } else {
                 j += 1;
+            }
+        }
+    }
+
+    #[test]
+    fn greedy_walk_is_the_one_step_window_walk_bit_for_bit() {
+        let mut rng = Lcg(43);
+        for k in 0..300 {
+            let (n, m) = (2 + k % 17, 2 + (k * 7) % 23);
+            let (a, b) = mixed_pair(&mut rng, k, n, m);
+            for w in WEIGHTS {
+                let t = Terms::new(&a, &b, w).unwrap();
+                let window = Window {
+                    cells: vec![UNREACHED; 4],
+                };
+                let slow = windowed(&t, window, 1);
+                let fast = greedy(&t);
+                assert_eq!(fast.path, slow.path, "{n} x {m}, {w:?}");
+                assert_eq!(fast.cost.to_bits(), slow.cost.to_bits(), "{n} x {m}, {w:?}");
             }
         }
     }
