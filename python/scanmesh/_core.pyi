@@ -30,6 +30,7 @@ __all__ = [
     "detect_lines",
     "scan_segments",
     "strip_mesh",
+    "strip_mesh_part",
     "empty_triangles",
     "triangulations",
     "cheapest_fans",
@@ -164,6 +165,31 @@ def strip_mesh(
     check: bool = True,
 ) -> tuple[
     npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], int, float, str | None
+]: ...
+def strip_mesh_part(
+    points: npt.NDArray[np.float64],
+    uv: npt.NDArray[np.float64],
+    line_ids: npt.NDArray[np.int64],
+    weight: tuple[float, float, float, float],
+    method: str,
+    alpha: int,
+    solver: str,
+    band: int,
+    gap_factor: float,
+    check: bool,
+    lo: tuple[float, float, float] | list[float],
+    hi: tuple[float, float, float] | list[float],
+    largest: float,
+    median_step: float,
+    first_turned: bool,
+) -> tuple[
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    int,
+    float,
+    str | None,
+    float,
 ]: ...
 def parse_text_table(
     data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None

@@ -8,9 +8,9 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::{
-    check_finite, parse_table, run_lop, stitch_lines, tac_and_min_angles, AnnealParams, Ensemble,
-    Error, HalfEdgeMesh, LopCriterion, Method, Norm, Plane, Relabel, Solver, StripParams,
-    SweepRecord, Table, TacOrder, TacState, TextErrorKind, Weight, NONE,
+    check_finite, parse_table, run_lop, stitch_part, tac_and_min_angles, AnnealParams, Ensemble,
+    Error, HalfEdgeMesh, LopCriterion, Method, Norm, Plane, Relabel, ScanContext, Solver,
+    StripMesh, StripParams, SweepRecord, Table, TacOrder, TacState, TextErrorKind, Weight, NONE,
 };
 use std::borrow::Cow;
 
@@ -690,28 +690,92 @@ fn strip_mesh<'py>(
     gap_factor: f64,
     check: bool,
 ) -> PyResult<(
-    Bound<'py, PyArray2<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray2<i64>>,
+    Ints2<'py>,
+    Ints1<'py>,
+    Ints2<'py>,
     usize,
     f64,
     Option<String>,
 )> {
-    // Borrowed, not copied, when numpy holds them contiguous (as `strip_surface` passes
-    // them): 480 MB fewer at 10M points while the strips' planar check is at its peak.
-    let pts = points3_view(&points)?;
-    let plane = points2_view(&uv)?;
-    if plane.len() != pts.len() || uv.as_array().ncols() != 2 {
-        return Err(shape_error(
-            "uv",
-            &format!("({}, 2)", pts.len()),
-            uv.as_array().shape(),
-        ));
-    }
-    let ids = match line_ids.as_slice() {
-        Ok(ids) if ids.len() == pts.len() => Cow::Borrowed(ids),
-        _ => Cow::Owned(line_ids_in(&line_ids, pts.len())?),
+    let params = strip_params(weight, method, alpha, solver, band, check)?;
+    let (faces, unused, duplicates, mesh) =
+        run_strips(py, &points, &uv, &line_ids, gap_factor, &params, None)?;
+    let error = mesh.planar_error.map(|e| e.to_string());
+    Ok((faces, unused, duplicates, mesh.n_strips, mesh.cost, error))
+}
+
+/// [`strip_mesh`] over some consecutive lines of a larger scan, as that scan's context
+/// makes them (`scanmesh_core::ScanContext`: `lo`, `hi` its 3-D bounding box, `largest`
+/// its largest |planar coordinate|, `median_step` its median planar step, `first_turned`
+/// whether the first line with two points runs against the scan). Returns what
+/// [`strip_mesh`] returns and twice the strips' planar signed area before they were turned
+/// counter-clockwise.
+#[pyfunction]
+#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check, lo, hi, largest, median_step, first_turned))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn strip_mesh_part<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    uv: PyReadonlyArray2<'py, f64>,
+    line_ids: PyReadonlyArray1<'py, i64>,
+    weight: (f64, f64, f64, f64),
+    method: &str,
+    alpha: usize,
+    solver: &str,
+    band: usize,
+    gap_factor: f64,
+    check: bool,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    largest: f64,
+    median_step: f64,
+    first_turned: bool,
+) -> PyResult<(
+    Ints2<'py>,
+    Ints1<'py>,
+    Ints2<'py>,
+    usize,
+    f64,
+    Option<String>,
+    f64,
+)> {
+    let params = strip_params(weight, method, alpha, solver, band, check)?;
+    let context = ScanContext {
+        bounds: [DVec3::from_array(lo), DVec3::from_array(hi)],
+        largest_planar: largest,
+        median_step,
+        first_turned,
     };
+    let (faces, unused, duplicates, mesh) = run_strips(
+        py,
+        &points,
+        &uv,
+        &line_ids,
+        gap_factor,
+        &params,
+        Some(&context),
+    )?;
+    let error = mesh.planar_error.map(|e| e.to_string());
+    Ok((
+        faces,
+        unused,
+        duplicates,
+        mesh.n_strips,
+        mesh.cost,
+        error,
+        mesh.signed_area,
+    ))
+}
+
+/// The strip method's options as the core takes them.
+fn strip_params(
+    weight: (f64, f64, f64, f64),
+    method: &str,
+    alpha: usize,
+    solver: &str,
+    band: usize,
+    check: bool,
+) -> PyResult<StripParams> {
     let solver = match solver {
         "banded" => Solver::Banded(band),
         "dp" => Solver::Dp,
@@ -732,7 +796,7 @@ fn strip_mesh<'py>(
         }
     };
     let (length, area, angle, dihedral) = weight;
-    let params = StripParams {
+    Ok(StripParams {
         weight: Weight {
             length,
             area,
@@ -741,19 +805,42 @@ fn strip_mesh<'py>(
         },
         method,
         check,
+    })
+}
+
+/// Checks the arrays and runs `stitch_part` without the GIL: faces, unused points and
+/// duplicates as numpy arrays, and the mesh for its scalars.
+#[allow(clippy::type_complexity)]
+fn run_strips<'py>(
+    py: Python<'py>,
+    points: &PyReadonlyArray2<'py, f64>,
+    uv: &PyReadonlyArray2<'py, f64>,
+    line_ids: &PyReadonlyArray1<'py, i64>,
+    gap_factor: f64,
+    params: &StripParams,
+    context: Option<&ScanContext>,
+) -> PyResult<(Ints2<'py>, Ints1<'py>, Ints2<'py>, StripMesh)> {
+    // Borrowed, not copied, when numpy holds them contiguous (as `strip_surface` passes
+    // them): 480 MB fewer at 10M points while the strips' planar check is at its peak.
+    let pts = points3_view(points)?;
+    let plane = points2_view(uv)?;
+    if plane.len() != pts.len() || uv.as_array().ncols() != 2 {
+        return Err(shape_error(
+            "uv",
+            &format!("({}, 2)", pts.len()),
+            uv.as_array().shape(),
+        ));
+    }
+    let ids = match line_ids.as_slice() {
+        Ok(ids) if ids.len() == pts.len() => Cow::Borrowed(ids),
+        _ => Cow::Owned(line_ids_in(line_ids, pts.len())?),
     };
-    let (mesh, duplicates) = py
-        .detach(|| stitch_lines(&pts, &plane, &ids, gap_factor, &params))
+    let (mut mesh, duplicates) = py
+        .detach(|| stitch_part(&pts, &plane, &ids, gap_factor, params, context))
         .map_err(to_py)?;
     let unused = Array1::from_iter(mesh.unused.iter().map(|&k| i64::from(k))).into_pyarray(py);
-    Ok((
-        faces_out(py, &mesh.triangles),
-        unused,
-        pairs_out(py, &duplicates),
-        mesh.n_strips,
-        mesh.cost,
-        mesh.planar_error.map(|e| e.to_string()),
-    ))
+    let faces = faces_out(py, &std::mem::take(&mut mesh.triangles));
+    Ok((faces, unused, pairs_out(py, &duplicates), mesh))
 }
 
 /// Binary STL records of faces (M, 3) int64 over (N, 3) points: (M * 50,) uint8, normal and
@@ -948,6 +1035,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(detect_lines, m)?)?;
     m.add_function(wrap_pyfunction!(scan_segments, m)?)?;
     m.add_function(wrap_pyfunction!(strip_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(strip_mesh_part, m)?)?;
     m.add_function(wrap_pyfunction!(empty_triangles, m)?)?;
     m.add_function(wrap_pyfunction!(triangulations, m)?)?;
     m.add_function(wrap_pyfunction!(cheapest_fans, m)?)?;
