@@ -5,7 +5,8 @@ indices, their corners, additive quality sums). Each block is written by the wor
 holds it into its own file in a hidden folder beside the output; once all are written and
 their sizes known, workers copy them into a hidden temporary at their offsets (binary STL:
 the 84-byte header with the total count, then 50-byte records block after block; PLY: the
-header, the vertices part by part, then the faces block after block, over global indices)
+header, the vertices part by part, then the faces block after block, over global indices;
+the same bytes as :meth:`scanmesh.Surface.save` writes for the same faces)
 and the temporary is renamed onto the output. Nothing is ever assembled in one process, and
 a failure or Ctrl-C anywhere removes the folder and the temporary: the output is either the
 whole new mesh or untouched.
@@ -18,6 +19,7 @@ import os
 import shutil
 import struct
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,17 +28,16 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh.errors import ParameterError
+from scanmesh.formats.ply import PLY_FACE, ply_header
+from scanmesh.formats.stl import STL_HEADER
 
 from ._source import Part, load_part
 
 #: Output formats by ending.
 FORMATS: tuple[str, ...] = (".stl", ".ply")
 
-#: The 80-byte binary STL header (it must not start with "solid", the ASCII STL keyword).
-STL_HEADER: bytes = b"binary STL written by scanmesh.distributed".ljust(80, b" ")
+#: Bytes of a binary STL record (normal, three corners as float32, attribute).
 STL_RECORD: int = 50
-#: PLY face record: uchar 3, then three little-endian int32 vertex indices.
-PLY_FACE = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
 #: Bytes copied at a time when placing a block.
 COPY_CHUNK: int = 1 << 26
 
@@ -115,7 +116,8 @@ def write_vertices(part: Part, path: str) -> Written:
 
 def place(source: str, target: str, offset: int, turn: bool, kind: str) -> int:
     """Copy a block's file into ``target`` at ``offset`` (turning its faces round when
-    ``turn``), then delete it. Runs on a worker; returns the bytes copied."""
+    ``turn``). Runs on a worker; returns the bytes copied. The block stays until the whole
+    folder goes: a worker lost after placing it may be asked again."""
     size = os.path.getsize(source)
     fd_out = os.open(target, os.O_WRONLY)
     try:
@@ -129,7 +131,6 @@ def place(source: str, target: str, offset: int, turn: bool, kind: str) -> int:
                 done += len(chunk)
     finally:
         os.close(fd_out)
-    os.unlink(source)
     return size
 
 
@@ -145,15 +146,6 @@ def _turned(chunk: bytes, kind: str) -> bytes:
     faces = np.frombuffer(chunk, dtype=PLY_FACE).copy()
     faces["v"][:, [1, 2]] = faces["v"][:, [2, 1]]
     return faces.tobytes()
-
-
-def ply_header(n_vertices: int, n_faces: int) -> bytes:
-    """Binary little-endian PLY header (as :mod:`scanmesh.formats.ply` writes it)."""
-    head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh.distributed"]
-    head += [f"element vertex {n_vertices}"]
-    head += [f"property double {c}" for c in ("x", "y", "z")]
-    head += [f"element face {n_faces}", "property list uchar int vertex_indices", "end_header"]
-    return ("\n".join(head) + "\n").encode("ascii")
 
 
 class StreamedMesh:
@@ -194,10 +186,11 @@ class StreamedMesh:
         self.blocks.append(written)
         return written
 
-    def finish(self, turn: dict[str, bool]) -> list[Written]:
+    def finish(self, turns: Callable[[list[Written]], list[bool]]) -> list[Written]:
         """Wait for every block, write the header, have the workers place the blocks, and
-        rename the temporary onto the output. ``turn`` says which turn keys are turned
-        round. Returns the blocks' :class:`Written` records, in order."""
+        rename the temporary onto the output. ``turns`` says, from every block's record,
+        which are turned round as they are placed. Returns the blocks' :class:`Written`
+        records, in order."""
         written: list[Written] = self.client.gather(self.blocks)
         vertices: list[Written] = self.client.gather(self.vertices)
         n_faces = sum(w.size for w in written) // (
@@ -212,8 +205,8 @@ class StreamedMesh:
             handle.write(header)
             handle.truncate(total)
         offset, placing = len(header), []
-        for w in [*vertices, *written]:
-            flag = bool(w.turn_key is not None and turn.get(w.turn_key, False))
+        flags = [False] * len(vertices) + list(turns(written))
+        for w, flag in zip([*vertices, *written], flags, strict=True):
             placing.append(
                 self.client.submit(
                     place,
