@@ -90,14 +90,14 @@ def line_stats(
     step = np.hypot(d[:, 0], d[:, 1])
     inside = kept_line[1:] == kept_line[:-1]
     n_lines = len(starts) - 1
-    shortest = np.full(n_lines, np.inf)
-    np.minimum.at(shortest, kept_line[1:][inside], step[inside])
     before = np.full(len(kept_uv), np.inf)
     after = np.full(len(kept_uv), np.inf)
     before[1:][inside] = step[inside]
     after[:-1][inside] = step[inside]
-    lone = np.full(n_lines, -np.inf)
-    np.maximum.at(lone, kept_line, np.minimum(before, after))
+    # kept points are grouped by line: per-line min and max by reduceat on line starts
+    first_kept = np.searchsorted(kept_line, np.arange(n_lines))
+    shortest = np.minimum.reduceat(after, first_kept)
+    lone = np.maximum.reduceat(np.minimum(before, after), first_kept)
     steps = np.sort(step[inside & (step > 0)])
     stats = LineStats(
         ids=ids[starts[:-1]].copy(),
@@ -273,7 +273,10 @@ def solve(
     points = np.ascontiguousarray(np.concatenate(pts))
     line_ids = np.ascontiguousarray(np.concatenate(ids))
     global_index = np.concatenate(index)
-    del loaded, pts, ids
+    # consecutive lines of consecutive parts: global indices are one offset away
+    start = int(global_index[0])
+    contiguous = bool(global_index[-1] - start == len(global_index) - 1)
+    del loaded, pts, ids, index
     uv = project_as_whole(points, plane, lo, hi)
     n = len(points)
     faces, unused, duplicates, n_strips, cost, planar_error, signed_area = _core.strip_mesh_part(
@@ -312,19 +315,24 @@ def solve(
         duplicates=float(np.count_nonzero(duplicates[:, 0] < owned_end)),
         unused=float(np.count_nonzero(~shared[unused])),
     )
+
+    def to_global(local: np.ndarray) -> np.ndarray:
+        return local + start if contiguous else global_index[local]
+
     seams = {}
-    for side, rows in (("first", slice(0, first_end)), ("last", slice(last_start, n))):
-        mask = np.zeros(n, dtype=bool)
-        mask[rows] = True
-        touching = mask[faces].any(axis=1)
+    for side, lo_row, hi_row, touching in (
+        ("first", 0, first_end, faces.min(axis=1) < first_end),
+        ("last", last_start, n, faces.max(axis=1) >= last_start),
+    ):
+        near = faces[touching]
         seams[side] = {
-            "vertices": global_index[rows],
-            "faces": global_index[faces[touching]],
-            "corners": points[faces[touching]],
-            "unused": global_index[unused[mask[unused]]],
+            "vertices": to_global(np.arange(lo_row, hi_row)),
+            "faces": to_global(near),
+            "corners": points[near],
+            "unused": to_global(unused[(unused >= lo_row) & (unused < hi_row)]),
         }
     block = FaceBlock(
-        faces=global_index[faces],
+        faces=to_global(faces),
         corners=points[faces],
         sums=sums,
         turn_key="strips",
