@@ -4,6 +4,7 @@ a worker killed mid-run changes nothing. Skipped only when dask is not installed
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -248,3 +249,27 @@ def test_without_dask_the_extra_is_named(tmp_path):
     )
     assert result.returncode == 0, result.stderr
     assert 'pip install "scanmesh[dask]"' in result.stdout
+
+
+def test_the_command_runs_on_a_local_cluster(scan, tmp_path, capsys):
+    from scanmesh.cli import main
+
+    points, ids = scan
+    write_files(tmp_path, points, ids, [0, 60, 200])
+    out = tmp_path / "m.stl"
+    base = ["reconstruct", str(tmp_path / "part*.npz"), "-o", str(out), "--plane", "z"]
+    for flags, message in (
+        (["--workers", "2"], "--workers applies with --dask only"),
+        (["--dask", "tcp://127.0.0.1:1", "--workers", "2"], "--workers applies with --dask local"),
+        (["--dask", "local", "--preview", "p.png"], "--preview cannot be used with --dask"),
+    ):
+        with pytest.raises(SystemExit) as stop:
+            main([*base, "--method", "shortest-path", *flags])
+        assert stop.value.code == 2 and message in capsys.readouterr().err
+    code = main([*base, "--method", "shortest-path", "--dask", "local", "--workers", "2", "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
+    single.save(tmp_path / "single.stl")
+    assert out.read_bytes() == (tmp_path / "single.stl").read_bytes()
+    assert report["counts"]["faces"] == len(single.faces) and not leftovers(tmp_path)
