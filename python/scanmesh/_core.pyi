@@ -3,6 +3,7 @@
 Checked against the built module by ``python -m mypy.stubtest scanmesh._core`` in CI.
 """
 
+from collections.abc import Sequence
 from typing import final
 
 import numpy as np
@@ -30,7 +31,6 @@ __all__ = [
     "detect_lines",
     "scan_segments",
     "strip_mesh",
-    "strip_mesh_part",
     "empty_triangles",
     "triangulations",
     "cheapest_fans",
@@ -163,25 +163,7 @@ def strip_mesh(
     band: int,
     gap_factor: float,
     check: bool = True,
-) -> tuple[
-    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], int, float, str | None
-]: ...
-def strip_mesh_part(
-    points: npt.NDArray[np.float64],
-    uv: npt.NDArray[np.float64],
-    line_ids: npt.NDArray[np.int64],
-    weight: tuple[float, float, float, float],
-    method: str,
-    alpha: int,
-    solver: str,
-    band: int,
-    gap_factor: float,
-    check: bool,
-    lo: tuple[float, float, float] | list[float],
-    hi: tuple[float, float, float] | list[float],
-    largest: float,
-    median_step: float,
-    first_turned: bool,
+    context: tuple[Sequence[float], Sequence[float], float, float, bool] | None = None,
 ) -> tuple[
     npt.NDArray[np.int64],
     npt.NDArray[np.int64],

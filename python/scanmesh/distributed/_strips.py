@@ -279,7 +279,7 @@ def solve(
     del loaded, pts, ids, index
     uv = project_as_whole(points, plane, lo, hi)
     n = len(points)
-    faces, unused, duplicates, n_strips, cost, planar_error, signed_area = _core.strip_mesh_part(
+    faces, unused, duplicates, n_strips, cost, planar_error, signed_area = _core.strip_mesh(
         points,
         uv,
         line_ids,
@@ -290,11 +290,7 @@ def solve(
         int(min(params.get("band", _core.DEFAULT_BAND), max(n, 1))),
         params["gap_factor"],
         params["check"],
-        tuple(lo),
-        tuple(hi),
-        largest,
-        median,
-        partition.first_turned,
+        (tuple(lo), tuple(hi), largest, median, partition.first_turned),
     )
     # rows of the shared lines: the first line when a partition comes before, the last
     # when one comes after (owned by that one: its points are counted there)

@@ -671,11 +671,16 @@ fn scan_segments<'py>(
 /// Strips between consecutive scan lines as one mesh over `points` (N, 3), with planar
 /// positions `uv` (N, 2) and a line id per point. `weight` = (length, area, angle,
 /// dihedral) coefficients; `method` "shortest-path" (with `solver` "banded", "dp" or
-/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`). Returns
-/// (faces (M, 3) int64 counter-clockwise in the plane, unused (K,) int64, duplicates
-/// (D, 2) int64, number of strips, total path cost, planar error message or None).
+/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`). `context`:
+/// these points are some consecutive lines of a larger scan, to be solved as that scan
+/// solves them (`scanmesh_core::ScanContext`: (lo, hi) its 3-D bounding box, its largest
+/// |planar coordinate|, its median planar step, whether the first line with two points
+/// runs against the scan). Returns (faces (M, 3) int64 counter-clockwise in the plane,
+/// unused (K,) int64, duplicates (D, 2) int64, number of strips, total path cost, planar
+/// error message or None, twice the planar signed area before the faces were turned
+/// counter-clockwise).
 #[pyfunction]
-#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true))]
+#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true, context=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn strip_mesh<'py>(
     py: Python<'py>,
@@ -689,47 +694,7 @@ fn strip_mesh<'py>(
     band: usize,
     gap_factor: f64,
     check: bool,
-) -> PyResult<(
-    Ints2<'py>,
-    Ints1<'py>,
-    Ints2<'py>,
-    usize,
-    f64,
-    Option<String>,
-)> {
-    let params = strip_params(weight, method, alpha, solver, band, check)?;
-    let (faces, unused, duplicates, mesh) =
-        run_strips(py, &points, &uv, &line_ids, gap_factor, &params, None)?;
-    let error = mesh.planar_error.map(|e| e.to_string());
-    Ok((faces, unused, duplicates, mesh.n_strips, mesh.cost, error))
-}
-
-/// [`strip_mesh`] over some consecutive lines of a larger scan, as that scan's context
-/// makes them (`scanmesh_core::ScanContext`: `lo`, `hi` its 3-D bounding box, `largest`
-/// its largest |planar coordinate|, `median_step` its median planar step, `first_turned`
-/// whether the first line with two points runs against the scan). Returns what
-/// [`strip_mesh`] returns and twice the strips' planar signed area before they were turned
-/// counter-clockwise.
-#[pyfunction]
-#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check, lo, hi, largest, median_step, first_turned))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
-fn strip_mesh_part<'py>(
-    py: Python<'py>,
-    points: PyReadonlyArray2<'py, f64>,
-    uv: PyReadonlyArray2<'py, f64>,
-    line_ids: PyReadonlyArray1<'py, i64>,
-    weight: (f64, f64, f64, f64),
-    method: &str,
-    alpha: usize,
-    solver: &str,
-    band: usize,
-    gap_factor: f64,
-    check: bool,
-    lo: [f64; 3],
-    hi: [f64; 3],
-    largest: f64,
-    median_step: f64,
-    first_turned: bool,
+    context: Option<([f64; 3], [f64; 3], f64, f64, bool)>,
 ) -> PyResult<(
     Ints2<'py>,
     Ints1<'py>,
@@ -740,12 +705,12 @@ fn strip_mesh_part<'py>(
     f64,
 )> {
     let params = strip_params(weight, method, alpha, solver, band, check)?;
-    let context = ScanContext {
+    let context = context.map(|(lo, hi, largest, median_step, first_turned)| ScanContext {
         bounds: [DVec3::from_array(lo), DVec3::from_array(hi)],
         largest_planar: largest,
         median_step,
         first_turned,
-    };
+    });
     let (faces, unused, duplicates, mesh) = run_strips(
         py,
         &points,
@@ -753,7 +718,7 @@ fn strip_mesh_part<'py>(
         &line_ids,
         gap_factor,
         &params,
-        Some(&context),
+        context.as_ref(),
     )?;
     let error = mesh.planar_error.map(|e| e.to_string());
     Ok((
@@ -1035,7 +1000,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(detect_lines, m)?)?;
     m.add_function(wrap_pyfunction!(scan_segments, m)?)?;
     m.add_function(wrap_pyfunction!(strip_mesh, m)?)?;
-    m.add_function(wrap_pyfunction!(strip_mesh_part, m)?)?;
     m.add_function(wrap_pyfunction!(empty_triangles, m)?)?;
     m.add_function(wrap_pyfunction!(triangulations, m)?)?;
     m.add_function(wrap_pyfunction!(cheapest_fans, m)?)?;
