@@ -173,6 +173,12 @@ def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
         reconstruct_distributed(paths[::-1], client=client, output=tmp_path / "m.stl", plane="z")
     with pytest.raises(ParameterError, match="unknown option"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.stl", alpha=3)
+    apart = np.array([[x, y, 0.0] for y, x0 in ((0, 0), (1, 100)) for x in range(x0, x0 + 9)])
+    lone = write_files(tmp_path, apart, np.repeat([0, 1], 9), [0, 1, 2])
+    with pytest.raises(scanmesh.DegenerateInputError, match="no strip"):
+        scanmesh.reconstruct(apart, "shortest-path", lines=np.repeat([0, 1], 9), plane="z")
+    with pytest.raises(scanmesh.DegenerateInputError, match="no strip"):
+        reconstruct_distributed(lone, client=client, output=tmp_path / "m.stl", plane="z")
     assert not (tmp_path / "m.stl").exists() and not leftovers(tmp_path)
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from scanmesh._extras import require
-from scanmesh.errors import ParameterError
+from scanmesh.errors import DegenerateInputError, ParameterError
 from scanmesh.projection import PlaneSpec
 
 from ._output import StreamedMesh, Written, check_output, scratch_folder
@@ -131,6 +131,7 @@ def reconstruct_distributed(
         plane = resolve_plane(plane, summaries)
         t1 = time.perf_counter()
         mesh = StreamedMesh(client, target, parts)
+        seams: list[Any] = []
         try:
             if method in STRIP_METHODS:
                 from ._strips import strip_blocks
@@ -159,6 +160,7 @@ def reconstruct_distributed(
             t2 = time.perf_counter()
             written = mesh.finish(_turns)
         except BaseException:
+            client.cancel([*mesh.blocks, *mesh.vertices, *seams])
             mesh.discard()
             raise
         t3 = time.perf_counter()
@@ -192,8 +194,14 @@ def reconstruct_distributed(
 
 def _turns(written: list[Written]) -> list[bool]:
     """Which blocks to turn round: strip blocks whose own orientation (the sign of their
-    planar area) differs from the whole scan's."""
+    planar area) differs from the whole scan's. Raises DegenerateInputError, as
+    :func:`scanmesh.reconstruct` does, when strip blocks came but no strip was built."""
     strips = [w.sums["signed_area"] for w in written if w.turn_key == "strips"]
+    if strips and not sum(w.sums["n_strips"] for w in written if w.turn_key == "strips"):
+        raise DegenerateInputError(
+            "no strip to build: need two neighbouring scan lines with two points each that"
+            " overlap along the scan direction"
+        )
     whole_negative = sum(strips) < 0
     return [
         w.turn_key == "strips" and (w.sums["signed_area"] < 0) != whole_negative for w in written

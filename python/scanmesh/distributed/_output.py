@@ -18,6 +18,7 @@ import contextlib
 import os
 import shutil
 import struct
+import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -38,6 +39,8 @@ FORMATS: tuple[str, ...] = (".stl", ".ply")
 
 #: Bytes of a binary STL record (normal, three corners as float32, attribute).
 STL_RECORD: int = 50
+#: Attempts at removing the blocks' folder after a failure (0.1 s apart).
+DISCARD_TRIES: int = 50
 #: Bytes copied at a time when placing a block.
 COPY_CHUNK: int = 1 << 26
 
@@ -228,7 +231,13 @@ class StreamedMesh:
         return written
 
     def discard(self) -> None:
-        """Remove the blocks and the temporary (the output is left as it was)."""
-        shutil.rmtree(self.folder, ignore_errors=True)
+        """Remove the blocks and the temporary (the output is left as it was). A block
+        still being written when the folder goes fails to open its file; one that opened it
+        just before can make the first removal miss the folder, so it is tried again."""
+        for _ in range(DISCARD_TRIES):
+            shutil.rmtree(self.folder, ignore_errors=True)
+            if not self.folder.exists():
+                break
+            time.sleep(0.1)
         with contextlib.suppress(FileNotFoundError):
             self.temporary.unlink()
