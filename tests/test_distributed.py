@@ -165,6 +165,8 @@ def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
     paths = write_files(tmp_path, points, ids, [0, 60, 200])
     with pytest.raises(ParameterError, match=r"\.stl or \.ply"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.obj")
+    with pytest.raises(ParameterError, match="method must be one of"):
+        reconstruct_distributed(paths, "strips", client=client, output=tmp_path / "m.stl")
     with pytest.raises(ParameterError, match="partition_lines"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.stl", partition_lines=0)
     with pytest.raises(ParameterError, match="matches no file"):

@@ -107,6 +107,10 @@ def reconstruct_distributed(
     """
     distributed = require("distributed", "dask", "reconstruct_distributed")
     target = check_output(output)
+    from scanmesh.methods import TABLE
+
+    if method not in TABLE:
+        raise ParameterError(f"method must be one of {sorted(TABLE)}, got {method!r}")
     if partition_lines is not None and (
         isinstance(partition_lines, bool)
         or not isinstance(partition_lines, int)
