@@ -3,6 +3,7 @@
 Checked against the built module by ``python -m mypy.stubtest scanmesh._core`` in CI.
 """
 
+from collections.abc import Sequence
 from typing import final
 
 import numpy as np
@@ -162,8 +163,15 @@ def strip_mesh(
     band: int,
     gap_factor: float,
     check: bool = True,
+    context: tuple[Sequence[float], Sequence[float], float, float, bool] | None = None,
 ) -> tuple[
-    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], int, float, str | None
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    int,
+    float,
+    str | None,
+    float,
 ]: ...
 def parse_text_table(
     data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None

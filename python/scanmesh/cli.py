@@ -125,6 +125,13 @@ def _count(text: str) -> int:
     return value
 
 
+def _positive_count(text: str) -> int:
+    value = _count(text)
+    if value == 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not positive")
+    return value
+
+
 def _size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(t) for t in text.lower().split("x"))
@@ -447,6 +454,11 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     from scanmesh.scan import planar_scan
     from scanmesh.writers import save_mesh
 
+    if args.dask is not None:
+        return _reconstruct_on_dask(args, con)
+    if args.workers is not None or args.partition_lines is not None:
+        flag = "--workers" if args.workers is not None else "--partition-lines"
+        args._parser.error(f"{flag} applies with --dask only")
     source, out = Path(args.input), Path(args.output)
     report = Path(args.report) if args.report else None
     preview = Path(args.preview) if args.preview else None
@@ -497,6 +509,83 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     written = [str(out)] + [str(p) for p in (report, preview) if p is not None]
     con.summary(f"wrote {', '.join(written)}")
     return 0
+
+
+def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
+    """``reconstruct --dask``: the scan files (IN may be a glob) on a Dask cluster, the mesh
+    written block by block by the workers (:func:`scanmesh.distributed.reconstruct_distributed`)."""
+    from scanmesh._extras import require
+    from scanmesh.distributed import reconstruct_distributed
+
+    distributed = require("distributed", "dask", "--dask")
+    out = Path(args.output)
+    report = Path(args.report) if args.report else None
+    for flag, given in (("--preview", args.preview), *((f, True) for f in _read_flags(args))):
+        if given:
+            args._parser.error(f"{flag} cannot be used with --dask")
+    if args.dask != "local" and args.workers is not None:
+        args._parser.error("--workers applies with --dask local only (a cluster has its own)")
+    if out.suffix.lower() not in (".stl", ".ply"):
+        args._parser.error(f"--dask writes .stl or .ply (block by block), not {out}")
+    _refuse_stray_flags(args, [args.method])
+    options = _method_options(args, args.method)
+    shared = _shared(args, args.method, options)
+    _check_outputs([], [out, report])
+    progress = con.progress and not con.json
+    if args.dask == "local":
+        cluster = distributed.LocalCluster(
+            n_workers=args.workers, threads_per_worker=1, processes=True
+        )
+        client = distributed.Client(cluster)
+    else:
+        cluster, client = None, distributed.Client(args.dask)
+    try:
+        result = reconstruct_distributed(
+            args.input,
+            args.method,
+            client=client,
+            output=out,
+            partition_lines=args.partition_lines,
+            plane=args.plane,
+            progress=progress,
+            **shared,
+            **options,
+        )
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    data = {
+        "input": args.input,
+        "output": str(out),
+        "method": result.method,
+        "dask": args.dask,
+        "options": result.options,
+        "timings": result.timings,
+        "quality": result.quality,
+        "counts": {"points": result.n_points, "faces": result.n_faces},
+    }
+    if report is not None:
+        _write_text(report, _dumps(data) + "\n")
+    if con.json:
+        print(_dumps(data))
+        return 0
+    q = result.quality
+    con.summary(f"{args.input}: {result.n_points:,} points")
+    elapsed = sum(result.timings.values())
+    con.summary(f"{result.method}: {result.n_faces:,} faces in {elapsed:.2f} s on Dask")
+    con.summary(
+        f"  tac_1 {q['tac_1']:.4g}  tac_2 {q['tac_2']:.4g}  tac_inf {q['tac_inf']:.4g}"
+        f"  smallest angle {_fmt(q['min_angle_deg'], '.2f')} deg"
+        f"  slivers {100 * q['sliver_fraction']:.2f} %"
+    )
+    con.summary(f"wrote {', '.join(str(p) for p in (out, report) if p is not None)}")
+    return 0
+
+
+def _read_flags(args: argparse.Namespace) -> list[str]:
+    """The reader flags given (each file is read as its ending says, with no options)."""
+    return ["--" + k for k in _read_options(args)]
 
 
 def _n_lines(line_ids: np.ndarray | None) -> int | None:
@@ -1146,6 +1235,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default="anneal", help="method (anneal)")
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
     p.add_argument("--preview", metavar="P.png", help="also write a shaded picture")
+    p.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="run on a Dask cluster: 'local' (a local cluster of processes) or a scheduler"
+        " address (tcp://host:8786); IN may then be a quoted glob of files, each a run of"
+        " consecutive scan lines; OUT (.stl or .ply) must be on a folder every worker sees",
+    )
+    p.add_argument(
+        "--workers", type=_positive_count, metavar="N", help="workers of --dask local (one a core)"
+    )
+    p.add_argument(
+        "--partition-lines",
+        type=_positive_count,
+        metavar="L",
+        help="with --dask: scan lines per strip partition (default: one partition per file)",
+    )
     p.set_defaults(func=cmd_reconstruct, _parser=p)
 
     p = sub.add_parser(

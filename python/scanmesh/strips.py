@@ -271,7 +271,7 @@ def strip_surface(
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
     with Stage(progress, "strips", len(pts), blocking=True):
-        faces, unused, duplicates, n_strips, cost, planar_error = interruptible(
+        faces, unused, duplicates, n_strips, cost, planar_error, _ = interruptible(
             len(pts),
             _core.strip_mesh,
             pts,

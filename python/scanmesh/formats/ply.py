@@ -403,6 +403,22 @@ def _range_grid_lines(
     return line_ids, np.ascontiguousarray(table.T if by_columns else table)
 
 
+#: A face record of the binary PLY written here: the count 3, then three int32 indices.
+PLY_FACE = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
+
+
+def ply_header(n_vertices: int, n_faces: int, normals: bool = False) -> bytes:
+    """The header of the binary PLY written here: double x, y, z (and nx, ny, nz) per
+    vertex, then triangles as uchar-counted int lists."""
+    head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh"]
+    head += [f"element vertex {n_vertices}"]
+    head += [f"property double {c}" for c in ("x", "y", "z")]
+    if normals:
+        head += [f"property double {c}" for c in ("nx", "ny", "nz")]
+    head += [f"element face {n_faces}", "property list uchar int vertex_indices", "end_header"]
+    return ("\n".join(head) + "\n").encode("ascii")
+
+
 def ply_chunks(
     vertices: np.ndarray,
     faces: np.ndarray,
@@ -410,19 +426,12 @@ def ply_chunks(
     stage: Stage,
 ) -> Iterator[bytes | memoryview]:
     """Binary little-endian PLY of a triangle mesh, block by block."""
-    head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh"]
-    head += [f"element vertex {len(vertices)}"]
-    head += [f"property double {c}" for c in ("x", "y", "z")]
-    if normals is not None:
-        head += [f"property double {c}" for c in ("nx", "ny", "nz")]
-    head += [f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
-    yield ("\n".join(head) + "\n").encode("ascii")
+    yield ply_header(len(vertices), len(faces), normals is not None)
     columns = vertices if normals is None else np.hstack([vertices, normals])
     yield memoryview(np.ascontiguousarray(columns, dtype="<f8")).cast("B")
-    record = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
     for start in range(0, len(faces), FACES_PER_BLOCK):
         block = faces[start : start + FACES_PER_BLOCK]
-        out = np.empty(len(block), dtype=record)
+        out = np.empty(len(block), dtype=PLY_FACE)
         out["n"] = 3
         out["v"] = block
         yield memoryview(out).cast("B")

@@ -62,6 +62,12 @@ pub(crate) fn unit_square_scaled(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, (f64, f64))
         .iter()
         .flat_map(|p| [p[0].abs(), p[1].abs()])
         .fold(0.0, f64::max);
+    unit_square_scaled_by(uv, largest)
+}
+
+/// [`unit_square_scaled`] with the scale of a larger set whose largest |coordinate| is
+/// `largest` (a part of a scan mapped as the whole scan is). O(n).
+pub(crate) fn unit_square_scaled_by(uv: &[[f64; 2]], largest: f64) -> (Vec<[f64; 2]>, (f64, f64)) {
     // largest = f × 2^e with f in [0.5, 1): scaling by 2^-e brings it into [0.5, 1), done
     // in two steps because 2^-e alone over- or underflows at the ends of the f64 range.
     let e = binary_exponent(largest);

@@ -66,7 +66,7 @@ pub use lop::{run_lop, tac_lop, LopCriterion, TacOrder};
 pub use mesh::{next, prev, HalfEdgeMesh};
 pub use projection::{project, Frame, Plane, Projection};
 pub use stl::records as stl_records;
-pub use strips::{stitch, stitch_lines, Method, StripMesh, StripParams};
+pub use strips::{stitch, stitch_lines, stitch_part, Method, ScanContext, StripMesh, StripParams};
 pub use tac_state::{Detail, FlipMove, TacState};
 pub use text::{parse_table, Table, TextError, TextErrorKind};
 pub use tiles::TiledAnnealer;

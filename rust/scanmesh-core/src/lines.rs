@@ -171,6 +171,18 @@ pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
 /// Errors: `line_ids` of another length than `uv`, a non-finite coordinate, a gap factor
 /// that is not positive. O(n log n) for the grouping (O(n) when ids never decrease).
 pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Result<ScanLines> {
+    segment_lines_at(uv, line_ids, gap_factor, None)
+}
+
+/// [`segment_lines`] with the gaps of `median_step` when given (the median step of a whole
+/// scan these points are some lines of) instead of the median of these points' steps.
+/// Errors and time: those of [`segment_lines`].
+pub fn segment_lines_at(
+    uv: &[[f64; 2]],
+    line_ids: &[i64],
+    gap_factor: f64,
+    median_step: Option<f64>,
+) -> Result<ScanLines> {
     // The common case (all finite) in parallel; the serial check names the first bad one.
     let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
     if uv.len() >= u32::MAX as usize || !uv.par_iter().with_min_len(BLOCK).all(finite) {
@@ -236,11 +248,14 @@ pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Resu
         })
         .collect();
     let duplicates = grouped.iter().flat_map(|g| g.1.iter().copied()).collect();
-    let nonzero: Vec<f64> = grouped
-        .par_iter()
-        .flat_map_iter(|g| g.2.iter().copied().filter(|&x| x > 0.0))
-        .collect();
-    let median_step = median_nonzero(nonzero);
+    let median_step = median_step.unwrap_or_else(|| {
+        median_nonzero(
+            grouped
+                .par_iter()
+                .flat_map_iter(|g| g.2.iter().copied().filter(|&x| x > 0.0))
+                .collect(),
+        )
+    });
     let gap = gap_factor * median_step;
     let lines = grouped
         .into_par_iter()

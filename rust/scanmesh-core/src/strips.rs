@@ -29,7 +29,7 @@
 
 mod check;
 
-use crate::delaunay::unit_square_scaled;
+use crate::delaunay::{unit_square_scaled, unit_square_scaled_by};
 use crate::fuchs::{lookahead, path_triangles, shortest_path, Solver, Weight};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::lines::ScanLines;
@@ -97,6 +97,28 @@ pub struct StripMesh {
     /// Why the mesh is not a valid planar triangulation (crossing lines, a pinch), or
     /// `None` when it is (or when `check` was off).
     pub planar_error: Option<Error>,
+    /// Twice the planar signed area of the strips' triangles before the mesh was turned
+    /// counter-clockwise (negative: they were turned round). Summed over the parts of a
+    /// scan solved with [`stitch_part`], its sign says which way the whole scan turns.
+    pub signed_area: f64,
+}
+
+/// What a run over some consecutive lines of a scan shares with the whole scan, so that
+/// its strips are exactly the whole scan's strips between those lines ([`stitch_part`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanContext {
+    /// The whole scan's 3-D bounding box (lowest corner, highest corner): the unit box the
+    /// path weights are computed in.
+    pub bounds: [DVec3; 2],
+    /// The largest |planar coordinate| of the whole scan: the power of two the planar
+    /// positions are scaled by.
+    pub largest_planar: f64,
+    /// The whole scan's median planar step ([`ScanLines::median_step`]): lengths in
+    /// weights, and the gap length.
+    pub median_step: f64,
+    /// Whether the first line with a segment of two points or more is turned round in the
+    /// whole scan (the orientation walk over the lines before it).
+    pub first_turned: bool,
 }
 
 /// One strip to triangulate: the clipped segments, oriented along the scan direction.
@@ -323,7 +345,7 @@ pub fn stitch(
     scan: &ScanLines,
     params: &StripParams,
 ) -> Result<StripMesh> {
-    stitch_with(points, uv, scan, params, true).map(|(mesh, _)| mesh)
+    stitch_with(points, uv, scan, params, true, None).map(|(mesh, _)| mesh)
 }
 
 /// The whole strip method from a line id per point: the scan lines
@@ -338,8 +360,25 @@ pub fn stitch_lines(
     gap_factor: f64,
     params: &StripParams,
 ) -> Result<(StripMesh, Vec<(u32, u32)>)> {
-    let scan = crate::lines::segment_lines(uv, line_ids, gap_factor)?;
-    let mesh = stitch(points, uv, &scan, params)?;
+    stitch_part(points, uv, line_ids, gap_factor, params, None)
+}
+
+/// [`stitch_lines`] over some consecutive lines of a larger scan, as that scan's `context`
+/// makes them (`None`: these points are the whole scan). The triangles are the whole
+/// scan's strips between these lines, in these points' indices, except that they are
+/// turned counter-clockwise by their own [`StripMesh::signed_area`], not by the whole
+/// scan's. Time and errors: those of [`stitch_lines`].
+pub fn stitch_part(
+    points: &[DVec3],
+    uv: &[[f64; 2]],
+    line_ids: &[i64],
+    gap_factor: f64,
+    params: &StripParams,
+    context: Option<&ScanContext>,
+) -> Result<(StripMesh, Vec<(u32, u32)>)> {
+    let median = context.map(|c| c.median_step);
+    let scan = crate::lines::segment_lines_at(uv, line_ids, gap_factor, median)?;
+    let (mesh, _) = stitch_with(points, uv, &scan, params, true, context)?;
     Ok((mesh, scan.duplicates))
 }
 
@@ -362,6 +401,7 @@ fn stitch_with(
     scan: &ScanLines,
     params: &StripParams,
     local: bool,
+    context: Option<&ScanContext>,
 ) -> Result<(StripMesh, Option<bool>)> {
     if points.len() != uv.len() {
         return Err(Error::InvalidParameter {
@@ -399,14 +439,17 @@ fn stitch_with(
     // nor underflow at 1e-300; the scan's step and gap follow the planar scale. The 3-D
     // points are mapped as each strip copies them (no mapped copy of all of them).
     // The bounding box in parallel; the fit of its two corners is the fit of all points.
-    let normalizer = Normalizer::fit(
-        &points
-            .par_iter()
-            .with_min_len(BLOCK)
-            .map(|&p| (p, p))
-            .reduce_with(|(lo, hi), (p, q)| (lo.min(p), hi.max(q)))
-            .map_or(Vec::new(), |(lo, hi)| vec![lo, hi]),
-    );
+    let normalizer = Normalizer::fit(&context.map_or_else(
+        || {
+            points
+                .par_iter()
+                .with_min_len(BLOCK)
+                .map(|&p| (p, p))
+                .reduce_with(|(lo, hi), (p, q)| (lo.min(p), hi.max(q)))
+                .map_or(Vec::new(), |(lo, hi)| vec![lo, hi])
+        },
+        |c| c.bounds.to_vec(),
+    ));
     let to_unit_3d = if normalizer.half_extent > 0.0 {
         1.0 / normalizer.half_extent
     } else {
@@ -415,7 +458,10 @@ fn stitch_with(
     // Scaled by a power of two, not moved: exact, so points collinear in the caller's
     // plane stay collinear and the planar check refuses their zero-area triangles, as
     // `mesh::validate` does (a shift would round them apart).
-    let (unit_uv, to_unit_2d) = unit_square_scaled(uv);
+    let (unit_uv, to_unit_2d) = match context {
+        Some(c) => unit_square_scaled_by(uv, c.largest_planar),
+        None => unit_square_scaled(uv),
+    };
     let uv = &unit_uv[..];
     // Scale-free weights: lengths in median steps, areas in squared median steps. The
     // median step is planar; 3-D lengths are in the 3-D unit box.
@@ -441,9 +487,14 @@ fn stitch_with(
     // Which lines turn round is a serial walk over the chords; the copies are parallel.
     let mut turned = vec![false; scan.lines.len()];
     let mut previous: Option<[f64; 2]> = None;
+    let first_turned = context.is_some_and(|c| c.first_turned);
     for &l in &kept {
         let mut c = chord(uv, &scan.lines[l]);
-        if previous.is_some_and(|p| p[0] * c[0] + p[1] * c[1] < 0.0) {
+        let against = match previous {
+            Some(p) => p[0] * c[0] + p[1] * c[1] < 0.0,
+            None => first_turned,
+        };
+        if against {
             turned[l] = true;
             c = [-c[0], -c[1]];
         }
@@ -575,6 +626,7 @@ fn stitch_with(
         n_strips: tasks.len(),
         cost,
         planar_error,
+        signed_area,
     };
     let asked = params.check && local;
     Ok((mesh, asked.then_some(verdict == Some(true))))
@@ -640,6 +692,52 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
+        // Zig-zag lines (every other one turned round) with a hole across a part border.
+        let hole = |x: f64, y: f64| (x - 6.0).powi(2) + (y - 2.8).powi(2) < 1.6f64.powi(2);
+        let (pts, ids) = grid(11, 25, true, hole);
+        let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x + 0.3 * p.z, p.y]).collect();
+        let (lo, hi) = pts.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        let largest = uv
+            .iter()
+            .flat_map(|p| [p[0].abs(), p[1].abs()])
+            .fold(0.0, f64::max);
+        for params in methods() {
+            let (whole, _) = stitch_lines(&pts, &uv, &ids, DEFAULT_GAP_FACTOR, &params).unwrap();
+            let median = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR)
+                .unwrap()
+                .median_step;
+            let mut joined = Vec::new();
+            // Lines 0..=4, 4..=7, 7..=10: each part repeats the last line of the one before.
+            for (first, last) in [(0, 4), (4, 7), (7, 10)] {
+                let start = ids.partition_point(|&l| l < first);
+                let end = ids.partition_point(|&l| l <= last);
+                let context = ScanContext {
+                    bounds: [lo, hi],
+                    largest_planar: largest,
+                    median_step: median,
+                    first_turned: first % 2 == 1,
+                };
+                let (part, _) = stitch_part(
+                    &pts[start..end],
+                    &uv[start..end],
+                    &ids[start..end],
+                    DEFAULT_GAP_FACTOR,
+                    &params,
+                    Some(&context),
+                )
+                .unwrap();
+                assert!(part.signed_area > 0.0);
+                joined.extend(part.triangles.iter().map(|t| t.map(|k| k + start as u32)));
+            }
+            assert_eq!(joined, whole.triangles, "{params:?}");
+        }
     }
 
     #[test]
@@ -801,8 +899,8 @@ mod tests {
         scan: &ScanLines,
         params: &StripParams,
     ) -> (bool, bool) {
-        let (local, verdict) = stitch_with(pts, uv, scan, params, true).unwrap();
-        let (global, none) = stitch_with(pts, uv, scan, params, false).unwrap();
+        let (local, verdict) = stitch_with(pts, uv, scan, params, true, None).unwrap();
+        let (global, none) = stitch_with(pts, uv, scan, params, false, None).unwrap();
         assert_eq!(none, None);
         assert_eq!(local.triangles, global.triangles);
         assert_eq!(local.unused, global.unused);

@@ -8,9 +8,9 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::{
-    check_finite, parse_table, run_lop, stitch_lines, tac_and_min_angles, AnnealParams, Ensemble,
-    Error, HalfEdgeMesh, LopCriterion, Method, Norm, Plane, Relabel, Solver, StripParams,
-    SweepRecord, Table, TacOrder, TacState, TextErrorKind, Weight, NONE,
+    check_finite, parse_table, run_lop, stitch_part, tac_and_min_angles, AnnealParams, Ensemble,
+    Error, HalfEdgeMesh, LopCriterion, Method, Norm, Plane, Relabel, ScanContext, Solver,
+    StripMesh, StripParams, SweepRecord, Table, TacOrder, TacState, TextErrorKind, Weight, NONE,
 };
 use std::borrow::Cow;
 
@@ -671,11 +671,16 @@ fn scan_segments<'py>(
 /// Strips between consecutive scan lines as one mesh over `points` (N, 3), with planar
 /// positions `uv` (N, 2) and a line id per point. `weight` = (length, area, angle,
 /// dihedral) coefficients; `method` "shortest-path" (with `solver` "banded", "dp" or
-/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`). Returns
-/// (faces (M, 3) int64 counter-clockwise in the plane, unused (K,) int64, duplicates
-/// (D, 2) int64, number of strips, total path cost, planar error message or None).
+/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`). `context`:
+/// these points are some consecutive lines of a larger scan, to be solved as that scan
+/// solves them (`scanmesh_core::ScanContext`: (lo, hi) its 3-D bounding box, its largest
+/// |planar coordinate|, its median planar step, whether the first line with two points
+/// runs against the scan). Returns (faces (M, 3) int64 counter-clockwise in the plane,
+/// unused (K,) int64, duplicates (D, 2) int64, number of strips, total path cost, planar
+/// error message or None, twice the planar signed area before the faces were turned
+/// counter-clockwise).
 #[pyfunction]
-#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true))]
+#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true, context=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn strip_mesh<'py>(
     py: Python<'py>,
@@ -689,29 +694,53 @@ fn strip_mesh<'py>(
     band: usize,
     gap_factor: f64,
     check: bool,
+    context: Option<([f64; 3], [f64; 3], f64, f64, bool)>,
 ) -> PyResult<(
-    Bound<'py, PyArray2<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray2<i64>>,
+    Ints2<'py>,
+    Ints1<'py>,
+    Ints2<'py>,
     usize,
     f64,
     Option<String>,
+    f64,
 )> {
-    // Borrowed, not copied, when numpy holds them contiguous (as `strip_surface` passes
-    // them): 480 MB fewer at 10M points while the strips' planar check is at its peak.
-    let pts = points3_view(&points)?;
-    let plane = points2_view(&uv)?;
-    if plane.len() != pts.len() || uv.as_array().ncols() != 2 {
-        return Err(shape_error(
-            "uv",
-            &format!("({}, 2)", pts.len()),
-            uv.as_array().shape(),
-        ));
-    }
-    let ids = match line_ids.as_slice() {
-        Ok(ids) if ids.len() == pts.len() => Cow::Borrowed(ids),
-        _ => Cow::Owned(line_ids_in(&line_ids, pts.len())?),
-    };
+    let params = strip_params(weight, method, alpha, solver, band, check)?;
+    let context = context.map(|(lo, hi, largest, median_step, first_turned)| ScanContext {
+        bounds: [DVec3::from_array(lo), DVec3::from_array(hi)],
+        largest_planar: largest,
+        median_step,
+        first_turned,
+    });
+    let (faces, unused, duplicates, mesh) = run_strips(
+        py,
+        &points,
+        &uv,
+        &line_ids,
+        gap_factor,
+        &params,
+        context.as_ref(),
+    )?;
+    let error = mesh.planar_error.map(|e| e.to_string());
+    Ok((
+        faces,
+        unused,
+        duplicates,
+        mesh.n_strips,
+        mesh.cost,
+        error,
+        mesh.signed_area,
+    ))
+}
+
+/// The strip method's options as the core takes them.
+fn strip_params(
+    weight: (f64, f64, f64, f64),
+    method: &str,
+    alpha: usize,
+    solver: &str,
+    band: usize,
+    check: bool,
+) -> PyResult<StripParams> {
     let solver = match solver {
         "banded" => Solver::Banded(band),
         "dp" => Solver::Dp,
@@ -732,7 +761,7 @@ fn strip_mesh<'py>(
         }
     };
     let (length, area, angle, dihedral) = weight;
-    let params = StripParams {
+    Ok(StripParams {
         weight: Weight {
             length,
             area,
@@ -741,19 +770,42 @@ fn strip_mesh<'py>(
         },
         method,
         check,
+    })
+}
+
+/// Checks the arrays and runs `stitch_part` without the GIL: faces, unused points and
+/// duplicates as numpy arrays, and the mesh for its scalars.
+#[allow(clippy::type_complexity)]
+fn run_strips<'py>(
+    py: Python<'py>,
+    points: &PyReadonlyArray2<'py, f64>,
+    uv: &PyReadonlyArray2<'py, f64>,
+    line_ids: &PyReadonlyArray1<'py, i64>,
+    gap_factor: f64,
+    params: &StripParams,
+    context: Option<&ScanContext>,
+) -> PyResult<(Ints2<'py>, Ints1<'py>, Ints2<'py>, StripMesh)> {
+    // Borrowed, not copied, when numpy holds them contiguous (as `strip_surface` passes
+    // them): 480 MB fewer at 10M points while the strips' planar check is at its peak.
+    let pts = points3_view(points)?;
+    let plane = points2_view(uv)?;
+    if plane.len() != pts.len() || uv.as_array().ncols() != 2 {
+        return Err(shape_error(
+            "uv",
+            &format!("({}, 2)", pts.len()),
+            uv.as_array().shape(),
+        ));
+    }
+    let ids = match line_ids.as_slice() {
+        Ok(ids) if ids.len() == pts.len() => Cow::Borrowed(ids),
+        _ => Cow::Owned(line_ids_in(line_ids, pts.len())?),
     };
-    let (mesh, duplicates) = py
-        .detach(|| stitch_lines(&pts, &plane, &ids, gap_factor, &params))
+    let (mut mesh, duplicates) = py
+        .detach(|| stitch_part(&pts, &plane, &ids, gap_factor, params, context))
         .map_err(to_py)?;
     let unused = Array1::from_iter(mesh.unused.iter().map(|&k| i64::from(k))).into_pyarray(py);
-    Ok((
-        faces_out(py, &mesh.triangles),
-        unused,
-        pairs_out(py, &duplicates),
-        mesh.n_strips,
-        mesh.cost,
-        mesh.planar_error.map(|e| e.to_string()),
-    ))
+    let faces = faces_out(py, &std::mem::take(&mut mesh.triangles));
+    Ok((faces, unused, pairs_out(py, &duplicates), mesh))
 }
 
 /// Binary STL records of faces (M, 3) int64 over (N, 3) points: (M * 50,) uint8, normal and

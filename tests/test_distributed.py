@@ -1,0 +1,283 @@
+"""scanmesh.distributed on a LocalCluster of processes (2 workers): strips equal to one
+process exactly, whatever the partitioning; output written by the workers, atomically;
+a worker killed mid-run changes nothing. Skipped only when dask is not installed."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import scanmesh
+from scanmesh.errors import ParameterError, ScanmeshError
+
+distributed = pytest.importorskip("distributed")
+da = pytest.importorskip("dask.array")
+
+from scanmesh.distributed import _output, _strips, reconstruct_distributed  # noqa: E402
+
+
+def wavy_scan(rows: int, cols: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A zig-zag scan of a wavy surface with jitter, a hole and lone points beside it."""
+    rng = np.random.default_rng(seed)
+    pts, ids = [], []
+    for r in range(rows):
+        c = np.arange(cols, dtype=float)
+        if r % 2:
+            c = c[::-1]
+        x = c * 0.5 + 0.05 * (r % 3) + rng.normal(0, 0.02, cols)
+        y = r * 0.7 + rng.normal(0, 0.02, cols)
+        z = np.sin(0.4 * x) * np.cos(0.3 * y) + rng.normal(0, 0.01, cols)
+        keep = (x - 6) ** 2 + (y - 0.35 * rows) ** 2 > 1.6**2
+        keep |= (np.abs(x - 6) < 0.26) & (np.abs(y - 0.35 * rows) < 0.4)  # lone points
+        pts.append(np.column_stack([x, y, z])[keep])
+        ids.append(np.full(int(keep.sum()), 3 * r))  # ids need not be consecutive
+    return np.concatenate(pts), np.concatenate(ids)
+
+
+def write_files(folder: Path, points, ids, bounds, ending=".npz") -> list[str]:
+    """The scan cut into files at the given line ids (each file a run of whole lines)."""
+    paths = []
+    for i, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
+        m = (ids >= a) & (ids < b)
+        path = folder / f"part{i:02d}{ending}"
+        if ending == ".npz":
+            np.savez(path, points=points[m], line_ids=ids[m])
+        else:
+            np.savetxt(path, np.column_stack([points[m], ids[m]]), header="x y z line", fmt="%.17g")
+        paths.append(str(path))
+    return paths
+
+
+@pytest.fixture(scope="module")
+def client():
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as c,
+    ):
+        yield c
+
+
+@pytest.fixture(scope="module")
+def scan():
+    return wavy_scan(40, 60)
+
+
+def leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+
+
+@pytest.mark.parametrize(
+    ("method", "partition_lines", "ending"),
+    [
+        ("shortest-path", None, ".stl"),
+        ("shortest-path", 3, ".ply"),
+        ("lookahead", 7, ".stl"),
+    ],
+)
+def test_strips_are_the_single_process_file_byte_for_byte(
+    client, scan, tmp_path, method, partition_lines, ending
+):
+    points, ids = scan
+    paths = write_files(tmp_path, points, ids, [0, 30, 93, 96, 200])
+    single = scanmesh.reconstruct(points, method, lines=ids, plane="z")
+    single.save(tmp_path / f"single{ending}")
+    out = tmp_path / f"dask{ending}"
+    result = reconstruct_distributed(
+        paths, method, client=client, output=out, partition_lines=partition_lines, plane="z"
+    )
+    assert out.read_bytes() == (tmp_path / f"single{ending}").read_bytes()
+    assert result.n_faces == len(single.faces) and result.n_points == len(points)
+    assert result.options["partitions"] > 4 if partition_lines else result.options["partitions"] > 2
+    q = single.quality
+    for key, value in q.as_dict().items():
+        assert result.quality[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    assert result.options["unused"] == len(single.options["unused"])
+    assert result.options["planar_valid"] is True and not leftovers(tmp_path)
+
+
+def test_text_files_a_glob_and_a_detected_plane(client, scan, tmp_path):
+    points, ids = scan
+    write_files(tmp_path, points, ids, [0, 40, 80, 200], ending=".xyz")
+    out = tmp_path / "m.stl"
+    result = reconstruct_distributed(str(tmp_path / "part*.xyz"), client=client, output=out)
+    single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane=result.options["plane"])
+    single.save(tmp_path / "single.stl")
+    assert out.read_bytes() == (tmp_path / "single.stl").read_bytes()
+
+
+def test_a_dask_array_source(client, scan, tmp_path):
+    points, ids = scan
+    out = tmp_path / "m.ply"
+    arrays = (da.from_array(points, chunks=(700, 3)), da.from_array(ids, chunks=700))
+    with pytest.raises(ScanmeshError, match="continue into the next"):
+        # chunks of 700 rows cut lines: each file (chunk) must hold whole lines
+        reconstruct_distributed(arrays, client=client, output=out, plane="z")
+    starts = np.flatnonzero(np.diff(ids)) + 1
+    chunks = np.diff(np.concatenate([[0], starts[9::10], [len(ids)]]))
+    stacked = da.from_array(np.column_stack([points, ids]), chunks=(tuple(chunks), 4))
+    reconstruct_distributed(stacked, client=client, output=out, plane="z")
+    single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
+    single.save(tmp_path / "single.ply")
+    assert out.read_bytes() == (tmp_path / "single.ply").read_bytes()
+    assert not leftovers(tmp_path)
+
+
+def test_turned_blocks_are_the_faces_turned_round(tmp_path):
+    """A block placed turned round is the file of its faces with two corners swapped."""
+    points, ids = wavy_scan(6, 12)
+    single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
+    block = _output.FaceBlock(single.faces, points[single.faces])
+    for kind in (".stl", ".ply"):
+        written = _output.write_block(block, str(tmp_path / f"b{kind}"), kind)
+        target = tmp_path / f"t{kind}"
+        target.write_bytes(b"\0" * (written.size + 7))
+        _output.place(written.path, str(target), 7, True, kind)
+        turned = _output.FaceBlock(single.faces[:, [0, 2, 1]], points[single.faces[:, [0, 2, 1]]])
+        expected = _output.write_block(turned, str(tmp_path / f"e{kind}"), kind)
+        assert target.read_bytes()[7:] == Path(expected.path).read_bytes()
+
+
+def test_the_median_step_is_exact_over_parts(client):
+    rng = np.random.default_rng(3)
+    values = [np.sort(rng.lognormal(0, 1, n)) for n in (1000, 1, 2500)]
+    values.append(np.sort(np.repeat([0.5, 2.0**-1074, 7.0], 400)))
+    futures = client.scatter(values)
+    everything = np.sort(np.concatenate(values))
+    median = _strips.median_step(client, futures, len(everything))
+    assert median == everything[len(everything) // 2]
+    assert _strips.median_step(client, [], 0) == 0.0
+
+
+def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
+    points, ids = scan
+    paths = write_files(tmp_path, points, ids, [0, 60, 200])
+    with pytest.raises(ParameterError, match=r"\.stl or \.ply"):
+        reconstruct_distributed(paths, client=client, output=tmp_path / "m.obj")
+    with pytest.raises(ParameterError, match="method must be one of"):
+        reconstruct_distributed(paths, "strips", client=client, output=tmp_path / "m.stl")
+    with pytest.raises(ParameterError, match="partition_lines"):
+        reconstruct_distributed(paths, client=client, output=tmp_path / "m.stl", partition_lines=0)
+    with pytest.raises(ParameterError, match="matches no file"):
+        reconstruct_distributed(str(tmp_path / "no*.xyz"), client=client, output=tmp_path / "m.stl")
+    with pytest.raises(ScanmeshError, match="part00.npz"):  # files out of scan order
+        reconstruct_distributed(paths[::-1], client=client, output=tmp_path / "m.stl", plane="z")
+    with pytest.raises(ParameterError, match="unknown option"):
+        reconstruct_distributed(paths, client=client, output=tmp_path / "m.stl", alpha=3)
+    apart = np.array([[x, y, 0.0] for y, x0 in ((0, 0), (1, 100)) for x in range(x0, x0 + 9)])
+    lone = write_files(tmp_path, apart, np.repeat([0, 1], 9), [0, 1, 2])
+    with pytest.raises(scanmesh.DegenerateInputError, match="no strip"):
+        scanmesh.reconstruct(apart, "shortest-path", lines=np.repeat([0, 1], 9), plane="z")
+    with pytest.raises(scanmesh.DegenerateInputError, match="no strip"):
+        reconstruct_distributed(lone, client=client, output=tmp_path / "m.stl", plane="z")
+    assert not (tmp_path / "m.stl").exists() and not leftovers(tmp_path)
+
+
+@pytest.mark.parametrize("fault", [KeyboardInterrupt, RuntimeError])
+def test_a_failure_at_the_end_leaves_the_old_output_and_no_trace(
+    client, scan, tmp_path, monkeypatch, fault
+):
+    points, ids = scan
+    paths = write_files(tmp_path, points, ids, [0, 60, 200])
+    out = tmp_path / "m.stl"
+    out.write_bytes(b"the user's file")
+
+    def broken_replace(*args):
+        raise fault("stopped while renaming")
+
+    # the last step: every block written and placed in the temporary
+    monkeypatch.setattr(_output.os, "replace", broken_replace)
+    with pytest.raises(fault):
+        reconstruct_distributed(paths, client=client, output=out, plane="z")
+    assert out.read_bytes() == b"the user's file" and not leftovers(tmp_path)
+
+
+def test_a_killed_worker_is_replaced_and_the_file_is_the_same(scan, tmp_path):
+    points, ids = wavy_scan(120, 400, seed=1)  # 48k points, 12 partitions
+    paths = write_files(tmp_path, points, ids, [0, *range(30, 360, 30), 1000])
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as c,
+    ):
+        reconstruct_distributed(paths, client=c, output=tmp_path / "calm.stl", plane="z")
+        killed = []
+
+        def kill_a_solving_worker():
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline and not killed:
+                for address, keys in c.processing().items():
+                    if any(str(k).startswith("scanmesh-strips-") for k in keys):
+                        pid = c.run(os.getpid, workers=[address])[address]
+                        os.kill(pid, signal.SIGKILL)
+                        killed.append(pid)
+                        return
+                time.sleep(0.005)
+
+        killer = threading.Thread(target=kill_a_solving_worker)
+        killer.start()
+        reconstruct_distributed(paths, client=c, output=tmp_path / "killed.stl", plane="z")
+        killer.join()
+    assert killed, "no worker was solving strips while the run lasted"
+    assert (tmp_path / "killed.stl").read_bytes() == (tmp_path / "calm.stl").read_bytes()
+    assert not leftovers(tmp_path)
+
+
+def test_without_dask_the_extra_is_named(tmp_path):
+    script = textwrap.dedent(
+        """
+        import importlib.abc, sys
+        class Block(importlib.abc.MetaPathFinder):
+            def find_spec(self, name, path=None, target=None):
+                if name.split(".")[0] in ("dask", "distributed"):
+                    raise ModuleNotFoundError(name)
+        sys.meta_path.insert(0, Block())
+        import scanmesh
+        from scanmesh.distributed import reconstruct_distributed
+        try:
+            reconstruct_distributed("x.xyz", output="m.stl")
+        except scanmesh.MissingExtraError as exc:
+            print(exc)
+        """
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path, timeout=120
+    )
+    assert result.returncode == 0, result.stderr
+    assert 'pip install "scanmesh[dask]"' in result.stdout
+
+
+def test_the_command_runs_on_a_local_cluster(scan, tmp_path, capsys):
+    from scanmesh.cli import main
+
+    points, ids = scan
+    write_files(tmp_path, points, ids, [0, 60, 200])
+    out = tmp_path / "m.stl"
+    base = ["reconstruct", str(tmp_path / "part*.npz"), "-o", str(out), "--plane", "z"]
+    for flags, message in (
+        (["--workers", "2"], "--workers applies with --dask only"),
+        (["--dask", "tcp://127.0.0.1:1", "--workers", "2"], "--workers applies with --dask local"),
+        (["--dask", "local", "--preview", "p.png"], "--preview cannot be used with --dask"),
+    ):
+        with pytest.raises(SystemExit) as stop:
+            main([*base, "--method", "shortest-path", *flags])
+        assert stop.value.code == 2 and message in capsys.readouterr().err
+    code = main([*base, "--method", "shortest-path", "--dask", "local", "--workers", "2", "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
+    single.save(tmp_path / "single.stl")
+    assert out.read_bytes() == (tmp_path / "single.stl").read_bytes()
+    assert report["counts"]["faces"] == len(single.faces) and not leftovers(tmp_path)
