@@ -162,8 +162,16 @@ def strip_mesh(
     band: int,
     gap_factor: float,
     check: bool = True,
+    jump_factor: float = ...,
 ) -> tuple[
-    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64], int, float, str | None
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    int,
+    float,
+    str | None,
+    int,
+    int,
 ]: ...
 def parse_text_table(
     data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None

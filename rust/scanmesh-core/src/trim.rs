@@ -153,20 +153,46 @@ pub fn trim_long_edges(
             .map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]))
             .fold(0.0, f64::max)
     };
+    let bridges = jumps.map_or_else(Vec::new, |j| bridging_triangles(uv, triangles, j));
+    let kept: Vec<[u32; 3]> = triangles
+        .iter()
+        .enumerate()
+        .filter(|&(k, t)| longest(t) <= max_edge && !bridges.get(k).copied().unwrap_or(false))
+        .map(|(_, t)| *t)
+        .collect();
+    peel(uv, kept)
+}
+
+/// Whether an edge of 3-D length `length3`, `flat` long in the plane (same units), bridges
+/// a depth jump where the local 3-D spacing is `spacing`: steeper than 45° over the plane
+/// (the height step exceeds the planar length) and longer than `factor` × `spacing`. Long
+/// flat edges are the planar rule's business (an outline, a hole seen in the plane). The
+/// one depth-jump rule, for triangles ([`bridging_triangles`]) and along scan lines
+/// ([`crate::lines::split_at_jumps`]). O(1).
+pub fn is_depth_jump(length3: f64, flat: f64, spacing: f64, factor: f64) -> bool {
+    length3 * length3 > 2.0 * flat * flat && length3 > factor * spacing
+}
+
+/// For each of `triangles`, whether it bridges a depth jump: its longest 3-D edge is one by
+/// [`is_depth_jump`] against the smallest [`local_spacing`] of its corners (computed over
+/// `triangles`). `uv` must be the orthogonal projection of `jumps.points`, in the same
+/// units; all `false` when `jumps.factor` is infinite. O(m log m).
+pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
+    if !jumps.factor.is_finite() {
+        return vec![false; triangles.len()];
+    }
     // 3-D work in the unit box: lengths of 1e300- or 1e-300-sized parts stay finite.
-    let jump = jumps.filter(|j| j.factor.is_finite()).map(|j| {
-        let norm = Normalizer::fit(j.points);
-        let unit = norm.apply_all(j.points);
-        let local = local_spacing(&unit, triangles);
-        let to_unit = if norm.half_extent > 0.0 {
-            1.0 / norm.half_extent
-        } else {
-            1.0
-        };
-        (j.factor, unit, local, to_unit)
-    });
-    let bridges_a_jump = |t: &[u32; 3]| {
-        jump.as_ref().is_some_and(|(factor, unit, local, to_unit)| {
+    let norm = Normalizer::fit(jumps.points);
+    let unit = norm.apply_all(jumps.points);
+    let local = local_spacing(&unit, triangles);
+    let to_unit = if norm.half_extent > 0.0 {
+        1.0 / norm.half_extent
+    } else {
+        1.0
+    };
+    triangles
+        .iter()
+        .map(|t| {
             let (k, longest3) = (0..3)
                 .map(|k| {
                     (
@@ -177,21 +203,21 @@ pub fn trim_long_edges(
                 .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
             let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
             let flat = planar_distance(uv[a], uv[b]) * to_unit;
-            // Steeper than 45°: the height step exceeds the planar length. Long flat edges
-            // are the planar rule's business (an outline, a hole seen in the plane).
-            let steep = longest3 * longest3 > 2.0 * flat * flat;
             let nearest = t
                 .iter()
                 .map(|&v| local[v as usize])
                 .fold(f64::INFINITY, f64::min);
-            steep && longest3 > factor * nearest
+            is_depth_jump(longest3, flat, nearest, jumps.factor)
         })
-    };
-    let mut kept: Vec<[u32; 3]> = triangles
-        .iter()
-        .copied()
-        .filter(|t| longest(t) <= max_edge && !bridges_a_jump(t))
-        .collect();
+        .collect()
+}
+
+/// `kept` without the numerically degenerate triangles on its boundary and with every
+/// pinch resolved (the triangles of all fans but the largest dropped), repeated until
+/// neither is left: a valid [`HalfEdgeMesh`] when `kept` has no overlapping triangles in
+/// the plane. Errors: `kept` is not an oriented manifold (an edge in three triangles, a
+/// repeated directed edge). O(m) per round.
+pub fn peel(uv: &[[f64; 2]], mut kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
     // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
     let unit = unit_square(uv);
     loop {

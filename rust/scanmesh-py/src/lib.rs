@@ -671,11 +671,13 @@ fn scan_segments<'py>(
 /// Strips between consecutive scan lines as one mesh over `points` (N, 3), with planar
 /// positions `uv` (N, 2) and a line id per point. `weight` = (length, area, angle,
 /// dihedral) coefficients; `method` "shortest-path" (with `solver` "banded", "dp" or
-/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`). Returns
-/// (faces (M, 3) int64 counter-clockwise in the plane, unused (K,) int64, duplicates
-/// (D, 2) int64, number of strips, total path cost, planar error message or None).
+/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`); lines cut and
+/// triangles dropped at depth jumps of `jump_factor` (inf: none). Returns (faces (M, 3)
+/// int64 counter-clockwise in the plane, unused (K,) int64, duplicates (D, 2) int64,
+/// number of strips, total path cost, planar error message or None, triangles dropped at
+/// depth jumps, triangles dropped to make the mesh planar-valid).
 #[pyfunction]
-#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true))]
+#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true, jump_factor=f64::INFINITY))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn strip_mesh<'py>(
     py: Python<'py>,
@@ -689,6 +691,7 @@ fn strip_mesh<'py>(
     band: usize,
     gap_factor: f64,
     check: bool,
+    jump_factor: f64,
 ) -> PyResult<(
     Bound<'py, PyArray2<i64>>,
     Bound<'py, PyArray1<i64>>,
@@ -696,6 +699,8 @@ fn strip_mesh<'py>(
     usize,
     f64,
     Option<String>,
+    usize,
+    usize,
 )> {
     // Borrowed, not copied, when numpy holds them contiguous (as `strip_surface` passes
     // them): 480 MB fewer at 10M points while the strips' planar check is at its peak.
@@ -741,6 +746,7 @@ fn strip_mesh<'py>(
         },
         method,
         check,
+        jump_factor,
     };
     let (mesh, duplicates) = py
         .detach(|| stitch_lines(&pts, &plane, &ids, gap_factor, &params))
@@ -753,6 +759,8 @@ fn strip_mesh<'py>(
         mesh.n_strips,
         mesh.cost,
         mesh.planar_error.map(|e| e.to_string()),
+        mesh.dropped_jumps,
+        mesh.dropped_overlaps,
     ))
 }
 
