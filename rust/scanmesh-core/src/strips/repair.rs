@@ -148,26 +148,24 @@ mod tests {
 
     #[test]
     fn the_grid_finds_the_pairs_brute_force_finds() {
-        let mut s = 3u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for round in 0..40 {
-            let n = 8 + round * 3;
-            let uv: Vec<[f64; 2]> = (0..n).map(|_| [r() * 10.0, r() * 10.0]).collect();
-            let mut tris = Vec::new();
-            for _ in 0..n {
-                let t = [0, 1, 2].map(|_| (r() * n as f64) as u32);
-                let [a, b, c] = t.map(|k| uv[k as usize]);
-                if orient2d(a, b, c) > 0.0 {
-                    tris.push(t);
-                }
-            }
+        use crate::testing::random_points;
+        for round in 0..40u64 {
+            let n = 8 + 3 * round as usize;
+            let uv = random_points(n, round);
+            // Random corners: two coordinates and one more of a second stream per triangle.
+            let picks = random_points(n, 1000 + round);
+            let pick = |x: f64| ((x * n as f64) as u32).min(n as u32 - 1);
+            let tris: Vec<[u32; 3]> = picks
+                .windows(2)
+                .map(|w| [pick(w[0][0]), pick(w[0][1]), pick(w[1][0])])
+                .filter(|t| {
+                    let [a, b, c] = t.map(|k| uv[k as usize]);
+                    orient2d(a, b, c) > 0.0
+                })
+                .collect();
             let mut grid = overlapping_pairs(&uv, &tris);
             grid.sort_unstable();
+            assert!(round < 5 || !grid.is_empty());
             assert_eq!(grid, all_pairs(&uv, &tris), "round {round}");
         }
     }
