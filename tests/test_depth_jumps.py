@@ -130,7 +130,7 @@ def test_strips_leave_walls_steps_and_bores_open(method, along):
     _core.validate(s.scan.uv, s.faces)
     # Every piece is stitched to its neighbours: every point is used, and the mesh covers
     # what trimmed Delaunay covers, within a few triangles' area.
-    assert len(s.options["unused"]) == 0
+    assert len(s.options["unused"]) == len(s.options["trimmed"]) == 0
     d = scanmesh.delaunay(pts, plane="z")
 
     def area(faces: np.ndarray) -> float:

@@ -268,6 +268,10 @@ def test_crossing_lines_give_a_manifold_valid_mesh_and_say_what_was_dropped(meth
     kept = {tuple(sorted(f)) for f in surface.faces.tolist()}
     assert kept <= {tuple(sorted(f)) for f in unchecked.faces.tolist()}
     assert len(unchecked.faces) - len(surface.faces) == dropped
+    # Points that lost every triangle to the drops are trimmed, not unused by the strips.
+    np.testing.assert_array_equal(surface.options["trimmed"], surface.options["unused"])
+    lost = np.setdiff1d(np.unique(unchecked.faces), np.unique(surface.faces))
+    np.testing.assert_array_equal(surface.options["trimmed"], lost)
 
 
 def test_crossing_lines_keep_the_strips_that_do_not_overlap():

@@ -172,6 +172,7 @@ def strip_mesh(
     str | None,
     int,
     int,
+    npt.NDArray[np.int64],
 ]: ...
 def parse_text_table(
     data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None

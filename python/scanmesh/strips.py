@@ -267,7 +267,8 @@ def strip_surface(
         ``method`` is "shortest-path" or "lookahead"; ``options`` holds the parameters and
         ``n_lines``, ``n_strips``, ``cost`` (sum of path costs), ``unused`` ((K,) int64
         points in no triangle), ``planar_valid``, ``dropped_jumps`` and
-        ``dropped_overlaps`` (triangles dropped at depth jumps and where lines cross);
+        ``dropped_overlaps`` (triangles dropped at depth jumps and where lines cross),
+        ``trimmed`` ((T,) int64, the unused points whose every triangle was dropped so);
         ``duplicates`` the points dropped for
         coinciding with the previous point of their line; ``timings`` the seconds spent
         projecting, finding lines and building strips.
@@ -278,7 +279,8 @@ def strip_surface(
         The lines cross or fold in the plane: the warning says how many overlapping
         triangles were dropped.
     UnusedPointsWarning
-        Some points are in no triangle (other than coincident duplicates).
+        Some points are in no triangle (other than coincident duplicates and points
+        trimmed with their dropped triangles).
     CoincidentPointsWarning
         Points coincide with the previous point of their line and are left out.
 
@@ -313,6 +315,7 @@ def strip_surface(
             planar_error,
             dropped_jumps,
             dropped_overlaps,
+            trimmed,
         ) = interruptible(
             len(pts),
             _core.strip_mesh,
@@ -353,7 +356,10 @@ def strip_surface(
             CrossingLinesWarning,
             stacklevel=2,
         )
-    lone = np.setdiff1d(unused, duplicates[:, 0]) if len(duplicates) else unused
+    # Points whose every triangle was dropped (at a depth jump or an overlap) are trimmed,
+    # as Delaunay's trimming reports them, not unused by the strips.
+    lone = np.setdiff1d(unused, trimmed)
+    lone = np.setdiff1d(lone, duplicates[:, 0]) if len(duplicates) else lone
     if len(lone):
         shown = ", ".join(str(i) for i in lone[:5])
         warnings.warn(
@@ -384,6 +390,7 @@ def strip_surface(
             "planar_valid": (planar_error is None) if params["check"] else None,
             "dropped_jumps": int(dropped_jumps),
             "dropped_overlaps": int(dropped_overlaps),
+            "trimmed": trimmed,
         },
         scan=scan,
         duplicates=duplicates,

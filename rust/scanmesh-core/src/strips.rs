@@ -113,6 +113,9 @@ pub struct StripMesh {
     /// Triangles dropped to make the mesh a valid planar triangulation (overlapping or
     /// folded where lines cross, then pinched fans), with `check` on.
     pub dropped_overlaps: usize,
+    /// Points of [`StripMesh::unused`] that were in strips until every triangle of theirs
+    /// was dropped (at a depth jump or an overlap), ascending.
+    pub trimmed: Vec<u32>,
 }
 
 /// One strip to triangulate: the clipped segments, oriented along the scan direction.
@@ -606,6 +609,9 @@ fn stitch_with(
         }
     }
 
+    // Which points the strips use, before anything is dropped: a point all of whose
+    // triangles are dropped is trimmed, not unused.
+    let used_by_strips = used_points(points.len(), &triangles);
     // Depth jumps: triangles that still bridge one (a strip between a line on top of a
     // wall and one below it, parallel to the wall) are dropped, by the rule trimming uses.
     let mut dropped_jumps = 0;
@@ -645,8 +651,34 @@ fn stitch_with(
         None
     };
 
-    // Relaxed stores of `true` in any order leave the same flags: parallel is exact.
-    let used: Vec<AtomicBool> = (0..points.len())
+    let after =
+        (dropped_jumps + dropped_overlaps > 0).then(|| used_points(points.len(), &triangles));
+    let used = after.as_deref().unwrap_or(&used_by_strips);
+    let (unused, trimmed) = rayon::join(
+        || not_in(used, |_| true),
+        || match after {
+            Some(_) => not_in(used, |k| used_by_strips[k].load(Ordering::Relaxed)),
+            None => Vec::new(),
+        },
+    );
+    let mesh = StripMesh {
+        triangles,
+        unused,
+        n_strips: tasks.len(),
+        cost,
+        planar_error,
+        dropped_jumps,
+        dropped_overlaps,
+        trimmed,
+    };
+    let asked = params.check && local;
+    Ok((mesh, asked.then_some(verdict == Some(true)), first_error))
+}
+
+/// Which of `n` points the triangles use. O(n + m) in parallel; relaxed stores of `true`
+/// in any order leave the same flags, so parallel is exact.
+fn used_points(n: usize, triangles: &[[u32; 3]]) -> Vec<AtomicBool> {
+    let used: Vec<AtomicBool> = (0..n)
         .into_par_iter()
         .with_min_len(BLOCK)
         .map(|_| AtomicBool::new(false))
@@ -656,22 +688,16 @@ fn stitch_with(
             used[k as usize].store(true, Ordering::Relaxed);
         }
     });
-    let unused = (0..points.len() as u32)
+    used
+}
+
+/// The points not `used` for which `also` holds, ascending. O(n) in parallel.
+fn not_in(used: &[AtomicBool], also: impl Fn(usize) -> bool + Sync) -> Vec<u32> {
+    (0..used.len() as u32)
         .into_par_iter()
         .with_min_len(BLOCK)
-        .filter(|&k| !used[k as usize].load(Ordering::Relaxed))
-        .collect();
-    let mesh = StripMesh {
-        triangles,
-        unused,
-        n_strips: tasks.len(),
-        cost,
-        planar_error,
-        dropped_jumps,
-        dropped_overlaps,
-    };
-    let asked = params.check && local;
-    Ok((mesh, asked.then_some(verdict == Some(true)), first_error))
+        .filter(|&k| !used[k as usize].load(Ordering::Relaxed) && also(k as usize))
+        .collect()
 }
 
 /// The depth-jump factor must be positive (`∞` turns the rule off).

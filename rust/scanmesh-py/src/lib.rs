@@ -675,7 +675,8 @@ fn scan_segments<'py>(
 /// triangles dropped at depth jumps of `jump_factor` (inf: none). Returns (faces (M, 3)
 /// int64 counter-clockwise in the plane, unused (K,) int64, duplicates (D, 2) int64,
 /// number of strips, total path cost, planar error message or None, triangles dropped at
-/// depth jumps, triangles dropped to make the mesh planar-valid).
+/// depth jumps, triangles dropped to make the mesh planar-valid, trimmed (T,) int64: the
+/// unused points that lost every triangle to those drops).
 #[pyfunction]
 #[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true, jump_factor=f64::INFINITY))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
@@ -701,6 +702,7 @@ fn strip_mesh<'py>(
     Option<String>,
     usize,
     usize,
+    Bound<'py, PyArray1<i64>>,
 )> {
     // Borrowed, not copied, when numpy holds them contiguous (as `strip_surface` passes
     // them): 480 MB fewer at 10M points while the strips' planar check is at its peak.
@@ -751,7 +753,9 @@ fn strip_mesh<'py>(
     let (mesh, duplicates) = py
         .detach(|| stitch_lines(&pts, &plane, &ids, gap_factor, &params))
         .map_err(to_py)?;
-    let unused = Array1::from_iter(mesh.unused.iter().map(|&k| i64::from(k))).into_pyarray(py);
+    let indices =
+        |ids: &[u32]| Array1::from_iter(ids.iter().map(|&k| i64::from(k))).into_pyarray(py);
+    let unused = indices(&mesh.unused);
     Ok((
         faces_out(py, &mesh.triangles),
         unused,
@@ -761,6 +765,7 @@ fn strip_mesh<'py>(
         mesh.planar_error.map(|e| e.to_string()),
         mesh.dropped_jumps,
         mesh.dropped_overlaps,
+        indices(&mesh.trimmed),
     ))
 }
 
