@@ -287,8 +287,9 @@ def strip_surface(
     Raises
     ------
     ScanmeshError
-        Bad shapes or values, unknown method, weight or solver, alpha < 1, band < 1, or
-        fewer than two lines with two points each.
+        Bad shapes or values, unknown method, weight or solver, alpha < 1, band < 1,
+        fewer than two lines with two points each, or no triangle left (every one bridged
+        a depth jump or overlapped others: the scan folds onto itself in the plane).
     """
     if method not in METHODS:
         raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
@@ -338,6 +339,13 @@ def strip_surface(
         raise DegenerateInputError(
             "no strip to build: need two neighbouring scan lines with two points each "
             f"that overlap along the scan direction (found {n_lines} line(s))"
+        )
+    if len(faces) == 0:
+        raise DegenerateInputError(
+            f"all {dropped_jumps + dropped_overlaps} strip triangles bridged a depth jump"
+            f" ({dropped_jumps}) or overlapped others in the projection plane"
+            f" ({dropped_overlaps}): the scan folds onto itself there"
+            f" (plane={scan.plane!r}); try another plane="
         )
     if dropped_overlaps:
         built = len(faces) + dropped_overlaps
