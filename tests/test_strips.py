@@ -204,8 +204,11 @@ def overlapping_faces(uv: np.ndarray, faces: np.ndarray) -> int:
     plane (no edge of either has all corners of the other on or outside its line, with a
     tolerance against rounding), plus faces that are not counter-clockwise."""
     corners = uv[faces]  # (M, 3, 2)
-    a, b = corners, np.roll(corners, -1, axis=1)
-    area = np.cross(b[:, 0] - a[:, 0], corners[:, 2] - a[:, 0])
+
+    def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    area = cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     scale = np.abs(uv).max()
     tol = 1e-12 * scale * scale
 
@@ -213,7 +216,7 @@ def overlapping_faces(uv: np.ndarray, faces: np.ndarray) -> int:
         # [i, j]: an edge of face i leaves every corner of face j on or right of its line.
         e0, e1 = p[:, None, :, None, :], np.roll(p, -1, axis=1)[:, None, :, None, :]
         r = q[None, :, None, :, :]
-        side = np.cross(e1 - e0, r - e0)  # (M, M, 3 edges, 3 corners)
+        side = cross(e1 - e0, r - e0)  # (M, M, 3 edges, 3 corners)
         return (side <= tol).all(axis=3).any(axis=2)
 
     sep = separated(corners, corners)
