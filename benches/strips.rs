@@ -14,7 +14,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use scanmesh_core::delaunay;
 use scanmesh_core::{detect_lines, segment_lines, DEFAULT_GAP_FACTOR};
 use scanmesh_core::{project, Plane};
-use scanmesh_core::{stitch, Method, StripParams};
+use scanmesh_core::{stitch, Method, StripParams, DEFAULT_JUMP_FACTOR};
 use scanmesh_core::{Solver, Weight, DEFAULT_BAND};
 use std::hint::black_box;
 use std::time::Duration;
@@ -43,6 +43,7 @@ fn strips_vs_delaunay(c: &mut Criterion) {
                 weight,
                 method: banded,
                 check,
+                jump_factor: DEFAULT_JUMP_FACTOR,
             };
             group.bench_with_input(BenchmarkId::new(name, n), &n, |b, _| {
                 b.iter(|| {
@@ -67,6 +68,7 @@ fn strips_threads(c: &mut Criterion) {
         weight: DEFAULT_WEIGHT,
         method: Method::ShortestPath(Solver::Banded(DEFAULT_BAND)),
         check: false,
+        jump_factor: DEFAULT_JUMP_FACTOR,
     };
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -110,6 +112,7 @@ fn solvers(c: &mut Criterion) {
             weight: DEFAULT_WEIGHT,
             method,
             check: false,
+            jump_factor: DEFAULT_JUMP_FACTOR,
         };
         group.bench_function(name, |b| {
             b.iter(|| black_box(stitch(&points, &uv, &scan, &params).unwrap()))

@@ -19,7 +19,7 @@
 
 use scanmesh_core::delaunay;
 use scanmesh_core::{segment_lines, DEFAULT_GAP_FACTOR};
-use scanmesh_core::{stitch, Method, StripParams};
+use scanmesh_core::{stitch, Method, StripParams, DEFAULT_JUMP_FACTOR};
 use scanmesh_core::{Solver, DEFAULT_BAND};
 use std::hint::black_box;
 use std::time::Instant;
@@ -58,6 +58,7 @@ fn main() {
             weight: DEFAULT_WEIGHT,
             method: Method::ShortestPath(Solver::Banded(DEFAULT_BAND)),
             check,
+            jump_factor: DEFAULT_JUMP_FACTOR,
         };
         let scan = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
         black_box(stitch(&points, &uv, &scan, &params).unwrap());

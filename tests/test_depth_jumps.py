@@ -13,6 +13,7 @@ import scanmesh
 from scanmesh import _core
 from scanmesh.delaunay import JUMP_FACTOR
 from scanmesh.projection import project
+from scanmesh.strips import strip_surface
 
 
 def terraced_scan(wall: float = 8.0) -> np.ndarray:
@@ -105,3 +106,38 @@ def test_jump_factor_is_validated_and_documented():
     with pytest.raises(scanmesh.errors.ParameterError, match="points"):
         _core.trim_long_edges(uv, hull, 5.0, pts[:-1], JUMP_FACTOR)
     assert JUMP_FACTOR == _core.DEFAULT_JUMP_FACTOR > 1
+
+
+def terraced_lines(along: str) -> tuple[np.ndarray, np.ndarray]:
+    """The terraced scan as scan lines: along x (the wall and the bore cut every line) or
+    along y (the wall runs between two lines, parallel to them)."""
+    pts = terraced_scan()
+    ids = np.rint(pts[:, 1] if along == "x" else pts[:, 0]).astype(np.int64)
+    order = np.argsort(ids, kind="stable")
+    return pts[order], ids[order]
+
+
+@pytest.mark.parametrize("method", ["shortest-path", "lookahead"])
+@pytest.mark.parametrize("along", ["x", "y"])
+def test_strips_leave_walls_steps_and_bores_open(method, along):
+    pts, ids = terraced_lines(along)
+    whole = strip_surface(pts, lines=ids, plane="z", method=method, jump_factor=math.inf)
+    assert bridging(pts, whole.faces, 8.0) > 40  # without the rule: curtains
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no crossing, no unused point
+        s = strip_surface(pts, lines=ids, plane="z", method=method)
+    assert bridging(pts, s.faces, 8.0) == 0
+    _core.validate(s.scan.uv, s.faces)
+    # Every piece is stitched to its neighbours: every point is used, and the mesh covers
+    # what trimmed Delaunay covers, within a few triangles' area.
+    assert len(s.options["unused"]) == len(s.options["trimmed"]) == 0
+    d = scanmesh.delaunay(pts, plane="z")
+
+    def area(faces: np.ndarray) -> float:
+        a, b, c = (pts[faces[:, k], :2] for k in range(3))
+        u, v = b - a, c - a
+        return 0.5 * float(np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]).sum())
+
+    assert area(s.faces) == pytest.approx(area(d.faces), rel=0.04)
+    if along == "y":  # the wall lies between two lines: that strip's triangles are dropped
+        assert s.options["dropped_jumps"] >= 23

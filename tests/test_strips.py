@@ -77,6 +77,9 @@ def assert_manifold_disc_like(surface: scanmesh.Surface) -> None:
         ({"solver": "astar"}, "solver"),
         ({"band": 0}, "band"),
         ({"gap_factor": 0}, "gap_factor"),
+        ({"jump_factor": 0}, "jump_factor"),
+        ({"jump_factor": -1.0}, "jump_factor"),
+        ({"jump_factor": float("nan")}, "jump_factor"),
     ],
 )
 def test_bad_options_are_refused(kwargs, match):
@@ -196,19 +199,92 @@ def test_an_isolated_point_outside_every_strip_is_reported():
     np.testing.assert_array_equal(surface.options["unused"], [len(pts) - 1])
 
 
-def test_crossing_lines_warn_and_still_give_the_3d_mesh():
+def overlapping_faces(uv: np.ndarray, faces: np.ndarray) -> int:
+    """Brute force, independent of the core: pairs of faces whose interiors overlap in the
+    plane (no edge of either has all corners of the other on or outside its line, with a
+    tolerance against rounding), plus faces that are not counter-clockwise."""
+    corners = uv[faces]  # (M, 3, 2)
+
+    def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    area = cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    scale = np.abs(uv).max()
+    tol = 1e-12 * scale * scale
+
+    def separated(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        # [i, j]: an edge of face i leaves every corner of face j on or right of its line.
+        e0, e1 = p[:, None, :, None, :], np.roll(p, -1, axis=1)[:, None, :, None, :]
+        r = q[None, :, None, :, :]
+        side = cross(e1 - e0, r - e0)  # (M, M, 3 edges, 3 corners)
+        return (side <= tol).all(axis=3).any(axis=2)
+
+    sep = separated(corners, corners)
+    overlap = ~(sep | sep.T)
+    np.fill_diagonal(overlap, False)
+    return int(np.count_nonzero(np.triu(overlap))) + int(np.count_nonzero(area <= 0))
+
+
+def test_the_overlap_check_sees_crossing_strips():
+    # The fixture of the tests below, stitched without the planar check: it overlaps.
+    pts, ids = crossing_scan()
+    surface = quiet(pts, lines=ids, plane="z", check=False)
+    assert surface.options["planar_valid"] is None and surface.options["dropped_overlaps"] == 0
+    assert overlapping_faces(pts[:, :2], surface.faces) > 0
+    assert len(surface.faces) == 2 * 22
+
+
+def crossing_scan() -> tuple[np.ndarray, np.ndarray]:
+    """Three lines of 12 points; the third crosses the second at x = 10/3."""
     pts, ids = line_scan(3, 12)
     third = ids == 2
-    pts[third, 1] = 2.0 - 0.3 * pts[third, 0]  # line 2 crosses line 1 at x = 10/3
+    pts[third, 1] = 2.0 - 0.3 * pts[third, 0]
+    return pts, ids
+
+
+def overlapping_passes() -> tuple[np.ndarray, np.ndarray]:
+    """A zig-zag scan in two passes over the same ground, the second half a line spacing
+    off the first: the strip from the last line of pass one to the first of pass two spans
+    the whole area, and pass two's lines lie between pass one's."""
+    pts, ids = line_scan(6, 15, zigzag=True, jitter=0.1, seed=3)
+    again = pts.copy()
+    again[:, 1] += 0.5
+    again[:, 2] = np.sin(0.4 * again[:, 0]) * np.cos(0.3 * again[:, 1])
+    return np.vstack([pts, again]), np.concatenate([ids, ids + 6])
+
+
+@pytest.mark.parametrize("method", ["shortest-path", "lookahead"])
+@pytest.mark.parametrize("scan", [crossing_scan, overlapping_passes])
+def test_crossing_lines_give_a_manifold_valid_mesh_and_say_what_was_dropped(method, scan):
+    pts, ids = scan()
+    with pytest.warns(CrossingLinesWarning, match=r"(\d+) of (\d+) strip triangles") as record:
+        surface = strip_surface(pts, lines=ids, plane="z", method=method)
+    dropped = surface.options["dropped_overlaps"]
+    assert dropped > 0 and surface.options["planar_valid"]
+    message = str(next(w.message for w in record if w.category is CrossingLinesWarning))
+    assert f"{dropped} of {len(surface.faces) + dropped} strip triangles" in message
+    _core.validate(pts[:, :2].copy(), surface.faces)  # planar: CCW, no overlap, one fan
+    assert overlapping_faces(pts[:, :2], surface.faces) == 0  # and by brute force
+    assert_manifold_disc_like(surface)  # trimesh: 3-D manifold, consistent winding
+    # Only what overlapped went: the unchecked strips minus the drops.
+    unchecked = strip_surface(pts, lines=ids, plane="z", method=method, check=False)
+    kept = {tuple(sorted(f)) for f in surface.faces.tolist()}
+    assert kept <= {tuple(sorted(f)) for f in unchecked.faces.tolist()}
+    assert len(unchecked.faces) - len(surface.faces) == dropped
+    # Points that lost every triangle to the drops are trimmed, not unused by the strips.
+    np.testing.assert_array_equal(surface.options["trimmed"], surface.options["unused"])
+    lost = np.setdiff1d(np.unique(unchecked.faces), np.unique(surface.faces))
+    np.testing.assert_array_equal(surface.options["trimmed"], lost)
+
+
+def test_crossing_lines_keep_the_strips_that_do_not_overlap():
+    pts, ids = crossing_scan()
     with pytest.warns(CrossingLinesWarning):
         surface = strip_surface(pts, lines=ids, plane="z")
-    assert not surface.options["planar_valid"]
-    assert len(surface.faces) == 2 * 22
-    assert surface.to_trimesh().is_winding_consistent
-    # Without the check there is no verdict and no warning, and the same faces.
-    unchecked = quiet(pts, lines=ids, plane="z", check=False)
-    assert unchecked.options["planar_valid"] is None
-    np.testing.assert_array_equal(unchecked.faces, surface.faces)
+    # The strip between lines 0 and 1 does not overlap anything: all 22 triangles stay.
+    first = np.isin(surface.faces, np.flatnonzero(ids <= 1)).all(axis=1)
+    assert np.count_nonzero(first) == 22
+    assert 0 < surface.options["dropped_overlaps"] < 22
 
 
 def test_shortest_path_is_never_above_lookahead_on_real_strips(rod_scan):
@@ -239,24 +315,25 @@ def test_every_solver_finds_the_same_optimum_on_real_strips(rod_scan):
 # Real scans.
 
 
-def test_fran_cut_is_a_valid_mesh_of_every_point():
+def test_fran_cut_is_a_manifold_mesh_valid_in_its_plane():
     fran = read_vtk(DATA / "scans" / "fran_cut.vtk")
     points = fran.points
-    # A cylindrical scan over 93 degrees folds in every projection plane: the strips say so
-    # but are still one consistently oriented 3-D surface.
-    with pytest.warns(CrossingLinesWarning):
+    # A cylindrical scan over 93 degrees folds in every projection plane: the folded
+    # triangles are dropped and said so (4.4 % in the plane chosen by the data), and what
+    # stays is manifold and valid in that plane.
+    with pytest.warns(CrossingLinesWarning, match="186 of 4206"):
         surface = strip_surface(points)
     assert surface.options["n_lines"] == 45
-    assert len(surface.faces) == 44 * (49 + 49 - 2)
-    assert len(np.unique(surface.faces)) == len(points) == 2205
+    assert surface.options["planar_valid"] and surface.options["dropped_overlaps"] == 186
+    assert len(surface.faces) + 186 == 4206  # 44 strips of 96, less 6 duplicate points
+    _core.validate(surface.scan.uv, surface.faces)
     assert_manifold_disc_like(surface)
-    # In the scan's own coordinates (azimuth about the y axis, height y) it is a valid
-    # planar triangulation: no folds, no overlaps.
+    assert len(np.unique(surface.faces)) == len(points) - len(surface.options["unused"]) > 2100
+    # In the scan's own coordinates (azimuth about the y axis, height y) the strips were a
+    # valid planar triangulation; what stays of them still is.
     azimuth = np.arctan2(points[:, 0], -points[:, 2])
     _core.validate(np.ascontiguousarray(np.column_stack([-azimuth, points[:, 1]])), surface.faces)
-    quality = surface.quality
-    assert quality.n_interior == 43 * 47
-    assert quality.min_angle_deg > 10
+    assert surface.quality.min_angle_deg > 10
 
 
 def test_sainte_helens_is_a_valid_mesh_of_every_point():

@@ -163,6 +163,7 @@ def strip_mesh(
     band: int,
     gap_factor: float,
     check: bool = True,
+    jump_factor: float = ...,
     context: tuple[Sequence[float], Sequence[float], float, float, bool] | None = None,
 ) -> tuple[
     npt.NDArray[np.int64],
@@ -171,6 +172,9 @@ def strip_mesh(
     int,
     float,
     str | None,
+    int,
+    int,
+    npt.NDArray[np.int64],
     float,
 ]: ...
 def parse_text_table(

@@ -3,8 +3,11 @@
 Between consecutive lines a_0..a_{n-1} and b_0..b_{m-1}, every strip triangulation is a
 monotone path through the Fuchs matrix; the shortest-path method takes the cheapest path
 under a weight, the look-ahead method (Friedhoff's alpha-look-ahead) a greedy one. Strips
-join only overlapping segments of neighbouring lines, so holes stay open, and together
-they form one mesh over the caller's points (see ``scanmesh_core::strips``).
+join only overlapping segments of neighbouring lines, so holes stay open; lines are also
+cut at depth jumps (walls, steps, bores) and triangles bridging a jump dropped, so no
+curtain hangs across one; where lines cross in the plane the overlapping triangles are
+dropped. Together they form one manifold mesh over the caller's points (see
+``scanmesh_core::strips``).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
+from scanmesh.delaunay import JUMP_FACTOR
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -65,9 +69,10 @@ METHODS: tuple[str, ...] = ("shortest-path", "lookahead")
 
 
 class CrossingLinesWarning(ScanmeshWarning):
-    """The strips are not a valid triangulation in the plane: lines cross or fold there.
+    """Scan lines cross or fold in the plane, so some strips overlapped there.
 
-    The 3-D mesh is still returned; its triangles may overlap in the projection.
+    The overlapping triangles were dropped (``options["dropped_overlaps"]`` counts them),
+    so the mesh returned is still a manifold, valid triangulation in the plane.
     """
 
 
@@ -142,7 +147,19 @@ WEIGHT_OPTION = Option(
     convert=_weight,
 )
 CHECK_OPTION = Option(
-    "check", "bool", True, "validate the mesh in the plane (False skips it at large sizes)"
+    "check",
+    "bool",
+    True,
+    "validate the mesh in the plane and drop what overlaps (False skips it at large sizes)",
+)
+JUMP_OPTION = Option(
+    "jump_factor",
+    "float",
+    JUMP_FACTOR,
+    "cut lines and drop triangles at depth jumps of this many local spacings (inf: never)",
+    low=0.0,
+    low_open=True,
+    finite=False,
 )
 
 #: The options of each strip method, by method name.
@@ -160,6 +177,7 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
         ),
         GAP_FACTOR_OPTION,
         CHECK_OPTION,
+        JUMP_OPTION,
     ),
     "lookahead": (
         WEIGHT_OPTION,
@@ -174,6 +192,7 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
         ),
         GAP_FACTOR_OPTION,
         CHECK_OPTION,
+        JUMP_OPTION,
     ),
 }
 
@@ -221,39 +240,56 @@ def strip_surface(
         Initial half width of the banded solver, in matrix columns (shortest-path only).
     check : bool
         Validate the mesh in the plane (O(m log m); at a million points it takes longer
-        than the strips themselves). False skips it: no CrossingLinesWarning, and
-        ``options["planar_valid"]`` is None.
+        than the strips themselves) and, where lines cross or fold there, drop the
+        overlapping triangles so the mesh is manifold and valid (counted in
+        ``options["dropped_overlaps"]``). False skips both: no CrossingLinesWarning,
+        ``options["planar_valid"]`` is None, and crossing lines leave overlaps.
+    jump_factor : float
+        Depth jumps (walls, steps, bores): a line is cut between consecutive points whose
+        3-D step is steeper than 45 degrees and longer than this many times the median of
+        the five steps around it, each piece is stitched only to the overlapping pieces
+        of its neighbours, and triangles still bridging a jump by Delaunay's trimming rule
+        (:data:`scanmesh.delaunay.JUMP_FACTOR`) are dropped (counted in
+        ``options["dropped_jumps"]``; their points may end up unused). ``inf`` keeps
+        every strip whole.
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
         "lines" and "strips" (in points; see :func:`scanmesh.reconstruct`). Each is one
         native call, so it reports its start and its end.
 
-    ``weight``, ``alpha``, ``gap_factor``, ``solver``, ``band`` and ``check`` are the
-    method's options (:data:`OPTIONS`); an option of the other method is refused.
+    ``weight``, ``alpha``, ``gap_factor``, ``solver``, ``band``, ``check`` and
+    ``jump_factor`` are the method's options (:data:`OPTIONS`); an option of the other
+    method is refused.
 
     Returns
     -------
     Surface
         ``method`` is "shortest-path" or "lookahead"; ``options`` holds the parameters and
         ``n_lines``, ``n_strips``, ``cost`` (sum of path costs), ``unused`` ((K,) int64
-        points in no triangle) and ``planar_valid``; ``duplicates`` the points dropped for
+        points in no triangle), ``planar_valid``, ``dropped_jumps`` and
+        ``dropped_overlaps`` (triangles dropped at depth jumps and where lines cross),
+        ``trimmed`` ((T,) int64, the unused points whose every triangle was dropped so);
+        ``duplicates`` the points dropped for
         coinciding with the previous point of their line; ``timings`` the seconds spent
         projecting, finding lines and building strips.
 
     Warns
     -----
     CrossingLinesWarning
-        The lines cross in the plane, so the mesh is not a planar triangulation there.
+        The lines cross or fold in the plane: the warning says how many overlapping
+        triangles were dropped.
     UnusedPointsWarning
-        Some points are in no triangle (other than coincident duplicates).
+        Some points are in no triangle (other than coincident duplicates and points
+        trimmed with their dropped triangles).
     CoincidentPointsWarning
         Points coincide with the previous point of their line and are left out.
 
     Raises
     ------
     ScanmeshError
-        Bad shapes or values, unknown method, weight or solver, alpha < 1, band < 1, or
-        fewer than two lines with two points each.
+        Bad shapes or values, unknown method, weight or solver, alpha < 1, band < 1,
+        fewer than two lines with two points each, or no triangle left (every one bridged
+        a depth jump or overlapped others: the scan folds onto itself in the plane).
     """
     if method not in METHODS:
         raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
@@ -271,7 +307,18 @@ def strip_surface(
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
     with Stage(progress, "strips", len(pts), blocking=True):
-        faces, unused, duplicates, n_strips, cost, planar_error, _ = interruptible(
+        (
+            faces,
+            unused,
+            duplicates,
+            n_strips,
+            cost,
+            planar_error,
+            dropped_jumps,
+            dropped_overlaps,
+            trimmed,
+            _,
+        ) = interruptible(
             len(pts),
             _core.strip_mesh,
             pts,
@@ -286,6 +333,7 @@ def strip_surface(
             int(min(params.get("band", _core.DEFAULT_BAND), len(pts))),
             k,
             params["check"],
+            params["jump_factor"],
         )
     t3 = time.perf_counter()
     if n_strips == 0:
@@ -293,14 +341,34 @@ def strip_surface(
             "no strip to build: need two neighbouring scan lines with two points each "
             f"that overlap along the scan direction (found {n_lines} line(s))"
         )
-    if planar_error is not None:
+    if len(faces) == 0:
+        raise DegenerateInputError(
+            f"all {dropped_jumps + dropped_overlaps} strip triangles bridged a depth jump"
+            f" ({dropped_jumps}) or overlapped others in the projection plane"
+            f" ({dropped_overlaps}): the scan folds onto itself there"
+            f" (plane={scan.plane!r}); try another plane="
+        )
+    if dropped_overlaps:
+        built = len(faces) + dropped_overlaps
         warnings.warn(
-            f"the strips are not a valid triangulation in the projection plane ({planar_error});"
-            " scan lines probably cross there: the 3-D mesh is returned as it is",
+            f"scan lines cross or fold in the projection plane: {dropped_overlaps} of {built}"
+            f" strip triangles ({100 * dropped_overlaps / built:.2g} %) overlapped there and"
+            " were dropped, so the mesh is manifold and valid in the plane;"
+            " see Surface.options['dropped_overlaps']",
             CrossingLinesWarning,
             stacklevel=2,
         )
-    lone = np.setdiff1d(unused, duplicates[:, 0]) if len(duplicates) else unused
+    if planar_error is not None:
+        # The repair leaves a valid mesh (tested); should it not, say so, never silently.
+        warnings.warn(
+            f"the strips are not a valid triangulation in the projection plane ({planar_error})",
+            CrossingLinesWarning,
+            stacklevel=2,
+        )
+    # Points whose every triangle was dropped (at a depth jump or an overlap) are trimmed,
+    # as Delaunay's trimming reports them, not unused by the strips.
+    lone = np.setdiff1d(unused, trimmed)
+    lone = np.setdiff1d(lone, duplicates[:, 0]) if len(duplicates) else lone
     if len(lone):
         shown = ", ".join(str(i) for i in lone[:5])
         warnings.warn(
@@ -329,6 +397,9 @@ def strip_surface(
             "cost": float(cost),
             "unused": unused,
             "planar_valid": (planar_error is None) if params["check"] else None,
+            "dropped_jumps": int(dropped_jumps),
+            "dropped_overlaps": int(dropped_overlaps),
+            "trimmed": trimmed,
         },
         scan=scan,
         duplicates=duplicates,

@@ -279,7 +279,18 @@ def solve(
     del loaded, pts, ids, index
     uv = project_as_whole(points, plane, lo, hi)
     n = len(points)
-    faces, unused, duplicates, n_strips, cost, planar_error, signed_area = _core.strip_mesh(
+    (
+        faces,
+        unused,
+        duplicates,
+        n_strips,
+        cost,
+        planar_error,
+        dropped_jumps,
+        dropped_overlaps,
+        _,
+        signed_area,
+    ) = _core.strip_mesh(
         points,
         uv,
         line_ids,
@@ -290,6 +301,7 @@ def solve(
         int(min(params.get("band", _core.DEFAULT_BAND), max(n, 1))),
         params["gap_factor"],
         params["check"],
+        params["jump_factor"],
         (tuple(lo), tuple(hi), largest, median, partition.first_turned),
     )
     # rows of the shared lines: the first line when a partition comes before, the last
@@ -308,6 +320,8 @@ def solve(
         cost=float(cost),
         signed_area=float(signed_area),
         planar_invalid=float(planar_error is not None),
+        dropped_jumps=float(dropped_jumps),
+        dropped_overlaps=float(dropped_overlaps),
         duplicates=float(np.count_nonzero(duplicates[:, 0] < owned_end)),
         unused=float(np.count_nonzero(~shared[unused])),
     )

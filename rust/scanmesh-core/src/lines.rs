@@ -24,8 +24,9 @@
 //! Explicit line ids (points with the same id form a line, in input order; lines in
 //! ascending id) skip detection but are split at gaps the same way.
 
-use crate::geometry::planar_distance;
+use crate::geometry::{planar_distance, Normalizer};
 use crate::{Error, Result};
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// Default gap factor k: a step longer than k × the median step is a gap (or a jump). Four
@@ -278,6 +279,64 @@ pub fn segment_lines_at(
     })
 }
 
+/// Steps on either side of a step over which [`split_at_jumps`] takes the local spacing:
+/// the median of five steps ignores the jump itself and one more steep step beside it (a
+/// point caught on the wall's face), where a point's own two steps would contain the jump.
+pub const JUMP_WINDOW: usize = 2;
+
+/// Splits the segments of `scan` where consecutive points jump in depth (a wall, a step,
+/// the rim of a bore seen along the line): a step that is a jump by
+/// [`crate::trim::is_depth_jump`] with factor `factor`, against the local spacing of the
+/// line there, the median 3-D step of the [`JUMP_WINDOW`] steps on either side of it and
+/// itself. `points` are the 3-D points and `uv` their orthogonal projection in the same
+/// units (as for [`crate::trim::DepthJumps`]); an infinite `factor` changes nothing. Pieces
+/// stay in scan order; strips then pair each piece with the overlapping pieces of the
+/// neighbouring lines only. O(n).
+pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], factor: f64) {
+    if !factor.is_finite() {
+        return;
+    }
+    // Lengths in the unit box: no overflow at 1e300 or underflow at 1e-300.
+    let norm = Normalizer::fit(points);
+    let to_unit = if norm.half_extent > 0.0 {
+        1.0 / norm.half_extent
+    } else {
+        1.0
+    };
+    let unit = |k: u32| norm.apply(points[k as usize]);
+    let split = |segment: Vec<u32>| -> Vec<Vec<u32>> {
+        let steps: Vec<(f64, f64)> = segment
+            .windows(2)
+            .map(|w| {
+                let flat = planar_distance(uv[w[0] as usize], uv[w[1] as usize]) * to_unit;
+                ((unit(w[1]) - unit(w[0])).length(), flat)
+            })
+            .collect();
+        let mut pieces = vec![vec![segment[0]]];
+        let mut window = Vec::with_capacity(2 * JUMP_WINDOW + 1);
+        for (i, &(length3, flat)) in steps.iter().enumerate() {
+            window.clear();
+            let lo = i.saturating_sub(JUMP_WINDOW);
+            let hi = (i + JUMP_WINDOW + 1).min(steps.len());
+            window.extend(steps[lo..hi].iter().map(|s| s.0));
+            let mid = window.len() / 2;
+            let spacing = *window.select_nth_unstable_by(mid, f64::total_cmp).1;
+            if crate::trim::is_depth_jump(length3, flat, spacing, factor) {
+                pieces.push(Vec::new());
+            }
+            pieces
+                .last_mut()
+                .expect("one piece at least")
+                .push(segment[i + 1]);
+        }
+        pieces
+    };
+    scan.lines.par_iter_mut().for_each(|line| {
+        let segments = std::mem::take(line);
+        *line = segments.into_iter().flat_map(split).collect();
+    });
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -410,6 +469,49 @@ mod tests {
                 assert_eq!(scan.duplicates, duplicates);
             }
         }
+    }
+
+    /// One line of 20 points along x, z given per point.
+    fn profile(z: impl Fn(f64) -> f64) -> (Vec<DVec3>, Vec<[f64; 2]>, ScanLines) {
+        let pts: Vec<DVec3> = (0..20)
+            .map(|i| DVec3::new(i as f64, 0.0, z(i as f64)))
+            .collect();
+        let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+        let scan = segment_lines(&uv, &[0; 20], DEFAULT_GAP_FACTOR).unwrap();
+        (pts, uv, scan)
+    }
+
+    #[test]
+    fn lines_are_cut_at_depth_jumps_only() {
+        let factor = crate::trim::DEFAULT_JUMP_FACTOR;
+        // A step 5 high between x = 9 and 10, and a bore 4 deep from x = 13 to 15.
+        let (pts, uv, mut scan) = profile(|x| {
+            let step = if x >= 10.0 { 5.0 } else { 0.0 };
+            let bore = if (13.0..=15.0).contains(&x) {
+                -4.0
+            } else {
+                0.0
+            };
+            step + bore + 0.1 * x.sin()
+        });
+        split_at_jumps(&mut scan, &pts, &uv, factor);
+        let cuts: Vec<u32> = scan.lines[0].iter().skip(1).map(|s| s[0]).collect();
+        assert_eq!(cuts, vec![10, 13, 16]);
+        assert_eq!(scan.lines[0].concat(), (0..20).collect::<Vec<u32>>());
+        // A slope of 60° with even steps, and a step of 2 over a step of 1 in the plane
+        // (2.2 spacings: under the factor), are no jumps; nor is anything at factor ∞.
+        for z in [|x: f64| 1.7 * x, |x: f64| if x >= 10.0 { 2.0 } else { 0.0 }] {
+            let (pts, uv, mut scan) = profile(z);
+            let before = scan.clone();
+            split_at_jumps(&mut scan, &pts, &uv, factor);
+            assert_eq!(scan, before);
+        }
+        let (pts, uv, mut scan) = profile(|x| if x >= 10.0 { 50.0 } else { 0.0 });
+        let before = scan.clone();
+        split_at_jumps(&mut scan, &pts, &uv, f64::INFINITY);
+        assert_eq!(scan, before);
+        split_at_jumps(&mut scan, &pts, &uv, factor);
+        assert_eq!(scan.lines[0].len(), 2);
     }
 
     #[test]

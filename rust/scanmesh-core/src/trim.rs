@@ -6,6 +6,11 @@ use crate::geometry::{planar_distance, Normalizer};
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::Result;
 use glam::DVec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Triangles per rayon task in the passes over all of them.
+const BLOCK: usize = 1 << 14;
 
 /// Default `max_edge` as a multiple of the median nearest-neighbour spacing. Five spacings
 /// keep scans whose lines are up to about 4.5 times farther apart than their points, and
@@ -33,19 +38,28 @@ pub struct DepthJumps<'a> {
     pub factor: f64,
 }
 
-/// Local 3-D spacing of each vertex: the (lower) median 3-D length of the distinct edges of
-/// `triangles` at it, in the units of `points`; `∞` for vertices of no triangle.
+/// Local 3-D spacing of each vertex for which `wanted` holds: the (upper) median 3-D
+/// length of the distinct edges of `triangles` at it, in the units of `points`; `∞` for
+/// other vertices and vertices of no triangle.
 ///
 /// The median adapts to the scan: on lines 4 times farther apart than their points it is
 /// about the line distance, on a steep slope the length down the slope, while a vertex on
 /// the rim of a wall or a bore has most of its edges on its own side and keeps a short
-/// one. O(m log m).
-pub fn local_spacing(points: &[DVec3], triangles: &[[u32; 3]]) -> Vec<f64> {
+/// one. O(m + k log k) for the k edges at wanted vertices, in parallel.
+pub fn local_spacing(
+    points: &[DVec3],
+    triangles: &[[u32; 3]],
+    wanted: impl Fn(u32) -> bool + Sync,
+) -> Vec<f64> {
     let mut edges: Vec<(u32, u32)> = triangles
-        .iter()
-        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+        .par_iter()
+        .with_min_len(BLOCK)
+        .flat_map_iter(|t| {
+            (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))
+        })
+        .filter(|&(a, b)| wanted(a) || wanted(b))
         .collect();
-    edges.sort_unstable();
+    edges.par_sort_unstable();
     edges.dedup();
     // Lengths on points in the unit box: no overflow at 1e300 or underflow at 1e-300.
     let norm = Normalizer::fit(points);
@@ -76,7 +90,7 @@ pub fn local_spacing(points: &[DVec3], triangles: &[[u32; 3]]) -> Vec<f64> {
     (0..points.len())
         .map(|v| {
             let own = &mut lengths[start[v]..start[v + 1]];
-            if own.is_empty() {
+            if own.is_empty() || !wanted(v as u32) {
                 return f64::INFINITY;
             }
             let mid = own.len() / 2;
@@ -153,45 +167,105 @@ pub fn trim_long_edges(
             .map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]))
             .fold(0.0, f64::max)
     };
+    let bridges = jumps.map_or_else(Vec::new, |j| bridging_triangles(uv, triangles, j));
+    let kept: Vec<[u32; 3]> = triangles
+        .iter()
+        .enumerate()
+        .filter(|&(k, t)| longest(t) <= max_edge && !bridges.get(k).copied().unwrap_or(false))
+        .map(|(_, t)| *t)
+        .collect();
+    peel(uv, kept)
+}
+
+/// Whether an edge of 3-D length `length3`, `flat` long in the plane (same units), bridges
+/// a depth jump where the local 3-D spacing is `spacing`: steeper than 45° over the plane
+/// (the height step exceeds the planar length) and longer than `factor` × `spacing`. Long
+/// flat edges are the planar rule's business (an outline, a hole seen in the plane). The
+/// one depth-jump rule, for triangles ([`bridging_triangles`]) and along scan lines
+/// ([`crate::lines::split_at_jumps`]). O(1).
+pub fn is_depth_jump(length3: f64, flat: f64, spacing: f64, factor: f64) -> bool {
+    is_steep(length3, flat) && length3 > factor * spacing
+}
+
+/// Whether an edge of 3-D length `length3`, `flat` long in the plane, is steeper than 45°.
+fn is_steep(length3: f64, flat: f64) -> bool {
+    length3 * length3 > 2.0 * flat * flat
+}
+
+/// For each of `triangles`, whether it bridges a depth jump: its longest 3-D edge is one by
+/// [`is_depth_jump`] against the smallest [`local_spacing`] of its corners (computed over
+/// `triangles`). `uv` must be the orthogonal projection of `jumps.points`, in the same
+/// units; all `false` when `jumps.factor` is infinite. O(m log m).
+pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
+    if !jumps.factor.is_finite() {
+        return vec![false; triangles.len()];
+    }
     // 3-D work in the unit box: lengths of 1e300- or 1e-300-sized parts stay finite.
-    let jump = jumps.filter(|j| j.factor.is_finite()).map(|j| {
-        let norm = Normalizer::fit(j.points);
-        let unit = norm.apply_all(j.points);
-        let local = local_spacing(&unit, triangles);
-        let to_unit = if norm.half_extent > 0.0 {
-            1.0 / norm.half_extent
-        } else {
-            1.0
-        };
-        (j.factor, unit, local, to_unit)
-    });
-    let bridges_a_jump = |t: &[u32; 3]| {
-        jump.as_ref().is_some_and(|(factor, unit, local, to_unit)| {
+    let norm = Normalizer::fit(jumps.points);
+    let to_unit = if norm.half_extent > 0.0 {
+        1.0 / norm.half_extent
+    } else {
+        1.0
+    };
+    let unit = |k: u32| norm.apply(jumps.points[k as usize]);
+    // The longest 3-D edge of each triangle, when it is steep (else no jump: 0).
+    let steep: Vec<f64> = triangles
+        .par_iter()
+        .with_min_len(BLOCK)
+        .map(|t| {
             let (k, longest3) = (0..3)
-                .map(|k| {
-                    (
-                        k,
-                        (unit[t[k] as usize] - unit[t[(k + 1) % 3] as usize]).length(),
-                    )
-                })
+                .map(|k| (k, (unit(t[k]) - unit(t[(k + 1) % 3])).length()))
                 .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
             let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
             let flat = planar_distance(uv[a], uv[b]) * to_unit;
-            // Steeper than 45°: the height step exceeds the planar length. Long flat edges
-            // are the planar rule's business (an outline, a hole seen in the plane).
-            let steep = longest3 * longest3 > 2.0 * flat * flat;
+            if is_steep(longest3, flat) {
+                longest3
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    // The spacing is only needed at the corners of steep triangles (few, or none on a
+    // smooth scan): the edges of the others are not sorted.
+    let corner: Vec<AtomicBool> = (0..jumps.points.len())
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|_| AtomicBool::new(false))
+        .collect();
+    let mut any = false;
+    for (t, &l) in triangles.iter().zip(&steep) {
+        if l > 0.0 {
+            any = true;
+            t.iter()
+                .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
+        }
+    }
+    if !any {
+        return vec![false; triangles.len()];
+    }
+    let local = local_spacing(jumps.points, triangles, |v| {
+        corner[v as usize].load(Ordering::Relaxed)
+    });
+    triangles
+        .par_iter()
+        .zip(&steep)
+        .with_min_len(BLOCK)
+        .map(|(t, &longest3)| {
             let nearest = t
                 .iter()
                 .map(|&v| local[v as usize])
                 .fold(f64::INFINITY, f64::min);
-            steep && longest3 > factor * nearest
+            longest3 > 0.0 && longest3 > jumps.factor * nearest * to_unit
         })
-    };
-    let mut kept: Vec<[u32; 3]> = triangles
-        .iter()
-        .copied()
-        .filter(|t| longest(t) <= max_edge && !bridges_a_jump(t))
-        .collect();
+        .collect()
+}
+
+/// `kept` without the numerically degenerate triangles on its boundary and with every
+/// pinch resolved (the triangles of all fans but the largest dropped), repeated until
+/// neither is left: a valid [`HalfEdgeMesh`] when `kept` has no overlapping triangles in
+/// the plane. Errors: `kept` is not an oriented manifold (an edge in three triangles, a
+/// repeated directed edge). O(m) per round.
+pub fn peel(uv: &[[f64; 2]], mut kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
     // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
     let unit = unit_square(uv);
     loop {
@@ -321,7 +395,7 @@ mod tests {
     fn local_spacing_is_the_median_edge_at_each_vertex() {
         let p = terrain(12, 9, 1.0, |x, y| 0.3 * x * x - y);
         let d = delaunay(&planar(&p)).unwrap();
-        let local = local_spacing(&p, &d.triangles);
+        let local = local_spacing(&p, &d.triangles, |_| true);
         // Brute force: every distinct edge at v, sorted, the upper middle one.
         for (v, &got) in local.iter().enumerate() {
             let mut at: Vec<f64> = Vec::new();

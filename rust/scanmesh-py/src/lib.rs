@@ -671,16 +671,18 @@ fn scan_segments<'py>(
 /// Strips between consecutive scan lines as one mesh over `points` (N, 3), with planar
 /// positions `uv` (N, 2) and a line id per point. `weight` = (length, area, angle,
 /// dihedral) coefficients; `method` "shortest-path" (with `solver` "banded", "dp" or
-/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`). `context`:
-/// these points are some consecutive lines of a larger scan, to be solved as that scan
-/// solves them (`scanmesh_core::ScanContext`: (lo, hi) its 3-D bounding box, its largest
-/// |planar coordinate|, its median planar step, whether the first line with two points
-/// runs against the scan). Returns (faces (M, 3) int64 counter-clockwise in the plane,
-/// unused (K,) int64, duplicates (D, 2) int64, number of strips, total path cost, planar
-/// error message or None, twice the planar signed area before the faces were turned
-/// counter-clockwise).
+/// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`); lines cut and
+/// triangles dropped at depth jumps of `jump_factor` (inf: none). `context`: these points
+/// are some consecutive lines of a larger scan, to be solved as that scan solves them
+/// (`scanmesh_core::ScanContext`: (lo, hi) its 3-D bounding box, its largest |planar
+/// coordinate|, its median planar step, whether the first line with two points runs
+/// against the scan). Returns (faces (M, 3) int64 counter-clockwise in the plane, unused
+/// (K,) int64, duplicates (D, 2) int64, number of strips, total path cost, planar error
+/// message or None, triangles dropped at depth jumps, triangles dropped to make the mesh
+/// planar-valid, trimmed (T,) int64: the unused points that lost every triangle to those
+/// drops, twice the planar signed area before the faces were turned counter-clockwise).
 #[pyfunction]
-#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true, context=None))]
+#[pyo3(signature = (points, uv, line_ids, weight, method, alpha, solver, band, gap_factor, check=true, jump_factor=f64::INFINITY, context=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn strip_mesh<'py>(
     py: Python<'py>,
@@ -694,6 +696,7 @@ fn strip_mesh<'py>(
     band: usize,
     gap_factor: f64,
     check: bool,
+    jump_factor: f64,
     context: Option<([f64; 3], [f64; 3], f64, f64, bool)>,
 ) -> PyResult<(
     Ints2<'py>,
@@ -702,9 +705,12 @@ fn strip_mesh<'py>(
     usize,
     f64,
     Option<String>,
+    usize,
+    usize,
+    Ints1<'py>,
     f64,
 )> {
-    let params = strip_params(weight, method, alpha, solver, band, check)?;
+    let params = strip_params(weight, method, alpha, solver, band, check, jump_factor)?;
     let context = context.map(|(lo, hi, largest, median_step, first_turned)| ScanContext {
         bounds: [DVec3::from_array(lo), DVec3::from_array(hi)],
         largest_planar: largest,
@@ -721,6 +727,7 @@ fn strip_mesh<'py>(
         context.as_ref(),
     )?;
     let error = mesh.planar_error.map(|e| e.to_string());
+    let trimmed = Array1::from_iter(mesh.trimmed.iter().map(|&k| i64::from(k))).into_pyarray(py);
     Ok((
         faces,
         unused,
@@ -728,6 +735,9 @@ fn strip_mesh<'py>(
         mesh.n_strips,
         mesh.cost,
         error,
+        mesh.dropped_jumps,
+        mesh.dropped_overlaps,
+        trimmed,
         mesh.signed_area,
     ))
 }
@@ -740,6 +750,7 @@ fn strip_params(
     solver: &str,
     band: usize,
     check: bool,
+    jump_factor: f64,
 ) -> PyResult<StripParams> {
     let solver = match solver {
         "banded" => Solver::Banded(band),
@@ -770,6 +781,7 @@ fn strip_params(
         },
         method,
         check,
+        jump_factor,
     })
 }
 
