@@ -61,9 +61,12 @@ def main() -> None:
     ap.add_argument("--sweeps", type=int, default=100)
     ap.add_argument("--memory", default="4GB", help="memory limit per worker")
     ap.add_argument("--compare", action="store_true", help="also run one process")
+    ap.add_argument("--tile-points", type=int, default=_tiles.TILE_POINTS,
+                    help="points per tile the grid aims at")
     args = ap.parse_args()
     from distributed import Client, LocalCluster
 
+    _tiles.TILE_POINTS = args.tile_points  # read by the driver, on this process
     parts_count = args.parts or max(2, args.points // 1_000_000)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()

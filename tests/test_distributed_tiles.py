@@ -206,9 +206,9 @@ def test_anneal_quality_within_5_percent(client, small_tiles, tmp_path):
     points = ridge_scan()
     ids = np.repeat(np.arange(60, dtype=np.int64), 240)
     parts = write_parts(points, ids, 3, tmp_path)
-    blocks, faces, _ = run(client, parts, "anneal", {"sweeps": 200})
+    blocks, faces, _ = run(client, parts, "anneal", {"sweeps": 100})
     assert len(blocks) >= 2
-    one = scanmesh.reconstruct(points, "anneal", plane="z", seed=0, sweeps=200)
+    one = scanmesh.reconstruct(points, "anneal", plane="z", seed=0, sweeps=100)
     base = scanmesh.delaunay(points, plane="z")
     tac, tac_one = scanmesh.quality(points, faces).tac_1, one.quality.tac_1
     assert tac_one < 0.85 * scanmesh.quality(points, base.faces).tac_1, "annealing must matter"
@@ -227,3 +227,40 @@ def test_bad_options_are_refused(client, tmp_path):
         )
     with pytest.raises(scanmesh.errors.ParameterError, match="shortest-path"):
         _tiles.tile_blocks(client, parts, "shortest-path", {}, plane="z", progress=False)
+
+
+@pytest.mark.parametrize("values", ["ties", "distinct"])
+def test_median_search_is_exact(client, monkeypatch, values):
+    """The distributed median of the tiles' nearest-neighbour distances is the value the
+    core's median_spacing picks (index n // 2 of the sorted values), ties included (an
+    exact grid has one distance almost everywhere)."""
+    monkeypatch.setattr(_tiles, "MEDIAN_SAMPLE", 16)  # several rounds on small inputs
+    rng = np.random.default_rng(5)
+    arrays = [
+        np.sort(rng.integers(0, 7, n) * 0.125 if values == "ties" else rng.random(n))
+        for n in (900, 0, 2500, 37)
+    ]
+    empty = dict(index=None, points=None, uv=None, lines=None, own=None, faces=None)
+    tiles = [client.scatter(_tiles.Tile(tile=i, nearest=a, **empty)) for i, a in enumerate(arrays)]
+    total = sum(len(a) for a in arrays)
+    expected = np.sort(np.concatenate(arrays))[total // 2]
+    assert _tiles._median_nearest(client, tiles, total) == expected
+
+
+def test_exact_grid_gives_one_valid_mesh(client, monkeypatch, tmp_path):
+    """On an exact grid every cell's four corners are cocircular: any diagonal is Delaunay.
+    Each such tie is decided by the one tile holding the common circumcentre, so the union
+    is still one valid mesh with the one-process area and face count."""
+    monkeypatch.setattr(_tiles, "TILE_POINTS", 3_000)
+    x, y = np.meshgrid(0.25 * np.arange(120), 0.5 * np.arange(100))
+    points = np.column_stack([x.ravel(), y.ravel(), np.sin(x.ravel() / 3)])
+    ids = np.repeat(np.arange(100, dtype=np.int64), 120)
+    parts = write_parts(points, ids, 3, tmp_path)
+    blocks, faces, sums = run(client, parts, "delaunay", {})
+    assert len(blocks) >= 4
+    one = scanmesh.delaunay(points, plane="z")
+    _core.validate(one.scan.uv, faces)
+    assert len(faces) == len(one.faces) == sums["faces"]
+    assert planar_area(one.scan.uv, faces) == pytest.approx(
+        planar_area(one.scan.uv, one.faces), rel=1e-12
+    )

@@ -82,6 +82,9 @@ BAND_EDGES: float = 4.0
 #: first pass's cell borders.
 SEAM_EDGES: float = 3.0
 
+#: Values per tile and round of the exact median search.
+MEDIAN_SAMPLE: int = 1024
+
 #: Methods run in tiles.
 METHODS = ("delaunay", "lop", "anneal")
 
@@ -318,16 +321,20 @@ def _triangulate(tile: int, grid: Grid, extent: float, *bins: Bins) -> Tile:
     return t
 
 
-def _count_below(t: Tile, values: np.ndarray) -> np.ndarray:
-    return np.searchsorted(t.nearest, values, side="right")
+def _count(t: Tile, values: np.ndarray, side: str) -> np.ndarray:
+    """How many of the tile's distances are <= (side "right") or < ("left") each value."""
+    return np.searchsorted(t.nearest, values, side=side)
 
 
-def _values_between(t: Tile, lo: float, hi: float, most: int) -> np.ndarray:
-    a, b = np.searchsorted(t.nearest, [lo, hi], side="right")
+def _values_inside(t: Tile, lo: float, hi: float, most: int) -> tuple[np.ndarray, int]:
+    """The tile's distances in the open interval (lo, hi), at most ``most`` of them evenly
+    by rank (the smallest always), and how many there are."""
+    a = np.searchsorted(t.nearest, lo, side="right")
+    b = np.searchsorted(t.nearest, hi, side="left")
     inside = t.nearest[a:b]
     if len(inside) <= most:
-        return inside
-    return inside[np.linspace(0, len(inside) - 1, most).astype(np.int64)]
+        return inside, len(inside)
+    return inside[np.linspace(0, len(inside) - 1, most).astype(np.int64)], len(inside)
 
 
 def circumcentres(
@@ -648,34 +655,34 @@ def _resolve_plane(plane: PlaneSpec, sample: np.ndarray) -> tuple[str | None, np
 
 def _median_nearest(client: Any, tiles: list[Any], total: int) -> float:
     """The exact upper median (index total // 2 of the sorted values) of the tiles'
-    nearest-neighbour distances, by rounds of counts: the client holds at most a few
-    thousand values per tile at a time."""
+    nearest-neighbour distances, by rounds of counts: the client holds at most
+    ``MEDIAN_SAMPLE`` values per tile at a time. Each round samples the values in an open
+    interval known to hold the median and narrows it to two neighbouring samples, or finds
+    the median among the samples' ties. O(rounds x tiles) round trips, a few in practice."""
     k = total // 2
     lo, hi = -math.inf, math.inf
+
+    def counts(values: np.ndarray, side: str) -> np.ndarray:
+        return sum(
+            client.gather([client.submit(_count, t, values, side, pure=False) for t in tiles])
+        )
+
     while True:
-        samples = client.gather(
-            [client.submit(_values_between, t, lo, hi, 1024, pure=False) for t in tiles]
+        found = client.gather(
+            [client.submit(_values_inside, t, lo, hi, MEDIAN_SAMPLE, pure=False) for t in tiles]
         )
-        candidates = np.unique(np.concatenate(samples))
-        below_lo = (
-            sum(
-                client.gather(
-                    [client.submit(_count_below, t, np.array([lo]), pure=False) for t in tiles]
-                )
-            )[0]
-            if math.isfinite(lo)
-            else 0
-        )
-        counts = sum(
-            client.gather([client.submit(_count_below, t, candidates, pure=False) for t in tiles])
-        )
-        if sum(len(s) for s in samples) == (counts[-1] - below_lo if len(counts) else 0):
-            # every value in (lo, hi] was returned: pick the k-th directly
-            return float(candidates[np.searchsorted(counts, k + 1)])
-        j = int(np.searchsorted(counts, k + 1))  # first candidate with rank > k
-        new_hi = float(candidates[j]) if j < len(candidates) else hi
-        new_lo = float(candidates[j - 1]) if j > 0 else lo
-        lo, hi = new_lo, new_hi
+        below = int(counts(np.array([lo]), "right")[0]) if math.isfinite(lo) else 0
+        if all(len(values) == n for values, n in found):
+            merged = np.sort(np.concatenate([values for values, _ in found]))
+            return float(merged[k - below])
+        candidates = np.unique(np.concatenate([values for values, _ in found]))
+        at_most, under = counts(candidates, "right"), counts(candidates, "left")
+        hit = (under <= k) & (k < at_most)
+        if hit.any():
+            return float(candidates[np.argmax(hit)])
+        j = int(np.searchsorted(at_most, k, side="right"))  # first with more than k at most
+        lo = float(candidates[j - 1]) if j > 0 else lo
+        hi = float(candidates[j]) if j < len(candidates) else hi
 
 
 def tile_blocks(
