@@ -300,7 +300,8 @@ fn degenerate_boundary_triangles<'a>(
     })
 }
 
-/// Triangles of the smaller fans at every pinched vertex. O(m).
+/// Triangles of the smaller fans at every pinched vertex; of equal fans, the one with the
+/// smallest triangle (corner indices sorted, compared lexicographically) stays. O(m).
 fn pinched_fans_to_drop(mesh: &HalfEdgeMesh) -> Vec<u32> {
     let mut boundary_out: Vec<Vec<u32>> = vec![Vec::new(); mesh.n_vertices()];
     for h in 0..mesh.n_half_edges() as u32 {
@@ -323,7 +324,15 @@ fn pinched_fans_to_drop(mesh: &HalfEdgeMesh) -> Vec<u32> {
                 tris
             })
             .collect();
-        fans.sort_by_key(|f| (std::cmp::Reverse(f.len()), f.iter().min().copied()));
+        // Ties go to the fan holding the smallest triangle by sorted corner indices, not by
+        // triangle position: a piece of the scan with its points in the same order (a tile
+        // of scanmesh.distributed) then resolves the pinch as the whole scan does.
+        let key = |t: u32| {
+            let mut c = mesh.triangle(t as usize);
+            c.sort_unstable();
+            c
+        };
+        fans.sort_by_key(|f| (std::cmp::Reverse(f.len()), f.iter().map(|&t| key(t)).min()));
         drop.extend(fans.into_iter().skip(1).flatten());
     }
     drop.sort_unstable();
@@ -528,6 +537,12 @@ mod tests {
         let tris = vec![[0, 1, 2], [0, 2, 3], [2, 4, 5], [2, 5, 6]];
         let kept = trim_long_edges(&uv, &tris, f64::INFINITY, None).unwrap();
         assert_eq!(kept.len(), 2);
+        // Equal fans: the one holding the smallest sorted corner triple stays, whatever
+        // the order of the triangles (a tile lists them in its own order).
+        assert_eq!(kept, vec![[0, 1, 2], [0, 2, 3]]);
+        let reordered = vec![[2, 5, 6], [2, 4, 5], [0, 2, 3], [0, 1, 2]];
+        let kept = trim_long_edges(&uv, &reordered, f64::INFINITY, None).unwrap();
+        assert_eq!(kept, vec![[0, 2, 3], [0, 1, 2]]);
         HalfEdgeMesh::from_triangles(uv.len(), &kept)
             .unwrap()
             .validate(&uv)
