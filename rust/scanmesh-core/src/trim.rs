@@ -1,11 +1,12 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
-use crate::delaunay::{unit_square, NONE};
+use crate::delaunay::{unit_square, Delaunay, NONE};
 use crate::geometry::{planar_distance, Normalizer};
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::Result;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Default `max_edge` as a multiple of the median nearest-neighbour spacing. Five spacings
 /// keep scans whose lines are up to about 4.5 times farther apart than their points, and
@@ -34,25 +35,24 @@ pub struct DepthJumps<'a> {
 }
 
 /// Local 3-D spacing of each vertex: the (lower) median 3-D length of the distinct edges of
-/// `triangles` at it, in the units of `points`; `∞` for vertices of no triangle.
+/// `triangles` at it, in the units of `points`; `∞` for vertices of no triangle. `twins` are
+/// the triangles' half-edge twins ([`Delaunay::twins`]), so each edge is met once, unsorted.
 ///
 /// The median adapts to the scan: on lines 4 times farther apart than their points it is
 /// about the line distance, on a steep slope the length down the slope, while a vertex on
 /// the rim of a wall or a bore has most of its edges on its own side and keeps a short
-/// one. O(m log m).
-pub fn local_spacing(points: &[DVec3], triangles: &[[u32; 3]]) -> Vec<f64> {
-    let mut edges: Vec<(u32, u32)> = triangles
-        .iter()
-        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
-        .collect();
-    edges.sort_unstable();
-    edges.dedup();
+/// one. O(m) (medians by selection; the per-vertex part on the rayon pool).
+pub fn local_spacing(points: &[DVec3], triangles: &[[u32; 3]], twins: &[u32]) -> Vec<f64> {
+    let corner = |h: usize| triangles[h / 3][h % 3];
+    let edge = |h: usize| (corner(h), corner(3 * (h / 3) + (h + 1) % 3));
+    let once = |h: usize| twins[h] == NONE || (h as u32) < twins[h];
     // Lengths on points in the unit box: no overflow at 1e300 or underflow at 1e-300.
     let norm = Normalizer::fit(points);
     let length =
         |a: u32, b: u32| (norm.apply(points[a as usize]) - norm.apply(points[b as usize])).length();
     let mut start = vec![0usize; points.len() + 1];
-    for &(a, b) in &edges {
+    for h in (0..twins.len()).filter(|&h| once(h)) {
+        let (a, b) = edge(h);
         start[a as usize + 1] += 1;
         start[b as usize + 1] += 1;
     }
@@ -61,28 +61,40 @@ pub fn local_spacing(points: &[DVec3], triangles: &[[u32; 3]]) -> Vec<f64> {
     }
     let mut fill = start.clone();
     let mut lengths = vec![0.0; start[points.len()]];
-    for &(a, b) in &edges {
+    for h in (0..twins.len()).filter(|&h| once(h)) {
+        let (a, b) = edge(h);
         let d = length(a, b);
         for v in [a, b] {
             lengths[fill[v as usize]] = d;
             fill[v as usize] += 1;
         }
     }
+    drop(fill);
     let scale = if norm.half_extent > 0.0 {
         norm.half_extent
     } else {
         1.0
     };
-    (0..points.len())
-        .map(|v| {
-            let own = &mut lengths[start[v]..start[v + 1]];
-            if own.is_empty() {
-                return f64::INFINITY;
+    let mut spacing = vec![f64::INFINITY; points.len()];
+    // Each vertex's lengths are its own slice: split them off in vertex order, in parallel.
+    let mut slices = Vec::with_capacity(points.len());
+    let mut rest = lengths.as_mut_slice();
+    for v in 0..points.len() {
+        let (own, tail) = rest.split_at_mut(start[v + 1] - start[v]);
+        slices.push(own);
+        rest = tail;
+    }
+    spacing
+        .par_iter_mut()
+        .zip(slices.into_par_iter())
+        .with_min_len(4096)
+        .for_each(|(out, own)| {
+            if !own.is_empty() {
+                let mid = own.len() / 2;
+                *out = *own.select_nth_unstable_by(mid, f64::total_cmp).1 * scale;
             }
-            let mid = own.len() / 2;
-            *own.select_nth_unstable_by(mid, f64::total_cmp).1 * scale
-        })
-        .collect()
+        });
+    spacing
 }
 
 /// Distances below this fraction of the planar extent are not spacings but near-duplicates
@@ -141,13 +153,99 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a vertex where two fans touch only at a point; there the triangles of all
 /// fans but the largest are dropped (repeatedly, as a drop can pinch a neighbour), so the
 /// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` and no `jumps` keep everything but
-/// the slivers. Input triangles must form a valid planar triangulation. O(m log m).
+/// the slivers. Input triangles must form a valid planar triangulation. O(m) after
+/// building their half-edge twins; see [`trim_delaunay`] for a triangulation that has them.
 pub fn trim_long_edges(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     max_edge: f64,
     jumps: Option<DepthJumps>,
 ) -> Result<Vec<[u32; 3]>> {
+    let mesh = HalfEdgeMesh::from_triangles(uv.len(), triangles)?;
+    let twins: Vec<u32> = (0..mesh.n_half_edges() as u32)
+        .map(|h| mesh.twin(h))
+        .collect();
+    drop(mesh);
+    Ok(trim(uv, triangles, &twins, max_edge, jumps))
+}
+
+/// [`trim_long_edges`] on a Delaunay triangulation of `uv`, whose twins it already has: one
+/// pass over its triangles, no half-edge mesh built. O(m).
+pub fn trim_delaunay(
+    uv: &[[f64; 2]],
+    d: &Delaunay,
+    max_edge: f64,
+    jumps: Option<DepthJumps>,
+) -> Vec<[u32; 3]> {
+    trim(uv, &d.triangles, &d.twins, max_edge, jumps)
+}
+
+/// A Delaunay triangulation trimmed in one call ([`delaunay_trimmed`]).
+#[derive(Debug, Clone)]
+pub struct Trimmed {
+    /// The kept counter-clockwise triangles, in input indices.
+    pub triangles: Vec<[u32; 3]>,
+    /// As [`Delaunay::duplicate_of`].
+    pub duplicate_of: Vec<u32>,
+    /// Points (ascending) that were a vertex of the triangulation and of no kept triangle.
+    pub trimmed: Vec<u32>,
+    /// The planar trimming length used (input units).
+    pub max_edge: f64,
+    /// Seconds spent triangulating and trimming.
+    pub seconds: [f64; 2],
+}
+
+/// [`delaunay`](crate::delaunay) of `uv` then [`trim_delaunay`]: at `max_edge`, or for None
+/// [`DEFAULT_MAX_EDGE_FACTOR`] × [`median_spacing`]; when that length is finite, depth jumps
+/// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
+/// serve the trimming and no face array crosses to the caller in between. O(n log n).
+pub fn delaunay_trimmed(
+    uv: &[[f64; 2]],
+    points: &[DVec3],
+    max_edge: Option<f64>,
+    jump_factor: f64,
+) -> Result<Trimmed> {
+    let clock = std::time::Instant::now();
+    let d = crate::delaunay::delaunay(uv)?;
+    let triangulated = clock.elapsed().as_secs_f64();
+    let limit =
+        max_edge.unwrap_or_else(|| DEFAULT_MAX_EDGE_FACTOR * median_spacing(uv, &d.triangles));
+    let jumps = limit.is_finite().then_some(DepthJumps {
+        points,
+        factor: jump_factor,
+    });
+    let triangles = trim_delaunay(uv, &d, limit, jumps);
+    let mut vertex = vec![false; uv.len()];
+    d.triangles
+        .as_flattened()
+        .iter()
+        .for_each(|&v| vertex[v as usize] = true);
+    triangles
+        .as_flattened()
+        .iter()
+        .for_each(|&v| vertex[v as usize] = false);
+    let trimmed = (0..uv.len() as u32)
+        .filter(|&v| vertex[v as usize])
+        .collect();
+    Ok(Trimmed {
+        triangles,
+        duplicate_of: d.duplicate_of,
+        trimmed,
+        max_edge: limit,
+        seconds: [triangulated, clock.elapsed().as_secs_f64() - triangulated],
+    })
+}
+
+/// The rules of [`trim_long_edges`] as keep flags over `triangles` (with their `twins`):
+/// the length and jump tests in parallel, then the boundary rounds (slivers, pinches) on
+/// the flags, each round a scan of the boundary of what is kept. O(m) per round.
+fn trim(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    twins: &[u32],
+    max_edge: f64,
+    jumps: Option<DepthJumps>,
+) -> Vec<[u32; 3]> {
     let longest = |t: &[u32; 3]| {
         (0..3)
             .map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]))
@@ -157,7 +255,7 @@ pub fn trim_long_edges(
     let jump = jumps.filter(|j| j.factor.is_finite()).map(|j| {
         let norm = Normalizer::fit(j.points);
         let unit = norm.apply_all(j.points);
-        let local = local_spacing(&unit, triangles);
+        let local = local_spacing(&unit, triangles, twins);
         let to_unit = if norm.half_extent > 0.0 {
             1.0 / norm.half_extent
         } else {
@@ -187,74 +285,114 @@ pub fn trim_long_edges(
             steep && longest3 > factor * nearest
         })
     };
-    let mut kept: Vec<[u32; 3]> = triangles
-        .iter()
-        .copied()
-        .filter(|t| longest(t) <= max_edge && !bridges_a_jump(t))
+    let mut keep: Vec<bool> = triangles
+        .par_iter()
+        .with_min_len(4096)
+        .map(|t| longest(t) <= max_edge && !bridges_a_jump(t))
         .collect();
+    drop(jump);
     // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
     let unit = unit_square(uv);
     loop {
-        let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept)?;
-        let mut drop = pinched_fans_to_drop(&mesh);
-        drop.extend(degenerate_boundary_triangles(&mesh, &unit));
-        if drop.is_empty() {
-            return Ok(kept);
+        let kept = Kept {
+            triangles,
+            twins,
+            keep: &keep,
+        };
+        let mut dropped = kept.pinched_fans_to_drop(uv.len());
+        dropped.extend(kept.degenerate_boundary_triangles(&unit));
+        if dropped.is_empty() {
+            break;
         }
-        let mut keep_flag = vec![true; kept.len()];
-        for t in drop {
-            keep_flag[t as usize] = false;
-        }
-        kept = kept
-            .into_iter()
-            .zip(keep_flag)
-            .filter(|(_, k)| *k)
-            .map(|(t, _)| t)
-            .collect();
-    }
-}
-
-/// Boundary triangles (an edge without twin) that are numerically collinear. O(m).
-fn degenerate_boundary_triangles<'a>(
-    mesh: &'a HalfEdgeMesh,
-    uv: &'a [[f64; 2]],
-) -> impl Iterator<Item = u32> + 'a {
-    (0..mesh.n_triangles() as u32).filter(move |&t| {
-        let on_boundary = (3 * t..3 * t + 3).any(|h| mesh.twin(h) == NONE);
-        let [a, b, c] = mesh.triangle(t as usize).map(|v| uv[v as usize]);
-        on_boundary && !well_formed(a, b, c)
-    })
-}
-
-/// Triangles of the smaller fans at every pinched vertex. O(m).
-fn pinched_fans_to_drop(mesh: &HalfEdgeMesh) -> Vec<u32> {
-    let mut boundary_out: Vec<Vec<u32>> = vec![Vec::new(); mesh.n_vertices()];
-    for h in 0..mesh.n_half_edges() as u32 {
-        if mesh.twin(h) == NONE {
-            boundary_out[mesh.start(h) as usize].push(h);
+        for t in dropped {
+            keep[t as usize] = false;
         }
     }
-    let mut drop = Vec::new();
-    for starts in boundary_out.iter().filter(|s| s.len() > 1) {
-        // Each boundary half-edge leaving the vertex begins one fan; walk it counter-clockwise.
-        let mut fans: Vec<Vec<u32>> = starts
-            .iter()
-            .map(|&first| {
-                let mut tris = vec![first / 3];
-                let mut h = first;
-                while mesh.twin(prev(h)) != NONE {
-                    h = mesh.twin(prev(h));
-                    tris.push(h / 3);
+    triangles
+        .iter()
+        .zip(&keep)
+        .filter(|(_, &k)| k)
+        .map(|(t, _)| *t)
+        .collect()
+}
+
+/// The triangles still kept during trimming, seen as a mesh: a half-edge's twin counts only
+/// when its triangle is kept.
+struct Kept<'a> {
+    triangles: &'a [[u32; 3]],
+    twins: &'a [u32],
+    keep: &'a [bool],
+}
+
+impl Kept<'_> {
+    fn twin(&self, h: u32) -> u32 {
+        let g = self.twins[h as usize];
+        if g != NONE && self.keep[(g / 3) as usize] {
+            g
+        } else {
+            NONE
+        }
+    }
+
+    fn start(&self, h: u32) -> u32 {
+        self.triangles[(h / 3) as usize][(h % 3) as usize]
+    }
+
+    /// Kept boundary triangles (an edge without kept twin) that are numerically collinear.
+    /// O(m), on the rayon pool.
+    fn degenerate_boundary_triangles(&self, uv: &[[f64; 2]]) -> Vec<u32> {
+        (0..self.triangles.len() as u32)
+            .into_par_iter()
+            .with_min_len(4096)
+            .filter(|&t| {
+                self.keep[t as usize] && (3 * t..3 * t + 3).any(|h| self.twin(h) == NONE) && {
+                    let [a, b, c] = self.triangles[t as usize].map(|v| uv[v as usize]);
+                    !well_formed(a, b, c)
                 }
-                tris
             })
-            .collect();
-        fans.sort_by_key(|f| (std::cmp::Reverse(f.len()), f.iter().min().copied()));
-        drop.extend(fans.into_iter().skip(1).flatten());
+            .collect()
     }
-    drop.sort_unstable();
-    drop.dedup();
-    drop
+
+    /// Triangles of the smaller fans at every pinched vertex (more than one boundary
+    /// half-edge leaves it). O(m).
+    fn pinched_fans_to_drop(&self, n_vertices: usize) -> Vec<u32> {
+        let boundary: Vec<u32> = (0..self.twins.len() as u32)
+            .filter(|&h| self.keep[(h / 3) as usize] && self.twin(h) == NONE)
+            .collect();
+        let mut leaving = vec![0u8; n_vertices];
+        for &h in &boundary {
+            let c = &mut leaving[self.start(h) as usize];
+            *c = c.saturating_add(1);
+        }
+        let mut pinched: Vec<(u32, u32)> = boundary
+            .into_iter()
+            .map(|h| (self.start(h), h))
+            .filter(|&(v, _)| leaving[v as usize] > 1)
+            .collect();
+        pinched.sort_unstable();
+        let mut drop = Vec::new();
+        for starts in pinched.chunk_by(|a, b| a.0 == b.0) {
+            // Each boundary half-edge leaving the vertex begins one fan; walk it
+            // counter-clockwise.
+            let mut fans: Vec<Vec<u32>> = starts
+                .iter()
+                .map(|&(_, first)| {
+                    let mut tris = vec![first / 3];
+                    let mut h = first;
+                    while self.twin(prev(h)) != NONE {
+                        h = self.twin(prev(h));
+                        tris.push(h / 3);
+                    }
+                    tris
+                })
+                .collect();
+            fans.sort_by_key(|f| (std::cmp::Reverse(f.len()), f.iter().min().copied()));
+            drop.extend(fans.into_iter().skip(1).flatten());
+        }
+        drop.sort_unstable();
+        drop.dedup();
+        drop
+    }
 }
 
 #[cfg(test)]
@@ -321,7 +459,7 @@ mod tests {
     fn local_spacing_is_the_median_edge_at_each_vertex() {
         let p = terrain(12, 9, 1.0, |x, y| 0.3 * x * x - y);
         let d = delaunay(&planar(&p)).unwrap();
-        let local = local_spacing(&p, &d.triangles);
+        let local = local_spacing(&p, &d.triangles, &d.twins);
         // Brute force: every distinct edge at v, sorted, the upper middle one.
         for (v, &got) in local.iter().enumerate() {
             let mut at: Vec<f64> = Vec::new();
@@ -405,6 +543,34 @@ mod tests {
             let got = trim_long_edges(&uv_s, &d.triangles, 5.0 * s, Some(jumps)).unwrap();
             assert_eq!(got.len(), trim(&high).1.len(), "scale {s}");
         }
+    }
+
+    #[test]
+    fn one_call_trims_as_the_two_steps_do() {
+        let mut p = terrain(30, 25, 1.5, |x, _| if x < 14.5 { 0.0 } else { 12.0 });
+        // A bore: drop the points of a disc so long edges span it.
+        p.retain(|q| (q.x - 8.0).powi(2) + (q.y - 18.0).powi(2) > 9.0);
+        let uv = planar(&p);
+        let d = delaunay(&uv).unwrap();
+        let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
+        let jumps = DepthJumps {
+            points: &p,
+            factor: DEFAULT_JUMP_FACTOR,
+        };
+        let two_steps = trim_long_edges(&uv, &d.triangles, limit, Some(jumps)).unwrap();
+        let one = delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR).unwrap();
+        assert_eq!(one.max_edge, limit);
+        assert_eq!(one.triangles, two_steps);
+        assert!(one.triangles.len() < d.triangles.len());
+        // trimmed: exactly the vertices of the triangulation that no kept face uses.
+        let in_faces = |t: &[[u32; 3]], v: u32| t.iter().flatten().any(|&w| w == v);
+        let lost: Vec<u32> = (0..uv.len() as u32)
+            .filter(|&v| in_faces(&d.triangles, v) && !in_faces(&one.triangles, v))
+            .collect();
+        assert_eq!(one.trimmed, lost);
+        // max_edge = inf turns the depth jumps off too.
+        let all = delaunay_trimmed(&uv, &p, Some(f64::INFINITY), DEFAULT_JUMP_FACTOR).unwrap();
+        assert_eq!(all.triangles.len(), d.triangles.len());
     }
 
     #[test]
