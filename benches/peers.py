@@ -16,7 +16,9 @@ faces, array conversions included; its peak resident size is the child's ``ru_ma
 peer) and the library's own import. Runs are
 interleaved (peer 1, 2, ..., then again) and each peer's time is the median of ``--repeat``
 runs; peers listed in ``--once-above`` sizes run once there (slow ones at 10M). Times are
-ratios to scanmesh's Delaunay (with trimming) of the same size in the same run.
+ratios to scanmesh's Delaunay (with trimming) of the same size in the same run; each run
+also reports its CPU seconds (user + system over all threads), the measure that survives a
+loaded machine.
 
 Peers:
 
@@ -38,6 +40,7 @@ import argparse
 import json
 import os
 import platform
+import resource
 import statistics
 import subprocess
 import sys
@@ -161,10 +164,16 @@ def child(peer: str, n: int) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         run(*synthetic_scan(3000, seed=1))  # warm-up: lazy imports are not timed
-        t = time.perf_counter()
+        cpu, t = cpu_seconds(), time.perf_counter()
         faces = run(points, ids)
-        seconds = time.perf_counter() - t
-    print(json.dumps({"seconds": seconds, "faces": faces}))
+        seconds, cpu = time.perf_counter() - t, cpu_seconds() - cpu
+    print(json.dumps({"seconds": seconds, "cpu": cpu, "faces": faces}))
+
+
+def cpu_seconds() -> float:
+    """User + system CPU time of this process so far (all threads)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def spawn(peer: str, n: int) -> dict:
@@ -240,9 +249,10 @@ def markdown(results: dict, peers: list[str], args: argparse.Namespace, loads: l
                 memory.append("–")
                 continue
             s, b = statistics.median(r["seconds"] for r in runs), statistics.median(base)
-            once = " (1 run)" if len(runs) == 1 and args.repeat > 1 else ""
+            cpu = statistics.median(r["cpu"] for r in runs)
+            once = ", 1 run" if len(runs) == 1 and args.repeat > 1 else ""
             ratio = "1" if peer == BASE else f"{s / b:.2f}"
-            cells.append(f"{ratio} ({s:.2f} s{once})")
+            cells.append(f"{ratio} ({s:.2f} s; CPU {cpu:.2f} s{once})")
             memory.append(f"{max(r['rss_mb'] for r in runs):,.0f}")
         rows.append(f"| {peer} | " + " | ".join(cells) + " | " + " / ".join(memory) + " |")
     faces = {
@@ -259,7 +269,9 @@ def markdown(results: dict, peers: list[str], args: argparse.Namespace, loads: l
         f" {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.",
         "",
         "Time: median of the runs, as a ratio to scanmesh's Delaunay (with trimming) of the"
-        " same size and run, seconds in brackets. Peak memory: the largest child ru_maxrss"
+        " same size and run; in brackets the median wall seconds and the median CPU seconds"
+        " of the process during the call (user + system, all threads: on a loaded machine"
+        " the fairer measure of work). Peak memory: the largest child ru_maxrss"
         " (interpreter, numpy and the loaded points included).",
         "",
         *rows,
