@@ -12,6 +12,7 @@ from scipy.spatial import Delaunay as ScipyDelaunay
 import scanmesh
 from conftest import bumpy_patch
 from scanmesh import _core
+from scanmesh.delaunay import JUMP_FACTOR, MAX_EDGE_FACTOR
 
 
 def canonical(faces: np.ndarray) -> np.ndarray:
@@ -24,6 +25,28 @@ def test_matches_scipy_on_the_convex_hull():
     ours = scanmesh.delaunay(pts, plane="z", max_edge=math.inf)
     theirs = ScipyDelaunay(pts[:, :2])
     assert np.array_equal(canonical(ours.faces), canonical(theirs.simplices))
+
+
+def test_scan_ordered_lines_match_scipy_and_trim_as_two_calls():
+    # Points as a scanner delivers them, line by line, jittered: the native sweep's path.
+    rng = np.random.default_rng(5)
+    lines, per = 40, 120
+    x = np.tile(np.arange(per, dtype=float), lines) + rng.uniform(-0.05, 0.05, lines * per)
+    y = np.repeat(np.arange(lines) * 2.5, per) + rng.uniform(-0.1, 0.1, lines * per)
+    z = np.sin(x / 9) * 4 + np.where(x > 60, 6.0, 0.0)  # a wall: depth-jump trimming
+    pts = np.column_stack([x, y, z])
+    hull = scanmesh.delaunay(pts, plane="z", max_edge=math.inf)
+    assert np.array_equal(canonical(hull.faces), canonical(ScipyDelaunay(pts[:, :2]).simplices))
+    # The one native call trims as the separate triangulation and trimming calls do.
+    ours = scanmesh.delaunay(pts, plane="z")
+    faces, _ = _core.delaunay(pts[:, :2].copy())
+    limit = MAX_EDGE_FACTOR * _core.median_spacing(pts[:, :2].copy(), faces)
+    assert ours.options["max_edge"] == pytest.approx(limit, rel=1e-12)
+    two = _core.trim_long_edges(
+        pts[:, :2].copy(), faces, ours.options["max_edge"], pts, JUMP_FACTOR
+    )
+    assert np.array_equal(canonical(ours.faces), canonical(two))
+    assert len(ours.faces) < len(hull.faces)
 
 
 def test_faces_index_the_callers_points_in_order():
@@ -50,8 +73,9 @@ def test_no_single_flip_raises_the_smallest_planar_angle():
 def test_planar_lop_from_a_scrambled_state_returns_to_delaunay():
     pts = bumpy_patch(400, 4)
     d = scanmesh.delaunay(pts, plane="z", max_edge=math.inf)
-    scrambled = scanmesh.reconstruct(pts, "anneal", plane="z", max_edge=math.inf, sweeps=5,
-                                     polish=False, sliver_guard=False)
+    scrambled = scanmesh.reconstruct(
+        pts, "anneal", plane="z", max_edge=math.inf, sweeps=5, polish=False, sliver_guard=False
+    )
     assert not np.array_equal(canonical(scrambled.faces), canonical(d.faces))
     back = scanmesh.reconstruct(pts, "lop", plane="z", max_edge=math.inf, criterion="max-min")
     assert np.array_equal(canonical(back.faces), canonical(d.faces))
@@ -76,6 +100,7 @@ def test_trimming_opens_a_hole_and_inf_keeps_the_hull():
 
     def covered(s):
         tri = pts[s.faces][:, :, :2]
+
         def side(k):
             e, w = tri[:, (k + 1) % 3] - tri[:, k], centre - tri[:, k]
             return e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]
@@ -114,8 +139,12 @@ def test_surface_round_trips_through_trimesh(tmp_path):
 def test_any_dtype_and_layout_is_accepted():
     pts = bumpy_patch(150, 9)
     ref = canonical(scanmesh.delaunay(pts).faces)
-    variants = [pts.astype(np.float32).astype(np.float64), np.asfortranarray(pts),
-                np.repeat(pts, 2, axis=0)[::2], pts.tolist()]
+    variants = [
+        pts.astype(np.float32).astype(np.float64),
+        np.asfortranarray(pts),
+        np.repeat(pts, 2, axis=0)[::2],
+        pts.tolist(),
+    ]
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         for v in variants:

@@ -220,7 +220,7 @@ def test_method_flags_reach_the_method(scan_file, tmp_path, capsys):
 def test_compare_builds_one_scan_and_one_delaunay(scan_file, monkeypatch, capsys):
     from scanmesh import _core
 
-    calls = {"project": 0, "delaunay": 0}
+    calls = {"project": 0, "delaunay_trimmed": 0}
     for name in calls:
         real = getattr(_core, name)
 
@@ -233,7 +233,7 @@ def test_compare_builds_one_scan_and_one_delaunay(scan_file, monkeypatch, capsys
     args = ["compare", str(scan_file), "--plane", "z", "--sweeps", "3", "--holdout", "0"]
     code = main([*args, "--json", "-q"])
     assert code == 0, capsys.readouterr().err
-    assert calls == {"project": 1, "delaunay": 1}
+    assert calls == {"project": 1, "delaunay_trimmed": 1}
 
 
 def test_errors_are_scanmesh_errors_not_type_errors():

@@ -30,6 +30,7 @@ def spy(monkeypatch):
 
     wrap("delaunay", 0)
     wrap("trim_long_edges", 0)
+    wrap("delaunay_trimmed", 0)
     wrap("lop", 1)
     wrap("Annealer", 1)
     wrap("project", 0)
@@ -48,9 +49,9 @@ def test_flips_use_the_very_coordinates_delaunay_was_built_on(spy, method, plane
     scanmesh.reconstruct(pts, method, plane=plane, **options)
     assert len(spy["project"]) == 1, "the points are projected once per call"
     flips = spy["Annealer" if method == "anneal" else "lop"][0]
-    for stage in ("delaunay", "trim_long_edges"):
-        # the last call: for plane=None, plane_choice triangulates its candidates first
-        assert flips.tobytes() == spy[stage][-1].tobytes(), stage
+    # delaunay() triangulates and trims in one native call; for plane=None, plane_choice
+    # triangulates and trims its candidates first (the separate calls)
+    assert flips.tobytes() == spy["delaunay_trimmed"][-1].tobytes()
 
 
 def test_surface_frame_is_the_frame_of_the_coordinates():
@@ -71,7 +72,7 @@ def test_one_scan_serves_every_method_without_projecting_again(spy):
     base = scanmesh.reconstruct(scan, "delaunay")
     lop = scanmesh.reconstruct(scan, "lop", initial=base)
     annealed = scanmesh.reconstruct(scan, "anneal", initial=base, sweeps=5)
-    assert len(spy["project"]) == 1 and len(spy["delaunay"]) == 1
+    assert len(spy["project"]) == 1 and len(spy["delaunay_trimmed"]) == 1
     assert lop.scan is scan and annealed.scan is scan and base.scan is scan
     # the same faces as separate calls from the points
     again = scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=5)

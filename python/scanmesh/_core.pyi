@@ -20,6 +20,7 @@ __all__ = [
     "ANNEAL_DEFAULTS",
     "project",
     "delaunay",
+    "delaunay_trimmed",
     "median_spacing",
     "trim_long_edges",
     "validate",
@@ -57,6 +58,18 @@ def project(
 def delaunay(
     uv: npt.NDArray[np.float64],
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def delaunay_trimmed(
+    uv: npt.NDArray[np.float64],
+    points: npt.NDArray[np.float64],
+    max_edge: float | None = None,
+    jump_factor: float = ...,
+) -> tuple[
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    float,
+    tuple[float, float],
+]: ...
 def median_spacing(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> float: ...
 def trim_long_edges(
     uv: npt.NDArray[np.float64],

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-import time
 import warnings
 
 import numpy as np
@@ -73,8 +71,8 @@ def delaunay(
         slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
-        "delaunay" (points) and "trim" (faces), each one native call reported at its start
-        and its end (see :func:`scanmesh.reconstruct`).
+        "delaunay" (points) and "trim" (faces): one native call does both, reported at its
+        start and end as "delaunay", then "trim" as done (see :func:`scanmesh.reconstruct`).
 
     Returns
     -------
@@ -92,32 +90,24 @@ def delaunay(
     """
     scan = as_scan(points, plane=plane)
     if max_edge is not None:
-        MAX_EDGE_OPTION.check(max_edge)  # before the work, not after it
+        max_edge = MAX_EDGE_OPTION.check(max_edge)  # before the work, not after it
     pts, uv = scan.points, scan.uv
-    t1 = time.perf_counter()
-    with Stage(progress, "delaunay", len(pts), blocking=True):
-        faces, duplicate_of = interruptible(len(pts), _core.delaunay, uv)
-    t2 = time.perf_counter()
-    limit = resolve_max_edge(uv, faces, max_edge)
+    # One native call triangulates and trims, so the triangulation's half-edge twins serve
+    # the trimming and no face array crosses in between; "trim" is reported once it is done.
     # Trimmed at max_edge=inf too: trimming also peels the numerically collinear slivers
     # that close straight stretches of the hull.
-    untrimmed = faces
-    with Stage(progress, "trim", len(untrimmed), blocking=True):
-        jumps = JUMP_FACTOR if math.isfinite(limit) else math.inf
-        faces = interruptible(len(pts), _core.trim_long_edges, uv, faces, limit, pts, jumps)
-        # (K,) int64 points that lost every triangle to trimming (outliers, stray points);
-        # flags, not np.setdiff1d, whose sorts of the 6M-entry face arrays took 2 s at 1M points
-        was_used = np.zeros(len(pts), dtype=bool)
-        was_used[untrimmed.ravel()] = True
-        was_used[faces.ravel()] = False
-        trimmed = np.flatnonzero(was_used).astype(np.int64)
+    with Stage(progress, "delaunay", len(pts), blocking=True):
+        faces, duplicate_of, trimmed, limit, (triangulate, trim) = interruptible(
+            len(pts), _core.delaunay_trimmed, uv, pts, max_edge, JUMP_FACTOR
+        )
+    with Stage(progress, "trim", len(faces), blocking=True):
+        pass
     if len(faces) == 0:
         raise DegenerateInputError(
             f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse"
             " for it, or fold onto themselves in the projection plane (try another plane=,"
             " or a larger max_edge)"
         )
-    t3 = time.perf_counter()
     dropped = np.flatnonzero(duplicate_of >= 0)
     duplicates = np.column_stack([dropped, duplicate_of[dropped]]).astype(np.int64)
     if len(dropped):
@@ -135,6 +125,6 @@ def delaunay(
         options={"plane": scan.plane, "max_edge": limit, "trimmed": trimmed},
         scan=scan,
         duplicates=duplicates,
-        timings={**scan.timings, "triangulate": t2 - t1, "trim": t3 - t2},
+        timings={**scan.timings, "triangulate": triangulate, "trim": trim},
         line_ids=scan.line_ids,
     )

@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh import _core
-from scanmesh.anneal import ANNEAL_DEFAULTS, SEED_OPTION
+from scanmesh.anneal import ANNEAL_DEFAULTS, SEED_OPTION, _drive
 from scanmesh.delaunay import JUMP_FACTOR, MAX_EDGE_FACTOR, MAX_EDGE_OPTION
 from scanmesh.distributed._output import FaceBlock
 from scanmesh.distributed._source import Part, load_part
@@ -512,9 +512,10 @@ def optimize_piece(
             params["tie_tolerance"],
         )
     else:
-        runner = _core.Annealer(pts, puv, local, seed=seed, **params)
-        while not runner.done:
-            runner.advance(1_000_000, 1.0)
+        # time_limit bounds each tile's pass (the tiles of a pass run side by side)
+        native = {k: v for k, v in params.items() if k != "time_limit"}
+        runner = _core.Annealer(pts, puv, local, seed=seed, **native)
+        _drive(runner, 0, False, params.get("time_limit"))
         done, _, _ = runner.finish()
     return np.concatenate([faces[~take], used[done]])
 

@@ -4,7 +4,7 @@
 //! private); the modules, one concept each:
 //! - `geometry`: corner angles (atan2 form), areas, exact orientation, normalization;
 //! - `projection`: points to a plane (least squares, an axis, a normal);
-//! - `delaunay`: planar Delaunay through spade, with the map back to input indices;
+//! - `delaunay`: planar Delaunay (delaunator checked exactly, else spade), input indices kept;
 //! - `mesh`: flat half-edge triangulation with flips and `validate()`;
 //! - `criteria`: max-min angle and tac (total absolute curvature) with p-norms;
 //! - `trim`: removing long hull triangles so outlines and holes stay open;
@@ -71,5 +71,6 @@ pub use tac_state::{Detail, FlipMove, TacState};
 pub use text::{parse_table, Table, TextError, TextErrorKind};
 pub use tiles::TiledAnnealer;
 pub use trim::{
-    median_spacing, trim_long_edges, DepthJumps, DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
+    delaunay_trimmed, median_spacing, trim_delaunay, trim_long_edges, DepthJumps, Trimmed,
+    DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
 };

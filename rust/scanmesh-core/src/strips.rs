@@ -966,7 +966,7 @@ mod tests {
         let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
         let scan = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
         for params in methods() {
-            let (mesh, _, first) = stitch_with(&pts, &uv, &scan, &params, true).unwrap();
+            let (mesh, _, first) = stitch_with(&pts, &uv, &scan, &params, true, None).unwrap();
             assert!(first.is_some(), "the strips overlap before the repair");
             assert!(mesh.planar_error.is_none(), "{:?}", mesh.planar_error);
             assert!(mesh.dropped_overlaps > 0);

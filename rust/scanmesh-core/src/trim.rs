@@ -1,7 +1,7 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
-use crate::delaunay::{unit_square, NONE};
+use crate::delaunay::{unit_square, Delaunay, NONE};
 use crate::geometry::{planar_distance, Normalizer};
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::Result;
@@ -155,26 +155,147 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a vertex where two fans touch only at a point; there the triangles of all
 /// fans but the largest are dropped (repeatedly, as a drop can pinch a neighbour), so the
 /// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` and no `jumps` keep everything but
-/// the slivers. Input triangles must form a valid planar triangulation. O(m log m).
+/// the slivers. Input triangles must form a valid planar triangulation. O(m) after
+/// building their half-edge twins; see [`trim_delaunay`] for a triangulation that has them.
 pub fn trim_long_edges(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     max_edge: f64,
     jumps: Option<DepthJumps>,
 ) -> Result<Vec<[u32; 3]>> {
+    let mesh = HalfEdgeMesh::from_triangles(uv.len(), triangles)?;
+    let twins: Vec<u32> = (0..mesh.n_half_edges() as u32)
+        .map(|h| mesh.twin(h))
+        .collect();
+    drop(mesh);
+    Ok(trim(uv, triangles, &twins, max_edge, jumps))
+}
+
+/// [`trim_long_edges`] on a Delaunay triangulation of `uv`, whose twins it already has: one
+/// pass over its triangles, no half-edge mesh built. O(m).
+pub fn trim_delaunay(
+    uv: &[[f64; 2]],
+    d: &Delaunay,
+    max_edge: f64,
+    jumps: Option<DepthJumps>,
+) -> Vec<[u32; 3]> {
+    trim(uv, &d.triangles, &d.twins, max_edge, jumps)
+}
+
+/// A Delaunay triangulation trimmed in one call ([`delaunay_trimmed`]).
+#[derive(Debug, Clone)]
+pub struct Trimmed {
+    /// The kept counter-clockwise triangles, in input indices.
+    pub triangles: Vec<[u32; 3]>,
+    /// As [`Delaunay::duplicate_of`].
+    pub duplicate_of: Vec<u32>,
+    /// Points (ascending) that were a vertex of the triangulation and of no kept triangle.
+    pub trimmed: Vec<u32>,
+    /// The planar trimming length used (input units).
+    pub max_edge: f64,
+    /// Seconds spent triangulating and trimming.
+    pub seconds: [f64; 2],
+}
+
+/// [`delaunay`](crate::delaunay) of `uv` then [`trim_delaunay`]: at `max_edge`, or for None
+/// [`DEFAULT_MAX_EDGE_FACTOR`] × [`median_spacing`]; when that length is finite, depth jumps
+/// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
+/// serve the trimming and no face array crosses to the caller in between. O(n log n).
+pub fn delaunay_trimmed(
+    uv: &[[f64; 2]],
+    points: &[DVec3],
+    max_edge: Option<f64>,
+    jump_factor: f64,
+) -> Result<Trimmed> {
+    let clock = std::time::Instant::now();
+    let d = crate::delaunay::delaunay(uv)?;
+    let triangulated = clock.elapsed().as_secs_f64();
+    let limit =
+        max_edge.unwrap_or_else(|| DEFAULT_MAX_EDGE_FACTOR * median_spacing(uv, &d.triangles));
+    let jumps = limit.is_finite().then_some(DepthJumps {
+        points,
+        factor: jump_factor,
+    });
+    let triangles = trim_delaunay(uv, &d, limit, jumps);
+    let mut vertex = vec![false; uv.len()];
+    d.triangles
+        .as_flattened()
+        .iter()
+        .for_each(|&v| vertex[v as usize] = true);
+    triangles
+        .as_flattened()
+        .iter()
+        .for_each(|&v| vertex[v as usize] = false);
+    let trimmed = (0..uv.len() as u32)
+        .filter(|&v| vertex[v as usize])
+        .collect();
+    Ok(Trimmed {
+        triangles,
+        duplicate_of: d.duplicate_of,
+        trimmed,
+        max_edge: limit,
+        seconds: [triangulated, clock.elapsed().as_secs_f64() - triangulated],
+    })
+}
+
+/// The rules of [`trim_long_edges`] as keep flags over `triangles` (with their `twins`):
+/// the length and jump tests in parallel, then the boundary rounds (slivers, pinches) on
+/// the flags, each round a scan of the boundary of what is kept. O(m) per round.
+fn trim(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    twins: &[u32],
+    max_edge: f64,
+    jumps: Option<DepthJumps>,
+) -> Vec<[u32; 3]> {
     let longest = |t: &[u32; 3]| {
         (0..3)
             .map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]))
             .fold(0.0, f64::max)
     };
     let bridges = jumps.map_or_else(Vec::new, |j| bridging_triangles(uv, triangles, j));
-    let kept: Vec<[u32; 3]> = triangles
-        .iter()
+    let keep: Vec<bool> = triangles
+        .par_iter()
         .enumerate()
-        .filter(|&(k, t)| longest(t) <= max_edge && !bridges.get(k).copied().unwrap_or(false))
-        .map(|(_, t)| *t)
+        .with_min_len(BLOCK)
+        .map(|(k, t)| longest(t) <= max_edge && !bridges.get(k).copied().unwrap_or(false))
         .collect();
-    peel(uv, kept)
+    drop(bridges);
+    peel_flags(uv, triangles, twins, keep)
+}
+
+/// The triangles of `triangles` (with their half-edge `twins`) flagged in `keep`, without
+/// the numerically degenerate triangles on the boundary of what is kept and with every
+/// pinch resolved, repeated until neither is left. O(m) per round.
+fn peel_flags(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    twins: &[u32],
+    mut keep: Vec<bool>,
+) -> Vec<[u32; 3]> {
+    // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
+    let unit = unit_square(uv);
+    loop {
+        let kept = Kept {
+            triangles,
+            twins,
+            keep: &keep,
+        };
+        let mut dropped = kept.pinched_fans_to_drop(uv.len());
+        dropped.extend(kept.degenerate_boundary_triangles(&unit));
+        if dropped.is_empty() {
+            break;
+        }
+        for t in dropped {
+            keep[t as usize] = false;
+        }
+    }
+    triangles
+        .iter()
+        .zip(&keep)
+        .filter(|(_, &k)| k)
+        .map(|(t, _)| *t)
+        .collect()
 }
 
 /// Whether an edge of 3-D length `length3`, `flat` long in the plane (same units), bridges
@@ -265,79 +386,102 @@ pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJ
 /// neither is left: a valid [`HalfEdgeMesh`] when `kept` has no overlapping triangles in
 /// the plane. Errors: `kept` is not an oriented manifold (an edge in three triangles, a
 /// repeated directed edge). O(m) per round.
-pub fn peel(uv: &[[f64; 2]], mut kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
-    // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
-    let unit = unit_square(uv);
-    loop {
-        let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept)?;
-        let mut drop = pinched_fans_to_drop(&mesh);
-        drop.extend(degenerate_boundary_triangles(&mesh, &unit));
-        if drop.is_empty() {
-            return Ok(kept);
-        }
-        let mut keep_flag = vec![true; kept.len()];
-        for t in drop {
-            keep_flag[t as usize] = false;
-        }
-        kept = kept
-            .into_iter()
-            .zip(keep_flag)
-            .filter(|(_, k)| *k)
-            .map(|(t, _)| t)
-            .collect();
-    }
+pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
+    let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept)?;
+    let twins: Vec<u32> = (0..mesh.n_half_edges() as u32)
+        .map(|h| mesh.twin(h))
+        .collect();
+    drop(mesh);
+    let keep = vec![true; kept.len()];
+    Ok(peel_flags(uv, &kept, &twins, keep))
 }
 
-/// Boundary triangles (an edge without twin) that are numerically collinear. O(m).
-fn degenerate_boundary_triangles<'a>(
-    mesh: &'a HalfEdgeMesh,
-    uv: &'a [[f64; 2]],
-) -> impl Iterator<Item = u32> + 'a {
-    (0..mesh.n_triangles() as u32).filter(move |&t| {
-        let on_boundary = (3 * t..3 * t + 3).any(|h| mesh.twin(h) == NONE);
-        let [a, b, c] = mesh.triangle(t as usize).map(|v| uv[v as usize]);
-        on_boundary && !well_formed(a, b, c)
-    })
+/// The triangles still kept during trimming, seen as a mesh: a half-edge's twin counts only
+/// when its triangle is kept.
+struct Kept<'a> {
+    triangles: &'a [[u32; 3]],
+    twins: &'a [u32],
+    keep: &'a [bool],
 }
 
-/// Triangles of the smaller fans at every pinched vertex; of equal fans, the one with the
-/// smallest triangle (corner indices sorted, compared lexicographically) stays. O(m).
-fn pinched_fans_to_drop(mesh: &HalfEdgeMesh) -> Vec<u32> {
-    let mut boundary_out: Vec<Vec<u32>> = vec![Vec::new(); mesh.n_vertices()];
-    for h in 0..mesh.n_half_edges() as u32 {
-        if mesh.twin(h) == NONE {
-            boundary_out[mesh.start(h) as usize].push(h);
+impl Kept<'_> {
+    fn twin(&self, h: u32) -> u32 {
+        let g = self.twins[h as usize];
+        if g != NONE && self.keep[(g / 3) as usize] {
+            g
+        } else {
+            NONE
         }
     }
-    let mut drop = Vec::new();
-    for starts in boundary_out.iter().filter(|s| s.len() > 1) {
-        // Each boundary half-edge leaving the vertex begins one fan; walk it counter-clockwise.
-        let mut fans: Vec<Vec<u32>> = starts
-            .iter()
-            .map(|&first| {
-                let mut tris = vec![first / 3];
-                let mut h = first;
-                while mesh.twin(prev(h)) != NONE {
-                    h = mesh.twin(prev(h));
-                    tris.push(h / 3);
+
+    fn start(&self, h: u32) -> u32 {
+        self.triangles[(h / 3) as usize][(h % 3) as usize]
+    }
+
+    /// Kept boundary triangles (an edge without kept twin) that are numerically collinear.
+    /// O(m), on the rayon pool.
+    fn degenerate_boundary_triangles(&self, uv: &[[f64; 2]]) -> Vec<u32> {
+        (0..self.triangles.len() as u32)
+            .into_par_iter()
+            .with_min_len(4096)
+            .filter(|&t| {
+                self.keep[t as usize] && (3 * t..3 * t + 3).any(|h| self.twin(h) == NONE) && {
+                    let [a, b, c] = self.triangles[t as usize].map(|v| uv[v as usize]);
+                    !well_formed(a, b, c)
                 }
-                tris
             })
-            .collect();
-        // Ties go to the fan holding the smallest triangle by sorted corner indices, not by
-        // triangle position: a piece of the scan with its points in the same order (a tile
-        // of scanmesh.distributed) then resolves the pinch as the whole scan does.
-        let key = |t: u32| {
-            let mut c = mesh.triangle(t as usize);
-            c.sort_unstable();
-            c
-        };
-        fans.sort_by_key(|f| (std::cmp::Reverse(f.len()), f.iter().map(|&t| key(t)).min()));
-        drop.extend(fans.into_iter().skip(1).flatten());
+            .collect()
     }
-    drop.sort_unstable();
-    drop.dedup();
-    drop
+
+    /// Triangles of the smaller fans at every pinched vertex (more than one boundary
+    /// half-edge leaves it); of equal fans, the one with the smallest triangle (corner
+    /// indices sorted, compared lexicographically) stays. O(m).
+    fn pinched_fans_to_drop(&self, n_vertices: usize) -> Vec<u32> {
+        let boundary: Vec<u32> = (0..self.twins.len() as u32)
+            .filter(|&h| self.keep[(h / 3) as usize] && self.twin(h) == NONE)
+            .collect();
+        let mut leaving = vec![0u8; n_vertices];
+        for &h in &boundary {
+            let c = &mut leaving[self.start(h) as usize];
+            *c = c.saturating_add(1);
+        }
+        let mut pinched: Vec<(u32, u32)> = boundary
+            .into_iter()
+            .map(|h| (self.start(h), h))
+            .filter(|&(v, _)| leaving[v as usize] > 1)
+            .collect();
+        pinched.sort_unstable();
+        let mut drop = Vec::new();
+        for starts in pinched.chunk_by(|a, b| a.0 == b.0) {
+            // Each boundary half-edge leaving the vertex begins one fan; walk it
+            // counter-clockwise.
+            let mut fans: Vec<Vec<u32>> = starts
+                .iter()
+                .map(|&(_, first)| {
+                    let mut tris = vec![first / 3];
+                    let mut h = first;
+                    while self.twin(prev(h)) != NONE {
+                        h = self.twin(prev(h));
+                        tris.push(h / 3);
+                    }
+                    tris
+                })
+                .collect();
+            // Ties go to the fan holding the smallest triangle by sorted corner indices, not
+            // by triangle position: a piece of the scan with its points in the same order (a
+            // tile of scanmesh.distributed) then resolves the pinch as the whole scan does.
+            let key = |t: u32| {
+                let mut c = self.triangles[t as usize];
+                c.sort_unstable();
+                c
+            };
+            fans.sort_by_key(|f| (std::cmp::Reverse(f.len()), f.iter().map(|&t| key(t)).min()));
+            drop.extend(fans.into_iter().skip(1).flatten());
+        }
+        drop.sort_unstable();
+        drop.dedup();
+        drop
+    }
 }
 
 #[cfg(test)]
@@ -491,6 +635,34 @@ mod tests {
     }
 
     #[test]
+    fn one_call_trims_as_the_two_steps_do() {
+        let mut p = terrain(30, 25, 1.5, |x, _| if x < 14.5 { 0.0 } else { 12.0 });
+        // A bore: drop the points of a disc so long edges span it.
+        p.retain(|q| (q.x - 8.0).powi(2) + (q.y - 18.0).powi(2) > 9.0);
+        let uv = planar(&p);
+        let d = delaunay(&uv).unwrap();
+        let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
+        let jumps = DepthJumps {
+            points: &p,
+            factor: DEFAULT_JUMP_FACTOR,
+        };
+        let two_steps = trim_long_edges(&uv, &d.triangles, limit, Some(jumps)).unwrap();
+        let one = delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR).unwrap();
+        assert_eq!(one.max_edge, limit);
+        assert_eq!(one.triangles, two_steps);
+        assert!(one.triangles.len() < d.triangles.len());
+        // trimmed: exactly the vertices of the triangulation that no kept face uses.
+        let in_faces = |t: &[[u32; 3]], v: u32| t.iter().flatten().any(|&w| w == v);
+        let lost: Vec<u32> = (0..uv.len() as u32)
+            .filter(|&v| in_faces(&d.triangles, v) && !in_faces(&one.triangles, v))
+            .collect();
+        assert_eq!(one.trimmed, lost);
+        // max_edge = inf turns the depth jumps off too.
+        let all = delaunay_trimmed(&uv, &p, Some(f64::INFINITY), DEFAULT_JUMP_FACTOR).unwrap();
+        assert_eq!(all.triangles.len(), d.triangles.len());
+    }
+
+    #[test]
     fn collinear_hull_slivers_are_peeled() {
         // Three hull points on x + y = 1 with the middle one 1e-12 inside: the hull edge
         // skips it and Delaunay fills the gap with a zero-area sliver, which trimming drops.
@@ -537,15 +709,15 @@ mod tests {
         let tris = vec![[0, 1, 2], [0, 2, 3], [2, 4, 5], [2, 5, 6]];
         let kept = trim_long_edges(&uv, &tris, f64::INFINITY, None).unwrap();
         assert_eq!(kept.len(), 2);
+        HalfEdgeMesh::from_triangles(uv.len(), &kept)
+            .unwrap()
+            .validate(&uv)
+            .unwrap();
         // Equal fans: the one holding the smallest sorted corner triple stays, whatever
         // the order of the triangles (a tile lists them in its own order).
         assert_eq!(kept, vec![[0, 1, 2], [0, 2, 3]]);
         let reordered = vec![[2, 5, 6], [2, 4, 5], [0, 2, 3], [0, 1, 2]];
         let kept = trim_long_edges(&uv, &reordered, f64::INFINITY, None).unwrap();
         assert_eq!(kept, vec![[0, 2, 3], [0, 1, 2]]);
-        HalfEdgeMesh::from_triangles(uv.len(), &kept)
-            .unwrap()
-            .validate(&uv)
-            .unwrap();
     }
 }

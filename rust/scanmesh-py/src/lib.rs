@@ -250,6 +250,65 @@ fn delaunay<'py>(
     ))
 }
 
+/// Refuses a trimming length or depth-jump factor that is NaN or not positive.
+fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> PyResult<()> {
+    if max_edge.is_nan() || max_edge <= 0.0 {
+        return Err(ParameterError::new_err(format!(
+            "max_edge must be positive, got {max_edge}"
+        )));
+    }
+    if jump_factor.is_nan() || jump_factor <= 0.0 {
+        return Err(ParameterError::new_err(format!(
+            "jump_factor must be positive (or inf), got {jump_factor}"
+        )));
+    }
+    Ok(())
+}
+
+/// Delaunay triangulation of (N, 2) `uv` trimmed in the same call (`delaunay_trimmed` in
+/// the core): at `max_edge`, or None for DEFAULT_MAX_EDGE_FACTOR x the median spacing, and
+/// when that is finite, depth jumps on the (N, 3) `points` at `jump_factor`. Returns (faces,
+/// duplicate_of as in `delaunay`, trimmed (K,) int64, max_edge used, (triangulate, trim)
+/// seconds).
+#[pyfunction]
+#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::DEFAULT_JUMP_FACTOR))]
+#[allow(clippy::type_complexity)]
+fn delaunay_trimmed<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+    points: PyReadonlyArray2<'py, f64>,
+    max_edge: Option<f64>,
+    jump_factor: f64,
+) -> PyResult<(Ints2<'py>, Ints1<'py>, Ints1<'py>, f64, (f64, f64))> {
+    check_trim_lengths(max_edge.unwrap_or(1.0), jump_factor)?;
+    let pts = points2_view(&uv)?;
+    let xyz = points3_view(&points)?;
+    if xyz.len() != pts.len() {
+        return Err(ParameterError::new_err(format!(
+            "{} points for {} planar points",
+            xyz.len(),
+            pts.len()
+        )));
+    }
+    check_finite(&xyz).map_err(to_py)?;
+    let t = py
+        .detach(|| scanmesh_core::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor))
+        .map_err(to_py)?;
+    let dup: Vec<i64> = t
+        .duplicate_of
+        .iter()
+        .map(|&k| if k == NONE { -1 } else { i64::from(k) })
+        .collect();
+    let trimmed: Vec<i64> = t.trimmed.iter().map(|&v| i64::from(v)).collect();
+    Ok((
+        faces_out(py, &t.triangles),
+        Array1::from_vec(dup).into_pyarray(py),
+        Array1::from_vec(trimmed).into_pyarray(py),
+        t.max_edge,
+        (t.seconds[0], t.seconds[1]),
+    ))
+}
+
 /// Median nearest-neighbour spacing of (N, 2) points along the edges of `faces`.
 #[pyfunction]
 fn median_spacing(
@@ -274,16 +333,7 @@ fn trim_long_edges<'py>(
     points: Option<PyReadonlyArray2<'py, f64>>,
     jump_factor: f64,
 ) -> PyResult<Ints2<'py>> {
-    if max_edge.is_nan() || max_edge <= 0.0 {
-        return Err(ParameterError::new_err(format!(
-            "max_edge must be positive, got {max_edge}"
-        )));
-    }
-    if jump_factor.is_nan() || jump_factor <= 0.0 {
-        return Err(ParameterError::new_err(format!(
-            "jump_factor must be positive (or inf), got {jump_factor}"
-        )));
-    }
+    check_trim_lengths(max_edge, jump_factor)?;
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
     let xyz = points.as_ref().map(points3_view).transpose()?;
@@ -1003,6 +1053,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(median_spacing, m)?)?;
     m.add_function(wrap_pyfunction!(trim_long_edges, m)?)?;
+    m.add_function(wrap_pyfunction!(delaunay_trimmed, m)?)?;
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_quality, m)?)?;
     m.add_function(wrap_pyfunction!(tac_norm, m)?)?;
