@@ -142,6 +142,7 @@ def main() -> None:
     parser.add_argument(
         "--no-reference", action="store_true", help="skip the 3,000-sweep tiled reference"
     )
+    parser.add_argument("--only", help="run only the cases whose label contains this text")
     args = parser.parse_args()
     if args.case == "_child":
         print(json.dumps(child(json.loads(args.spec))))
@@ -179,6 +180,8 @@ def main() -> None:
                 )
             )
         rod_scan(n)  # simulated once, outside every measurement
+    if args.only:
+        cases = [(label, spec) for label, spec in cases if args.only in label]
     print(HEADER)
     for label, spec in cases:
         for _ in range(args.repeat if args.old_python else 1):

@@ -1,9 +1,10 @@
 //! Simulated annealing of a planar triangulation by random edge flips, minimizing tac.
 //!
-//! Move: a uniformly random interior edge, flipped when its quadrilateral is strictly convex.
+//! Move: a uniformly random live edge ([`crate::active`]: its quadrilateral strictly convex,
+//! a corner's tac above the floor of ties), flipped.
 //! Energy: Σ tac^p ([`TacState`]). Selection: Metropolis. Schedule: T0 calibrated from the
 //! uphill energy changes of sampled proposals, geometric cooling per sweep (a sweep is as
-//! many proposals as interior edges), early stop once frozen, the best state kept, then a
+//! many proposals as live edges), early stop once frozen, the best state kept, then a
 //! greedy polish (LOP) under the order (tac first, then smallest angle).
 
 use crate::active::LiveEdges;
@@ -19,7 +20,8 @@ use std::time::Instant;
 /// Annealing parameters; `Default` gives the measured defaults (see BENCHMARKS.md).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnnealParams {
-    /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per interior edge.
+    /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per live edge
+    /// (see [`crate::active`]: flippable, by a corner whose tac is above the ties').
     pub sweeps: usize,
     /// Energy exponent p ≥ 1: the energy is Σ tac^p.
     pub p: f64,
