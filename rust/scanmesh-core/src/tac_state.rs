@@ -472,6 +472,16 @@ impl TacState {
         [ra, rb, rc, rd].iter().any(|r| r.above(floor)) && convex_quad(ra.uv, rb.uv, rc.uv, rd.uv)
     }
 
+    /// True when `h` is interior and one of its four corners is an interior vertex whose
+    /// tac exceeds `floor` (radians): [`is_live`](Self::is_live) without the convexity
+    /// test, which a proposal makes anyway. O(1).
+    #[inline]
+    pub fn has_corner_above(&self, h: u32, floor: f64) -> bool {
+        self.mesh
+            .twin_and_quad(h)
+            .is_some_and(|(_, quad)| quad.iter().any(|&v| self.vert[v as usize].above(floor)))
+    }
+
     /// True when `v` is an interior vertex whose tac exceeds `floor` (radians). O(1).
     #[inline]
     pub fn is_above_floor(&self, v: u32, floor: f64) -> bool {
