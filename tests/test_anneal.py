@@ -62,7 +62,10 @@ def test_sliver_guard_keeps_tac_and_removes_slivers(rod_with_curtains):
     guarded = anneal_surface(rod_with_curtains, sweeps=60, seed=3)
     raw = anneal_surface(rod_with_curtains, sweeps=60, seed=3, sliver_guard=False)
     assert guarded.quality.tac_1 <= raw.quality.tac_1 * 1.02
-    assert guarded.quality.sliver_fraction < 0.5 * raw.quality.sliver_fraction
+    # Annealing proposes only edges whose flip can lower tac (issue 22), so flat faces keep
+    # Delaunay's shapes even without the guard; the guard still removes slivers on top.
+    assert guarded.quality.sliver_fraction < raw.quality.sliver_fraction
+    assert guarded.quality.sliver_fraction < 0.5 * rod_with_curtains.quality.sliver_fraction
 
 
 def test_energy_never_ends_above_the_start_and_trace_is_complete():
@@ -175,7 +178,8 @@ def test_ctrl_c_stops_a_long_run_quickly(tmp_path, tiles):
                 print("started", flush=True)
         try:
             scanmesh.reconstruct(
-                pts, "anneal", sweeps=100000, patience=0, tiles=TILES, progress=progress
+                pts, "anneal", sweeps=100000, patience=0, tiles=TILES, progress=progress,
+                tie_tolerance=0.0,
             )
         except KeyboardInterrupt:
             print(f"interrupted {time.monotonic()!r}", flush=True)
@@ -183,6 +187,8 @@ def test_ctrl_c_stops_a_long_run_quickly(tmp_path, tiles):
         print("finished", flush=True)
         """
     ).replace("TILES", str(tiles))
+    # Exact ties: the noise estimate of this steep surface (tolerance 4e4) leaves annealing
+    # no edge whose flip could lower tac by more than a tie, and the run would end at once.
     assert seconds_to_interrupt(script, 0.3) < 0.2
 
 

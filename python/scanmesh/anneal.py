@@ -69,7 +69,7 @@ OPTIONS: tuple[Option, ...] = (
         "sweeps",
         "int",
         ANNEAL_DEFAULTS["sweeps"],
-        "sweeps (one proposal per interior edge each)",
+        "sweeps (one proposal per live edge each: flippable, by a corner with tac above ties)",
         low=0,
         high=MAX_COUNT,
     ),

@@ -92,7 +92,8 @@ pub struct EnsembleSummary {
 }
 
 impl Ensemble {
-    /// Starts `params.chain_count(interior edges)` chains from copies of `state`, each
+    /// Starts `params.chain_count(interior edges)` chains from `state` (the last chain) and
+    /// copies of it (the others), each
     /// calibrating its own T0, after checking the parameters and what the run will cost
     /// ([`AnnealParams::check_cost`]); the copies are fallible, so memory that runs out
     /// ends in an error naming `chains`. O(chains × (calibration_samples + m)) work, in
@@ -106,10 +107,12 @@ impl Ensemble {
         chains
             .try_reserve_exact(count)
             .map_err(|_| out_of_memory())?;
-        chains.par_extend((0..count).into_par_iter().map(|chain| {
+        // The last chain takes `state` itself: one chain (every large input) holds no copy.
+        chains.par_extend((0..count - 1).into_par_iter().map(|chain| {
             let copy = state.try_clone().map_err(|_| out_of_memory())?;
             Chain::new(copy, params.for_chain(chain))
         }));
+        chains.push(Chain::new(state, params.for_chain(count - 1)));
         let chains = chains.into_iter().collect::<Result<Vec<_>>>()?;
         Ok(Ensemble { chains })
     }

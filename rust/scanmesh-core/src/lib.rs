@@ -11,6 +11,7 @@
 //! - `tac_state`: incremental tac energy under flips;
 //! - `locality`: Z-order relabelling so annealing's memory accesses stay close;
 //! - `lop`: Lawson's greedy flipping for any criterion;
+//! - `active`: the live edges annealing draws from (flips that can lower the energy);
 //! - `anneal`: simulated annealing on tac;
 //! - `budget`: what options may cost in work and memory, fallible copies;
 //! - `ensemble`: independent annealing chains side by side, the best one kept;
@@ -24,6 +25,7 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+mod active;
 mod anneal;
 mod budget;
 mod criteria;

@@ -112,6 +112,14 @@ struct VertexRecord {
     interior: bool,
 }
 
+impl VertexRecord {
+    /// Interior, with a tac above `floor` (radians).
+    #[inline(always)]
+    fn above(&self, floor: f64) -> bool {
+        self.interior && (TAU - self.sum).abs() > floor
+    }
+}
+
 /// True when the quadrilateral of triangles (a, b, c) and (b, a, d) is flat (see
 /// [`COPLANAR_RELATIVE`]): its bend across diagonal ab and across cd. The sine of the
 /// dihedral angle across ab is `6V·|ab| / (|n_abc|·|n_bad|)` for the tetrahedron's volume V
@@ -450,6 +458,34 @@ impl TacState {
         }
         let pos = [ra.xyz, rb.xyz, rc.xyz, rd.xyz];
         Some((t, quad, pos, is_coplanar(pos[0], pos[1], pos[2], pos[3])))
+    }
+
+    /// True when `h` can flip (interior, strictly convex quadrilateral) and one of its four
+    /// corners is an interior vertex whose tac exceeds `floor` (radians): the edges
+    /// [`crate::active`] draws annealing proposals from. O(1).
+    #[inline]
+    pub fn is_live(&self, h: u32, floor: f64) -> bool {
+        let Some((_, quad)) = self.mesh.twin_and_quad(h) else {
+            return false;
+        };
+        let [ra, rb, rc, rd] = quad.map(|v| &self.vert[v as usize]);
+        [ra, rb, rc, rd].iter().any(|r| r.above(floor)) && convex_quad(ra.uv, rb.uv, rc.uv, rd.uv)
+    }
+
+    /// True when `h` is interior and one of its four corners is an interior vertex whose
+    /// tac exceeds `floor` (radians): [`is_live`](Self::is_live) without the convexity
+    /// test, which a proposal makes anyway. O(1).
+    #[inline]
+    pub fn has_corner_above(&self, h: u32, floor: f64) -> bool {
+        self.mesh
+            .twin_and_quad(h)
+            .is_some_and(|(_, quad)| quad.iter().any(|&v| self.vert[v as usize].above(floor)))
+    }
+
+    /// True when `v` is an interior vertex whose tac exceeds `floor` (radians). O(1).
+    #[inline]
+    pub fn is_above_floor(&self, v: u32, floor: f64) -> bool {
+        self.vert[v as usize].above(floor)
     }
 
     /// Evaluates flipping `h`: `None` when it is a boundary edge or its quadrilateral is not

@@ -296,7 +296,7 @@ impl TiledAnnealer {
             .tiles
             .into_par_iter()
             .map(|tile| {
-                let sweep_len = tile.run.sweep_len();
+                let exhausted = tile.run.is_exhausted();
                 let (best, best_energy, state, trace) = tile.run.end_phase();
                 TileEnd {
                     vertices: tile.vertices,
@@ -304,18 +304,19 @@ impl TiledAnnealer {
                     best_energy,
                     state,
                     trace,
-                    sweep_len,
+                    exhausted,
                 }
             })
             .collect();
         // Sweeps every tile finished (all of the phase's, unless the run was interrupted);
-        // a tile without interior edges runs none and keeps its energy. When no tile has an
-        // interior edge (stripes narrower than a triangle: tiny inputs, many tiles) the
-        // phase's sweeps pass with every edge frozen; counting none would start the same
-        // empty phase again forever.
+        // a tile without live edges (from the start or from some sweep on) runs no more
+        // sweeps and keeps its energy. When no tile has a live edge (flat pieces, or
+        // stripes narrower than a triangle: tiny inputs, many tiles) the phase's sweeps
+        // pass with every edge frozen; counting none would start the same empty phase
+        // again forever.
         let swept = ends
             .iter()
-            .filter(|e| e.sweep_len > 0)
+            .filter(|e| !e.exhausted)
             .map(|e| e.trace.len())
             .min()
             .unwrap_or(phase.sweeps);
@@ -328,8 +329,8 @@ impl TiledAnnealer {
                     Some(r) => {
                         energy += r.energy;
                         best += r.best;
-                        accepted += r.acceptance * e.sweep_len as f64;
-                        proposed += e.sweep_len;
+                        accepted += r.acceptance * r.proposals as f64;
+                        proposed += r.proposals;
                         frozen &= r.frozen;
                     }
                     None => {
@@ -354,6 +355,7 @@ impl TiledAnnealer {
                 energy,
                 best: best.min(before),
                 acceptance: accepted / proposed.max(1) as f64,
+                proposals: proposed,
                 frozen,
             });
             self.temperature *= self.cooling;
@@ -361,7 +363,8 @@ impl TiledAnnealer {
         // Summed in the order of the sweep records' best, so the two agree to the bit.
         self.proposals += ends
             .iter()
-            .map(|e| (e.sweep_len * e.trace.len()) as u64)
+            .flat_map(|e| &e.trace)
+            .map(|r| r.proposals as u64)
             .sum::<u64>();
         let phase_best = ends
             .iter()
@@ -415,7 +418,8 @@ struct TileEnd {
     best_energy: f64,
     state: TacState,
     trace: Vec<SweepRecord>,
-    sweep_len: usize,
+    // The tile ran out of live edges: it stopped before the phase's sweeps, done.
+    exhausted: bool,
 }
 
 /// A piece's triangles in global vertex indices (`vertices`: local → global). O(m).

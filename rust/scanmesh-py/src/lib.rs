@@ -560,7 +560,8 @@ impl Annealer {
         Ok(self.running()?.len())
     }
 
-    /// Proposals per sweep of each chain (interior edges).
+    /// Proposals in the current sweep of the first chain (its live edges at the sweep's
+    /// start).
     #[getter]
     fn sweep_len(&self) -> PyResult<usize> {
         Ok(self.running()?.sweep_len())
@@ -594,6 +595,10 @@ impl Annealer {
         summary.set_item("energy", r.energy)?;
         summary.set_item("initial_temperature", r.initial_temperature)?;
         summary.set_item("polish_flips", r.polish_flips)?;
+        summary.set_item(
+            "proposals",
+            r.trace.iter().map(|s| s.proposals as u64).sum::<u64>(),
+        )?;
         summary.set_item("stopped_early", r.stopped_early)?;
         summary.set_item("chains", chains.energies.len())?;
         summary.set_item("best_chain", chains.best_chain)?;
