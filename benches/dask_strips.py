@@ -8,8 +8,8 @@ of each worker process (polled every 0.2 s), faces. With ``--single`` the same f
 also meshed in this process (read, ``scanmesh.reconstruct``, its quality, ``Surface.save``),
 alternating with the Dask run, and the two STL files are compared byte for byte.
 
-    python benches/distributed.py --points 10_000_000 --single --repeat 2
-    python benches/distributed.py --points 100_000_000
+    python benches/dask_strips.py --points 10_000_000 --single --repeat 2
+    python benches/dask_strips.py --points 100_000_000
 
 Large data goes under --scratch (default /work/tmp_dask) and is deleted at the end.
 """

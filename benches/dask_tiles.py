@@ -7,7 +7,7 @@ rulings, annealing can follow them) is written to disk in parts of consecutive l
 Prints wall times, the tac_1 of both results (summed from the tiles), and each worker's
 peak resident memory; with --compare also the single-process results (small sizes only).
 
-    python benches/distributed_tiles.py --points 1000000 --sweeps 100 --compare
+    python benches/dask_tiles.py --points 1000000 --sweeps 100 --compare
 """
 
 from __future__ import annotations
