@@ -1027,6 +1027,10 @@ fn cheapest_fans<'py>(
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    // rust-numpy imports NumPy's C API on its first use and panics when that import fails,
+    // as it does when a Ctrl-C lands in the Python code it runs (seen in the first parse
+    // of a read interrupted early): used here, at import, so no later call meets it.
+    drop(PyArray1::<f64>::zeros(py, 0, false));
     m.add("ScanmeshError", py.get_type::<ScanmeshError>())?;
     m.add(
         "DegenerateInputError",
