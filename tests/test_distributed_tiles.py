@@ -240,7 +240,11 @@ def test_median_search_is_exact(client, monkeypatch, values):
         for n in (900, 0, 2500, 37)
     ]
     empty = dict(index=None, points=None, uv=None, lines=None, own=None, faces=None)
-    tiles = [client.scatter(_tiles.Tile(tile=i, nearest=a, **empty)) for i, a in enumerate(arrays)]
+    # tasks, as in a run (scattered data cannot be recomputed if a worker lets it go)
+    tiles = [
+        client.submit(_tiles.Tile, tile=i, nearest=a, **empty, pure=False)
+        for i, a in enumerate(arrays)
+    ]
     total = sum(len(a) for a in arrays)
     expected = np.sort(np.concatenate(arrays))[total // 2]
     assert _tiles._median_nearest(client, tiles, total) == expected

@@ -15,7 +15,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -197,6 +197,64 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
 }
 
 
+class SolvedStrips(NamedTuple):
+    """What the core's strip stage returns (``_core.strip_mesh``), by name."""
+
+    #: (M, 3) int64 faces, counter-clockwise in the plane
+    faces: np.ndarray
+    #: (K,) int64 points in no triangle
+    unused: np.ndarray
+    #: (D, 2) int64 (dropped point, point it coincides with)
+    duplicates: np.ndarray
+    n_strips: int
+    #: sum of the strips' path costs
+    cost: float
+    #: why the mesh is not planar-valid, or None
+    planar_error: str | None
+    #: triangles dropped at depth jumps
+    dropped_jumps: int
+    #: triangles dropped where lines cross or fold
+    dropped_overlaps: int
+    #: (T,) int64 unused points whose every triangle was dropped
+    trimmed: np.ndarray
+    #: twice the planar signed area before the faces were turned counter-clockwise
+    signed_area: float
+
+
+def solve_strips(
+    points: np.ndarray,
+    uv: np.ndarray,
+    line_ids: np.ndarray,
+    method: str,
+    params: Mapping[str, Any],
+    gap_factor: float,
+    context: tuple | None = None,
+) -> SolvedStrips:
+    """The strips between consecutive lines of ``points`` (N, 3) with planar positions
+    ``uv`` (N, 2) and ``line_ids`` (N,), by ``method`` with checked ``params``
+    (:data:`OPTIONS`); ``context`` solves them as part of a larger scan
+    (``_core.strip_mesh``). Time: that of the method, see :func:`strip_surface`."""
+    n = max(len(points), 1)
+    return SolvedStrips(
+        *_core.strip_mesh(
+            points,
+            uv,
+            line_ids,
+            tuple(params["weight"].values()),
+            method,
+            # Depths and widths beyond the longest strip change nothing (each strip has
+            # fewer than len(points) steps): capped, so that 10**30 is not an OverflowError.
+            int(min(params.get("alpha", DEFAULT_ALPHA), n)),
+            params.get("solver", "banded"),
+            int(min(params.get("band", _core.DEFAULT_BAND), n)),
+            gap_factor,
+            params["check"],
+            params["jump_factor"],
+            context,
+        )
+    )
+
+
 def strip_surface(
     points: ArrayLike | PlanarScan,
     *,
@@ -307,34 +365,11 @@ def strip_surface(
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
     with Stage(progress, "strips", len(pts), blocking=True):
-        (
-            faces,
-            unused,
-            duplicates,
-            n_strips,
-            cost,
-            planar_error,
-            dropped_jumps,
-            dropped_overlaps,
-            trimmed,
-            _,
-        ) = interruptible(
-            len(pts),
-            _core.strip_mesh,
-            pts,
-            uv,
-            ids,
-            tuple(params["weight"].values()),
-            method,
-            # Depths and widths beyond the longest strip change nothing (each strip has
-            # fewer than len(pts) steps): capped, so that 10**30 is not an OverflowError.
-            int(min(params.get("alpha", DEFAULT_ALPHA), len(pts))),
-            params.get("solver", "banded"),
-            int(min(params.get("band", _core.DEFAULT_BAND), len(pts))),
-            k,
-            params["check"],
-            params["jump_factor"],
-        )
+        solved = interruptible(len(pts), solve_strips, pts, uv, ids, method, params, k)
+    faces, unused, duplicates = solved.faces, solved.unused, solved.duplicates
+    n_strips, cost, planar_error = solved.n_strips, solved.cost, solved.planar_error
+    dropped_jumps, dropped_overlaps = solved.dropped_jumps, solved.dropped_overlaps
+    trimmed = solved.trimmed
     t3 = time.perf_counter()
     if n_strips == 0:
         raise DegenerateInputError(

@@ -30,11 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh import _core
 from scanmesh._checks import check_options
 from scanmesh.errors import DegenerateInputError
 from scanmesh.projection import PlaneSpec
-from scanmesh.strips import DEFAULT_ALPHA, OPTIONS
+from scanmesh.strips import OPTIONS, solve_strips
 
 from ._output import FaceBlock
 from ._report import seam_sums, vertex_sums
@@ -279,31 +278,16 @@ def solve(
     del loaded, pts, ids, index
     uv = project_as_whole(points, plane, lo, hi)
     n = len(points)
-    (
-        faces,
-        unused,
-        duplicates,
-        n_strips,
-        cost,
-        planar_error,
-        dropped_jumps,
-        dropped_overlaps,
-        _,
-        signed_area,
-    ) = _core.strip_mesh(
+    solved = solve_strips(
         points,
         uv,
         line_ids,
-        tuple(params["weight"].values()),
         method,
-        int(min(params.get("alpha", DEFAULT_ALPHA), max(n, 1))),
-        params.get("solver", "banded"),
-        int(min(params.get("band", _core.DEFAULT_BAND), max(n, 1))),
+        params,
         params["gap_factor"],
-        params["check"],
-        params["jump_factor"],
         (tuple(lo), tuple(hi), largest, median, partition.first_turned),
     )
+    faces, unused, duplicates = solved.faces, solved.unused, solved.duplicates
     # rows of the shared lines: the first line when a partition comes before, the last
     # when one comes after (owned by that one: its points are counted there)
     first_end = int(np.searchsorted(line_ids, line_ids[0], side="right"))
@@ -316,12 +300,12 @@ def solve(
     owned_end = last_start if partition.shares_last else n
     sums = vertex_sums(points, faces, ~shared)
     sums.update(
-        n_strips=float(n_strips),
-        cost=float(cost),
-        signed_area=float(signed_area),
-        planar_invalid=float(planar_error is not None),
-        dropped_jumps=float(dropped_jumps),
-        dropped_overlaps=float(dropped_overlaps),
+        n_strips=float(solved.n_strips),
+        cost=float(solved.cost),
+        signed_area=float(solved.signed_area),
+        planar_invalid=float(solved.planar_error is not None),
+        dropped_jumps=float(solved.dropped_jumps),
+        dropped_overlaps=float(solved.dropped_overlaps),
         duplicates=float(np.count_nonzero(duplicates[:, 0] < owned_end)),
         unused=float(np.count_nonzero(~shared[unused])),
     )
