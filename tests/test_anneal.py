@@ -288,7 +288,11 @@ def test_without_a_time_limit_results_and_stop_reasons_are_unchanged():
     assert np.array_equal(a.faces, b.faces)
     assert a.options["stopped"] == b.options["stopped"] == "sweeps"
     assert a.options["time_limit"] is None
-    early = scanmesh.reconstruct(pts, "anneal", sweeps=5000, patience=5, chains=1)
+    # a scan large enough for noise-level ties (MIN_TIE_POINTS): the chain freezes early
+    from scanmesh.noise import MIN_TIE_POINTS
+
+    noisy = bumpy_patch(MIN_TIE_POINTS, 3)
+    early = scanmesh.reconstruct(noisy, "anneal", sweeps=5000, patience=5, chains=1)
     assert early.options["stopped"] == "patience" and early.options["stopped_early"]
 
 

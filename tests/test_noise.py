@@ -203,3 +203,23 @@ def test_tie_tolerance_scales_with_noise_and_ignores_facet_level_estimates():
     assert tie_tolerance(0.2, 2.0, p=2.0, floor=1e-10) == pytest.approx((TIE_PER_NOISE * 0.01) ** 2)
     assert tie_tolerance(0.5 * NOISE_FREE, 1.0, floor=1e-10) == 1e-10
     assert tie_tolerance(0.1, 0.0, floor=1e-10) == 1e-10
+
+
+def test_small_noisy_inputs_anneal_with_exact_ties():
+    """Below MIN_TIE_POINTS points the noise is still reported but annealing settles every
+    tie by the energy (the certified-optimum patches); at MIN_TIE_POINTS the same surface
+    and noise get the noise tolerance."""
+    from scanmesh.anneal import ANNEAL_DEFAULTS
+    from scanmesh.noise import MIN_TIE_POINTS
+
+    def patch(n):
+        rng = np.random.default_rng(7)
+        xy = rng.random((n, 2))
+        z = np.exp(-8 * ((xy - 0.5) ** 2).sum(axis=1)) + 0.01 * rng.standard_normal(n)
+        return np.column_stack([xy, z])
+
+    small = scanmesh.reconstruct(patch(30), "anneal", plane="z", seed=0)
+    large = scanmesh.reconstruct(patch(MIN_TIE_POINTS), "anneal", plane="z", seed=0, sweeps=5)
+    assert small.options["noise"] is not None and small.options["noise"] > 0
+    assert small.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
+    assert large.options["tie_tolerance"] > 1e3 * ANNEAL_DEFAULTS["tie_tolerance"]
