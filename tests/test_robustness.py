@@ -430,3 +430,29 @@ def test_ctrl_c_while_reading_a_large_text_file_returns_quickly(tmp_path):
     """
     # early: with the native chunk parser an idle machine reads the 100 MB in about 0.5 s
     assert seconds_to_interrupt(script, 0.1) < 0.2
+
+
+def test_ctrl_c_during_an_import_that_swallows_it_still_interrupts(tmp_path):
+    """trimesh guards its optional imports with ``except BaseException``: a Ctrl-C landing
+    there was swallowed and ``compare --truth`` ran on. A stand-in module that sleeps inside
+    such a guard: imported through import_interruptibly, Ctrl-C still interrupts."""
+    (tmp_path / "swallowing.py").write_text(
+        "import time\n"
+        "try:\n"
+        "    time.sleep(3)\n"
+        "except BaseException:\n"
+        "    pass\n"
+    )
+    script = f"""
+    import sys, time
+    sys.path.insert(0, {str(tmp_path)!r})
+    from scanmesh._interrupt import import_interruptibly
+    print("started", flush=True)
+    try:
+        import_interruptibly("swallowing")
+    except KeyboardInterrupt:
+        print(f"interrupted {{time.monotonic()!r}}", flush=True)
+        sys.exit(0)
+    print("finished", flush=True)
+    """
+    assert seconds_to_interrupt(script, 0.3) < 0.2

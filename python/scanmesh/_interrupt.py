@@ -10,8 +10,11 @@ dropped; it holds only its own copies of the inputs), or ends with the process.
 
 from __future__ import annotations
 
+import importlib
+import sys
 import threading
 from collections.abc import Callable
+from types import ModuleType
 from typing import Any, TypeVar
 
 T = TypeVar("T")
@@ -30,6 +33,25 @@ def interruptible(n_points: int, fn: Callable[..., T], *args: Any) -> T:
     if n_points < THREAD_MIN_POINTS or threading.current_thread() is not threading.main_thread():
         # Signals are delivered to the main thread only: elsewhere a worker gains nothing.
         return fn(*args)
+    return _in_worker(fn, *args)
+
+
+def import_interruptibly(name: str) -> ModuleType:
+    """``importlib.import_module(name)``, the first time run in a worker thread while this
+    one waits, so that Ctrl-C during the import is a ``KeyboardInterrupt`` here: trimesh
+    guards its optional imports with ``except BaseException``, and a Ctrl-C landing in
+    them (its first import takes about a second) was swallowed, the command running on.
+    Later calls return the module from ``sys.modules``."""
+    module = sys.modules.get(name)
+    if module is not None:
+        return module
+    if threading.current_thread() is not threading.main_thread():
+        return importlib.import_module(name)
+    return _in_worker(importlib.import_module, name)
+
+
+def _in_worker(fn: Callable[..., T], *args: Any) -> T:
+    """``fn(*args)`` in a daemon thread, waited for in ``POLL_SECONDS`` slices."""
     box: dict[str, Any] = {}
 
     def work() -> None:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from scanmesh._interrupt import import_interruptibly
 from scanmesh.errors import FileFormatError
 
 if TYPE_CHECKING:
@@ -59,7 +60,7 @@ def demo_truth() -> trimesh.Trimesh:
 
     The known true surface, for height error and normal error of a reconstruction.
     """
-    import trimesh
+    trimesh = import_interruptibly("trimesh")
 
     raw = gzip.decompress(_read(TRUTH_FILE))
     if hashlib.sha256(raw).hexdigest() != TRUTH_SHA256:

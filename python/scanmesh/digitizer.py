@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from scanmesh._interrupt import import_interruptibly
 from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError
 
 if TYPE_CHECKING:
@@ -100,7 +101,7 @@ def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trim
     Raises FileFormatError for a missing, unreadable or empty file and InvalidMeshError for
     a mesh object without triangles.
     """
-    import trimesh
+    trimesh = import_interruptibly("trimesh")
 
     if isinstance(mesh_or_path, (str, os.PathLike)):
         path = Path(mesh_or_path)
@@ -132,7 +133,7 @@ def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trim
 
 def _scene_mesh(scene: trimesh.Scene) -> trimesh.Trimesh:
     """All geometry of a scene as one mesh (``to_mesh`` in trimesh 4.1+, ``dump`` before)."""
-    import trimesh
+    trimesh = import_interruptibly("trimesh")
 
     if not scene.geometry:
         return trimesh.Trimesh()

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from scanmesh import _core
+from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.projection import Frame
@@ -112,7 +113,7 @@ class Surface:
 
     def to_trimesh(self) -> trimesh.Trimesh:
         """A ``trimesh.Trimesh`` sharing vertex indices (``process=False``)."""
-        import trimesh
+        trimesh = import_interruptibly("trimesh")
 
         return trimesh.Trimesh(vertices=self.vertices, faces=self.faces, process=False)
 

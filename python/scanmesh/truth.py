@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh._interrupt import import_interruptibly
 from scanmesh.errors import InvalidMeshError, ParameterError
 
 #: What :func:`height_error` measures, for reports.
@@ -369,7 +370,7 @@ class TrueSurface:
 
 def _as_trimesh(mesh: Any, name: str):
     """A ``trimesh.Trimesh`` from a Surface, a Trimesh, a (vertices, faces) pair or a path."""
-    import trimesh
+    trimesh = import_interruptibly("trimesh")
 
     from scanmesh._checks import as_faces, as_points
     from scanmesh.digitizer import load_mesh
@@ -417,7 +418,7 @@ def height_error(
         distance of the samples to the truth (model units); ``n_samples``; ``measure``
         (:data:`MEASURE`).
     """
-    import trimesh
+    trimesh = import_interruptibly("trimesh")
 
     if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)):
         raise ParameterError(f"n_samples must be a whole number, got {n_samples!r}")
@@ -460,7 +461,7 @@ def normal_error(
         ``n_mean_deg``, ``n_rms_deg``, ``n_median_deg``, ``n_max_deg``: statistics of the
         angle in degrees; ``n_samples``; ``measure`` (:data:`NORMAL_MEASURE`).
     """
-    import trimesh
+    trimesh = import_interruptibly("trimesh")
 
     if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)):
         raise ParameterError(f"n_samples must be a whole number, got {n_samples!r}")

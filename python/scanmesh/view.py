@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh._interrupt import import_interruptibly
 from scanmesh.digitizer import AxisSpec
 from scanmesh.errors import InvalidMeshError, MissingExtraError, ParameterError
 from scanmesh.render import (
@@ -280,7 +281,7 @@ def save_glb(
     ``truth``, "height" along ``up``, by default the surface's normal as in
     :func:`scanmesh.render.auto_view`) stores the face colours as vertex colours.
     """
-    import trimesh
+    trimesh = import_interruptibly("trimesh")
 
     target = Path(path)
     if target.suffix.lower() != ".glb":
@@ -338,7 +339,7 @@ def show(mesh: Any, *, color_by: str | None = None, truth: Any = None, up: AxisS
         plotter.show()
         return
     if importlib.util.find_spec("pyglet") is not None:
-        import trimesh
+        trimesh = import_interruptibly("trimesh")
 
         shown = trimesh.Trimesh(vertices, faces, process=False)
         if rgb is not None:
