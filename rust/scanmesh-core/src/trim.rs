@@ -163,11 +163,7 @@ pub fn trim_long_edges(
     max_edge: f64,
     jumps: Option<DepthJumps>,
 ) -> Result<Vec<[u32; 3]>> {
-    let mesh = HalfEdgeMesh::from_triangles(uv.len(), triangles)?;
-    let twins: Vec<u32> = (0..mesh.n_half_edges() as u32)
-        .map(|h| mesh.twin(h))
-        .collect();
-    drop(mesh);
+    let twins = twins_of(uv.len(), triangles)?;
     Ok(trim(uv, triangles, &twins, max_edge, jumps))
 }
 
@@ -387,13 +383,19 @@ pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJ
 /// the plane. Errors: `kept` is not an oriented manifold (an edge in three triangles, a
 /// repeated directed edge). O(m) per round.
 pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
-    let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept)?;
-    let twins: Vec<u32> = (0..mesh.n_half_edges() as u32)
-        .map(|h| mesh.twin(h))
-        .collect();
-    drop(mesh);
+    let twins = twins_of(uv.len(), &kept)?;
     let keep = vec![true; kept.len()];
     Ok(peel_flags(uv, &kept, &twins, keep))
+}
+
+/// The half-edge twins of `triangles` over `n_points` points (half-edge 3t + k runs from
+/// corner k of triangle t; [`NONE`] on the boundary), as [`Delaunay::twins`] has them.
+/// Errors: the triangles are not an oriented manifold. O(m).
+fn twins_of(n_points: usize, triangles: &[[u32; 3]]) -> Result<Vec<u32>> {
+    let mesh = HalfEdgeMesh::from_triangles(n_points, triangles)?;
+    Ok((0..mesh.n_half_edges() as u32)
+        .map(|h| mesh.twin(h))
+        .collect())
 }
 
 /// The triangles still kept during trimming, seen as a mesh: a half-edge's twin counts only
