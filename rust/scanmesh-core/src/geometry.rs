@@ -1,6 +1,11 @@
 //! Small 3-D and planar primitives on glam `DVec3` and `[f64; 2]`.
 
 use glam::DVec3;
+use rayon::prelude::*;
+
+/// Points per rayon task in the passes over all points here: large enough that splitting
+/// costs nothing next to the work, small enough to share a million among threads.
+pub(crate) const PAR_BLOCK: usize = 1 << 14;
 
 /// `y.atan2(x)` for y ≥ 0 (a result in [0, π]), to within a few units in the last place.
 ///
@@ -136,14 +141,25 @@ pub struct Normalizer {
 }
 
 impl Normalizer {
-    /// Fits the bounding box of `points` (finite values assumed).
+    /// Fits the bounding box of `points` (finite values assumed). O(n), in parallel above
+    /// [`PAR_BLOCK`] points: the smallest and largest coordinates do not depend on the
+    /// order they are compared in, so the fit is the serial one bit for bit.
     pub fn fit(points: &[DVec3]) -> Self {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for &p in points {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
+        let bounds = |chunk: &[DVec3]| {
+            chunk.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), &p| (lo.min(p), hi.max(p)),
+            )
+        };
+        let (lo, hi) = if points.len() > PAR_BLOCK {
+            points
+                .par_chunks(PAR_BLOCK)
+                .map(bounds)
+                .reduce_with(|(lo, hi), (p, q)| (lo.min(p), hi.max(q)))
+                .expect("more than one block")
+        } else {
+            bounds(points)
+        };
         if points.is_empty() {
             return Normalizer {
                 center: DVec3::ZERO,
@@ -204,6 +220,14 @@ pub fn normalize_plane(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, f64) {
 
 /// Checks that every coordinate is finite; the error names the first bad one. O(n).
 pub fn check_finite(points: &[DVec3]) -> crate::Result<()> {
+    // The common case (all finite) in parallel; the serial walk names the first bad one.
+    if points.len() > PAR_BLOCK
+        && points
+            .par_chunks(PAR_BLOCK)
+            .all(|c| c.iter().all(|p| p.is_finite()))
+    {
+        return Ok(());
+    }
     for (index, p) in points.iter().enumerate() {
         for axis in 0..3 {
             if !p[axis].is_finite() {

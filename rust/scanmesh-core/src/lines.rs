@@ -305,24 +305,29 @@ pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], f
     };
     let unit = |k: u32| norm.apply(points[k as usize]);
     let split = |segment: Vec<u32>| -> Vec<Vec<u32>> {
-        let steps: Vec<(f64, f64)> = segment
+        let steps: Vec<f64> = segment
             .windows(2)
-            .map(|w| {
-                let flat = planar_distance(uv[w[0] as usize], uv[w[1] as usize]) * to_unit;
-                ((unit(w[1]) - unit(w[0])).length(), flat)
-            })
+            .map(|w| (unit(w[1]) - unit(w[0])).length())
             .collect();
         let mut pieces = vec![vec![segment[0]]];
         let mut window = Vec::with_capacity(2 * JUMP_WINDOW + 1);
-        for (i, &(length3, flat)) in steps.iter().enumerate() {
-            window.clear();
+        for (i, &length3) in steps.iter().enumerate() {
             let lo = i.saturating_sub(JUMP_WINDOW);
             let hi = (i + JUMP_WINDOW + 1).min(steps.len());
-            window.extend(steps[lo..hi].iter().map(|s| s.0));
-            let mid = window.len() / 2;
-            let spacing = *window.select_nth_unstable_by(mid, f64::total_cmp).1;
-            if crate::trim::is_depth_jump(length3, flat, spacing, factor) {
-                pieces.push(Vec::new());
+            // The median is at least the window's shortest step (rounding is monotone): a
+            // step no longer than `factor` times that is no jump, and on a smooth line no
+            // step is, so the median and the planar length are taken only for the rest.
+            let shortest = steps[lo..hi].iter().copied().fold(f64::INFINITY, f64::min);
+            if length3 > factor * shortest {
+                window.clear();
+                window.extend_from_slice(&steps[lo..hi]);
+                let mid = window.len() / 2;
+                let spacing = *window.select_nth_unstable_by(mid, f64::total_cmp).1;
+                let w = [segment[i], segment[i + 1]];
+                let flat = planar_distance(uv[w[0] as usize], uv[w[1] as usize]) * to_unit;
+                if crate::trim::is_depth_jump(length3, flat, spacing, factor) {
+                    pieces.push(Vec::new());
+                }
             }
             pieces
                 .last_mut()

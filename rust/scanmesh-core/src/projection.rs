@@ -1,8 +1,9 @@
 //! Projection of 3-D points onto a plane: the least-squares plane, a named axis, or a normal.
 
-use crate::geometry::{check_finite, Normalizer};
+use crate::geometry::{check_finite, Normalizer, PAR_BLOCK};
 use crate::{Error, Result};
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Which plane to project onto.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -128,7 +129,12 @@ pub fn project(points: &[DVec3], plane: Plane) -> Result<Projection> {
             Frame::from_normal(box_fit.center, n / n.abs().max_element())
         }
     };
-    let uv = points.iter().map(|&p| frame.to_plane(p)).collect();
+    // Each point on its own: in parallel, the same coordinates as a serial pass.
+    let uv = points
+        .par_iter()
+        .with_min_len(PAR_BLOCK)
+        .map(|&p| frame.to_plane(p))
+        .collect();
     Ok(Projection { uv, frame })
 }
 
@@ -138,10 +144,12 @@ pub fn project(points: &[DVec3], plane: Plane) -> Result<Projection> {
 /// axis is the largest principal axis; both make the frame reproducible. O(n).
 fn best_fit_frame(points: &[DVec3], box_fit: &Normalizer) -> Result<Frame> {
     // Work in the unit box: squares of 1e300 overflow, squares of 1e-300 vanish.
-    let unit: Vec<DVec3> = box_fit.apply_all(points);
-    let centroid = unit.iter().copied().sum::<DVec3>() / unit.len() as f64;
+    // Mapped as they are summed (no unit-box copy of the points); the sums stay serial,
+    // in point order, so the plane does not depend on the thread count.
+    let unit = || points.iter().map(|&p| box_fit.apply(p));
+    let centroid = unit().sum::<DVec3>() / points.len() as f64;
     let mut cov = [[0.0f64; 3]; 3];
-    for &p in &unit {
+    for p in unit() {
         let d = p - centroid;
         for (i, row) in cov.iter_mut().enumerate() {
             for (j, c) in row.iter_mut().enumerate() {

@@ -28,6 +28,7 @@
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
 mod check;
+mod jumps;
 mod repair;
 
 use crate::delaunay::{unit_square_scaled, unit_square_scaled_by};
@@ -35,7 +36,7 @@ use crate::fuchs::{lookahead, path_triangles, shortest_path, Solver, Weight};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::lines::ScanLines;
 use crate::mesh::HalfEdgeMesh;
-use crate::trim::{bridging_triangles, DepthJumps};
+use crate::trim::DepthJumps;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -672,7 +673,7 @@ fn stitch_with(
             points,
             factor: params.jump_factor,
         };
-        let bridges = bridging_triangles(caller_uv, &triangles, jumps);
+        let bridges = jumps::bridging(caller_uv, &triangles, jumps);
         dropped_jumps = bridges.iter().filter(|&&b| b).count();
         if dropped_jumps > 0 {
             triangles = triangles

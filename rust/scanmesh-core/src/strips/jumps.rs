@@ -1,0 +1,197 @@
+//! Which strip triangles bridge a depth jump: [`bridging_triangles`], decided on the few
+//! triangles that can.
+//!
+//! The rule drops a triangle whose longest 3-D edge is steep and longer than `factor` ×
+//! the smallest local spacing of its corners, the local spacing of a vertex being the
+//! median length of its edges ([`crate::trim::local_spacing`]). A median is at least the
+//! shortest of the lengths, so a triangle whose longest edge is at most `factor` × the
+//! shortest edge at any of its corners cannot bridge a jump, steep or not; on a smooth scan
+//! that is every triangle (the 1M-point synthetic scan of `benches/peers.py`: a quarter of
+//! its 2M triangles are steep, none is a candidate), and the medians (a sort of the edges
+//! of every steep triangle's corners, a second of the strips' time there) are never taken.
+//! The candidates left are judged by [`bridging_triangles`] itself, on the triangles around
+//! their corners: that holds every edge at a candidate's corner, so their local spacings,
+//! and the verdicts, are those over the whole mesh.
+
+use crate::geometry::{Normalizer, PAR_BLOCK};
+use crate::trim::{bridging_triangles, DepthJumps};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// [`bridging_triangles`]`(uv, triangles, jumps)`, bit for bit, computed on the candidates
+/// only (see the module docs). O(n + m) in parallel, plus that of [`bridging_triangles`]
+/// on the candidates' neighbourhoods.
+pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
+    let none = || vec![false; triangles.len()];
+    if !jumps.factor.is_finite() || triangles.is_empty() {
+        return none();
+    }
+    // Lengths as `bridging_triangles` and `local_spacing` take them: in the unit box.
+    let norm = Normalizer::fit(jumps.points);
+    let (scale, to_unit) = if norm.half_extent > 0.0 {
+        (norm.half_extent, 1.0 / norm.half_extent)
+    } else {
+        (1.0, 1.0)
+    };
+    // Mapped once per point, not once per corner (a division each).
+    let unit: Vec<_> = jumps
+        .points
+        .par_iter()
+        .with_min_len(PAR_BLOCK)
+        .map(|&p| norm.apply(p))
+        .collect();
+    // The shortest edge at each vertex. Lengths are ≥ +0, whose bit patterns order as the
+    // numbers do, so an atomic minimum of the bits is the minimum, in any order.
+    let shortest: Vec<AtomicU64> = (0..jumps.points.len())
+        .into_par_iter()
+        .with_min_len(PAR_BLOCK)
+        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
+        .collect();
+    let longest: Vec<f64> = triangles
+        .par_iter()
+        .with_min_len(PAR_BLOCK)
+        .map(|t| {
+            let mut longest = 0.0f64;
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let l = (unit[a as usize] - unit[b as usize]).length();
+                longest = longest.max(l);
+                for v in [a, b] {
+                    // A plain load first: most edges are not a vertex's shortest, and a
+                    // read-modify-write on every one is a locked instruction each.
+                    let at = &shortest[v as usize];
+                    if l.to_bits() < at.load(Ordering::Relaxed) {
+                        at.fetch_min(l.to_bits(), Ordering::Relaxed);
+                    }
+                }
+            }
+            longest
+        })
+        .collect();
+    drop(unit);
+    // The rule's right side, `factor × (spacing × scale) × to_unit`, with the shortest
+    // edge for the median: rounding is monotone, so it is at most the rule's.
+    let candidate: Vec<bool> = triangles
+        .par_iter()
+        .zip(&longest)
+        .with_min_len(PAR_BLOCK)
+        .map(|(t, &longest)| {
+            let nearest = t
+                .iter()
+                .map(|&v| f64::from_bits(shortest[v as usize].load(Ordering::Relaxed)) * scale)
+                .fold(f64::INFINITY, f64::min);
+            longest > jumps.factor * nearest * to_unit
+        })
+        .collect();
+    if !candidate.par_iter().any(|&c| c) {
+        return none();
+    }
+    // Every triangle at a candidate's corner, so that their spacings are whole.
+    let corner: Vec<AtomicBool> = (0..jumps.points.len())
+        .into_par_iter()
+        .with_min_len(PAR_BLOCK)
+        .map(|_| AtomicBool::new(false))
+        .collect();
+    triangles.par_iter().zip(&candidate).for_each(|(t, &c)| {
+        if c {
+            t.iter()
+                .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
+        }
+    });
+    let around: Vec<usize> = (0..triangles.len())
+        .into_par_iter()
+        .with_min_len(PAR_BLOCK)
+        .filter(|&f| {
+            triangles[f]
+                .iter()
+                .any(|&v| corner[v as usize].load(Ordering::Relaxed))
+        })
+        .collect();
+    let near: Vec<[u32; 3]> = around.iter().map(|&f| triangles[f]).collect();
+    let verdicts = bridging_triangles(uv, &near, jumps);
+    let mut bridges = none();
+    for (&f, bridge) in around.iter().zip(verdicts) {
+        // Others around them may see partial spacings; they are not candidates anyway.
+        bridges[f] = bridge && candidate[f];
+    }
+    bridges
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    /// A deterministic generator for test data (LCG, top 53 bits).
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// A grid of `w` × `h` points with height `z(x, y)`, triangulated two triangles per
+    /// cell, with jittered positions.
+    fn grid(
+        w: usize,
+        h: usize,
+        seed: u64,
+        z: impl Fn(f64, f64) -> f64,
+    ) -> (Vec<DVec3>, Vec<[f64; 2]>, Vec<[u32; 3]>) {
+        let mut s = seed;
+        let mut points = Vec::new();
+        for j in 0..h {
+            for i in 0..w {
+                let (x, y) = (i as f64 + 0.1 * lcg(&mut s), j as f64 + 0.1 * lcg(&mut s));
+                points.push(DVec3::new(x, y, z(x, y)));
+            }
+        }
+        let uv = points.iter().map(|p| [p.x, p.y]).collect();
+        let mut tris = Vec::new();
+        for j in 0..h - 1 {
+            for i in 0..w - 1 {
+                let k = (j * w + i) as u32;
+                let (a, b, c, d) = (k, k + 1, k + w as u32, k + w as u32 + 1);
+                tris.push([a, b, d]);
+                tris.push([a, d, c]);
+            }
+        }
+        (points, uv, tris)
+    }
+
+    #[test]
+    fn bridging_is_bridging_triangles_bit_for_bit() {
+        // Smooth (no candidate), steep but smooth (steep triangles, no candidate), walls and
+        // spikes (candidates), at several factors.
+        let shapes: [&dyn Fn(f64, f64) -> f64; 4] = [
+            &|x, y| 0.1 * (x + y),
+            &|x, y| 3.0 * x + (0.3 * y).sin(),
+            &|x, _| if x > 20.5 { 12.0 } else { 0.0 },
+            &|x, y| {
+                if (x as i64 * 7 + y as i64 * 3) % 17 == 0 {
+                    9.0
+                } else {
+                    0.2 * y
+                }
+            },
+        ];
+        let mut dropped = 0;
+        for (seed, z) in shapes.iter().enumerate() {
+            let (points, uv, tris) = grid(40, 30, seed as u64 + 1, z);
+            for factor in [1.5, 3.0, 8.0, f64::INFINITY] {
+                let jumps = DepthJumps {
+                    points: &points,
+                    factor,
+                };
+                let fast = bridging(&uv, &tris, jumps);
+                assert_eq!(
+                    fast,
+                    bridging_triangles(&uv, &tris, jumps),
+                    "shape {seed}, factor {factor}"
+                );
+                dropped += fast.iter().filter(|&&b| b).count();
+            }
+        }
+        assert!(dropped > 0, "the walls and spikes must drop triangles");
+    }
+}
