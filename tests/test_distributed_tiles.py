@@ -68,9 +68,8 @@ def small_tiles(monkeypatch):
 
 
 def run(client, parts, method, options, plane="z"):
-    blocks = client.gather(
-        _tiles.tile_blocks(client, parts, method, options, plane=plane, progress=False)
-    )
+    futures, _ = _tiles.tile_blocks(client, parts, method, options, plane=plane, progress=False)
+    blocks = client.gather(futures)
     faces = np.concatenate([b.faces for b in blocks])
     sums = {k: sum(b.sums[k] for b in blocks) for k in blocks[0].sums}
     return blocks, faces, sums

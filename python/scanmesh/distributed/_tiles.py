@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh import _core
-from scanmesh.anneal import ANNEAL_DEFAULTS, SEED_OPTION, _drive
+from scanmesh.anneal import ANNEAL_DEFAULTS, SEED_OPTION, drive
 from scanmesh.delaunay import JUMP_FACTOR, MAX_EDGE_FACTOR, MAX_EDGE_OPTION
 from scanmesh.distributed._output import FaceBlock
 from scanmesh.distributed._source import Part, load_part
@@ -515,7 +515,7 @@ def optimize_piece(
         # time_limit bounds each tile's pass (the tiles of a pass run side by side)
         native = {k: v for k, v in params.items() if k != "time_limit"}
         runner = _core.Annealer(pts, puv, local, seed=seed, **native)
-        _drive(runner, 0, False, params.get("time_limit"))
+        drive(runner, 0, False, params.get("time_limit"))
         done, _, _ = runner.finish()
     return np.concatenate([faces[~take], used[done]])
 
@@ -698,7 +698,7 @@ def tile_blocks(
     *,
     plane: PlaneSpec,
     progress: bool | Callable[..., Any],
-) -> list[Any]:
+) -> tuple[list[Any], dict[str, Any]]:
     """Delaunay, LOP or annealing of the scan in ``parts`` on the cluster, in tiles of the
     plane (rules in this module's docstring).
 
@@ -719,8 +719,12 @@ def tile_blocks(
 
     Returns
     -------
-    list of distributed.Future
+    blocks : list of distributed.Future
         One per tile, each resolving to a :class:`FaceBlock`.
+    info : dict
+        "tiles" (of the first pass), "max_edge" (the trimming length used); for annealing
+        also "noise" (the median over tiles of :func:`scanmesh.noise` of each tile's region,
+        None when no tile has enough points for an estimate) and "tie_tolerance".
     """
     params, max_edge, seed = check_tile_options(method, options)
     if not parts:
@@ -785,13 +789,15 @@ def tile_blocks(
         limit = max_edge
     trimmed = [client.submit(_trim, t, grid, box, limit, pure=False) for t in tiles]
     del tiles
+    info: dict[str, Any] = {"tiles": grid.count, "max_edge": limit}
     if method == "delaunay":
         blocks = [client.submit(_delaunay_block, t, pure=False) for t in trimmed]
         wait(blocks)
-        return blocks
-    if method == "anneal" and params.get("tie_tolerance") is None:
-        # annealing's automatic tie tolerance, from the median over tiles of the noise
-        # and of the median edge (noise.noise_tolerance on one scan)
+        return blocks, info
+    if method == "anneal":
+        # the scan's noise as the median over tiles of their estimates (one process
+        # reports noise.noise of the whole scan), and with the median of the tiles' median
+        # edges annealing's automatic tie tolerance (noise.noise_tolerance on one scan)
         frame = Frame(*_core.project(np.stack([lo, hi, lo * 0.5 + hi * 0.5]), *plane_spec)[1])
         spec = plane_spec[0] if plane_spec[0] is not None else plane_spec[1]
         measured = np.array(
@@ -800,10 +806,13 @@ def tile_blocks(
         sigma, edge = (
             np.nanmedian(measured, axis=0) if np.isfinite(measured).any() else (math.nan, math.nan)
         )
-        floor = float(ANNEAL_DEFAULTS["tie_tolerance"])
-        params["tie_tolerance"] = (
-            tie_tolerance(sigma, edge, params["p"], floor) if (math.isfinite(sigma)) else floor
-        )
+        info["noise"] = float(sigma) if math.isfinite(sigma) else None
+        if params.get("tie_tolerance") is None:
+            floor = float(ANNEAL_DEFAULTS["tie_tolerance"])
+            params["tie_tolerance"] = (
+                tie_tolerance(sigma, edge, params["p"], floor) if math.isfinite(sigma) else floor
+            )
+        info["tie_tolerance"] = params["tie_tolerance"]
     first = [
         client.submit(_optimize_first, t, grid, method, params, _tile_seed(seed, 0, i), pure=False)
         for i, t in enumerate(trimmed)
@@ -839,4 +848,4 @@ def tile_blocks(
             )
         )
     wait(blocks)
-    return blocks
+    return blocks, info
