@@ -188,13 +188,13 @@ def test_turned_blocks_are_the_faces_turned_round(tmp_path):
     """A block placed turned round is the file of its faces with two corners swapped."""
     points, ids = wavy_scan(6, 12)
     single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
-    block = _output.FaceBlock(single.faces, points[single.faces])
+    block = _output.FaceBlock(points, single.faces, 0)
     for kind in (".stl", ".ply"):
         written = _output.write_block(block, str(tmp_path / f"b{kind}"), kind)
         target = tmp_path / f"t{kind}"
         target.write_bytes(b"\0" * (written.size + 7))
         _output.place(written.path, str(target), 7, True, kind)
-        turned = _output.FaceBlock(single.faces[:, [0, 2, 1]], points[single.faces[:, [0, 2, 1]]])
+        turned = _output.FaceBlock(points, single.faces[:, [0, 2, 1]], 0)
         expected = _output.write_block(turned, str(tmp_path / f"e{kind}"), kind)
         assert target.read_bytes()[7:] == Path(expected.path).read_bytes()
 
@@ -215,6 +215,8 @@ def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
     paths = write_files(tmp_path, points, ids, [0, 60, 200])
     with pytest.raises(ParameterError, match=r"\.stl or \.ply"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.obj")
+    with pytest.raises(ParameterError, match="object store URL cannot be written atomically"):
+        reconstruct_distributed(paths, client=client, output="s3://bucket/site.stl")
     with pytest.raises(ParameterError, match="method must be one of"):
         reconstruct_distributed(paths, "strips", client=client, output=tmp_path / "m.stl")
     with pytest.raises(ParameterError, match="partition_lines"):

@@ -49,8 +49,8 @@ class DistributedResult:
     quality: dict[str, float | int]
     #: the method's options, the plane, and what the method reports (for strips: n_lines,
     #: n_strips, partitions, median_step, unused, duplicates, planar_valid, cost; for tiles:
-    #: tiles, max_edge, and for annealing noise and tie_tolerance, see
-    #: :func:`._tiles.tile_blocks`)
+    #: tiles, max_edge, for annealing tie_tolerance and (automatic) noise, for LOP and
+    #: annealing initial_tac_1, the tiled Delaunay's; see :func:`._tiles.tile_blocks`)
     options: dict[str, Any] = field(default_factory=dict)
     #: wall seconds per stage (list, solve and write)
     timings: dict[str, float] = field(default_factory=dict)
@@ -195,6 +195,8 @@ def reconstruct_distributed(
         )
     if "cost" in total:
         details["cost"] = total["cost"]
+    if "initial_tac_1" in total:
+        details["initial_tac_1"] = total["initial_tac_1"]
     return DistributedResult(
         output=target,
         method=method,

@@ -116,8 +116,11 @@ def count_keys(steps: np.ndarray, lo_bits: int, hi_bits: int, shift: int) -> tup
     distinct ``bits >> shift`` with their counts among those in [lo_bits, hi_bits)."""
     bits = steps.view(np.int64)
     a, b = np.searchsorted(bits, [lo_bits, hi_bits])
-    keys, counts = np.unique(bits[a:b] >> shift, return_counts=True)
-    return int(a), keys, counts
+    # positive floats' bits ascend with them: the keys come sorted, so runs, not a sort
+    keys = bits[a:b] >> shift
+    starts = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]])) if b > a else keys
+    counts = np.diff(np.append(starts, len(keys)))
+    return int(a), keys[starts], counts
 
 
 def median_step(client: Any, steps: list[Any], total: int) -> float:
@@ -329,8 +332,9 @@ def solve(
             "unused": to_global(unused[(unused >= lo_row) & (unused < hi_row)]),
         }
     block = FaceBlock(
-        faces=to_global(faces),
-        corners=np.take(points, faces, axis=0),
+        vertices=points,
+        local=faces,
+        index=start if contiguous else global_index,
         sums=sums,
         turn_key="strips",
     )

@@ -451,7 +451,7 @@ def face_block(t: Tile, faces: np.ndarray, uncertified: int) -> FaceBlock:
         slivers=float(np.count_nonzero(deg < _core.SLIVER_ANGLE_DEG)),
         area=float(area.sum()),
     )
-    return FaceBlock(faces=t.index[faces], corners=corners, sums=sums)
+    return FaceBlock(vertices=t.points, local=faces, index=t.index, sums=sums)
 
 
 def _delaunay_block(t: Tile) -> FaceBlock:
@@ -532,6 +532,10 @@ def _optimize_first(
     inside = (corner_cells == t.tile).all(axis=1)
     mine = inside | (t.meta["owned"] & ~(corner_cells == corner_cells[:, :1]).all(axis=1))
     kept = faces[mine]
+    # tac_1 of the tile's own vertices before optimizing: summed over tiles, the tiled
+    # Delaunay's tac_1 (as the "delaunay" method reports it), without a second run
+    tac, _ = _core.mesh_quality(t.points, faces) if len(faces) else (np.zeros(0), None)
+    before = tac[t.own & ~np.isnan(tac)] if len(faces) else tac
     done = optimize_piece(t.points, t.uv, kept, t.own, method, params, seed)
     used, local = np.unique(done, return_inverse=True)
     return {
@@ -543,6 +547,7 @@ def _optimize_first(
         "uv": t.uv[used],
         "uncertified": t.meta["uncertified"],
         "duplicates": t.meta.get("duplicates", 0),
+        "initial_tac_1": float(before.sum()),
     }
 
 
@@ -564,6 +569,7 @@ def _route(mesh: dict[str, Any], grid: Grid, tiles: list[int]) -> dict[int, dict
             "uv": mesh["uv"][used],
             "uncertified": mesh["uncertified"] if first else 0,
             "duplicates": mesh["duplicates"] if first else 0,
+            "initial_tac_1": mesh["initial_tac_1"] if first else 0.0,
         }
     return out
 
@@ -610,7 +616,9 @@ def _optimize_second(
     )
     lowest = faces.min(axis=1) if len(faces) else np.zeros(0, np.int64)  # index is sorted
     t.meta["duplicates"] = sum(m["duplicates"] for m in meshes)
-    return face_block(t, faces[own[lowest]], sum(m["uncertified"] for m in meshes))
+    block = face_block(t, faces[own[lowest]], sum(m["uncertified"] for m in meshes))
+    block.sums["initial_tac_1"] = float(sum(m["initial_tac_1"] for m in meshes))
+    return block
 
 
 # ---------------------------------------------------------------------------------------
@@ -723,8 +731,10 @@ def tile_blocks(
         One per tile, each resolving to a :class:`FaceBlock`.
     info : dict
         "tiles" (of the first pass), "max_edge" (the trimming length used); for annealing
-        also "noise" (the median over tiles of :func:`scanmesh.noise` of each tile's region,
-        None when no tile has enough points for an estimate) and "tie_tolerance".
+        also "tie_tolerance" and, when it was automatic, "noise" (the median over tiles of
+        :func:`scanmesh.noise` of each tile's region, None when no tile has enough points
+        for an estimate). LOP's and annealing's blocks also sum "initial_tac_1": the tiled
+        Delaunay triangulation's tac_1 before optimizing.
     """
     params, max_edge, seed = check_tile_options(method, options)
     if not parts:
@@ -794,10 +804,11 @@ def tile_blocks(
         blocks = [client.submit(_delaunay_block, t, pure=False) for t in trimmed]
         wait(blocks)
         return blocks, info
-    if method == "anneal":
-        # the scan's noise as the median over tiles of their estimates (one process
-        # reports noise.noise of the whole scan), and with the median of the tiles' median
-        # edges annealing's automatic tie tolerance (noise.noise_tolerance on one scan)
+    if method == "anneal" and params.get("tie_tolerance") is None:
+        # annealing's automatic tie tolerance from the scan's noise, the median over tiles
+        # of their estimates (reported; one process reports noise.noise of the whole
+        # scan), and the median of the tiles' median edges (noise.noise_tolerance on one
+        # scan). A given tie tolerance skips this O(N log N) stage, and reports no noise.
         frame = Frame(*_core.project(np.stack([lo, hi, lo * 0.5 + hi * 0.5]), *plane_spec)[1])
         spec = plane_spec[0] if plane_spec[0] is not None else plane_spec[1]
         measured = np.array(
@@ -807,11 +818,11 @@ def tile_blocks(
             np.nanmedian(measured, axis=0) if np.isfinite(measured).any() else (math.nan, math.nan)
         )
         info["noise"] = float(sigma) if math.isfinite(sigma) else None
-        if params.get("tie_tolerance") is None:
-            floor = float(ANNEAL_DEFAULTS["tie_tolerance"])
-            params["tie_tolerance"] = (
-                tie_tolerance(sigma, edge, params["p"], floor) if math.isfinite(sigma) else floor
-            )
+        floor = float(ANNEAL_DEFAULTS["tie_tolerance"])
+        params["tie_tolerance"] = (
+            tie_tolerance(sigma, edge, params["p"], floor) if math.isfinite(sigma) else floor
+        )
+    if method == "anneal":
         info["tie_tolerance"] = params["tie_tolerance"]
     first = [
         client.submit(_optimize_first, t, grid, method, params, _tile_seed(seed, 0, i), pure=False)
