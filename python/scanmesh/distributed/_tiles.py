@@ -420,6 +420,15 @@ def _noise(t: Tile, frame: Frame, plane: PlaneSpec) -> tuple[float, float]:
     return sigma, median_edge(t.uv, t.faces)
 
 
+def own_tac(t: Tile) -> np.ndarray:
+    """tac of the tile's own interior vertices over its faces (their fans are whole in the
+    tile). O(n + m)."""
+    if not len(t.faces):
+        return np.zeros(0)
+    tac, _ = _core.mesh_quality(t.points, t.faces)
+    return tac[t.own & ~np.isnan(tac)]
+
+
 def face_block(t: Tile, faces: np.ndarray, uncertified: int) -> FaceBlock:
     """The faces (local indices) as a FaceBlock over global indices, with the quality sums
     of this tile's own vertices (their fans are complete in the tile) and of the faces."""
@@ -428,11 +437,7 @@ def face_block(t: Tile, faces: np.ndarray, uncertified: int) -> FaceBlock:
         "uncertified": float(uncertified),
         "duplicates": float(t.meta.get("duplicates", 0)),
     }
-    if len(t.faces):
-        tac, _ = _core.mesh_quality(t.points, t.faces)
-        mine = tac[t.own & ~np.isnan(tac)]
-    else:
-        mine = np.zeros(0)
+    mine = own_tac(t)
     if len(faces):
         _, min_angle = _core.mesh_quality(t.points, faces)
         deg = np.degrees(min_angle)
@@ -532,10 +537,8 @@ def _optimize_first(
     inside = (corner_cells == t.tile).all(axis=1)
     mine = inside | (t.meta["owned"] & ~(corner_cells == corner_cells[:, :1]).all(axis=1))
     kept = faces[mine]
-    # tac_1 of the tile's own vertices before optimizing: summed over tiles, the tiled
-    # Delaunay's tac_1 (as the "delaunay" method reports it), without a second run
-    tac, _ = _core.mesh_quality(t.points, faces) if len(faces) else (np.zeros(0), None)
-    before = tac[t.own & ~np.isnan(tac)] if len(faces) else tac
+    # summed over tiles, the tiled Delaunay's tac_1 (as the "delaunay" method reports it)
+    before = own_tac(t)
     done = optimize_piece(t.points, t.uv, kept, t.own, method, params, seed)
     used, local = np.unique(done, return_inverse=True)
     return {
