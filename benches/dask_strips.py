@@ -11,7 +11,9 @@ alternating with the Dask run, and the two STL files are compared byte for byte.
     python benches/dask_strips.py --points 10_000_000 --single --repeat 2
     python benches/dask_strips.py --points 100_000_000
 
-Large data goes under --scratch (default /work/tmp_dask) and is deleted at the end.
+Large data goes under --scratch (default /work/tmp_dask) and is deleted at the end. On a
+loaded Linux machine with autogroup scheduling the workers and the single process share one
+session's CPU, so the ratio then measures the Dask run's extra work, not its parallelism.
 """
 
 from __future__ import annotations

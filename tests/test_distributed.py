@@ -117,6 +117,56 @@ def test_text_files_a_glob_and_a_detected_plane(client, scan, tmp_path):
     assert out.read_bytes() == (tmp_path / "single.stl").read_bytes()
 
 
+def _count_reads() -> None:
+    """On a worker: record every path scanmesh.formats.read is asked for."""
+    import scanmesh.formats as formats
+
+    original = getattr(formats, "_uncounted_read", formats.read)
+    formats._uncounted_read = original
+    formats._reads = []
+
+    def counted(path, **kwargs):
+        formats._reads.append(str(path))
+        return original(path, **kwargs)
+
+    formats.read = counted
+
+
+def _stop_counting() -> list[str]:
+    """On a worker: the paths read since _count_reads, and read restored."""
+    import scanmesh.formats as formats
+
+    formats.read = formats._uncounted_read
+    return formats._reads
+
+
+@pytest.mark.parametrize(("method", "ending"), [("shortest-path", ".ply"), ("delaunay", ".stl")])
+def test_each_text_file_is_parsed_once(client, scan, tmp_path, method, ending):
+    """The listing copies text parts to .npy; line statistics, strips or tiles and the
+    PLY vertices read the copies. The mesh is the one a parse at every stage gave."""
+    points, ids = scan
+    paths = write_files(tmp_path, points, ids, [0, 40, 80, 200], ending=".xyz")
+    client.run(_count_reads)
+    try:
+        out = tmp_path / f"m{ending}"
+        lines = {"partition_lines": 4} if method == "shortest-path" else {}
+        result = reconstruct_distributed(
+            paths, method, client=client, output=out, plane="z", **lines
+        )
+    finally:
+        reads = [path for done in client.run(_stop_counting).values() for path in done]
+    assert sorted(reads) == sorted(paths)
+    if method == "delaunay":
+        single = scanmesh.reconstruct(points, method, plane="z")
+        assert result.n_faces == len(single.faces)
+        assert result.quality["tac_1"] == pytest.approx(single.quality.tac_1, rel=1e-9)
+    else:
+        single = scanmesh.reconstruct(points, method, lines=ids, plane="z")
+        single.save(tmp_path / f"single{ending}")
+        assert out.read_bytes() == (tmp_path / f"single{ending}").read_bytes()
+    assert not leftovers(tmp_path)
+
+
 def test_a_dask_array_source(client, scan, tmp_path):
     points, ids = scan
     out = tmp_path / "m.ply"
@@ -138,13 +188,13 @@ def test_turned_blocks_are_the_faces_turned_round(tmp_path):
     """A block placed turned round is the file of its faces with two corners swapped."""
     points, ids = wavy_scan(6, 12)
     single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
-    block = _output.FaceBlock(single.faces, points[single.faces])
+    block = _output.FaceBlock(points, single.faces, 0)
     for kind in (".stl", ".ply"):
         written = _output.write_block(block, str(tmp_path / f"b{kind}"), kind)
         target = tmp_path / f"t{kind}"
         target.write_bytes(b"\0" * (written.size + 7))
         _output.place(written.path, str(target), 7, True, kind)
-        turned = _output.FaceBlock(single.faces[:, [0, 2, 1]], points[single.faces[:, [0, 2, 1]]])
+        turned = _output.FaceBlock(points, single.faces[:, [0, 2, 1]], 0)
         expected = _output.write_block(turned, str(tmp_path / f"e{kind}"), kind)
         assert target.read_bytes()[7:] == Path(expected.path).read_bytes()
 
@@ -165,10 +215,16 @@ def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
     paths = write_files(tmp_path, points, ids, [0, 60, 200])
     with pytest.raises(ParameterError, match=r"\.stl or \.ply"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.obj")
+    with pytest.raises(ParameterError, match="object store URL cannot be written atomically"):
+        reconstruct_distributed(paths, client=client, output="s3://bucket/site.stl")
     with pytest.raises(ParameterError, match="method must be one of"):
         reconstruct_distributed(paths, "strips", client=client, output=tmp_path / "m.stl")
     with pytest.raises(ParameterError, match="partition_lines"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.stl", partition_lines=0)
+    with pytest.raises(ParameterError, match="partition_lines applies to the strip methods"):
+        reconstruct_distributed(
+            paths, "delaunay", client=client, output=tmp_path / "m.stl", partition_lines=5
+        )
     with pytest.raises(ParameterError, match="matches no file"):
         reconstruct_distributed(str(tmp_path / "no*.xyz"), client=client, output=tmp_path / "m.stl")
     with pytest.raises(ScanmeshError, match="part00.npz"):  # files out of scan order

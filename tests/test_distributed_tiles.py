@@ -68,12 +68,11 @@ def small_tiles(monkeypatch):
 
 
 def run(client, parts, method, options, plane="z"):
-    blocks = client.gather(
-        _tiles.tile_blocks(client, parts, method, options, plane=plane, progress=False)
-    )
+    futures, info = _tiles.tile_blocks(client, parts, method, options, plane=plane, progress=False)
+    blocks = client.gather(futures)
     faces = np.concatenate([b.faces for b in blocks])
     sums = {k: sum(b.sums[k] for b in blocks) for k in blocks[0].sums}
-    return blocks, faces, sums
+    return blocks, faces, sums, info
 
 
 def face_set(faces: np.ndarray) -> set[tuple[int, ...]]:
@@ -106,7 +105,7 @@ def seam_band(uv: np.ndarray, grid: _tiles.Grid, width: float) -> np.ndarray:
 def test_delaunay_equals_one_process(client, small_tiles, tmp_path, count):
     points, ids = line_scan(160, 250, step=True)
     parts = write_parts(points, ids, count, tmp_path)
-    blocks, faces, sums = run(client, parts, "delaunay", {})
+    blocks, faces, sums, _ = run(client, parts, "delaunay", {})
     assert len(blocks) >= 4, "the scan must be cut into several tiles"
     one = scanmesh.delaunay(points, plane="z")
     assert face_set(faces) == face_set(one.faces)
@@ -114,7 +113,7 @@ def test_delaunay_equals_one_process(client, small_tiles, tmp_path, count):
     assert sums["uncertified"] == 0
     # the corners are the points' own coordinates, and every block's faces are its own
     for b in blocks:
-        np.testing.assert_array_equal(b.corners, points[b.faces])
+        np.testing.assert_array_equal(b.vertices[b.local], points[b.faces])
     # quality sums add up to the one-process figures
     q = scanmesh.quality(points, one.faces)
     assert sums["tac_1"] == pytest.approx(q.tac_1, rel=1e-9)
@@ -129,7 +128,7 @@ def test_delaunay_with_max_edge_and_trimming_ties(client, small_tiles, tmp_path)
     decide it as the whole scan does)."""
     points, ids = line_scan(120, 300, step=True, seed=3)
     parts = write_parts(points, ids, 3, tmp_path)
-    _, faces, _ = run(client, parts, "delaunay", {"max_edge": 0.5})
+    _, faces, _, _ = run(client, parts, "delaunay", {"max_edge": 0.5})
     one = scanmesh.delaunay(points, plane="z", max_edge=0.5)
     assert face_set(faces) == face_set(one.faces)
 
@@ -139,7 +138,7 @@ def test_union_is_one_valid_mesh(client, small_tiles, tmp_path, method):
     points, ids = line_scan(120, 200, step=True, seed=1)
     parts = write_parts(points, ids, 3, tmp_path)
     options = {"sweeps": 30} if method == "anneal" else {}
-    blocks, faces, sums = run(client, parts, method, options)
+    blocks, faces, sums, info = run(client, parts, method, options)
     one = scanmesh.delaunay(points, plane="z")
     # a valid planar triangulation: no overlap, manifold, counter-clockwise
     _core.validate(one.scan.uv, faces)
@@ -170,8 +169,11 @@ def test_union_is_one_valid_mesh(client, small_tiles, tmp_path, method):
     assert all(uses[e] == 2 or e in boundary for e in seam_edges)
     assert sums["area"] == pytest.approx(area_3d(points, faces), rel=1e-9)
     assert sums["faces"] == len(faces) == len(one.faces)
-    # the optimization did something: fewer tac than Delaunay
-    assert scanmesh.quality(points, faces).tac_1 < scanmesh.quality(points, one.faces).tac_1
+    # the optimization did something: fewer tac than Delaunay, whose tac_1 the blocks sum
+    delaunay_tac = scanmesh.quality(points, one.faces).tac_1
+    assert scanmesh.quality(points, faces).tac_1 < delaunay_tac
+    assert sums["initial_tac_1"] == pytest.approx(delaunay_tac, rel=1e-9)
+    assert info["tiles"] >= 2 and ("noise" in info) == (method == "anneal")
 
 
 def ridge(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -205,7 +207,7 @@ def test_anneal_quality_within_5_percent(client, small_tiles, tmp_path):
     points = ridge_scan()
     ids = np.repeat(np.arange(60, dtype=np.int64), 240)
     parts = write_parts(points, ids, 3, tmp_path)
-    blocks, faces, _ = run(client, parts, "anneal", {"sweeps": 100})
+    blocks, faces, _, info = run(client, parts, "anneal", {"sweeps": 100})
     assert len(blocks) >= 2
     one = scanmesh.reconstruct(points, "anneal", plane="z", seed=0, sweeps=100)
     base = scanmesh.delaunay(points, plane="z")
@@ -213,6 +215,10 @@ def test_anneal_quality_within_5_percent(client, small_tiles, tmp_path):
     assert tac_one < 0.85 * scanmesh.quality(points, base.faces).tac_1, "annealing must matter"
     assert tac <= 1.05 * tac_one
     assert height_rms(points, faces) <= 1.05 * height_rms(points, one.faces)
+    # the noise reported is the tiles' median estimate: near the whole scan's (noise-free
+    # here, so both are tiny against the 0.125 spacing), and the tie tolerance follows it
+    assert info["noise"] == pytest.approx(scanmesh.noise(points, plane="z"), abs=1e-4)
+    assert info["tie_tolerance"] == pytest.approx(one.options["tie_tolerance"], rel=0.5)
 
 
 def test_bad_options_are_refused(client, tmp_path):
@@ -259,7 +265,7 @@ def test_exact_grid_gives_one_valid_mesh(client, monkeypatch, tmp_path):
     points = np.column_stack([x.ravel(), y.ravel(), np.sin(x.ravel() / 3)])
     ids = np.repeat(np.arange(100, dtype=np.int64), 120)
     parts = write_parts(points, ids, 3, tmp_path)
-    blocks, faces, sums = run(client, parts, "delaunay", {})
+    blocks, faces, sums, _ = run(client, parts, "delaunay", {})
     assert len(blocks) >= 4
     one = scanmesh.delaunay(points, plane="z")
     _core.validate(one.scan.uv, faces)

@@ -202,12 +202,14 @@ def seconds_left(
     return limit_left if estimate is None else min(estimate, limit_left)
 
 
-def _drive(
+def drive(
     runner: _core.Annealer, total: int, progress: Progress, time_limit: float | None
 ) -> str | None:
     """Advances ``runner`` chunk by chunk until it is done (None) or ``time_limit`` seconds
     have passed ("time_limit"), reporting each chunk to ``progress`` (``total``: the sweeps
-    planned)."""
+    planned; ``progress=False`` reports nothing). Ctrl-C is seen between chunks of at most
+    CHUNK_SECONDS. Every caller that runs a ``_core.Annealer`` (this module, the tiles of
+    :mod:`scanmesh.distributed`) drives it here. O(proposals)."""
     report = _progress_bar(progress, total)
     planned = total * runner.sweep_len
     try:
@@ -317,7 +319,7 @@ def anneal_surface(
             lambda: _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params),
         )
     total = runner.chains * params["sweeps"]
-    stopped = _drive(runner, total, anneal_progress(progress), time_limit)
+    stopped = drive(runner, total, anneal_progress(progress), time_limit)
     with Stage(progress, "polish", len(start.faces), blocking=True):
         faces, trace, summary = interruptible(n, runner.finish)
     if stopped is None:
@@ -328,8 +330,14 @@ def anneal_surface(
         faces=faces,
         method="anneal",
         options={
-            **start.options, **params, "seed": seed_value, "time_limit": time_limit,
-            "initial": start.method, "noise": sigma, **summary, "stopped": stopped
+            **start.options,
+            **params,
+            "seed": seed_value,
+            "time_limit": time_limit,
+            "initial": start.method,
+            "noise": sigma,
+            **summary,
+            "stopped": stopped,
         },
         scan=scan,
         duplicates=start.duplicates,

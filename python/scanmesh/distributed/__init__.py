@@ -48,7 +48,9 @@ class DistributedResult:
     #: tac_1, tac_2, tac_inf, n_interior, min_angle_deg, sliver_fraction (as Quality)
     quality: dict[str, float | int]
     #: the method's options, the plane, and what the method reports (for strips: n_lines,
-    #: n_strips, partitions, median_step, unused, duplicates, planar_valid, cost)
+    #: n_strips, partitions, median_step, unused, duplicates, planar_valid, cost; for tiles:
+    #: tiles, max_edge, for annealing tie_tolerance and (automatic) noise, for LOP and
+    #: annealing initial_tac_1, the tiled Delaunay's; see :func:`._tiles.tile_blocks`)
     options: dict[str, Any] = field(default_factory=dict)
     #: wall seconds per stage (list, solve and write)
     timings: dict[str, float] = field(default_factory=dict)
@@ -117,6 +119,11 @@ def reconstruct_distributed(
         or partition_lines < 1
     ):
         raise ParameterError(f"partition_lines must be an integer >= 1, got {partition_lines!r}")
+    if partition_lines is not None and method not in STRIP_METHODS:
+        raise ParameterError(
+            f"partition_lines applies to the strip methods {STRIP_METHODS}; method {method!r}"
+            " runs in tiles of the plane"
+        )
     owned = None
     if client is None:
         owned = distributed.LocalCluster(processes=True, threads_per_worker=1)
@@ -124,13 +131,15 @@ def reconstruct_distributed(
     stored: Path | None = None
     try:
         t0 = time.perf_counter()
+        # the dask array's chunks, and copies of the files costly to read again (each
+        # stage reads every part), go beside the output, visible to every worker
+        stored = scratch_folder(target)
         if _is_dask_array(source):
-            stored = scratch_folder(target)
             array, ids = source if isinstance(source, tuple) else (source, None)
             paths = store_chunks(client, array, ids, stored)
         else:
             paths = source_paths(source)
-        parts, summaries = list_parts(client, paths, PLANE_SAMPLE)
+        parts, summaries = list_parts(client, paths, PLANE_SAMPLE, stored)
         lo, hi = scan_bounds(summaries)
         plane = resolve_plane(plane, summaries)
         t1 = time.perf_counter()
@@ -153,8 +162,9 @@ def reconstruct_distributed(
             else:
                 from ._tiles import tile_blocks
 
-                blocks = tile_blocks(client, parts, method, options, plane=plane, progress=progress)
-                seams, info = [], {}
+                blocks, info = tile_blocks(
+                    client, parts, method, options, plane=plane, progress=progress
+                )
             for block in blocks:
                 mesh.add(block)
             del blocks
@@ -185,6 +195,8 @@ def reconstruct_distributed(
         )
     if "cost" in total:
         details["cost"] = total["cost"]
+    if "initial_tac_1" in total:
+        details["initial_tac_1"] = total["initial_tac_1"]
     return DistributedResult(
         output=target,
         method=method,

@@ -1,15 +1,26 @@
 """Meshes written by the workers, block by block, into one file renamed into place at the end.
 
-Every method hands its faces over as futures of :class:`FaceBlock` (faces over global point
-indices, their corners, additive quality sums). Each block is written by the worker that
-holds it into its own file in a hidden folder beside the output; once all are written and
-their sizes known, workers copy them into a hidden temporary at their offsets (binary STL:
-the 84-byte header with the total count, then 50-byte records block after block; PLY: the
-header, the vertices part by part, then the faces block after block, over global indices;
-the same bytes as :meth:`scanmesh.Surface.save` writes for the same faces)
-and the temporary is renamed onto the output. Nothing is ever assembled in one process, and
+Every method hands its faces over as futures of :class:`FaceBlock` (faces over its own
+vertices and their global point indices, additive quality sums). Each block is written by
+the worker that holds it into its own file in a hidden folder beside the output; once all
+are written and their sizes known, workers copy them into a hidden temporary at their
+offsets (binary STL: the 84-byte header with the total count, then 50-byte records block
+after block; PLY: the header, the vertices part by part, then the faces block after block,
+over global indices; the same bytes as :meth:`scanmesh.Surface.save` writes for the same
+faces; copied in the kernel where it can, ``os.copy_file_range``) and the temporary is
+renamed onto the output. Nothing is ever assembled in one process, and
 a failure or Ctrl-C anywhere removes the folder and the temporary: the output is either the
 whole new mesh or untouched.
+
+The output must be on a filesystem every worker mounts at the same path (NFS, Lustre,
+CephFS, a local disk for a LocalCluster). Object stores reached through fsspec (``s3://``,
+``gs://``, ``abfs://``) are refused: placing blocks needs writes at an offset into one
+file, which an object does not take (it is written whole, or in a multipart upload), and a
+rename there is a copy then a delete, so readers could see a half-copied mesh. An atomic
+store write would be a multipart upload whose parts the workers send and whose completion
+the client commits (S3 ``CompleteMultipartUpload``); fsspec has no portable API for it
+(and S3 parts must be at least 5 MiB), so it is not done: write to a shared filesystem and
+copy the finished file to the store.
 """
 
 from __future__ import annotations
@@ -49,16 +60,27 @@ COPY_CHUNK: int = 1 << 26
 class FaceBlock:
     """Some faces of a mesh, as the worker that made them hands them to the writers."""
 
-    #: (m, 3) int64 global point indices, counter-clockwise in the projection plane
-    faces: np.ndarray
-    #: (m, 3, 3) float64 coordinates of each face's corners (for STL)
-    corners: np.ndarray
+    #: (k, 3) float64 coordinates and (m, 3) int64 rows of them, counter-clockwise in the
+    #: projection plane: face i's corners are ``vertices[local[i]]`` (the producer's own
+    #: arrays: no per-face copy is made unless a format needs it)
+    vertices: np.ndarray
+    local: np.ndarray
+    #: the global point index of each row of ``vertices``: a (k,) int64 array, or an int
+    #: when the rows are the consecutive points from that index on
+    index: np.ndarray | int
     #: additive quality sums ("faces", "tac_1", "tac_2_squared", "n_interior", "slivers",
     #: ...; "tac_inf" and "min_angle_deg" combine by max and min)
     sums: dict[str, float] = field(default_factory=dict)
     #: whether the faces must be turned round when written, decided only once every block
     #: is known (strips turn their mesh by the sign of the whole scan's area); None: never
     turn_key: str | None = None
+
+    @property
+    def faces(self) -> np.ndarray:
+        """(m, 3) int64 global point indices of the faces. O(m), a new array."""
+        if isinstance(self.index, (int, np.integer)):
+            return self.local + int(self.index)
+        return self.index[self.local]
 
 
 @dataclass(frozen=True)
@@ -73,8 +95,16 @@ class Written:
 
 def check_output(output: str | os.PathLike) -> Path:
     """The output path, refused unless its ending is a format written here and its folder
-    exists (it must be shared with every worker)."""
-    target = Path(os.fspath(output))
+    exists (it must be shared with every worker), and refused for an object store URL
+    (``s3://...``: see the module docstring)."""
+    text = os.fspath(output)
+    if "://" in text:
+        raise ParameterError(
+            f"output {text!r}: an object store URL cannot be written atomically by several"
+            " workers (no writes at an offset into an object, no atomic rename); give a path"
+            " on a filesystem every worker mounts, and copy the file to the store after"
+        )
+    target = Path(text)
     if target.suffix.lower() not in FORMATS:
         raise ParameterError(
             f"output must end in {' or '.join(FORMATS)} (written block by block), got {target}"
@@ -94,12 +124,13 @@ def scratch_folder(target: Path) -> Path:
 def write_block(block: FaceBlock, path: str, kind: str) -> Written:
     """Write one block's records to ``path`` on the worker holding it. O(m)."""
     if kind == ".stl":
-        m = len(block.corners)
-        corners = np.ascontiguousarray(block.corners, dtype=np.float64).reshape(-1, 3)
-        records = _core.stl_records(corners, np.arange(3 * m, dtype=np.int64).reshape(m, 3))
+        records = _core.stl_records(
+            np.ascontiguousarray(block.vertices, dtype=np.float64),
+            np.ascontiguousarray(block.local, dtype=np.int64),
+        )
         data = memoryview(records)
     else:
-        out = np.empty(len(block.faces), dtype=PLY_FACE)
+        out = np.empty(len(block.local), dtype=PLY_FACE)
         out["n"] = 3
         out["v"] = block.faces
         data = memoryview(out).cast("B")
@@ -127,7 +158,21 @@ def place(source: str, target: str, offset: int, turn: bool, kind: str) -> int:
         with open(source, "rb") as handle:
             done = 0
             while done < size:
-                chunk = handle.read(min(COPY_CHUNK, size - done))
+                if not turn and _COPY_RANGE is not None:
+                    # in the kernel, with no pass through this process's memory; a
+                    # filesystem that refuses it is copied through memory
+                    with contextlib.suppress(OSError):
+                        copied = _COPY_RANGE(
+                            handle.fileno(),
+                            fd_out,
+                            min(COPY_CHUNK, size - done),
+                            done,
+                            offset + done,
+                        )
+                        if copied > 0:
+                            done += copied
+                            continue
+                chunk = os.pread(handle.fileno(), min(COPY_CHUNK, size - done), done)
                 if turn:
                     chunk = _turned(chunk, kind)
                 os.pwrite(fd_out, chunk, offset + done)
@@ -135,6 +180,10 @@ def place(source: str, target: str, offset: int, turn: bool, kind: str) -> int:
     finally:
         os.close(fd_out)
     return size
+
+
+#: os.copy_file_range where the platform has it (Linux), else None: copy through memory.
+_COPY_RANGE: Callable[..., int] | None = getattr(os, "copy_file_range", None)
 
 
 def _turned(chunk: bytes, kind: str) -> bytes:

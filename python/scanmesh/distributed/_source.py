@@ -3,6 +3,12 @@
 A :class:`Part` names one file of consecutive, ordered scan lines and where its points sit
 in the whole scan (global indices ``offset .. offset + count``); :func:`load_part` reads it
 on a worker. The client only ever holds per-part and per-line summaries, never points.
+
+Every stage after the listing reads each part again (a worker holds one part at a time, not
+the scan), so the listing parses each file once and, unless it is already a ``.npy`` or
+``.npz`` file with line ids, keeps its points and line ids as ``.npy`` files in a scratch
+folder (:func:`summarize`): the later stages map those instead of parsing text, LAS or PLY
+again, or detecting lines again.
 """
 
 from __future__ import annotations
@@ -34,6 +40,9 @@ class Part:
     offset: int
     #: number of points
     count: int
+    #: folder of the part's points and line ids as .npy files (``points.npy``,
+    #: ``line_ids.npy``), written when the file was first read; None: read the file
+    cache: str | None = None
 
 
 #: Line ids detected in a file without a line column are numbered from ``index * LINE_STRIDE``
@@ -53,7 +62,10 @@ def load_part(part: Part) -> tuple[np.ndarray, np.ndarray]:
     """
     if part.path is None:
         return np.empty((0, 3)), np.empty(0, dtype=np.int64)
-    points, ids = _read(part.path, part.index)
+    if part.cache is not None:
+        folder = Path(part.cache)
+        return np.load(folder / "points.npy"), np.load(folder / "line_ids.npy")
+    points, ids, _ = _read(part.path, part.index)
     if len(points) != part.count:
         raise FileFormatError(
             f"{part.path}: has {len(points)} points, {part.count} when the scan was listed"
@@ -61,18 +73,22 @@ def load_part(part: Part) -> tuple[np.ndarray, np.ndarray]:
     return points, ids
 
 
-def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray]:
-    """A file's points and line ids, as :func:`load_part` describes them."""
+def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray, bool]:
+    """A file's points and line ids, as :func:`load_part` describes them, and whether
+    reading them again costs more than mapping a copy (anything but a .npy/.npz file that
+    holds its line ids)."""
     from scanmesh.formats import read
 
     scan = read(path)
     points = scan.points
+    binary = Path(path).suffix.lower() in (".npy", ".npz")
     if scan.line_ids is not None:
-        return points, scan.line_ids
+        return points, scan.line_ids, not binary
     if len(points) < 3:
-        return points, np.full(len(points), index * LINE_STRIDE, dtype=np.int64)
+        return points, np.full(len(points), index * LINE_STRIDE, dtype=np.int64), not binary
     uv, _ = _core.project(points, "best-fit", None)
-    return points, _core.detect_lines(uv, _core.DEFAULT_GAP_FACTOR) + index * LINE_STRIDE
+    ids = _core.detect_lines(uv, _core.DEFAULT_GAP_FACTOR) + index * LINE_STRIDE
+    return points, ids, True
 
 
 @dataclass(frozen=True)
@@ -90,12 +106,23 @@ class PartSummary:
     ordered: bool
     #: (S, 3) evenly strided points (for choosing the plane)
     sample: np.ndarray
+    #: the folder its points and line ids were copied to (:attr:`Part.cache`), or None
+    cache: str | None = None
 
 
-def summarize(path: str, index: int, sample: int) -> PartSummary:
-    """Read one file on a worker and summarize it (at most ``sample`` points kept)."""
-    points, ids = _read(path, index)
+def summarize(path: str, index: int, sample: int, cache: str | None = None) -> PartSummary:
+    """Read one file on a worker and summarize it (at most ``sample`` points kept). With a
+    ``cache`` folder (shared with every worker), a file that is costly to read again is
+    copied there as .npy files under ``part_<index>``. O(n)."""
+    points, ids, costly = _read(path, index)
     n = len(points)
+    copy = None
+    if cache is not None and costly:
+        folder = Path(cache) / f"part_{index:06d}"
+        folder.mkdir(exist_ok=True)  # a retried task writes the same bytes again
+        np.save(folder / "points.npy", np.ascontiguousarray(points, dtype=np.float64))
+        np.save(folder / "line_ids.npy", np.ascontiguousarray(ids, dtype=np.int64))
+        copy = str(folder)
     step = max(1, -(-n // sample)) if sample > 0 else max(n, 1)
     return PartSummary(
         count=n,
@@ -105,6 +132,7 @@ def summarize(path: str, index: int, sample: int) -> PartSummary:
         last_line=int(ids[-1]) if n else 0,
         ordered=bool(n < 2 or (np.diff(ids) >= 0).all()),
         sample=points[::step].copy(),
+        cache=copy,
     )
 
 
@@ -125,15 +153,26 @@ def source_paths(source: str | os.PathLike | Sequence[str | os.PathLike]) -> lis
     return paths
 
 
-def list_parts(client: Any, paths: list[str], sample: int) -> tuple[list[Part], list[PartSummary]]:
+def list_parts(
+    client: Any, paths: list[str], sample: int, cache: Path | None = None
+) -> tuple[list[Part], list[PartSummary]]:
     """Summarize every file on the workers and number their points: the scan's parts.
+    With a ``cache`` folder, files costly to read again are copied there (see
+    :func:`summarize`) and the parts read the copies.
 
     Refuses line ids that decrease (inside a file, or from one file to the next: files are
     runs of consecutive lines, in order) with a ScanmeshError naming the file.
     """
     per_file = max(1, sample // max(len(paths), 1))
     futures = [
-        client.submit(summarize, p, i, per_file, key=f"scanmesh-summary-{i}-{uuid.uuid4().hex}")
+        client.submit(
+            summarize,
+            p,
+            i,
+            per_file,
+            None if cache is None else str(cache),
+            key=f"scanmesh-summary-{i}-{uuid.uuid4().hex}",
+        )
         for i, p in enumerate(paths)
     ]
     summaries: list[PartSummary] = client.gather(futures)
@@ -152,7 +191,7 @@ def list_parts(client: Any, paths: list[str], sample: int) -> tuple[list[Part], 
             )
         if s.count:
             previous = (path, s.last_line)
-        parts.append(Part(i, path, offset, s.count))
+        parts.append(Part(i, path, offset, s.count, s.cache))
         offset += s.count
     if offset < 3:
         raise ScanmeshError(f"the scan has {offset} point(s); at least 3 are needed")

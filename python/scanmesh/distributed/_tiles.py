@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh import _core
-from scanmesh.anneal import ANNEAL_DEFAULTS, SEED_OPTION, _drive
+from scanmesh.anneal import ANNEAL_DEFAULTS, SEED_OPTION, drive
 from scanmesh.delaunay import JUMP_FACTOR, MAX_EDGE_FACTOR, MAX_EDGE_OPTION
 from scanmesh.distributed._output import FaceBlock
 from scanmesh.distributed._source import Part, load_part
@@ -420,6 +420,15 @@ def _noise(t: Tile, frame: Frame, plane: PlaneSpec) -> tuple[float, float]:
     return sigma, median_edge(t.uv, t.faces)
 
 
+def own_tac(t: Tile) -> np.ndarray:
+    """tac of the tile's own interior vertices over its faces (their fans are whole in the
+    tile). O(n + m)."""
+    if not len(t.faces):
+        return np.zeros(0)
+    tac, _ = _core.mesh_quality(t.points, t.faces)
+    return tac[t.own & ~np.isnan(tac)]
+
+
 def face_block(t: Tile, faces: np.ndarray, uncertified: int) -> FaceBlock:
     """The faces (local indices) as a FaceBlock over global indices, with the quality sums
     of this tile's own vertices (their fans are complete in the tile) and of the faces."""
@@ -428,11 +437,7 @@ def face_block(t: Tile, faces: np.ndarray, uncertified: int) -> FaceBlock:
         "uncertified": float(uncertified),
         "duplicates": float(t.meta.get("duplicates", 0)),
     }
-    if len(t.faces):
-        tac, _ = _core.mesh_quality(t.points, t.faces)
-        mine = tac[t.own & ~np.isnan(tac)]
-    else:
-        mine = np.zeros(0)
+    mine = own_tac(t)
     if len(faces):
         _, min_angle = _core.mesh_quality(t.points, faces)
         deg = np.degrees(min_angle)
@@ -451,7 +456,7 @@ def face_block(t: Tile, faces: np.ndarray, uncertified: int) -> FaceBlock:
         slivers=float(np.count_nonzero(deg < _core.SLIVER_ANGLE_DEG)),
         area=float(area.sum()),
     )
-    return FaceBlock(faces=t.index[faces], corners=corners, sums=sums)
+    return FaceBlock(vertices=t.points, local=faces, index=t.index, sums=sums)
 
 
 def _delaunay_block(t: Tile) -> FaceBlock:
@@ -515,7 +520,7 @@ def optimize_piece(
         # time_limit bounds each tile's pass (the tiles of a pass run side by side)
         native = {k: v for k, v in params.items() if k != "time_limit"}
         runner = _core.Annealer(pts, puv, local, seed=seed, **native)
-        _drive(runner, 0, False, params.get("time_limit"))
+        drive(runner, 0, False, params.get("time_limit"))
         done, _, _ = runner.finish()
     return np.concatenate([faces[~take], used[done]])
 
@@ -532,6 +537,8 @@ def _optimize_first(
     inside = (corner_cells == t.tile).all(axis=1)
     mine = inside | (t.meta["owned"] & ~(corner_cells == corner_cells[:, :1]).all(axis=1))
     kept = faces[mine]
+    # summed over tiles, the tiled Delaunay's tac_1 (as the "delaunay" method reports it)
+    before = own_tac(t)
     done = optimize_piece(t.points, t.uv, kept, t.own, method, params, seed)
     used, local = np.unique(done, return_inverse=True)
     return {
@@ -543,6 +550,7 @@ def _optimize_first(
         "uv": t.uv[used],
         "uncertified": t.meta["uncertified"],
         "duplicates": t.meta.get("duplicates", 0),
+        "initial_tac_1": float(before.sum()),
     }
 
 
@@ -564,6 +572,7 @@ def _route(mesh: dict[str, Any], grid: Grid, tiles: list[int]) -> dict[int, dict
             "uv": mesh["uv"][used],
             "uncertified": mesh["uncertified"] if first else 0,
             "duplicates": mesh["duplicates"] if first else 0,
+            "initial_tac_1": mesh["initial_tac_1"] if first else 0.0,
         }
     return out
 
@@ -610,7 +619,9 @@ def _optimize_second(
     )
     lowest = faces.min(axis=1) if len(faces) else np.zeros(0, np.int64)  # index is sorted
     t.meta["duplicates"] = sum(m["duplicates"] for m in meshes)
-    return face_block(t, faces[own[lowest]], sum(m["uncertified"] for m in meshes))
+    block = face_block(t, faces[own[lowest]], sum(m["uncertified"] for m in meshes))
+    block.sums["initial_tac_1"] = float(sum(m["initial_tac_1"] for m in meshes))
+    return block
 
 
 # ---------------------------------------------------------------------------------------
@@ -698,7 +709,7 @@ def tile_blocks(
     *,
     plane: PlaneSpec,
     progress: bool | Callable[..., Any],
-) -> list[Any]:
+) -> tuple[list[Any], dict[str, Any]]:
     """Delaunay, LOP or annealing of the scan in ``parts`` on the cluster, in tiles of the
     plane (rules in this module's docstring).
 
@@ -719,8 +730,14 @@ def tile_blocks(
 
     Returns
     -------
-    list of distributed.Future
+    blocks : list of distributed.Future
         One per tile, each resolving to a :class:`FaceBlock`.
+    info : dict
+        "tiles" (of the first pass), "max_edge" (the trimming length used); for annealing
+        also "tie_tolerance" and, when it was automatic, "noise" (the median over tiles of
+        :func:`scanmesh.noise` of each tile's region, None when no tile has enough points
+        for an estimate). LOP's and annealing's blocks also sum "initial_tac_1": the tiled
+        Delaunay triangulation's tac_1 before optimizing.
     """
     params, max_edge, seed = check_tile_options(method, options)
     if not parts:
@@ -785,13 +802,16 @@ def tile_blocks(
         limit = max_edge
     trimmed = [client.submit(_trim, t, grid, box, limit, pure=False) for t in tiles]
     del tiles
+    info: dict[str, Any] = {"tiles": grid.count, "max_edge": limit}
     if method == "delaunay":
         blocks = [client.submit(_delaunay_block, t, pure=False) for t in trimmed]
         wait(blocks)
-        return blocks
+        return blocks, info
     if method == "anneal" and params.get("tie_tolerance") is None:
-        # annealing's automatic tie tolerance, from the median over tiles of the noise
-        # and of the median edge (noise.noise_tolerance on one scan)
+        # annealing's automatic tie tolerance from the scan's noise, the median over tiles
+        # of their estimates (reported; one process reports noise.noise of the whole
+        # scan), and the median of the tiles' median edges (noise.noise_tolerance on one
+        # scan). A given tie tolerance skips this O(N log N) stage, and reports no noise.
         frame = Frame(*_core.project(np.stack([lo, hi, lo * 0.5 + hi * 0.5]), *plane_spec)[1])
         spec = plane_spec[0] if plane_spec[0] is not None else plane_spec[1]
         measured = np.array(
@@ -800,10 +820,13 @@ def tile_blocks(
         sigma, edge = (
             np.nanmedian(measured, axis=0) if np.isfinite(measured).any() else (math.nan, math.nan)
         )
+        info["noise"] = float(sigma) if math.isfinite(sigma) else None
         floor = float(ANNEAL_DEFAULTS["tie_tolerance"])
         params["tie_tolerance"] = (
-            tie_tolerance(sigma, edge, params["p"], floor) if (math.isfinite(sigma)) else floor
+            tie_tolerance(sigma, edge, params["p"], floor) if math.isfinite(sigma) else floor
         )
+    if method == "anneal":
+        info["tie_tolerance"] = params["tie_tolerance"]
     first = [
         client.submit(_optimize_first, t, grid, method, params, _tile_seed(seed, 0, i), pure=False)
         for i, t in enumerate(trimmed)
@@ -839,4 +862,4 @@ def tile_blocks(
             )
         )
     wait(blocks)
-    return blocks
+    return blocks, info
