@@ -4,6 +4,7 @@
     python benches/noise.py --cad conrod --real      # one part, and every real scan
     python benches/noise.py --real fran              # one real scan
     python benches/noise.py --data /work/shared/data  # data elsewhere than ../shared/data
+    python benches/noise.py --plane                  # the noise floor on a noisy plane
 
 CAD parts (the settings of benches/quality.py: rod along y, fandisk along y, blade along
 +-y) are scanned by the virtual digitizer with Gaussian noise along the ray of sigma = 0,
@@ -16,19 +17,34 @@ to Delaunay's, and wall time. ``anneal`` is the default (noise-aware) annealing;
 Real scans (``fran_cut.vtk``, ``SainteHelens.dem``, the LAS ground returns, class 2) have
 no truth: :func:`scanmesh.truth.holdout_error` withholds 10 % of the points (seed 0),
 reconstructs the rest and measures the withheld points along the projection normal.
+
+The noise floor (column ``floor / Del.``, to hold against ``h_rms / Del.``): a mesh whose
+vertices are the noisy samples interpolates their noise linearly, and at a point of barycentric
+coordinates (l1, l2, l3) iid noise sigma leaves sigma^2 * (l1^2 + l2^2 + l3^2); uniform over a
+triangle (Dirichlet(1, 1, 1): E[l_i^2] = 1/6) that is sigma^2 / 2 whatever the triangle's shape,
+so no connectivity of these points gets below it (the noise-free interpolation error adds to it:
+its cross term has mean zero). h_rms is a closest-point distance sampled over the 3-D area while
+the noise is along the projection normal, so on a face tilted by theta the floor is
+sigma * cos(theta) / sqrt(2): :func:`noise_floor` averages cos^2 over the noise-free Delaunay
+mesh's area. A withheld noisy point adds its own noise: sigma * sqrt(3 / 2) (sigma estimated),
+at least sigma * sqrt(4 / 3) (a point at a triangle's centroid). ``python noise.py --plane``
+checks sigma / sqrt(2) and sigma * sqrt(3 / 2) on Delaunay meshes of a noisy plane.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
 import warnings
 from pathlib import Path
 
+import numpy as np
 from quality import PARTS, SHARED, machine
 
 import scanmesh
 from scanmesh.lines import scan_lines
+from scanmesh.methods import used_keywords
 from scanmesh.truth import TrueSurface, height_error, holdout_error
 
 #: CAD parts of the noise table (keys of quality.PARTS).
@@ -51,12 +67,53 @@ VARIANTS = (
 REAL = {
     "fran": ("scans/fran_cut.vtk", {}, None),
     "SainteHelens": ("terrain/SainteHelens.dem", {}, "z"),
-    "autzen ground": ("lidar/autzen_trim.laz", {"select": "ground"}, "z"),
+    "autzen ground": ("lidar/autzen_trim.laz", {"classes": 2}, "z"),
 }
 
 NOISE_SEED = 1
 SEED = 0
 N_SAMPLES = 100_000
+
+
+def shared(method: str, options: dict, lines: object) -> dict:
+    """``lines`` and the seed, for the methods that use them (the others refuse them)."""
+    given = {"lines": lines, "seed": SEED}
+    return {k: v for k, v in given.items() if k in used_keywords(method, options)}
+
+
+def noise_floor(surface: scanmesh.Surface) -> float:
+    """Height RMS per unit sigma that the interpolated noise alone leaves on ``surface``:
+    sqrt(mean over its 3-D area of cos^2(tilt from the projection normal) / 2). O(F)."""
+    mesh = surface.to_trimesh()
+    assert surface.scan is not None
+    cos = np.abs(mesh.face_normals @ np.asarray(surface.scan.frame.normal, dtype=np.float64))
+    return math.sqrt(float(np.average(cos * cos, weights=mesh.area_faces)) / 2)
+
+
+def plane_check(n: int = 40_000, seed: int = 0) -> None:
+    """Delaunay meshes of noisy samples of the plane z = 0 (random and grid sites): height
+    RMS against sigma / sqrt(2), holdout RMS against sigma * sqrt(3 / 2)."""
+    rng = np.random.default_rng(seed)
+    side = int(math.sqrt(n))
+    grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2)
+    print("| sites | sigma | h_rms / sigma | 1/sqrt(2) | holdout / sigma | sqrt(3/2) |")
+    print("|---|---|---|---|---|---|")
+    for name, uv in (("random", rng.random((side * side, 2)) * side), ("grid", grid * 1.0)):
+        for sigma in (0.01, 0.1):
+            points = np.column_stack([uv, rng.normal(0.0, sigma, len(uv))])
+            surface = scanmesh.reconstruct(points, "delaunay", plane="z")
+            # the plane is the truth: the height of a random area sample is its error
+            tri = points[surface.faces]
+            w = rng.dirichlet((1.0, 1.0, 1.0), size=len(tri))
+            e1, e2 = tri[:, 1, :2] - tri[:, 0, :2], tri[:, 2, :2] - tri[:, 0, :2]
+            area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+            pick = rng.choice(len(tri), 200_000, p=area / area.sum())
+            h = np.einsum("ij,ij->i", w[pick], tri[pick, :, 2])
+            held = holdout_error(points, "delaunay", seed=seed, plane="z")["rms"]
+            print(
+                f"| {name} | {sigma} | {math.sqrt(np.mean(h * h)) / sigma:.4f} |"
+                f" {1 / math.sqrt(2):.4f} | {held / sigma:.4f} | {math.sqrt(1.5):.4f} |"
+            )
 
 
 def cad_rows(part: str, data: Path) -> None:
@@ -65,9 +122,18 @@ def cad_rows(part: str, data: Path) -> None:
     # the rod's noise-free scan is the embedded demo, made with these settings
     clean, lines = scanmesh.simulate_scan(data / "cad" / cad, **settings)
     step = scan_lines(clean, lines, plane=plane).median_step
-    print(f"\n**{part}**: {len(clean):,} points, s = {step:.4g}, plane {plane}\n")
-    print("| sigma | method | est. / sigma | tac_1 | slivers | h_rms | h_rms / Del. | time (s) |")
-    print("|---|---|---|---|---|---|---|---|")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        per_sigma = noise_floor(scanmesh.reconstruct(clean, "delaunay", plane=plane))
+    print(
+        f"\n**{part}**: {len(clean):,} points, s = {step:.4g}, plane {plane};"
+        f" noise floor {per_sigma:.4f} sigma\n"
+    )
+    print(
+        "| sigma | method | est. / sigma | tac_1 | slivers | h_rms | h_rms / Del."
+        " | floor / Del. | time (s) |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
     for level in LEVELS:
         if level:
             points, _ = scanmesh.simulate_scan(
@@ -81,7 +147,7 @@ def cad_rows(part: str, data: Path) -> None:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 surface = scanmesh.reconstruct(
-                    points, method, lines=lines, plane=plane, seed=SEED, **options
+                    points, method, plane=plane, **shared(method, options, lines), **options
                 )
             elapsed = time.perf_counter() - t0
             h = height_error(surface, truth, n_samples=N_SAMPLES, seed=SEED)["h_rms"]
@@ -92,7 +158,8 @@ def cad_rows(part: str, data: Path) -> None:
             name = "0" if not level else f"s/{round(1 / level)}"
             print(
                 f"| {name} | {label} | {ratio} | {q.tac_1:.4g} | {100 * q.sliver_fraction:.2f} % |"
-                f" {h:.4g} | {h / base:.3f} | {elapsed:.2f} |",
+                f" {h:.4g} | {h / base:.3f} | {per_sigma * level * step / base:.3f} |"
+                f" {elapsed:.2f} |",
                 flush=True,
             )
 
@@ -106,8 +173,11 @@ def real_rows(name: str, data: Path) -> None:
         f"\n**{name}** (`{path}`): {len(points):,} points, noise estimate {sigma:.4g},"
         f" plane {plane or 'best-fit'}; 10 % of the points withheld (seed {SEED})\n"
     )
-    print("| method | holdout RMS | / Del. | p99 | max | outside | tac_1 | slivers | time (s) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print(
+        "| method | holdout RMS | / Del. | floor / Del. | p99 | max | outside | tac_1 | slivers"
+        " | time (s) |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
     base = None
     for label, method, options in VARIANTS:
         t0 = time.perf_counter()
@@ -118,7 +188,8 @@ def real_rows(name: str, data: Path) -> None:
         base = r["rms"] if base is None else base
         q = r["surface"].quality
         print(
-            f"| {label} | {r['rms']:.4g} | {r['rms'] / base:.3f} | {r['p99']:.4g} |"
+            f"| {label} | {r['rms']:.4g} | {r['rms'] / base:.3f} |"
+            f" {sigma * math.sqrt(1.5) / base:.3f} | {r['p99']:.4g} |"
             f" {r['max']:.4g} | {r['outside']} | {q.tac_1:.4g} | {100 * q.sliver_fraction:.2f} % |"
             f" {elapsed:.2f} |",
             flush=True,
@@ -130,7 +201,11 @@ def main() -> None:
     parser.add_argument("--cad", nargs="*", choices=CAD_PARTS, default=None)
     parser.add_argument("--real", nargs="*", choices=list(REAL), default=None)
     parser.add_argument("--data", type=Path, default=SHARED, help=f"shared data (default {SHARED})")
+    parser.add_argument("--plane", action="store_true", help="only check the noise floor")
     args = parser.parse_args()
+    if args.plane:
+        plane_check()
+        return
     everything = args.cad is None and args.real is None
     # a flag without names means all of its kind
     parts = list(CAD_PARTS) if everything or args.cad == [] else args.cad or []

@@ -223,3 +223,31 @@ def test_small_noisy_inputs_anneal_with_exact_ties():
     assert small.options["noise"] is not None and small.options["noise"] > 0
     assert small.options["tie_tolerance"] == ANNEAL_DEFAULTS["tie_tolerance"]
     assert large.options["tie_tolerance"] > 1e3 * ANNEAL_DEFAULTS["tie_tolerance"]
+
+
+def test_interpolated_noise_floor_on_a_plane():
+    """The floor benches/noise.py reports: a mesh whose vertices are noisy samples of the
+    plane z = 0 interpolates their noise linearly, sigma^2 * E[l1^2 + l2^2 + l3^2] =
+    sigma^2 / 2 at uniform barycentric coordinates, so the height RMS is sigma / sqrt(2)
+    for any connectivity chosen without looking at the noise (Delaunay, and the grid's
+    cells all split along the other diagonal), and a withheld noisy point lies
+    sigma * sqrt(3 / 2) from it on average. Measured by trimesh's closest-point distance
+    to the plane (scanmesh.truth.height_error), an implementation independent of it."""
+    from scanmesh.truth import height_error, holdout_error
+
+    rng = np.random.default_rng(3)
+    side, sigma = 120, 0.05
+    gx, gy = np.meshgrid(np.arange(side, dtype=float), np.arange(side, dtype=float))
+    points = np.column_stack([gx.ravel(), gy.ravel(), rng.normal(0.0, sigma, side * side)])
+    plane = trimesh.Trimesh(
+        [[-1, -1, 0], [side, -1, 0], [side, side, 0], [-1, side, 0]], [[0, 1, 2], [0, 2, 3]]
+    )
+    corner = (np.arange(side - 1)[:, None] * side + np.arange(side - 1)[None, :]).ravel()
+    a, b, c, d = corner, corner + 1, corner + side, corner + side + 1
+    grid = np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
+    delaunay = scanmesh.reconstruct(points, "delaunay", plane="z").faces
+    for name, faces in (("delaunay", delaunay), ("grid", grid)):
+        h = height_error((points, faces), plane, n_samples=200_000, seed=1)["h_rms"]
+        assert h / sigma == pytest.approx(1 / np.sqrt(2), rel=0.03), name
+    held = holdout_error(points, "delaunay", fraction=0.2, seed=2, plane="z")["rms"]
+    assert held / sigma == pytest.approx(np.sqrt(1.5), rel=0.05)
