@@ -143,9 +143,9 @@ pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<
         let swept = {
             let unit = unit_square(uv);
             let order = sweep_order(&unit);
-            let local: Vec<[f64; 2]> = order.iter().map(|&i| unit[i as usize]).collect();
+            let local = order.iter().map(|&i| point(unit[i as usize])).collect();
             drop(unit);
-            sweep(&local).map(|d| (d, order))
+            sweep_points(local).map(|d| (d, order))
         };
         if let Some((mut d, to_input)) = swept {
             // Copies of a point keep their input order in the sweep order, so the lowest
@@ -173,17 +173,27 @@ pub(crate) fn relabel(triangles: &mut [[u32; 3]], to_input: &[u32]) {
 
 /// delaunator on the unit-square points (fewer than `NONE / 8`), kept when [`proven`].
 /// O(n log n).
+#[cfg(test)]
 fn sweep(unit: &[[f64; 2]]) -> Option<Delaunay> {
-    let points: Vec<delaunator::Point> = unit
-        .iter()
-        .map(|p| delaunator::Point { x: p[0], y: p[1] })
-        .collect();
+    sweep_points(unit.iter().map(|&p| point(p)).collect())
+}
+
+/// delaunator's point type. O(1).
+fn point(p: [f64; 2]) -> delaunator::Point {
+    delaunator::Point { x: p[0], y: p[1] }
+}
+
+/// [`sweep`] on the points already in delaunator's type: the only copy of the coordinates
+/// while it runs (its peak is the call's). O(n log n).
+fn sweep_points(points: Vec<delaunator::Point>) -> Option<Delaunay> {
     let delaunator::Triangulation {
         triangles: corners,
         halfedges,
         ..
     } = delaunator::triangulate(&points);
+    let unit: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
     drop(points);
+    let unit = unit.as_slice();
     let m = corners.len() / 3;
     if m == 0 {
         return None;
