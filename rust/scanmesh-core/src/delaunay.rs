@@ -2,6 +2,7 @@
 //! checked exactly, spade where the check fails.
 
 use crate::geometry::{check_planar, orient2d};
+use crate::locality::sweep_order;
 use crate::mesh::{next, prev, HalfEdgeMesh};
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -123,29 +124,76 @@ fn pow2(k: i32) -> f64 {
 /// hull stretches closed by flat triangles) falls back to spade, which is exact throughout.
 /// So the faces are the same whichever answers.
 pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
-    check_planar(uv)?;
-    let unit = unit_square(uv);
-    if let Some(d) = sweep(&unit) {
-        return Ok(d);
+    let (mut d, order) = delaunay_ordered(uv)?;
+    if let Some(to_input) = order {
+        relabel(&mut d.triangles, &to_input);
     }
-    spade_delaunay(&unit)
+    Ok(d)
 }
 
-/// delaunator on the unit-square points, kept when [`proven`]. O(n log n).
-fn sweep(unit: &[[f64; 2]]) -> Option<Delaunay> {
-    if unit.len() >= (NONE / 8) as usize {
-        return None;
+/// [`delaunay`] with its triangles left in the labels it computed them in: `Some(to_input)`
+/// when the sweep answered on the points relabelled in [`sweep_order`] (local vertex `v` is
+/// input point `to_input[v]`), None when spade answered in input labels. `duplicate_of` is
+/// in input labels either way. Passes over the triangles are cache-friendly in local labels
+/// (consecutive triangles share nearby vertices), which is why the trimming stays in them.
+/// O(n log n).
+pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<u32>>)> {
+    check_planar(uv)?;
+    if uv.len() < (NONE / 8) as usize {
+        let swept = {
+            let unit = unit_square(uv);
+            let order = sweep_order(&unit);
+            let local = order.iter().map(|&i| point(unit[i as usize])).collect();
+            drop(unit);
+            sweep_points(local).map(|d| (d, order))
+        };
+        if let Some((mut d, to_input)) = swept {
+            // Copies of a point keep their input order in the sweep order, so the lowest
+            // local label of a copy is the lowest input index.
+            let mut duplicate_of = vec![NONE; uv.len()];
+            for (v, &k) in d.duplicate_of.iter().enumerate() {
+                if k != NONE {
+                    duplicate_of[to_input[v] as usize] = to_input[k as usize];
+                }
+            }
+            d.duplicate_of = duplicate_of;
+            return Ok((d, Some(to_input)));
+        }
     }
-    let points: Vec<delaunator::Point> = unit
-        .iter()
-        .map(|p| delaunator::Point { x: p[0], y: p[1] })
-        .collect();
+    spade_delaunay(&unit_square(uv)).map(|d| (d, None))
+}
+
+/// Maps every vertex label `v` of `triangles` to `to_input[v]`, in parallel. O(m).
+pub(crate) fn relabel(triangles: &mut [[u32; 3]], to_input: &[u32]) {
+    triangles
+        .par_iter_mut()
+        .with_min_len(1 << 14)
+        .for_each(|t| *t = t.map(|v| to_input[v as usize]));
+}
+
+/// delaunator on the unit-square points (fewer than `NONE / 8`), kept when [`proven`].
+/// O(n log n).
+#[cfg(test)]
+fn sweep(unit: &[[f64; 2]]) -> Option<Delaunay> {
+    sweep_points(unit.iter().map(|&p| point(p)).collect())
+}
+
+/// delaunator's point type. O(1).
+fn point(p: [f64; 2]) -> delaunator::Point {
+    delaunator::Point { x: p[0], y: p[1] }
+}
+
+/// [`sweep`] on the points already in delaunator's type: the only copy of the coordinates
+/// while it runs (its peak is the call's). O(n log n).
+fn sweep_points(points: Vec<delaunator::Point>) -> Option<Delaunay> {
     let delaunator::Triangulation {
         triangles: corners,
         halfedges,
         ..
     } = delaunator::triangulate(&points);
+    let unit: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
     drop(points);
+    let unit = unit.as_slice();
     let m = corners.len() / 3;
     if m == 0 {
         return None;
@@ -316,7 +364,7 @@ fn coord(p: [f64; 2]) -> robust::Coord<f64> {
 }
 
 /// spade's bulk load of the distinct points, exact throughout. O(n log n).
-fn spade_delaunay(unit: &[[f64; 2]]) -> Result<Delaunay> {
+pub(crate) fn spade_delaunay(unit: &[[f64; 2]]) -> Result<Delaunay> {
     let duplicate_of = find_duplicates(unit);
     let distinct: Vec<u32> = (0..unit.len() as u32)
         .filter(|&i| duplicate_of[i as usize] == NONE)
@@ -560,6 +608,51 @@ mod tests {
             let twins: Vec<u32> = (0..fast.twins.len() as u32).map(|h| mesh.twin(h)).collect();
             assert_eq!(twins, fast.twins);
         }
+    }
+
+    #[test]
+    fn the_sweep_order_gives_spades_faces_on_any_thread_count() {
+        // Random, a jittered scan, an exact grid (every cell cocircular: spade answers) with
+        // copies of some points, and a scan with exactly collinear lines.
+        let mut grid: Vec<[f64; 2]> = (0..400)
+            .map(|k| [(k % 20) as f64, (k / 20) as f64])
+            .collect();
+        grid.extend([grid[7], grid[300], grid[7]]);
+        let mut copies = scan(12, 40);
+        copies.splice(0..0, [copies[100], copies[5]]);
+        copies.push(copies[7]);
+        let lines: Vec<[f64; 2]> = (0..600)
+            .map(|k| {
+                [
+                    (k % 30) as f64 * 0.5 + 0.01 * (k % 7) as f64,
+                    (k / 30) as f64,
+                ]
+            })
+            .collect();
+        for uv in [random_points(3000, 21), scan(40, 60), grid, copies, lines] {
+            let exact = spade_delaunay(&unit_square(&uv)).unwrap();
+            let pool = |threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| delaunay(&uv).unwrap())
+            };
+            let (one, two) = (pool(1), pool(2));
+            assert_eq!(one.triangles, two.triangles);
+            assert_eq!(one.twins, two.twins);
+            assert_eq!(
+                canonical(one.triangles.clone()),
+                canonical(exact.triangles.clone())
+            );
+            assert_eq!(one.duplicate_of, exact.duplicate_of);
+            let mesh = HalfEdgeMesh::from_triangles(uv.len(), &one.triangles).unwrap();
+            let twins: Vec<u32> = (0..one.twins.len() as u32).map(|h| mesh.twin(h)).collect();
+            assert_eq!(twins, one.twins);
+        }
+        // Collinear input is refused on this path too.
+        let line: Vec<[f64; 2]> = (0..50).map(|i| [i as f64, 0.5 * i as f64]).collect();
+        assert!(delaunay(&line).is_err());
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
-use crate::delaunay::{unit_square, Delaunay, NONE};
+use crate::delaunay::{relabel, unit_square, Delaunay, NONE};
 use crate::geometry::{planar_distance, Normalizer};
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::Result;
@@ -164,7 +164,7 @@ pub fn trim_long_edges(
     jumps: Option<DepthJumps>,
 ) -> Result<Vec<[u32; 3]>> {
     let twins = twins_of(uv.len(), triangles)?;
-    Ok(trim(uv, triangles, &twins, max_edge, jumps))
+    Ok(trim(uv, triangles, &twins, max_edge, jumps, None))
 }
 
 /// [`trim_long_edges`] on a Delaunay triangulation of `uv`, whose twins it already has: one
@@ -175,7 +175,7 @@ pub fn trim_delaunay(
     max_edge: f64,
     jumps: Option<DepthJumps>,
 ) -> Vec<[u32; 3]> {
-    trim(uv, &d.triangles, &d.twins, max_edge, jumps)
+    trim(uv, &d.triangles, &d.twins, max_edge, jumps, None)
 }
 
 /// A Delaunay triangulation trimmed in one call ([`delaunay_trimmed`]).
@@ -204,15 +204,33 @@ pub fn delaunay_trimmed(
     jump_factor: f64,
 ) -> Result<Trimmed> {
     let clock = std::time::Instant::now();
-    let d = crate::delaunay::delaunay(uv)?;
+    let (d, order) = crate::delaunay::delaunay_ordered(uv)?;
     let triangulated = clock.elapsed().as_secs_f64();
-    let limit =
-        max_edge.unwrap_or_else(|| DEFAULT_MAX_EDGE_FACTOR * median_spacing(uv, &d.triangles));
+    // The trimming runs in the triangulation's own labels, on the points gathered into
+    // them: its passes then read memory in order (see `delaunay_ordered`).
+    let gathered = order.as_ref().map(|to_input| {
+        let uv: Vec<[f64; 2]> = to_input.iter().map(|&i| uv[i as usize]).collect();
+        let points: Vec<DVec3> = to_input.iter().map(|&i| points[i as usize]).collect();
+        (uv, points)
+    });
+    let (local_uv, local_points) = gathered
+        .as_ref()
+        .map_or((uv, points), |(u, p)| (u.as_slice(), p.as_slice()));
+    let limit = max_edge
+        .unwrap_or_else(|| DEFAULT_MAX_EDGE_FACTOR * median_spacing(local_uv, &d.triangles));
     let jumps = limit.is_finite().then_some(DepthJumps {
-        points,
+        points: local_points,
         factor: jump_factor,
     });
-    let triangles = trim_delaunay(uv, &d, limit, jumps);
+    let mut triangles = trim(
+        local_uv,
+        &d.triangles,
+        &d.twins,
+        limit,
+        jumps,
+        order.as_deref(),
+    );
+    drop(gathered);
     let mut vertex = vec![false; uv.len()];
     d.triangles
         .as_flattened()
@@ -222,9 +240,14 @@ pub fn delaunay_trimmed(
         .as_flattened()
         .iter()
         .for_each(|&v| vertex[v as usize] = false);
-    let trimmed = (0..uv.len() as u32)
+    let mut trimmed: Vec<u32> = (0..uv.len() as u32)
         .filter(|&v| vertex[v as usize])
         .collect();
+    if let Some(to_input) = &order {
+        relabel(&mut triangles, to_input);
+        trimmed.iter_mut().for_each(|v| *v = to_input[*v as usize]);
+        trimmed.sort_unstable();
+    }
     Ok(Trimmed {
         triangles,
         duplicate_of: d.duplicate_of,
@@ -236,13 +259,15 @@ pub fn delaunay_trimmed(
 
 /// The rules of [`trim_long_edges`] as keep flags over `triangles` (with their `twins`):
 /// the length and jump tests in parallel, then the boundary rounds (slivers, pinches) on
-/// the flags, each round a scan of the boundary of what is kept. O(m) per round.
+/// the flags, each round a scan of the boundary of what is kept. `to_input` (when the
+/// labels are not the caller's) maps them back for the pinch tie-break. O(m) per round.
 fn trim(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     twins: &[u32],
     max_edge: f64,
     jumps: Option<DepthJumps>,
+    to_input: Option<&[u32]>,
 ) -> Vec<[u32; 3]> {
     let longest = |t: &[u32; 3]| {
         (0..3)
@@ -257,17 +282,19 @@ fn trim(
         .map(|(k, t)| longest(t) <= max_edge && !bridges.get(k).copied().unwrap_or(false))
         .collect();
     drop(bridges);
-    peel_flags(uv, triangles, twins, keep)
+    peel_flags(uv, triangles, twins, keep, to_input)
 }
 
 /// The triangles of `triangles` (with their half-edge `twins`) flagged in `keep`, without
 /// the numerically degenerate triangles on the boundary of what is kept and with every
-/// pinch resolved, repeated until neither is left. O(m) per round.
+/// pinch resolved, repeated until neither is left; `to_input` as in [`trim`]. O(m) per
+/// round.
 fn peel_flags(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     twins: &[u32],
     mut keep: Vec<bool>,
+    to_input: Option<&[u32]>,
 ) -> Vec<[u32; 3]> {
     // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
     let unit = unit_square(uv);
@@ -276,6 +303,7 @@ fn peel_flags(
             triangles,
             twins,
             keep: &keep,
+            to_input,
         };
         let mut dropped = kept.pinched_fans_to_drop(uv.len());
         dropped.extend(kept.degenerate_boundary_triangles(&unit));
@@ -385,7 +413,7 @@ pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJ
 pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
     let twins = twins_of(uv.len(), &kept)?;
     let keep = vec![true; kept.len()];
-    Ok(peel_flags(uv, &kept, &twins, keep))
+    Ok(peel_flags(uv, &kept, &twins, keep, None))
 }
 
 /// The half-edge twins of `triangles` over `n_points` points (half-edge 3t + k runs from
@@ -404,6 +432,8 @@ struct Kept<'a> {
     triangles: &'a [[u32; 3]],
     twins: &'a [u32],
     keep: &'a [bool],
+    /// Input labels of the vertices, when `triangles` are not in them.
+    to_input: Option<&'a [u32]>,
 }
 
 impl Kept<'_> {
@@ -474,6 +504,9 @@ impl Kept<'_> {
             // tile of scanmesh.distributed) then resolves the pinch as the whole scan does.
             let key = |t: u32| {
                 let mut c = self.triangles[t as usize];
+                if let Some(to_input) = self.to_input {
+                    c = c.map(|v| to_input[v as usize]);
+                }
                 c.sort_unstable();
                 c
             };
@@ -662,6 +695,45 @@ mod tests {
         // max_edge = inf turns the depth jumps off too.
         let all = delaunay_trimmed(&uv, &p, Some(f64::INFINITY), DEFAULT_JUMP_FACTOR).unwrap();
         assert_eq!(all.triangles.len(), d.triangles.len());
+    }
+
+    #[test]
+    fn the_sweep_ordered_trimming_is_that_of_input_labels_on_any_thread_count() {
+        // A step and a bore; trimming in the sweep's labels (delaunay_trimmed) keeps the
+        // triangles that trimming spade's triangulation in input labels keeps.
+        let mut p = terrain(40, 30, 1.2, |x, _| if x < 20.5 { 0.0 } else { 9.0 });
+        p.retain(|q| (q.x - 10.0).powi(2) + (q.y - 15.0).powi(2) > 12.0);
+        let uv = planar(&p);
+        let spade = crate::delaunay::spade_delaunay(&unit_square(&uv))
+            .unwrap()
+            .triangles;
+        let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &spade);
+        let jumps = DepthJumps {
+            points: &p,
+            factor: DEFAULT_JUMP_FACTOR,
+        };
+        let sorted = |mut t: Vec<[u32; 3]>| {
+            t.iter_mut().for_each(|f| {
+                let k = (0..3).min_by_key(|&k| f[k]).unwrap();
+                f.rotate_left(k);
+            });
+            t.sort_unstable();
+            t
+        };
+        let reference = sorted(trim_long_edges(&uv, &spade, limit, Some(jumps)).unwrap());
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR).unwrap())
+        };
+        let (one, two) = (run(1), run(2));
+        assert_eq!(one.triangles, two.triangles);
+        assert_eq!(one.trimmed, two.trimmed);
+        assert_eq!(one.max_edge, limit);
+        assert!(reference.len() < spade.len());
+        assert_eq!(sorted(one.triangles), reference);
     }
 
     #[test]
