@@ -293,7 +293,33 @@ def test_without_a_time_limit_results_and_stop_reasons_are_unchanged():
 
     noisy = bumpy_patch(MIN_TIE_POINTS, 3)
     early = scanmesh.reconstruct(noisy, "anneal", sweeps=5000, patience=5, chains=1)
-    assert early.options["stopped"] == "patience" and early.options["stopped_early"]
+    assert early.options["stopped"] == "patience"
+
+
+def test_a_flat_scan_is_reported_exhausted_not_stopped_early():
+    # A plane: every vertex's tac is rounding, no edge is live, no sweep runs; the reason
+    # says so (it said "sweeps", and mid-run exhaustion "patience").
+    rng = np.random.default_rng(5)
+    xy = rng.random((400, 2))
+    pts = np.column_stack([xy, 0.3 * xy[:, 0] - 0.2 * xy[:, 1]])
+    flat = scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=50, patience=0, chains=1)
+    assert flat.options["stopped"] == "exhausted"
+    assert len(flat.trace["energy"]) == 0 and flat.options["proposals"] == 0
+    # a curved patch with the same schedule runs every sweep
+    curved = scanmesh.reconstruct(bumpy_patch(400, 5), "anneal", sweeps=50, patience=0)
+    assert curved.options["stopped"] == "sweeps" and len(curved.trace["energy"]) == 50
+
+
+def test_the_polish_with_a_noise_sized_tie_tolerance_never_ends_above_its_start():
+    # Ties within the tolerance are taken for their angles; each may raise the energy a
+    # little, and before the fix they added up past the best state's energy.
+    pts = bumpy_patch(600, 8)
+    pts[:, 2] += np.random.default_rng(8).normal(0.0, 2e-3, len(pts))
+    for tie in (1e-3, 1e-2, 5e-2):
+        s = scanmesh.reconstruct(pts, "anneal", sweeps=40, seed=3, tie_tolerance=tie, chains=1)
+        before_polish = s.trace["best"][-1]
+        assert s.options["energy"] <= before_polish * (1 + 1e-12), tie
+        assert s.quality.tac_1 == pytest.approx(s.options["energy"], rel=1e-9)
 
 
 def test_stage_callables_get_the_time_left_only_when_they_take_it():
