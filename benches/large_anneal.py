@@ -133,7 +133,9 @@ def child(spec: dict) -> dict:
         "sweeps": sweeps,
         # The annealer before issue 22 did not count: one proposal per interior edge and
         # sweep (an upper bound with tiles, whose border edges wait).
-        "proposals": a.options.get("proposals", sweeps * interior_edges(d.faces)),
+        "proposals": (
+            a.options["proposals"] if "proposals" in a.options else sweeps * interior_edges(d.faces)
+        ),
         "faces": len(a.faces),
         "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "stopped": a.options["stopped"],

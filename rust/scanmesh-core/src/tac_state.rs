@@ -307,11 +307,11 @@ impl TacState {
     /// Builds the state from input-ordered data: normalizes positions (scale-free), checks that
     /// `triangles` form a valid planar triangulation of `uv`, and relabels everything in
     /// Z-order for memory locality. Map results back with the returned [`Relabel`].
-    /// O(m log m).
+    /// `triangles` are taken, and freed once the mesh holds them. O(m log m).
     pub fn from_input(
         points: &[DVec3],
         uv: &[[f64; 2]],
-        triangles: &[[u32; 3]],
+        triangles: Vec<[u32; 3]>,
         p: f64,
     ) -> Result<(Self, Relabel)> {
         crate::geometry::check_finite(points)?;
@@ -322,13 +322,16 @@ impl TacState {
                 expected: "one planar position per point",
             });
         }
-        crate::criteria::check_faces(points.len(), triangles)?;
+        crate::criteria::check_faces(points.len(), &triangles)?;
         let relabel = Relabel::morton(uv);
+        // One copy of the triangles at a time, none once the mesh holds them.
+        let local = relabel.triangles_to_local(&triangles);
+        drop(triangles);
+        let mesh = HalfEdgeMesh::from_triangles(points.len(), &local)?;
+        drop(local);
         let unit_uv = relabel.vertices(&unit_square(uv));
-        let unit_xyz = relabel.vertices(&Normalizer::fit(points).apply_all(points));
-        let mesh =
-            HalfEdgeMesh::from_triangles(points.len(), &relabel.triangles_to_local(triangles))?;
         mesh.validate(&unit_uv)?;
+        let unit_xyz = relabel.vertices(&Normalizer::fit(points).apply_all(points));
         Ok((TacState::new(mesh, unit_uv, unit_xyz, p)?, relabel))
     }
 

@@ -166,7 +166,7 @@ proptest! {
         let pts = points(kind, n, seed, scale);
         let uv = planar(&pts);
         let Some(d) = triangulate(&uv) else { return Ok(()) };
-        let (mut state, _) = TacState::from_input(&pts, &uv, &d.triangles, p).unwrap();
+        let (mut state, _) = TacState::from_input(&pts, &uv, d.triangles.clone(), p).unwrap();
         let before = used(state.mesh().n_vertices(), &state.mesh().triangles());
         let mut r = Lcg(seed ^ 0x5eed);
         let edges = state.mesh().n_half_edges();
@@ -219,7 +219,7 @@ proptest! {
         let Some(d) = triangulate(&uv) else { return Ok(()) };
         let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
         let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
-        let (mut state, _) = TacState::from_input(&pts, &uv, &trimmed, 1.0).unwrap();
+        let (mut state, _) = TacState::from_input(&pts, &uv, trimmed.clone(), 1.0).unwrap();
         let vertices = used(uv.len(), &state.mesh().triangles());
         let order = TacOrder { tie_tolerance: 1e-10, sliver_guard: true };
         tac_lop(&mut state, order);

@@ -431,7 +431,7 @@ fn tac_state(
     let xyz = points3_view(points)?;
     let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
-    TacState::from_input(&xyz, &plane, &t, p).map_err(to_py)
+    TacState::from_input(&xyz, &plane, t, p).map_err(to_py)
 }
 
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
