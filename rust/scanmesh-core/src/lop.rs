@@ -444,7 +444,8 @@ mod tests {
             };
             // What the order alone does: ties raise the energy.
             let mut free = st.clone();
-            let mut free_lop = Unbounded(&mut free, order);
+            let mut free_lop = TacLop::new(&mut free, order);
+            free_lop.ceiling = f64::INFINITY;
             lop(&mut free_lop, max_flips(st.mesh().n_half_edges()));
             raised_before += usize::from(free.resync_energy() > e0);
             tac_lop(&mut st, order);
@@ -456,35 +457,5 @@ mod tests {
             raised_before > 0,
             "the case must show the defect without the ceiling"
         );
-    }
-
-    /// LOP under the order alone, with no ceiling (the polish before the fix).
-    struct Unbounded<'a>(&'a mut TacState, TacOrder);
-
-    impl FlipSearch for Unbounded<'_> {
-        fn mesh(&self) -> &HalfEdgeMesh {
-            self.0.mesh()
-        }
-        fn flip_if_better(&mut self, h: u32) -> bool {
-            self.0.reanchor();
-            match self.0.evaluate(h, Detail::Shape) {
-                Some(mv) if self.1.improves(&mv) => {
-                    self.0.apply(&mv);
-                    true
-                }
-                _ => false,
-            }
-        }
-        fn push_affected(&self, h: u32, t: u32, stack: &mut Vec<u32>) {
-            let mesh = self.0.mesh();
-            for v in mesh.quad(h, t) {
-                for e in mesh.fan(v) {
-                    stack.extend([e, next(e)]);
-                }
-            }
-        }
-        fn progress(&self) -> Option<(f64, f64)> {
-            Some((self.0.energy(), self.1.tie_tolerance))
-        }
     }
 }
