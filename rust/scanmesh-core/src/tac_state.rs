@@ -84,7 +84,7 @@ pub struct PrefetchHints {
 
 /// Mesh, positions and the caches that make a flip's energy change O(1).
 ///
-/// Memory: about 190 bytes per vertex (64 for its record, 48 for the corner angles of its
+/// Memory: about 165 bytes per vertex (64 for its record, 48 for the corner angles of its
 /// six half-edges, 53 for the mesh), the positions held once, in the records.
 #[derive(Debug, Clone)]
 pub struct TacState {
