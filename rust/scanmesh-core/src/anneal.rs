@@ -813,7 +813,10 @@ pub(crate) mod tests {
         let e0 = st.energy();
         let mut lop_state = st.clone();
         lop(
-            &mut TacLop::new(&mut lop_state, AnnealParams::default().order()),
+            &mut TacLop {
+                state: &mut lop_state,
+                order: AnnealParams::default().order(),
+            },
             usize::MAX,
         );
         let r = anneal(st.clone(), quick(1)).unwrap();

@@ -530,7 +530,10 @@ mod tests {
         let st = bumpy_state(1500, 33, 1.0);
         let mut lop_state = st.clone();
         lop(
-            &mut TacLop::new(&mut lop_state, AnnealParams::default().order()),
+            &mut TacLop {
+                state: &mut lop_state,
+                order: AnnealParams::default().order(),
+            },
             usize::MAX,
         );
         let plain = anneal(st.clone(), params(1, 200, 5)).unwrap();
