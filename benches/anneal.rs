@@ -45,9 +45,7 @@ fn trimmed_state(points: &[DVec3]) -> TacState {
     let d = delaunay(&uv).unwrap();
     let max_edge = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
     let triangles = trim_long_edges(&uv, &d.triangles, max_edge, None).unwrap();
-    TacState::from_input(points, &uv, &triangles, 1.0)
-        .unwrap()
-        .0
+    TacState::from_input(points, &uv, triangles, 1.0).unwrap().0
 }
 
 const CHUNK: usize = 100_000;

@@ -16,7 +16,9 @@ it: the mesh on which annealing has work to do).
 Every measurement runs in its own Python process (``--old-python`` runs the same case
 under another interpreter, for example one with the annealer before issue 22 installed,
 alternating with this one), which reports its wall times, peak resident size
-(``ru_maxrss``) and the annealer's proposals. "End to end" is
+(``ru_maxrss``), the annealer's proposals, and per stage (Delaunay, the annealing stages
+noise / calibrate / anneal / polish, the quality report) its wall time and peak resident
+size, printed as a comment under the row. "End to end" is
 ``scanmesh.reconstruct(points, "anneal", plane="y", ...)`` plus the quality report, from
 points in memory (the scan's simulation and the .npz load are not counted). The machine's
 load average is printed with every row; the figures go to benches/results/large_anneal.md
@@ -59,23 +61,66 @@ def rod_scan(n: int):
     return z["points"], z["line_ids"]
 
 
+class Stages:
+    """Wall seconds and peak resident size (MB) of each stage of this process: a thread
+    reads VmRSS every 20 ms (peaks shorter than that can be missed; ``ru_maxrss`` is the
+    exact peak of the whole process)."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self.current, self.t = "start", time.perf_counter()
+        self.table: dict[str, list[float]] = {}
+        threading.Thread(target=self._sample, daemon=True).start()
+
+    @staticmethod
+    def rss_mb() -> float:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024
+        return 0.0
+
+    def _sample(self) -> None:
+        while True:
+            row = self.table.setdefault(self.current, [0.0, 0.0])
+            row[1] = max(row[1], self.rss_mb())
+            time.sleep(0.02)
+
+    def enter(self, name: str) -> None:
+        now = time.perf_counter()
+        self.table.setdefault(self.current, [0.0, 0.0])[0] += now - self.t
+        self.current, self.t = name, now
+        row = self.table.setdefault(name, [0.0, 0.0])
+        row[1] = max(row[1], self.rss_mb())
+
+    def progress(self, done: int, total: int, value: object, stage: str = "", **_: object) -> None:
+        """A stage-aware progress callable: annealing's stages."""
+        if stage and stage != self.current:
+            self.enter(stage)
+
+
 def child(spec: dict) -> dict:
     """One measurement in this process: see the module doc."""
     import scanmesh
     from scanmesh.anneal import anneal_surface
 
+    stages = Stages()
     if spec["points"] == "demo":
         pts, _ = scanmesh.load_demo()
     else:
         pts, _ = rod_scan(int(spec["points"]))
     trim = {} if spec["trim"] else {"max_edge": math.inf}
+    stages.enter("delaunay")
     t0 = time.perf_counter()
     d = scanmesh.reconstruct(pts, "delaunay", plane="y", **trim)
     t1 = time.perf_counter()
-    a = anneal_surface(d, seed=0, **spec["options"])
+    a = anneal_surface(d, seed=0, progress=stages.progress, **spec["options"])
     t2 = time.perf_counter()
+    stages.enter("quality")
     qa, qd = a.quality, d.quality
     t3 = time.perf_counter()
+    stages.enter("end")
     sweeps = len(a.trace["energy"])
     return {
         "delaunay_s": t1 - t0,
@@ -88,9 +133,13 @@ def child(spec: dict) -> dict:
         "sweeps": sweeps,
         # The annealer before issue 22 did not count: one proposal per interior edge and
         # sweep (an upper bound with tiles, whose border edges wait).
-        "proposals": a.options.get("proposals", sweeps * interior_edges(d.faces)),
+        "proposals": (
+            a.options["proposals"] if "proposals" in a.options else sweeps * interior_edges(d.faces)
+        ),
         "faces": len(a.faces),
         "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "stopped": a.options["stopped"],
+        "stages": {k: [round(v[0], 2), round(v[1])] for k, v in stages.table.items()},
     }
 
 
@@ -186,7 +235,10 @@ def main() -> None:
     for label, spec in cases:
         for _ in range(args.repeat if args.old_python else 1):
             for build, python in builds:
-                print(row(f"{label} ({build})", run(python, spec)), flush=True)
+                r = run(python, spec)
+                print(row(f"{label} ({build})", r), flush=True)
+                stages = ", ".join(f"{k} {t:.1f} s {mb:,} MB" for k, (t, mb) in r["stages"].items())
+                print(f"<!-- stopped: {r['stopped']}; stages (wall, peak RSS): {stages} -->")
 
 
 if __name__ == "__main__":

@@ -293,7 +293,22 @@ def test_without_a_time_limit_results_and_stop_reasons_are_unchanged():
 
     noisy = bumpy_patch(MIN_TIE_POINTS, 3)
     early = scanmesh.reconstruct(noisy, "anneal", sweeps=5000, patience=5, chains=1)
-    assert early.options["stopped"] == "patience" and early.options["stopped_early"]
+    assert early.options["stopped"] == "patience"
+
+
+def test_a_flat_scan_is_reported_exhausted_not_stopped_early():
+    # A plane: every vertex's tac is rounding, no edge is live, no sweep runs; the reason
+    # says so (it said "sweeps", and mid-run exhaustion "patience").
+    rng = np.random.default_rng(5)
+    xy = rng.random((400, 2))
+    pts = np.column_stack([xy, 0.3 * xy[:, 0] - 0.2 * xy[:, 1]])
+    flat = scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=50, patience=0, chains=1)
+    assert flat.options["stopped"] == "exhausted"
+    assert len(flat.trace["energy"]) == 0 and flat.options["proposals"] == 0
+    # a curved patch with the same schedule runs every sweep
+    curved = scanmesh.reconstruct(bumpy_patch(400, 5), "anneal", sweeps=50, patience=0)
+    assert curved.options["stopped"] == "sweeps" and len(curved.trace["energy"]) == 50
+
 
 
 def test_stage_callables_get_the_time_left_only_when_they_take_it():

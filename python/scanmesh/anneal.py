@@ -31,9 +31,11 @@ CHUNK_PROPOSALS = 1_000_000
 #: Trace columns, in the order the core returns them.
 TRACE_COLUMNS = ("temperature", "energy", "best", "acceptance")
 
-#: What ``options["stopped"]`` says ended the run: the time limit, every chain frozen
-#: without a new best for ``patience`` sweeps (the winning chain's), or every sweep run.
-STOP_REASONS = ("time_limit", "patience", "sweeps")
+#: What ``options["stopped"]`` says ended the run (the winning chain's): the time limit,
+#: frozen without a new best for ``patience`` sweeps, every sweep run, or no live edge
+#: left ("exhausted": no flip could lower the energy by more than a tie, so more sweeps
+#: could not change the result; also when there was none to begin with).
+STOP_REASONS = ("time_limit", "patience", "sweeps", "exhausted")
 
 
 #: Most chains one run may ask for (automatic runs use at most 128): each holds a copy of
@@ -292,7 +294,7 @@ def anneal_surface(
         and ``options`` holding the settings used, the initial energy and T0, and
         ``options["stopped"]``: why annealing ended, one of :data:`STOP_REASONS`
         (``"time_limit"``; ``"patience"``: frozen without a new best; ``"sweeps"``: every
-        sweep ran).
+        sweep ran; ``"exhausted"``: no live edge left, nothing more to anneal).
 
     Raises
     ------
@@ -323,7 +325,7 @@ def anneal_surface(
     with Stage(progress, "polish", len(start.faces), blocking=True):
         faces, trace, summary = interruptible(n, runner.finish)
     if stopped is None:
-        stopped = "patience" if summary["stopped_early"] else "sweeps"
+        stopped = summary["stopped"]
     elapsed = time.perf_counter() - t0
     return Surface(
         vertices=scan.points,

@@ -324,11 +324,12 @@ mod tests {
     /// (live edges listed, flippable edges) of `state` with exact ties.
     fn live_and_flippable(state: &TacState) -> (usize, usize) {
         let live = LiveEdges::new(state, 1e-10, Pcg64Mcg::seed_from_u64(0));
+        let uv = state.uv();
         let flippable = state
             .mesh()
             .interior_edges()
             .into_iter()
-            .filter(|&h| state.mesh().can_flip(h, state.uv()))
+            .filter(|&h| state.mesh().can_flip(h, &uv))
             .count();
         (live.len(), flippable)
     }

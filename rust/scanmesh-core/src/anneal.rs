@@ -295,8 +295,49 @@ pub struct AnnealResult {
     pub trace: Vec<SweepRecord>,
     /// Flips made by the final polish.
     pub polish_flips: usize,
-    /// True when the run stopped before `sweeps` because it was frozen.
-    pub stopped_early: bool,
+    /// Why the run ended.
+    pub stopped: Stop,
+}
+
+/// Why an annealing run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stop {
+    /// Every planned sweep ran.
+    Sweeps,
+    /// Frozen without a new best for `patience` sweeps.
+    Patience,
+    /// No live edge left (see [`crate::active`]): no flip could lower the energy by more
+    /// than a tie, so further sweeps could not change the best state.
+    Exhausted,
+    /// Finished before any of these (the caller stopped driving it: a time limit).
+    Unfinished,
+}
+
+impl Stop {
+    /// The reason from a run's state: sweeps run of `sweeps` planned, whether patience
+    /// stopped it and whether its live edges ran out. O(1).
+    pub(crate) fn of(run: usize, sweeps: usize, patience: bool, exhausted: bool) -> Stop {
+        if run >= sweeps {
+            Stop::Sweeps
+        } else if exhausted {
+            Stop::Exhausted
+        } else if patience {
+            Stop::Patience
+        } else {
+            Stop::Unfinished
+        }
+    }
+
+    /// The name `options["stopped"]` gives it in Python: "sweeps", "patience",
+    /// "exhausted" or "unfinished". O(1).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stop::Sweeps => "sweeps",
+            Stop::Patience => "patience",
+            Stop::Exhausted => "exhausted",
+            Stop::Unfinished => "unfinished",
+        }
+    }
 }
 
 /// A resumable annealing run: [`advance`](Annealer::advance) a bounded number of proposals
@@ -608,7 +649,6 @@ impl Annealer {
         // pruning them here instead cost a tenth of a second per sweep on 60k points).
         // None left: nothing can lower the energy by more than a tie.
         self.sweep_len = self.edges.len();
-        self.stopped_early |= self.sweep_len == 0;
         self.measured = 0;
         self.proposed = 0;
         self.accepted = 0;
@@ -621,16 +661,29 @@ impl Annealer {
     /// order when asked, and returns it. O(m + polish flips).
     pub fn finish(mut self) -> Result<AnnealResult> {
         self.sync_best();
-        let (mesh, energy, polish_flips) =
-            polish(self.best, self.state.uv(), self.state.xyz(), &self.params)?;
+        // The polish's state is the run's, moved onto the best mesh: the run's mesh,
+        // live list and log are freed first, so two states never share the memory.
+        let Annealer {
+            state,
+            best,
+            params,
+            initial_energy,
+            initial_temperature,
+            trace,
+            stopped_early,
+            sweep_len,
+            ..
+        } = self;
+        let stopped = Stop::of(trace.len(), params.sweeps, stopped_early, sweep_len == 0);
+        let (mesh, energy, polish_flips) = polish(state.with_mesh(best)?, &params);
         Ok(AnnealResult {
             mesh,
-            initial_energy: self.initial_energy,
+            initial_energy,
             energy,
-            initial_temperature: self.initial_temperature,
-            trace: self.trace,
+            initial_temperature,
+            trace,
             polish_flips,
-            stopped_early: self.stopped_early,
+            stopped,
         })
     }
 }
@@ -683,23 +736,17 @@ pub(crate) fn cooling(final_ratio: f64, sweeps: usize) -> f64 {
     final_ratio.powf(1.0 / sweeps.max(1) as f64)
 }
 
-/// The end of every run: `best` as a state, polished by LOP under the tac-then-angle order
-/// when `params.polish`; returns the mesh, its energy (recomputed from the sums) and the
-/// polish's flips. O(m + polish flips).
-pub(crate) fn polish(
-    best: HalfEdgeMesh,
-    uv: &[[f64; 2]],
-    xyz: &[glam::DVec3],
-    params: &AnnealParams,
-) -> Result<(HalfEdgeMesh, f64, usize)> {
-    let mut best = TacState::new(best, uv.to_vec(), xyz.to_vec(), params.p)?;
+/// The end of every run: the state of the best mesh, polished by LOP under the
+/// tac-then-angle order when `params.polish`; returns the mesh, its energy (recomputed
+/// from the sums) and the polish's flips. O(m + polish flips).
+pub(crate) fn polish(mut best: TacState, params: &AnnealParams) -> (HalfEdgeMesh, f64, usize) {
     let polish_flips = if params.polish {
         tac_lop(&mut best, params.order())
     } else {
         0
     };
     let energy = best.resync_energy();
-    Ok((best.into_mesh(), energy, polish_flips))
+    (best.into_mesh(), energy, polish_flips)
 }
 
 /// Corner lines are hinted in a sweep when at least one in this many proposals of the
@@ -773,7 +820,7 @@ pub(crate) mod tests {
             usize::MAX,
         );
         let r = anneal(st.clone(), quick(1)).unwrap();
-        r.mesh.validate(st.uv()).unwrap();
+        r.mesh.validate(&st.uv()).unwrap();
         assert!(r.energy <= e0);
         assert!(
             r.energy < lop_state.energy(),
@@ -874,7 +921,7 @@ pub(crate) mod tests {
             ..quick(9)
         };
         let r = anneal(st.clone(), params).unwrap();
-        let recomputed = TacState::new(r.mesh.clone(), st.uv().to_vec(), st.xyz().to_vec(), 1.0)
+        let recomputed = TacState::new(r.mesh.clone(), st.uv(), st.xyz(), 1.0)
             .unwrap()
             .energy_from_scratch();
         let best_seen = r.trace.iter().map(|s| s.best).fold(f64::INFINITY, f64::min);
@@ -882,7 +929,7 @@ pub(crate) mod tests {
             (recomputed - best_seen).abs() <= 1e-9 * best_seen,
             "{recomputed} vs {best_seen}"
         );
-        r.mesh.validate(st.uv()).unwrap();
+        r.mesh.validate(&st.uv()).unwrap();
     }
 
     #[test]
@@ -943,6 +990,28 @@ pub(crate) mod tests {
         // The defaults pass.
         let chains = auto.check_cost(&st).unwrap();
         assert_eq!(chains, auto.chain_count(st.count_interior_half_edges() / 2));
+    }
+
+    #[test]
+    fn no_live_edge_is_reported_as_exhaustion() {
+        // A plane: no vertex above the floor, nothing to anneal, no sweep.
+        let plane = |x: f64, y: f64| 0.3 * x - 0.2 * y;
+        let flat = crate::tac_state::tests::height_state(300, 2, 1.0, plane);
+        let r = anneal(flat, quick(1)).unwrap();
+        assert_eq!(r.stopped, Stop::Exhausted);
+        assert!(r.trace.is_empty());
+        // Curved: every sweep runs; with patience, the early stop says so.
+        let r = anneal(bumpy_state(200, 3, 1.0), quick(1)).unwrap();
+        assert_eq!(r.stopped, Stop::Sweeps);
+        assert_eq!(r.trace.len(), quick(1).sweeps);
+        let patient = AnnealParams {
+            sweeps: 100_000,
+            patience: 3,
+            ..quick(1)
+        };
+        let r = anneal(bumpy_state(200, 3, 1.0), patient).unwrap();
+        assert_eq!(r.stopped, Stop::Patience);
+        assert_eq!(Stop::of(5, 10, false, false), Stop::Unfinished);
     }
 
     #[test]

@@ -108,7 +108,7 @@ pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> (HalfEdgeMesh, u
             (state.into_mesh(), flips)
         }
         LopCriterion::PlanarMaxMin => {
-            let uv = state.uv().to_vec();
+            let uv = state.uv();
             let mut mesh = state.into_mesh();
             let budget = max_flips(mesh.n_half_edges());
             let flips = lop(
@@ -339,7 +339,7 @@ mod tests {
     #[test]
     fn planar_max_min_lop_reproduces_delaunay() {
         let st = bumpy_state(400, 8, 1.0);
-        let uv = st.uv().to_vec();
+        let uv = st.uv();
         let dt = canonical(delaunay(&uv).unwrap().triangles);
         let mut mesh = st.mesh().clone();
         // Scramble with random legal flips first.
@@ -368,7 +368,7 @@ mod tests {
     #[test]
     fn no_single_flip_of_delaunay_raises_its_planar_smallest_angle() {
         let st = bumpy_state(300, 9, 1.0);
-        let uv = st.uv().to_vec();
+        let uv = st.uv();
         let mut mesh = st.mesh().clone();
         let flips = lop(
             &mut PlanarMaxMinLop {
@@ -396,7 +396,7 @@ mod tests {
             usize::MAX,
         );
         assert!(flips > 0 && st.energy() < e0);
-        st.mesh().validate(st.uv()).unwrap();
+        st.mesh().validate(&st.uv()).unwrap();
         let scratch = st.energy_from_scratch();
         assert!((st.energy() - scratch).abs() < 1e-9 * scratch);
         for h in st.mesh().interior_edges() {

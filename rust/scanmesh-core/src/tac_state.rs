@@ -83,12 +83,12 @@ pub struct PrefetchHints {
 }
 
 /// Mesh, positions and the caches that make a flip's energy change O(1).
+///
+/// Memory: about 165 bytes per vertex (64 for its record, 48 for the corner angles of its
+/// six half-edges, 53 for the mesh), the positions held once, in the records.
 #[derive(Debug, Clone)]
 pub struct TacState {
     mesh: HalfEdgeMesh,
-    // Kept for the slice accessors; the hot loop reads the copies in `vert`.
-    uv: Vec<[f64; 2]>,
-    xyz: Vec<DVec3>,
     corner: Vec<f64>,
     // One bit per triangle: its `corner` entries are out of date (a coplanar flip left them).
     // A bit set instead of NaN written into `corner`: a tie flip then touches no corner line
@@ -159,10 +159,7 @@ impl TacState {
     /// are measured on (normalize with [`crate::geometry::Normalizer`] to be scale-safe). O(m).
     pub fn new(mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
         let mut state = TacState::without_sums(mesh, uv, xyz, p)?;
-        for v in 0..state.mesh.n_vertices() as u32 {
-            state.vert[v as usize].sum = state.fan_sum(v);
-        }
-        state.energy = state.recompute_energy();
+        state.measure_sums();
         Ok(state)
     }
 
@@ -187,11 +184,81 @@ impl TacState {
         Ok(state)
     }
 
+    /// The same vertices (positions, p) on another triangulation `mesh` of them, reusing
+    /// this state's arrays: what [`new`](Self::new) would build from `mesh` and the
+    /// positions, bit for bit, without a second state in memory (the polish after
+    /// annealing builds its state from the best mesh so). O(m).
+    pub fn with_mesh(self, mesh: HalfEdgeMesh) -> Result<Self> {
+        if mesh.n_vertices() != self.mesh.n_vertices() {
+            return Err(Error::InvalidParameter {
+                name: "mesh",
+                value: format!("{} vertices", mesh.n_vertices()),
+                expected: "the state's vertices",
+            });
+        }
+        let TacState {
+            mesh: old,
+            mut corner,
+            mut stale,
+            vert,
+            p,
+            ..
+        } = self;
+        drop(old);
+        corner.clear();
+        corner.resize(mesh.n_half_edges(), 0.0);
+        stale.clear();
+        stale.resize(mesh.n_triangles().div_ceil(64), 0);
+        let mut state = TacState::assemble(mesh, vert, corner, stale, p);
+        state.measure_sums();
+        Ok(state)
+    }
+
+    /// Every vertex's angle sum by a walk of its fan, and the energy. O(m).
+    fn measure_sums(&mut self) {
+        for v in 0..self.mesh.n_vertices() as u32 {
+            self.vert[v as usize].sum = self.fan_sum(v);
+        }
+        self.energy = self.recompute_energy();
+    }
+
+    /// A state of `mesh` (reanchored) with the records `vert` (interior flags set from
+    /// `mesh`, sums kept), the buffers `corner` (one per half-edge) and `stale` (one bit
+    /// per triangle, all clear), every corner angle measured; energy 0. O(m).
+    fn assemble(
+        mut mesh: HalfEdgeMesh,
+        mut vert: Vec<VertexRecord>,
+        corner: Vec<f64>,
+        stale: Vec<u64>,
+        p: f64,
+    ) -> Self {
+        // Anchors fix where each fan walk starts, and with it the rounding of the angle sums:
+        // recomputed from the connectivity, they do not depend on how a mesh was flipped.
+        mesh.reanchor();
+        for (v, r) in vert.iter_mut().enumerate() {
+            r.interior = mesh.is_interior(v as u32);
+        }
+        let mut state = TacState {
+            corner,
+            stale,
+            vert,
+            mesh,
+            p,
+            energy: 0.0,
+        };
+        for t in 0..state.mesh.n_triangles() {
+            let [a, b, c] = state.mesh.triangle(t).map(|v| state.vert[v as usize].xyz);
+            let angles = triangle_angles(a, b, c);
+            state.corner[3 * t..3 * t + 3].copy_from_slice(&angles);
+        }
+        state
+    }
+
     /// What [`new`](Self::new) and [`with_vertex_sums`](Self::with_vertex_sums) share: the
     /// checks, the anchors, the vertex records (interior as on `mesh`, sums 0) and every
     /// corner angle; energy 0. O(m).
     fn without_sums(
-        mut mesh: HalfEdgeMesh,
+        mesh: HalfEdgeMesh,
         uv: Vec<[f64; 2]>,
         xyz: Vec<DVec3>,
         p: f64,
@@ -215,33 +282,21 @@ impl TacState {
                 expected: "one of each per vertex",
             });
         }
-        // Anchors fix where each fan walk starts, and with it the rounding of the angle sums:
-        // recomputed from the connectivity, they do not depend on how a mesh was flipped.
-        mesh.reanchor();
-        let vert = (0..mesh.n_vertices())
-            .map(|v| VertexRecord {
-                uv: uv[v],
-                xyz: xyz[v],
+        let vert = uv
+            .iter()
+            .zip(&xyz)
+            .map(|(&uv, &xyz)| VertexRecord {
+                uv,
+                xyz,
                 sum: 0.0,
-                interior: mesh.is_interior(v as u32),
+                interior: false,
             })
             .collect();
-        let mut state = TacState {
-            corner: vec![0.0; mesh.n_half_edges()],
-            stale: vec![0; mesh.n_triangles().div_ceil(64)],
-            vert,
-            mesh,
-            uv,
-            xyz,
-            p,
-            energy: 0.0,
-        };
-        for t in 0..state.mesh.n_triangles() {
-            let [a, b, c] = state.mesh.triangle(t).map(|v| state.xyz[v as usize]);
-            let angles = triangle_angles(a, b, c);
-            state.corner[3 * t..3 * t + 3].copy_from_slice(&angles);
-        }
-        Ok(state)
+        // The positions live on in the records only.
+        drop((uv, xyz));
+        let corner = vec![0.0; mesh.n_half_edges()];
+        let stale = vec![0; mesh.n_triangles().div_ceil(64)];
+        Ok(TacState::assemble(mesh, vert, corner, stale, p))
     }
 
     /// The sum of the 3-D corner angles around `v` (radians), as maintained. O(1).
@@ -252,11 +307,11 @@ impl TacState {
     /// Builds the state from input-ordered data: normalizes positions (scale-free), checks that
     /// `triangles` form a valid planar triangulation of `uv`, and relabels everything in
     /// Z-order for memory locality. Map results back with the returned [`Relabel`].
-    /// O(m log m).
+    /// `triangles` are taken, and freed once the mesh holds them. O(m log m).
     pub fn from_input(
         points: &[DVec3],
         uv: &[[f64; 2]],
-        triangles: &[[u32; 3]],
+        triangles: Vec<[u32; 3]>,
         p: f64,
     ) -> Result<(Self, Relabel)> {
         crate::geometry::check_finite(points)?;
@@ -267,13 +322,16 @@ impl TacState {
                 expected: "one planar position per point",
             });
         }
-        crate::criteria::check_faces(points.len(), triangles)?;
+        crate::criteria::check_faces(points.len(), &triangles)?;
         let relabel = Relabel::morton(uv);
+        // One copy of the triangles at a time, none once the mesh holds them.
+        let local = relabel.triangles_to_local(&triangles);
+        drop(triangles);
+        let mesh = HalfEdgeMesh::from_triangles(points.len(), &local)?;
+        drop(local);
         let unit_uv = relabel.vertices(&unit_square(uv));
-        let unit_xyz = relabel.vertices(&Normalizer::fit(points).apply_all(points));
-        let mesh =
-            HalfEdgeMesh::from_triangles(points.len(), &relabel.triangles_to_local(triangles))?;
         mesh.validate(&unit_uv)?;
+        let unit_xyz = relabel.vertices(&Normalizer::fit(points).apply_all(points));
         Ok((TacState::new(mesh, unit_uv, unit_xyz, p)?, relabel))
     }
 
@@ -306,8 +364,6 @@ impl TacState {
         use crate::budget::try_copy;
         Ok(TacState {
             mesh: self.mesh.try_clone()?,
-            uv: try_copy(&self.uv)?,
-            xyz: try_copy(&self.xyz)?,
             corner: try_copy(&self.corner)?,
             stale: try_copy(&self.stale)?,
             vert: try_copy(&self.vert)?,
@@ -320,9 +376,7 @@ impl TacState {
     pub fn heap_bytes(&self) -> u64 {
         use std::mem::size_of_val;
         self.mesh.heap_bytes()
-            + (size_of_val(&self.uv[..])
-                + size_of_val(&self.xyz[..])
-                + size_of_val(&self.corner[..])
+            + (size_of_val(&self.corner[..])
                 + size_of_val(&self.stale[..])
                 + size_of_val(&self.vert[..])) as u64
     }
@@ -338,14 +392,14 @@ impl TacState {
         self.mesh.reanchor();
     }
 
-    /// Planar positions. O(1).
-    pub fn uv(&self) -> &[[f64; 2]] {
-        &self.uv
+    /// Planar positions, copied out of the vertex records. O(n).
+    pub fn uv(&self) -> Vec<[f64; 2]> {
+        self.vert.iter().map(|r| r.uv).collect()
     }
 
-    /// 3-D positions. O(1).
-    pub fn xyz(&self) -> &[DVec3] {
-        &self.xyz
+    /// 3-D positions, copied out of the vertex records. O(n).
+    pub fn xyz(&self) -> Vec<DVec3> {
+        self.vert.iter().map(|r| r.xyz).collect()
     }
 
     /// Current energy, maintained incrementally. O(1).
@@ -376,7 +430,7 @@ impl TacState {
     /// Energy computed from scratch from positions and connectivity, sharing no cache: the
     /// reference the incremental value is tested against. O(m).
     pub fn energy_from_scratch(&self) -> f64 {
-        let sums = crate::criteria::angle_sums(&self.xyz, &self.mesh.triangles());
+        let sums = crate::criteria::angle_sums(&self.xyz(), &self.mesh.triangles());
         sums.iter()
             .zip(&self.vert)
             .filter(|(_, r)| r.interior)
@@ -691,7 +745,13 @@ pub(crate) mod tests {
         })
     }
 
-    fn height_state(n: usize, seed: u64, p: f64, f: impl Fn(f64, f64) -> f64) -> TacState {
+    /// The height field `f` sampled at `n` random planar points, Delaunay-triangulated.
+    pub(crate) fn height_state(
+        n: usize,
+        seed: u64,
+        p: f64,
+        f: impl Fn(f64, f64) -> f64,
+    ) -> TacState {
         let uv = crate::testing::random_points(n, seed);
         let xyz: Vec<DVec3> = uv
             .iter()
@@ -730,7 +790,7 @@ pub(crate) mod tests {
                 "{} vs {scratch}",
                 st.energy()
             );
-            st.mesh().validate(st.uv()).unwrap();
+            st.mesh().validate(&st.uv()).unwrap();
         }
     }
 
@@ -762,7 +822,7 @@ pub(crate) mod tests {
                 "{} vs {scratch}",
                 st.energy()
             );
-            st.mesh().validate(st.uv()).unwrap();
+            st.mesh().validate(&st.uv()).unwrap();
         }
         assert!(flat > 1000 && curved > 50, "flat {flat}, curved {curved}");
         // A shape evaluation of a coplanar move computes its angles and is still a tie.
@@ -776,13 +836,14 @@ pub(crate) mod tests {
     #[test]
     fn boundary_and_reflex_edges_are_not_moves() {
         let mut st = bumpy_state(100, 5, 1.0);
+        let uv = st.uv();
         for h in 0..st.mesh().n_half_edges() as u32 {
             if st.mesh().twin(h) == NONE {
                 assert!(st.evaluate(h, Detail::Energy).is_none());
             } else {
                 assert_eq!(
                     st.evaluate(h, Detail::Energy).is_some(),
-                    st.mesh().can_flip(h, st.uv())
+                    st.mesh().can_flip(h, &uv)
                 );
             }
         }
@@ -874,9 +935,33 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn with_mesh_equals_a_fresh_state_of_that_mesh() {
+        // A state flipped away from its start (ties left stale, sums incremented), moved
+        // onto the start's mesh: the same caches, sums and energy as a state built anew.
+        let start = plateau_state(500, 12, 2.0);
+        let mut st = start.clone();
+        for &h in &st.mesh().interior_edges() {
+            if let Proposal::Move(mv) = st.propose(h) {
+                st.apply(&mv);
+            }
+        }
+        assert_ne!(st.mesh().triangles(), start.mesh().triangles());
+        let fresh = TacState::new(start.mesh().clone(), start.uv(), start.xyz(), 2.0).unwrap();
+        let moved = st.with_mesh(start.mesh().clone()).unwrap();
+        assert_eq!(moved.mesh(), fresh.mesh());
+        assert_eq!(moved.corner, fresh.corner);
+        assert_eq!(moved.stale, fresh.stale);
+        assert_eq!(moved.vert, fresh.vert);
+        assert_eq!(moved.energy(), fresh.energy());
+        // Another vertex count is refused.
+        let other = bumpy_state(40, 1, 2.0);
+        assert!(moved.with_mesh(other.mesh().clone()).is_err());
+    }
+
+    #[test]
     fn bad_p_is_refused() {
         let st = bumpy_state(20, 1, 1.0);
-        let (mesh, uv) = (st.mesh().clone(), st.uv().to_vec());
-        assert!(TacState::new(mesh, uv, st.xyz().to_vec(), 0.5).is_err());
+        let (mesh, uv) = (st.mesh().clone(), st.uv());
+        assert!(TacState::new(mesh, uv, st.xyz(), 0.5).is_err());
     }
 }

@@ -22,7 +22,9 @@
 //! chunking.
 
 use crate::anneal::SweepRecord;
-use crate::anneal::{cooling, initial_temperature, polish, AnnealParams, AnnealResult, Annealer};
+use crate::anneal::{
+    cooling, initial_temperature, polish, AnnealParams, AnnealResult, Annealer, Stop,
+};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{vertex_energy, TacState};
 use crate::Result;
@@ -89,11 +91,12 @@ impl TiledAnnealer {
         let interior: Vec<bool> = (0..n as u32).map(|v| state.mesh().is_interior(v)).collect();
         // Stripes across the longer side of the used vertices' box: shorter borders.
         let used: Vec<u32> = (0..n as u32).filter(|&v| state.mesh().is_used(v)).collect();
+        let uv = state.uv();
         let spread = |k: usize| {
             let (lo, hi) = used
                 .iter()
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-                    let x = state.uv()[v as usize][k];
+                    let x = uv[v as usize][k];
                     (lo.min(x), hi.max(x))
                 });
             hi - lo
@@ -101,8 +104,8 @@ impl TiledAnnealer {
         let axis = usize::from(spread(1) > spread(0));
         let mut order: Vec<u32> = (0..n as u32).collect();
         order.sort_by(|&a, &b| {
-            state.uv()[a as usize][axis]
-                .total_cmp(&state.uv()[b as usize][axis])
+            uv[a as usize][axis]
+                .total_cmp(&uv[b as usize][axis])
                 .then(a.cmp(&b))
         });
         let mut rank = vec![0; n];
@@ -114,8 +117,8 @@ impl TiledAnnealer {
         Ok(TiledAnnealer {
             sums: (0..n as u32).map(|v| state.angle_sum(v)).collect(),
             interior_edges: state.count_interior_half_edges() / 2,
-            uv: state.uv().to_vec(),
-            xyz: state.xyz().to_vec(),
+            uv,
+            xyz: state.xyz(),
             interior,
             rank,
             best: triangles.clone(),
@@ -398,15 +401,21 @@ impl TiledAnnealer {
             self.end_phase();
         }
         let best = HalfEdgeMesh::from_triangles(self.uv.len(), &self.best)?;
-        let (mesh, energy, polish_flips) = polish(best, &self.uv, &self.xyz, &self.params)?;
+        let best = TacState::new(best, self.uv, self.xyz, self.params.p)?;
+        let (mesh, energy, polish_flips) = polish(best, &self.params);
         Ok(AnnealResult {
             mesh,
             initial_energy: self.initial_energy,
             energy,
             initial_temperature: self.initial_temperature,
+            stopped: Stop::of(
+                self.trace.len(),
+                self.params.sweeps,
+                self.stopped_early,
+                self.interior_edges == 0,
+            ),
             trace: self.trace,
             polish_flips,
-            stopped_early: self.stopped_early,
         })
     }
 }
@@ -470,7 +479,7 @@ mod tests {
     /// The state of `triangles` over `st`'s positions, measured from scratch.
     fn measured(st: &TacState, triangles: &[[u32; 3]]) -> TacState {
         let mesh = HalfEdgeMesh::from_triangles(st.uv().len(), triangles).unwrap();
-        TacState::new(mesh, st.uv().to_vec(), st.xyz().to_vec(), st.p()).unwrap()
+        TacState::new(mesh, st.uv(), st.xyz(), st.p()).unwrap()
     }
 
     #[test]
@@ -494,8 +503,8 @@ mod tests {
                 // Between phases: the triangulation is valid, and its angle sums and energy
                 // measured from scratch equal the ones the tiles maintained.
                 let now = measured(&st, &a.triangles);
-                now.mesh().validate(st.uv()).unwrap();
-                for v in 0..st.uv().len() as u32 {
+                now.mesh().validate(&st.uv()).unwrap();
+                for v in 0..st.mesh().n_vertices() as u32 {
                     assert!((now.angle_sum(v) - a.sums[v as usize]).abs() < 1e-9);
                 }
                 let scratch = now.energy_from_scratch();
@@ -506,7 +515,7 @@ mod tests {
                 );
                 // The best kept is a valid triangulation with the recorded energy.
                 let best = measured(&st, &a.best);
-                best.mesh().validate(st.uv()).unwrap();
+                best.mesh().validate(&st.uv()).unwrap();
                 let e = best.energy_from_scratch();
                 assert!((a.best_energy - e).abs() <= 1e-9 * e.max(1.0));
                 assert_eq!(a.trace().last().unwrap().best, a.best_energy);
@@ -529,7 +538,7 @@ mod tests {
         );
         let plain = anneal(st.clone(), params(1, 200, 5)).unwrap();
         let tiled = run(&st, params(3, 200, 5));
-        tiled.mesh.validate(st.uv()).unwrap();
+        tiled.mesh.validate(&st.uv()).unwrap();
         assert_eq!(tiled.mesh.n_triangles(), st.mesh().n_triangles());
         assert!(tiled.energy < lop_state.energy());
         assert!(
@@ -584,14 +593,14 @@ mod tests {
                 ..params(2, 5_000, 3)
             },
         );
-        assert!(r.stopped_early && r.trace.len() < 5_000);
+        assert!(r.stopped == Stop::Patience && r.trace.len() < 5_000);
         assert_eq!(r.trace.len() % PHASE_SWEEPS, 0);
         // Interrupted in the middle of a phase: finish still returns a valid best.
         let mut a = TiledAnnealer::new(st.clone(), params(2, 1_000, 3)).unwrap();
         a.advance_until(500, None);
         assert!(a.running.is_some());
         let r = a.finish().unwrap();
-        r.mesh.validate(st.uv()).unwrap();
+        r.mesh.validate(&st.uv()).unwrap();
         assert!(r.energy <= r.initial_energy);
     }
 
@@ -603,7 +612,7 @@ mod tests {
             let st = bumpy_state(n, 37, 1.0);
             let r = run(&st, params(tiles, 250, 2));
             assert_eq!(r.trace.len(), 250, "{n} points in {tiles} tiles");
-            r.mesh.validate(st.uv()).unwrap();
+            r.mesh.validate(&st.uv()).unwrap();
             assert!(r.energy <= r.initial_energy + 1e-12);
         }
     }

@@ -166,7 +166,7 @@ proptest! {
         let pts = points(kind, n, seed, scale);
         let uv = planar(&pts);
         let Some(d) = triangulate(&uv) else { return Ok(()) };
-        let (mut state, _) = TacState::from_input(&pts, &uv, &d.triangles, p).unwrap();
+        let (mut state, _) = TacState::from_input(&pts, &uv, d.triangles.clone(), p).unwrap();
         let before = used(state.mesh().n_vertices(), &state.mesh().triangles());
         let mut r = Lcg(seed ^ 0x5eed);
         let edges = state.mesh().n_half_edges();
@@ -176,7 +176,7 @@ proptest! {
                 state.apply(&mv);
             }
         }
-        state.mesh().validate(state.uv()).unwrap();
+        state.mesh().validate(&state.uv()).unwrap();
         let (inc, full) = (state.energy(), state.energy_from_scratch());
         prop_assert!((inc - full).abs() <= 1e-9 * full.max(1.0), "incremental {inc} vs {full}");
         prop_assert_eq!(before, used(state.mesh().n_vertices(), &state.mesh().triangles()));
@@ -219,14 +219,14 @@ proptest! {
         let Some(d) = triangulate(&uv) else { return Ok(()) };
         let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
         let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
-        let (mut state, _) = TacState::from_input(&pts, &uv, &trimmed, 1.0).unwrap();
+        let (mut state, _) = TacState::from_input(&pts, &uv, trimmed.clone(), 1.0).unwrap();
         let vertices = used(uv.len(), &state.mesh().triangles());
         let order = TacOrder { tie_tolerance: 1e-10, sliver_guard: true };
         tac_lop(&mut state, order);
-        state.mesh().validate(state.uv()).unwrap();
+        state.mesh().validate(&state.uv()).unwrap();
         let full = state.energy_from_scratch();
         prop_assert!((state.energy() - full).abs() <= 1e-9 * full.max(1.0));
-        let plane = state.uv().to_vec();
+        let plane = state.uv();
         let params = AnnealParams { sweeps: 4, seed, calibration_samples: 64, ..AnnealParams::default() };
         let mut annealer = Annealer::new(state, params).unwrap();
         while !annealer.is_done() {

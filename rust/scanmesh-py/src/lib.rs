@@ -447,10 +447,11 @@ fn tac_state(
     faces_: &PyReadonlyArray2<'_, i64>,
     p: f64,
 ) -> PyResult<(TacState, Relabel)> {
-    let xyz = points3(points)?;
-    let plane = points2(uv)?;
+    // Borrowed from numpy where it lays them out as rows: no copy at the boundary.
+    let xyz = points3_view(points)?;
+    let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
-    TacState::from_input(&xyz, &plane, &t, p).map_err(to_py)
+    TacState::from_input(&xyz, &plane, t, p).map_err(to_py)
 }
 
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
@@ -619,7 +620,7 @@ impl Annealer {
             "proposals",
             r.trace.iter().map(|s| s.proposals as u64).sum::<u64>(),
         )?;
-        summary.set_item("stopped_early", r.stopped_early)?;
+        summary.set_item("stopped", r.stopped.name())?;
         summary.set_item("chains", chains.energies.len())?;
         summary.set_item("best_chain", chains.best_chain)?;
         summary.set_item("chain_energies", chains.energies)?;
