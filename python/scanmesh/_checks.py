@@ -63,8 +63,7 @@ def as_faces(faces: ArrayLike, n_vertices: int, name: str = "faces") -> np.ndarr
     if arr.size and (arr.min() < 0 or arr.max() >= n_vertices):
         row = int(np.argwhere((arr < 0) | (arr >= n_vertices))[0, 0])
         raise InvalidMeshError(
-            f"{name}: face {row} {arr[row].tolist()} refers to a vertex outside"
-            f" 0..{n_vertices - 1}"
+            f"{name}: face {row} {arr[row].tolist()} refers to a vertex outside 0..{n_vertices - 1}"
         )
     return arr
 
@@ -76,9 +75,15 @@ def power_of_two_unit(arr: np.ndarray) -> tuple[np.ndarray, int]:
     of ``arr``), and it keeps products of coordinates from overflowing at 1e300 or
     underflowing to zero at 1e-300 (README: every method takes 1e-300..1e300). O(N).
     """
-    big = float(np.abs(arr).max()) if arr.size else 0.0
-    exponent = math.frexp(big)[1] if big > 0.0 else 0
+    exponent = power_of_two_exponent(arr)
     return np.ldexp(arr, -exponent), exponent
+
+
+def power_of_two_exponent(arr: np.ndarray) -> int:
+    """The e of :func:`power_of_two_unit`: 2**-e scales ``arr`` to at most 1 in magnitude
+    (0 for an empty or all-zero array). O(N), no copy of ``arr``."""
+    big = float(max(abs(arr.max()), abs(arr.min()))) if arr.size else 0.0
+    return math.frexp(big)[1] if big > 0.0 else 0
 
 
 #: Float line ids are accepted up to this magnitude, where every integer is still a float
@@ -216,9 +221,7 @@ class Option:
         return f" in {opening}{self.low:g}, {self.high:g}{closing}"
 
 
-def check_options(
-    known: Iterable[Option], given: Mapping[str, Any], where: str
-) -> dict[str, Any]:
+def check_options(known: Iterable[Option], given: Mapping[str, Any], where: str) -> dict[str, Any]:
     """Every option of ``known`` checked, defaults for those not ``given``.
 
     Raises ParameterError for a keyword not in ``known`` (``where`` says whose options

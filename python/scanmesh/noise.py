@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from scanmesh._checks import power_of_two_unit
+from scanmesh._checks import power_of_two_exponent
 from scanmesh.errors import DegenerateInputError
 from scanmesh.lines import scan_lines
 from scanmesh.projection import PlaneSpec
@@ -67,6 +67,10 @@ MAX_FITS: int = 100_000
 
 #: Points fitted per vectorized chunk of the neighbourhood fit (bounds memory).
 CHUNK: int = 1 << 16
+
+#: Points (or faces) per batch of the O(N) passes (line stencils, edge lengths, heights):
+#: bounds their temporaries, a few hundred MB whatever the scan's size.
+PASS_CHUNK: int = 1 << 20
 
 #: Fewest residual windows an estimate is made from.
 MIN_WINDOWS: int = 20
@@ -115,6 +119,25 @@ def _line_residuals(scan: PlanarScan, uv: np.ndarray, height: np.ndarray) -> np.
     segments = [seg for seg in segments if len(seg) >= 5]
     if not segments:
         return np.zeros(0)
+    # Segments in batches of about PASS_CHUNK points: the stencil holds some twenty arrays
+    # of a batch's length at once, which at 10M points in one batch was 1.6 GB.
+    out, batch, size = [], [], 0
+    for seg in segments:
+        batch.append(seg)
+        size += len(seg)
+        if size >= PASS_CHUNK:
+            out.append(_segment_residuals(batch, uv, height))
+            batch, size = [], 0
+    if batch:
+        out.append(_segment_residuals(batch, uv, height))
+    return np.concatenate(out)
+
+
+def _segment_residuals(
+    segments: list[np.ndarray], uv: np.ndarray, height: np.ndarray
+) -> np.ndarray:
+    """The normalized cubic-prediction residuals of the points of ``segments`` (index arrays
+    of at least 5 points each, in line order), in that order. O(total length)."""
     order = np.concatenate(segments)
     lengths = np.array([len(seg) for seg in segments])
     starts = np.cumsum(lengths) - lengths
@@ -140,9 +163,7 @@ def _line_residuals(scan: PlanarScan, uv: np.ndarray, height: np.ndarray) -> np.
     return (height[order[centre]] - predicted) / np.sqrt(norm2)
 
 
-def neighbourhood_residuals(
-    points: ArrayLike | PlanarScan, plane: PlaneSpec = None
-) -> np.ndarray:
+def neighbourhood_residuals(points: ArrayLike | PlanarScan, plane: PlaneSpec = None) -> np.ndarray:
     """Normalized residuals of the heights against the quadratic least-squares fit over the
     plane to each point's :data:`NEIGHBOURS` nearest other points (see the module docstring).
 
@@ -249,9 +270,14 @@ def noise(
     scan = as_scan(points, plane=plane, lines=lines)
     # Residuals scale with the coordinates: measured on an exactly rescaled copy, so that
     # squared distances and fits neither overflow at 1e300 nor vanish at 1e-300.
-    unit, exponent = power_of_two_unit(scan.points)
+    exponent = power_of_two_exponent(scan.points)
     uv = np.ldexp(scan.uv, -exponent)
-    height = _heights(unit, scan)
+    height = np.concatenate(
+        [
+            _heights(np.ldexp(scan.points[first : first + PASS_CHUNK], -exponent), scan)
+            for first in range(0, max(len(scan.points), 1), PASS_CHUNK)
+        ]
+    )
     found = [_line_residuals(scan, uv, height), _neighbourhood_residuals(uv, height)]
     estimates = [robust_scale(r) for r in found if len(r) >= MIN_WINDOWS]
     if not estimates:
@@ -275,10 +301,19 @@ NOISE_FREE: float = 1 / 500
 
 
 def median_edge(uv: np.ndarray, faces: np.ndarray) -> float:
-    """Median planar length of the triangles' edges (each interior edge counted twice). O(F)."""
-    tri = uv[np.asarray(faces, dtype=np.int64)]
-    lengths = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
-    return float(np.median(lengths)) if lengths.size else 0.0
+    """Median planar length of the triangles' edges (each interior edge counted twice).
+
+    Faces are measured in batches of :data:`PASS_CHUNK` into one array of 3F lengths,
+    whose median is taken in place: the corner coordinates of all faces at once were
+    three arrays of 48 bytes per face. O(F).
+    """
+    faces = np.asarray(faces)
+    lengths = np.empty(3 * len(faces))
+    for first in range(0, len(faces), PASS_CHUNK):
+        tri = uv[np.asarray(faces[first : first + PASS_CHUNK], dtype=np.int64)]
+        edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+        lengths[3 * first : 3 * first + edges.size] = edges.ravel()
+    return float(np.median(lengths, overwrite_input=True)) if lengths.size else 0.0
 
 
 #: log of the largest float: the tie tolerance is capped there (finite, as the core needs).
