@@ -664,8 +664,10 @@ fn stitch_with(
     // Which points the strips use, before anything is dropped: a point all of whose
     // triangles are dropped is trimmed, not unused.
     let used_by_strips = used_points(points.len(), &triangles);
-    // Depth jumps: triangles that still bridge one (a strip between a line on top of a
-    // wall and one below it, parallel to the wall) are dropped, by the rule trimming uses.
+    // Depth jumps and gaps: triangles that still bridge one (a strip between a line on top
+    // of a wall and one below it, parallel to the wall; a rung across a missed stretch)
+    // are dropped, by the rules trimming uses, and so are the smaller fans of the pinches
+    // that leaves (else the planar check would refuse them as a crossing).
     let mut dropped_jumps = 0;
     if params.jump_factor.is_finite() && !triangles.is_empty() {
         let jumps = DepthJumps {
@@ -673,14 +675,17 @@ fn stitch_with(
             factor: params.jump_factor,
         };
         let bridges = bridging_triangles(caller_uv, &triangles, jumps);
-        dropped_jumps = bridges.iter().filter(|&&b| b).count();
-        if dropped_jumps > 0 {
-            triangles = triangles
+        if bridges.iter().any(|&b| b) {
+            let before = triangles.len();
+            let kept: Vec<[u32; 3]> = triangles
                 .into_iter()
                 .zip(bridges)
                 .filter(|(_, b)| !b)
                 .map(|(t, _)| t)
                 .collect();
+            // Crossing lines (no half-edge mesh) are the repair's business below.
+            triangles = crate::trim::peel(uv, kept.clone()).unwrap_or(kept);
+            dropped_jumps = before - triangles.len();
         }
     }
     // Lone points' triangles and dropped triangles are not strips: then only the global

@@ -1044,6 +1044,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         scanmesh_core::DEFAULT_MAX_EDGE_FACTOR,
     )?;
     m.add("DEFAULT_JUMP_FACTOR", scanmesh_core::DEFAULT_JUMP_FACTOR)?;
+    m.add(
+        "DEFAULT_BRIDGE_FACTOR",
+        scanmesh_core::DEFAULT_BRIDGE_FACTOR,
+    )?;
     let d = AnnealParams::default();
     let defaults = pyo3::types::PyDict::new(py);
     defaults.set_item("sweeps", d.sweeps)?;
