@@ -167,27 +167,6 @@ def planar_area(points: np.ndarray, faces: np.ndarray) -> float:
     return float(0.5 * np.abs(ux * vy - uy * vx).sum())
 
 
-@pytest.mark.parametrize("method", ["shortest-path", "lookahead"])
-def test_strips_leave_a_gap_between_lines_open(method):
-    pts, lines = banded_lines(gap=8.0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        before = strip_surface(pts, lines=lines, method=method, plane="z", jump_factor=math.inf)
-    assert spanning(pts, before.faces) > 20  # without the rule the strip bridges the gap
-    s = strip_surface(pts, lines=lines, method=method, plane="z")
-    assert spanning(pts, s.faces) == 0
-    assert s.options["dropped_jumps"] == len(before.faces) - len(s.faces)
-    _core.validate(s.scan.uv, s.faces)
-    # The kept area stays: every face inside a band survives, so the bands' area is whole.
-    inside = before.faces[np.all(before.faces < 180, axis=1) | np.all(before.faces >= 180, axis=1)]
-    assert len(s.faces) == len(inside)
-    assert planar_area(pts, s.faces) == pytest.approx(planar_area(pts, inside), rel=1e-12)
-    # A gap of two lines is still surface (rungs twice the spacing across lines).
-    near, near_lines = banded_lines(gap=2.0)
-    close = strip_surface(near, lines=near_lines, method=method, plane="z")
-    assert close.options["dropped_jumps"] == 0
-
-
 def test_delaunay_leaves_a_gap_narrower_than_max_edge_open():
     pts, _ = banded_lines(gap=8.0)
     # max_edge above the gap: the planar rule keeps the sheet over it, the bridge rule not.

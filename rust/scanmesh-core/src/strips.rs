@@ -664,15 +664,17 @@ fn stitch_with(
     // Which points the strips use, before anything is dropped: a point all of whose
     // triangles are dropped is trimmed, not unused.
     let used_by_strips = used_points(points.len(), &triangles);
-    // Depth jumps and gaps: triangles that still bridge one (a strip between a line on top
-    // of a wall and one below it, parallel to the wall; a rung across a missed stretch)
-    // are dropped, by the rules trimming uses, and so are the smaller fans of the pinches
-    // that leaves (else the planar check would refuse them as a crossing).
+    // Depth jumps: triangles that still bridge one (a strip between a line on top of a
+    // wall and one below it, parallel to the wall) are dropped, by the rule trimming uses
+    // (not its gap rule: it would drop lookahead's long fans on clean grids), and so are
+    // the smaller fans of the pinches that leaves (else the planar check would refuse
+    // them as a crossing).
     let mut dropped_jumps = 0;
     if params.jump_factor.is_finite() && !triangles.is_empty() {
         let jumps = DepthJumps {
             points,
             factor: params.jump_factor,
+            gaps: false,
         };
         let bridges = bridging_triangles(caller_uv, &triangles, jumps);
         if bridges.iter().any(|&b| b) {

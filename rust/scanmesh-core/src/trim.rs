@@ -31,9 +31,10 @@ pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 /// multiple of the spacing across lines at its best-sampled corner (see [`Spacing`]) spans
 /// a gap the planar rules leave (a strip's rung across a missed stretch of the next line,
 /// lookahead's fan from the end of a line segment, a sheet over a hole narrower than the
-/// planar trim length) and is dropped with the depth jumps. Chosen by
-/// benches/strips_geometry.py (25 scans of CAD parts, both strip methods and Delaunay,
-/// figures in benches/results/strips_geometry.md); see there for what it drops.
+/// planar trim length) and is dropped with the depth jumps. Chosen on the scans of
+/// benches/strips_geometry.py (figures in benches/results/strips_geometry.md): 4 also drops
+/// lookahead's rungs of 4.7 spacings on a clean jittered grid, 6 keeps some of its fans
+/// over the connecting rod's bore (3.5 median edges off the CAD surface).
 pub const DEFAULT_BRIDGE_FACTOR: f64 = 5.0;
 
 /// The depth-jump rule of [`trim_long_edges`]: the 3-D points (same indices as the planar
@@ -44,8 +45,11 @@ pub struct DepthJumps<'a> {
     pub points: &'a [DVec3],
     /// A triangle is dropped when its longest 3-D edge is steep and exceeds `factor` times
     /// the smallest local spacing of its corners (or, at any slope, exceeds
-    /// [`DEFAULT_BRIDGE_FACTOR`] times it); `∞` turns both rules off.
+    /// [`DEFAULT_BRIDGE_FACTOR`] times it, with `gaps`); `∞` turns both rules off.
     pub factor: f64,
+    /// Whether the gap rule runs too (trimming: yes; the strips: not yet, it drops
+    /// lookahead's long fans on clean grids with the area and dihedral weights).
+    pub gaps: bool,
 }
 
 /// The two local 3-D spacings of a vertex, from the lengths of its distinct edges.
@@ -245,6 +249,7 @@ pub fn delaunay_trimmed(
     let jumps = limit.is_finite().then_some(DepthJumps {
         points,
         factor: jump_factor,
+        gaps: true,
     });
     let triangles = trim_delaunay(uv, &d, limit, jumps);
     let mut vertex = vec![false; uv.len()];
@@ -404,7 +409,7 @@ pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJ
                 .map(|&v| shortest_at[v as usize])
                 .fold(f64::INFINITY, f64::min);
             if (with_jumps && steep && longest3 > jumps.factor * bound)
-                || longest3 > DEFAULT_BRIDGE_FACTOR * bound
+                || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * bound)
             {
                 any = true;
                 t.iter()
@@ -429,7 +434,7 @@ pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJ
                         * to_unit
                 };
                 (with_jumps && steep && longest3 > jumps.factor * nearest(|s| s.median))
-                    || longest3 > DEFAULT_BRIDGE_FACTOR * nearest(|s| s.across)
+                    || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * nearest(|s| s.across))
             })
             .collect()
     };
@@ -438,7 +443,7 @@ pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJ
     // A fan over a gap inflates the spacing at its apex until its longest rungs are gone:
     // the bridge rule runs again on what is kept while it drops something. The jump rule
     // runs once (again, it would eat into the walls' rims).
-    let mut changed = dropped.iter().any(|&d| d);
+    let mut changed = jumps.gaps && dropped.iter().any(|&d| d);
     while changed {
         let live: Vec<u32> = all
             .iter()
@@ -667,6 +672,7 @@ mod tests {
             let jumps = DepthJumps {
                 points: p,
                 factor: DEFAULT_JUMP_FACTOR,
+                gaps: true,
             };
             let kept = trim_long_edges(&uv, &d.triangles, 5.0, Some(jumps)).unwrap();
             HalfEdgeMesh::from_triangles(uv.len(), &kept)
@@ -700,6 +706,7 @@ mod tests {
         let off = DepthJumps {
             points: &high,
             factor: f64::INFINITY,
+            gaps: true,
         };
         assert_eq!(
             trim_long_edges(&uv, &d.triangles, 5.0, Some(off))
@@ -713,6 +720,7 @@ mod tests {
             let jumps = DepthJumps {
                 points: &scaled,
                 factor: DEFAULT_JUMP_FACTOR,
+                gaps: true,
             };
             let got = trim_long_edges(&uv_s, &d.triangles, 5.0 * s, Some(jumps)).unwrap();
             assert_eq!(got.len(), trim(&high).1.len(), "scale {s}");
@@ -730,6 +738,7 @@ mod tests {
         let jumps = DepthJumps {
             points: &p,
             factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
         };
         let kept = trim_long_edges(&uv, &d.triangles, f64::INFINITY, Some(jumps)).unwrap();
         let low = |v: u32| p[v as usize].y < 6.5;
@@ -750,6 +759,7 @@ mod tests {
         let jumps = DepthJumps {
             points: &sparse,
             factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
         };
         assert!(!bridging_triangles(&uv, &d.triangles, jumps)
             .into_iter()
@@ -767,6 +777,7 @@ mod tests {
         let jumps = DepthJumps {
             points: &p,
             factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
         };
         let two_steps = trim_long_edges(&uv, &d.triangles, limit, Some(jumps)).unwrap();
         let one = delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR).unwrap();

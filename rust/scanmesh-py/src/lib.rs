@@ -350,6 +350,7 @@ fn trim_long_edges<'py>(
     let jumps = xyz.as_deref().map(|p| scanmesh_core::DepthJumps {
         points: p,
         factor: jump_factor,
+        gaps: true,
     });
     let kept = py
         .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge, jumps))
