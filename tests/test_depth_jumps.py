@@ -141,3 +141,44 @@ def test_strips_leave_walls_steps_and_bores_open(method, along):
     assert area(s.faces) == pytest.approx(area(d.faces), rel=0.04)
     if along == "y":  # the wall lies between two lines: that strip's triangles are dropped
         assert s.options["dropped_jumps"] >= 23
+
+
+def banded_lines(gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """A flat, gently bumpy scan: 30-point lines (step 1, jittered) 1 apart in two bands
+    of 6 lines, `gap` apart (no line in between: a missed stretch of the scan)."""
+    rng = np.random.default_rng(7)
+    ys = np.concatenate([np.arange(6.0), 5.0 + gap + np.arange(6.0)])
+    x, y = np.meshgrid(np.arange(30.0), ys)
+    x = x + rng.uniform(-0.05, 0.05, x.shape)
+    z = 0.1 * np.sin(0.3 * x) * np.cos(0.2 * y)
+    line = np.repeat(np.arange(len(ys)), 30)
+    return np.column_stack([x.ravel(), y.ravel(), z.ravel()]), line
+
+
+def spanning(points: np.ndarray, faces: np.ndarray) -> int:
+    """Faces with corners in both bands."""
+    low = points[faces, 1] < 5.5
+    return int(np.count_nonzero(low.any(axis=1) & ~low.all(axis=1)))
+
+
+def planar_area(points: np.ndarray, faces: np.ndarray) -> float:
+    a, b, c = (points[faces[:, k], :2] for k in range(3))
+    (ux, uy), (vx, vy) = (b - a).T, (c - a).T
+    return float(0.5 * np.abs(ux * vy - uy * vx).sum())
+
+
+def test_delaunay_leaves_a_gap_narrower_than_max_edge_open():
+    pts, _ = banded_lines(gap=8.0)
+    # max_edge above the gap: the planar rule keeps the sheet over it, the bridge rule not.
+    d = scanmesh.delaunay(pts, plane="z", max_edge=20.0)
+    assert spanning(pts, d.faces) == 0
+    uv, _ = project(pts, "z")
+    hull, _ = _core.delaunay(uv)
+    planar_only = _core.trim_long_edges(uv, hull, 20.0)
+    assert spanning(pts, planar_only) > 20
+    inside = planar_only[np.all(planar_only < 180, axis=1) | np.all(planar_only >= 180, axis=1)]
+    assert planar_area(pts, d.faces) == pytest.approx(planar_area(pts, inside), rel=1e-9)
+    used = np.zeros(len(pts), dtype=bool)
+    used[d.faces.ravel()] = True
+    used[d.options["trimmed"]] = True
+    assert used.all()

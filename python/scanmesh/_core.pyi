@@ -15,6 +15,7 @@ __all__ = [
     "ParameterError",
     "InvalidMeshError",
     "SLIVER_ANGLE_DEG",
+    "DEFAULT_BRIDGE_FACTOR",
     "DEFAULT_JUMP_FACTOR",
     "DEFAULT_MAX_EDGE_FACTOR",
     "ANNEAL_DEFAULTS",
@@ -47,6 +48,7 @@ class ParameterError(ScanmeshError): ...
 class InvalidMeshError(ScanmeshError): ...
 
 SLIVER_ANGLE_DEG: float
+DEFAULT_BRIDGE_FACTOR: float
 DEFAULT_JUMP_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 

@@ -24,6 +24,11 @@ MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 #: whenever ``max_edge`` is finite.
 JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
 
+#: A triangle at any slope whose longest 3-D edge exceeds this multiple of the local 3-D
+#: spacing bridges a gap (a rung or fan across a missed stretch of a line, a sheet over a
+#: hole narrower than ``max_edge``) and is dropped with the depth jumps.
+BRIDGE_FACTOR: float = _core.DEFAULT_BRIDGE_FACTOR
+
 
 #: ``max_edge``, the shared trimming keyword: None means MAX_EDGE_FACTOR x median spacing.
 MAX_EDGE_OPTION = Option(
@@ -66,8 +71,10 @@ def delaunay(
         Triangles with a longer planar edge (input units) are dropped, so holes and concave
         outlines stay open. Default: ``MAX_EDGE_FACTOR`` (5) x the median nearest-neighbour
         spacing. With a finite ``max_edge``, triangles that bridge a depth jump (a wall, a
-        step, a bore: longest 3-D edge above ``JUMP_FACTOR`` (3) x the local 3-D spacing)
-        are dropped too. ``math.inf`` keeps the whole convex hull (less the zero-area
+        step, a bore: a steep longest 3-D edge above ``JUMP_FACTOR`` (3) x the local 3-D
+        spacing) or a gap (any longest 3-D edge above ``BRIDGE_FACTOR`` (5) x the spacing
+        across lines) are
+        dropped too. ``math.inf`` keeps the whole convex hull (less the zero-area
         slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages

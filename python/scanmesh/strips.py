@@ -211,7 +211,7 @@ class SolvedStrips(NamedTuple):
     cost: float
     #: why the mesh is not planar-valid, or None
     planar_error: str | None
-    #: triangles dropped at depth jumps
+    #: triangles dropped at depth jumps (and the pinches that left)
     dropped_jumps: int
     #: triangles dropped where lines cross or fold
     dropped_overlaps: int
@@ -307,9 +307,9 @@ def strip_surface(
         3-D step is steeper than 45 degrees and longer than this many times the median of
         the five steps around it, each piece is stitched only to the overlapping pieces
         of its neighbours, and triangles still bridging a jump by Delaunay's trimming rule
-        (:data:`scanmesh.delaunay.JUMP_FACTOR`) are dropped (counted in
-        ``options["dropped_jumps"]``; their points may end up unused). ``inf`` keeps
-        every strip whole.
+        (:data:`scanmesh.delaunay.JUMP_FACTOR`), with the pinches that leaves, are dropped
+        (counted in ``options["dropped_jumps"]``; their points may end up unused). ``inf``
+        keeps every strip whole.
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
         "lines" and "strips" (in points; see :func:`scanmesh.reconstruct`). Each is one

@@ -666,22 +666,29 @@ fn stitch_with(
     // triangles are dropped is trimmed, not unused.
     let used_by_strips = used_points(points.len(), &triangles);
     // Depth jumps: triangles that still bridge one (a strip between a line on top of a
-    // wall and one below it, parallel to the wall) are dropped, by the rule trimming uses.
+    // wall and one below it, parallel to the wall) are dropped, by the rule trimming uses
+    // (not its gap rule: it would drop lookahead's long fans on clean grids), and so are
+    // the smaller fans of the pinches that leaves (else the planar check would refuse
+    // them as a crossing).
     let mut dropped_jumps = 0;
     if params.jump_factor.is_finite() && !triangles.is_empty() {
         let jumps = DepthJumps {
             points,
             factor: params.jump_factor,
+            gaps: false,
         };
         let bridges = jumps::bridging(caller_uv, &triangles, jumps);
-        dropped_jumps = bridges.iter().filter(|&&b| b).count();
-        if dropped_jumps > 0 {
-            triangles = triangles
+        if bridges.iter().any(|&b| b) {
+            let before = triangles.len();
+            let kept: Vec<[u32; 3]> = triangles
                 .into_iter()
                 .zip(bridges)
                 .filter(|(_, b)| !b)
                 .map(|(t, _)| t)
                 .collect();
+            // Crossing lines (no half-edge mesh) are the repair's business below.
+            triangles = crate::trim::peel(uv, kept.clone()).unwrap_or(kept);
+            dropped_jumps = before - triangles.len();
         }
     }
     // Lone points' triangles and dropped triangles are not strips: then only the global

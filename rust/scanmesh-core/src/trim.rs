@@ -27,30 +27,55 @@ pub const DEFAULT_MAX_EDGE_FACTOR: f64 = 5.0;
 /// rocker arm and misses 0.7 points less of the fandisk's shadow at 5 % more height RMS.
 pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 
+/// Default bridge factor: a triangle at any slope whose longest 3-D edge exceeds this
+/// multiple of the spacing across lines at its best-sampled corner (see [`Spacing`]) spans
+/// a gap the planar rules leave (a strip's rung across a missed stretch of the next line,
+/// lookahead's fan from the end of a line segment, a sheet over a hole narrower than the
+/// planar trim length) and is dropped with the depth jumps. Chosen on the scans of
+/// benches/strips_geometry.py (figures in benches/results/strips_geometry.md): 4 also drops
+/// lookahead's rungs of 4.7 spacings on a clean jittered grid, 6 keeps some of its fans
+/// over the connecting rod's bore (3.5 median edges off the CAD surface).
+pub const DEFAULT_BRIDGE_FACTOR: f64 = 5.0;
+
 /// The depth-jump rule of [`trim_long_edges`]: the 3-D points (same indices as the planar
 /// ones) and the factor (`∞` turns it off).
 #[derive(Debug, Clone, Copy)]
 pub struct DepthJumps<'a> {
     /// 3-D positions of the points.
     pub points: &'a [DVec3],
-    /// A triangle is dropped when its longest 3-D edge exceeds `factor` times the smallest
-    /// local spacing of its corners.
+    /// A triangle is dropped when its longest 3-D edge is steep and exceeds `factor` times
+    /// the smallest local spacing of its corners (or, at any slope, exceeds
+    /// [`DEFAULT_BRIDGE_FACTOR`] times it, with `gaps`); `∞` turns both rules off.
     pub factor: f64,
+    /// Whether the gap rule runs too (trimming: yes; the strips: not yet, it drops
+    /// lookahead's long fans on clean grids with the area and dihedral weights).
+    pub gaps: bool,
 }
 
-/// Local 3-D spacing of each vertex for which `wanted` holds: the (upper) median 3-D
-/// length of the distinct edges of `triangles` at it, in the units of `points`; `∞` for
-/// other vertices and vertices of no triangle.
-///
-/// The median adapts to the scan: on lines 4 times farther apart than their points it is
-/// about the line distance, on a steep slope the length down the slope, while a vertex on
-/// the rim of a wall or a bore has most of its edges on its own side and keeps a short
-/// one. O(m + k log k) for the k edges at wanted vertices, in parallel.
-pub fn local_spacing(
+/// The two local 3-D spacings of a vertex, from the lengths of its distinct edges.
+#[derive(Debug, Clone, Copy)]
+struct Spacing {
+    /// The upper median. It adapts to the scan: on lines 4 times farther apart than their
+    /// points it is about the line distance, on a steep slope the length down the slope,
+    /// while a vertex on the rim of a wall or a bore has most of its edges on its own side
+    /// and keeps a short one.
+    median: f64,
+    /// The spacing across scan lines: the lower median of the edges but the two shortest
+    /// (usually those to the vertex's neighbours on its own line), or the longest edge of
+    /// a vertex with at most two. On lines 10 times farther apart than their points it is
+    /// the line distance even on the first and last line, where a vertex may have a single
+    /// edge across (the median is then the step along the line).
+    across: f64,
+}
+
+/// [`Spacing`] of each vertex for which `wanted` holds (`∞` for the others and vertices
+/// of no triangle), in the units of `points`. O(m + k log k) for the k edges at wanted
+/// vertices, in parallel.
+fn spacings(
     points: &[DVec3],
     triangles: &[[u32; 3]],
     wanted: impl Fn(u32) -> bool + Sync,
-) -> Vec<f64> {
+) -> Vec<Spacing> {
     let mut edges: Vec<(u32, u32)> = triangles
         .par_iter()
         .with_min_len(BLOCK)
@@ -91,10 +116,22 @@ pub fn local_spacing(
         .map(|v| {
             let own = &mut lengths[start[v]..start[v + 1]];
             if own.is_empty() || !wanted(v as u32) {
-                return f64::INFINITY;
+                return Spacing {
+                    median: f64::INFINITY,
+                    across: f64::INFINITY,
+                };
             }
-            let mid = own.len() / 2;
-            *own.select_nth_unstable_by(mid, f64::total_cmp).1 * scale
+            // A vertex has a handful of edges: sorting them is cheaper than two selects.
+            own.sort_unstable_by(f64::total_cmp);
+            let across = if own.len() <= 2 {
+                own[own.len() - 1]
+            } else {
+                own[2 + (own.len() - 3) / 2]
+            };
+            Spacing {
+                median: own[own.len() / 2] * scale,
+                across: across * scale,
+            }
         })
         .collect()
 }
@@ -141,15 +178,16 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 }
 
 /// Drops triangles whose longest planar edge exceeds `max_edge`, and with `jumps` those
-/// that bridge a depth jump; then peels numerically degenerate triangles off the boundary
-/// and resolves pinches.
+/// that bridge a depth jump or a gap; then peels numerically degenerate triangles off the
+/// boundary and resolves pinches.
 ///
 /// A depth jump (a wall, a step, the rim of a bore, an occluded gap) leaves the points on
 /// either side close in the plane but far apart in 3-D: a triangle is dropped when its
 /// longest 3-D edge is steeper than 45° over the plane (`uv` must be the orthogonal
 /// projection of `jumps.points`, in the same units) and exceeds `jumps.factor` times the
-/// smallest [`local_spacing`] of its corners (computed over the input triangles), so the
-/// hole stays open. Straight stretches
+/// smallest local spacing of its corners (computed over the input triangles), or, at any
+/// slope, [`DEFAULT_BRIDGE_FACTOR`] times their spacing across lines
+/// ([`bridging_triangles`]), so the hole stays open. Straight stretches
 /// of a scanned outline put collinear points on the convex hull, and
 /// Delaunay closes them with zero-area slivers whose angles (0, 0, π) make a boundary
 /// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a vertex where two fans touch only at a point; there the triangles of all
@@ -221,6 +259,7 @@ pub fn delaunay_trimmed(
     let jumps = limit.is_finite().then_some(DepthJumps {
         points: local_points,
         factor: jump_factor,
+        gaps: true,
     });
     let mut triangles = trim(
         local_uv,
@@ -337,9 +376,11 @@ fn is_steep(length3: f64, flat: f64) -> bool {
     length3 * length3 > 2.0 * flat * flat
 }
 
-/// For each of `triangles`, whether it bridges a depth jump: its longest 3-D edge is one by
-/// [`is_depth_jump`] against the smallest [`local_spacing`] of its corners (computed over
-/// `triangles`). `uv` must be the orthogonal projection of `jumps.points`, in the same
+/// For each of `triangles`, whether it bridges a depth jump or a gap: its longest 3-D edge
+/// is a jump by [`is_depth_jump`] against the smallest [`Spacing::median`] of its corners,
+/// or at any slope longer than [`DEFAULT_BRIDGE_FACTOR`] times the smallest spacing
+/// across lines ([`Spacing::across`]) of its corners (both computed over `triangles`; the
+/// bridge rule again over what is kept, while it drops something). `uv` must be the orthogonal projection of `jumps.points`, in the same
 /// units; all `false` when `jumps.factor` is infinite. O(m log m).
 pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
     if !jumps.factor.is_finite() {
@@ -353,56 +394,100 @@ pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJ
         1.0
     };
     let unit = |k: u32| norm.apply(jumps.points[k as usize]);
-    // The longest 3-D edge of each triangle, when it is steep (else no jump: 0).
-    let steep: Vec<f64> = triangles
+    // The longest 3-D edge of each triangle, whether it is steep, and its shortest edge.
+    let shape: Vec<(f64, bool, f64)> = triangles
         .par_iter()
         .with_min_len(BLOCK)
         .map(|t| {
-            let (k, longest3) = (0..3)
-                .map(|k| (k, (unit(t[k]) - unit(t[(k + 1) % 3])).length()))
-                .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+            let lengths = [0, 1, 2].map(|k| (unit(t[k]) - unit(t[(k + 1) % 3])).length());
+            let k = (0..3).fold(0, |a, b| if lengths[b] > lengths[a] { b } else { a });
             let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
             let flat = planar_distance(uv[a], uv[b]) * to_unit;
-            if is_steep(longest3, flat) {
-                longest3
-            } else {
-                0.0
-            }
+            let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+            (lengths[k], is_steep(lengths[k], flat), shortest)
         })
         .collect();
-    // The spacing is only needed at the corners of steep triangles (few, or none on a
-    // smooth scan): the edges of the others are not sorted.
-    let corner: Vec<AtomicBool> = (0..jumps.points.len())
-        .into_par_iter()
-        .with_min_len(BLOCK)
-        .map(|_| AtomicBool::new(false))
-        .collect();
-    let mut any = false;
-    for (t, &l) in triangles.iter().zip(&steep) {
-        if l > 0.0 {
-            any = true;
-            t.iter()
-                .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
+    let n_points = jumps.points.len();
+    // One round over the triangles `live` (indices): which of them the rules drop, the
+    // depth-jump rule only `with_jumps`.
+    let round = |live: &[u32], with_jumps: bool| -> Vec<bool> {
+        let list: Vec<[u32; 3]> = live.iter().map(|&i| triangles[i as usize]).collect();
+        // The shortest 3-D edge at each vertex bounds its spacings from below, so a
+        // triangle no longer than the bridge factor times that bound at every corner is no
+        // bridge, and a flat one no jump: the spacings (a sort of edges) are needed only
+        // at the corners of the others (few, or none on a smooth, evenly sampled scan).
+        let mut shortest_at = vec![f64::INFINITY; n_points];
+        for &i in live {
+            for &v in &triangles[i as usize] {
+                let s = &mut shortest_at[v as usize];
+                *s = s.min(shape[i as usize].2);
+            }
+        }
+        let corner: Vec<AtomicBool> = (0..n_points)
+            .into_par_iter()
+            .with_min_len(BLOCK)
+            .map(|_| AtomicBool::new(false))
+            .collect();
+        let mut any = false;
+        for &i in live {
+            let t = &triangles[i as usize];
+            let (longest3, steep, _) = shape[i as usize];
+            let bound = t
+                .iter()
+                .map(|&v| shortest_at[v as usize])
+                .fold(f64::INFINITY, f64::min);
+            if (with_jumps && steep && longest3 > jumps.factor * bound)
+                || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * bound)
+            {
+                any = true;
+                t.iter()
+                    .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
+            }
+        }
+        if !any {
+            return vec![false; live.len()];
+        }
+        let local = spacings(jumps.points, &list, |v| {
+            corner[v as usize].load(Ordering::Relaxed)
+        });
+        live.par_iter()
+            .with_min_len(BLOCK)
+            .map(|&i| {
+                let (longest3, steep, _) = shape[i as usize];
+                let nearest = |of: fn(&Spacing) -> f64| {
+                    triangles[i as usize]
+                        .iter()
+                        .map(|&v| of(&local[v as usize]))
+                        .fold(f64::INFINITY, f64::min)
+                        * to_unit
+                };
+                (with_jumps && steep && longest3 > jumps.factor * nearest(|s| s.median))
+                    || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * nearest(|s| s.across))
+            })
+            .collect()
+    };
+    let all: Vec<u32> = (0..triangles.len() as u32).collect();
+    let mut dropped = round(&all, true);
+    // A fan over a gap inflates the spacing at its apex until its longest rungs are gone:
+    // the bridge rule runs again on what is kept while it drops something. The jump rule
+    // runs once (again, it would eat into the walls' rims).
+    let mut changed = jumps.gaps && dropped.iter().any(|&d| d);
+    while changed {
+        let live: Vec<u32> = all
+            .iter()
+            .copied()
+            .filter(|&i| !dropped[i as usize])
+            .collect();
+        let more = round(&live, false);
+        changed = false;
+        for (&i, m) in live.iter().zip(more) {
+            if m {
+                dropped[i as usize] = true;
+                changed = true;
+            }
         }
     }
-    if !any {
-        return vec![false; triangles.len()];
-    }
-    let local = local_spacing(jumps.points, triangles, |v| {
-        corner[v as usize].load(Ordering::Relaxed)
-    });
-    triangles
-        .par_iter()
-        .zip(&steep)
-        .with_min_len(BLOCK)
-        .map(|(t, &longest3)| {
-            let nearest = t
-                .iter()
-                .map(|&v| local[v as usize])
-                .fold(f64::INFINITY, f64::min);
-            longest3 > 0.0 && longest3 > jumps.factor * nearest * to_unit
-        })
-        .collect()
+    dropped
 }
 
 /// `kept` without the numerically degenerate triangles on its boundary and with every
@@ -583,7 +668,10 @@ mod tests {
     fn local_spacing_is_the_median_edge_at_each_vertex() {
         let p = terrain(12, 9, 1.0, |x, y| 0.3 * x * x - y);
         let d = delaunay(&planar(&p)).unwrap();
-        let local = local_spacing(&p, &d.triangles, |_| true);
+        let local: Vec<f64> = spacings(&p, &d.triangles, |_| true)
+            .iter()
+            .map(|s| s.median)
+            .collect();
         // Brute force: every distinct edge at v, sorted, the upper middle one.
         for (v, &got) in local.iter().enumerate() {
             let mut at: Vec<f64> = Vec::new();
@@ -617,6 +705,7 @@ mod tests {
             let jumps = DepthJumps {
                 points: p,
                 factor: DEFAULT_JUMP_FACTOR,
+                gaps: true,
             };
             let kept = trim_long_edges(&uv, &d.triangles, 5.0, Some(jumps)).unwrap();
             HalfEdgeMesh::from_triangles(uv.len(), &kept)
@@ -650,6 +739,7 @@ mod tests {
         let off = DepthJumps {
             points: &high,
             factor: f64::INFINITY,
+            gaps: true,
         };
         assert_eq!(
             trim_long_edges(&uv, &d.triangles, 5.0, Some(off))
@@ -663,10 +753,50 @@ mod tests {
             let jumps = DepthJumps {
                 points: &scaled,
                 factor: DEFAULT_JUMP_FACTOR,
+                gaps: true,
             };
             let got = trim_long_edges(&uv_s, &d.triangles, 5.0 * s, Some(jumps)).unwrap();
             assert_eq!(got.len(), trim(&high).1.len(), "scale {s}");
         }
+    }
+
+    #[test]
+    fn a_gap_between_lines_is_left_open_at_any_slope_and_sparse_lines_are_kept() {
+        // Flat lines 1 apart with eight lines missing: the planar rule is off (max_edge = ∞),
+        // so only the bridge rule can open the gap.
+        let mut p = terrain(25, 20, 1.0, |x, y| 0.1 * (0.3 * x).sin() + 0.05 * y);
+        p.retain(|q| !(6.5..14.5).contains(&q.y));
+        let uv = planar(&p);
+        let d = delaunay(&uv).unwrap();
+        let jumps = DepthJumps {
+            points: &p,
+            factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
+        };
+        let kept = trim_long_edges(&uv, &d.triangles, f64::INFINITY, Some(jumps)).unwrap();
+        let low = |v: u32| p[v as usize].y < 6.5;
+        let spans = |t: &[u32; 3]| t.iter().any(|&v| low(v)) && !t.iter().all(|&v| low(v));
+        assert!(
+            d.triangles.iter().any(spans),
+            "the fixture must bridge the gap"
+        );
+        assert!(!kept.iter().any(spans));
+        // Everything inside the bands stays.
+        let inside = d.triangles.iter().filter(|t| !spans(t)).count();
+        assert_eq!(kept.len(), inside);
+        // Lines 10 times farther apart than their points are sampled sparsely, not gapped:
+        // even the strips of the first and last line stay.
+        let sparse = terrain(30, 8, 10.0, |x, _| 0.2 * (0.2 * x).sin());
+        let uv = planar(&sparse);
+        let d = delaunay(&uv).unwrap();
+        let jumps = DepthJumps {
+            points: &sparse,
+            factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
+        };
+        assert!(!bridging_triangles(&uv, &d.triangles, jumps)
+            .into_iter()
+            .any(|b| b));
     }
 
     #[test]
@@ -680,6 +810,7 @@ mod tests {
         let jumps = DepthJumps {
             points: &p,
             factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
         };
         let two_steps = trim_long_edges(&uv, &d.triangles, limit, Some(jumps)).unwrap();
         let one = delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR).unwrap();
@@ -711,6 +842,7 @@ mod tests {
         let jumps = DepthJumps {
             points: &p,
             factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
         };
         let sorted = |mut t: Vec<[u32; 3]>| {
             t.iter_mut().for_each(|f| {

@@ -370,6 +370,7 @@ fn trim_long_edges<'py>(
     let jumps = xyz.as_deref().map(|p| scanmesh_core::DepthJumps {
         points: p,
         factor: jump_factor,
+        gaps: true,
     });
     let kept = py
         .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge, jumps))
@@ -1065,6 +1066,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         scanmesh_core::DEFAULT_MAX_EDGE_FACTOR,
     )?;
     m.add("DEFAULT_JUMP_FACTOR", scanmesh_core::DEFAULT_JUMP_FACTOR)?;
+    m.add(
+        "DEFAULT_BRIDGE_FACTOR",
+        scanmesh_core::DEFAULT_BRIDGE_FACTOR,
+    )?;
     let d = AnnealParams::default();
     let defaults = pyo3::types::PyDict::new(py);
     defaults.set_item("sweeps", d.sweeps)?;

@@ -22,6 +22,11 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 /// only (see the module docs). O(n + m) in parallel, plus that of [`bridging_triangles`]
 /// on the candidates' neighbourhoods.
 pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
+    // The shortcut holds for the jump rule alone: the gap rule drops at any slope.
+    debug_assert!(
+        !jumps.gaps,
+        "strips::jumps::bridging takes the jump rule only"
+    );
     let none = || vec![false; triangles.len()];
     if !jumps.factor.is_finite() || triangles.is_empty() {
         return none();
@@ -182,6 +187,7 @@ mod tests {
                 let jumps = DepthJumps {
                     points: &points,
                     factor,
+                    gaps: false,
                 };
                 let fast = bridging(&uv, &tris, jumps);
                 assert_eq!(
