@@ -337,3 +337,4 @@ def test_the_command_runs_on_a_local_cluster(scan, tmp_path, capsys):
     single.save(tmp_path / "single.stl")
     assert out.read_bytes() == (tmp_path / "single.stl").read_bytes()
     assert report["counts"]["faces"] == len(single.faces) and not leftovers(tmp_path)
+    assert report["noise"] == single.options.get("noise")  # the one-process report's key

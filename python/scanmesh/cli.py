@@ -561,6 +561,8 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
         "method": result.method,
         "dask": args.dask,
         "options": result.options,
+        # at the top level too, as in the one-process report (annealing measures it)
+        "noise": result.options.get("noise"),
         "timings": result.timings,
         "quality": result.quality,
         "counts": {"points": result.n_points, "faces": result.n_faces},
