@@ -16,9 +16,9 @@ Rules, in order:
   single-process ones.
 - **Tiles.** A grid of nx x ny cells over the planar bounding box, about ``TILE_POINTS``
   points each; the outer cells reach to infinity. Each point belongs to the one cell that
-  holds it (its *own* tile) and is sent, by a Dask shuffle (each part bins its points, each
-  tile gathers only its bins), to every tile whose *region* (cell widened by the band on
-  each side) holds it. The band is ``BAND_EDGES`` trimming lengths (``max_edge``; for the
+  holds it (its *own* tile) and goes to every tile whose *region* (cell widened by the
+  band on each side) holds it: each tile reads the parts its region meets and keeps their
+  points inside it. The band is ``BAND_EDGES`` trimming lengths (``max_edge``; for the
   default, estimated as 5 x the median spacing of the first ``SPACING_SAMPLE`` points of
   each part, median over parts).
 - **Delaunay ownership.** Each tile triangulates its region with the single-process core
@@ -33,13 +33,20 @@ Rules, in order:
   them).
 - **LOP and annealing.** Pass 1: each tile optimizes the triangles whose three corners it
   owns; every other triangle is frozen (a flip changes only its four corners, so tiles
-  never touch the same triangle and the union stays one valid triangulation). Pass 2: the
-  mesh is shuffled to tiles shifted by half a cell, and each optimizes again the triangles
-  within ``SEAM_EDGES`` trimming lengths of pass 1's cell borders. The final owner of a
-  triangle is the shifted tile holding its lowest-index corner. A piece's border vertices
+  never touch the same triangle and the union stays one valid triangulation), and writes
+  its mesh to a file in the scratch folder. Pass 2: tiles shifted by half a cell each read
+  their share of those files, and each optimizes again the triangles within
+  ``SEAM_EDGES`` trimming lengths of pass 1's cell borders. The final owner of a triangle
+  is the shifted tile holding its lowest-index corner. A piece's border vertices
   are boundary vertices to the core, so their tac does not steer the flips next to them
   (the core's one-process tiles keep their full angle sums): the second pass re-anneals
   exactly those rims of pass 1.
+
+Memory: every run through the tiles (the median search's distances, the noise estimate,
+pass 1, pass 2, Delaunay's blocks) keeps at most ``TILES_PER_THREAD`` tiles per worker
+thread in flight (:func:`_gated`), so a worker's peak follows the tile's size, not the
+scan's. What stays across a run is small: pass 1's file names and counts, and for the
+median search each tile's own distances (8 bytes per point, spread over the workers).
 
 Seeds: tile t of pass k anneals on a seed derived from (seed, k, t); automatic ``chains``
 (0) means one chain per piece. Annealing's automatic tie tolerance comes from the medians
