@@ -103,6 +103,11 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def block_sums(block: _tiles.FaceBlock) -> dict[str, float]:
+    """A block's quality sums (on the worker holding it)."""
+    return block.sums
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scan", choices=["wave", "rod"], default="wave")
@@ -161,11 +166,19 @@ def main() -> None:
             for method in args.methods.split(","):
                 options = runs[method]
                 t0 = time.perf_counter()
+                # each block's sums taken on its worker as it comes (the faces never come
+                # to one process, nor wait in a worker's memory for the others)
                 futures, info = _tiles.tile_blocks(
-                    client, parts, method, options, plane=plane, progress=False
+                    client,
+                    parts,
+                    method,
+                    options,
+                    plane=plane,
+                    progress=False,
+                    scratch=Path(tmp),
+                    add=lambda block: client.submit(block_sums, block, pure=False),
                 )
-                # each block's sums on its worker: the faces never come to one process
-                each = client.gather(client.map(lambda b: b.sums, futures, pure=False))
+                each = client.gather(futures)
                 sums = {k: sum(s[k] for s in each) for k in each[0]}
                 seconds = time.perf_counter() - t0
                 results[method] = sums

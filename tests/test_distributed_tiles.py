@@ -273,3 +273,46 @@ def test_exact_grid_gives_one_valid_mesh(client, monkeypatch, tmp_path):
     assert planar_area(one.scan.uv, faces) == pytest.approx(
         planar_area(one.scan.uv, one.faces), rel=1e-12
     )
+
+
+def tiles_at_once(stream: list[dict], run: str) -> int:
+    """Most tiles in flight at once in a run through the tiles, from a task stream: a tile
+    is in flight from the start of its first task to the end of its last (the keys name
+    run, stage and tile)."""
+    spans: dict[int, list[float]] = {}
+    for task in stream:
+        if not task["key"].startswith("scanmesh-tile-"):
+            continue
+        _, _, name, _, tile, _ = task["key"].split("-", 5)
+        if name == run:
+            times = [t for s in task["startstops"] for t in (s["start"], s["stop"])]
+            span = spans.setdefault(int(tile), [min(times), max(times)])
+            span[0], span[1] = min(span[0], *times), max(span[1], *times)
+    events = sorted([(a, 1) for a, _ in spans.values()] + [(b, -1) for _, b in spans.values()])
+    most = held = 0
+    for _, step in events:  # an end before a start at the same time
+        held += step
+        most = max(most, held)
+    return most
+
+
+@pytest.mark.parametrize("per_thread", [1, 2])
+def test_tiles_in_flight_are_bounded(client, monkeypatch, tmp_path, per_thread):
+    """A worker holds a few tiles, not its share of all of them: from its parts' binning to
+    pass 1's file, at most TILES_PER_THREAD x threads tiles are in flight, and as many in
+    every other run through the tiles; the faces do not depend on it."""
+    from distributed import get_task_stream
+
+    points, ids = line_scan(120, 200, step=True, seed=1)
+    parts = write_parts(points, ids, 3, tmp_path)
+    monkeypatch.setattr(_tiles, "TILE_POINTS", 3_000)  # 8 tiles
+    monkeypatch.setattr(_tiles, "TILES_PER_THREAD", per_thread)
+    with get_task_stream(client) as stream:
+        _, faces, _, info = run(client, parts, "anneal", {"sweeps": 30})
+    threads = sum(client.nthreads().values())
+    assert info["tiles"] > per_thread * threads  # else nothing to bound
+    for run_name in ("nearest", "noise", "first", "second"):
+        assert 1 <= tiles_at_once(stream.data, run_name) <= per_thread * threads, run_name
+    monkeypatch.setattr(_tiles, "TILES_PER_THREAD", 100)  # every tile at once
+    _, unbounded, _, _ = run(client, parts, "anneal", {"sweeps": 30})
+    assert face_set(faces) == face_set(unbounded)

@@ -159,15 +159,23 @@ def reconstruct_distributed(
                     hi=hi,
                     partition_lines=partition_lines,
                 )
+                for block in blocks:
+                    mesh.add(block)
+                del blocks
             else:
                 from ._tiles import tile_blocks
 
-                blocks, info = tile_blocks(
-                    client, parts, method, options, plane=plane, progress=progress
+                # the tiles hand each block to the writer as it is submitted
+                _, info = tile_blocks(
+                    client,
+                    parts,
+                    method,
+                    options,
+                    plane=plane,
+                    progress=progress,
+                    scratch=mesh.folder,
+                    add=mesh.add,
                 )
-            for block in blocks:
-                mesh.add(block)
-            del blocks
             if progress:
                 distributed.progress([*mesh.blocks, *seams])
             seam_sums = client.gather(seams)

@@ -16,9 +16,9 @@ Rules, in order:
   single-process ones.
 - **Tiles.** A grid of nx x ny cells over the planar bounding box, about ``TILE_POINTS``
   points each; the outer cells reach to infinity. Each point belongs to the one cell that
-  holds it (its *own* tile) and is sent, by a Dask shuffle (each part bins its points, each
-  tile gathers only its bins), to every tile whose *region* (cell widened by the band on
-  each side) holds it. The band is ``BAND_EDGES`` trimming lengths (``max_edge``; for the
+  holds it (its *own* tile) and goes to every tile whose *region* (cell widened by the
+  band on each side) holds it: each tile reads the parts its region meets and keeps their
+  points inside it. The band is ``BAND_EDGES`` trimming lengths (``max_edge``; for the
   default, estimated as 5 x the median spacing of the first ``SPACING_SAMPLE`` points of
   each part, median over parts).
 - **Delaunay ownership.** Each tile triangulates its region with the single-process core
@@ -33,13 +33,20 @@ Rules, in order:
   them).
 - **LOP and annealing.** Pass 1: each tile optimizes the triangles whose three corners it
   owns; every other triangle is frozen (a flip changes only its four corners, so tiles
-  never touch the same triangle and the union stays one valid triangulation). Pass 2: the
-  mesh is shuffled to tiles shifted by half a cell, and each optimizes again the triangles
-  within ``SEAM_EDGES`` trimming lengths of pass 1's cell borders. The final owner of a
-  triangle is the shifted tile holding its lowest-index corner. A piece's border vertices
+  never touch the same triangle and the union stays one valid triangulation), and writes
+  its mesh to a file in the scratch folder. Pass 2: tiles shifted by half a cell each read
+  their share of those files, and each optimizes again the triangles within
+  ``SEAM_EDGES`` trimming lengths of pass 1's cell borders. The final owner of a triangle
+  is the shifted tile holding its lowest-index corner. A piece's border vertices
   are boundary vertices to the core, so their tac does not steer the flips next to them
   (the core's one-process tiles keep their full angle sums): the second pass re-anneals
   exactly those rims of pass 1.
+
+Memory: every run through the tiles (the median search's distances, the noise estimate,
+pass 1, pass 2, Delaunay's blocks) keeps at most ``TILES_PER_THREAD`` tiles per worker
+thread in flight (:func:`_gated`), so a worker's peak follows the tile's size, not the
+scan's. What stays across a run is small: pass 1's file names and counts, and for the
+median search each tile's own distances (8 bytes per point, spread over the workers).
 
 Seeds: tile t of pass k anneals on a seed derived from (seed, k, t); automatic ``chains``
 (0) means one chain per piece. Annealing's automatic tie tolerance comes from the medians
@@ -52,8 +59,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import shutil
+import tempfile
+import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -88,6 +100,11 @@ SEAM_EDGES: float = 3.0
 
 #: Values per tile and round of the exact median search.
 MEDIAN_SAMPLE: int = 1024
+
+#: Tiles in flight per worker thread: tile t's first task waits for tile t - k's last
+#: (k this times the cluster's threads), so a worker holds the data of a few tiles whatever
+#: the scan's size; pass 1's meshes go to disk, read back by pass 2's tiles.
+TILES_PER_THREAD: int = 2
 
 #: Methods run in tiles.
 METHODS = ("delaunay", "lop", "anneal")
@@ -242,22 +259,17 @@ class Bins:
 
 
 def _bin_part(
-    part: Part, corners: np.ndarray, plane: tuple, grid: Grid, tiles: list[int]
-) -> dict[int, Bins]:
-    """A part's points binned by the regions (cell + band) of ``tiles`` that hold them."""
+    part: Part, corners: np.ndarray, plane: tuple, grid: Grid, tile: int, after: None
+) -> Bins:
+    """A part's points in the region (cell + band) of ``tile``. ``after``: the gate of
+    :func:`_gated`, only waited for. Each tile reads its parts again (a part is read once
+    per tile it meets), so that no part's bins wait in memory for a later tile."""
     points, lines = load_part(part)
     uv = project_with_box(points, corners, *plane)
-    index = part.offset + np.arange(len(points), dtype=np.int64)
-    out = {}
-    for t in tiles:
-        umin, umax, vmin, vmax = grid.region(t)
-        inside = (uv[:, 0] >= umin) & (uv[:, 0] <= umax) & (uv[:, 1] >= vmin) & (uv[:, 1] <= vmax)
-        out[t] = Bins(index[inside], points[inside], uv[inside], lines[inside])
-    return out
-
-
-def _pick(bins: dict[int, Bins], tile: int) -> Bins:
-    return bins[tile]
+    umin, umax, vmin, vmax = grid.region(tile)
+    inside = (uv[:, 0] >= umin) & (uv[:, 0] <= umax) & (uv[:, 1] >= vmin) & (uv[:, 1] <= vmax)
+    index = part.offset + np.flatnonzero(inside)
+    return Bins(index, points[inside], uv[inside], lines[inside])
 
 
 # ---------------------------------------------------------------------------------------
@@ -323,6 +335,21 @@ def _triangulate(tile: int, grid: Grid, extent: float, *bins: Bins) -> Tile:
         mine = nearest[t.own]
         t.nearest = np.sort(mine[np.isfinite(mine)])
     return t
+
+
+def _nearest_only(t: Tile) -> Tile:
+    """The tile's nearest-neighbour distances alone (what the median search reads), so
+    that its points and faces can go."""
+    return Tile(
+        tile=t.tile,
+        index=np.zeros(0, np.int64),
+        points=np.zeros((0, 3)),
+        uv=np.zeros((0, 2)),
+        lines=np.zeros(0, np.int64),
+        own=np.zeros(0, bool),
+        faces=np.zeros((0, 3), np.int64),
+        nearest=t.nearest,
+    )
 
 
 def _count(t: Tile, values: np.ndarray, side: str) -> np.ndarray:
@@ -526,11 +553,13 @@ def optimize_piece(
 
 
 def _optimize_first(
-    t: Tile, grid: Grid, method: str, params: dict[str, Any], seed: int
+    t: Tile, grid: Grid, method: str, params: dict[str, Any], seed: int, path: str
 ) -> dict[str, Any]:
-    """Pass 1: optimizes the faces whose corners this tile owns; returns the faces this
+    """Pass 1: optimizes the faces whose corners this tile owns; writes the faces this
     tile answers for (its piece, and the faces across cells whose circumcentre it holds)
-    with their corners' data."""
+    with their corners' data to ``path`` (.npz, through a temporary renamed at the end, so
+    a rerun of the task replaces it whole), and returns the path with the tile's counts:
+    the mesh waits for pass 2 on disk, not in a worker's memory."""
     faces = t.faces
     cell = grid.cells(t.uv)
     corner_cells = cell[faces] if len(faces) else np.zeros((0, 3), np.int64)
@@ -541,44 +570,44 @@ def _optimize_first(
     before = own_tac(t)
     done = optimize_piece(t.points, t.uv, kept, t.own, method, params, seed)
     used, local = np.unique(done, return_inverse=True)
+    partial = f"{path}.{os.getpid()}.tmp"
+    with open(partial, "wb") as handle:
+        np.savez(
+            handle,
+            faces=t.index[used][local.reshape(done.shape)]
+            if len(done)
+            else np.zeros((0, 3), np.int64),
+            index=t.index[used],
+            points=t.points[used],
+            uv=t.uv[used],
+        )
+    os.replace(partial, path)
     return {
-        "faces": t.index[used][local.reshape(done.shape)]
-        if len(done)
-        else np.zeros((0, 3), np.int64),
-        "index": t.index[used],
-        "points": t.points[used],
-        "uv": t.uv[used],
+        "path": path,
         "uncertified": t.meta["uncertified"],
         "duplicates": t.meta.get("duplicates", 0),
         "initial_tac_1": float(before.sum()),
     }
 
 
-def _route(mesh: dict[str, Any], grid: Grid, tiles: list[int]) -> dict[int, dict[str, Any]]:
-    """Pass 1's faces sent to every shifted tile that owns one of their corners."""
-    index, faces = mesh["index"], mesh["faces"]
+def _route(summary: dict[str, Any], grid: Grid, tile: int, counts: bool) -> dict[str, Any]:
+    """The faces of a pass-1 tile (read from its file) that shifted tile ``tile`` owns a
+    corner of; the pass-1 tile's counts when ``counts`` (true for exactly one shifted tile
+    per pass-1 tile)."""
+    with np.load(summary["path"]) as mesh:
+        index, faces, points, uv = mesh["index"], mesh["faces"], mesh["points"], mesh["uv"]
     local = np.searchsorted(index, faces)
-    cell = grid.cells(mesh["uv"])
-    out = {}
-    for s in tiles:
-        take = (cell[local] == s).any(axis=1)
-        used = np.unique(local[take])
-        # each pass-1 tile's counts travel with exactly one route
-        first = s == tiles[0]
-        out[s] = {
-            "faces": faces[take],
-            "index": index[used],
-            "points": mesh["points"][used],
-            "uv": mesh["uv"][used],
-            "uncertified": mesh["uncertified"] if first else 0,
-            "duplicates": mesh["duplicates"] if first else 0,
-            "initial_tac_1": mesh["initial_tac_1"] if first else 0.0,
-        }
-    return out
-
-
-def _pick_mesh(routed: dict[int, dict[str, Any]], tile: int) -> dict[str, Any]:
-    return routed[tile]
+    take = (grid.cells(uv)[local] == tile).any(axis=1)
+    used = np.unique(local[take])
+    return {
+        "faces": faces[take],
+        "index": index[used],
+        "points": points[used],
+        "uv": uv[used],
+        "uncertified": summary["uncertified"] if counts else 0,
+        "duplicates": summary["duplicates"] if counts else 0,
+        "initial_tac_1": summary["initial_tac_1"] if counts else 0.0,
+    }
 
 
 def _optimize_second(
@@ -589,10 +618,15 @@ def _optimize_second(
     method: str,
     params: dict[str, Any],
     seed: int,
-    *meshes: dict[str, Any],
+    after: None,
+    counts: tuple[bool, ...],
+    *summaries: dict[str, Any],
 ) -> FaceBlock:
-    """Pass 2 on a shifted tile: optimizes the faces within ``seam`` of pass 1's borders
-    whose corners it owns, and returns the faces whose lowest-index corner it owns."""
+    """Pass 2 on a shifted tile: reads its share of the pass-1 tiles' meshes
+    (``summaries``, with ``counts`` as :func:`_route` takes them), optimizes the faces
+    within ``seam`` of pass 1's borders whose corners it owns, and returns the faces whose
+    lowest-index corner it owns. ``after``: the gate of :func:`_gated`."""
+    meshes = [_route(m, grid, tile, c) for m, c in zip(summaries, counts, strict=True)]
     index = np.concatenate([m["index"] for m in meshes]) if meshes else np.zeros(0, np.int64)
     index, first_at = np.unique(index, return_index=True)
 
@@ -709,6 +743,8 @@ def tile_blocks(
     *,
     plane: PlaneSpec,
     progress: bool | Callable[..., Any],
+    scratch: Path | None = None,
+    add: Callable[[Any], Any] | None = None,
 ) -> tuple[list[Any], dict[str, Any]]:
     """Delaunay, LOP or annealing of the scan in ``parts`` on the cluster, in tiles of the
     plane (rules in this module's docstring).
@@ -725,13 +761,22 @@ def tile_blocks(
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         The projection plane; None chooses it on a seeded sample of the parts.
     progress : bool or callable
-        Anything true shows Dask's progress bar (``distributed.progress``) for each tile
-        stage as it is waited on.
+        Anything true shows Dask's progress bar (``distributed.progress``) for each run
+        through the tiles as it is waited on.
+    scratch : Path, optional
+        A folder every worker sees, for pass 1's meshes (LOP and annealing); None: a
+        temporary folder of this machine, removed on return (a LocalCluster's workers
+        see it).
+    add : callable, optional
+        Called on each tile's block future as soon as it is submitted (the output's
+        writer, :meth:`StreamedMesh.add`), returning a future of something small: the
+        tiles in flight are counted up to it, so that the blocks do not pile up.
 
     Returns
     -------
     blocks : list of distributed.Future
-        One per tile, each resolving to a :class:`FaceBlock`.
+        One per tile, in order: ``add``'s futures, or the :class:`FaceBlock` futures when
+        ``add`` is None. Every one is done on return.
     info : dict
         "tiles" (of the first pass), "max_edge" (the trimming length used); for annealing
         also "tie_tolerance" and, when it was automatic, "noise" (the median over tiles of
@@ -744,10 +789,16 @@ def tile_blocks(
         raise ParameterError("no parts to triangulate")
 
     def wait(futures: list[Any]) -> None:
-        if progress:
-            from distributed import progress as show
+        """Until the futures are done (pass 2 reads pass 1's files, removed on return),
+        with Dask's progress bar when asked; raises a task's error."""
+        import distributed
 
-            show(futures)
+        if progress:
+            distributed.progress(futures)
+        distributed.wait(futures)
+        bad = [f for f in futures if f.status == "error"]
+        if bad:
+            bad[0].result()
 
     share = max(1, SAMPLE_POINTS // len(parts))
     surveys = client.gather(
@@ -777,45 +828,150 @@ def tile_blocks(
         reach = MAX_EDGE_FACTOR * (spacing if math.isfinite(spacing) else extent * 1e-3)
     grid = make_grid(box, total, BAND_EDGES * reach)
 
-    binned = {
-        p.index: client.submit(
-            _bin_part, p, corners, plane_spec, grid, grid.tiles_meeting(boxes[i]), pure=False
+    part_tiles = [set(grid.tiles_meeting(b)) for b in boxes]
+    own_scratch = scratch is None
+    folder = Path(tempfile.mkdtemp(prefix="scanmesh-tiles-")) if scratch is None else scratch
+    try:
+        return _tile_stages(
+            client,
+            parts,
+            part_tiles,
+            method,
+            params,
+            seed,
+            plane_spec,
+            corners,
+            lo,
+            hi,
+            grid,
+            box,
+            extent,
+            reach,
+            max_edge,
+            folder,
+            add,
+            wait,
         )
-        for i, p in enumerate(parts)
-    }
-    tiles = []
-    for t in range(grid.count):
+    finally:
+        if own_scratch:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def _after(*_: Any) -> None:
+    """A gate: done once its arguments are (see :func:`_gated`)."""
+    return None
+
+
+def _gated(
+    client: Any, run: str, count: int, chain: Callable[[int, Any, Callable[[str], str]], Any]
+) -> list[Any]:
+    """Runs ``chain(t, gate, key)`` for t < count: it submits tile t's tasks, its first
+    ones taking ``gate`` as an argument, each with the key ``key(stage)`` (naming the run,
+    the stage and the tile), and returns the future of the tile's last, small result.
+    Tile t's gate is done when tile t - k's last result is, with k TILES_PER_THREAD x the
+    cluster's threads: at most k tiles are in flight, one starting as one ends, while the
+    scheduler sees every task (faults and progress as usual). Returns the last results'
+    futures, in tile order."""
+    k = TILES_PER_THREAD * max(1, sum(client.nthreads().values()))
+    finals: list[Any] = []
+    gates: list[Any] = []
+    for t in range(count):
+
+        def key(stage: str, t: int = t) -> str:
+            return f"scanmesh-tile-{run}-{stage}-{t}-{uuid.uuid4().hex}"
+
+        finals.append(chain(t, gates[t - k] if t >= k else None, key))
+        gates.append(client.submit(_after, finals[t], key=key("gate")))
+    return finals
+
+
+def _tile_stages(
+    client: Any,
+    parts: list[Part],
+    part_tiles: list[set[int]],
+    method: str,
+    params: dict[str, Any],
+    seed: int,
+    plane_spec: tuple,
+    corners: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    grid: Grid,
+    box: tuple[float, float, float, float],
+    extent: float,
+    reach: float,
+    max_edge: float | None,
+    folder: Path,
+    add: Callable[[Any], Any] | None,
+    wait: Callable[[list[Any]], None],
+) -> tuple[list[Any], dict[str, Any]]:
+    """The stages of :func:`tile_blocks` from the binning on, each run through the tiles
+    by :func:`_gated`."""
+
+    Key = Callable[[str], str]
+
+    def triangulated(t: int, gate: Any, key: Key) -> Any:
         bins = [
-            client.submit(_pick, binned[p.index], t, pure=False)
+            client.submit(_bin_part, p, corners, plane_spec, grid, t, gate, key=key("bin"))
             for i, p in enumerate(parts)
-            if t in grid.tiles_meeting(boxes[i])
+            if t in part_tiles[i]
         ]
-        tiles.append(client.submit(_triangulate, t, grid, extent, *bins, pure=False))
-    # Futures the client drops are freed on the workers once their dependents have run:
-    # each stage lets go of the one before, so a worker holds about two stages at a time.
-    del binned, bins
-    wait(tiles)
+        return client.submit(_triangulate, t, grid, extent, *bins, key=key("triangulate"))
+
+    def trimmed(t: int, gate: Any, key: Key, limit: float) -> Any:
+        return client.submit(_trim, triangulated(t, gate, key), grid, box, limit, key=key("trim"))
+
+    def emit(block: Any) -> Any:
+        return add(block) if add is not None else block
+
     if max_edge is None:
-        counts = client.gather([client.submit(lambda t: len(t.nearest), t) for t in tiles])
-        limit = MAX_EDGE_FACTOR * _median_nearest(client, tiles, sum(counts))
+        # the exact median spacing over the tiles' own nearest-neighbour distances: a
+        # first run through the tiles keeps only those distances (8 bytes per point)
+        nearest = _gated(
+            client,
+            "nearest",
+            grid.count,
+            lambda t, gate, key: client.submit(
+                _nearest_only, triangulated(t, gate, key), key=key("nearest")
+            ),
+        )
+        wait(nearest)
+        counts = client.gather([client.submit(lambda t: len(t.nearest), t) for t in nearest])
+        limit = MAX_EDGE_FACTOR * _median_nearest(client, nearest, sum(counts))
+        del nearest
     else:
         limit = max_edge
-    trimmed = [client.submit(_trim, t, grid, box, limit, pure=False) for t in tiles]
-    del tiles
     info: dict[str, Any] = {"tiles": grid.count, "max_edge": limit}
     if method == "delaunay":
-        blocks = [client.submit(_delaunay_block, t, pure=False) for t in trimmed]
+        blocks = _gated(
+            client,
+            "delaunay",
+            grid.count,
+            lambda t, gate, key: emit(
+                client.submit(_delaunay_block, trimmed(t, gate, key, limit), key=key("block"))
+            ),
+        )
         wait(blocks)
         return blocks, info
     if method == "anneal" and params.get("tie_tolerance") is None:
         # annealing's automatic tie tolerance from the scan's noise, the median over tiles
         # of their estimates (reported; one process reports noise.noise of the whole
         # scan), and the median of the tiles' median edges (noise.noise_tolerance on one
-        # scan). A given tie tolerance skips this O(N log N) stage, and reports no noise.
+        # scan). A given tie tolerance skips this O(N log N) run through the tiles, and
+        # reports no noise.
         frame = Frame(*_core.project(np.stack([lo, hi, lo * 0.5 + hi * 0.5]), *plane_spec)[1])
         spec = plane_spec[0] if plane_spec[0] is not None else plane_spec[1]
         measured = np.array(
-            client.gather([client.submit(_noise, t, frame, spec, pure=False) for t in trimmed])
+            client.gather(
+                _gated(
+                    client,
+                    "noise",
+                    grid.count,
+                    lambda t, gate, key: client.submit(
+                        _noise, trimmed(t, gate, key, limit), frame, spec, key=key("noise")
+                    ),
+                )
+            )
         )
         sigma, edge = (
             np.nanmedian(measured, axis=0) if np.isfinite(measured).any() else (math.nan, math.nan)
@@ -827,39 +983,44 @@ def tile_blocks(
         )
     if method == "anneal":
         info["tie_tolerance"] = params["tie_tolerance"]
-    first = [
-        client.submit(_optimize_first, t, grid, method, params, _tile_seed(seed, 0, i), pure=False)
-        for i, t in enumerate(trimmed)
-    ]
-    del trimmed
+    first = _gated(
+        client,
+        "first",
+        grid.count,
+        lambda t, gate, key: client.submit(
+            _optimize_first,
+            trimmed(t, gate, key, limit),
+            grid,
+            method,
+            params,
+            _tile_seed(seed, 0, t),
+            str(folder / f"pass1_{t:06d}.npz"),
+            key=key("optimize"),
+        ),
+    )
     wait(first)
     second_grid = grid.shifted()
-    routes = [
-        client.submit(_route, m, second_grid, second_grid.tiles_meeting(grid.region(i)), pure=False)
-        for i, m in enumerate(first)
-    ]
-    del first
+    meets = [second_grid.tiles_meeting(grid.region(i)) for i in range(grid.count)]
     seam = SEAM_EDGES * limit if math.isfinite(limit) else SEAM_EDGES * reach
-    blocks = []
-    for s in range(second_grid.count):
-        sources = [
-            client.submit(_pick_mesh, routes[i], s, pure=False)
-            for i in range(grid.count)
-            if s in second_grid.tiles_meeting(grid.region(i))
-        ]
-        blocks.append(
-            client.submit(
-                _optimize_second,
-                s,
-                second_grid,
-                grid,
-                seam,
-                method,
-                params,
-                _tile_seed(seed, 1, s),
-                *sources,
-                pure=False,
-            )
+
+    def second(s: int, gate: Any, key: Key) -> Any:
+        sources = [i for i in range(grid.count) if s in meets[i]]
+        block = client.submit(
+            _optimize_second,
+            s,
+            second_grid,
+            grid,
+            seam,
+            method,
+            params,
+            _tile_seed(seed, 1, s),
+            gate,
+            tuple(s == meets[i][0] for i in sources),  # each pass-1 tile's counts go once
+            *[first[i] for i in sources],
+            key=key("optimize"),
         )
+        return emit(block)
+
+    blocks = _gated(client, "second", second_grid.count, second)
     wait(blocks)
     return blocks, info
