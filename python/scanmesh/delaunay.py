@@ -24,8 +24,8 @@ MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 #: whenever ``max_edge`` is finite.
 JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
 
-#: A triangle at any slope whose longest 3-D edge exceeds this multiple of the local 3-D
-#: spacing bridges a gap (a rung or fan across a missed stretch of a line, a sheet over a
+#: A triangle at any slope whose longest 3-D edge exceeds this multiple of the 3-D spacing
+#: across lines at its best-sampled corner bridges a gap (a rung or fan across a missed stretch of a line, a sheet over a
 #: hole narrower than ``max_edge``) and is dropped with the depth jumps.
 BRIDGE_FACTOR: float = _core.DEFAULT_BRIDGE_FACTOR
 
@@ -73,9 +73,8 @@ def delaunay(
         spacing. With a finite ``max_edge``, triangles that bridge a depth jump (a wall, a
         step, a bore: a steep longest 3-D edge above ``JUMP_FACTOR`` (3) x the local 3-D
         spacing) or a gap (any longest 3-D edge above ``BRIDGE_FACTOR`` (5) x the spacing
-        across lines) are
-        dropped too. ``math.inf`` keeps the whole convex hull (less the zero-area
-        slivers that close straight stretches of it).
+        across lines) are dropped too. ``math.inf`` keeps the whole convex hull (less the
+        zero-area slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
         "delaunay" (points) and "trim" (faces): one native call does both, reported at its
