@@ -25,8 +25,9 @@ MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
 
 #: A triangle at any slope whose longest 3-D edge exceeds this multiple of the 3-D spacing
-#: across lines at its best-sampled corner bridges a gap (a rung or fan across a missed stretch of a line, a sheet over a
-#: hole narrower than ``max_edge``) and is dropped with the depth jumps.
+#: across lines at its best-sampled corner bridges a gap (a rung or fan across a missed
+#: stretch of a line, a sheet over a hole narrower than ``max_edge``) and is dropped with
+#: the depth jumps.
 BRIDGE_FACTOR: float = _core.DEFAULT_BRIDGE_FACTOR
 
 
