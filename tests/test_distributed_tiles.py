@@ -4,13 +4,15 @@ annealing quality within 5 % of one process."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
 pytest.importorskip("dask")
 pytest.importorskip("distributed")
 
-from distributed import Client, LocalCluster  # noqa: E402
+from distributed import Client, LocalCluster, WorkerPlugin  # noqa: E402
 
 import scanmesh  # noqa: E402
 from scanmesh import _core  # noqa: E402
@@ -275,22 +277,38 @@ def test_exact_grid_gives_one_valid_mesh(client, monkeypatch, tmp_path):
     )
 
 
-def tiles_at_once(stream: list[dict], run: str) -> int:
-    """Most tiles in flight at once in a run through the tiles, from a task stream: a tile
-    is in flight from the start of its first task to the end of its last (the keys name
-    run, stage and tile)."""
+class TileClock(WorkerPlugin):
+    """Records on each worker when a tile task starts and stops executing, on the machine's
+    monotonic clock, which every worker process shares. (The task stream's times are each
+    worker's own clock shifted by its last heartbeat's delay, which differ by tens of
+    milliseconds between workers on a loaded machine: too coarse to order short tiles.)"""
+
+    name = "scanmesh-tile-clock"
+
+    def setup(self, worker: object) -> None:
+        self.events: list[tuple[str, float, int]] = []
+
+    def transition(self, key: object, start: str, finish: str, **kwargs: object) -> None:
+        if isinstance(key, str) and key.startswith("scanmesh-tile-"):
+            if finish == "executing":
+                self.events.append((key, time.monotonic(), 1))
+            elif start == "executing":
+                self.events.append((key, time.monotonic(), -1))
+
+
+def tiles_at_once(events: list[tuple[str, float, int]], run: str) -> int:
+    """Most tiles in flight at once in a run through the tiles: a tile is in flight from
+    the start of its first task to the end of its last (the keys name run, stage and
+    tile)."""
     spans: dict[int, list[float]] = {}
-    for task in stream:
-        if not task["key"].startswith("scanmesh-tile-"):
-            continue
-        _, _, name, _, tile, _ = task["key"].split("-", 5)
+    for key, at, _ in events:
+        _, _, name, _, tile, _ = key.split("-", 5)
         if name == run:
-            times = [t for s in task["startstops"] for t in (s["start"], s["stop"])]
-            span = spans.setdefault(int(tile), [min(times), max(times)])
-            span[0], span[1] = min(span[0], *times), max(span[1], *times)
-    events = sorted([(a, 1) for a, _ in spans.values()] + [(b, -1) for _, b in spans.values()])
+            span = spans.setdefault(int(tile), [at, at])
+            span[0], span[1] = min(span[0], at), max(span[1], at)
+    ends = sorted([(a, 1) for a, _ in spans.values()] + [(b, -1) for _, b in spans.values()])
     most = held = 0
-    for _, step in events:  # an end before a start at the same time
+    for _, step in ends:
         held += step
         most = max(most, held)
     return most
@@ -301,18 +319,21 @@ def test_tiles_in_flight_are_bounded(client, monkeypatch, tmp_path, per_thread):
     """A worker holds a few tiles, not its share of all of them: from its parts' binning to
     pass 1's file, at most TILES_PER_THREAD x threads tiles are in flight, and as many in
     every other run through the tiles; the faces do not depend on it."""
-    from distributed import get_task_stream
-
     points, ids = line_scan(120, 200, step=True, seed=1)
     parts = write_parts(points, ids, 3, tmp_path)
     monkeypatch.setattr(_tiles, "TILE_POINTS", 3_000)  # 8 tiles
     monkeypatch.setattr(_tiles, "TILES_PER_THREAD", per_thread)
-    with get_task_stream(client) as stream:
+    client.register_plugin(TileClock())
+    try:
         _, faces, _, info = run(client, parts, "anneal", {"sweeps": 30})
+        logs = client.run(lambda dask_worker: dask_worker.plugins[TileClock.name].events)
+    finally:
+        client.unregister_worker_plugin(TileClock.name)
+    events = [event for log in logs.values() for event in log]
     threads = sum(client.nthreads().values())
     assert info["tiles"] > per_thread * threads  # else nothing to bound
     for run_name in ("nearest", "noise", "first", "second"):
-        assert 1 <= tiles_at_once(stream.data, run_name) <= per_thread * threads, run_name
+        assert 1 <= tiles_at_once(events, run_name) <= per_thread * threads, run_name
     monkeypatch.setattr(_tiles, "TILES_PER_THREAD", 100)  # every tile at once
     _, unbounded, _, _ = run(client, parts, "anneal", {"sweeps": 30})
     assert face_set(faces) == face_set(unbounded)
