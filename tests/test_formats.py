@@ -8,6 +8,7 @@ there with MemoryError instead of the clear FileFormatError (or the result) asse
 
 from __future__ import annotations
 
+import math
 import os
 import struct
 import subprocess
@@ -284,6 +285,29 @@ def test_ctrl_c_while_reading_a_large_ascii_ply(tmp_path):
 
 
 # --------------------------------------------------------------------------- columns, grids
+
+
+def test_line_column_rule_matches_its_definition():
+    """The 4th column is a line id exactly when its values are integers below 2**53, each in
+    one run of rows, the runs two rows long or more on average (checked in plain Python)."""
+    from scanmesh.formats.xyz import _line_ids_or_none
+
+    rng = np.random.default_rng(12)
+    for _ in range(400):
+        k = int(rng.integers(1, 12))
+        ids = np.repeat(rng.integers(-3, 5, k), rng.integers(1, 4, k)).astype(np.float64)
+        if rng.random() < 0.2:
+            ids[int(rng.integers(len(ids)))] = rng.choice(
+                [0.5, np.nan, np.inf, 2.0**53, -(2.0**60)]
+            )
+        values = ids.tolist()
+        runs = [v for i, v in enumerate(values) if i == 0 or v != values[i - 1]]
+        integers = all(math.isfinite(v) and v == int(v) and abs(v) < 2**53 for v in values)
+        expect = integers and len(runs) == len(set(runs)) and 2 * len(runs) <= len(values)
+        got = _line_ids_or_none(ids)
+        assert (got is not None) == expect, values
+        if expect:
+            assert got.dtype == np.int64 and got.tolist() == [int(v) for v in values]
 
 
 def test_an_intensity_column_is_not_a_line_id(tmp_path):

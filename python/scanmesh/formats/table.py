@@ -9,7 +9,9 @@ what was read (never by what the text implies), see :func:`parse_rows`.
 
 from __future__ import annotations
 
+import bisect
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -70,15 +72,56 @@ def raise_problem(
     )
 
 
+class RowLines:
+    """The 1-based file line of every parsed row, kept per chunk: a chunk whose every line
+    is a row keeps two numbers, another its rows' line offsets. So a file without blank
+    or comment lines costs no per-row array (the lines are needed only to name a bad row).
+    """
+
+    def __init__(self) -> None:
+        self._first_rows: list[int] = []  # first row of each chunk
+        self._first_lines: list[int] = []  # file line of each chunk's first line
+        self._offsets: list[np.ndarray | None] = []  # rows' lines within the chunk, or None
+        self._n = 0
+
+    def add(self, rows: int, first_line: int, offsets: np.ndarray | None) -> None:
+        """Record ``rows`` rows of a chunk starting at file line ``first_line``: ``offsets``
+        (0-based line of each row within the chunk), or None when row k is line k."""
+        if rows:
+            self._first_rows.append(self._n)
+            self._first_lines.append(first_line)
+            self._offsets.append(offsets)
+            self._n += rows
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, row: int) -> int:
+        if not 0 <= row < self._n:
+            raise IndexError(f"row {row} of {self._n}")
+        k = bisect.bisect_right(self._first_rows, row) - 1
+        at = row - self._first_rows[k]
+        offsets = self._offsets[k]
+        return self._first_lines[k] + (at if offsets is None else int(offsets[at]))
+
+
 @dataclass
 class Rows:
     """Rows parsed from a range of whole lines."""
 
-    values: np.ndarray  # (R, C) float64
-    row_lines: np.ndarray  # (R,) int64 1-based file line of each row
-    blocks: np.ndarray  # (R,) int64 index of the blank-line-separated block of each row
+    values: np.ndarray  # (R, len(split)) float64: the split columns (all columns: (R, C))
+    rest: np.ndarray  # (R, C - len(split)) float64: the other columns, in file order
+    row_lines: RowLines  # 1-based file line of each row
+    block_starts: np.ndarray  # (K,) int64 ascending rows opening a blank-line-separated block
     first_blank: int | None  # 1-based file line of the first blank line, if any
     n_lines: int  # lines in the range
+
+
+def blocks_of(block_starts: np.ndarray, n_rows: int) -> np.ndarray:
+    """(n_rows,) int64 block index of every row, from the rows opening blocks 1, 2, ..."""
+    opens = np.zeros(n_rows, dtype=np.int64)
+    opens[block_starts] = 1
+    return np.cumsum(opens, out=opens)
 
 
 def _grow(arrays: list[np.ndarray], rows: int) -> None:
@@ -98,23 +141,31 @@ def parse_rows(
     expected: str,
     stage: Stage | None = None,
     context: str = "",
+    split: Sequence[int] | None = None,
 ) -> Rows:
     """Parse ``data[start:stop]`` (whole lines, the first being file line ``line_no``) as
     rows of ``ncols`` numbers, chunk by chunk.
 
+    ``split`` (column indices) puts those columns, in that order, into ``values`` and the
+    others into ``rest``, chunk by chunk: a reader gets its (N, 3) points contiguous without
+    a copy of the whole table (None: every column in ``values``).
+
     Memory follows the rows actually parsed: the outputs start at what the first chunk's
     density predicts, grow by half when full, and never beyond what the bytes could hold
-    (a row needs at least ``2 * ncols`` bytes); blank lines are folded into block numbers
-    chunk by chunk. So neither a long run of blank lines nor a huge first row makes a large
+    (a row needs at least ``2 * ncols`` bytes); blank lines are kept as the rows where
+    blocks open. So neither a long run of blank lines nor a huge first row makes a large
     allocation. ``expected`` describes a row for the message of a wrong count (``{sep}`` is
     replaced by the delimiter's name).
     """
+    first = list(range(ncols)) if split is None else list(split)
+    others = [c for c in range(ncols) if c not in first]
     limit = (stop - start + 1) // (2 * ncols) + 1
     capacity = 0
-    values = np.empty((0, ncols))
-    row_lines = np.empty(0, dtype=np.int64)
-    blocks = np.empty(0, dtype=np.int64)
-    n_rows, block, blanks_seen, last_blanks = 0, 0, 0, 0
+    values = np.empty((0, len(first)))
+    rest = np.empty((0, len(others)))
+    row_lines = RowLines()
+    opens: list[np.ndarray] = []
+    n_rows, blanks_seen, last_blanks = 0, 0, 0
     first_blank = None
     pos = start
     while pos < stop:
@@ -129,29 +180,40 @@ def parse_rows(
             raise_problem(path, data, pos, problem, expected, delimiter, context)
         need = n_rows + len(rows)
         if need > capacity:
-            guess = need * (stop - start) // max(end - start, 1) + 1
-            capacity = min(limit, max(need, guess if capacity == 0 else capacity * 3 // 2))
-            _grow([values, row_lines, blocks], capacity)
-        values[n_rows:need] = flat
-        row_lines[n_rows:need] = line_no + rows
-        # a row with a blank line since the previous row opens a block (not the first row)
-        at_row = blanks_seen + np.searchsorted(blank, rows)
-        opens = at_row > np.concatenate(([last_blanks], at_row[:-1]))
-        if n_rows == 0 and len(opens):
-            opens[0] = False
-        blocks[n_rows:need] = block + np.cumsum(opens)
-        if len(rows):
-            block, last_blanks = int(blocks[need - 1]), int(at_row[-1])
-        if first_blank is None and len(blank):
-            first_blank = line_no + int(blank[0])
-        blanks_seen += len(blank)
+            # the first chunk's density predicts the rest (a 1/16 margin spares a late grow)
+            guess = need * (stop - start) // max(end - start, 1) * 17 // 16 + 1
+            if capacity == 0:  # uninitialised: the rows are written over it anyway
+                capacity = min(limit, max(need, guess))
+                values, rest = np.empty((capacity, len(first))), np.empty((capacity, len(others)))
+            else:
+                capacity = min(limit, max(need, capacity * 3 // 2))
+                _grow([values, rest], capacity)
+        if split is None:
+            values[n_rows:need] = flat
+        else:
+            np.take(flat, first, axis=1, out=values[n_rows:need])
+            np.take(flat, others, axis=1, out=rest[n_rows:need])
+        row_lines.add(len(rows), line_no, None if len(rows) == n_lines else rows)
+        if len(rows) and (len(blank) or blanks_seen > last_blanks):
+            # a row with a blank line since the previous row opens a block (not the first row)
+            at_row = blanks_seen + np.searchsorted(blank, rows)
+            opened = at_row > np.concatenate(([last_blanks], at_row[:-1]))
+            if n_rows == 0:
+                opened[0] = False
+            opens.append(n_rows + np.flatnonzero(opened))
+            last_blanks = int(at_row[-1])
+        if len(blank):
+            if first_blank is None:
+                first_blank = line_no + int(blank[0])
+            blanks_seen += len(blank)
         n_rows = need
         line_no += n_lines
         pos = end
         if stage is not None:
             stage.update(end)
-    _grow([values, row_lines, blocks], n_rows)
-    return Rows(values, row_lines, blocks, first_blank, line_no)
+    _grow([values, rest], n_rows)
+    block_starts = np.concatenate(opens) if opens else np.empty(0, dtype=np.int64)
+    return Rows(values, rest, row_lines, block_starts, first_blank, line_no)
 
 
 def parse_free(path: Path, data: bytes, start: int, stop: int, context: str) -> np.ndarray:
@@ -200,25 +262,48 @@ def skip_lines(path: Path, data: bytes, start: int, count: int, what: str) -> in
 
 
 @dataclass
-class Table:
-    """A numeric text table: (R, C) values and, per row, its file line and blank-line block."""
+class Head:
+    """What opens a numeric text table: header and comment lines, then the first data row."""
 
-    values: np.ndarray  # (R, C) float64
-    row_lines: np.ndarray  # (R,) int64 1-based line number of each row
-    blocks: np.ndarray  # (R,) int64 index of the blank-line-separated block of each row
     header: list[str]  # the non-numeric lines above the data (comments excluded)
     header_lines: list[int]  # their 1-based line numbers
     comments: list[str]  # the '#' lines above the data, without the '#'
     delimiter: str | None  # ',' or ';' when the first row holds one, else None (whitespace)
+    ncols: int  # numbers on the first data row
+    start: int  # byte offset of the first data row
+    line: int  # its 1-based line number
 
 
-def read_table(path: Path, data: bytes, what: str, progress: Progress = False) -> Table:
-    """Parse a numeric text table: optional header lines, then rows of equally many numbers.
+@dataclass
+class Table:
+    """A numeric text table: (R, C) values and, per row, its file line and blank-line block."""
 
-    Rows are separated by whitespace, or by commas (semicolons) when the first row holds
-    one; ``#`` lines are comments anywhere; blank lines split the rows into blocks (scan
-    lines).
-    """
+    values: np.ndarray  # (R, len(split)) float64, the split columns (all: (R, C))
+    rest: np.ndarray  # (R, C - len(split)) float64, the other columns in file order
+    row_lines: RowLines  # 1-based line number of each row
+    block_starts: np.ndarray  # (K,) int64 rows opening blank-line-separated blocks 1..K
+    head: Head
+
+    @property
+    def header(self) -> list[str]:
+        return self.head.header
+
+    @property
+    def comments(self) -> list[str]:
+        return self.head.comments
+
+    @property
+    def delimiter(self) -> str | None:
+        return self.head.delimiter
+
+    def blocks(self) -> np.ndarray:
+        """(R,) int64 index of the blank-line-separated block of each row."""
+        return blocks_of(self.block_starts, len(self.values))
+
+
+def read_head(path: Path, data: bytes, what: str) -> Head:
+    """The header and comment lines of a numeric text table and its first data row (see
+    :func:`read_table`); raises when there is no numeric row in the first lines."""
     check_text(path, data, what)
     if not data or data.isspace():
         raise FileFormatError(f"{path}: the file is empty; expected {what}")
@@ -250,33 +335,46 @@ def read_table(path: Path, data: bytes, what: str, progress: Progress = False) -
         pos, line_no = end + 1, line_no + 1
     delimiter = "," if b"," in text else ";" if b";" in text else None
     ncols = len(tokens(text, delimiter))
+    return Head(header, header_lines, comments, delimiter, ncols, pos, line_no)
+
+
+def read_table(
+    path: Path,
+    data: bytes,
+    what: str,
+    progress: Progress = False,
+    head: Head | None = None,
+    split: Sequence[int] | None = None,
+) -> Table:
+    """Parse a numeric text table: optional header lines, then rows of equally many numbers.
+
+    Rows are separated by whitespace, or by commas (semicolons) when the first row holds
+    one; ``#`` lines are comments anywhere; blank lines split the rows into blocks (scan
+    lines). ``head``: the table's :func:`read_head`, when the caller has read it already;
+    ``split``: the columns to put first, as in :func:`parse_rows`.
+    """
+    head = read_head(path, data, what) if head is None else head
+    n = len(data)
     with Stage(progress, "read", n) as stage:
-        stage.update(pos)
+        stage.update(head.start)
         rows = parse_rows(
             path,
             data,
-            pos,
+            head.start,
             n,
-            ncols,
-            delimiter,
-            line_no,
-            f"{ncols} {{sep}}values as on line {line_no}",
+            head.ncols,
+            head.delimiter,
+            head.line,
+            f"{head.ncols} {{sep}}values as on line {head.line}",
             stage,
+            split=split,
         )
-    return Table(
-        values=rows.values,
-        row_lines=rows.row_lines,
-        blocks=rows.blocks,
-        header=header,
-        header_lines=header_lines,
-        comments=comments,
-        delimiter=delimiter,
-    )
+    return Table(rows.values, rows.rest, rows.row_lines, rows.block_starts, head)
 
 
 def row_error(path: Path, data: bytes, table: Table, row: int, message: str) -> FileFormatError:
     """A FileFormatError naming the line (and its text) of table row ``row``."""
-    line = int(table.row_lines[row])
+    line = table.row_lines[row]
     newlines = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10)
     offset = 0 if line == 1 else int(newlines[line - 2]) + 1
     end = data.find(b"\n", offset)

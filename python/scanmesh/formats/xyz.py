@@ -31,7 +31,7 @@ from scanmesh._progress import Progress
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import quote, read_bytes
 from scanmesh.formats.points import ScanPoints
-from scanmesh.formats.table import Table, read_table, row_error
+from scanmesh.formats.table import Table, read_head, read_table, row_error
 
 #: Header names accepted for the line-id column of text files (lower case).
 LINE_COLUMN_NAMES = (
@@ -123,25 +123,35 @@ def _named_columns(header: str, delimiter: str | None, ncols: int) -> dict[str, 
     return found
 
 
-def _is_line_column(ids: np.ndarray) -> bool:
-    """True when ``ids`` look like scan-line ids: integers below 2**53, each value in one run
-    of rows, the runs two rows long or more on average."""
-    if not len(ids) or not np.isfinite(ids).all() or (np.abs(ids) >= 2**53).any():
-        return False
-    if (ids != np.round(ids)).any():
-        return False
-    runs = 1 + int(np.count_nonzero(ids[1:] != ids[:-1]))
-    return runs == len(np.unique(ids)) and 2 * runs <= len(ids)
-
-
-def _line_column(path: Path, data: bytes, table: Table, col: int) -> np.ndarray:
-    """The line-id column as int64, raising on the first value that is not an integer."""
-    ids = table.values[:, col]
-    # the int64 cast is needed anyway; a value it does not give back exactly is a fraction,
-    # NaN or infinite (their casts are garbage, hence errstate): one pass fewer than round()
+def _integer_ids(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) float ``ids`` cast to int64, and the mask of the values that are not integers
+    below 2**53 in magnitude (a value the cast does not give back exactly is a fraction,
+    NaN or infinite: their casts are garbage, hence errstate; one pass fewer than round())."""
     with np.errstate(invalid="ignore"):
         as_int = ids.astype(np.int64)
-    bad = (as_int != ids) | (np.abs(ids) >= 2**53)
+    bad = (as_int != ids) | (as_int >= 2**53) | (as_int <= -(2**53))
+    return as_int, bad
+
+
+def _line_ids_or_none(ids: np.ndarray) -> np.ndarray | None:
+    """``ids`` as int64 when they look like scan-line ids (integers below 2**53, each value
+    in one run of rows, the runs two rows long or more on average), else None. O(N): only
+    the runs' values are sorted to count the distinct ones."""
+    if not len(ids):
+        return None
+    as_int, bad = _integer_ids(ids)
+    if bad.any():
+        return None
+    opens = np.flatnonzero(as_int[1:] != as_int[:-1]) + 1
+    runs = 1 + len(opens)
+    distinct = len(np.unique(np.concatenate((as_int[:1], as_int[opens]))))
+    return as_int if runs == distinct and 2 * runs <= len(ids) else None
+
+
+def _line_column(path: Path, data: bytes, table: Table, ids: np.ndarray, col: int) -> np.ndarray:
+    """The line-id column ``ids`` (file column ``col``) as int64, raising on the first value
+    that is not an integer."""
+    as_int, bad = _integer_ids(ids)
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
         what = "is not below 2**53" if np.abs(ids[row]) >= 2**53 else "is not an integer"
@@ -152,29 +162,34 @@ def _line_column(path: Path, data: bytes, table: Table, col: int) -> np.ndarray:
 
 
 def _points(
-    path: Path, data: bytes, table: Table, columns: dict[str, int], extra: dict
+    path: Path,
+    data: bytes,
+    table: Table,
+    columns: dict[str, int],
+    extra: dict,
+    line_ids: np.ndarray | None = None,
 ) -> ScanPoints:
-    """ScanPoints from a parsed table and the columns holding x, y, z and the line id."""
-    cols = [columns["x"], columns["y"], columns["z"]]
-    sub = table.values if cols == [0, 1, 2] and table.values.shape[1] == 3 else None
-    if not np.isfinite(table.values).all():  # the usual case is one pass, no column copy
-        view = table.values[:, cols]
-        bad = ~np.isfinite(view)
-        if bad.any():
-            row, col = np.argwhere(bad)[0]
-            raise row_error(
-                path, data, table, int(row), f"non-finite {'xyz'[col]}={float(view[row, col])!r}"
-            )
-    points = sub if sub is not None else np.ascontiguousarray(table.values[:, cols])
+    """ScanPoints from a table parsed with x, y, z as its ``values`` and the other columns as
+    its ``rest``, the columns holding x, y, z and the line id, and the line ids when they
+    were found already."""
+    points = table.values
+    if not np.isfinite(points).all():
+        bad = ~np.isfinite(points)
+        row, col = np.argwhere(bad)[0]
+        raise row_error(
+            path, data, table, int(row), f"non-finite {'xyz'[col]}={float(points[row, col])!r}"
+        )
     extra |= {"header": table.header, "columns": columns}
     if "line" in columns:
-        line_ids = _line_column(path, data, table, columns["line"])
+        if line_ids is None:
+            col = columns["line"]
+            others = sorted(set(range(table.head.ncols)) - {columns[k] for k in "xyz"})
+            line_ids = _line_column(path, data, table, table.rest[:, others.index(col)], col)
         extra["line_ids_from"] = f"column {columns['line'] + 1}"
-    elif len(table.blocks) and table.blocks[-1] > 0:
-        line_ids = table.blocks
+    elif len(table.block_starts):
+        line_ids = table.blocks()
         extra["line_ids_from"] = "blank lines"
     else:
-        line_ids = None
         extra["line_ids_from"] = None
     return ScanPoints(
         points=points,
@@ -192,33 +207,34 @@ def read_points_table(
     columns: Columns = None,
     progress: Progress = False,
 ) -> ScanPoints:
-    """Read a text file of points (``fmt`` "xyz" or "csv"; see the module doc for columns)."""
+    """Read a text file of points (``fmt`` "xyz" or "csv"; see the module doc for columns).
+
+    The columns are chosen from the head (``columns=``, a header naming them, or the first
+    three) before the rows are parsed, so x, y, z go straight into the (N, 3) points."""
     path = Path(path)
     data = read_bytes(path)
     what = "x y z rows" if fmt == "xyz" else "comma-separated x,y,z rows"
-    table = read_table(path, data, what, progress)
-    ncols = table.values.shape[1]
-    extra: dict[str, Any] = {"format": fmt, "delimiter": table.delimiter}
-    named = _named_columns(table.header[-1], table.delimiter, ncols) if table.header else None
+    head = read_head(path, data, what)
+    ncols = head.ncols
+    extra: dict[str, Any] = {"format": fmt, "delimiter": head.delimiter}
+    named = _named_columns(head.header[-1], head.delimiter, ncols) if head.header else None
+    chosen: dict[str, int] | None = None
     if columns is not None:
         chosen = _given_columns(path, columns, ncols)
     elif named is not None:
         chosen = named
-    elif table.header and fmt == "csv":
+    elif ncols in (3, 4) and not (head.header and fmt == "csv"):
+        chosen = {"x": 0, "y": 1, "z": 2}
+    split = None if chosen is None else [chosen["x"], chosen["y"], chosen["z"]]
+    table = read_table(path, data, what, progress, head, split)
+    if chosen is None and head.header and fmt == "csv":
         raise FileFormatError(
-            f"{path}, line {table.header_lines[-1]}: the header"
-            f" {quote(table.header[-1])} must name columns x, y and z in {ncols} fields"
-            f" (as many as the data on line {int(table.row_lines[0])}), or choose them with"
+            f"{path}, line {head.header_lines[-1]}: the header"
+            f" {quote(head.header[-1])} must name columns x, y and z in {ncols} fields"
+            f" (as many as the data on line {table.row_lines[0]}), or choose them with"
             " columns= (e.g. columns='x,y,z,line')"
         )
-    elif ncols in (3, 4):
-        chosen = {"x": 0, "y": 1, "z": 2}
-        if ncols == 4:
-            if _is_line_column(table.values[:, 3]):
-                chosen["line"] = 3
-            else:
-                extra["ignored_columns"] = [3]
-    else:
+    if chosen is None:
         raise row_error(
             path,
             data,
@@ -228,9 +244,16 @@ def read_points_table(
             " with columns= (e.g. 'x,y,z,intensity') or a header row, or read a matrix of"
             " heights with grid=True",
         )
+    line_ids = None
+    if columns is None and named is None and ncols == 4:
+        line_ids = _line_ids_or_none(table.rest[:, 0])
+        if line_ids is not None:
+            chosen["line"] = 3
+        else:
+            extra["ignored_columns"] = [3]
     if "ignored_columns" not in extra:
         extra["ignored_columns"] = sorted(set(range(ncols)) - set(chosen.values()))
-    return _points(path, data, table, chosen, extra)
+    return _points(path, data, table, chosen, extra, line_ids)
 
 
 def read_xyz(

@@ -88,16 +88,6 @@ impl Separators {
     }
 }
 
-/// One number token, or None when it is not entirely a number in the accepted grammar.
-fn number(token: &[u8]) -> Option<f64> {
-    // fast_float2 takes the same grammar (sign, digits, dot, exponent, nan/inf/infinity in
-    // any case) but stops early on trailing junk: require the whole token to be consumed.
-    match fast_float2::parse_partial::<f64, _>(token) {
-        Ok((value, used)) if used == token.len() => Some(value),
-        _ => None,
-    }
-}
-
 /// Chunks at least this long are split at line breaks into one piece per rayon thread and
 /// parsed in parallel (smaller ones are not worth a thread hand-off).
 pub const PARALLEL_MIN_BYTES: usize = 1 << 18;
@@ -147,7 +137,9 @@ pub fn parse_table(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Ta
     Ok(out)
 }
 
-/// [`parse_table`] on one thread.
+/// [`parse_table`] on one thread: one forward pass, each number parsed where it starts
+/// (its end is where the parser stops, which must be a separator, the line end or the end
+/// of the chunk: the same tokens as splitting at separators first, read once).
 fn parse_piece(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Table, TextError> {
     let seps = Separators { delimiter };
     // A value costs at least 2 bytes of text: reserve for a plausible density (about what
@@ -156,81 +148,72 @@ fn parse_piece(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Table,
         values: Vec::with_capacity(buf.len() / 4),
         ..Table::default()
     };
-    let mut start = 0usize;
+    let free = ncols == 0;
+    let n = buf.len();
+    let mut pos = 0usize;
     let mut line = 0usize;
-    while start < buf.len() {
-        let end = buf[start..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(buf.len(), |k| start + k);
-        parse_line(buf, start, end, line, ncols, seps, &mut table)?;
+    while pos < n {
+        let start = pos;
+        let bad = |offset: usize, kind: TextErrorKind| TextError { line, offset, kind };
+        let row_start = table.values.len();
+        let mut tokens = 0usize;
+        let mut delimiters = 0usize;
+        let mut comment = false;
+        loop {
+            while pos < n && buf[pos] != b'\n' {
+                match seps.kind(buf[pos]) {
+                    0 => break,
+                    kind => delimiters += usize::from(kind == 2),
+                }
+                pos += 1;
+            }
+            if pos == n || buf[pos] == b'\n' {
+                break;
+            }
+            if tokens == 0 && buf[pos] == b'#' {
+                comment = true; // a comment line: its delimiters do not count
+                pos = buf[pos..]
+                    .iter()
+                    .position(|&b| b == b'\n')
+                    .map_or(n, |k| pos + k);
+                break;
+            }
+            tokens += 1;
+            if !free && tokens > ncols {
+                table.values.truncate(row_start);
+                return Err(bad(start, TextErrorKind::WrongCount));
+            }
+            match fast_float2::parse_partial::<f64, _>(&buf[pos..]) {
+                Ok((value, used)) if pos + used == n || seps.kind(buf[pos + used]) != 0 => {
+                    table.values.push(value);
+                    pos += used;
+                }
+                _ => {
+                    table.values.truncate(row_start);
+                    return Err(bad(pos, TextErrorKind::NotANumber));
+                }
+            }
+        }
+        if comment {
+            // neither a row nor a blank line
+        } else if tokens == 0 {
+            if delimiters > 0 {
+                return Err(bad(start, TextErrorKind::WrongCount));
+            }
+            table.blank_lines.push(line as i64);
+        } else {
+            let wrong_delimiters = seps.delimiter.is_some() && delimiters + 1 != tokens;
+            if (!free && tokens != ncols) || wrong_delimiters {
+                table.values.truncate(row_start);
+                return Err(bad(start, TextErrorKind::WrongCount));
+            }
+            table.row_lines.push(line as i64);
+        }
         line += 1;
-        start = end + 1;
+        pos += 1; // past the line break (or the end)
     }
     table.n_lines = line;
     Ok(table)
-}
-
-/// Parses line `line` (bytes `start..end`, without its `\n`) into `table`.
-fn parse_line(
-    buf: &[u8],
-    start: usize,
-    end: usize,
-    line: usize,
-    ncols: usize,
-    seps: Separators,
-    table: &mut Table,
-) -> Result<(), TextError> {
-    let text = &buf[start..end];
-    let bad = |offset: usize, kind: TextErrorKind| TextError { line, offset, kind };
-    let free = ncols == 0;
-    let mut tokens = 0usize;
-    let mut delimiters = 0usize;
-    let mut i = 0usize;
-    let row_start = table.values.len();
-    while i < text.len() {
-        let kind = seps.kind(text[i]);
-        if kind != 0 {
-            delimiters += usize::from(kind == 2);
-            i += 1;
-            continue;
-        }
-        let t0 = i;
-        while i < text.len() && seps.kind(text[i]) == 0 {
-            i += 1;
-        }
-        let token = &text[t0..i];
-        if tokens == 0 && token[0] == b'#' {
-            table.values.truncate(row_start);
-            return Ok(()); // a comment line: its delimiters do not count
-        }
-        tokens += 1;
-        if !free && tokens > ncols {
-            table.values.truncate(row_start);
-            return Err(bad(start, TextErrorKind::WrongCount));
-        }
-        match number(token) {
-            Some(v) => table.values.push(v),
-            None => {
-                table.values.truncate(row_start);
-                return Err(bad(start + t0, TextErrorKind::NotANumber));
-            }
-        }
-    }
-    if tokens == 0 {
-        if delimiters > 0 {
-            return Err(bad(start, TextErrorKind::WrongCount));
-        }
-        table.blank_lines.push(line as i64);
-        return Ok(());
-    }
-    let wrong_delimiters = seps.delimiter.is_some() && delimiters + 1 != tokens;
-    if (!free && tokens != ncols) || wrong_delimiters {
-        table.values.truncate(row_start);
-        return Err(bad(start, TextErrorKind::WrongCount));
-    }
-    table.row_lines.push(line as i64);
-    Ok(())
 }
 
 #[cfg(test)]
@@ -295,6 +278,11 @@ mod tests {
             parse_table(b"1;2;;3\n", 0, Some(b';')).unwrap_err().kind,
             TextErrorKind::WrongCount
         );
+    }
+
+    /// One token alone on a line, parsed as a one-column table.
+    fn number(token: &[u8]) -> Option<f64> {
+        parse_table(token, 1, None).ok().map(|t| t.values[0])
     }
 
     #[test]
