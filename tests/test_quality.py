@@ -10,6 +10,7 @@ import trimesh
 
 import scanmesh
 from conftest import bumpy_patch
+from scanmesh.quality import SLIVER_ANGLE_DEG
 
 
 def interior_mask(faces: np.ndarray, n: int) -> np.ndarray:
@@ -96,3 +97,20 @@ def test_quality_rejects_bad_faces():
         scanmesh.quality(pts, [[0, 1]])
     with pytest.raises(scanmesh.InvalidMeshError, match="repeats"):
         scanmesh.quality(pts, [[0, 1, 1]])
+
+
+def test_sliver_share_is_counted_on_radians_as_on_degrees():
+    """quality() counts slivers on the radians against _SLIVER_RADIANS: the same verdict as
+    converting every angle to degrees first, at the limit's neighbouring floats too."""
+    from scanmesh.quality import _SLIVER_RADIANS
+
+    r = _SLIVER_RADIANS
+    near = [np.nextafter(r, 0.0), r, np.nextafter(r, 1.0), math.radians(SLIVER_ANGLE_DEG)]
+    rng = np.random.default_rng(4)
+    a = np.concatenate([near, rng.uniform(0.0, 0.2, 5000), r + rng.normal(0, 1e-15, 1000)])
+    np.testing.assert_array_equal(a < r, np.degrees(a) < SLIVER_ANGLE_DEG)
+    pts = np.column_stack([rng.random((400, 2)), 0.05 * rng.random(400)])
+    q = scanmesh.quality(pts, scanmesh.delaunay(pts).faces)
+    np.testing.assert_array_equal(q.face_min_angle_deg, np.degrees(q.face_min_angle))
+    assert q.sliver_fraction == np.mean(q.face_min_angle_deg < SLIVER_ANGLE_DEG)
+    assert q.min_angle_deg == q.face_min_angle_deg.min()
