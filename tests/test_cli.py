@@ -261,6 +261,27 @@ def test_reconstruct_writes_mesh_report_and_preview(scan, tmp_path):
     assert no_partial_files(tmp_path)
 
 
+def test_reconstruct_without_quality_writes_the_same_mesh(scan, tmp_path):
+    """--no-quality skips the measurement only: same faces, the report's quality null (and
+    the summary says so), the other figures as with it."""
+    runs = {}
+    for flag in ((), ("--no-quality",)):
+        out = tmp_path / f"cap{len(flag)}.stl"
+        result = run("reconstruct", scan, "-o", out, "--method", "shortest-path", "--json", *flag)
+        assert result.returncode == 0, result.stderr
+        runs[flag] = (json.loads(result.stdout), load_mesh(out))
+    (full, a), (light, b) = runs[()], runs[("--no-quality",)]
+    np.testing.assert_array_equal(a.faces, b.faces)
+    assert set(QUALITY_KEYS) <= set(full["quality"]) and "quality" in full["timings"]
+    assert light["quality"] is None and "quality" not in light["timings"]
+    assert light["counts"] == full["counts"]
+    text = run(
+        "reconstruct", scan, "-o", tmp_path / "t.stl", "--method", "delaunay", "--no-quality"
+    )
+    assert text.returncode == 0, text.stderr
+    assert "quality not measured" in text.stdout and "tac_1" not in text.stdout
+
+
 @pytest.mark.parametrize("ending", [".ply", ".obj", ".off"])
 def test_reconstruct_writes_each_mesh_format(scan, tmp_path, ending):
     out = tmp_path / f"cap{ending}"
