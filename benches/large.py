@@ -4,6 +4,7 @@ the command end to end.
     python benches/large.py                              # 100k, 1M, 10M: every stage
     python benches/large.py --sizes 100000 1000000 --anneal-sweeps 2
     python benches/large.py --cli 10000000               # the command alone, /usr/bin/time -v
+    python benches/large.py --cli 10000000 --method lookahead --cli-flags "" --work /tmp/x
 
 The scan: a smooth height field (benches/speed.py's surface, in millimetres over a 100 mm
 square) on straight scan lines, positions jittered by up to 5 % of the spacing, written as
@@ -153,7 +154,8 @@ def child(stage: str, n: int, sweeps: int) -> None:
 
 
 def run_child(stage: str, n: int, sweeps: int, timeout: float) -> dict:
-    cmd = [sys.executable, __file__, "--child", stage, str(n), "--anneal-sweeps", str(sweeps)]
+    cmd = [sys.executable, __file__, "--child", stage, str(n), "--anneal-sweeps", str(sweeps),
+           "--work", str(WORK)]
     try:
         res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=True)
     except subprocess.TimeoutExpired:
@@ -207,12 +209,11 @@ def stages_table(sizes: list[int], sweeps: int, timeout: float, skip: set[str]) 
     print(f"\nmachine after: {machine()}", flush=True)
 
 
-def cli(n: int) -> None:
+def cli(n: int, method: str, extra: list[str]) -> None:
     """The command end to end under /usr/bin/time -v: wall time and peak RSS."""
     path = prepare(n)
     out = files(n)["stl"]
-    cmd = ["scanmesh", "reconstruct", str(path), "-o", str(out), "--method", "shortest-path",
-           "--plane", "z"]
+    cmd = ["scanmesh", "reconstruct", str(path), "-o", str(out), "--method", method, *extra]
     print(f"machine: {machine()}\n$ /usr/bin/time -v {' '.join(cmd)}", flush=True)
     res = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True)
     print(res.stdout)
@@ -231,12 +232,19 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=900.0, help="seconds per process")
     parser.add_argument("--skip", nargs="*", default=[], choices=STAGES)
     parser.add_argument("--cli", type=int, metavar="N", help="the command end to end at N points")
+    parser.add_argument("--method", default="shortest-path", help="--cli: the method")
+    parser.add_argument(
+        "--cli-flags", default="--plane z", help="--cli: more flags of the command (one string)"
+    )
+    parser.add_argument("--work", type=Path, help=f"folder of the scans and meshes ({WORK})")
     parser.add_argument("--child", nargs=2, metavar=("STAGE", "N"), help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.work is not None:
+        globals()["WORK"] = args.work
     if args.child:
         child(args.child[0], int(args.child[1]), args.anneal_sweeps)
     elif args.cli:
-        cli(args.cli)
+        cli(args.cli, args.method, args.cli_flags.split())
     else:
         stages_table(args.sizes, args.anneal_sweeps, args.timeout, set(args.skip))
 
