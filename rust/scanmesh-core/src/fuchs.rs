@@ -447,26 +447,47 @@ fn check_path(n: usize, m: usize, path: &[Step]) -> Result<()> {
     Ok(())
 }
 
-/// The triangles of `path`, in the caller's point indices: `a_ids[i]` is a_i, `b_ids[j]` is
-/// b_j. Step A at (i, j) gives (a_i, a_{i+1}, b_j), step B gives (a_i, b_{j+1}, b_j).
-/// Errors: a path that does not fit the two index lists. O(n + m).
-pub fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Result<Vec<[u32; 3]>> {
+/// [`path_triangles_into`] as a new list, for the tests. O(n + m).
+#[cfg(test)]
+pub(crate) fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Result<Vec<[u32; 3]>> {
+    let mut out = vec![[0; 3]; path.len()];
+    path_triangles_into(path, a_ids, b_ids, &mut out)?;
+    Ok(out)
+}
+
+/// The triangles of `path`, in the caller's point indices, written into `out` (one entry
+/// per step, so the strips write straight into the mesh's list): `a_ids[i]` is a_i,
+/// `b_ids[j]` is b_j; step A at (i, j) gives (a_i, a_{i+1}, b_j), step B gives
+/// (a_i, b_{j+1}, b_j). Errors: a path that does not fit the two index lists, or an `out`
+/// of another length. O(n + m).
+pub fn path_triangles_into(
+    path: &[Step],
+    a_ids: &[u32],
+    b_ids: &[u32],
+    out: &mut [[u32; 3]],
+) -> Result<()> {
     check_path(a_ids.len(), b_ids.len(), path)?;
+    if out.len() != path.len() {
+        return Err(Error::InvalidParameter {
+            name: "out",
+            value: format!("{} entries for {} steps", out.len(), path.len()),
+            expected: "one triangle per step",
+        });
+    }
     let (mut i, mut j) = (0, 0);
-    let mut out = Vec::with_capacity(path.len());
-    for &s in path {
+    for (&s, t) in path.iter().zip(out) {
         match s {
             Step::A => {
-                out.push([a_ids[i], a_ids[i + 1], b_ids[j]]);
+                *t = [a_ids[i], a_ids[i + 1], b_ids[j]];
                 i += 1;
             }
             Step::B => {
-                out.push([a_ids[i], b_ids[j + 1], b_ids[j]]);
+                *t = [a_ids[i], b_ids[j + 1], b_ids[j]];
                 j += 1;
             }
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The cheapest path by dynamic programming over the whole matrix (a DAG).
