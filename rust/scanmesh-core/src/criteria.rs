@@ -290,35 +290,43 @@ where
     }
     let n = normal / length;
     let index = |i: I| i.try_into().ok().filter(|&k| k < points.len());
-    if let Some(f) = faces
-        .par_iter()
-        .position_first(|t| t.iter().any(|&i| index(i).is_none()))
-    {
-        let bad = faces[f]
-            .iter()
-            .position(|&i| index(i).is_none())
-            .unwrap_or(0);
-        return Err(Error::InvalidFace {
-            face: f,
-            reason: format!(
-                "corner {bad}: vertex index out of range (there are {} vertices)",
-                points.len()
-            ),
-        });
-    }
     let half = Normalizer::fit(points).half_extent;
     let scale = if half > 0.0 { 1.0 / half } else { 1.0 };
     let limit = max_tilt.cos();
-    Ok(faces
+    // One pass counts and checks the indices together (a face out of range counts as
+    // `faces.len() + 1`, more than any count of valid faces); only a bad face makes a
+    // second pass, to name the first one.
+    let bad = faces.len() + 1;
+    let count: usize = faces
         .par_iter()
-        .filter(|t| {
-            // `index` cannot fail here: every face was checked above.
-            let [a, b, c] = t.map(|i| points[index(i).unwrap_or(0)]);
-            let normal = ((b - a) * scale).cross((c - a) * scale);
-            // tilt > max_tilt  <=>  cos(tilt) = normal·n / |normal| < cos(max_tilt)
-            normal.dot(n) < limit * normal.length()
+        .map(|t| match t.map(index) {
+            [Some(a), Some(b), Some(c)] => {
+                let [a, b, c] = [points[a], points[b], points[c]];
+                let normal = ((b - a) * scale).cross((c - a) * scale);
+                // tilt > max_tilt  <=>  cos(tilt) = normal·n / |normal| < cos(max_tilt)
+                usize::from(normal.dot(n) < limit * normal.length())
+            }
+            _ => bad,
         })
-        .count())
+        .reduce(|| 0, |x, y| x.saturating_add(y));
+    if count <= faces.len() {
+        return Ok(count);
+    }
+    let f = faces
+        .par_iter()
+        .position_first(|t| t.iter().any(|&i| index(i).is_none()))
+        .expect("a face out of range was counted");
+    let corner = faces[f]
+        .iter()
+        .position(|&i| index(i).is_none())
+        .unwrap_or(0);
+    Err(Error::InvalidFace {
+        face: f,
+        reason: format!(
+            "corner {corner}: vertex index out of range (there are {} vertices)",
+            points.len()
+        ),
+    })
 }
 
 /// Sliver threshold: a triangle with a smallest angle under 5° counts as a sliver.

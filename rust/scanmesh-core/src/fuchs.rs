@@ -447,26 +447,47 @@ fn check_path(n: usize, m: usize, path: &[Step]) -> Result<()> {
     Ok(())
 }
 
-/// The triangles of `path`, in the caller's point indices: `a_ids[i]` is a_i, `b_ids[j]` is
-/// b_j. Step A at (i, j) gives (a_i, a_{i+1}, b_j), step B gives (a_i, b_{j+1}, b_j).
-/// Errors: a path that does not fit the two index lists. O(n + m).
-pub fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Result<Vec<[u32; 3]>> {
+/// [`path_triangles_into`] as a new list, for the tests. O(n + m).
+#[cfg(test)]
+pub(crate) fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Result<Vec<[u32; 3]>> {
+    let mut out = vec![[0; 3]; path.len()];
+    path_triangles_into(path, a_ids, b_ids, &mut out)?;
+    Ok(out)
+}
+
+/// The triangles of `path`, in the caller's point indices, written into `out` (one entry
+/// per step, so the strips write straight into the mesh's list): `a_ids[i]` is a_i,
+/// `b_ids[j]` is b_j; step A at (i, j) gives (a_i, a_{i+1}, b_j), step B gives
+/// (a_i, b_{j+1}, b_j). Errors: a path that does not fit the two index lists, or an `out`
+/// of another length. O(n + m).
+pub fn path_triangles_into(
+    path: &[Step],
+    a_ids: &[u32],
+    b_ids: &[u32],
+    out: &mut [[u32; 3]],
+) -> Result<()> {
     check_path(a_ids.len(), b_ids.len(), path)?;
+    if out.len() != path.len() {
+        return Err(Error::InvalidParameter {
+            name: "out",
+            value: format!("{} entries for {} steps", out.len(), path.len()),
+            expected: "one triangle per step",
+        });
+    }
     let (mut i, mut j) = (0, 0);
-    let mut out = Vec::with_capacity(path.len());
-    for &s in path {
+    for (&s, t) in path.iter().zip(out) {
         match s {
             Step::A => {
-                out.push([a_ids[i], a_ids[i + 1], b_ids[j]]);
+                *t = [a_ids[i], a_ids[i + 1], b_ids[j]];
                 i += 1;
             }
             Step::B => {
-                out.push([a_ids[i], b_ids[j + 1], b_ids[j]]);
+                *t = [a_ids[i], b_ids[j + 1], b_ids[j]];
                 j += 1;
             }
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The cheapest path by dynamic programming over the whole matrix (a DAG).
@@ -692,10 +713,12 @@ fn check_band(t: &Terms, lo: &[usize], hi: &[usize], ask: &Ask) -> Result<usize>
 /// when it stays in the band, is the optimum of the whole matrix.
 trait Outside {
     /// Lower bound on the cost of reaching (i, j) by an A-step from (i − 1, j) outside
-    /// the band (above it), with that step's triangle, or None.
-    fn in_from_above(&self, i: usize, j: usize) -> Option<(f64, Tri)>;
+    /// the band (above it), with that step's triangle, or None: also when that bound
+    /// exceeds `beaten`, a cost above which this state can never be chosen (the cell's
+    /// other state plus the largest turn), so the step need not be evaluated.
+    fn in_from_above(&self, i: usize, j: usize, beaten: f64) -> Option<(f64, Tri)>;
     /// The same for a B-step from (i, j − 1) outside the band (below it).
-    fn in_from_below(&self, i: usize, j: usize) -> Option<(f64, Tri)>;
+    fn in_from_below(&self, i: usize, j: usize, beaten: f64) -> Option<(f64, Tri)>;
     /// Takes note of the ways out of the band from row i, whose cells `row` (band
     /// `lo..=hi`) are final.
     fn leave(&mut self, i: usize, row: &[Cell], lo: usize, hi: usize);
@@ -706,11 +729,11 @@ struct Sealed;
 
 impl Outside for Sealed {
     #[inline(always)]
-    fn in_from_above(&self, _: usize, _: usize) -> Option<(f64, Tri)> {
+    fn in_from_above(&self, _: usize, _: usize, _: f64) -> Option<(f64, Tri)> {
         None
     }
     #[inline(always)]
-    fn in_from_below(&self, _: usize, _: usize) -> Option<(f64, Tri)> {
+    fn in_from_below(&self, _: usize, _: usize, _: f64) -> Option<(f64, Tri)> {
         None
     }
     #[inline(always)]
@@ -746,14 +769,22 @@ fn dp_in_band_with(
     let width = (0..n).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);
     let mut prev = ask.filled(width, UNREACHED)?;
     let mut cur = ask.filled(width, UNREACHED)?;
+    // Every turn is at most this (a dihedral angle is at most π, and rounding is
+    // monotone), so a state costing more than another of its cell plus this is never
+    // chosen over it.
+    let max_turn = t.w.dihedral * PI;
     for i in 0..n {
         steps.begin_row(i, lo[i], hi[i]);
         for j in lo[i]..=hi[i] {
             let mut cell = UNREACHED;
             let mut bits = 0u8;
             // Rows overlap and `lo` never decreases: (i − 1, j) is in the band unless j
-            // is past its end.
-            if i > 0 && j <= hi[i - 1] {
+            // is past its end. A way in from outside is taken after the cell's other
+            // state, which is then inside the band (j > hi[i − 1] ≥ lo[i] above, j = lo[i]
+            // ≤ hi[i − 1] below): a way in costing more than that state plus any turn can
+            // never be chosen (not by `best_from`, `leave` or the end), so it is left out.
+            let by_a_inside = i > 0 && j <= hi[i - 1];
+            if by_a_inside {
                 let step = steps.entering_by_a(i, j);
                 let (before, from) = best_from(
                     t,
@@ -764,8 +795,6 @@ fn dp_in_band_with(
                 );
                 cell.enter(0, before + step.cost, &step);
                 bits |= from;
-            } else if let Some((cost, step)) = outside.in_from_above(i, j) {
-                cell.enter(0, cost, &step);
             }
             if j > lo[i] {
                 let step = steps.entering_by_b(i, j);
@@ -778,8 +807,14 @@ fn dp_in_band_with(
                 );
                 cell.enter(1, before + step.cost, &step);
                 bits |= from << 1;
-            } else if let Some((cost, step)) = outside.in_from_below(i, j) {
+            } else if let Some((cost, step)) = outside.in_from_below(i, j, cell.cost[0] + max_turn)
+            {
                 cell.enter(1, cost, &step);
+            }
+            if !by_a_inside {
+                if let Some((cost, step)) = outside.in_from_above(i, j, cell.cost[1] + max_turn) {
+                    cell.enter(0, cost, &step);
+                }
             }
             cur[j - lo[i]] = cell;
             back[offset[i] + j - lo[i]] = bits;

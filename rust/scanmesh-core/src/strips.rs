@@ -32,7 +32,7 @@ mod jumps;
 mod repair;
 
 use crate::delaunay::{unit_square_scaled, unit_square_scaled_by};
-use crate::fuchs::{lookahead, path_triangles, shortest_path, Solver, Weight};
+use crate::fuchs::{lookahead, path_triangles_into, shortest_path, Solver, Weight};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::lines::ScanLines;
 use crate::mesh::HalfEdgeMesh;
@@ -268,8 +268,6 @@ fn pair_tasks(
 
 /// One triangulated strip.
 struct Solved {
-    /// Its triangles, in the orientation of [`path_triangles`].
-    triangles: Vec<[u32; 3]>,
     /// Its path cost.
     cost: f64,
     /// Twice the planar signed area of its triangles (for the orientation of the mesh).
@@ -278,9 +276,11 @@ struct Solved {
     summary: Option<check::Summary>,
 }
 
-/// Triangulates one strip of `points` as `normalizer` maps them (into the unit box); `uv`
+/// Triangulates one strip of `points` as `normalizer` maps them (into the unit box) into
+/// `out` ([`triangles_of`] entries, in the orientation of `fuchs::path_triangles`); `uv`
 /// are the planar positions (for its signed area); `interior` the strip's interior ranges
 /// when the planar check runs locally.
+#[allow(clippy::too_many_arguments)]
 fn solve(
     points: &[DVec3],
     normalizer: &Normalizer,
@@ -289,6 +289,7 @@ fn solve(
     params: &StripParams,
     weight: Weight,
     interior: Option<&[Vec<std::ops::Range<u32>>; 2]>,
+    out: &mut [[u32; 3]],
 ) -> Result<Solved> {
     let unit = |ids: &[u32]| -> Vec<DVec3> {
         ids.iter()
@@ -300,9 +301,9 @@ fn solve(
         Method::ShortestPath(solver) => shortest_path(&a, &b, weight, solver)?,
         Method::Lookahead(alpha) => lookahead(&a, &b, weight, alpha)?,
     };
-    let triangles = path_triangles(&solution.path, &task.a, &task.b)?;
+    path_triangles_into(&solution.path, &task.a, &task.b, out)?;
     let summary = interior.map(|r| check::summarize(uv, task, &solution.path, r));
-    let signed_area = triangles
+    let signed_area = out
         .iter()
         .map(|t| {
             let [p, q, r] = t.map(|k| uv[k as usize]);
@@ -310,11 +311,16 @@ fn solve(
         })
         .sum();
     Ok(Solved {
-        triangles,
         cost: solution.cost,
         signed_area,
         summary,
     })
+}
+
+/// How many triangles the strip of `task` has: one per step of its path,
+/// |a| + |b| − 2. O(1).
+fn triangles_of(task: &Task) -> usize {
+    (task.a.len() + task.b.len()).saturating_sub(2)
 }
 
 /// Where a planar point lies in a counter-clockwise triangle.
@@ -594,41 +600,41 @@ fn stitch_with(
     } else {
         None
     };
-    // Everything per strip happens here, in parallel: what stays serial below (joining the
-    // lists, lone points) is memory traffic of a few ms per million.
-    let solved: Vec<Solved> = tasks
-        .par_iter()
-        .enumerate()
-        .map(|(k, task)| {
-            let interior = plan.as_ref().map(|p| p.interior(k));
-            solve(points, &normalizer, uv, task, params, weight, interior)
-        })
-        .collect::<Result<_>>()?;
-    let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
-    // Triangle range of each task, to find the strips around a lone point; sums in task
-    // order.
+    // Triangle range of each task (a strip has a triangle per path step), to find the
+    // strips around a lone point; each strip writes its own range of the one list.
     let mut ranges = Vec::with_capacity(tasks.len());
-    let (mut cost, mut signed_area, mut total) = (0.0, 0.0, 0);
-    for s in &solved {
-        ranges.push(total..total + s.triangles.len());
-        total += s.triangles.len();
-        cost += s.cost;
-        signed_area += s.signed_area;
+    let mut total = 0;
+    for task in &tasks {
+        let count = triangles_of(task);
+        ranges.push(total..total + count);
+        total += count;
     }
-    // The strips' lists copied side by side in parallel.
     let mut triangles = vec![[0u32; 3]; total];
-    let mut parts = Vec::with_capacity(solved.len());
+    let mut parts = Vec::with_capacity(tasks.len());
     let mut rest = &mut triangles[..];
-    for s in &solved {
-        let (part, tail) = rest.split_at_mut(s.triangles.len());
+    for range in &ranges {
+        let (part, tail) = rest.split_at_mut(range.len());
         parts.push(part);
         rest = tail;
     }
-    parts
-        .into_par_iter()
-        .zip(&solved)
-        .for_each(|(part, s)| part.copy_from_slice(&s.triangles));
-    drop(solved);
+    // Everything per strip happens here, in parallel: what stays serial below (lone
+    // points) is memory traffic of a few ms per million.
+    let solved: Vec<Solved> = tasks
+        .par_iter()
+        .zip(parts)
+        .enumerate()
+        .map(|(k, (task, out))| {
+            let interior = plan.as_ref().map(|p| p.interior(k));
+            solve(points, &normalizer, uv, task, params, weight, interior, out)
+        })
+        .collect::<Result<_>>()?;
+    let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
+    // Sums in task order.
+    let (mut cost, mut signed_area) = (0.0, 0.0);
+    for s in &solved {
+        cost += s.cost;
+        signed_area += s.signed_area;
+    }
     // One orientation for the whole mesh: counter-clockwise in the plane where most of the
     // area is (all of it, unless lines cross).
     if signed_area < 0.0 {
@@ -776,6 +782,7 @@ fn check_jump_factor(factor: f64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fuchs::path_triangles;
     use crate::lines::{segment_lines, DEFAULT_GAP_FACTOR};
 
     /// A height field z = f(x, y) sampled on `rows` lines y = r·dy of points x = c·dx,

@@ -69,9 +69,12 @@ impl Aabb {
         self.lo.x > self.hi.x
     }
 
-    /// Distance from `p` to the (non-empty) box. O(1).
-    fn distance(&self, p: DVec3) -> f64 {
-        (self.lo - p).max(p - self.hi).max(DVec3::ZERO).length()
+    /// Squared distance from `p` to the (non-empty) box. O(1).
+    fn distance_squared(&self, p: DVec3) -> f64 {
+        (self.lo - p)
+            .max(p - self.hi)
+            .max(DVec3::ZERO)
+            .length_squared()
     }
 }
 
@@ -82,16 +85,20 @@ fn step_bound(t: &Terms, p: DVec3, q: DVec3, far: &Aabb) -> f64 {
     if far.is_empty() {
         return 0.0;
     }
-    let (d0, d1) = (far.distance(p), far.distance(q));
-    let mut cost = t.w.length * d1;
+    // Squared distances: the angle bound needs no square root but its own, and the length
+    // one only when the length weight is on.
+    let (d0, d1) = (far.distance_squared(p), far.distance_squared(q));
+    let mut cost = if t.w.length == 0.0 {
+        0.0
+    } else {
+        t.w.length * d1.sqrt()
+    };
     let s2 = (q - p).length_squared();
-    let d = d0.max(d1);
-    if t.w.angle != 0.0 && d > 0.0 && s2 <= d0 * d0 + d1 * d1 {
-        let x = s2.sqrt() / d;
-        if x < 1.0 {
-            let gamma = x / (1.0 - x * x).sqrt();
-            cost += t.w.angle * (FRAC_PI_3 - gamma).max(0.0);
-        }
+    let d2 = d0.max(d1);
+    // x = s / d < 1, and x / √(1 − x²) = √(s² / (d² − s²)).
+    if t.w.angle != 0.0 && s2 < d2 && s2 <= d0 + d1 {
+        let gamma = (s2 / (d2 - s2)).sqrt();
+        cost += t.w.angle * (FRAC_PI_3 - gamma).max(0.0);
     }
     cost * SHRINK
 }
@@ -186,21 +193,28 @@ impl<'t, 'a> Bounds<'t, 'a> {
 }
 
 impl super::Outside for Bounds<'_, '_> {
-    fn in_from_above(&self, i: usize, j: usize) -> Option<(f64, Tri)> {
+    fn in_from_above(&self, i: usize, j: usize, beaten: f64) -> Option<(f64, Tri)> {
         if i == 0 || self.best_above == f64::INFINITY {
             return None;
         }
-        let step = self.t.step(i - 1, j, Step::A);
         let before = self.a_above[i - 1] + self.b_above[j] + self.best_above;
+        // The step's cost is ≥ 0 (and adding it never rounds a sum down).
+        if before > beaten {
+            return None;
+        }
+        let step = self.t.step(i - 1, j, Step::A);
         Some((before + step.cost, step))
     }
 
-    fn in_from_below(&self, i: usize, j: usize) -> Option<(f64, Tri)> {
+    fn in_from_below(&self, i: usize, j: usize, beaten: f64) -> Option<(f64, Tri)> {
         if j == 0 || self.best_below == f64::INFINITY {
             return None;
         }
-        let step = self.t.step(i, j - 1, Step::B);
         let before = self.a_below[i] + self.b_below[j - 1] + self.best_below;
+        if before > beaten {
+            return None;
+        }
+        let step = self.t.step(i, j - 1, Step::B);
         Some((before + step.cost, step))
     }
 
@@ -214,18 +228,23 @@ impl super::Outside for Bounds<'_, '_> {
             }
         };
         // Out above: a B-step from the row's last cell. The turn into it is ≥ 0: left out.
+        // A step's cost is ≥ 0 and the key is monotone in it (the same subtractions in
+        // the same order), so a key already at least the best one before the step cannot
+        // lower it: then the step is not evaluated.
         if hi + 1 < self.t.m() && at(hi) < f64::INFINITY {
-            let leaving = at(hi) + self.t.step(i, hi, Step::B).cost;
-            let key = leaving - self.a_above[i] - self.b_above[hi + 1];
-            self.best_above = self.best_above.min(key);
+            let key = |leaving: f64| leaving - self.a_above[i] - self.b_above[hi + 1];
+            if key(at(hi)) < self.best_above {
+                let leaving = at(hi) + self.t.step(i, hi, Step::B).cost;
+                self.best_above = self.best_above.min(key(leaving));
+            }
         }
         // Out below: A-steps into the next row left of its band.
         if i + 1 < self.lo.len() {
             for j in lo..self.lo[i + 1].min(hi + 1) {
-                if at(j) < f64::INFINITY {
+                let key = |leaving: f64| leaving - self.a_below[i + 1] - self.b_below[j];
+                if at(j) < f64::INFINITY && key(at(j)) < self.best_below {
                     let leaving = at(j) + self.t.step(i, j, Step::A).cost;
-                    let key = leaving - self.a_below[i + 1] - self.b_below[j];
-                    self.best_below = self.best_below.min(key);
+                    self.best_below = self.best_below.min(key(leaving));
                 }
             }
         }

@@ -307,7 +307,7 @@ pub(super) fn summarize(
     };
     let (mut i, mut j) = (0usize, 0usize);
     for &s in path {
-        // Corners as (side, window index), in the order `path_triangles` writes them.
+        // Corners as (side, window index), in the order `fuchs::path_triangles_into` writes them.
         let corners = match s {
             Step::A => [(0, i), (0, i + 1), (1, j)],
             Step::B => [(0, i), (1, j + 1), (1, j)],

@@ -6,7 +6,8 @@
 //! median length of its edges ([`crate::trim::local_spacing`]). A median is at least the
 //! shortest of the lengths, so a triangle whose longest edge is at most `factor` × the
 //! shortest edge at any of its corners cannot bridge a jump, steep or not; on a smooth scan
-//! that is every triangle (the 1M-point synthetic scan of `benches/peers.py`: a quarter of
+//! that is every triangle (compared as squares in the unit box, with a margin far above
+//! their rounding; the 1M-point synthetic scan of `benches/peers.py`: a quarter of
 //! its 2M triangles are steep, none is a candidate), and the medians (a sort of the edges
 //! of every steep triangle's corners, a second of the strips' time there) are never taken.
 //! The candidates left are judged by [`bridging_triangles`] itself, on the triangles around
@@ -31,66 +32,73 @@ pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJump
     if !jumps.factor.is_finite() || triangles.is_empty() {
         return none();
     }
-    // Lengths as `bridging_triangles` and `local_spacing` take them: in the unit box.
+    // Squared lengths in the unit box (where `bridging_triangles` measures, so no square
+    // overflows), each point mapped as its edge is read: no mapped copy of the points.
     let norm = Normalizer::fit(jumps.points);
-    let (scale, to_unit) = if norm.half_extent > 0.0 {
-        (norm.half_extent, 1.0 / norm.half_extent)
+    let to_unit = if norm.half_extent > 0.0 {
+        1.0 / norm.half_extent
     } else {
-        (1.0, 1.0)
+        1.0
     };
-    // Mapped once per point, not once per corner (a division each).
-    let unit: Vec<_> = jumps
-        .points
-        .par_iter()
-        .with_min_len(PAR_BLOCK)
-        .map(|&p| norm.apply(p))
-        .collect();
-    // The shortest edge at each vertex. Lengths are ≥ +0, whose bit patterns order as the
-    // numbers do, so an atomic minimum of the bits is the minimum, in any order.
+    // The filter compares squares with a relative margin of 1e-9, far above the rounding
+    // that separates these lengths from the rule's (a few ulps), so every triangle the
+    // rule drops is a candidate; a square that underflows (an edge below 1e-150 of the
+    // scan's extent) makes its triangle a candidate. Where the margin's factor² would
+    // overflow or the scale is not a normal number, every triangle is a candidate.
+    let k = jumps.factor * jumps.factor * (1.0 - 1e-9);
+    if !(k.is_finite() && to_unit.is_normal()) {
+        return bridging_triangles(uv, triangles, jumps);
+    }
+    let unit = |v: u32| (jumps.points[v as usize] - norm.center) * to_unit;
+    let edges = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(unit);
+        [
+            (a - b).length_squared(),
+            (b - c).length_squared(),
+            (c - a).length_squared(),
+        ]
+    };
+    // The shortest edge at each vertex, squared. Squares are ≥ +0, whose bit patterns order
+    // as the numbers do, so an atomic minimum of the bits is the minimum, in any order.
     let shortest: Vec<AtomicU64> = (0..jumps.points.len())
         .into_par_iter()
         .with_min_len(PAR_BLOCK)
         .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
         .collect();
-    let longest: Vec<f64> = triangles
-        .par_iter()
-        .with_min_len(PAR_BLOCK)
-        .map(|t| {
-            let mut longest = 0.0f64;
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let l = (unit[a as usize] - unit[b as usize]).length();
-                longest = longest.max(l);
-                for v in [a, b] {
-                    // A plain load first: most edges are not a vertex's shortest, and a
-                    // read-modify-write on every one is a locked instruction each.
-                    let at = &shortest[v as usize];
-                    if l.to_bits() < at.load(Ordering::Relaxed) {
-                        at.fetch_min(l.to_bits(), Ordering::Relaxed);
-                    }
+    triangles.par_iter().with_min_len(PAR_BLOCK).for_each(|t| {
+        let squares = edges(t);
+        for (e, &l2) in squares.iter().enumerate() {
+            for v in [t[e], t[(e + 1) % 3]] {
+                // A plain load first: most edges are not a vertex's shortest, and a
+                // read-modify-write on every one is a locked instruction each.
+                let at = &shortest[v as usize];
+                if l2.to_bits() < at.load(Ordering::Relaxed) {
+                    at.fetch_min(l2.to_bits(), Ordering::Relaxed);
                 }
             }
-            longest
-        })
-        .collect();
-    drop(unit);
-    // The rule's right side, `factor × (spacing × scale) × to_unit`, with the shortest
-    // edge for the median: rounding is monotone, so it is at most the rule's.
-    let candidate: Vec<bool> = triangles
+        }
+    });
+    let is_candidate = |t: &[u32; 3]| {
+        let longest = edges(t).into_iter().fold(0.0, f64::max);
+        let nearest = t
+            .iter()
+            .map(|&v| f64::from_bits(shortest[v as usize].load(Ordering::Relaxed)))
+            .fold(f64::INFINITY, f64::min);
+        longest < 1e-300 || longest > k * nearest
+    };
+    // On a smooth scan there is none: then no list is made.
+    if !triangles
         .par_iter()
-        .zip(&longest)
         .with_min_len(PAR_BLOCK)
-        .map(|(t, &longest)| {
-            let nearest = t
-                .iter()
-                .map(|&v| f64::from_bits(shortest[v as usize].load(Ordering::Relaxed)) * scale)
-                .fold(f64::INFINITY, f64::min);
-            longest > jumps.factor * nearest * to_unit
-        })
-        .collect();
-    if !candidate.par_iter().any(|&c| c) {
+        .any(is_candidate)
+    {
         return none();
     }
+    let candidate: Vec<bool> = triangles
+        .par_iter()
+        .with_min_len(PAR_BLOCK)
+        .map(is_candidate)
+        .collect();
     // Every triangle at a candidate's corner, so that their spacings are whole.
     let corner: Vec<AtomicBool> = (0..jumps.points.len())
         .into_par_iter()
@@ -181,9 +189,17 @@ mod tests {
             },
         ];
         let mut dropped = 0;
-        for (seed, z) in shapes.iter().enumerate() {
-            let (points, uv, tris) = grid(40, 30, seed as u64 + 1, z);
-            for factor in [1.5, 3.0, 8.0, f64::INFINITY] {
+        // Scales far from 1 (the filter squares lengths in the unit box) and a factor whose
+        // square overflows.
+        for (seed, z, scale) in (0..3).flat_map(|s| {
+            shapes
+                .iter()
+                .enumerate()
+                .map(move |(k, z)| (k, z, [1.0, 1e-200, 1e200][s]))
+        }) {
+            let (mut points, uv, tris) = grid(40, 30, seed as u64 + 1, z);
+            points.iter_mut().for_each(|p| *p *= scale);
+            for factor in [1.5, 3.0, 8.0, 1e160, f64::INFINITY] {
                 let jumps = DepthJumps {
                     points: &points,
                     factor,
@@ -193,7 +209,7 @@ mod tests {
                 assert_eq!(
                     fast,
                     bridging_triangles(&uv, &tris, jumps),
-                    "shape {seed}, factor {factor}"
+                    "shape {seed}, scale {scale}, factor {factor}"
                 );
                 dropped += fast.iter().filter(|&&b| b).count();
             }
