@@ -530,10 +530,38 @@ impl UnitJumps {
 /// are judged on the neighbourhood of what the last round dropped ([`next_round`]), not on
 /// every triangle again. O(m log m).
 fn bridging_in_box(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps) -> Vec<bool> {
+    let (shape, shortest_at) = shapes(uv, triangles, jumps);
+    let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
+        f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
+    });
+    drop(shortest_at);
+    // A fan over a gap inflates the spacing at its apex until its longest rungs are gone:
+    // the bridge rule runs again on what is kept while it drops something. The jump rule
+    // runs once (again, it would eat into the walls' rims).
+    if jumps.gaps && dropped.iter().any(|&d| d) {
+        let around = Incidence::of(jumps.unit.len(), triangles);
+        let mut last: Vec<u32> = (0..triangles.len() as u32)
+            .filter(|&i| dropped[i as usize])
+            .collect();
+        while !last.is_empty() {
+            last = next_round(triangles, &shape, jumps, &around, &dropped, &last);
+            for &i in &last {
+                dropped[i as usize] = true;
+            }
+        }
+    }
+    dropped
+}
+
+/// Each triangle's longest 3-D edge, negative when steep, and the shortest 3-D edge of any
+/// triangle at each vertex (edge lengths are ≥ +0, whose bit patterns order as the numbers
+/// do, so an atomic minimum of the bits is the minimum in any order). O(m), in parallel.
+fn shapes(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    jumps: &UnitJumps,
+) -> (Vec<f64>, Vec<AtomicU64>) {
     let to_unit = 1.0 / jumps.scale;
-    // The shortest 3-D edge of any triangle at each vertex (edge lengths are ≥ +0, whose
-    // bit patterns order as the numbers do, so an atomic minimum of the bits is the
-    // minimum in any order), and each triangle's longest 3-D edge, negative when steep.
     let shortest_at: Vec<AtomicU64> = (0..jumps.unit.len())
         .into_par_iter()
         .with_min_len(BLOCK)
@@ -561,26 +589,7 @@ fn bridging_in_box(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps) -
             }
         })
         .collect();
-    let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
-        f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
-    });
-    drop(shortest_at);
-    // A fan over a gap inflates the spacing at its apex until its longest rungs are gone:
-    // the bridge rule runs again on what is kept while it drops something. The jump rule
-    // runs once (again, it would eat into the walls' rims).
-    if jumps.gaps && dropped.iter().any(|&d| d) {
-        let around = Incidence::of(jumps.unit.len(), triangles);
-        let mut last: Vec<u32> = (0..triangles.len() as u32)
-            .filter(|&i| dropped[i as usize])
-            .collect();
-        while !last.is_empty() {
-            last = next_round(triangles, &shape, jumps, &around, &dropped, &last);
-            for &i in &last {
-                dropped[i as usize] = true;
-            }
-        }
-    }
-    dropped
+    (shape, shortest_at)
 }
 
 /// One round of the rules over `list` (corners indexing `unit`) with its `shape` (longest
@@ -1200,5 +1209,74 @@ mod tests {
         let reordered = vec![[2, 5, 6], [2, 4, 5], [0, 2, 3], [0, 1, 2]];
         let kept = trim_long_edges(&uv, &reordered, f64::INFINITY, None).unwrap();
         assert_eq!(kept, vec![[0, 2, 3], [0, 1, 2]]);
+    }
+
+    #[test]
+    fn later_bridge_rounds_on_the_neighbourhood_are_full_rounds() {
+        // Reference: every round after the first over all kept triangles, as the rule reads.
+        let full = |uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps| {
+            let (shape, shortest_at) = shapes(uv, triangles, jumps);
+            let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
+                f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
+            });
+            let mut rounds = 1;
+            loop {
+                let live: Vec<usize> = (0..triangles.len()).filter(|&i| !dropped[i]).collect();
+                let list: Vec<[u32; 3]> = live.iter().map(|&i| triangles[i]).collect();
+                let mut at = vec![f64::INFINITY; jumps.unit.len()];
+                for t in &list {
+                    let shortest = jumps.lengths(t).into_iter().fold(f64::INFINITY, f64::min);
+                    t.iter()
+                        .for_each(|&v| at[v as usize] = at[v as usize].min(shortest));
+                }
+                let live_shape: Vec<f64> = live.iter().map(|&i| shape[i]).collect();
+                let more = round(&jumps.unit, &list, &live_shape, jumps, false, |v| {
+                    at[v as usize]
+                });
+                if !more.contains(&true) {
+                    return (dropped, rounds);
+                }
+                rounds += 1;
+                live.iter().zip(more).for_each(|(&i, m)| dropped[i] |= m);
+            }
+        };
+        let mut most = 0;
+        for seed in 0..12u64 {
+            // Jittered lines as benches/peers.py scans them (the convex hull's slivers along
+            // the ragged ends of the lines go over several rounds), some with missed
+            // stretches and a step.
+            let (per, lines) = (40 + 7 * seed as usize, 30 + 5 * seed as usize);
+            let jitter = crate::testing::random_points(per * lines, seed);
+            let mut p: Vec<DVec3> = (0..per * lines)
+                .map(|k| {
+                    let x = (k % per) as f64 + 0.1 * jitter[k][0] - 0.05;
+                    let y = (k / per) as f64 * 1.3 + 0.13 * jitter[k][1] - 0.065;
+                    let step = if seed % 3 == 1 && x > 20.5 { 6.0 } else { 0.0 };
+                    DVec3::new(x, y, 0.05 * (x + y) + step)
+                })
+                .collect();
+            if seed % 3 == 2 {
+                p.retain(|q| ((q.y * 0.37 + q.x * 0.11) % 7.0) > 1.0 || q.x < 10.0);
+            }
+            let uv = planar(&p);
+            let d = delaunay(&uv).unwrap();
+            let jumps = UnitJumps::gathered(
+                DepthJumps {
+                    points: &p,
+                    factor: DEFAULT_JUMP_FACTOR,
+                    gaps: true,
+                },
+                None,
+            );
+            let (expected, rounds) = full(&uv, &d.triangles, &jumps);
+            assert_eq!(
+                bridging_in_box(&uv, &d.triangles, &jumps),
+                expected,
+                "seed {seed}"
+            );
+            most = most.max(rounds);
+        }
+        assert!(most >= 3, "the fixtures must need several rounds ({most})");
+
     }
 }
