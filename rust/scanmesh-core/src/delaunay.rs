@@ -201,21 +201,27 @@ fn sweep_points(points: Vec<delaunator::Point>) -> Option<Delaunay> {
     // delaunator's triangles turn one way (clockwise for y up); ours turn the other. Reversing
     // corners 1 and 2 maps half-edge k of a triangle to half-edge 2 - k. Each usize array is
     // dropped once converted (48 MB apiece at 1M points).
-    let flip = |h: usize| (3 * (h / 3) + 2 - h % 3) as u32;
+    // The flip is its own inverse and keeps a half-edge in its triangle, so each triangle's
+    // three twins are read from delaunator's three, in parallel.
+    let flip = |h: usize| 3 * (h / 3) + 2 - h % 3;
     let mut triangles: Vec<[u32; 3]> = corners
-        .chunks_exact(3)
+        .par_chunks_exact(3)
+        .with_min_len(1 << 14)
         .map(|t| [t[0] as u32, t[2] as u32, t[1] as u32])
         .collect();
     drop(corners);
-    let mut twins = vec![NONE; 3 * m];
-    for (h, &g) in halfedges.iter().enumerate() {
-        if g != delaunator::EMPTY {
-            twins[flip(h) as usize] = flip(g);
-        }
-    }
+    let twins: Vec<u32> = (0..3 * m)
+        .into_par_iter()
+        .with_min_len(1 << 16)
+        .map(|h| match halfedges[flip(h)] {
+            delaunator::EMPTY => NONE,
+            g => flip(g) as u32,
+        })
+        .collect();
     drop(halfedges);
     let duplicate_of = stand_ins(unit, &mut triangles)?;
-    proven(unit, &triangles, &twins).then_some(Delaunay {
+    let exact = proven(unit, &triangles, &twins);
+    exact.then_some(Delaunay {
         triangles,
         twins,
         duplicate_of,

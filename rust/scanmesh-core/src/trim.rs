@@ -7,7 +7,7 @@ use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::Result;
 use glam::DVec3;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Triangles per rayon task in the passes over all of them.
 const BLOCK: usize = 1 << 14;
@@ -68,11 +68,13 @@ struct Spacing {
     across: f64,
 }
 
-/// [`Spacing`] of each vertex for which `wanted` holds (`∞` for the others and vertices
-/// of no triangle), in the units of `points`. O(m + k log k) for the k edges at wanted
-/// vertices, in parallel.
+/// [`Spacing`] of each vertex of `unit` (points in the unit box, see [`Normalizer`]) for
+/// which `wanted` holds (`∞` for the others and vertices of no triangle), in input units
+/// (`scale`: the box's half extent, 1 for a box of size 0). O(m + k log k) for the k edges
+/// at wanted vertices, in parallel.
 fn spacings(
-    points: &[DVec3],
+    unit: &[DVec3],
+    scale: f64,
     triangles: &[[u32; 3]],
     wanted: impl Fn(u32) -> bool + Sync,
 ) -> Vec<Spacing> {
@@ -86,41 +88,46 @@ fn spacings(
         .collect();
     edges.par_sort_unstable();
     edges.dedup();
-    // Lengths on points in the unit box: no overflow at 1e300 or underflow at 1e-300.
-    let norm = Normalizer::fit(points);
-    let length =
-        |a: u32, b: u32| (norm.apply(points[a as usize]) - norm.apply(points[b as usize])).length();
-    let mut start = vec![0usize; points.len() + 1];
+    let n = unit.len();
+    let mut start = vec![0u32; n + 1];
     for &(a, b) in &edges {
         start[a as usize + 1] += 1;
         start[b as usize + 1] += 1;
     }
-    for v in 0..points.len() {
+    for v in 0..n {
         start[v + 1] += start[v];
     }
     let mut fill = start.clone();
-    let mut lengths = vec![0.0; start[points.len()]];
+    let mut lengths = vec![0.0; start[n] as usize];
     for &(a, b) in &edges {
-        let d = length(a, b);
+        // Lengths in the unit box: no overflow at 1e300 or underflow at 1e-300.
+        let d = (unit[a as usize] - unit[b as usize]).length();
         for v in [a, b] {
-            lengths[fill[v as usize]] = d;
+            lengths[fill[v as usize] as usize] = d;
             fill[v as usize] += 1;
         }
     }
-    let scale = if norm.half_extent > 0.0 {
-        norm.half_extent
-    } else {
-        1.0
+    drop((edges, fill));
+    let none = Spacing {
+        median: f64::INFINITY,
+        across: f64::INFINITY,
     };
-    (0..points.len())
-        .map(|v| {
-            let own = &mut lengths[start[v]..start[v + 1]];
-            if own.is_empty() || !wanted(v as u32) {
-                return Spacing {
-                    median: f64::INFINITY,
-                    across: f64::INFINITY,
-                };
-            }
+    let mut out = vec![none; n];
+    let mut rest = lengths.as_mut_slice();
+    // Each vertex's lengths are its own slice: split them off in order, then sort and
+    // select in parallel.
+    let mut own: Vec<(usize, &mut [f64])> = Vec::new();
+    for v in 0..n {
+        let (here, after) = rest.split_at_mut((start[v + 1] - start[v]) as usize);
+        rest = after;
+        if !here.is_empty() && wanted(v as u32) {
+            own.push((v, here));
+        }
+    }
+    let found: Vec<(usize, Spacing)> = own
+        .into_par_iter()
+        .with_min_len(1 << 10)
+        .map(|(v, own)| {
             // A vertex has a handful of edges: sorting them is cheaper than two selects.
             own.sort_unstable_by(f64::total_cmp);
             let across = if own.len() <= 2 {
@@ -128,12 +135,17 @@ fn spacings(
             } else {
                 own[2 + (own.len() - 3) / 2]
             };
-            Spacing {
+            let spacing = Spacing {
                 median: own[own.len() / 2] * scale,
                 across: across * scale,
-            }
+            };
+            (v, spacing)
         })
-        .collect()
+        .collect();
+    for (v, spacing) in found {
+        out[v] = spacing;
+    }
+    out
 }
 
 /// Distances below this fraction of the planar extent are not spacings but near-duplicates
@@ -146,30 +158,61 @@ pub const NEAR_DUPLICATE_RELATIVE: f64 = 1e-9;
 /// near-duplicates (see [`NEAR_DUPLICATE_RELATIVE`]). 0 when there are no triangles.
 /// O(m + n log n).
 pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
-    let mut nearest = vec![f64::INFINITY; uv.len()];
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for t in triangles {
-        for &v in t {
-            for k in 0..2 {
-                lo[k] = lo[k].min(uv[v as usize][k]);
-                hi[k] = hi[k].max(uv[v as usize][k]);
-            }
-        }
-    }
+    // Minima and maxima do not depend on the order they are taken in: the parallel passes
+    // give the serial result bit for bit.
+    let bounds = |(lo, hi): ([f64; 2], [f64; 2]), t: &[u32; 3]| {
+        t.iter().fold((lo, hi), |(lo, hi), &v| {
+            let p = uv[v as usize];
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        })
+    };
+    let empty = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let (lo, hi) = triangles
+        .par_iter()
+        .with_min_len(BLOCK)
+        .fold(|| empty, bounds)
+        .reduce(
+            || empty,
+            |(a, b), (c, d)| {
+                (
+                    [a[0].min(c[0]), a[1].min(c[1])],
+                    [b[0].max(d[0]), b[1].max(d[1])],
+                )
+            },
+        );
     let extent = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
     let negligible = NEAR_DUPLICATE_RELATIVE * extent;
-    for t in triangles {
+    // Distances are ≥ +0, whose bit patterns order as the numbers do: an atomic minimum
+    // of the bits is the minimum.
+    let nearest: Vec<AtomicU64> = (0..uv.len())
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
+        .collect();
+    triangles.par_iter().with_min_len(BLOCK).for_each(|t| {
         for k in 0..3 {
-            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-            let d = planar_distance(uv[a], uv[b]);
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let d = planar_distance(uv[a as usize], uv[b as usize]);
             if d <= negligible {
                 continue;
             }
-            nearest[a] = nearest[a].min(d);
-            nearest[b] = nearest[b].min(d);
+            for v in [a, b] {
+                let at = &nearest[v as usize];
+                if d.to_bits() < at.load(Ordering::Relaxed) {
+                    at.fetch_min(d.to_bits(), Ordering::Relaxed);
+                }
+            }
         }
-    }
-    let mut finite: Vec<f64> = nearest.into_iter().filter(|d| d.is_finite()).collect();
+    });
+    let mut finite: Vec<f64> = nearest
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|d| f64::from_bits(d.into_inner()))
+        .filter(|d| d.is_finite())
+        .collect();
     if finite.is_empty() {
         return 0.0;
     }
@@ -202,7 +245,8 @@ pub fn trim_long_edges(
     jumps: Option<DepthJumps>,
 ) -> Result<Vec<[u32; 3]>> {
     let twins = twins_of(uv.len(), triangles)?;
-    Ok(trim(uv, triangles, &twins, max_edge, jumps, None))
+    let jumps = UnitJumps::when_finite(jumps);
+    Ok(trim(uv, triangles, &twins, max_edge, jumps.as_ref(), None))
 }
 
 /// [`trim_long_edges`] on a Delaunay triangulation of `uv`, whose twins it already has: one
@@ -213,7 +257,8 @@ pub fn trim_delaunay(
     max_edge: f64,
     jumps: Option<DepthJumps>,
 ) -> Vec<[u32; 3]> {
-    trim(uv, &d.triangles, &d.twins, max_edge, jumps, None)
+    let jumps = UnitJumps::when_finite(jumps);
+    trim(uv, &d.triangles, &d.twins, max_edge, jumps.as_ref(), None)
 }
 
 /// A Delaunay triangulation trimmed in one call ([`delaunay_trimmed`]).
@@ -246,30 +291,33 @@ pub fn delaunay_trimmed(
     let triangulated = clock.elapsed().as_secs_f64();
     // The trimming runs in the triangulation's own labels, on the points gathered into
     // them: its passes then read memory in order (see `delaunay_ordered`).
-    let gathered = order.as_ref().map(|to_input| {
-        let uv: Vec<[f64; 2]> = to_input.iter().map(|&i| uv[i as usize]).collect();
-        let points: Vec<DVec3> = to_input.iter().map(|&i| points[i as usize]).collect();
-        (uv, points)
+    let gathered: Option<Vec<[f64; 2]>> = order.as_ref().map(|to_input| {
+        to_input
+            .par_iter()
+            .with_min_len(BLOCK)
+            .map(|&i| uv[i as usize])
+            .collect()
     });
-    let (local_uv, local_points) = gathered
-        .as_ref()
-        .map_or((uv, points), |(u, p)| (u.as_slice(), p.as_slice()));
+    let local_uv = gathered.as_deref().unwrap_or(uv);
     let limit = max_edge
         .unwrap_or_else(|| DEFAULT_MAX_EDGE_FACTOR * median_spacing(local_uv, &d.triangles));
-    let jumps = limit.is_finite().then_some(DepthJumps {
-        points: local_points,
-        factor: jump_factor,
-        gaps: true,
+    let jumps = (limit.is_finite() && jump_factor.is_finite()).then(|| {
+        let jumps = DepthJumps {
+            points,
+            factor: jump_factor,
+            gaps: true,
+        };
+        UnitJumps::gathered(jumps, order.as_deref())
     });
     let mut triangles = trim(
         local_uv,
         &d.triangles,
         &d.twins,
         limit,
-        jumps,
+        jumps.as_ref(),
         order.as_deref(),
     );
-    drop(gathered);
+    drop((gathered, jumps));
     let mut vertex = vec![false; uv.len()];
     d.triangles
         .as_flattened()
@@ -305,23 +353,55 @@ fn trim(
     triangles: &[[u32; 3]],
     twins: &[u32],
     max_edge: f64,
-    jumps: Option<DepthJumps>,
+    jumps: Option<&UnitJumps>,
     to_input: Option<&[u32]>,
 ) -> Vec<[u32; 3]> {
-    let longest = |t: &[u32; 3]| {
-        (0..3)
-            .map(|k| planar_distance(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]))
-            .fold(0.0, f64::max)
-    };
-    let bridges = jumps.map_or_else(Vec::new, |j| bridging_triangles(uv, triangles, j));
+    let short = ShortEnough::new(max_edge);
+    let longest_within =
+        |t: &[u32; 3]| (0..3).all(|k| short.test(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]));
+    let bridges = jumps.map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
     let keep: Vec<bool> = triangles
         .par_iter()
         .enumerate()
         .with_min_len(BLOCK)
-        .map(|(k, t)| longest(t) <= max_edge && !bridges.get(k).copied().unwrap_or(false))
+        .map(|(k, t)| longest_within(t) && !bridges.get(k).copied().unwrap_or(false))
         .collect();
     drop(bridges);
     peel_flags(uv, triangles, twins, keep, to_input)
+}
+
+/// `planar_distance(a, b) <= max_edge`, decided from the squared length where that is
+/// far enough from the limit's square to leave no doubt (a relative margin of 1e-9
+/// against rounding errors below 1e-15, square and product in range), else by
+/// `planar_distance` itself: the same answers without a `hypot` for almost every edge.
+struct ShortEnough {
+    max_edge: f64,
+    /// The squares below and above which the answer is certain, or None.
+    certain: Option<(f64, f64)>,
+}
+
+impl ShortEnough {
+    fn new(max_edge: f64) -> Self {
+        let square = max_edge * max_edge;
+        let certain = (square.is_finite() && square > 1e-280)
+            .then_some((square * (1.0 - 1e-9), square * (1.0 + 1e-9)));
+        ShortEnough { max_edge, certain }
+    }
+
+    #[inline]
+    fn test(&self, a: [f64; 2], b: [f64; 2]) -> bool {
+        if let Some((below, above)) = self.certain {
+            let (dx, dy) = (a[0] - b[0], a[1] - b[1]);
+            let square = dx * dx + dy * dy;
+            if square < below {
+                return true;
+            }
+            if square > above && square.is_finite() {
+                return false;
+            }
+        }
+        planar_distance(a, b) <= self.max_edge
+    }
 }
 
 /// The triangles of `triangles` (with their half-edge `twins`) flagged in `keep`, without
@@ -383,111 +463,309 @@ fn is_steep(length3: f64, flat: f64) -> bool {
 /// bridge rule again over what is kept, while it drops something). `uv` must be the orthogonal projection of `jumps.points`, in the same
 /// units; all `false` when `jumps.factor` is infinite. O(m log m).
 pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
-    if !jumps.factor.is_finite() {
-        return vec![false; triangles.len()];
+    match UnitJumps::when_finite(Some(jumps)) {
+        Some(unit) => bridging_in_box(uv, triangles, &unit),
+        None => vec![false; triangles.len()],
     }
-    // 3-D work in the unit box: lengths of 1e300- or 1e-300-sized parts stay finite.
-    let norm = Normalizer::fit(jumps.points);
-    let to_unit = if norm.half_extent > 0.0 {
-        1.0 / norm.half_extent
-    } else {
-        1.0
-    };
-    let unit = |k: u32| norm.apply(jumps.points[k as usize]);
-    // The longest 3-D edge of each triangle, whether it is steep, and its shortest edge.
-    let shape: Vec<(f64, bool, f64)> = triangles
-        .par_iter()
-        .with_min_len(BLOCK)
-        .map(|t| {
-            let lengths = [0, 1, 2].map(|k| (unit(t[k]) - unit(t[(k + 1) % 3])).length());
-            let k = (0..3).fold(0, |a, b| if lengths[b] > lengths[a] { b } else { a });
-            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-            let flat = planar_distance(uv[a], uv[b]) * to_unit;
-            let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-            (lengths[k], is_steep(lengths[k], flat), shortest)
-        })
-        .collect();
-    let n_points = jumps.points.len();
-    // One round over the triangles `live` (indices): which of them the rules drop, the
-    // depth-jump rule only `with_jumps`.
-    let round = |live: &[u32], with_jumps: bool| -> Vec<bool> {
-        let list: Vec<[u32; 3]> = live.iter().map(|&i| triangles[i as usize]).collect();
-        // The shortest 3-D edge at each vertex bounds its spacings from below, so a
-        // triangle no longer than the bridge factor times that bound at every corner is no
-        // bridge, and a flat one no jump: the spacings (a sort of edges) are needed only
-        // at the corners of the others (few, or none on a smooth, evenly sampled scan).
-        let mut shortest_at = vec![f64::INFINITY; n_points];
-        for &i in live {
-            for &v in &triangles[i as usize] {
-                let s = &mut shortest_at[v as usize];
-                *s = s.min(shape[i as usize].2);
-            }
+}
+
+/// The rules of [`DepthJumps`] on the points mapped into the unit box once (3-D work there:
+/// lengths of 1e300- or 1e-300-sized parts stay finite), not once per corner.
+struct UnitJumps {
+    /// `Normalizer::fit(points).apply(p)` of every point.
+    unit: Vec<DVec3>,
+    /// The box's half extent (input units per unit), 1 for a box of size 0.
+    scale: f64,
+    /// As [`DepthJumps::factor`].
+    factor: f64,
+    /// As [`DepthJumps::gaps`].
+    gaps: bool,
+}
+
+impl UnitJumps {
+    /// `jumps` with its points mapped into their unit box, None without jumps or with an
+    /// infinite factor (the rules are off). O(n), in parallel.
+    fn when_finite(jumps: Option<DepthJumps>) -> Option<Self> {
+        jumps
+            .filter(|j| j.factor.is_finite())
+            .map(|j| Self::gathered(j, None))
+    }
+
+    /// [`UnitJumps::of`] on the points `jumps.points[i]` for `i` in `order` (all points when
+    /// None), in that order: the box is that of all points either way. O(n), in parallel.
+    fn gathered(jumps: DepthJumps, order: Option<&[u32]>) -> Self {
+        let norm = Normalizer::fit(jumps.points);
+        let unit = match order {
+            Some(order) => order
+                .par_iter()
+                .with_min_len(BLOCK)
+                .map(|&i| norm.apply(jumps.points[i as usize]))
+                .collect(),
+            None => jumps
+                .points
+                .par_iter()
+                .with_min_len(BLOCK)
+                .map(|&p| norm.apply(p))
+                .collect(),
+        };
+        UnitJumps {
+            unit,
+            scale: if norm.half_extent > 0.0 {
+                norm.half_extent
+            } else {
+                1.0
+            },
+            factor: jumps.factor,
+            gaps: jumps.gaps,
         }
-        let corner: Vec<AtomicBool> = (0..n_points)
-            .into_par_iter()
-            .with_min_len(BLOCK)
-            .map(|_| AtomicBool::new(false))
-            .collect();
-        let mut any = false;
-        for &i in live {
-            let t = &triangles[i as usize];
-            let (longest3, steep, _) = shape[i as usize];
-            let bound = t
-                .iter()
-                .map(|&v| shortest_at[v as usize])
-                .fold(f64::INFINITY, f64::min);
-            if (with_jumps && steep && longest3 > jumps.factor * bound)
-                || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * bound)
-            {
-                any = true;
-                t.iter()
-                    .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
-            }
-        }
-        if !any {
-            return vec![false; live.len()];
-        }
-        let local = spacings(jumps.points, &list, |v| {
-            corner[v as usize].load(Ordering::Relaxed)
-        });
-        live.par_iter()
-            .with_min_len(BLOCK)
-            .map(|&i| {
-                let (longest3, steep, _) = shape[i as usize];
-                let nearest = |of: fn(&Spacing) -> f64| {
-                    triangles[i as usize]
-                        .iter()
-                        .map(|&v| of(&local[v as usize]))
-                        .fold(f64::INFINITY, f64::min)
-                        * to_unit
-                };
-                (with_jumps && steep && longest3 > jumps.factor * nearest(|s| s.median))
-                    || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * nearest(|s| s.across))
-            })
-            .collect()
-    };
-    let all: Vec<u32> = (0..triangles.len() as u32).collect();
-    let mut dropped = round(&all, true);
+    }
+
+    /// The three 3-D edge lengths of `t` in the unit box, edge k from corner k. O(1).
+    fn lengths(&self, t: &[u32; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|k| (self.unit[t[k] as usize] - self.unit[t[(k + 1) % 3] as usize]).length())
+    }
+}
+
+/// [`bridging_triangles`] on points already in their unit box. The rounds after the first
+/// are judged on the neighbourhood of what the last round dropped ([`next_round`]), not on
+/// every triangle again. O(m log m).
+fn bridging_in_box(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps) -> Vec<bool> {
+    let (shape, shortest_at) = shapes(uv, triangles, jumps);
+    let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
+        f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
+    });
+    drop(shortest_at);
     // A fan over a gap inflates the spacing at its apex until its longest rungs are gone:
     // the bridge rule runs again on what is kept while it drops something. The jump rule
     // runs once (again, it would eat into the walls' rims).
-    let mut changed = jumps.gaps && dropped.iter().any(|&d| d);
-    while changed {
-        let live: Vec<u32> = all
-            .iter()
-            .copied()
-            .filter(|&i| !dropped[i as usize])
+    if jumps.gaps && dropped.iter().any(|&d| d) {
+        let around = Incidence::of(jumps.unit.len(), triangles);
+        let mut last: Vec<u32> = (0..triangles.len() as u32)
+            .filter(|&i| dropped[i as usize])
             .collect();
-        let more = round(&live, false);
-        changed = false;
-        for (&i, m) in live.iter().zip(more) {
-            if m {
+        while !last.is_empty() {
+            last = next_round(triangles, &shape, jumps, &around, &dropped, &last);
+            for &i in &last {
                 dropped[i as usize] = true;
-                changed = true;
             }
         }
     }
     dropped
+}
+
+/// Each triangle's longest 3-D edge, negative when steep, and the shortest 3-D edge of any
+/// triangle at each vertex (edge lengths are ≥ +0, whose bit patterns order as the numbers
+/// do, so an atomic minimum of the bits is the minimum in any order). O(m), in parallel.
+fn shapes(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    jumps: &UnitJumps,
+) -> (Vec<f64>, Vec<AtomicU64>) {
+    let to_unit = 1.0 / jumps.scale;
+    let shortest_at: Vec<AtomicU64> = (0..jumps.unit.len())
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
+        .collect();
+    let shape: Vec<f64> = triangles
+        .par_iter()
+        .with_min_len(BLOCK)
+        .map(|t| {
+            let lengths = jumps.lengths(t);
+            let k = (0..3).fold(0, |a, b| if lengths[b] > lengths[a] { b } else { a });
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            let flat = planar_distance(uv[a], uv[b]) * to_unit;
+            let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+            for &v in t {
+                let at = &shortest_at[v as usize];
+                if shortest.to_bits() < at.load(Ordering::Relaxed) {
+                    at.fetch_min(shortest.to_bits(), Ordering::Relaxed);
+                }
+            }
+            if is_steep(lengths[k], flat) {
+                -lengths[k]
+            } else {
+                lengths[k]
+            }
+        })
+        .collect();
+    (shape, shortest_at)
+}
+
+/// One round of the rules over `list` (corners indexing `unit`) with its `shape` (longest
+/// 3-D edge, negative when steep): which triangles they drop, the depth-jump rule only
+/// `with_jumps`; `shortest_at(v)` is the shortest 3-D edge of the listed triangles at
+/// corner v. O(m + k log k) for the k edges at corners of triangles the shortest edges
+/// do not clear.
+fn round(
+    unit: &[DVec3],
+    list: &[[u32; 3]],
+    shape: &[f64],
+    jumps: &UnitJumps,
+    with_jumps: bool,
+    shortest_at: impl Fn(u32) -> f64 + Sync,
+) -> Vec<bool> {
+    let to_unit = 1.0 / jumps.scale;
+    // The shortest 3-D edge at each vertex bounds its spacings from below, so a
+    // triangle no longer than the bridge factor times that bound at every corner is no
+    // bridge, and a flat one no jump: the spacings (a sort of edges) are needed only
+    // at the corners of the others (few, or none on a smooth, evenly sampled scan).
+    let corner: Vec<AtomicBool> = (0..unit.len())
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|_| AtomicBool::new(false))
+        .collect();
+    let any = list
+        .par_iter()
+        .zip(shape)
+        .with_min_len(BLOCK)
+        .map(|(t, &s)| {
+            let (longest3, steep) = (s.abs(), s.is_sign_negative());
+            let bound = t
+                .iter()
+                .map(|&v| shortest_at(v))
+                .fold(f64::INFINITY, f64::min);
+            let flagged = (with_jumps && steep && longest3 > jumps.factor * bound)
+                || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * bound);
+            if flagged {
+                t.iter()
+                    .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
+            }
+            flagged
+        })
+        .reduce(|| false, |a, b| a || b);
+    if !any {
+        return vec![false; list.len()];
+    }
+    let local = spacings(unit, jumps.scale, list, |v| {
+        corner[v as usize].load(Ordering::Relaxed)
+    });
+    list.par_iter()
+        .zip(shape)
+        .with_min_len(BLOCK)
+        .map(|(t, &s)| {
+            let (longest3, steep) = (s.abs(), s.is_sign_negative());
+            let nearest = |of: fn(&Spacing) -> f64| {
+                t.iter()
+                    .map(|&v| of(&local[v as usize]))
+                    .fold(f64::INFINITY, f64::min)
+                    * to_unit
+            };
+            (with_jumps && steep && longest3 > jumps.factor * nearest(|s| s.median))
+                || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * nearest(|s| s.across))
+        })
+        .collect()
+}
+
+/// The triangles at each vertex (compressed rows). O(n + m) to build.
+struct Incidence {
+    /// Triangles at vertex v: `triangles[first[v]..first[v + 1]]`.
+    first: Vec<u32>,
+    triangles: Vec<u32>,
+}
+
+impl Incidence {
+    fn of(n: usize, triangles: &[[u32; 3]]) -> Self {
+        let mut first = vec![0u32; n + 1];
+        for &v in triangles.as_flattened() {
+            first[v as usize + 1] += 1;
+        }
+        for v in 0..n {
+            first[v + 1] += first[v];
+        }
+        let mut fill = first.clone();
+        let mut at = vec![0u32; first[n] as usize];
+        for (i, t) in triangles.iter().enumerate() {
+            for &v in t {
+                at[fill[v as usize] as usize] = i as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Incidence {
+            first,
+            triangles: at,
+        }
+    }
+
+    fn at(&self, v: u32) -> &[u32] {
+        &self.triangles[self.first[v as usize] as usize..self.first[v as usize + 1] as usize]
+    }
+}
+
+/// A round of the bridge rule after the first, over the triangles not `dropped`, given the
+/// triangles the round before dropped (`last`): the ones it drops now.
+///
+/// Only triangles near `last` can change their verdict. A triangle's verdict depends on the
+/// spacings of its corners, each over the kept triangles at that corner, and on which
+/// corners have them at all (those of triangles whose shortest edges do not clear them,
+/// each shortest edge over the kept triangles at a corner). With R0 the corners of `last`
+/// and R(k+1) R(k) and the corners of kept triangles at R(k): a kept triangle with no
+/// corner in R1 sees the same spacings as in the round before (no corner's triangles
+/// changed) at no more corners (a triangle at its corner is cleared as before, or sees
+/// fewer triangles only at R0, so the corner would be in R1), and was kept then, so it is
+/// kept now; the verdicts of those with a corner in R1 depend on the kept triangles at R3,
+/// which are judged as the whole round would judge them: the same verdicts, bit for bit,
+/// on a few triangles. O(k log k) for k triangles around `last`.
+fn next_round(
+    triangles: &[[u32; 3]],
+    shape: &[f64],
+    jumps: &UnitJumps,
+    around: &Incidence,
+    dropped: &[bool],
+    last: &[u32],
+) -> Vec<u32> {
+    let kept_at = |v: u32| {
+        around
+            .at(v)
+            .iter()
+            .copied()
+            .filter(|&i| !dropped[i as usize])
+    };
+    let mut rings: Vec<Vec<u32>> = vec![last.iter().flat_map(|&i| triangles[i as usize]).collect()];
+    for _ in 0..3 {
+        let inner = rings.last().expect("R0");
+        let mut outer: Vec<u32> = inner
+            .iter()
+            .flat_map(|&v| kept_at(v).flat_map(|i| triangles[i as usize]))
+            .chain(inner.iter().copied())
+            .collect();
+        outer.sort_unstable();
+        outer.dedup();
+        rings.push(outer);
+    }
+    let mut near: Vec<u32> = rings[3].iter().flat_map(|&v| kept_at(v)).collect();
+    near.sort_unstable();
+    near.dedup();
+    // The neighbourhood as a problem of its own: its corners renumbered in order.
+    let mut corners: Vec<u32> = near.iter().flat_map(|&i| triangles[i as usize]).collect();
+    corners.sort_unstable();
+    corners.dedup();
+    let local = |v: u32| corners.binary_search(&v).expect("a corner") as u32;
+    let list: Vec<[u32; 3]> = near
+        .iter()
+        .map(|&i| triangles[i as usize].map(local))
+        .collect();
+    let unit: Vec<DVec3> = corners.iter().map(|&v| jumps.unit[v as usize]).collect();
+    let mut shortest_at = vec![f64::INFINITY; corners.len()];
+    for (&i, t) in near.iter().zip(&list) {
+        let shortest = jumps
+            .lengths(&triangles[i as usize])
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
+        for &v in t {
+            shortest_at[v as usize] = shortest_at[v as usize].min(shortest);
+        }
+    }
+    let near_shape: Vec<f64> = near.iter().map(|&i| shape[i as usize]).collect();
+    let verdicts = round(&unit, &list, &near_shape, jumps, false, |v| {
+        shortest_at[v as usize]
+    });
+    let in_r1 = |v: &u32| rings[1].binary_search(v).is_ok();
+    near.iter()
+        .zip(verdicts)
+        .filter(|&(&i, drop)| drop && triangles[i as usize].iter().any(in_r1))
+        .map(|(&i, _)| i)
+        .collect()
 }
 
 /// `kept` without the numerically degenerate triangles on its boundary and with every
@@ -668,7 +946,13 @@ mod tests {
     fn local_spacing_is_the_median_edge_at_each_vertex() {
         let p = terrain(12, 9, 1.0, |x, y| 0.3 * x * x - y);
         let d = delaunay(&planar(&p)).unwrap();
-        let local: Vec<f64> = spacings(&p, &d.triangles, |_| true)
+        let jumps = DepthJumps {
+            points: &p,
+            factor: DEFAULT_JUMP_FACTOR,
+            gaps: true,
+        };
+        let unit = UnitJumps::gathered(jumps, None);
+        let local: Vec<f64> = spacings(&unit.unit, unit.scale, &d.triangles, |_| true)
             .iter()
             .map(|s| s.median)
             .collect();
@@ -925,5 +1209,74 @@ mod tests {
         let reordered = vec![[2, 5, 6], [2, 4, 5], [0, 2, 3], [0, 1, 2]];
         let kept = trim_long_edges(&uv, &reordered, f64::INFINITY, None).unwrap();
         assert_eq!(kept, vec![[0, 2, 3], [0, 1, 2]]);
+    }
+
+    #[test]
+    fn later_bridge_rounds_on_the_neighbourhood_are_full_rounds() {
+        // Reference: every round after the first over all kept triangles, as the rule reads.
+        let full = |uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps| {
+            let (shape, shortest_at) = shapes(uv, triangles, jumps);
+            let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
+                f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
+            });
+            let mut rounds = 1;
+            loop {
+                let live: Vec<usize> = (0..triangles.len()).filter(|&i| !dropped[i]).collect();
+                let list: Vec<[u32; 3]> = live.iter().map(|&i| triangles[i]).collect();
+                let mut at = vec![f64::INFINITY; jumps.unit.len()];
+                for t in &list {
+                    let shortest = jumps.lengths(t).into_iter().fold(f64::INFINITY, f64::min);
+                    t.iter()
+                        .for_each(|&v| at[v as usize] = at[v as usize].min(shortest));
+                }
+                let live_shape: Vec<f64> = live.iter().map(|&i| shape[i]).collect();
+                let more = round(&jumps.unit, &list, &live_shape, jumps, false, |v| {
+                    at[v as usize]
+                });
+                if !more.contains(&true) {
+                    return (dropped, rounds);
+                }
+                rounds += 1;
+                live.iter().zip(more).for_each(|(&i, m)| dropped[i] |= m);
+            }
+        };
+        let mut most = 0;
+        for seed in 0..12u64 {
+            // Jittered lines as benches/peers.py scans them (the convex hull's slivers along
+            // the ragged ends of the lines go over several rounds), some with missed
+            // stretches and a step.
+            let (per, lines) = (40 + 7 * seed as usize, 30 + 5 * seed as usize);
+            let jitter = crate::testing::random_points(per * lines, seed);
+            let mut p: Vec<DVec3> = (0..per * lines)
+                .map(|k| {
+                    let x = (k % per) as f64 + 0.1 * jitter[k][0] - 0.05;
+                    let y = (k / per) as f64 * 1.3 + 0.13 * jitter[k][1] - 0.065;
+                    let step = if seed % 3 == 1 && x > 20.5 { 6.0 } else { 0.0 };
+                    DVec3::new(x, y, 0.05 * (x + y) + step)
+                })
+                .collect();
+            if seed % 3 == 2 {
+                p.retain(|q| ((q.y * 0.37 + q.x * 0.11) % 7.0) > 1.0 || q.x < 10.0);
+            }
+            let uv = planar(&p);
+            let d = delaunay(&uv).unwrap();
+            let jumps = UnitJumps::gathered(
+                DepthJumps {
+                    points: &p,
+                    factor: DEFAULT_JUMP_FACTOR,
+                    gaps: true,
+                },
+                None,
+            );
+            let (expected, rounds) = full(&uv, &d.triangles, &jumps);
+            assert_eq!(
+                bridging_in_box(&uv, &d.triangles, &jumps),
+                expected,
+                "seed {seed}"
+            );
+            most = most.max(rounds);
+        }
+        assert!(most >= 3, "the fixtures must need several rounds ({most})");
+
     }
 }
