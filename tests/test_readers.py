@@ -332,6 +332,23 @@ def test_text_across_chunks_matches_a_plain_parse(tmp_path, monkeypatch):
     np.testing.assert_array_equal(sp.line_ids, expect_ids)
 
 
+def test_blocks_and_row_lines_at_every_chunk_boundary(tmp_path, monkeypatch):
+    """Every chunk size, so a chunk can end on blank lines that open the next chunk's first
+    block: the blank-line line ids and the line named for a bad row do not change."""
+    from scanmesh.formats import table
+
+    text = "x y z\n1 0 0\n2 0 0\n\n3 0 0\n\n\n4 0 0\n# c\n\n5 0 0\n6 0 0\n\n"
+    good = write(tmp_path / "good.xyz", text)
+    bad = write(tmp_path / "bad.xyz", text.replace("5 0 0", "5 0 nan"))
+    for chunk in range(1, len(text) + 2):
+        monkeypatch.setattr(table, "CHUNK_BYTES", chunk)
+        sp = read_xyz(good)
+        assert sp.line_ids.tolist() == [0, 0, 1, 2, 3, 3], chunk
+        assert sp.points[:, 0].tolist() == [1, 2, 3, 4, 5, 6], chunk
+        with raises_naming(FileFormatError, bad, "line 11", "non-finite z"):
+            read_xyz(bad)
+
+
 def random_table_text(rng, comma: bool, ncols: int = 4, rows: int = 400) -> bytes:
     """Rows of ncols numbers in many spellings, with comments, blank and CRLF lines."""
     spell = [
