@@ -79,14 +79,14 @@ pub fn check_faces(n_vertices: usize, faces: &[[u32; 3]]) -> Result<()> {
 /// The faces around every vertex as compressed rows: the faces of vertex `v` are
 /// `faces[offsets[v]..offsets[v + 1]]`, in increasing face order (so that sums over a fan
 /// add in the same order as a pass over the faces would). O(n + m) time and memory.
-struct Fans {
+pub(crate) struct Fans {
     offsets: Vec<usize>,
     faces: Vec<u32>,
 }
 
 impl Fans {
     /// Counting sort of the 3m corners by vertex; `faces` must be checked already.
-    fn new(n_vertices: usize, faces: &[[u32; 3]]) -> Fans {
+    pub(crate) fn new(n_vertices: usize, faces: &[[u32; 3]]) -> Fans {
         let mut offsets = vec![0usize; n_vertices + 1];
         for t in faces {
             for &v in t {
@@ -112,7 +112,7 @@ impl Fans {
 
     /// The faces around vertex `v`, in increasing order.
     #[inline]
-    fn of(&self, v: usize) -> &[u32] {
+    pub(crate) fn of(&self, v: usize) -> &[u32] {
         &self.faces[self.offsets[v]..self.offsets[v + 1]]
     }
 }

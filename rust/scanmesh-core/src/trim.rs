@@ -1,6 +1,7 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
+use crate::criteria::Fans;
 use crate::delaunay::{relabel, unit_square, Delaunay, NONE};
 use crate::geometry::{planar_distance, Normalizer};
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
@@ -185,13 +186,7 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
         );
     let extent = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
     let negligible = NEAR_DUPLICATE_RELATIVE * extent;
-    // Distances are ≥ +0, whose bit patterns order as the numbers do: an atomic minimum
-    // of the bits is the minimum.
-    let nearest: Vec<AtomicU64> = (0..uv.len())
-        .into_par_iter()
-        .with_min_len(BLOCK)
-        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
-        .collect();
+    let nearest = infinities(uv.len());
     triangles.par_iter().with_min_len(BLOCK).for_each(|t| {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -200,10 +195,7 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
                 continue;
             }
             for v in [a, b] {
-                let at = &nearest[v as usize];
-                if d.to_bits() < at.load(Ordering::Relaxed) {
-                    at.fetch_min(d.to_bits(), Ordering::Relaxed);
-                }
+                lower(&nearest[v as usize], d);
             }
         }
     });
@@ -218,6 +210,27 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
     }
     let mid = finite.len() / 2;
     *finite.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// `n` atomic minima of lengths, all `∞` to start with. Lengths are ≥ +0, whose bit
+/// patterns order as the numbers do, so [`lower`] on the bits takes the minimum, in any
+/// order. O(n), in parallel.
+fn infinities(n: usize) -> Vec<AtomicU64> {
+    (0..n)
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
+        .collect()
+}
+
+/// Lowers the length held in `at` to `length` (≥ +0) if that is smaller. A plain load
+/// first: most lengths are not the minimum, and a read-modify-write on each is a locked
+/// instruction. O(1).
+#[inline]
+fn lower(at: &AtomicU64, length: f64) {
+    if length.to_bits() < at.load(Ordering::Relaxed) {
+        at.fetch_min(length.to_bits(), Ordering::Relaxed);
+    }
 }
 
 /// Drops triangles whose longest planar edge exceeds `max_edge`, and with `jumps` those
@@ -539,7 +552,7 @@ fn bridging_in_box(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps) -
     // the bridge rule runs again on what is kept while it drops something. The jump rule
     // runs once (again, it would eat into the walls' rims).
     if jumps.gaps && dropped.iter().any(|&d| d) {
-        let around = Incidence::of(jumps.unit.len(), triangles);
+        let around = Fans::new(jumps.unit.len(), triangles);
         let mut last: Vec<u32> = (0..triangles.len() as u32)
             .filter(|&i| dropped[i as usize])
             .collect();
@@ -554,19 +567,14 @@ fn bridging_in_box(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps) -
 }
 
 /// Each triangle's longest 3-D edge, negative when steep, and the shortest 3-D edge of any
-/// triangle at each vertex (edge lengths are ≥ +0, whose bit patterns order as the numbers
-/// do, so an atomic minimum of the bits is the minimum in any order). O(m), in parallel.
+/// triangle at each vertex (see [`infinities`]). O(m), in parallel.
 fn shapes(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     jumps: &UnitJumps,
 ) -> (Vec<f64>, Vec<AtomicU64>) {
     let to_unit = 1.0 / jumps.scale;
-    let shortest_at: Vec<AtomicU64> = (0..jumps.unit.len())
-        .into_par_iter()
-        .with_min_len(BLOCK)
-        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
-        .collect();
+    let shortest_at = infinities(jumps.unit.len());
     let shape: Vec<f64> = triangles
         .par_iter()
         .with_min_len(BLOCK)
@@ -577,10 +585,7 @@ fn shapes(
             let flat = planar_distance(uv[a], uv[b]) * to_unit;
             let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
             for &v in t {
-                let at = &shortest_at[v as usize];
-                if shortest.to_bits() < at.load(Ordering::Relaxed) {
-                    at.fetch_min(shortest.to_bits(), Ordering::Relaxed);
-                }
+                lower(&shortest_at[v as usize], shortest);
             }
             if is_steep(lengths[k], flat) {
                 -lengths[k]
@@ -657,41 +662,6 @@ fn round(
         .collect()
 }
 
-/// The triangles at each vertex (compressed rows). O(n + m) to build.
-struct Incidence {
-    /// Triangles at vertex v: `triangles[first[v]..first[v + 1]]`.
-    first: Vec<u32>,
-    triangles: Vec<u32>,
-}
-
-impl Incidence {
-    fn of(n: usize, triangles: &[[u32; 3]]) -> Self {
-        let mut first = vec![0u32; n + 1];
-        for &v in triangles.as_flattened() {
-            first[v as usize + 1] += 1;
-        }
-        for v in 0..n {
-            first[v + 1] += first[v];
-        }
-        let mut fill = first.clone();
-        let mut at = vec![0u32; first[n] as usize];
-        for (i, t) in triangles.iter().enumerate() {
-            for &v in t {
-                at[fill[v as usize] as usize] = i as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        Incidence {
-            first,
-            triangles: at,
-        }
-    }
-
-    fn at(&self, v: u32) -> &[u32] {
-        &self.triangles[self.first[v as usize] as usize..self.first[v as usize + 1] as usize]
-    }
-}
-
 /// A round of the bridge rule after the first, over the triangles not `dropped`, given the
 /// triangles the round before dropped (`last`): the ones it drops now.
 ///
@@ -710,13 +680,13 @@ fn next_round(
     triangles: &[[u32; 3]],
     shape: &[f64],
     jumps: &UnitJumps,
-    around: &Incidence,
+    around: &Fans,
     dropped: &[bool],
     last: &[u32],
 ) -> Vec<u32> {
     let kept_at = |v: u32| {
         around
-            .at(v)
+            .of(v as usize)
             .iter()
             .copied()
             .filter(|&i| !dropped[i as usize])
@@ -1277,6 +1247,5 @@ mod tests {
             most = most.max(rounds);
         }
         assert!(most >= 3, "the fixtures must need several rounds ({most})");
-
     }
 }
