@@ -12,7 +12,7 @@ a slot pocket and two small oil holes) along z. Rows:
 
 - ``delaunay, planar trim only``: today's Delaunay before depth-jump trimming (planar
   trimming at the default length, ``jump_factor=inf``), the reference of the ratios;
-- ``delaunay`` and ``anneal``: default ``reconstruct`` (depth-jump trimming on);
+- ``delaunay`` and ``anneal``: default ``reconstruct`` (depth-jump, gap and hole trimming on);
 - ``pyvista delaunay_2d``: ``delaunay_2d(alpha=2.5 s)`` (s the median spacing);
 - ``pymeshlab ball pivoting`` (automatic radius) and ``open3d ball pivoting`` (radii s,
   2 s, 4 s, normals estimated and oriented towards the scanner).

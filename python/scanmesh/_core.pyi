@@ -16,6 +16,7 @@ __all__ = [
     "InvalidMeshError",
     "SLIVER_ANGLE_DEG",
     "DEFAULT_BRIDGE_FACTOR",
+    "DEFAULT_HOLE_FACTOR",
     "DEFAULT_JUMP_FACTOR",
     "DEFAULT_MAX_EDGE_FACTOR",
     "ANNEAL_DEFAULTS",
@@ -49,6 +50,7 @@ class InvalidMeshError(ScanmeshError): ...
 
 SLIVER_ANGLE_DEG: float
 DEFAULT_BRIDGE_FACTOR: float
+DEFAULT_HOLE_FACTOR: float
 DEFAULT_JUMP_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 

@@ -30,6 +30,11 @@ JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
 #: the depth jumps.
 BRIDGE_FACTOR: float = _core.DEFAULT_BRIDGE_FACTOR
 
+#: A triangle whose planar area exceeds this multiple of the local triangle area (the median
+#: over its corners of the lower median of the areas at each) covers missing samples (a
+#: hole or slot narrower than ``max_edge``, at one height) and is dropped with the depth jumps.
+HOLE_FACTOR: float = _core.DEFAULT_HOLE_FACTOR
+
 
 #: ``max_edge``, the shared trimming keyword: None means MAX_EDGE_FACTOR x median spacing.
 MAX_EDGE_OPTION = Option(
@@ -73,8 +78,9 @@ def delaunay(
         outlines stay open. Default: ``MAX_EDGE_FACTOR`` (5) x the median nearest-neighbour
         spacing. With a finite ``max_edge``, triangles that bridge a depth jump (a wall, a
         step, a bore: a steep longest 3-D edge above ``JUMP_FACTOR`` (3) x the local 3-D
-        spacing) or a gap (any longest 3-D edge above ``BRIDGE_FACTOR`` (5) x the spacing
-        across lines) are dropped too. ``math.inf`` keeps the whole convex hull (less the
+        spacing), a gap (any longest 3-D edge above ``BRIDGE_FACTOR`` (5) x the spacing
+        across lines) or a hole (a planar area above ``HOLE_FACTOR`` (5) x the local
+        triangle area) are dropped too. ``math.inf`` keeps the whole convex hull (less the
         zero-area slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages

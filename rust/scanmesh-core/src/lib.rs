@@ -74,5 +74,5 @@ pub use text::{parse_table, Table, TextError, TextErrorKind};
 pub use tiles::TiledAnnealer;
 pub use trim::{
     delaunay_trimmed, median_spacing, trim_delaunay, trim_long_edges, DepthJumps, Trimmed,
-    DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
+    DEFAULT_BRIDGE_FACTOR, DEFAULT_HOLE_FACTOR, DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
 };

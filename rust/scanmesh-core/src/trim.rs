@@ -10,6 +10,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
+mod holes;
+use holes::covering_holes;
+pub use holes::DEFAULT_HOLE_FACTOR;
+
 /// Triangles per rayon task in the passes over all of them.
 const BLOCK: usize = 1 << 14;
 
@@ -243,7 +247,9 @@ fn lower(at: &AtomicU64, length: f64) {
 /// projection of `jumps.points`, in the same units) and exceeds `jumps.factor` times the
 /// smallest local spacing of its corners (computed over the input triangles), or, at any
 /// slope, [`DEFAULT_BRIDGE_FACTOR`] times their spacing across lines
-/// ([`bridging_triangles`]), so the hole stays open. Straight stretches
+/// ([`bridging_triangles`]), or that is far longer and larger in the plane than the
+/// triangles around it ([`covering_holes`] at [`DEFAULT_HOLE_FACTOR`]), so the hole stays
+/// open. Straight stretches
 /// of a scanned outline put collinear points on the convex hull, and
 /// Delaunay closes them with zero-area slivers whose angles (0, 0, π) make a boundary
 /// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a vertex where two fans touch only at a point; there the triangles of all
@@ -372,7 +378,11 @@ fn trim(
     let short = ShortEnough::new(max_edge);
     let longest_within =
         |t: &[u32; 3]| (0..3).all(|k| short.test(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]));
-    let bridges = jumps.map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
+    let mut bridges = jumps.map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
+    if jumps.is_some_and(|j| j.gaps && j.factor.is_finite()) {
+        let holes = covering_holes(uv, triangles, DEFAULT_HOLE_FACTOR);
+        bridges.iter_mut().zip(holes).for_each(|(b, h)| *b |= h);
+    }
     let keep: Vec<bool> = triangles
         .par_iter()
         .enumerate()

@@ -342,7 +342,8 @@ fn median_spacing(
 
 /// Drops faces whose longest planar edge exceeds `max_edge` and, given the (N, 3) `points`,
 /// faces that bridge a depth jump (longest 3-D edge above `jump_factor` times the local
-/// spacing; `inf` turns it off); then peels collinear hull slivers and resolves pinches.
+/// spacing; `inf` turns it off), a gap or a hole; then peels collinear hull slivers and
+/// resolves pinches.
 #[pyfunction]
 #[pyo3(signature = (uv, faces_, max_edge, points=None, jump_factor=f64::INFINITY))]
 fn trim_long_edges<'py>(
@@ -1070,6 +1071,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "DEFAULT_BRIDGE_FACTOR",
         scanmesh_core::DEFAULT_BRIDGE_FACTOR,
     )?;
+    m.add("DEFAULT_HOLE_FACTOR", scanmesh_core::DEFAULT_HOLE_FACTOR)?;
     let d = AnnealParams::default();
     let defaults = pyo3::types::PyDict::new(py);
     defaults.set_item("sweeps", d.sweeps)?;
