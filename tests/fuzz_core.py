@@ -83,6 +83,7 @@ def make_case(seed: int) -> dict[str, Any]:
             chains=int(rng.choice([0, 1, 3])),
             tiles=int(rng.choice([1, 2, 3, 8, 64])),
         )
+        options["planar_ties"] = bool(rng.random() < 0.5)
     return {"seed": seed, "kind": kind, "points": points, "options": options}
 
 
@@ -194,7 +195,7 @@ def run_case(seed: int, caller_plane: bool = False) -> str | None:
     if o["method"] == "anneal":
         keys = (
             "sweeps p seed initial_acceptance final_temperature_ratio patience sliver_guard"
-            " tie_tolerance polish calibration_samples chains tiles"
+            " tie_tolerance planar_ties polish calibration_samples chains tiles"
         ).split()
 
         def anneal() -> np.ndarray:

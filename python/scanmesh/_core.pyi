@@ -140,6 +140,7 @@ class Annealer:
         patience: int,
         sliver_guard: bool,
         tie_tolerance: float,
+        planar_ties: bool,
         polish: bool,
         calibration_samples: int,
         chains: int,

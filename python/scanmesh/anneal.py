@@ -111,6 +111,12 @@ OPTIONS: tuple[Option, ...] = (
         doc=TIE_TOLERANCE_OPTION.doc + " (automatic: from the scan's noise estimate)",
         automatic=True,
     ),
+    Option(
+        "planar_ties",
+        "bool",
+        ANNEAL_DEFAULTS["planar_ties"],
+        "judge flips between corners flat up to the noise by the planar angle (Delaunay's)",
+    ),
     Option("polish", "bool", ANNEAL_DEFAULTS["polish"], "run LOP from the best state at the end"),
     Option(
         "calibration_samples",
@@ -267,7 +273,12 @@ def anneal_surface(
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
     **schedule
         ``sweeps`` (1000), ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
-        ``patience``, ``sliver_guard`` (True), ``tie_tolerance``, ``polish`` (True),
+        ``patience``, ``sliver_guard`` (True), ``tie_tolerance``, ``planar_ties``
+        (False; True: a flip whose four corners have a tac within twice the tie tolerance,
+        flat up to the noise, is judged by the smallest planar angle alone, Delaunay's
+        criterion, instead of by tac and 3-D angles, which there are the noise's: noisy
+        flat parts then stay at Delaunay's height error, curved ones lose some of tac's
+        gain; benches/results/noise.md), ``polish`` (True),
         ``calibration_samples``, ``chains`` (0: automatic); defaults in
         ``ANNEAL_DEFAULTS`` and the checks in :data:`OPTIONS`. ``chains`` independent runs
         start from ``initial`` with seeds derived from ``seed``, side by side on the cores

@@ -9,7 +9,7 @@
 
 use crate::active::LiveEdges;
 use crate::budget;
-use crate::lop::{tac_lop, TacOrder};
+use crate::lop::{planar_min_angles, tac_lop, TacOrder, ANGLE_EPSILON};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{Detail, Proposal, TacState};
 use crate::{Error, Result};
@@ -38,6 +38,11 @@ pub struct AnnealParams {
     pub sliver_guard: bool,
     /// Energy changes of at most this size (radians^p) are ties.
     pub tie_tolerance: f64,
+    /// Flips whose four corners are flat up to the noise (see [`TacOrder`]) are judged by
+    /// the smallest planar angle alone, in the walk and in the polish: for a tolerance
+    /// that stands for the scan's noise. Off: every flip by the energy, ties accepted
+    /// freely and broken by the 3-D angle in the polish.
+    pub planar_ties: bool,
     /// Run LOP from the best state at the end.
     pub polish: bool,
     /// Proposals sampled to calibrate T0.
@@ -77,6 +82,7 @@ impl Default for AnnealParams {
             patience: 50,
             sliver_guard: true,
             tie_tolerance: 1e-10,
+            planar_ties: false,
             polish: true,
             calibration_samples: 2000,
             chains: 0,
@@ -258,6 +264,7 @@ impl AnnealParams {
         TacOrder {
             tie_tolerance: self.tie_tolerance,
             sliver_guard: self.sliver_guard,
+            planar_ties: self.planar_ties,
         }
     }
 }
@@ -545,7 +552,18 @@ impl Annealer {
         // Ties are accepted freely: tac is blind on flat and developable parts, and the
         // better optima are reached through long neutral walks there. The sliver guard acts
         // in the final polish, which makes the result a local optimum of (tac, angle).
-        let accept = if self.order.is_tie(&mv) || mv.delta_energy < 0.0 {
+        // With `planar_ties`, a flip whose corners are all flat up to the noise follows
+        // Delaunay's criterion instead (see `TacOrder`): a walk there only picks triangles
+        // by the noise.
+        let flat = self
+            .order
+            .planar_ties
+            .then(|| self.state.flat_quad_uv(h, self.order.tie_tolerance))
+            .flatten();
+        let accept = if let Some(quad) = flat {
+            let (old, new) = planar_min_angles(quad);
+            new > old + ANGLE_EPSILON
+        } else if self.order.is_tie(&mv) || mv.delta_energy < 0.0 {
             true
         } else {
             self.uphill_proposed += 1;

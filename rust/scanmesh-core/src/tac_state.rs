@@ -402,6 +402,20 @@ impl TacState {
         self.vert.iter().map(|r| r.xyz).collect()
     }
 
+    /// Planar positions of the quadrilateral (a, b, c, d) of [`HalfEdgeMesh::quad`] of the
+    /// interior half-edge `h` when each of its corners is flat up to the noise of
+    /// `tie_tolerance` (a boundary vertex, or a tac at most
+    /// [`crate::lop::NOISE_TAC`] × tie_tolerance^(1/p)), else `None`. O(1).
+    pub fn flat_quad_uv(&self, h: u32, tie_tolerance: f64) -> Option<[[f64; 2]; 4]> {
+        let floor = crate::lop::NOISE_TAC * tie_tolerance.powf(1.0 / self.p);
+        let t = self.mesh.twin(h);
+        let quad = self.mesh.quad(h, t).map(|v| &self.vert[v as usize]);
+        if quad.iter().any(|r| r.above(floor)) {
+            return None;
+        }
+        Some(quad.map(|r| r.uv))
+    }
+
     /// Current energy, maintained incrementally. O(1).
     pub fn energy(&self) -> f64 {
         self.energy

@@ -510,7 +510,7 @@ impl Annealer {
 #[pymethods]
 impl Annealer {
     #[new]
-    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, polish, calibration_samples, chains, tiles))]
+    #[pyo3(signature = (points, uv, faces, *, sweeps, p, seed, initial_acceptance, final_temperature_ratio, patience, sliver_guard, tie_tolerance, planar_ties, polish, calibration_samples, chains, tiles))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -525,6 +525,7 @@ impl Annealer {
         patience: usize,
         sliver_guard: bool,
         tie_tolerance: f64,
+        planar_ties: bool,
         polish: bool,
         calibration_samples: usize,
         chains: usize,
@@ -539,6 +540,7 @@ impl Annealer {
             patience,
             sliver_guard,
             tie_tolerance,
+            planar_ties,
             polish,
             calibration_samples,
             chains,
@@ -1081,6 +1083,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     defaults.set_item("patience", d.patience)?;
     defaults.set_item("sliver_guard", d.sliver_guard)?;
     defaults.set_item("tie_tolerance", d.tie_tolerance)?;
+    defaults.set_item("planar_ties", d.planar_ties)?;
     defaults.set_item("polish", d.polish)?;
     defaults.set_item("calibration_samples", d.calibration_samples)?;
     defaults.set_item("chains", d.chains)?;
