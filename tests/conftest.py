@@ -37,7 +37,11 @@ def rod_scan() -> tuple[np.ndarray, np.ndarray]:
 def seconds_to_interrupt(script: str, wait: float) -> float:
     """Run ``script`` in a child; after it prints "started" and ``wait`` seconds pass, send
     SIGINT; return how long the child took to reach its ``except KeyboardInterrupt``."""
-    proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(script)],
+    # A child started from a background job inherits SIGINT ignored, and Python then keeps
+    # it ignored: the child would never see the interrupt and readline() would wait for
+    # ever. Python's own handler is put back first, as in an interactive shell.
+    restore = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+    proc = subprocess.Popen([sys.executable, "-c", restore + textwrap.dedent(script)],
                             stdout=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().strip() == "started"
