@@ -9,7 +9,7 @@
 
 use crate::active::LiveEdges;
 use crate::budget;
-use crate::lop::{planar_min_angles, tac_lop, TacOrder, ANGLE_EPSILON};
+use crate::lop::{planar_flip_improves, tac_lop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
 use crate::tac_state::{Detail, Proposal, TacState};
 use crate::{Error, Result};
@@ -561,8 +561,7 @@ impl Annealer {
             .then(|| self.state.flat_quad_uv(h, self.order.tie_tolerance))
             .flatten();
         let accept = if let Some(quad) = flat {
-            let (old, new) = planar_min_angles(quad);
-            new > old + ANGLE_EPSILON
+            planar_flip_improves(quad)
         } else if self.order.is_tie(&mv) || mv.delta_energy < 0.0 {
             true
         } else {

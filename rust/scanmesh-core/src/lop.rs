@@ -67,8 +67,7 @@ impl TacOrder {
     #[inline]
     pub fn improves(&self, mv: &FlipMove, flat: impl FnOnce(f64) -> Option<[[f64; 2]; 4]>) -> bool {
         if let Some(quad) = self.planar_ties.then(|| flat(self.tie_tolerance)).flatten() {
-            let (old, new) = planar_min_angles(quad);
-            return new > old + ANGLE_EPSILON;
+            return planar_flip_improves(quad);
         }
         if self.is_tie(mv) {
             self.sliver_guard && mv.new_min_angle > mv.old_min_angle + ANGLE_EPSILON
@@ -88,12 +87,13 @@ impl TacOrder {
 /// corners in the plane, not all their flips: 1.014 (with 1), 1.007 (with 2).
 pub const NOISE_TAC: f64 = 2.0;
 
-/// The smallest planar angle of the two triangles of the convex quadrilateral (a, b, c, d)
-/// of [`HalfEdgeMesh::quad`] with diagonal ab, and with diagonal cd (radians). O(1).
-pub fn planar_min_angles([a, b, c, d]: [[f64; 2]; 4]) -> (f64, f64) {
+/// Whether flipping the diagonal ab of the convex quadrilateral (a, b, c, d) of
+/// [`HalfEdgeMesh::quad`] to cd raises the smallest planar angle of its two triangles by
+/// more than [`ANGLE_EPSILON`]: Delaunay's criterion (Lawson's max-min flip). O(1).
+pub fn planar_flip_improves([a, b, c, d]: [[f64; 2]; 4]) -> bool {
     let old = planar_smallest_angle(a, b, c).min(planar_smallest_angle(b, a, d));
     let new = planar_smallest_angle(d, c, a).min(planar_smallest_angle(c, d, b));
-    (old, new)
+    new > old + ANGLE_EPSILON
 }
 
 /// Something LOP can drive: a triangulation and a rule that flips an edge when that improves.
@@ -290,8 +290,7 @@ impl FlipSearch for PlanarMaxMinLop<'_> {
             return false;
         }
         let t = self.mesh.twin(h);
-        let (old, new) = planar_min_angles(self.mesh.quad(h, t).map(|v| self.uv[v as usize]));
-        if new > old + ANGLE_EPSILON {
+        if planar_flip_improves(self.mesh.quad(h, t).map(|v| self.uv[v as usize])) {
             self.mesh.flip(h);
             true
         } else {

@@ -219,7 +219,7 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// `n` atomic minima of lengths, all `∞` to start with. Lengths are ≥ +0, whose bit
 /// patterns order as the numbers do, so [`lower`] on the bits takes the minimum, in any
 /// order. O(n), in parallel.
-fn infinities(n: usize) -> Vec<AtomicU64> {
+pub(crate) fn infinities(n: usize) -> Vec<AtomicU64> {
     (0..n)
         .into_par_iter()
         .with_min_len(BLOCK)
@@ -231,7 +231,7 @@ fn infinities(n: usize) -> Vec<AtomicU64> {
 /// first: most lengths are not the minimum, and a read-modify-write on each is a locked
 /// instruction. O(1).
 #[inline]
-fn lower(at: &AtomicU64, length: f64) {
+pub(crate) fn lower(at: &AtomicU64, length: f64) {
     if length.to_bits() < at.load(Ordering::Relaxed) {
         at.fetch_min(length.to_bits(), Ordering::Relaxed);
     }

@@ -15,9 +15,9 @@
 //! and the verdicts, are those over the whole mesh.
 
 use crate::geometry::{Normalizer, PAR_BLOCK};
-use crate::trim::{bridging_triangles, DepthJumps};
+use crate::trim::{bridging_triangles, infinities, lower, DepthJumps};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// [`bridging_triangles`]`(uv, triangles, jumps)`, bit for bit, computed on the candidates
 /// only (see the module docs). O(n + m) in parallel, plus that of [`bridging_triangles`]
@@ -58,23 +58,13 @@ pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJump
             (c - a).length_squared(),
         ]
     };
-    // The shortest edge at each vertex, squared. Squares are ≥ +0, whose bit patterns order
-    // as the numbers do, so an atomic minimum of the bits is the minimum, in any order.
-    let shortest: Vec<AtomicU64> = (0..jumps.points.len())
-        .into_par_iter()
-        .with_min_len(PAR_BLOCK)
-        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
-        .collect();
+    // The shortest edge at each vertex, squared (squares are lengths ≥ +0 too).
+    let shortest = infinities(jumps.points.len());
     triangles.par_iter().with_min_len(PAR_BLOCK).for_each(|t| {
         let squares = edges(t);
         for (e, &l2) in squares.iter().enumerate() {
             for v in [t[e], t[(e + 1) % 3]] {
-                // A plain load first: most edges are not a vertex's shortest, and a
-                // read-modify-write on every one is a locked instruction each.
-                let at = &shortest[v as usize];
-                if l2.to_bits() < at.load(Ordering::Relaxed) {
-                    at.fetch_min(l2.to_bits(), Ordering::Relaxed);
-                }
+                lower(&shortest[v as usize], l2);
             }
         }
     });

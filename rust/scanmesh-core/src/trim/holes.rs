@@ -4,11 +4,9 @@
 //! planar rule and its corners lie at one height (so no depth jump or 3-D gap shows).
 
 use crate::delaunay::unit_square;
+use crate::geometry::PAR_BLOCK;
 use crate::mesh::well_formed;
 use rayon::prelude::*;
-
-/// Triangles per rayon task.
-const BLOCK: usize = 1 << 14;
 
 /// Default hole factor: a triangle whose longest planar edge exceeds this multiple of the
 /// edges around it, and whose planar area exceeds [`HOLE_AREA_FACTOR`] times that of the
@@ -70,7 +68,7 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
     // vertex in one sequential pass (the labels are the sweep's, so it reads in order).
     let records: Vec<[f32; 4]> = triangles
         .par_iter()
-        .with_min_len(BLOCK)
+        .with_min_len(PAR_BLOCK)
         .map(|t| {
             measure(t).map_or([f32::NAN; 4], |(e, area)| {
                 [e[0] as f32, e[1] as f32, e[2] as f32, area as f32]
@@ -98,7 +96,7 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
     };
     let candidates: Vec<usize> = (0..triangles.len())
         .into_par_iter()
-        .with_min_len(BLOCK)
+        .with_min_len(PAR_BLOCK)
         .filter(|&i| exceeds(i, &smallest))
         .collect();
     if candidates.is_empty() {
