@@ -104,7 +104,7 @@ def quality(vertices: ArrayLike | PlanarScan, faces: ArrayLike) -> Quality:
     tac, min_angle = _core.mesh_quality(pts, tri)
     # Scalars from the radians (the per-face degrees are converted only if asked for): at
     # 20M faces the conversion and the comparison on it took 0.5 s.
-    smallest = math.degrees(min_angle.min()) if len(min_angle) else math.nan
+    smallest = float(np.degrees(min_angle.min())) if len(min_angle) else math.nan
     slivers = (
         np.count_nonzero(min_angle < _SLIVER_RADIANS) / len(min_angle) if len(min_angle) else 0.0
     )
