@@ -1,0 +1,97 @@
+"""Fingerprints of the faces every method returns on a fixed corpus, for refactors that
+must not change behaviour.
+
+Run it before and after a change and compare the two outputs line by line: a line names
+the scan, the method and the SHA-256 of the faces (int64, in the order returned) with the
+face count. Nothing random is left unseeded; annealing runs a fixed number of sweeps (no
+time limit), so the fingerprints do not depend on the machine's load.
+
+    python benches/face_hashes.py > before.txt
+    python benches/face_hashes.py --data ../shared/data > before_shared.txt   # bench scans
+
+The default corpus is the repository's own: the demo scan and every file of
+``tests/data`` (the CAD parts scanned by ``simulate_scan`` along z, clean and noisy), plus
+seeded random scans.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import scanmesh
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: Per method: keywords that keep the run deterministic and short on every scan.
+METHOD_OPTIONS: dict[str, dict] = {
+    "delaunay": {},
+    "lookahead": {},
+    "shortest-path": {},
+    "lop": {},
+    "anneal": {"sweeps": 30, "seed": 0},
+}
+
+#: The methods that take the scan lines (the others refuse ``lines=``).
+LINE_METHODS = ("lookahead", "shortest-path", "anneal")
+
+
+def _fingerprint(faces: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(faces, dtype=np.int64).tobytes()).hexdigest()[:16]
+
+
+def _scans(data: Path) -> list[tuple[str, object]]:
+    """(name, source) pairs: a source is a path or (points, line_ids)."""
+    scans: list[tuple[str, object]] = [("demo", scanmesh.load_demo())]
+    for path in sorted(data.rglob("*")):
+        if path.suffix in (".vtk", ".dem", ".laz"):
+            scans.append((str(path.relative_to(data)), path))
+    for path in sorted((data / "cad").glob("*")):
+        for noise in (0.0, 1e-3):
+            pts, ids = scanmesh.simulate_scan(path, up="z", n_points=6000, noise=noise, seed=1)
+            scans.append((f"{path.name} z noise={noise:g}", (pts, ids)))
+    rng = np.random.default_rng(2026)
+    for k in range(3):
+        n = 400 * (k + 1)
+        xy = rng.random((n, 2))
+        z = np.sin(3 * xy[:, 0]) * np.cos(2 * xy[:, 1]) + rng.normal(0, 0.01, n)
+        order = np.lexsort((xy[:, 0], np.floor(xy[:, 1] * 20)))
+        pts = np.column_stack([xy, z])[order]
+        ids = np.floor(pts[:, 1] * 20).astype(np.int64)
+        scans.append((f"random {n}", (pts, ids)))
+    return scans
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=ROOT / "tests" / "data")
+    parser.add_argument("--methods", nargs="*", default=list(METHOD_OPTIONS))
+    args = parser.parse_args(argv)
+    for name, source in _scans(args.data):
+        for method in args.methods:
+            kwargs = dict(METHOD_OPTIONS[method])
+            try:
+                if isinstance(source, tuple):
+                    pts, ids = source
+                    if method in LINE_METHODS:
+                        kwargs["lines"] = ids
+                    surface = scanmesh.reconstruct(pts, method, **kwargs)
+                else:
+                    surface = scanmesh.reconstruct(source, method, **kwargs)
+            except scanmesh.ScanmeshError as exc:
+                print(f"{name} | {method} | error {type(exc).__name__}: {exc}")
+                continue
+            print(f"{name} | {method} | {len(surface.faces)} | {_fingerprint(surface.faces)}")
+            sys.stdout.flush()
+    small = np.random.default_rng(7).random((12, 3))
+    surface = scanmesh.reconstruct(small, "optimal")
+    print(f"random 12 | optimal | {len(surface.faces)} | {_fingerprint(surface.faces)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
