@@ -1,0 +1,164 @@
+"""The Markdown documentation: relative links resolve, anchors name headings, files stay short.
+
+Reads files only (no build, no scanmesh import): runs from a fresh clone.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import unicodedata
+from functools import cache
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Folders never searched when git is not available.
+SKIP_DIRS = {".git", "target", ".venv", "venv", "node_modules", "__pycache__", "build", "dist"}
+
+#: Text that belongs in a working diary, not in the documentation.
+FORBIDDEN = {
+    "an issue number": re.compile(r"#[0-9]{1,3}\b|\b[Ii]ssues? [0-9]"),
+    "session talk": re.compile(r"\b[Ss]essions?\b"),
+    "a machine path": re.compile(r"/work/|/root/"),
+}
+
+FENCE = re.compile(r"^ {0,3}(```|~~~).*?^ {0,3}\1[^\n]*$", re.S | re.M)
+INLINE_CODE = re.compile(r"(`+)(?:(?!\1).)+?\1", re.S)
+#: [text](target) and ![alt](target); the text may run over lines, the target may carry a title.
+LINK = re.compile(r"!?\[(?:[^\[\]]|\[[^\[\]]*\])*\]\(\s*<?([^()\s<>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
+HEADING = re.compile(r"^ {0,3}(#{1,6})\s+(.*?)\s*#*\s*$", re.M)
+#: A Markdown file named in prose or inline code (not part of a URL).
+MD_NAME = re.compile(r"(?<![\w/.:-])((?:\.\./|[\w.-]+/)*[\w.-]+\.md)\b")
+HTML_ANCHOR = re.compile(r"<a\s+(?:name|id)=\"([^\"]+)\"", re.I)
+
+
+def markdown_files() -> list[Path]:
+    """Every Markdown file of the repository: git's tracked and new files, else a walk."""
+    try:
+        out = subprocess.run(
+            ["git", "ls-files", "--cached", "--others", "--exclude-standard", "*.md"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=30,
+        ).stdout
+        files = sorted({ROOT / line for line in out.splitlines() if line})
+        if files:
+            return [f for f in files if f.is_file()]
+    except (OSError, subprocess.SubprocessError):
+        pass
+    found = []
+    for folder, dirs, names in os.walk(ROOT):
+        dirs[:] = [d for d in dirs if d not in SKIP_DIRS and not d.startswith(".")]
+        found += [Path(folder) / n for n in names if n.endswith(".md")]
+    return sorted(found)
+
+
+def strip_code(text: str) -> str:
+    """The text without fenced code blocks and inline code spans (links there are not links)."""
+    return INLINE_CODE.sub("", FENCE.sub("", text))
+
+
+def slug(heading: str) -> str:
+    """GitHub's anchor for a heading: lower case, punctuation but - and _ dropped, spaces to -."""
+    text = re.sub(r"!?\[([^\]]*)\]\([^)]*\)", r"\1", heading)  # a link shows its text
+    text = re.sub(r"<[^>]+>", "", text).strip().lower()
+    kept = []
+    for ch in text:
+        if ch in "-_" or ch.isspace():
+            kept.append("-" if ch == " " else ch)
+        elif unicodedata.category(ch)[0] in "LNM":
+            kept.append(ch)
+    return "".join(kept)
+
+
+@cache
+def anchors(path: Path) -> frozenset[str]:
+    """Every anchor a Markdown file's headings produce (repeats numbered as GitHub does)."""
+    text = FENCE.sub("", path.read_text(encoding="utf-8"))
+    seen: dict[str, int] = {}
+    result = set(HTML_ANCHOR.findall(text))
+    for _, title in HEADING.findall(text):
+        base = slug(title)
+        n = seen.get(base, 0)
+        seen[base] = n + 1
+        result.add(base if n == 0 else f"{base}-{n}")
+    return frozenset(result)
+
+
+def relative_links(path: Path) -> list[str]:
+    """The targets of the file's links that point inside the repository."""
+    targets = LINK.findall(strip_code(path.read_text(encoding="utf-8")))
+    return [t for t in targets if not re.match(r"[a-zA-Z][a-zA-Z0-9+.-]*:", t)]
+
+
+FILES = markdown_files()
+IDS = [f.relative_to(ROOT).as_posix() for f in FILES]
+#: ARCHITECTURE.md is being rewritten for the new code layout; its references are checked
+#: but not yet required to resolve.
+REWRITING = pytest.mark.xfail(strict=False, reason="ARCHITECTURE.md is being rewritten")
+FILES_OR_REWRITING = [
+    pytest.param(f, marks=REWRITING) if f.name == "ARCHITECTURE.md" else f for f in FILES
+]
+
+
+def test_markdown_files_found():
+    assert "README.md" in IDS and "BENCHMARKS.md" in IDS
+
+
+@pytest.mark.parametrize("path", FILES, ids=IDS)
+def test_relative_links_resolve(path: Path):
+    broken = []
+    for target in relative_links(path):
+        file_part, _, anchor = target.partition("#")
+        dest = (path.parent / file_part).resolve() if file_part else path
+        if not dest.exists():
+            broken.append(f"{target}: no such file")
+        elif anchor and dest.suffix == ".md" and anchor not in anchors(dest):
+            broken.append(f"{target}: no heading gives #{anchor}")
+    assert not broken, f"{path.relative_to(ROOT)}: " + "; ".join(broken)
+
+
+@pytest.mark.parametrize("path", FILES_OR_REWRITING, ids=IDS)
+def test_named_markdown_files_exist(path: Path):
+    """A Markdown file named in the prose (`benches/results/x.md`, DESIGN.md) is there."""
+    missing = []
+    prose = LINK.sub("", FENCE.sub("", path.read_text(encoding="utf-8")))  # links: above
+    for name in set(MD_NAME.findall(prose)):
+        if not any((base / name).exists() for base in (path.parent, ROOT)):
+            missing.append(name)
+    assert not missing, f"{path.relative_to(ROOT)} names missing files: {sorted(missing)}"
+
+
+@pytest.mark.parametrize("path", FILES, ids=IDS)
+def test_no_diary_notes(path: Path):
+    found = []
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        hits = [what for what, pattern in FORBIDDEN.items() if pattern.search(line)]
+        found += [f"{number}: {what}: {line.strip()}" for what in hits]
+    assert not found, f"{path.relative_to(ROOT)}:\n" + "\n".join(found)
+
+
+def line_count(name: str) -> int:
+    return len((ROOT / name).read_text(encoding="utf-8").splitlines())
+
+
+def test_benchmarks_is_short():
+    assert line_count("BENCHMARKS.md") <= 150
+
+
+@REWRITING
+def test_architecture_is_short():
+    assert line_count("ARCHITECTURE.md") <= 120
+
+
+def test_slug_rule():
+    assert slug("Speed against the peers") == "speed-against-the-peers"
+    assert slug("Depth jumps: no curtains, walls") == "depth-jumps-no-curtains-walls"
+    assert slug("The `scanmesh` command (α = 1)") == "the-scanmesh-command-α--1"
+    assert slug("snake_case and hy-phen") == "snake_case-and-hy-phen"
