@@ -25,54 +25,48 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
-mod active;
-mod anneal;
 mod budget;
 mod criteria;
-mod delaunay;
-mod ensemble;
-mod enumerate;
 mod error;
-mod fuchs;
+mod exact;
 mod geometry;
-mod lines;
-mod locality;
-mod lop;
+mod io;
 mod mesh;
+mod optimize;
 mod projection;
-mod stl;
 mod strips;
-mod tac_state;
 #[cfg(test)]
 mod testing;
-mod text;
-mod tiles;
-mod trim;
+mod triangulate;
 
-pub use anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
 pub use budget::{MAX_CALIBRATION_PROPOSALS, MAX_PROPOSALS};
 pub use criteria::{steep_count, tac_and_min_angles, Norm, SLIVER_ANGLE_DEG};
-pub use delaunay::{delaunay, unit_square, Delaunay, NONE};
-pub use ensemble::{Ensemble, EnsembleSummary};
-pub use enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
 pub use error::{Error, Result};
-pub use fuchs::{
+pub use exact::enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
+pub use geometry::unit_square;
+pub use geometry::{check_finite, normalize_plane, triangle_angles};
+pub use glam;
+pub use io::stl::records as stl_records;
+pub use io::text::{parse_table, Table, TextError, TextErrorKind};
+pub use mesh::locality::Relabel;
+pub use mesh::NONE;
+pub use mesh::{next, prev, HalfEdgeMesh};
+pub use optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
+pub use optimize::ensemble::{Ensemble, EnsembleSummary};
+pub use optimize::lop::{run_lop, tac_lop, LopCriterion, TacOrder};
+pub use optimize::tac_state::{Detail, FlipMove, TacState};
+pub use optimize::tiles::TiledAnnealer;
+pub use projection::{project, Frame, Plane, Projection};
+pub use strips::fuchs::{
     lookahead, path_cost, shortest_path_banded, shortest_path_dijkstra, shortest_path_dp, Solution,
     Solver, Step, Weight, DEFAULT_BAND,
 };
-pub use geometry::{check_finite, normalize_plane, triangle_angles};
-pub use glam;
-pub use lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
-pub use locality::Relabel;
-pub use lop::{run_lop, tac_lop, LopCriterion, TacOrder};
-pub use mesh::{next, prev, HalfEdgeMesh};
-pub use projection::{project, Frame, Plane, Projection};
-pub use stl::records as stl_records;
-pub use strips::{stitch, stitch_lines, stitch_part, Method, ScanContext, StripMesh, StripParams};
-pub use tac_state::{Detail, FlipMove, TacState};
-pub use text::{parse_table, Table, TextError, TextErrorKind};
-pub use tiles::TiledAnnealer;
-pub use trim::{
+pub use strips::lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
+pub use strips::stitch::{
+    stitch, stitch_lines, stitch_part, Method, ScanContext, StripMesh, StripParams,
+};
+pub use triangulate::delaunay::{delaunay, Delaunay};
+pub use triangulate::trim::{
     delaunay_trimmed, median_spacing, trim_delaunay, trim_long_edges, DepthJumps, Trimmed,
     DEFAULT_BRIDGE_FACTOR, DEFAULT_HOLE_FACTOR, DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
 };

@@ -7,14 +7,14 @@
 //! last point, the second turned round when the lines run opposite ways, as in zig-zag
 //! scans); t is the planar position along it. Two segments with t-ranges [t0, t1] and
 //! [s0, s1] overlap when max(t0, s0) − min(t1, s1) ≤ e, with e = half the gap length of
-//! [`crate::lines`]; the strip then uses the points of each segment whose t lies in
+//! [`crate::strips::lines`]; the strip then uses the points of each segment whose t lies in
 //! [max(t0, s0) − e, min(t1, s1) + e]. Clipping to the overlap keeps strips from bridging
 //! holes (beside a gap of the neighbour line, a segment's points stay on the boundary);
 //! the margin e lets a line end overhang its neighbour's by less than half a gap, as lines
 //! of unequal length do, and still be used. Two windows on one segment never overlap,
 //! because the segments they face are more than a gap apart.
 //!
-//! Each strip is a path through the Fuchs matrix ([`crate::fuchs`]) of its two clipped
+//! Each strip is a path through the Fuchs matrix ([`crate::strips::fuchs`]) of its two clipped
 //! segments; strips are independent and run in parallel (rayon). All lines are first
 //! turned to run the same way, so that every line's edges run one way in the strip before
 //! it and the other way in the strip after it: the strips fit together with one
@@ -27,16 +27,13 @@
 //! names every error; a failure (crossing lines, a pinch) is reported in
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
-mod check;
-mod jumps;
-mod repair;
-
-use crate::delaunay::{unit_square_scaled, unit_square_scaled_by};
-use crate::fuchs::{lookahead, path_triangles_into, shortest_path, Solver, Weight};
+use super::{check, jumps, repair};
 use crate::geometry::{check_finite, orient2d, Normalizer};
-use crate::lines::ScanLines;
+use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
-use crate::trim::DepthJumps;
+use crate::strips::fuchs::{lookahead, path_triangles_into, shortest_path, Solver, Weight};
+use crate::strips::lines::ScanLines;
+use crate::triangulate::trim::DepthJumps;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -50,7 +47,7 @@ pub const TIE_BREAK: f64 = 1e-6;
 
 /// Points or triangles per rayon task in the passes over all of them: large enough that
 /// splitting costs nothing next to the work, small enough to share a million among threads.
-const BLOCK: usize = 1 << 14;
+pub(super) const BLOCK: usize = 1 << 14;
 
 /// How each strip's path through the Fuchs matrix is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -76,10 +73,10 @@ pub struct StripParams {
     /// cross or fold in the plane) is then made valid by dropping the conflicting
     /// triangles (`strips/repair.rs`), counted in [`StripMesh::dropped_overlaps`].
     pub check: bool,
-    /// Depth-jump factor ([`crate::trim::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
+    /// Depth-jump factor ([`crate::triangulate::trim::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
     /// [`stitch_lines`] cuts lines where consecutive points jump in depth
-    /// ([`crate::lines::split_at_jumps`]), and triangles that still bridge a jump by the
-    /// rule of [`crate::trim::bridging_triangles`] (a strip between a line on top of a
+    /// ([`crate::strips::lines::split_at_jumps`]), and triangles that still bridge a jump by the
+    /// rule of [`crate::triangulate::trim::bridging_triangles`] (a strip between a line on top of a
     /// wall and one below it) are dropped, counted in [`StripMesh::dropped_jumps`].
     pub jump_factor: f64,
 }
@@ -88,9 +85,9 @@ impl Default for StripParams {
     fn default() -> Self {
         StripParams {
             weight: Weight::ANGLE,
-            method: Method::ShortestPath(Solver::Banded(crate::fuchs::DEFAULT_BAND)),
+            method: Method::ShortestPath(Solver::Banded(crate::strips::fuchs::DEFAULT_BAND)),
             check: true,
-            jump_factor: crate::trim::DEFAULT_JUMP_FACTOR,
+            jump_factor: crate::triangulate::trim::DEFAULT_JUMP_FACTOR,
         }
     }
 }
@@ -142,14 +139,14 @@ pub struct ScanContext {
 }
 
 /// One strip to triangulate: the clipped segments, oriented along the scan direction.
-struct Task {
-    a: Vec<u32>,
-    b: Vec<u32>,
+pub(super) struct Task {
+    pub(super) a: Vec<u32>,
+    pub(super) b: Vec<u32>,
     /// Where `a` and `b` lie in their oriented lines (for the planar check).
-    a_at: check::Window,
-    b_at: check::Window,
+    pub(super) a_at: check::Window,
+    pub(super) b_at: check::Window,
     /// Index of the first of the two lines (for inserting lone points).
-    line: usize,
+    pub(super) line: usize,
 }
 
 /// The part of `segment` whose t lies in [lo, hi] (in (lo, hi] when `open`), and the index
@@ -413,8 +410,8 @@ pub fn stitch(
 }
 
 /// The whole strip method from a line id per point: the scan lines
-/// ([`crate::lines::segment_lines`], split at gaps of `gap_factor` median steps, and at
-/// depth jumps by [`crate::lines::split_at_jumps`] with `params.jump_factor`), then
+/// ([`crate::strips::lines::segment_lines`], split at gaps of `gap_factor` median steps, and at
+/// depth jumps by [`crate::strips::lines::split_at_jumps`] with `params.jump_factor`), then
 /// [`stitch`]. Returns the mesh and the (dropped point, point it coincides with) pairs the
 /// lines found; the lines themselves are dropped before returning, so they never live
 /// beside the caller's copy of the faces. Time and errors: those of the two stages.
@@ -443,10 +440,10 @@ pub fn stitch_part(
     context: Option<&ScanContext>,
 ) -> Result<(StripMesh, Vec<(u32, u32)>)> {
     let median = context.map(|c| c.median_step);
-    let mut scan = crate::lines::segment_lines_at(uv, line_ids, gap_factor, median)?;
+    let mut scan = crate::strips::lines::segment_lines_at(uv, line_ids, gap_factor, median)?;
     check_jump_factor(params.jump_factor)?;
     if points.len() == uv.len() {
-        crate::lines::split_at_jumps(&mut scan, points, uv, params.jump_factor);
+        crate::strips::lines::split_at_jumps(&mut scan, points, uv, params.jump_factor);
     }
     let (mesh, _, _) = stitch_with(points, uv, &scan, params, true, context)?;
     Ok((mesh, scan.duplicates))
@@ -693,7 +690,7 @@ fn stitch_with(
                 .map(|(t, _)| t)
                 .collect();
             // Crossing lines (no half-edge mesh) are the repair's business below.
-            triangles = crate::trim::peel(uv, kept.clone()).unwrap_or(kept);
+            triangles = crate::triangulate::trim::peel(uv, kept.clone()).unwrap_or(kept);
             dropped_jumps = before - triangles.len();
         }
     }
@@ -782,8 +779,8 @@ fn check_jump_factor(factor: f64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fuchs::path_triangles;
-    use crate::lines::{segment_lines, DEFAULT_GAP_FACTOR};
+    use crate::strips::fuchs::path_triangles;
+    use crate::strips::lines::{segment_lines, DEFAULT_GAP_FACTOR};
 
     /// A height field z = f(x, y) sampled on `rows` lines y = r·dy of points x = c·dx,
     /// `zigzag` alternating their direction, minus the points for which `drop` holds.
@@ -1025,7 +1022,7 @@ mod tests {
                     .triangles
                     .iter()
                     .any(bridges));
-                crate::lines::split_at_jumps(&mut scan, &pts, &uv, params.jump_factor);
+                crate::strips::lines::split_at_jumps(&mut scan, &pts, &uv, params.jump_factor);
                 let mesh = stitch(&pts, &uv, &scan, &params).unwrap();
                 assert!(!mesh.triangles.iter().any(bridges), "{params:?}");
                 assert!(mesh.planar_error.is_none(), "{:?}", mesh.planar_error);
@@ -1121,7 +1118,7 @@ mod tests {
         assert!(global.planar_error.is_none(), "{:?}", global.planar_error);
         assert_eq!(valid, global.dropped_overlaps == 0 || first.is_none());
         if !global.triangles.is_empty() {
-            let unit = crate::delaunay::unit_square(uv);
+            let unit = crate::geometry::unit_square(uv);
             assert!(global_check(pts.len(), &global.triangles, &unit).is_none());
         }
         (accepted, valid)
@@ -1298,7 +1295,7 @@ mod tests {
     /// local plan refers to the global check and the global check refuses.
     #[test]
     fn windows_meeting_in_one_point_are_a_pinch_for_both_checks() {
-        use crate::fuchs::Step::{A, B};
+        use crate::strips::fuchs::Step::{A, B};
         // Lines 0, 1, 2: points 0-2, 3-5, 6-8 on y = 0, 1, 2, each shifted by one.
         let uv: Vec<[f64; 2]> = (0..9)
             .map(|k| [(k % 3 + k / 3) as f64, (k / 3) as f64])

@@ -6,12 +6,14 @@
 //! half-edge, `NONE` on the boundary). A flip rewrites the six slots of its two triangles
 //! in place; nothing is allocated.
 
-use crate::delaunay::NONE;
 use crate::geometry::orient2d;
-use crate::locality::prefetch;
+use crate::mesh::locality::prefetch;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+
+/// Marks "no such index" in index arrays (boundary twins, unique points).
+pub const NONE: u32 = u32::MAX;
 
 /// Items per rayon task in the mesh's parallel passes (half-edges, triangles or
 /// vertices): large enough that splitting costs nothing next to the work.
@@ -354,7 +356,7 @@ impl HalfEdgeMesh {
     }
 
     /// Prefetch hint for the `start` and `twin` entries of triangle `t` (see
-    /// [`crate::locality::prefetch`]; no effect on results). O(1).
+    /// [`crate::mesh::locality::prefetch`]; no effect on results). O(1).
     #[inline(always)]
     pub fn prefetch_triangle(&self, t: u32) {
         // A triangle's three u32 entries straddle two cache lines in 2 of 16 positions:
@@ -1033,8 +1035,8 @@ impl Iterator for Fan<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::delaunay::delaunay;
     use crate::testing::random_points;
+    use crate::triangulate::delaunay::delaunay;
 
     fn canonical(mut t: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
         for tri in t.iter_mut() {

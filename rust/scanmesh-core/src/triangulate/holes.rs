@@ -3,7 +3,7 @@
 //! drilled hole or a slot hit nothing), even when its edges are short enough for the
 //! planar rule and its corners lie at one height (so no depth jump or 3-D gap shows).
 
-use crate::delaunay::unit_square;
+use crate::geometry::unit_square;
 use crate::geometry::PAR_BLOCK;
 use crate::mesh::well_formed;
 use rayon::prelude::*;
@@ -137,8 +137,10 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::delaunay::delaunay;
-    use crate::trim::{bridging_triangles, trim_long_edges, DepthJumps, DEFAULT_JUMP_FACTOR};
+    use crate::triangulate::delaunay::delaunay;
+    use crate::triangulate::trim::{
+        bridging_triangles, trim_long_edges, DepthJumps, DEFAULT_JUMP_FACTOR,
+    };
     use glam::DVec3;
 
     /// A square grid of `n` × `n` points 1 apart at height 0, jittered in the plane by up to

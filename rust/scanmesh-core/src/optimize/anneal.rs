@@ -1,17 +1,17 @@
 //! Simulated annealing of a planar triangulation by random edge flips, minimizing tac.
 //!
-//! Move: a uniformly random live edge ([`crate::active`]: its quadrilateral strictly convex,
+//! Move: a uniformly random live edge ([`crate::optimize::active`]: its quadrilateral strictly convex,
 //! a corner's tac above the floor of ties), flipped.
 //! Energy: Σ tac^p ([`TacState`]). Selection: Metropolis. Schedule: T0 calibrated from the
 //! uphill energy changes of sampled proposals, geometric cooling per sweep (a sweep is as
 //! many proposals as live edges), early stop once frozen, the best state kept, then a
 //! greedy polish (LOP) under the order (tac first, then smallest angle).
 
-use crate::active::LiveEdges;
 use crate::budget;
-use crate::lop::{planar_flip_improves, tac_lop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
-use crate::tac_state::{Detail, Proposal, TacState};
+use crate::optimize::active::LiveEdges;
+use crate::optimize::lop::{planar_flip_improves, tac_lop, TacOrder};
+use crate::optimize::tac_state::{Detail, Proposal, TacState};
 use crate::{Error, Result};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -21,7 +21,7 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnnealParams {
     /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per live edge
-    /// (see [`crate::active`]: flippable, by a corner whose tac is above the ties').
+    /// (see [`crate::optimize::active`]: flippable, by a corner whose tac is above the ties').
     pub sweeps: usize,
     /// Energy exponent p ≥ 1: the energy is Σ tac^p.
     pub p: f64,
@@ -51,7 +51,7 @@ pub struct AnnealParams {
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
     pub chains: usize,
-    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::tiles`]): 1
+    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::optimize::tiles`]): 1
     /// runs the plain sequential chain; k > 1 splits the plane into stripes whose
     /// interiors anneal independently, phase by phase, with the stripes shifted every
     /// phase. The result depends on (seed, tiles), never on the thread count.
@@ -313,7 +313,7 @@ pub enum Stop {
     Sweeps,
     /// Frozen without a new best for `patience` sweeps.
     Patience,
-    /// No live edge left (see [`crate::active`]): no flip could lower the energy by more
+    /// No live edge left (see [`crate::optimize::active`]): no flip could lower the energy by more
     /// than a tie, so further sweeps could not change the best state.
     Exhausted,
     /// Finished before any of these (the caller stopped driving it: a time limit).
@@ -442,7 +442,7 @@ impl Annealer {
         }
     }
 
-    /// A tile's run for one phase of [`crate::tiles`]: `params.sweeps` sweeps on
+    /// A tile's run for one phase of [`crate::optimize::tiles`]: `params.sweeps` sweeps on
     /// `params.seed`'s streams, from `temperature` (the shared schedule's, not calibrated
     /// on the tile), cooled by `cooling` per sweep. O(m).
     pub(crate) fn for_phase(
@@ -455,7 +455,7 @@ impl Annealer {
         Self::with_schedule(state, params, streams, temperature, cooling)
     }
 
-    /// Ends a phase of [`crate::tiles`]: the best state seen and its energy, the current
+    /// Ends a phase of [`crate::optimize::tiles`]: the best state seen and its energy, the current
     /// state and the sweep records. O(flips since the last sweep's replay).
     pub(crate) fn end_phase(mut self) -> (HalfEdgeMesh, f64, TacState, Vec<SweepRecord>) {
         self.sync_best();
@@ -467,7 +467,7 @@ impl Annealer {
         self.sweep_len == 0 || self.stopped_early || self.trace.len() >= self.params.sweeps
     }
 
-    /// True when the run ended because no live edge was left (see [`crate::active`]):
+    /// True when the run ended because no live edge was left (see [`crate::optimize::active`]):
     /// no flip can lower the energy by more than a tie. O(1).
     pub fn is_exhausted(&self) -> bool {
         self.sweep_len == 0
@@ -479,7 +479,7 @@ impl Annealer {
     }
 
     /// Proposals in the current sweep: the live edges listed at its start (see
-    /// [`crate::active`]), 0 once none is left.
+    /// [`crate::optimize::active`]), 0 once none is left.
     pub fn sweep_len(&self) -> usize {
         self.sweep_len
     }
@@ -779,8 +779,8 @@ fn unit_f64(rng: &mut Pcg64Mcg) -> f64 {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::lop::{lop, TacLop};
-    use crate::tac_state::tests::{bumpy_state, plateau_state};
+    use crate::optimize::lop::{lop, TacLop};
+    use crate::optimize::tac_state::tests::{bumpy_state, plateau_state};
 
     /// One plain chain run to its end in one call.
     pub(crate) fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
@@ -1013,7 +1013,7 @@ pub(crate) mod tests {
     fn no_live_edge_is_reported_as_exhaustion() {
         // A plane: no vertex above the floor, nothing to anneal, no sweep.
         let plane = |x: f64, y: f64| 0.3 * x - 0.2 * y;
-        let flat = crate::tac_state::tests::height_state(300, 2, 1.0, plane);
+        let flat = crate::optimize::tac_state::tests::height_state(300, 2, 1.0, plane);
         let r = anneal(flat, quick(1)).unwrap();
         assert_eq!(r.stopped, Stop::Exhausted);
         assert!(r.trace.is_empty());

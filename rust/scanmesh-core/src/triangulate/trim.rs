@@ -1,18 +1,19 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
-use crate::criteria::Fans;
-use crate::delaunay::{relabel, unit_square, Delaunay, NONE};
+use crate::geometry::unit_square;
 use crate::geometry::{planar_distance, Normalizer};
+use crate::mesh::Fans;
+use crate::mesh::NONE;
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
+use crate::triangulate::delaunay::{relabel, Delaunay};
 use crate::Result;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-mod holes;
-use holes::covering_holes;
-pub use holes::DEFAULT_HOLE_FACTOR;
+use crate::triangulate::holes::covering_holes;
+pub use crate::triangulate::holes::DEFAULT_HOLE_FACTOR;
 
 /// Triangles per rayon task in the passes over all of them.
 const BLOCK: usize = 1 << 14;
@@ -295,7 +296,7 @@ pub struct Trimmed {
     pub seconds: [f64; 2],
 }
 
-/// [`delaunay`](crate::delaunay) of `uv` then [`trim_delaunay`]: at `max_edge`, or for None
+/// [`delaunay`](crate::triangulate::delaunay) of `uv` then [`trim_delaunay`]: at `max_edge`, or for None
 /// [`DEFAULT_MAX_EDGE_FACTOR`] × [`median_spacing`]; when that length is finite, depth jumps
 /// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
 /// serve the trimming and no face array crosses to the caller in between. O(n log n).
@@ -306,7 +307,7 @@ pub fn delaunay_trimmed(
     jump_factor: f64,
 ) -> Result<Trimmed> {
     let clock = std::time::Instant::now();
-    let (d, order) = crate::delaunay::delaunay_ordered(uv)?;
+    let (d, order) = crate::triangulate::delaunay::delaunay_ordered(uv)?;
     let triangulated = clock.elapsed().as_secs_f64();
     // The trimming runs in the triangulation's own labels, on the points gathered into
     // them: its passes then read memory in order (see `delaunay_ordered`).
@@ -469,7 +470,7 @@ fn peel_flags(
 /// (the height step exceeds the planar length) and longer than `factor` × `spacing`. Long
 /// flat edges are the planar rule's business (an outline, a hole seen in the plane). The
 /// one depth-jump rule, for triangles ([`bridging_triangles`]) and along scan lines
-/// ([`crate::lines::split_at_jumps`]). O(1).
+/// ([`crate::strips::lines::split_at_jumps`]). O(1).
 pub fn is_depth_jump(length3: f64, flat: f64, spacing: f64, factor: f64) -> bool {
     is_steep(length3, flat) && length3 > factor * spacing
 }
@@ -865,7 +866,7 @@ impl Kept<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::delaunay::delaunay;
+    use crate::triangulate::delaunay::delaunay;
     use glam::DVec3;
 
     /// A grid with the middle cells missing (a bore), triangulated over its convex hull.
@@ -1099,7 +1100,7 @@ mod tests {
         let mut p = terrain(40, 30, 1.2, |x, _| if x < 20.5 { 0.0 } else { 9.0 });
         p.retain(|q| (q.x - 10.0).powi(2) + (q.y - 15.0).powi(2) > 12.0);
         let uv = planar(&p);
-        let spade = crate::delaunay::spade_delaunay(&unit_square(&uv))
+        let spade = crate::triangulate::delaunay::spade_delaunay(&unit_square(&uv))
             .unwrap()
             .triangles;
         let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &spade);

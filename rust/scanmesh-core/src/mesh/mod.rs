@@ -1,0 +1,10 @@
+//! The mesh: a flat half-edge triangulation with flips, its checks, the faces around each
+//! vertex, and the vertex order that keeps memory accesses close.
+
+mod fans;
+mod halfedge;
+pub(crate) mod locality;
+
+pub(crate) use fans::Fans;
+pub(crate) use halfedge::{convex_quad, count_cycles, well_formed};
+pub use halfedge::{next, prev, HalfEdgeMesh, NONE};
