@@ -4,7 +4,9 @@
 mod fans;
 mod halfedge;
 pub(crate) mod locality;
+mod validate;
 
 pub(crate) use fans::Fans;
-pub(crate) use halfedge::{convex_quad, count_cycles, well_formed};
+pub(crate) use halfedge::{convex_quad, well_formed};
 pub use halfedge::{next, prev, HalfEdgeMesh, NONE};
+pub(crate) use validate::count_cycles;
