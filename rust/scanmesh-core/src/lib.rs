@@ -66,7 +66,9 @@ pub use strips::stitch::{
     stitch, stitch_lines, stitch_part, Method, ScanContext, StripMesh, StripParams,
 };
 pub use triangulate::delaunay::{delaunay, Delaunay};
+pub use triangulate::holes::DEFAULT_HOLE_FACTOR;
+pub use triangulate::jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};
 pub use triangulate::trim::{
-    delaunay_trimmed, median_spacing, trim_delaunay, trim_long_edges, DepthJumps, Trimmed,
-    DEFAULT_BRIDGE_FACTOR, DEFAULT_HOLE_FACTOR, DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
+    delaunay_trimmed, median_spacing, trim_delaunay, trim_long_edges, Trimmed,
+    DEFAULT_MAX_EDGE_FACTOR,
 };

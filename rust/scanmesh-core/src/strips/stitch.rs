@@ -33,7 +33,7 @@ use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
 use crate::strips::fuchs::{lookahead, path_triangles_into, shortest_path, Solver, Weight};
 use crate::strips::lines::ScanLines;
-use crate::triangulate::trim::DepthJumps;
+use crate::triangulate::jumps::DepthJumps;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -73,10 +73,10 @@ pub struct StripParams {
     /// cross or fold in the plane) is then made valid by dropping the conflicting
     /// triangles (`strips/repair.rs`), counted in [`StripMesh::dropped_overlaps`].
     pub check: bool,
-    /// Depth-jump factor ([`crate::triangulate::trim::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
+    /// Depth-jump factor ([`crate::triangulate::jumps::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
     /// [`stitch_lines`] cuts lines where consecutive points jump in depth
     /// ([`crate::strips::lines::split_at_jumps`]), and triangles that still bridge a jump by the
-    /// rule of [`crate::triangulate::trim::bridging_triangles`] (a strip between a line on top of a
+    /// rule of [`crate::triangulate::jumps::bridging_triangles`] (a strip between a line on top of a
     /// wall and one below it) are dropped, counted in [`StripMesh::dropped_jumps`].
     pub jump_factor: f64,
 }
@@ -87,7 +87,7 @@ impl Default for StripParams {
             weight: Weight::ANGLE,
             method: Method::ShortestPath(Solver::Banded(crate::strips::fuchs::DEFAULT_BAND)),
             check: true,
-            jump_factor: crate::triangulate::trim::DEFAULT_JUMP_FACTOR,
+            jump_factor: crate::triangulate::jumps::DEFAULT_JUMP_FACTOR,
         }
     }
 }

@@ -138,9 +138,8 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
 mod tests {
     use super::*;
     use crate::triangulate::delaunay::delaunay;
-    use crate::triangulate::trim::{
-        bridging_triangles, trim_long_edges, DepthJumps, DEFAULT_JUMP_FACTOR,
-    };
+    use crate::triangulate::jumps::{bridging_triangles, DepthJumps, DEFAULT_JUMP_FACTOR};
+    use crate::triangulate::trim::trim_long_edges;
     use glam::DVec3;
 
     /// A square grid of `n` × `n` points 1 apart at height 0, jittered in the plane by up to

@@ -3,4 +3,5 @@
 
 pub(crate) mod delaunay;
 pub(crate) mod holes;
+pub(crate) mod jumps;
 pub(crate) mod trim;

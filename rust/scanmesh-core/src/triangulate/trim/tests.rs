@@ -1,6 +1,8 @@
 use super::*;
 use crate::triangulate::delaunay::delaunay;
+use crate::triangulate::jumps::*;
 use glam::DVec3;
+use std::sync::atomic::Ordering;
 
 /// A grid with the middle cells missing (a bore), triangulated over its convex hull.
 fn grid_with_hole() -> Vec<[f64; 2]> {
