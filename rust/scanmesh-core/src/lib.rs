@@ -62,9 +62,8 @@ pub use strips::fuchs::{
     Solver, Step, Weight, DEFAULT_BAND,
 };
 pub use strips::lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
-pub use strips::stitch::{
-    stitch, stitch_lines, stitch_part, Method, ScanContext, StripMesh, StripParams,
-};
+pub use strips::stitch::{stitch, stitch_lines, stitch_part};
+pub use strips::{Method, ScanContext, StripMesh, StripParams};
 pub use triangulate::delaunay::{delaunay, Delaunay};
 pub use triangulate::holes::DEFAULT_HOLE_FACTOR;
 pub use triangulate::jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};

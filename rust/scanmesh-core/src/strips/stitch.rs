@@ -27,11 +27,11 @@
 //! names every error; a failure (crossing lines, a pinch) is reported in
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
-use super::{check, jumps, repair};
+use super::{check, jumps, repair, Method, ScanContext, StripMesh, StripParams};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
-use crate::strips::fuchs::{lookahead, path_triangles_into, shortest_path, Solver, Weight};
+use crate::strips::fuchs::{lookahead, path_triangles_into, shortest_path, Weight};
 use crate::strips::lines::ScanLines;
 use crate::triangulate::jumps::DepthJumps;
 use crate::{Error, Result};
@@ -48,95 +48,6 @@ pub const TIE_BREAK: f64 = 1e-6;
 /// Points or triangles per rayon task in the passes over all of them: large enough that
 /// splitting costs nothing next to the work, small enough to share a million among threads.
 pub(super) const BLOCK: usize = 1 << 14;
-
-/// How each strip's path through the Fuchs matrix is chosen.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// The cheapest path, by the given solver.
-    ShortestPath(Solver),
-    /// Friedhoff's α-look-ahead with this α ≥ 1.
-    Lookahead(usize),
-}
-
-/// Options of [`stitch`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StripParams {
-    /// The path cost. Inside strips, lengths are measured in median steps of the scan and
-    /// areas in squared median steps, so that criteria can be mixed and the result does
-    /// not depend on the units; [`TIE_BREAK`] is added to the length coefficient.
-    pub weight: Weight,
-    /// Shortest path or look-ahead.
-    pub method: Method,
-    /// Whether to check that the mesh is a valid planar triangulation (as
-    /// [`HalfEdgeMesh::validate`]): O(n) in parallel from the strips when they fit together
-    /// as strips do, else O(m α(m)) on the half-edge mesh. An invalid mesh (lines that
-    /// cross or fold in the plane) is then made valid by dropping the conflicting
-    /// triangles (`strips/repair.rs`), counted in [`StripMesh::dropped_overlaps`].
-    pub check: bool,
-    /// Depth-jump factor ([`crate::triangulate::jumps::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
-    /// [`stitch_lines`] cuts lines where consecutive points jump in depth
-    /// ([`crate::strips::lines::split_at_jumps`]), and triangles that still bridge a jump by the
-    /// rule of [`crate::triangulate::jumps::bridging_triangles`] (a strip between a line on top of a
-    /// wall and one below it) are dropped, counted in [`StripMesh::dropped_jumps`].
-    pub jump_factor: f64,
-}
-
-impl Default for StripParams {
-    fn default() -> Self {
-        StripParams {
-            weight: Weight::ANGLE,
-            method: Method::ShortestPath(Solver::Banded(crate::strips::fuchs::DEFAULT_BAND)),
-            check: true,
-            jump_factor: crate::triangulate::jumps::DEFAULT_JUMP_FACTOR,
-        }
-    }
-}
-
-/// The stitched mesh.
-#[derive(Debug, Clone)]
-pub struct StripMesh {
-    /// Triangles in the caller's point indices, counter-clockwise in the plane.
-    pub triangles: Vec<[u32; 3]>,
-    /// Points that are in no triangle, ascending (duplicates of [`ScanLines`] included).
-    pub unused: Vec<u32>,
-    /// Number of strips (pairs of overlapping segments) triangulated.
-    pub n_strips: usize,
-    /// Sum of the strips' path costs (in the scaled units of [`StripParams::weight`]).
-    pub cost: f64,
-    /// Why the mesh is not a valid planar triangulation (crossing lines, a pinch), or
-    /// `None` when it is (or when `check` was off).
-    pub planar_error: Option<Error>,
-    /// Triangles dropped for bridging a depth jump ([`StripParams::jump_factor`]).
-    pub dropped_jumps: usize,
-    /// Triangles dropped to make the mesh a valid planar triangulation (overlapping or
-    /// folded where lines cross, then pinched fans), with `check` on.
-    pub dropped_overlaps: usize,
-    /// Points of [`StripMesh::unused`] that were in strips until every triangle of theirs
-    /// was dropped (at a depth jump or an overlap), ascending.
-    pub trimmed: Vec<u32>,
-    /// Twice the planar signed area of the strips' triangles before the mesh was turned
-    /// counter-clockwise (negative: they were turned round). Summed over the parts of a
-    /// scan solved with [`stitch_part`], its sign says which way the whole scan turns.
-    pub signed_area: f64,
-}
-
-/// What a run over some consecutive lines of a scan shares with the whole scan, so that
-/// its strips are exactly the whole scan's strips between those lines ([`stitch_part`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ScanContext {
-    /// The whole scan's 3-D bounding box (lowest corner, highest corner): the unit box the
-    /// path weights are computed in.
-    pub bounds: [DVec3; 2],
-    /// The largest |planar coordinate| of the whole scan: the power of two the planar
-    /// positions are scaled by.
-    pub largest_planar: f64,
-    /// The whole scan's median planar step ([`ScanLines::median_step`]): lengths in
-    /// weights, and the gap length.
-    pub median_step: f64,
-    /// Whether the first line with a segment of two points or more is turned round in the
-    /// whole scan (the orientation walk over the lines before it).
-    pub first_turned: bool,
-}
 
 /// One strip to triangulate: the clipped segments, oriented along the scan direction.
 pub(super) struct Task {
@@ -471,6 +382,92 @@ fn stitch_with(
     local: bool,
     context: Option<&ScanContext>,
 ) -> Result<(StripMesh, Option<bool>, Option<Error>)> {
+    check_inputs(points, uv, scan, params)?;
+    let caller_uv = uv;
+    let unit = UnitFrame::new(points, uv, scan, params, context);
+    let uv = &unit.uv[..];
+    let (kept, oriented) = orient_lines(uv, scan, context);
+    let tasks: Vec<Task> = kept
+        .par_windows(2)
+        .flat_map_iter(|pair| {
+            let mut out = Vec::new();
+            pair_tasks(uv, &oriented, pair[0], pair[1], unit.margin, &mut out);
+            out
+        })
+        .collect();
+    let plan = if params.check && local {
+        check::plan(&tasks, &oriented, points.len())
+    } else {
+        None
+    };
+    let (mut triangles, ranges, solved) =
+        solve_strips(points, &unit, &tasks, params, plan.as_ref())?;
+    let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
+    // Sums in task order.
+    let (mut cost, mut signed_area) = (0.0, 0.0);
+    for s in &solved {
+        cost += s.cost;
+        signed_area += s.signed_area;
+    }
+    // One orientation for the whole mesh: counter-clockwise in the plane where most of the
+    // area is (all of it, unless lines cross).
+    if signed_area < 0.0 {
+        triangles.par_iter_mut().for_each(|t| t.swap(1, 2));
+    }
+    let inserted = insert_lone_points(uv, scan, &kept, &tasks, &ranges, &mut triangles);
+    // Which points the strips use, before anything is dropped: a point all of whose
+    // triangles are dropped is trimmed, not unused.
+    let used_by_strips = used_points(points.len(), &triangles);
+    let dropped_jumps = drop_jumps(points, caller_uv, uv, params.jump_factor, &mut triangles);
+    // Lone points' triangles and dropped triangles are not strips: then only the global
+    // check knows.
+    let verdict = plan
+        .as_ref()
+        .map(|p| !inserted && dropped_jumps == 0 && p.accepts(&summaries, signed_area < 0.0));
+    let first_error = if !params.check || verdict == Some(true) {
+        None
+    } else {
+        global_check(points.len(), &triangles, uv)
+    };
+    let mut dropped_overlaps = 0;
+    let planar_error = if first_error.is_some() {
+        let before = triangles.len();
+        triangles = repair::repair(uv, triangles);
+        dropped_overlaps = before - triangles.len();
+        global_check(points.len(), &triangles, uv)
+    } else {
+        None
+    };
+    let (unused, trimmed) = unused_and_trimmed(
+        points.len(),
+        &triangles,
+        &used_by_strips,
+        dropped_jumps + dropped_overlaps > 0,
+    );
+    let mesh = StripMesh {
+        triangles,
+        unused,
+        n_strips: tasks.len(),
+        cost,
+        planar_error,
+        dropped_jumps,
+        dropped_overlaps,
+        trimmed,
+        signed_area,
+    };
+    let asked = params.check && local;
+    Ok((mesh, asked.then_some(verdict == Some(true)), first_error))
+}
+
+/// The checks of [`stitch_with`]'s input: one planar position per point, finite points,
+/// a valid weight, jump factor and look-ahead depth, line indices that name given points.
+/// O(n) in parallel; the serial pass that names the first bad point only on failure.
+fn check_inputs(
+    points: &[DVec3],
+    uv: &[[f64; 2]],
+    scan: &ScanLines,
+    params: &StripParams,
+) -> Result<()> {
     if points.len() != uv.len() {
         return Err(Error::InvalidParameter {
             name: "uv",
@@ -503,58 +500,96 @@ fn stitch_with(
             expected: "indices of the given points",
         });
     }
-    // Work on positions mapped into the unit box (3-D and planar, each by one translation
-    // and uniform scale), so that path weights and planar products neither overflow at 1e300
-    // nor underflow at 1e-300; the scan's step and gap follow the planar scale. The 3-D
-    // points are mapped as each strip copies them (no mapped copy of all of them).
-    // The bounding box in parallel; the fit of its two corners is the fit of all points.
-    let normalizer = Normalizer::fit(&context.map_or_else(
-        || {
-            points
-                .par_iter()
-                .with_min_len(BLOCK)
-                .map(|&p| (p, p))
-                .reduce_with(|(lo, hi), (p, q)| (lo.min(p), hi.max(q)))
-                .map_or(Vec::new(), |(lo, hi)| vec![lo, hi])
-        },
-        |c| c.bounds.to_vec(),
-    ));
-    let to_unit_3d = if normalizer.half_extent > 0.0 {
-        1.0 / normalizer.half_extent
-    } else {
-        1.0
-    };
-    // Scaled by a power of two, not moved: exact, so points collinear in the caller's
-    // plane stay collinear and the planar check refuses their zero-area triangles, as
-    // `mesh::validate` does (a shift would round them apart).
-    let caller_uv = uv;
-    let (unit_uv, to_unit_2d) = match context {
-        Some(c) => unit_square_scaled_by(uv, c.largest_planar),
-        None => unit_square_scaled(uv),
-    };
-    let uv = &unit_uv[..];
-    // Scale-free weights: lengths in median steps, areas in squared median steps. The
-    // median step is planar; 3-D lengths are in the 3-D unit box.
-    let h = if scan.median_step > 0.0 && (scan.median_step * to_unit_3d).is_normal() {
-        scan.median_step * to_unit_3d
-    } else {
-        1.0
-    };
-    let w = params.weight;
-    let weight = Weight {
-        length: w.length / h + TIE_BREAK,
-        area: w.area / (h * h),
-        ..w
-    };
-    let margin = 0.5 * scan.gap * to_unit_2d.0 * to_unit_2d.1;
+    Ok(())
+}
 
+/// The unit box the strips are solved in: the 3-D map (applied as each strip copies its
+/// points), the planar positions scaled by a power of two, the weight made scale-free and
+/// the overlap margin in planar unit-box lengths.
+struct UnitFrame {
+    /// Maps the 3-D points into the unit box (one translation and uniform scale).
+    normalizer: Normalizer,
+    /// The planar positions, scaled into the unit square.
+    uv: Vec<[f64; 2]>,
+    /// `params.weight` with lengths in median steps and areas in squared median steps.
+    weight: Weight,
+    /// Half the scan's gap, in unit-square lengths (see [`pair_tasks`]).
+    margin: f64,
+}
+
+impl UnitFrame {
+    /// Work on positions mapped into the unit box (3-D and planar, each by one translation
+    /// and uniform scale), so that path weights and planar products neither overflow at
+    /// 1e300 nor underflow at 1e-300; the scan's step and gap follow the planar scale. The
+    /// 3-D points are mapped as each strip copies them (no mapped copy of all of them).
+    /// O(n) in parallel.
+    fn new(
+        points: &[DVec3],
+        uv: &[[f64; 2]],
+        scan: &ScanLines,
+        params: &StripParams,
+        context: Option<&ScanContext>,
+    ) -> UnitFrame {
+        // The bounding box in parallel; the fit of its two corners is the fit of all points.
+        let normalizer = Normalizer::fit(&context.map_or_else(
+            || {
+                points
+                    .par_iter()
+                    .with_min_len(BLOCK)
+                    .map(|&p| (p, p))
+                    .reduce_with(|(lo, hi), (p, q)| (lo.min(p), hi.max(q)))
+                    .map_or(Vec::new(), |(lo, hi)| vec![lo, hi])
+            },
+            |c| c.bounds.to_vec(),
+        ));
+        let to_unit_3d = if normalizer.half_extent > 0.0 {
+            1.0 / normalizer.half_extent
+        } else {
+            1.0
+        };
+        // Scaled by a power of two, not moved: exact, so points collinear in the caller's
+        // plane stay collinear and the planar check refuses their zero-area triangles, as
+        // `mesh::validate` does (a shift would round them apart).
+        let (unit_uv, to_unit_2d) = match context {
+            Some(c) => unit_square_scaled_by(uv, c.largest_planar),
+            None => unit_square_scaled(uv),
+        };
+        // Scale-free weights: lengths in median steps, areas in squared median steps. The
+        // median step is planar; 3-D lengths are in the 3-D unit box.
+        let h = if scan.median_step > 0.0 && (scan.median_step * to_unit_3d).is_normal() {
+            scan.median_step * to_unit_3d
+        } else {
+            1.0
+        };
+        let w = params.weight;
+        let weight = Weight {
+            length: w.length / h + TIE_BREAK,
+            area: w.area / (h * h),
+            ..w
+        };
+        let margin = 0.5 * scan.gap * to_unit_2d.0 * to_unit_2d.1;
+        UnitFrame {
+            normalizer,
+            uv: unit_uv,
+            weight,
+            margin,
+        }
+    }
+}
+
+/// The lines with a segment of at least two points (ascending), and every line oriented
+/// alike (a zig-zag scan's every other line turned round; lines not kept left empty), so a
+/// line's edges run one way in the strip before it and the other way in the strip after
+/// it: the strips then fit together with one consistent orientation, whatever the plane.
+/// Which lines turn round is a serial walk over the chords; the copies are parallel. O(n).
+fn orient_lines(
+    uv: &[[f64; 2]],
+    scan: &ScanLines,
+    context: Option<&ScanContext>,
+) -> (Vec<usize>, Vec<Vec<Vec<u32>>>) {
     let kept: Vec<usize> = (0..scan.lines.len())
         .filter(|&l| scan.lines[l].iter().any(|s| s.len() >= 2))
         .collect();
-    // Orient the kept lines alike (a zig-zag scan's every other line turned round), so a
-    // line's edges run one way in the strip before it and the other way in the strip after
-    // it: the strips then fit together with one consistent orientation, whatever the plane.
-    // Which lines turn round is a serial walk over the chords; the copies are parallel.
     let mut turned = vec![false; scan.lines.len()];
     let mut previous: Option<[f64; 2]> = None;
     let first_turned = context.is_some_and(|c| c.first_turned);
@@ -584,24 +619,22 @@ fn stitch_with(
             line
         })
         .collect();
-    let tasks: Vec<Task> = kept
-        .par_windows(2)
-        .flat_map_iter(|pair| {
-            let mut out = Vec::new();
-            pair_tasks(uv, &oriented, pair[0], pair[1], margin, &mut out);
-            out
-        })
-        .collect();
-    let plan = if params.check && local {
-        check::plan(&tasks, &oriented, points.len())
-    } else {
-        None
-    };
-    // Triangle range of each task (a strip has a triangle per path step), to find the
-    // strips around a lone point; each strip writes its own range of the one list.
+    (kept, oriented)
+}
+
+/// Every strip solved in parallel, each writing its own range of the one triangle list (a
+/// triangle per path step): the list, the range of each task (to find the strips around a
+/// lone point) and each strip's result. Time: each strip as its method; errors: a strip's.
+fn solve_strips(
+    points: &[DVec3],
+    unit: &UnitFrame,
+    tasks: &[Task],
+    params: &StripParams,
+    plan: Option<&check::Plan>,
+) -> Result<(Vec<[u32; 3]>, Vec<std::ops::Range<usize>>, Vec<Solved>)> {
     let mut ranges = Vec::with_capacity(tasks.len());
     let mut total = 0;
-    for task in &tasks {
+    for task in tasks {
         let count = triangles_of(task);
         ranges.push(total..total + count);
         total += count;
@@ -614,31 +647,41 @@ fn stitch_with(
         parts.push(part);
         rest = tail;
     }
-    // Everything per strip happens here, in parallel: what stays serial below (lone
+    // Everything per strip happens here, in parallel: what stays serial afterwards (lone
     // points) is memory traffic of a few ms per million.
     let solved: Vec<Solved> = tasks
         .par_iter()
         .zip(parts)
         .enumerate()
         .map(|(k, (task, out))| {
-            let interior = plan.as_ref().map(|p| p.interior(k));
-            solve(points, &normalizer, uv, task, params, weight, interior, out)
+            let interior = plan.map(|p| p.interior(k));
+            solve(
+                points,
+                &unit.normalizer,
+                &unit.uv,
+                task,
+                params,
+                unit.weight,
+                interior,
+                out,
+            )
         })
         .collect::<Result<_>>()?;
-    let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
-    // Sums in task order.
-    let (mut cost, mut signed_area) = (0.0, 0.0);
-    for s in &solved {
-        cost += s.cost;
-        signed_area += s.signed_area;
-    }
-    // One orientation for the whole mesh: counter-clockwise in the plane where most of the
-    // area is (all of it, unless lines cross).
-    if signed_area < 0.0 {
-        triangles.par_iter_mut().for_each(|t| t.swap(1, 2));
-    }
+    Ok((triangles, ranges, solved))
+}
 
-    // Lone points: one-point segments, and every point of lines passed over.
+/// Lone points (one-point segments, and every point of lines passed over) inserted into
+/// the triangles of the strips around their line (`kept` lines, `tasks` and their triangle
+/// `ranges`) or into triangles made by earlier insertions. True when any was inserted.
+/// O(strip size) per point.
+fn insert_lone_points(
+    uv: &[[f64; 2]],
+    scan: &ScanLines,
+    kept: &[usize],
+    tasks: &[Task],
+    ranges: &[std::ops::Range<usize>],
+    triangles: &mut Vec<[u32; 3]>,
+) -> bool {
     let mut created = Vec::new();
     let mut inserted = false;
     for (l, line) in scan.lines.iter().enumerate() {
@@ -657,86 +700,70 @@ fn stitch_with(
                 .collect();
             inserted |= insert(
                 uv,
-                &mut triangles,
+                triangles,
                 candidates.into_iter(),
                 &mut created,
                 segment[0],
             );
         }
     }
+    inserted
+}
 
-    // Which points the strips use, before anything is dropped: a point all of whose
-    // triangles are dropped is trimmed, not unused.
-    let used_by_strips = used_points(points.len(), &triangles);
-    // Depth jumps: triangles that still bridge one (a strip between a line on top of a
-    // wall and one below it, parallel to the wall) are dropped, by the rule trimming uses
-    // (not its gap rule: it would drop lookahead's long fans on clean grids), and so are
-    // the smaller fans of the pinches that leaves (else the planar check would refuse
-    // them as a crossing).
-    let mut dropped_jumps = 0;
-    if params.jump_factor.is_finite() && !triangles.is_empty() {
-        let jumps = DepthJumps {
-            points,
-            factor: params.jump_factor,
-            gaps: false,
-        };
-        let bridges = jumps::bridging(caller_uv, &triangles, jumps);
-        if bridges.iter().any(|&b| b) {
-            let before = triangles.len();
-            let kept: Vec<[u32; 3]> = triangles
-                .into_iter()
-                .zip(bridges)
-                .filter(|(_, b)| !b)
-                .map(|(t, _)| t)
-                .collect();
-            // Crossing lines (no half-edge mesh) are the repair's business below.
-            triangles = crate::triangulate::trim::peel(uv, kept.clone()).unwrap_or(kept);
-            dropped_jumps = before - triangles.len();
-        }
+/// Depth jumps: triangles that still bridge one (a strip between a line on top of a wall
+/// and one below it, parallel to the wall) are dropped, by the rule trimming uses (not its
+/// gap rule: it would drop lookahead's long fans on clean grids), and so are the smaller
+/// fans of the pinches that leaves (else the planar check would refuse them as a
+/// crossing). `caller_uv` for the rule, the unit-square `uv` for the peeling. Returns how
+/// many triangles were dropped; none with an infinite `factor`. O(m log m).
+fn drop_jumps(
+    points: &[DVec3],
+    caller_uv: &[[f64; 2]],
+    uv: &[[f64; 2]],
+    factor: f64,
+    triangles: &mut Vec<[u32; 3]>,
+) -> usize {
+    if !factor.is_finite() || triangles.is_empty() {
+        return 0;
     }
-    // Lone points' triangles and dropped triangles are not strips: then only the global
-    // check knows.
-    let verdict = plan
-        .as_ref()
-        .map(|p| !inserted && dropped_jumps == 0 && p.accepts(&summaries, signed_area < 0.0));
-    let first_error = if !params.check || verdict == Some(true) {
-        None
-    } else {
-        global_check(points.len(), &triangles, uv)
+    let jumps = DepthJumps {
+        points,
+        factor,
+        gaps: false,
     };
-    let mut dropped_overlaps = 0;
-    let planar_error = if first_error.is_some() {
-        let before = triangles.len();
-        triangles = repair::repair(uv, triangles);
-        dropped_overlaps = before - triangles.len();
-        global_check(points.len(), &triangles, uv)
-    } else {
-        None
-    };
+    let bridges = jumps::bridging(caller_uv, triangles, jumps);
+    if !bridges.iter().any(|&b| b) {
+        return 0;
+    }
+    let before = triangles.len();
+    let kept: Vec<[u32; 3]> = std::mem::take(triangles)
+        .into_iter()
+        .zip(bridges)
+        .filter(|(_, b)| !b)
+        .map(|(t, _)| t)
+        .collect();
+    // Crossing lines (no half-edge mesh) are the repair's business afterwards.
+    *triangles = crate::triangulate::trim::peel(uv, kept.clone()).unwrap_or(kept);
+    before - triangles.len()
+}
 
-    let after =
-        (dropped_jumps + dropped_overlaps > 0).then(|| used_points(points.len(), &triangles));
-    let used = after.as_deref().unwrap_or(&used_by_strips);
-    let (unused, trimmed) = rayon::join(
+/// The points no triangle uses (ascending), and, when triangles were `dropped`, those of
+/// them that the strips used (`used_by_strips`): trimmed, not unused. O(n + m) in parallel.
+fn unused_and_trimmed(
+    n: usize,
+    triangles: &[[u32; 3]],
+    used_by_strips: &[AtomicBool],
+    dropped: bool,
+) -> (Vec<u32>, Vec<u32>) {
+    let after = dropped.then(|| used_points(n, triangles));
+    let used = after.as_deref().unwrap_or(used_by_strips);
+    rayon::join(
         || not_in(used, |_| true),
         || match after {
             Some(_) => not_in(used, |k| used_by_strips[k].load(Ordering::Relaxed)),
             None => Vec::new(),
         },
-    );
-    let mesh = StripMesh {
-        triangles,
-        unused,
-        n_strips: tasks.len(),
-        cost,
-        planar_error,
-        dropped_jumps,
-        dropped_overlaps,
-        trimmed,
-        signed_area,
-    };
-    let asked = params.check && local;
-    Ok((mesh, asked.then_some(verdict == Some(true)), first_error))
+    )
 }
 
 /// Which of `n` points the triangles use. O(n + m) in parallel; relaxed stores of `true`

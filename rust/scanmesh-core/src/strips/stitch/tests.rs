@@ -1,5 +1,6 @@
 use super::*;
 use crate::strips::fuchs::path_triangles;
+use crate::strips::fuchs::Solver;
 use crate::strips::lines::{segment_lines, DEFAULT_GAP_FACTOR};
 
 /// A height field z = f(x, y) sampled on `rows` lines y = r·dy of points x = c·dx,
