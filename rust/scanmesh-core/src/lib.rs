@@ -39,7 +39,6 @@ mod strips;
 mod testing;
 mod triangulate;
 
-pub use budget::{MAX_CALIBRATION_PROPOSALS, MAX_PROPOSALS};
 pub use criteria::{steep_count, tac_and_min_angles, Norm, SLIVER_ANGLE_DEG};
 pub use error::{Error, Result};
 pub use exact::enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
@@ -50,7 +49,7 @@ pub use io::stl::records as stl_records;
 pub use io::text::{parse_table, Table, TextError, TextErrorKind};
 pub use mesh::locality::Relabel;
 pub use mesh::NONE;
-pub use mesh::{next, prev, HalfEdgeMesh};
+pub use mesh::{prev, HalfEdgeMesh};
 pub use optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
 pub use optimize::ensemble::{Ensemble, EnsembleSummary};
 pub use optimize::lop::{run_lop, tac_lop, LopCriterion, TacOrder};
@@ -62,12 +61,11 @@ pub use strips::fuchs::{
     Solver, Step, Weight, DEFAULT_BAND,
 };
 pub use strips::lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
-pub use strips::stitch::{stitch, stitch_lines, stitch_part};
+pub use strips::stitch::{stitch, stitch_part};
 pub use strips::{Method, ScanContext, StripMesh, StripParams};
 pub use triangulate::delaunay::{delaunay, Delaunay};
 pub use triangulate::holes::DEFAULT_HOLE_FACTOR;
 pub use triangulate::jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};
 pub use triangulate::trim::{
-    delaunay_trimmed, median_spacing, trim_delaunay, trim_long_edges, Trimmed,
-    DEFAULT_MAX_EDGE_FACTOR,
+    delaunay_trimmed, median_spacing, trim_long_edges, Trimmed, DEFAULT_MAX_EDGE_FACTOR,
 };

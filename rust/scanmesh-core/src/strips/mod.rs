@@ -37,7 +37,7 @@ pub struct StripParams {
     /// triangles (`strips/repair.rs`), counted in [`StripMesh::dropped_overlaps`].
     pub check: bool,
     /// Depth-jump factor ([`crate::triangulate::jumps::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
-    /// [`stitch_lines`] cuts lines where consecutive points jump in depth
+    /// [`stitch_part`](crate::strips::stitch::stitch_part) cuts lines where consecutive points jump in depth
     /// ([`crate::strips::lines::split_at_jumps`]), and triangles that still bridge a jump by the
     /// rule of [`crate::triangulate::jumps::bridging_triangles`] (a strip between a line on top of a
     /// wall and one below it) are dropped, counted in [`StripMesh::dropped_jumps`].

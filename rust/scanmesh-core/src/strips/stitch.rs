@@ -320,28 +320,19 @@ pub fn stitch(
     stitch_with(points, uv, scan, params, true, None).map(|(mesh, _, _)| mesh)
 }
 
-/// The whole strip method from a line id per point: the scan lines
-/// ([`crate::strips::lines::segment_lines`], split at gaps of `gap_factor` median steps, and at
-/// depth jumps by [`crate::strips::lines::split_at_jumps`] with `params.jump_factor`), then
-/// [`stitch`]. Returns the mesh and the (dropped point, point it coincides with) pairs the
-/// lines found; the lines themselves are dropped before returning, so they never live
-/// beside the caller's copy of the faces. Time and errors: those of the two stages.
-pub fn stitch_lines(
-    points: &[DVec3],
-    uv: &[[f64; 2]],
-    line_ids: &[i64],
-    gap_factor: f64,
-    params: &StripParams,
-) -> Result<(StripMesh, Vec<(u32, u32)>)> {
-    stitch_part(points, uv, line_ids, gap_factor, params, None)
-}
-
-/// [`stitch_lines`] over some consecutive lines of a larger scan, as that scan's `context`
-/// makes them (`None`: these points are the whole scan). The triangles are the whole
-/// scan's strips between these lines, in these points' indices, except that they are
-/// turned counter-clockwise by their own [`StripMesh::signed_area`], not by the whole
-/// scan's, and that what is dropped at depth jumps and overlaps is decided from these
-/// lines' triangles alone. Time and errors: those of [`stitch_lines`].
+/// The whole strip method from a line id per point, over some consecutive lines of a
+/// larger scan as that scan's `context` makes them (`None`: these points are the whole
+/// scan): the scan lines ([`crate::strips::lines::segment_lines`], split at gaps of
+/// `gap_factor` median steps, and at depth jumps by [`crate::strips::lines::split_at_jumps`]
+/// with `params.jump_factor`), then [`stitch`]. Returns the mesh and the (dropped point,
+/// point it coincides with) pairs the lines found; the lines themselves are dropped before
+/// returning, so they never live beside the caller's copy of the faces.
+///
+/// With a `context`, the triangles are the whole scan's strips between these lines, in
+/// these points' indices, except that they are turned counter-clockwise by their own
+/// [`StripMesh::signed_area`], not by the whole scan's, and that what is dropped at depth
+/// jumps and overlaps is decided from these lines' triangles alone. Time and errors: those
+/// of the two stages.
 pub fn stitch_part(
     points: &[DVec3],
     uv: &[[f64; 2]],

@@ -5,7 +5,7 @@ use crate::geometry::planar_distance;
 use crate::geometry::unit_square;
 use crate::mesh::NONE;
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
-use crate::triangulate::delaunay::{relabel, Delaunay};
+use crate::triangulate::delaunay::relabel;
 use crate::triangulate::holes::{covering_holes, DEFAULT_HOLE_FACTOR};
 use crate::triangulate::jumps::{bridging_in_box, infinities, lower, DepthJumps, UnitJumps};
 use crate::Result;
@@ -102,7 +102,8 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// fans but the largest are dropped (repeatedly, as a drop can pinch a neighbour), so the
 /// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` and no `jumps` keep everything but
 /// the slivers. Input triangles must form a valid planar triangulation. O(m) after
-/// building their half-edge twins; see [`trim_delaunay`] for a triangulation that has them.
+/// building their half-edge twins (see [`delaunay_trimmed`], which has them from the
+/// triangulation).
 pub fn trim_long_edges(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
@@ -114,24 +115,12 @@ pub fn trim_long_edges(
     Ok(trim(uv, triangles, &twins, max_edge, jumps.as_ref(), None))
 }
 
-/// [`trim_long_edges`] on a Delaunay triangulation of `uv`, whose twins it already has: one
-/// pass over its triangles, no half-edge mesh built. O(m).
-pub fn trim_delaunay(
-    uv: &[[f64; 2]],
-    d: &Delaunay,
-    max_edge: f64,
-    jumps: Option<DepthJumps>,
-) -> Vec<[u32; 3]> {
-    let jumps = UnitJumps::when_finite(jumps);
-    trim(uv, &d.triangles, &d.twins, max_edge, jumps.as_ref(), None)
-}
-
 /// A Delaunay triangulation trimmed in one call ([`delaunay_trimmed`]).
 #[derive(Debug, Clone)]
 pub struct Trimmed {
     /// The kept counter-clockwise triangles, in input indices.
     pub triangles: Vec<[u32; 3]>,
-    /// As [`Delaunay::duplicate_of`].
+    /// As [`Delaunay::duplicate_of`](crate::Delaunay::duplicate_of).
     pub duplicate_of: Vec<u32>,
     /// Points (ascending) that were a vertex of the triangulation and of no kept triangle.
     pub trimmed: Vec<u32>,
@@ -141,7 +130,7 @@ pub struct Trimmed {
     pub seconds: [f64; 2],
 }
 
-/// [`delaunay`](crate::triangulate::delaunay) of `uv` then [`trim_delaunay`]: at `max_edge`, or for None
+/// [`delaunay`](crate::triangulate::delaunay) of `uv` then the rules of [`trim_long_edges`]: at `max_edge`, or for None
 /// [`DEFAULT_MAX_EDGE_FACTOR`] × [`median_spacing`]; when that length is finite, depth jumps
 /// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
 /// serve the trimming and no face array crosses to the caller in between. O(n log n).
@@ -322,7 +311,7 @@ pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
 }
 
 /// The half-edge twins of `triangles` over `n_points` points (half-edge 3t + k runs from
-/// corner k of triangle t; [`NONE`] on the boundary), as [`Delaunay::twins`] has them.
+/// corner k of triangle t; [`NONE`] on the boundary), as [`Delaunay::twins`](crate::Delaunay::twins) has them.
 /// Errors: the triangles are not an oriented manifold. O(m).
 fn twins_of(n_points: usize, triangles: &[[u32; 3]]) -> Result<Vec<u32>> {
     let mesh = HalfEdgeMesh::from_triangles(n_points, triangles)?;

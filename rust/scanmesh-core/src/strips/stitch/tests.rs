@@ -75,7 +75,7 @@ fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
         .flat_map(|p| [p[0].abs(), p[1].abs()])
         .fold(0.0, f64::max);
     for params in methods() {
-        let (whole, _) = stitch_lines(&pts, &uv, &ids, DEFAULT_GAP_FACTOR, &params).unwrap();
+        let (whole, _) = stitch_part(&pts, &uv, &ids, DEFAULT_GAP_FACTOR, &params, None).unwrap();
         let median = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR)
             .unwrap()
             .median_step;
