@@ -67,5 +67,6 @@ pub use triangulate::delaunay::{delaunay, Delaunay};
 pub use triangulate::holes::DEFAULT_HOLE_FACTOR;
 pub use triangulate::jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};
 pub use triangulate::trim::{
-    delaunay_trimmed, median_spacing, trim_long_edges, Trimmed, DEFAULT_MAX_EDGE_FACTOR,
+    check_trim_lengths, delaunay_trimmed, median_spacing, trim_long_edges, Trimmed,
+    DEFAULT_MAX_EDGE_FACTOR,
 };

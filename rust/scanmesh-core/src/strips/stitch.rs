@@ -33,7 +33,7 @@ use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
 use crate::strips::fuchs::{lookahead, path_triangles_into, shortest_path, Weight};
 use crate::strips::lines::ScanLines;
-use crate::triangulate::jumps::DepthJumps;
+use crate::triangulate::jumps::{check_jump_factor, DepthJumps};
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -780,18 +780,6 @@ fn not_in(used: &[AtomicBool], also: impl Fn(usize) -> bool + Sync) -> Vec<u32> 
         .with_min_len(BLOCK)
         .filter(|&k| !used[k as usize].load(Ordering::Relaxed) && also(k as usize))
         .collect()
-}
-
-/// The depth-jump factor must be positive (`∞` turns the rule off).
-fn check_jump_factor(factor: f64) -> Result<()> {
-    if factor.is_nan() || factor <= 0.0 {
-        return Err(Error::InvalidParameter {
-            name: "jump_factor",
-            value: factor.to_string(),
-            expected: "a positive multiple of the local spacing (or inf)",
-        });
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -8,10 +8,15 @@ use crate::geometry::PAR_BLOCK;
 use crate::mesh::well_formed;
 use rayon::prelude::*;
 
-/// Default hole factor: a triangle whose longest planar edge exceeds this multiple of the
-/// edges around it, and whose planar area exceeds [`HOLE_AREA_FACTOR`] times that of the
-/// triangles around it, spans missing samples (see [`covering_holes`]) and is dropped in
-/// trimming. Chosen by benches/depth_jumps.py (figures in benches/results/depth_jumps.md):
+/// Default hole factor (a ratio of planar lengths): in trimming, a triangle spans missing
+/// samples and is dropped ([`covering_holes`]) when its longest planar edge exceeds this
+/// multiple of the local edge length **and** its planar area exceeds [`HOLE_AREA_FACTOR`]
+/// times the local triangle area; either condition alone keeps it. The local values of a
+/// triangle are the median over its three corners of each corner's lower median (of the
+/// lengths of the two edges at that corner of every well-formed triangle there, and of
+/// those triangles' areas). Degenerate triangles are never dropped by this rule; the
+/// comparison is on squared lengths in single precision, in [`unit_square`] coordinates,
+/// so the rule is scale-free. Chosen by benches/depth_jumps.py (figures in benches/results/depth_jumps.md):
 /// on the rocker arm it drops the thin triangles left across its 1.4 mm oil holes (5.2
 /// spacings across, narrower than the planar trim length, at one height) and takes its
 /// height RMS from 0.046 to 0.009 times planar trimming's (3.0: 0.011); the pocket and the

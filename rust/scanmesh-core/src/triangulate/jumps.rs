@@ -5,6 +5,7 @@
 use crate::geometry::planar_distance;
 use crate::geometry::Normalizer;
 use crate::mesh::Fans;
+use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -45,6 +46,32 @@ pub struct DepthJumps<'a> {
     /// Whether the gap rule runs too (trimming: yes; the strips: not yet, it drops
     /// lookahead's long fans on clean grids with the area and dihedral weights).
     pub gaps: bool,
+}
+
+/// Refuses a depth-jump factor that is NaN or not positive (`∞` turns the rules off); the
+/// error names the parameter and its value. O(1).
+pub(crate) fn check_jump_factor(factor: f64) -> Result<()> {
+    if factor.is_nan() || factor <= 0.0 {
+        return Err(Error::InvalidParameter {
+            name: "jump_factor",
+            value: factor.to_string(),
+            expected: "a positive multiple of the local spacing (or inf)",
+        });
+    }
+    Ok(())
+}
+
+/// Refuses 3-D `points` whose count is not `n_points`, the planar points they lie over
+/// index for index (the depth-jump rules read both). O(1).
+pub(crate) fn check_points_match(points: &[DVec3], n_points: usize) -> Result<()> {
+    if points.len() != n_points {
+        return Err(Error::InvalidParameter {
+            name: "points",
+            value: format!("{} points for {n_points} planar points", points.len()),
+            expected: "one 3-D point per planar point",
+        });
+    }
+    Ok(())
 }
 
 /// The two local 3-D spacings of a vertex, from the lengths of its distinct edges.

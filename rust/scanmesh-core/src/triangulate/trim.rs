@@ -7,8 +7,11 @@ use crate::mesh::NONE;
 use crate::mesh::{prev, well_formed, HalfEdgeMesh};
 use crate::triangulate::delaunay::relabel;
 use crate::triangulate::holes::{covering_holes, DEFAULT_HOLE_FACTOR};
-use crate::triangulate::jumps::{bridging_in_box, infinities, lower, DepthJumps, UnitJumps};
-use crate::Result;
+use crate::triangulate::jumps::{
+    bridging_in_box, check_jump_factor, check_points_match, infinities, lower, DepthJumps,
+    UnitJumps,
+};
+use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -103,16 +106,48 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` and no `jumps` keep everything but
 /// the slivers. Input triangles must form a valid planar triangulation. O(m) after
 /// building their half-edge twins (see [`delaunay_trimmed`], which has them from the
-/// triangulation).
+/// triangulation). Errors: a `max_edge` or `jumps.factor` that is NaN or not positive, with a
+/// finite factor `jumps.points` not one per planar point, triangles that are not an oriented
+/// manifold.
 pub fn trim_long_edges(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     max_edge: f64,
     jumps: Option<DepthJumps>,
 ) -> Result<Vec<[u32; 3]>> {
+    check_max_edge(max_edge)?;
+    if let Some(j) = &jumps {
+        check_jump_factor(j.factor)?;
+        if j.factor.is_finite() {
+            check_points_match(j.points, uv.len())?;
+        }
+    }
     let twins = twins_of(uv.len(), triangles)?;
     let jumps = UnitJumps::when_finite(jumps);
     Ok(trim(uv, triangles, &twins, max_edge, jumps.as_ref(), None))
+}
+
+/// Refuses a planar trimming length that is NaN or not positive (`∞` keeps every length);
+/// the error names the parameter and its value (input units). O(1).
+pub(crate) fn check_max_edge(max_edge: f64) -> Result<()> {
+    if max_edge.is_nan() || max_edge <= 0.0 {
+        return Err(Error::InvalidParameter {
+            name: "max_edge",
+            value: max_edge.to_string(),
+            expected: "a positive length (or inf)",
+        });
+    }
+    Ok(())
+}
+
+/// The parameter checks of trimming in one call: a `max_edge` (input units) and a
+/// `jump_factor` (multiples of the local spacing) that are NaN or not positive are refused
+/// (`∞` turns either rule off), `max_edge` first; the error names the parameter and its
+/// value. What [`trim_long_edges`] and [`delaunay_trimmed`] check before any work, for a
+/// caller that wants to check before converting its input. O(1).
+pub fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> Result<()> {
+    check_max_edge(max_edge)?;
+    check_jump_factor(jump_factor)
 }
 
 /// A Delaunay triangulation trimmed in one call ([`delaunay_trimmed`]).
@@ -133,13 +168,19 @@ pub struct Trimmed {
 /// [`delaunay`](crate::triangulate::delaunay) of `uv` then the rules of [`trim_long_edges`]: at `max_edge`, or for None
 /// [`DEFAULT_MAX_EDGE_FACTOR`] × [`median_spacing`]; when that length is finite, depth jumps
 /// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
-/// serve the trimming and no face array crosses to the caller in between. O(n log n).
+/// serve the trimming and no face array crosses to the caller in between. Errors: those of
+/// [`check_trim_lengths`], with a finite `jump_factor` `points` not one per planar point,
+/// and those of the triangulation. O(n log n).
 pub fn delaunay_trimmed(
     uv: &[[f64; 2]],
     points: &[DVec3],
     max_edge: Option<f64>,
     jump_factor: f64,
 ) -> Result<Trimmed> {
+    check_trim_lengths(max_edge.unwrap_or(1.0), jump_factor)?;
+    if jump_factor.is_finite() {
+        check_points_match(points, uv.len())?;
+    }
     let clock = std::time::Instant::now();
     let (d, order) = crate::triangulate::delaunay::delaunay_ordered(uv)?;
     let triangulated = clock.elapsed().as_secs_f64();

@@ -392,3 +392,44 @@ fn later_bridge_rounds_on_the_neighbourhood_are_full_rounds() {
     }
     assert!(most >= 3, "the fixtures must need several rounds ({most})");
 }
+
+#[test]
+fn trimming_refuses_lengths_and_factors_out_of_range() {
+    let uv = vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+    let points: Vec<DVec3> = uv.iter().map(|p| DVec3::new(p[0], p[1], 0.0)).collect();
+    let triangles = delaunay(&uv).unwrap().triangles;
+    let named = |r: crate::Result<Vec<[u32; 3]>>| match r {
+        Err(crate::Error::InvalidParameter { name, .. }) => name,
+        other => panic!("{other:?}"),
+    };
+    for bad in [f64::NAN, 0.0, -1.0, f64::NEG_INFINITY] {
+        assert_eq!(
+            named(trim_long_edges(&uv, &triangles, bad, None)),
+            "max_edge"
+        );
+        let jumps = DepthJumps {
+            points: &points,
+            factor: bad,
+            gaps: true,
+        };
+        let r = trim_long_edges(&uv, &triangles, 1.0, Some(jumps));
+        assert_eq!(named(r), "jump_factor");
+        let err = delaunay_trimmed(&uv, &points, Some(bad), 3.0).unwrap_err();
+        assert!(err.to_string().contains("max_edge"), "{err}");
+        let err = delaunay_trimmed(&uv, &points, None, bad).unwrap_err();
+        assert!(err.to_string().contains("jump_factor"), "{err}");
+    }
+    let short = DepthJumps {
+        points: &points[..3],
+        factor: 3.0,
+        gaps: true,
+    };
+    assert_eq!(
+        named(trim_long_edges(&uv, &triangles, 1.0, Some(short))),
+        "points"
+    );
+    assert!(delaunay_trimmed(&uv, &points[..3], None, 3.0).is_err());
+    // Infinite values turn the rules off; jumps off need no 3-D points.
+    assert!(trim_long_edges(&uv, &triangles, f64::INFINITY, None).is_ok());
+    assert!(delaunay_trimmed(&uv, &[], Some(f64::INFINITY), f64::INFINITY).is_ok());
+}
