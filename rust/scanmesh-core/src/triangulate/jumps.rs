@@ -33,7 +33,7 @@ pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 /// over the connecting rod's bore (3.5 median edges off the CAD surface).
 pub const DEFAULT_BRIDGE_FACTOR: f64 = 5.0;
 
-/// The depth-jump rule of [`trim_long_edges`]: the 3-D points (same indices as the planar
+/// The depth-jump rule of [`trim_long_edges`](crate::triangulate::trim::trim_long_edges): the 3-D points (same indices as the planar
 /// ones) and the factor (`∞` turns it off).
 #[derive(Debug, Clone, Copy)]
 pub struct DepthJumps<'a> {
@@ -241,7 +241,7 @@ impl UnitJumps {
             .map(|j| Self::gathered(j, None))
     }
 
-    /// [`UnitJumps::of`] on the points `jumps.points[i]` for `i` in `order` (all points when
+    /// The rules of `jumps` in the unit box (as [`UnitJumps::when_finite`]) on the points `jumps.points[i]` for `i` in `order` (all points when
     /// None), in that order: the box is that of all points either way. O(n), in parallel.
     pub(super) fn gathered(jumps: DepthJumps, order: Option<&[u32]>) -> Self {
         let norm = Normalizer::fit(jumps.points);

@@ -95,8 +95,8 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// longest 3-D edge is steeper than 45° over the plane (`uv` must be the orthogonal
 /// projection of `jumps.points`, in the same units) and exceeds `jumps.factor` times the
 /// smallest local spacing of its corners (computed over the input triangles), or, at any
-/// slope, [`DEFAULT_BRIDGE_FACTOR`] times their spacing across lines
-/// ([`bridging_triangles`]), or that is far longer and larger in the plane than the
+/// slope, [`DEFAULT_BRIDGE_FACTOR`](crate::triangulate::jumps::DEFAULT_BRIDGE_FACTOR) times their spacing across lines
+/// ([`bridging_triangles`](crate::triangulate::jumps::bridging_triangles)), or that is far longer and larger in the plane than the
 /// triangles around it ([`covering_holes`] at [`DEFAULT_HOLE_FACTOR`]), so the hole stays
 /// open. Straight stretches
 /// of a scanned outline put collinear points on the convex hull, and

@@ -116,7 +116,7 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
     Ok(windowed(&t, window, alpha))
 }
 
-/// The α-look-ahead walk of [`lookahead`] on checked terms, each decision by a window DP
+/// The α-look-ahead walk of [`lookahead()`] on checked terms, each decision by a window DP
 /// in `window` (sized for α). O((n + m) · min(α, n) · min(α, m)).
 pub(super) fn windowed(t: &Terms, mut window: Window, alpha: usize) -> Solution {
     walk(t, |i, j, entered| {
@@ -128,7 +128,7 @@ pub(super) fn windowed(t: &Terms, mut window: Window, alpha: usize) -> Solution 
     })
 }
 
-/// [`lookahead`] with α = 1 on checked terms: each decision compares the two steps out of
+/// [`lookahead()`] with α = 1 on checked terms: each decision compares the two steps out of
 /// the node by their own cost plus their turn, which is all a window of one step holds, so
 /// each step is evaluated once and the one taken is not evaluated again (the greedy walk
 /// of VTK's ruled surface, under any weight). The same arithmetic as the windows (a cell
