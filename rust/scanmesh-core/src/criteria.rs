@@ -119,7 +119,8 @@ fn is_interior(
     all_twice && link_is_one_cycle(link)
 }
 
-/// True when the undirected link edges (every node of degree 2) form a single cycle. O(d²), d small.
+/// True when the undirected link edges (every node of degree 2) form a single cycle. O(d²), d
+/// small.
 fn link_is_one_cycle(link: &[(u32, u32)]) -> bool {
     let mut used = vec![false; link.len()];
     let (first, mut node) = link[0];
@@ -208,7 +209,8 @@ fn tac_from_angles(n_vertices: usize, faces: &[[u32; 3]], angles: &[[f64; 3]]) -
 
 /// tac of every vertex (`|2π − Σ angles|` on interior vertices, NaN elsewhere, angles
 /// measured on the points mapped into the unit box) and the smallest 3-D angle of every
-/// face, with every corner angle computed once. O(n + m) time, in parallel; memory 24 bytes per face
+/// face, with every corner angle computed once. O(n + m) time, in parallel; memory 24 bytes per
+/// face
 /// for the angles and 12 per face + 8 per vertex for the fan table, besides the outputs.
 pub fn tac_and_min_angles(points: &[DVec3], faces: &[[u32; 3]]) -> Result<(Vec<f64>, Vec<f64>)> {
     check_faces(points.len(), faces)?;

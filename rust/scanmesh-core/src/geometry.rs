@@ -11,7 +11,8 @@ pub(crate) const PAR_BLOCK: usize = 1 << 14;
 ///
 /// Why not libm: its atan2 was half the run time of strips under the angle and dihedral
 /// weights (up to six calls per matrix cell), and a quarter of annealing's on curved
-/// surfaces (six corner angles per proposal). The one implementation for both. This is Cephes' `atan` (Moshier): a
+/// surfaces (six corner angles per proposal). The one implementation for both. This is Cephes'
+/// `atan` (Moshier): a
 /// reduction to |u| ≤ 0.66 and a degree 4/5 rational function; tested within 4 ulp of
 /// libm over 40 decades. The reduction is written without branches (selects), because
 /// the DP's cost comparisons wait on these results and a mispredicted branch here stalls

@@ -284,7 +284,8 @@ impl HalfEdgeMesh {
         (0..self.n_triangles()).map(|t| self.triangle(t)).collect()
     }
 
-    /// One half-edge per undirected edge (the lower of a twin pair; every boundary half-edge). O(m).
+    /// One half-edge per undirected edge (the lower of a twin pair; every boundary half-edge).
+    /// O(m).
     pub fn edges(&self) -> impl Iterator<Item = u32> + '_ {
         (0..self.start.len() as u32).filter(move |&h| {
             let t = self.twin[h as usize];
@@ -302,7 +303,8 @@ impl HalfEdgeMesh {
             .collect()
     }
 
-    /// True when `v` is used and no boundary edge touches it: its triangles form a closed fan. O(1).
+    /// True when `v` is used and no boundary edge touches it: its triangles form a closed fan.
+    /// O(1).
     #[inline]
     pub fn is_interior(&self, v: u32) -> bool {
         self.vertex_edge[v as usize] != NONE && !self.on_boundary[v as usize]

@@ -1,6 +1,7 @@
 //! Simulated annealing of a planar triangulation by random edge flips, minimizing tac.
 //!
-//! Move: a uniformly random live edge ([`crate::optimize::active`]: its quadrilateral strictly convex,
+//! Move: a uniformly random live edge ([`crate::optimize::active`]: its quadrilateral strictly
+//! convex,
 //! a corner's tac above the floor of ties), flipped.
 //! Energy: Σ tac^p ([`TacState`]). Selection: Metropolis. Schedule: T0 calibrated from the
 //! uphill energy changes of sampled proposals, geometric cooling per sweep (a sweep is as
@@ -51,7 +52,8 @@ pub struct AnnealParams {
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
     pub chains: usize,
-    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::optimize::tiles`]): 1
+    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::optimize::tiles`]):
+    /// 1
     /// runs the plain sequential chain; k > 1 splits the plane into stripes whose
     /// interiors anneal independently, phase by phase, with the stripes shifted every
     /// phase. The result depends on (seed, tiles), never on the thread count.

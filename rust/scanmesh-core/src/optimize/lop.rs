@@ -16,7 +16,8 @@ pub const ANGLE_EPSILON: f64 = 1e-12;
 /// How a tac move is judged: a lower energy wins; within `tie_tolerance` of no change,
 /// the larger smallest 3-D angle wins when `sliver_guard` is on (the lexicographic order
 /// "tac energy first, then smallest angle"). With `planar_ties`, a move whose four
-/// corners are all flat up to the noise (tac at most [`NOISE_TAC`](crate::optimize::tac_state::NOISE_TAC) tie tolerances, see
+/// corners are all flat up to the noise (tac at most
+/// [`NOISE_TAC`](crate::optimize::tac_state::NOISE_TAC) tie tolerances, see
 /// [`TacState::flat_quad_uv`]) is judged by the smallest planar angle alone, Delaunay's
 /// criterion.
 ///

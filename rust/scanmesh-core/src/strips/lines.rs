@@ -286,10 +286,12 @@ pub const JUMP_WINDOW: usize = 2;
 
 /// Splits the segments of `scan` where consecutive points jump in depth (a wall, a step,
 /// the rim of a bore seen along the line): a step that is a jump by
-/// [`crate::triangulate::jumps::is_depth_jump`] with factor `factor`, against the local spacing of the
+/// [`crate::triangulate::jumps::is_depth_jump`] with factor `factor`, against the local spacing of
+/// the
 /// line there, the median 3-D step of the [`JUMP_WINDOW`] steps on either side of it and
 /// itself. `points` are the 3-D points and `uv` their orthogonal projection in the same
-/// units (as for [`crate::triangulate::jumps::DepthJumps`]); an infinite `factor` changes nothing. Pieces
+/// units (as for [`crate::triangulate::jumps::DepthJumps`]); an infinite `factor` changes nothing.
+/// Pieces
 /// stay in scan order; strips then pair each piece with the overlapping pieces of the
 /// neighbouring lines only. O(n).
 pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], factor: f64) {

@@ -19,7 +19,8 @@
 //! turned to run the same way, so that every line's edges run one way in the strip before
 //! it and the other way in the strip after it: the strips fit together with one
 //! consistent orientation even where lines cross in the plane. The whole mesh is then
-//! turned counter-clockwise in the plane (by the sign of its total planar area). Points of one-point segments and lines are then inserted into the triangle
+//! turned counter-clockwise in the plane (by the sign of its total planar area). Points of
+//! one-point segments and lines are then inserted into the triangle
 //! (or the edge) that contains them in the plane, if any. The result is checked as
 //! [`HalfEdgeMesh::validate`] would check it: decided from the strips themselves while they
 //! are solved when they fit together as strips do (`strips/check.rs`, which proves the two
@@ -391,8 +392,11 @@ fn stitch_with(
     } else {
         None
     };
-    let (mut triangles, ranges, solved) =
-        solve_strips(points, &unit, &tasks, params, plan.as_ref())?;
+    let Strips {
+        mut triangles,
+        ranges,
+        solved,
+    } = solve_strips(points, &unit, &tasks, params, plan.as_ref())?;
     let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
     // Sums in task order.
     let (mut cost, mut signed_area) = (0.0, 0.0);
@@ -613,6 +617,14 @@ fn orient_lines(
     (kept, oriented)
 }
 
+/// The strips' triangles in one list, the range of each task in it, and each strip's
+/// result (see [`solve_strips`]).
+struct Strips {
+    triangles: Vec<[u32; 3]>,
+    ranges: Vec<std::ops::Range<usize>>,
+    solved: Vec<Solved>,
+}
+
 /// Every strip solved in parallel, each writing its own range of the one triangle list (a
 /// triangle per path step): the list, the range of each task (to find the strips around a
 /// lone point) and each strip's result. Time: each strip as its method; errors: a strip's.
@@ -622,7 +634,7 @@ fn solve_strips(
     tasks: &[Task],
     params: &StripParams,
     plan: Option<&check::Plan>,
-) -> Result<(Vec<[u32; 3]>, Vec<std::ops::Range<usize>>, Vec<Solved>)> {
+) -> Result<Strips> {
     let mut ranges = Vec::with_capacity(tasks.len());
     let mut total = 0;
     for task in tasks {
@@ -658,7 +670,11 @@ fn solve_strips(
             )
         })
         .collect::<Result<_>>()?;
-    Ok((triangles, ranges, solved))
+    Ok(Strips {
+        triangles,
+        ranges,
+        solved,
+    })
 }
 
 /// Lone points (one-point segments, and every point of lines passed over) inserted into

@@ -16,7 +16,8 @@ use rayon::prelude::*;
 /// lengths of the two edges at that corner of every well-formed triangle there, and of
 /// those triangles' areas). Degenerate triangles are never dropped by this rule; the
 /// comparison is on squared lengths in single precision, in [`unit_square`] coordinates,
-/// so the rule is scale-free. Chosen by benches/depth_jumps.py (figures in benches/results/depth_jumps.md):
+/// so the rule is scale-free. Chosen by benches/depth_jumps.py (figures in
+/// benches/results/depth_jumps.md):
 /// on the rocker arm it drops the thin triangles left across its 1.4 mm oil holes (5.2
 /// spacings across, narrower than the planar trim length, at one height) and takes its
 /// height RMS from 0.046 to 0.009 times planar trimming's (3.0: 0.011); the pocket and the

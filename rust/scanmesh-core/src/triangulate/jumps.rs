@@ -33,7 +33,8 @@ pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 /// over the connecting rod's bore (3.5 median edges off the CAD surface).
 pub const DEFAULT_BRIDGE_FACTOR: f64 = 5.0;
 
-/// The depth-jump rule of [`trim_long_edges`](crate::triangulate::trim::trim_long_edges): the 3-D points (same indices as the planar
+/// The depth-jump rule of [`trim_long_edges`](crate::triangulate::trim::trim_long_edges): the 3-D
+/// points (same indices as the planar
 /// ones) and the factor (`∞` turns it off).
 #[derive(Debug, Clone, Copy)]
 pub struct DepthJumps<'a> {
@@ -210,7 +211,8 @@ pub(super) fn is_steep(length3: f64, flat: f64) -> bool {
 /// is a jump by [`is_depth_jump`] against the smallest [`Spacing::median`] of its corners,
 /// or at any slope longer than [`DEFAULT_BRIDGE_FACTOR`] times the smallest spacing
 /// across lines ([`Spacing::across`]) of its corners (both computed over `triangles`; the
-/// bridge rule again over what is kept, while it drops something). `uv` must be the orthogonal projection of `jumps.points`, in the same
+/// bridge rule again over what is kept, while it drops something). `uv` must be the orthogonal
+/// projection of `jumps.points`, in the same
 /// units; all `false` when `jumps.factor` is infinite. O(m log m).
 pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
     match UnitJumps::when_finite(Some(jumps)) {
@@ -241,8 +243,9 @@ impl UnitJumps {
             .map(|j| Self::gathered(j, None))
     }
 
-    /// The rules of `jumps` in the unit box (as [`UnitJumps::when_finite`]) on the points `jumps.points[i]` for `i` in `order` (all points when
-    /// None), in that order: the box is that of all points either way. O(n), in parallel.
+    /// The rules of `jumps` in the unit box (as [`UnitJumps::when_finite`]) on the points
+    /// `jumps.points[i]` for `i` in `order` (all points when None), in that order: the box
+    /// is that of all points either way. O(n), in parallel.
     pub(super) fn gathered(jumps: DepthJumps, order: Option<&[u32]>) -> Self {
         let norm = Normalizer::fit(jumps.points);
         let unit = match order {

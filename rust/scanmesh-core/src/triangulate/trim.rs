@@ -95,13 +95,16 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// longest 3-D edge is steeper than 45° over the plane (`uv` must be the orthogonal
 /// projection of `jumps.points`, in the same units) and exceeds `jumps.factor` times the
 /// smallest local spacing of its corners (computed over the input triangles), or, at any
-/// slope, [`DEFAULT_BRIDGE_FACTOR`](crate::triangulate::jumps::DEFAULT_BRIDGE_FACTOR) times their spacing across lines
-/// ([`bridging_triangles`](crate::triangulate::jumps::bridging_triangles)), or that is far longer and larger in the plane than the
+/// slope, [`DEFAULT_BRIDGE_FACTOR`](crate::triangulate::jumps::DEFAULT_BRIDGE_FACTOR) times their
+/// spacing across lines
+/// ([`bridging_triangles`](crate::triangulate::jumps::bridging_triangles)), or that is far longer
+/// and larger in the plane than the
 /// triangles around it ([`covering_holes`] at [`DEFAULT_HOLE_FACTOR`]), so the hole stays
 /// open. Straight stretches
 /// of a scanned outline put collinear points on the convex hull, and
 /// Delaunay closes them with zero-area slivers whose angles (0, 0, π) make a boundary
-/// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a vertex where two fans touch only at a point; there the triangles of all
+/// vertex look interior; they cover no area, so dropping them changes no surface. A pinch is a
+/// vertex where two fans touch only at a point; there the triangles of all
 /// fans but the largest are dropped (repeatedly, as a drop can pinch a neighbour), so the
 /// result is a valid [`HalfEdgeMesh`]. `max_edge = ∞` and no `jumps` keep everything but
 /// the slivers. Input triangles must form a valid planar triangulation. O(m) after
@@ -165,7 +168,8 @@ pub struct Trimmed {
     pub seconds: [f64; 2],
 }
 
-/// [`delaunay`](crate::triangulate::delaunay) of `uv` then the rules of [`trim_long_edges`]: at `max_edge`, or for None
+/// [`delaunay`](crate::triangulate::delaunay) of `uv` then the rules of [`trim_long_edges`]: at
+/// `max_edge`, or for None
 /// [`DEFAULT_MAX_EDGE_FACTOR`] × [`median_spacing`]; when that length is finite, depth jumps
 /// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
 /// serve the trimming and no face array crosses to the caller in between. Errors: those of
@@ -352,7 +356,8 @@ pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
 }
 
 /// The half-edge twins of `triangles` over `n_points` points (half-edge 3t + k runs from
-/// corner k of triangle t; [`NONE`] on the boundary), as [`Delaunay::twins`](crate::Delaunay::twins) has them.
+/// corner k of triangle t; [`NONE`] on the boundary), as
+/// [`Delaunay::twins`](crate::Delaunay::twins) has them.
 /// Errors: the triangles are not an oriented manifold. O(m).
 fn twins_of(n_points: usize, triangles: &[[u32; 3]]) -> Result<Vec<u32>> {
     let mesh = HalfEdgeMesh::from_triangles(n_points, triangles)?;
