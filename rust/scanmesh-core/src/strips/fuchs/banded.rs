@@ -1,7 +1,11 @@
 //! The cheapest path inside a band around the strip's diagonal, widened until the band's
 //! edge is provably not better.
 
-use super::*;
+use super::dp::{check_band, dp_in_band, dp_in_band_with, RowCache};
+use super::weights::{Terms, Weight};
+use super::Solution;
+use crate::{Error, Result};
+use glam::DVec3;
 
 /// The cheapest path of the whole matrix by DP inside a band around the diagonal, widened
 /// until the band proves its path optimal.
@@ -62,7 +66,7 @@ pub fn shortest_path_banded(
         }
         let row_width = check_band(&t, &lo, &hi, &ask)?;
         let steps = RowCache::new(&t, row_width, &ask)?;
-        let mut bounds = outside::Bounds::new(&t, &lo, &hi);
+        let mut bounds = super::outside::Bounds::new(&t, &lo, &hi);
         if let Some(solution) = dp_in_band_with(&t, steps, &mut bounds, &lo, &hi, &ask)? {
             return Ok(solution);
         }

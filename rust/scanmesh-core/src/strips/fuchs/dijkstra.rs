@@ -1,7 +1,12 @@
 //! The cheapest path by Dijkstra's search, which settles only the nodes cheaper than the
 //! optimum.
 
-use super::*;
+use super::weights::{Terms, Tri, Weight};
+use super::{Solution, Step};
+use crate::Result;
+use glam::DVec3;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
 
 /// A heap entry ordered by ascending cost (BinaryHeap is a max-heap).
 #[derive(PartialEq)]

@@ -1,7 +1,11 @@
 //! The cheapest path by dynamic programming: over the whole matrix, or inside a band of
 //! columns per row (with an outside bound, see `outside`).
 
-use super::*;
+use super::weights::{Terms, Tri, Weight};
+use super::{Ask, Solution, Step};
+use crate::Result;
+use glam::DVec3;
+use std::f64::consts::PI;
 
 /// The cheapest path by dynamic programming over the whole matrix (a DAG).
 ///

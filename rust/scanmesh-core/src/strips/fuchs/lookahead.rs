@@ -1,7 +1,11 @@
 //! Friedhoff's α-look-ahead walk: each step chosen by the cheapest path of α steps
 //! beyond it.
 
-use super::*;
+use super::dp::{best_from, full_dp, Cell, UNREACHED};
+use super::weights::{Terms, Tri, Weight};
+use super::{Solution, Step, MAX_LOOKAHEAD_CELLS};
+use crate::{Error, Result};
+use glam::DVec3;
 
 /// Reusable buffers of the look-ahead window, so the walk allocates only when a window
 /// grows past every earlier one.

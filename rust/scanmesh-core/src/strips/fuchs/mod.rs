@@ -26,19 +26,12 @@ mod weights;
 pub use banded::shortest_path_banded;
 pub use dijkstra::shortest_path_dijkstra;
 pub use dp::shortest_path_dp;
-use dp::*;
 pub use lookahead::lookahead;
-#[cfg(test)]
-use lookahead::*;
 pub use weights::Weight;
-use weights::*;
 
-use crate::geometry::{atan2_upper, check_finite};
 use crate::{Error, Result};
 use glam::DVec3;
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
-use std::f64::consts::{FRAC_PI_3, PI};
+use weights::{Terms, Tri};
 
 /// One step of a path through the Fuchs matrix.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

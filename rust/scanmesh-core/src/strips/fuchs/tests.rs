@@ -1,5 +1,10 @@
+use super::dp::*;
+use super::lookahead::*;
+use super::weights::*;
 use super::*;
 use crate::geometry;
+use std::f64::consts::FRAC_PI_3;
+use std::f64::consts::PI;
 
 /// A deterministic generator for test data (LCG, top 53 bits).
 struct Lcg(u64);

@@ -1,7 +1,11 @@
 //! The path weights: the four criteria's coefficients ([`Weight`]), their per-strip terms
 //! (node lengths, triangle areas and angles, dihedral turns) and a step as the searches see it.
 
-use super::*;
+use super::{Ask, Step};
+use crate::geometry::{atan2_upper, check_finite};
+use crate::{Error, Result};
+use glam::DVec3;
+use std::f64::consts::{FRAC_PI_3, PI};
 
 /// Coefficients of the four path criteria; the cost of a path is their weighted sum.
 ///
