@@ -4,7 +4,7 @@
 //! time with the prefix `cpu_`, the figure to quote on a loaded machine):
 //! - `proposals`: Metropolis proposals per second at the start temperature (hot) and at the
 //!   end of the schedule (cold: uphill moves are rejected, coplanar ties still flip);
-//! - `six_corner_angles`: the floor the issue names: the six new corner angles of a proposal
+//! - `six_corner_angles`: the floor of a proposal's cost: the six new corner angles of a proposal
 //!   alone, for the same random edges, with no convexity test, energy or bookkeeping;
 //! - `tiles` (wall clock only): the sustained hot rate of one chain annealed in stripes at
 //!   once ([`TiledAnnealer`], phase changes included): on the rod in 1, 2, 4 and 8 stripes

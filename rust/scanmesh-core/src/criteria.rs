@@ -4,6 +4,7 @@
 //! every method, and meshes from elsewhere, are judged by the same code.
 
 use crate::geometry::{triangle_angles, Normalizer};
+use crate::mesh::Fans;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -76,47 +77,6 @@ pub fn check_faces(n_vertices: usize, faces: &[[u32; 3]]) -> Result<()> {
     Ok(())
 }
 
-/// The faces around every vertex as compressed rows: the faces of vertex `v` are
-/// `faces[offsets[v]..offsets[v + 1]]`, in increasing face order (so that sums over a fan
-/// add in the same order as a pass over the faces would). O(n + m) time and memory.
-pub(crate) struct Fans {
-    offsets: Vec<usize>,
-    faces: Vec<u32>,
-}
-
-impl Fans {
-    /// Counting sort of the 3m corners by vertex; `faces` must be checked already.
-    pub(crate) fn new(n_vertices: usize, faces: &[[u32; 3]]) -> Fans {
-        let mut offsets = vec![0usize; n_vertices + 1];
-        for t in faces {
-            for &v in t {
-                offsets[v as usize + 1] += 1;
-            }
-        }
-        for v in 0..n_vertices {
-            offsets[v + 1] += offsets[v];
-        }
-        let mut fill = offsets[..n_vertices].to_vec();
-        let mut around = vec![0u32; offsets[n_vertices]];
-        for (f, t) in faces.iter().enumerate() {
-            for &v in t {
-                around[fill[v as usize]] = f as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        Fans {
-            offsets,
-            faces: around,
-        }
-    }
-
-    /// The faces around vertex `v`, in increasing order.
-    #[inline]
-    pub(crate) fn of(&self, v: usize) -> &[u32] {
-        &self.faces[self.offsets[v]..self.offsets[v + 1]]
-    }
-}
-
 /// The two other corners of face `t` after vertex `v`, in the face's cyclic order.
 #[inline]
 fn others(t: [u32; 3], v: u32) -> (u32, u32) {
@@ -159,7 +119,8 @@ fn is_interior(
     all_twice && link_is_one_cycle(link)
 }
 
-/// True when the undirected link edges (every node of degree 2) form a single cycle. O(d²), d small.
+/// True when the undirected link edges (every node of degree 2) form a single cycle. O(d²), d
+/// small.
 fn link_is_one_cycle(link: &[(u32, u32)]) -> bool {
     let mut used = vec![false; link.len()];
     let (first, mut node) = link[0];
@@ -248,7 +209,8 @@ fn tac_from_angles(n_vertices: usize, faces: &[[u32; 3]], angles: &[[f64; 3]]) -
 
 /// tac of every vertex (`|2π − Σ angles|` on interior vertices, NaN elsewhere, angles
 /// measured on the points mapped into the unit box) and the smallest 3-D angle of every
-/// face, with every corner angle computed once. O(n + m) time, in parallel; memory 24 bytes per face
+/// face, with every corner angle computed once. O(n + m) time, in parallel; memory 24 bytes per
+/// face
 /// for the angles and 12 per face + 8 per vertex for the fan table, besides the outputs.
 pub fn tac_and_min_angles(points: &[DVec3], faces: &[[u32; 3]]) -> Result<(Vec<f64>, Vec<f64>)> {
     check_faces(points.len(), faces)?;

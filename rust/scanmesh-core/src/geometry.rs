@@ -11,7 +11,8 @@ pub(crate) const PAR_BLOCK: usize = 1 << 14;
 ///
 /// Why not libm: its atan2 was half the run time of strips under the angle and dihedral
 /// weights (up to six calls per matrix cell), and a quarter of annealing's on curved
-/// surfaces (six corner angles per proposal). The one implementation for both. This is Cephes' `atan` (Moshier): a
+/// surfaces (six corner angles per proposal). The one implementation for both. This is Cephes'
+/// `atan` (Moshier): a
 /// reduction to |u| ≤ 0.66 and a degree 4/5 rational function; tested within 4 ulp of
 /// libm over 40 decades. The reduction is written without branches (selects), because
 /// the DP's cost comparisons wait on these results and a mispredicted branch here stalls
@@ -190,9 +191,70 @@ impl Normalizer {
     }
 }
 
+/// Scales planar coordinates by a power of two into [-1, 1]² and flushes values below 1e-40
+/// to zero.
+///
+/// spade accepts only coordinates that are 0 or of magnitude 2^-142..2^201; after this map
+/// every input from 1e-300 to 1e300 qualifies. Multiplying by a power of two is exact, so
+/// every orientation and in-circle sign is that of the caller's own coordinates (collinear
+/// stays exactly collinear, the root of valid faces on exact grids), except where a
+/// coordinate below 1e-40 of the largest magnitude is flushed. No translation: it would
+/// round. O(n).
+pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    unit_square_scaled(uv).0
+}
+
+/// [`unit_square`] and its scale as two powers of two whose product maps a length into the
+/// unit square (`x * s.0 * s.1`; one number could over- or underflow). O(n).
+pub(crate) fn unit_square_scaled(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, (f64, f64)) {
+    let largest = uv
+        .iter()
+        .flat_map(|p| [p[0].abs(), p[1].abs()])
+        .fold(0.0, f64::max);
+    unit_square_scaled_by(uv, largest)
+}
+
+/// [`unit_square_scaled`] with the scale of a larger set whose largest |coordinate| is
+/// `largest` (a part of a scan mapped as the whole scan is). O(n).
+pub(crate) fn unit_square_scaled_by(uv: &[[f64; 2]], largest: f64) -> (Vec<[f64; 2]>, (f64, f64)) {
+    // largest = f × 2^e with f in [0.5, 1): scaling by 2^-e brings it into [0.5, 1), done
+    // in two steps because 2^-e alone over- or underflows at the ends of the f64 range.
+    let e = binary_exponent(largest);
+    let (first, second) = (pow2(-e / 2), pow2(-e - (-e / 2)));
+    let flush = |x: f64| {
+        let y = x * first * second;
+        if y.abs() < 1e-40 {
+            0.0
+        } else {
+            y
+        }
+    };
+    let unit = uv.iter().map(|p| [flush(p[0]), flush(p[1])]).collect();
+    (unit, (first, second))
+}
+
+/// The e with `x = f × 2^e`, f in [0.5, 1), for finite x > 0; 0 for x = 0. O(1).
+fn binary_exponent(x: f64) -> i32 {
+    if x == 0.0 {
+        return 0;
+    }
+    let biased = ((x.to_bits() >> 52) & 0x7ff) as i32;
+    if biased == 0 {
+        // Subnormal: scale into the normal range first (exact).
+        return binary_exponent(x * pow2(64)) - 64;
+    }
+    biased - 1022
+}
+
+/// 2^k for k in -1022..=1023, exactly. O(1).
+fn pow2(k: i32) -> f64 {
+    debug_assert!((-1022..=1023).contains(&k));
+    f64::from_bits(((k + 1023) as u64) << 52)
+}
+
 /// Planar points moved so their bounding box is centred on 0, then scaled by `1 / half` of
 /// its larger extent, so that every coordinate lies in [-1, 1] (no flushing, unlike
-/// [`crate::delaunay::unit_square`]). Returns the points and the scale factor (1 when all
+/// [`crate::geometry::unit_square`]). Returns the points and the scale factor (1 when all
 /// points coincide). Keeps dot and cross products of 1e300- or 1e-300-sized inputs finite
 /// and normal; orientations and length ratios are unchanged up to rounding. O(n).
 pub fn normalize_plane(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, f64) {

@@ -1,78 +1,77 @@
 //! scanmesh-core: triangulated surfaces from digitized scan-line points.
 //!
-//! Pure Rust, no Python. The public API is the list re-exported below (modules are
-//! private); the modules, one concept each:
-//! - `geometry`: corner angles (atan2 form), areas, exact orientation, normalization;
+//! Pure Rust, no Python. The public API is the list re-exported below, what the binding,
+//! the benches, the integration tests and the fuzz targets use (modules are private). The
+//! modules, grouped by job; a folder imports only from the rows above it (or its own row):
+//! - `error`, `budget`: the one error type; what options may cost in work and memory;
+//! - `geometry`: corner angles (atan2 form), areas, exact orientation, normalization, the
+//!   power-of-two unit square;
 //! - `projection`: points to a plane (least squares, an axis, a normal);
-//! - `delaunay`: planar Delaunay (delaunator checked exactly, else spade), input indices kept;
-//! - `mesh`: flat half-edge triangulation with flips and `validate()`;
+//! - `mesh/`: the flat half-edge triangulation with flips (`halfedge`, `NONE`, `next`,
+//!   `prev`), its invariants checked (`validate`), the faces around each vertex (`fans`),
+//!   the Z-order relabelling that keeps memory accesses close (`locality`);
 //! - `criteria`: max-min angle and tac (total absolute curvature) with p-norms;
-//! - `trim`: removing long hull triangles so outlines and holes stay open;
-//! - `tac_state`: incremental tac energy under flips;
-//! - `locality`: Z-order relabelling so annealing's memory accesses stay close;
-//! - `lop`: Lawson's greedy flipping for any criterion;
-//! - `active`: the live edges annealing draws from (flips that can lower the energy);
-//! - `anneal`: simulated annealing on tac;
-//! - `budget`: what options may cost in work and memory, fallible copies;
-//! - `ensemble`: independent annealing chains side by side, the best one kept;
-//! - `tiles`: one annealing chain on several cores, the plane cut into stripes;
-//! - `enumerate`: empty triangles and every triangulation of a small point set (exact checks);
-//! - `lines`: scan lines detected from point order or given by id, split at gaps;
-//! - `fuchs`: the Fuchs matrix between two lines: weights, α-look-ahead, shortest paths;
-//! - `strips`: strips between consecutive lines stitched into one mesh (rayon);
-//! - `text`: numeric text tables (XYZ, CSV rows) parsed from bytes.
-// `deny`, not `forbid`: the one exception is the cache prefetch hint in `locality::prefetch`.
+//! - `triangulate/`: planar Delaunay (delaunator checked exactly, else spade; input indices
+//!   kept) and its trimming: long hull triangles (`trim`), depth jumps and gaps (`jumps`),
+//!   covering holes (`holes`), so outlines and holes stay open;
+//! - `strips/`: scan lines detected from point order or given by id, split at gaps
+//!   (`lines`); the Fuchs matrix between two lines, one solver per file (`fuchs/`: weights,
+//!   dp, banded, dijkstra, lookahead, outside); strips stitched into one mesh in parallel
+//!   (`stitch`), checked from the strips (`check`), cut at depth jumps (`jumps`) and
+//!   repaired where lines cross (`repair`);
+//! - `optimize/`: incremental tac energy under flips (`tac_state`, with `NOISE_TAC`), the
+//!   live edges annealing draws from (`active`), Lawson's greedy flipping (`lop`),
+//!   simulated annealing (`anneal`), one chain on several cores (`tiles`), independent
+//!   chains side by side (`ensemble`);
+//! - `exact/`: empty triangles and every triangulation of a small point set (`enumerate`);
+//! - `io/`: numeric text tables (XYZ, CSV rows) parsed from bytes (`text`), binary STL
+//!   records (`stl`).
+// `deny`, not `forbid`: the one exception is the cache prefetch hint in `mesh::locality::prefetch`.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
-mod active;
-mod anneal;
 mod budget;
 mod criteria;
-mod delaunay;
-mod ensemble;
-mod enumerate;
 mod error;
-mod fuchs;
+mod exact;
 mod geometry;
-mod lines;
-mod locality;
-mod lop;
+mod io;
 mod mesh;
+mod optimize;
 mod projection;
-mod stl;
 mod strips;
-mod tac_state;
 #[cfg(test)]
 mod testing;
-mod text;
-mod tiles;
-mod trim;
+mod triangulate;
 
-pub use anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
-pub use budget::{MAX_CALIBRATION_PROPOSALS, MAX_PROPOSALS};
 pub use criteria::{steep_count, tac_and_min_angles, Norm, SLIVER_ANGLE_DEG};
-pub use delaunay::{delaunay, unit_square, Delaunay, NONE};
-pub use ensemble::{Ensemble, EnsembleSummary};
-pub use enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
 pub use error::{Error, Result};
-pub use fuchs::{
+pub use exact::enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
+pub use geometry::unit_square;
+pub use geometry::{check_finite, normalize_plane, triangle_angles};
+pub use glam;
+pub use io::stl::records as stl_records;
+pub use io::text::{parse_table, Table, TextError, TextErrorKind};
+pub use mesh::locality::Relabel;
+pub use mesh::NONE;
+pub use mesh::{prev, HalfEdgeMesh};
+pub use optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
+pub use optimize::ensemble::{Ensemble, EnsembleSummary};
+pub use optimize::lop::{run_lop, tac_lop, LopCriterion, TacOrder};
+pub use optimize::tac_state::{Detail, FlipMove, TacState};
+pub use optimize::tiles::TiledAnnealer;
+pub use projection::{project, Frame, Plane, Projection};
+pub use strips::fuchs::{
     lookahead, path_cost, shortest_path_banded, shortest_path_dijkstra, shortest_path_dp, Solution,
     Solver, Step, Weight, DEFAULT_BAND,
 };
-pub use geometry::{check_finite, normalize_plane, triangle_angles};
-pub use glam;
-pub use lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
-pub use locality::Relabel;
-pub use lop::{run_lop, tac_lop, LopCriterion, TacOrder};
-pub use mesh::{next, prev, HalfEdgeMesh};
-pub use projection::{project, Frame, Plane, Projection};
-pub use stl::records as stl_records;
-pub use strips::{stitch, stitch_lines, stitch_part, Method, ScanContext, StripMesh, StripParams};
-pub use tac_state::{Detail, FlipMove, TacState};
-pub use text::{parse_table, Table, TextError, TextErrorKind};
-pub use tiles::TiledAnnealer;
-pub use trim::{
-    delaunay_trimmed, median_spacing, trim_delaunay, trim_long_edges, DepthJumps, Trimmed,
-    DEFAULT_BRIDGE_FACTOR, DEFAULT_HOLE_FACTOR, DEFAULT_JUMP_FACTOR, DEFAULT_MAX_EDGE_FACTOR,
+pub use strips::lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
+pub use strips::stitch::{stitch, stitch_part};
+pub use strips::{Method, ScanContext, StripMesh, StripParams};
+pub use triangulate::delaunay::{delaunay, Delaunay};
+pub use triangulate::holes::DEFAULT_HOLE_FACTOR;
+pub use triangulate::jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};
+pub use triangulate::trim::{
+    check_trim_lengths, delaunay_trimmed, median_spacing, trim_long_edges, Trimmed,
+    DEFAULT_MAX_EDGE_FACTOR,
 };

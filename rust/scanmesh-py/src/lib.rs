@@ -270,19 +270,10 @@ fn delaunay<'py>(
     ))
 }
 
-/// Refuses a trimming length or depth-jump factor that is NaN or not positive.
+/// Refuses a trimming length or depth-jump factor that is NaN or not positive (the core's
+/// check, run before the arrays are converted).
 fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> PyResult<()> {
-    if max_edge.is_nan() || max_edge <= 0.0 {
-        return Err(ParameterError::new_err(format!(
-            "max_edge must be positive, got {max_edge}"
-        )));
-    }
-    if jump_factor.is_nan() || jump_factor <= 0.0 {
-        return Err(ParameterError::new_err(format!(
-            "jump_factor must be positive (or inf), got {jump_factor}"
-        )));
-    }
-    Ok(())
+    scanmesh_core::check_trim_lengths(max_edge, jump_factor).map_err(to_py)
 }
 
 /// Delaunay triangulation of (N, 2) `uv` trimmed in the same call (`delaunay_trimmed` in

@@ -58,10 +58,10 @@
 //! [`HalfEdgeMesh::validate`]: crate::mesh::HalfEdgeMesh::validate
 //! [`HalfEdgeMesh::from_triangles`]: crate::mesh::HalfEdgeMesh::from_triangles
 
-use super::Task;
-use crate::fuchs::Step;
+use super::stitch::{Task, BLOCK};
 use crate::geometry::orient2d;
 use crate::mesh::count_cycles;
+use crate::strips::fuchs::Step;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::ops::Range;
@@ -104,7 +104,7 @@ struct Span {
 pub(super) fn plan(tasks: &[Task], lines: &[Vec<Vec<u32>>], n_points: usize) -> Option<Plan> {
     let seen: Vec<AtomicBool> = (0..n_points)
         .into_par_iter()
-        .with_min_len(super::BLOCK)
+        .with_min_len(BLOCK)
         .map(|_| AtomicBool::new(false))
         .collect();
     let distinct = lines.par_iter().all(|line| {

@@ -3,7 +3,7 @@
 //!
 //! The rule drops a triangle whose longest 3-D edge is steep and longer than `factor` ×
 //! the smallest local spacing of its corners, the local spacing of a vertex being the
-//! median length of its edges ([`crate::trim::local_spacing`]). A median is at least the
+//! median length of its edges (`triangulate::jumps::spacings`). A median is at least the
 //! shortest of the lengths, so a triangle whose longest edge is at most `factor` × the
 //! shortest edge at any of its corners cannot bridge a jump, steep or not; on a smooth scan
 //! that is every triangle (compared as squares in the unit box, with a margin far above
@@ -15,7 +15,7 @@
 //! and the verdicts, are those over the whole mesh.
 
 use crate::geometry::{Normalizer, PAR_BLOCK};
-use crate::trim::{bridging_triangles, infinities, lower, DepthJumps};
+use crate::triangulate::jumps::{bridging_triangles, infinities, lower, DepthJumps};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 

@@ -10,7 +10,7 @@
 //! separates them) is a conflict, and the conflicting triangles are kept greedily, fewest
 //! conflicts first (ties by index, so the result is reproducible), each unless it overlaps
 //! one already kept; finally the pinches this leaves are resolved and degenerate boundary
-//! triangles peeled ([`crate::trim::peel`]). Triangles in no conflict are all kept.
+//! triangles peeled ([`crate::triangulate::trim::peel`]). Triangles in no conflict are all kept.
 //! Strictly counter-clockwise triangles without overlaps have each edge at most once per
 //! side, so the half-edge mesh exists, and once pinches are gone it passes
 //! [`crate::mesh::HalfEdgeMesh::validate`] (tested on crossing and folded scans).
@@ -126,7 +126,7 @@ pub(super) fn repair(uv: &[[f64; 2]], triangles: Vec<[u32; 3]>) -> Vec<[u32; 3]>
         .collect();
     // Without overlaps the half-edge mesh exists; should it not, the caller's check names
     // why, on the triangles as they are.
-    crate::trim::peel(uv, kept.clone()).unwrap_or(kept)
+    crate::triangulate::trim::peel(uv, kept.clone()).unwrap_or(kept)
 }
 
 #[cfg(test)]

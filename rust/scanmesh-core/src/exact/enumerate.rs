@@ -18,9 +18,9 @@
 //! Delaunay one, and the Delaunay triangulations differ only inside cocircular convex
 //! polygons, whose triangulations are flip-connected), so the walk reaches all of them.
 
-use crate::delaunay::NONE;
 use crate::geometry::{check_planar, orient2d};
 use crate::mesh::HalfEdgeMesh;
+use crate::mesh::NONE;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::{HashSet, VecDeque};
@@ -652,8 +652,8 @@ fn path_value(arena: &[Label], mut k: u32, arcs: &[Arc]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::delaunay::delaunay;
     use crate::testing::random_points;
+    use crate::triangulate::delaunay::delaunay;
 
     fn all(uv: &[[f64; 2]], cap: usize) -> Result<Vec<Vec<[u32; 3]>>> {
         let d = delaunay(uv)?;

@@ -21,12 +21,12 @@
 //! (seed, j, i), so the result depends on (seed, tiles) and not on the thread count or the
 //! chunking.
 
-use crate::anneal::SweepRecord;
-use crate::anneal::{
+use crate::mesh::HalfEdgeMesh;
+use crate::optimize::anneal::SweepRecord;
+use crate::optimize::anneal::{
     cooling, initial_temperature, polish, AnnealParams, AnnealResult, Annealer, Stop,
 };
-use crate::mesh::HalfEdgeMesh;
-use crate::tac_state::{vertex_energy, TacState};
+use crate::optimize::tac_state::{vertex_energy, TacState};
 use crate::Result;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -446,16 +446,16 @@ fn tile_seed(seed: u64, phase: usize, tile: usize) -> u64 {
         seed,
         ..AnnealParams::default()
     };
-    base.for_chain(1 + phase * crate::anneal::MAX_TILES + tile)
+    base.for_chain(1 + phase * crate::optimize::anneal::MAX_TILES + tile)
         .seed
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::anneal::tests::anneal;
-    use crate::lop::{lop, TacLop};
-    use crate::tac_state::tests::{bumpy_state, plateau_state};
+    use crate::optimize::anneal::tests::anneal;
+    use crate::optimize::lop::{lop, TacLop};
+    use crate::optimize::tac_state::tests::{bumpy_state, plateau_state};
 
     fn params(tiles: usize, sweeps: usize, seed: u64) -> AnnealParams {
         AnnealParams {
@@ -608,7 +608,7 @@ mod tests {
     fn stripes_without_interior_edges_still_end() {
         // 8 points in 3 stripes, or 300 in 64: some or every phase has no tile with an
         // interior edge. Each phase must still count its sweeps, or the run never ends.
-        for (n, tiles) in [(8, 3), (8, crate::anneal::MAX_TILES), (300, 64)] {
+        for (n, tiles) in [(8, 3), (8, crate::optimize::anneal::MAX_TILES), (300, 64)] {
             let st = bumpy_state(n, 37, 1.0);
             let r = run(&st, params(tiles, 250, 2));
             assert_eq!(r.trace.len(), 250, "{n} points in {tiles} tiles");
@@ -620,7 +620,7 @@ mod tests {
     #[test]
     fn bad_tile_counts_are_refused() {
         let st = bumpy_state(100, 36, 1.0);
-        for tiles in [0, crate::anneal::MAX_TILES + 1] {
+        for tiles in [0, crate::optimize::anneal::MAX_TILES + 1] {
             assert!(TiledAnnealer::new(st.clone(), params(tiles, 10, 1)).is_err());
         }
         let other_p = AnnealParams {

@@ -3,15 +3,21 @@
 //! drilled hole or a slot hit nothing), even when its edges are short enough for the
 //! planar rule and its corners lie at one height (so no depth jump or 3-D gap shows).
 
-use crate::delaunay::unit_square;
+use crate::geometry::unit_square;
 use crate::geometry::PAR_BLOCK;
 use crate::mesh::well_formed;
 use rayon::prelude::*;
 
-/// Default hole factor: a triangle whose longest planar edge exceeds this multiple of the
-/// edges around it, and whose planar area exceeds [`HOLE_AREA_FACTOR`] times that of the
-/// triangles around it, spans missing samples (see [`covering_holes`]) and is dropped in
-/// trimming. Chosen by benches/depth_jumps.py (figures in benches/results/depth_jumps.md):
+/// Default hole factor (a ratio of planar lengths): in trimming, a triangle spans missing
+/// samples and is dropped ([`covering_holes`]) when its longest planar edge exceeds this
+/// multiple of the local edge length **and** its planar area exceeds [`HOLE_AREA_FACTOR`]
+/// times the local triangle area; either condition alone keeps it. The local values of a
+/// triangle are the median over its three corners of each corner's lower median (of the
+/// lengths of the two edges at that corner of every well-formed triangle there, and of
+/// those triangles' areas). Degenerate triangles are never dropped by this rule; the
+/// comparison is on squared lengths in single precision, in [`unit_square`] coordinates,
+/// so the rule is scale-free. Chosen by benches/depth_jumps.py (figures in
+/// benches/results/depth_jumps.md):
 /// on the rocker arm it drops the thin triangles left across its 1.4 mm oil holes (5.2
 /// spacings across, narrower than the planar trim length, at one height) and takes its
 /// height RMS from 0.046 to 0.009 times planar trimming's (3.0: 0.011); the pocket and the
@@ -137,8 +143,9 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::delaunay::delaunay;
-    use crate::trim::{bridging_triangles, trim_long_edges, DepthJumps, DEFAULT_JUMP_FACTOR};
+    use crate::triangulate::delaunay::delaunay;
+    use crate::triangulate::jumps::{bridging_triangles, DepthJumps, DEFAULT_JUMP_FACTOR};
+    use crate::triangulate::trim::trim_long_edges;
     use glam::DVec3;
 
     /// A square grid of `n` × `n` points 1 apart at height 0, jittered in the plane by up to

@@ -3,10 +3,10 @@
 //! The deterministic baseline of the paper's annealing (annealing at T = 0). One queue
 //! loop serves every criterion; a criterion only says whether flipping an edge improves.
 
-use crate::delaunay::NONE;
 use crate::geometry::planar_smallest_angle;
+use crate::mesh::NONE;
 use crate::mesh::{next, prev, HalfEdgeMesh};
-use crate::tac_state::{Detail, FlipMove, TacState};
+use crate::optimize::tac_state::{Detail, FlipMove, TacState};
 use crate::{Error, Result};
 
 /// Smallest improvement in a smallest angle (radians) that counts: below it, rounding could
@@ -16,7 +16,8 @@ pub const ANGLE_EPSILON: f64 = 1e-12;
 /// How a tac move is judged: a lower energy wins; within `tie_tolerance` of no change,
 /// the larger smallest 3-D angle wins when `sliver_guard` is on (the lexicographic order
 /// "tac energy first, then smallest angle"). With `planar_ties`, a move whose four
-/// corners are all flat up to the noise (tac at most [`NOISE_TAC`] tie tolerances, see
+/// corners are all flat up to the noise (tac at most
+/// [`NOISE_TAC`](crate::optimize::tac_state::NOISE_TAC) tie tolerances, see
 /// [`TacState::flat_quad_uv`]) is judged by the smallest planar angle alone, Delaunay's
 /// criterion.
 ///
@@ -76,16 +77,6 @@ impl TacOrder {
         }
     }
 }
-
-/// With `planar_ties`, a corner is flat up to the noise when its tac is at most this many
-/// tie tolerances (per unit of p: tac <= NOISE_TAC × tie_tolerance^(1/p)). On the noisy
-/// rod (all flat) 99.9 % of the interior vertices of Delaunay's mesh have a tac below 1.8
-/// tolerances at sigma = s/30 and s/10; on the fandisk at s/30, 1.2 % (its creases) are
-/// above 4. Measured on the rod at s/10 (height RMS / Delaunay's, paired samples,
-/// benches/results/noise.md): 1.0004-1.0007 with 2; with 1, 1.005-1.007, and the real
-/// scans' holdout above Delaunay's (LAS ground 1.04); judging only the near-ties of flat
-/// corners in the plane, not all their flips: 1.014 (with 1), 1.007 (with 2).
-pub const NOISE_TAC: f64 = 2.0;
 
 /// Whether flipping the diagonal ab of the convex quadrilateral (a, b, c, d) of
 /// [`HalfEdgeMesh::quad`] to cd raises the smallest planar angle of its two triangles by
@@ -302,8 +293,9 @@ impl FlipSearch for PlanarMaxMinLop<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::delaunay::delaunay;
-    use crate::tac_state::tests::bumpy_state;
+    use crate::optimize::tac_state::tests::bumpy_state;
+    use crate::optimize::tac_state::NOISE_TAC;
+    use crate::triangulate::delaunay::delaunay;
     use std::f64::consts::TAU;
 
     /// A search that flips every convex edge it is shown and pushes a flood of edges: it
@@ -415,7 +407,7 @@ mod tests {
         // A plane with height noise: every corner's tac is the noise's, within the
         // tolerance, so with planar ties tac LOP is Delaunay's LOP (from a scrambled
         // start, back to Delaunay); judged by tac and 3-D angles it ends elsewhere.
-        let noisy = crate::tac_state::tests::height_state(400, 12, 1.0, |x, y| {
+        let noisy = crate::optimize::tac_state::tests::height_state(400, 12, 1.0, |x, y| {
             let bits =
                 (x.to_bits() ^ y.to_bits().rotate_left(29)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
             let unit = (bits >> 11) as f64 / (1u64 << 53) as f64;

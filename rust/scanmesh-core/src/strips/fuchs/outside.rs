@@ -39,7 +39,9 @@
 //! angle); with only area or dihedral the relaxed paths outside are nearly free, the band
 //! cannot prove much, and the banded solver widens to the full DP.
 
-use super::{Cell, Step, Terms, Tri};
+use super::dp::{Cell, Outside};
+use super::weights::{Terms, Tri};
+use super::Step;
 use glam::DVec3;
 use std::f64::consts::FRAC_PI_3;
 
@@ -192,7 +194,7 @@ impl<'t, 'a> Bounds<'t, 'a> {
     }
 }
 
-impl super::Outside for Bounds<'_, '_> {
+impl Outside for Bounds<'_, '_> {
     fn in_from_above(&self, i: usize, j: usize, beaten: f64) -> Option<(f64, Tri)> {
         if i == 0 || self.best_above == f64::INFINITY {
             return None;

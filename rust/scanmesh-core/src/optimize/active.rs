@@ -19,9 +19,9 @@
 //! proposal finds so. So every live edge is listed exactly once (tested), each step is
 //! O(1) amortized, and the draws depend on the seed and the flips alone.
 
-use crate::delaunay::NONE;
+use crate::mesh::NONE;
 use crate::mesh::{next, prev};
-use crate::tac_state::{PrefetchHints, TacState};
+use crate::optimize::tac_state::{PrefetchHints, TacState};
 use rand_core::RngCore;
 use rand_pcg::Pcg64Mcg;
 
@@ -252,8 +252,8 @@ impl LiveEdges {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tac_state::tests::{bumpy_state, plateau_state};
-    use crate::tac_state::Detail;
+    use crate::optimize::tac_state::tests::{bumpy_state, plateau_state};
+    use crate::optimize::tac_state::Detail;
     use rand_core::SeedableRng;
 
     impl LiveEdges {

@@ -9,10 +9,10 @@
 //! [`AnnealParams::for_chain`] derives, so the result depends on (seed, chains) only, not on
 //! the thread count or on where the caller's chunks end.
 
-use crate::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
 use crate::budget;
-use crate::tac_state::TacState;
-use crate::tiles::TiledAnnealer;
+use crate::optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
+use crate::optimize::tac_state::TacState;
+use crate::optimize::tiles::TiledAnnealer;
 use crate::Result;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -199,7 +199,7 @@ impl Ensemble {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tac_state::tests::bumpy_state;
+    use crate::optimize::tac_state::tests::bumpy_state;
 
     fn params(chains: usize, seed: u64) -> AnnealParams {
         AnnealParams {

@@ -1,17 +1,18 @@
 //! Simulated annealing of a planar triangulation by random edge flips, minimizing tac.
 //!
-//! Move: a uniformly random live edge ([`crate::active`]: its quadrilateral strictly convex,
+//! Move: a uniformly random live edge ([`crate::optimize::active`]: its quadrilateral strictly
+//! convex,
 //! a corner's tac above the floor of ties), flipped.
 //! Energy: Σ tac^p ([`TacState`]). Selection: Metropolis. Schedule: T0 calibrated from the
 //! uphill energy changes of sampled proposals, geometric cooling per sweep (a sweep is as
 //! many proposals as live edges), early stop once frozen, the best state kept, then a
 //! greedy polish (LOP) under the order (tac first, then smallest angle).
 
-use crate::active::LiveEdges;
 use crate::budget;
-use crate::lop::{planar_flip_improves, tac_lop, TacOrder};
 use crate::mesh::HalfEdgeMesh;
-use crate::tac_state::{Detail, Proposal, TacState};
+use crate::optimize::active::LiveEdges;
+use crate::optimize::lop::{planar_flip_improves, tac_lop, TacOrder};
+use crate::optimize::tac_state::{Detail, Proposal, TacState};
 use crate::{Error, Result};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -21,7 +22,7 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnnealParams {
     /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per live edge
-    /// (see [`crate::active`]: flippable, by a corner whose tac is above the ties').
+    /// (see [`crate::optimize::active`]: flippable, by a corner whose tac is above the ties').
     pub sweeps: usize,
     /// Energy exponent p ≥ 1: the energy is Σ tac^p.
     pub p: f64,
@@ -51,7 +52,8 @@ pub struct AnnealParams {
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
     pub chains: usize,
-    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::tiles`]): 1
+    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::optimize::tiles`]):
+    /// 1
     /// runs the plain sequential chain; k > 1 splits the plane into stripes whose
     /// interiors anneal independently, phase by phase, with the stripes shifted every
     /// phase. The result depends on (seed, tiles), never on the thread count.
@@ -313,7 +315,7 @@ pub enum Stop {
     Sweeps,
     /// Frozen without a new best for `patience` sweeps.
     Patience,
-    /// No live edge left (see [`crate::active`]): no flip could lower the energy by more
+    /// No live edge left (see [`crate::optimize::active`]): no flip could lower the energy by more
     /// than a tie, so further sweeps could not change the best state.
     Exhausted,
     /// Finished before any of these (the caller stopped driving it: a time limit).
@@ -442,7 +444,7 @@ impl Annealer {
         }
     }
 
-    /// A tile's run for one phase of [`crate::tiles`]: `params.sweeps` sweeps on
+    /// A tile's run for one phase of [`crate::optimize::tiles`]: `params.sweeps` sweeps on
     /// `params.seed`'s streams, from `temperature` (the shared schedule's, not calibrated
     /// on the tile), cooled by `cooling` per sweep. O(m).
     pub(crate) fn for_phase(
@@ -455,7 +457,7 @@ impl Annealer {
         Self::with_schedule(state, params, streams, temperature, cooling)
     }
 
-    /// Ends a phase of [`crate::tiles`]: the best state seen and its energy, the current
+    /// Ends a phase of [`crate::optimize::tiles`]: the best state seen and its energy, the current
     /// state and the sweep records. O(flips since the last sweep's replay).
     pub(crate) fn end_phase(mut self) -> (HalfEdgeMesh, f64, TacState, Vec<SweepRecord>) {
         self.sync_best();
@@ -467,7 +469,7 @@ impl Annealer {
         self.sweep_len == 0 || self.stopped_early || self.trace.len() >= self.params.sweeps
     }
 
-    /// True when the run ended because no live edge was left (see [`crate::active`]):
+    /// True when the run ended because no live edge was left (see [`crate::optimize::active`]):
     /// no flip can lower the energy by more than a tie. O(1).
     pub fn is_exhausted(&self) -> bool {
         self.sweep_len == 0
@@ -479,7 +481,7 @@ impl Annealer {
     }
 
     /// Proposals in the current sweep: the live edges listed at its start (see
-    /// [`crate::active`]), 0 once none is left.
+    /// [`crate::optimize::active`]), 0 once none is left.
     pub fn sweep_len(&self) -> usize {
         self.sweep_len
     }
@@ -777,282 +779,4 @@ fn unit_f64(rng: &mut Pcg64Mcg) -> f64 {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
-    use super::*;
-    use crate::lop::{lop, TacLop};
-    use crate::tac_state::tests::{bumpy_state, plateau_state};
-
-    /// One plain chain run to its end in one call.
-    pub(crate) fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
-        let mut run = Annealer::new(state, params)?;
-        while !run.is_done() {
-            run.advance(usize::MAX);
-        }
-        run.finish()
-    }
-
-    fn quick(seed: u64) -> AnnealParams {
-        AnnealParams {
-            sweeps: 60,
-            seed,
-            chains: 1,
-            ..AnnealParams::default()
-        }
-    }
-
-    #[test]
-    fn automatic_chains_give_small_inputs_a_work_floor() {
-        let auto = AnnealParams::default();
-        assert_eq!(auto.chain_count(1_000_000), 1);
-        assert_eq!(auto.chain_count(8_000), 1);
-        assert_eq!(auto.chain_count(7_999), 2);
-        assert_eq!(auto.chain_count(75), 107);
-        assert_eq!(auto.chain_count(10), MAX_AUTO_CHAINS);
-        assert_eq!(auto.chain_count(0), MAX_AUTO_CHAINS);
-        let set = AnnealParams { chains: 3, ..auto };
-        assert_eq!(set.chain_count(75), 3);
-        assert_eq!(set.chain_count(1_000_000), 3);
-    }
-
-    #[test]
-    fn chain_zero_keeps_the_seed_and_other_chains_differ() {
-        let params = quick(11);
-        assert_eq!(params.for_chain(0), params);
-        let seeds: std::collections::HashSet<u64> =
-            (0..100).map(|c| params.for_chain(c).seed).collect();
-        assert_eq!(seeds.len(), 100);
-        assert_eq!(params.for_chain(5).sweeps, params.sweeps);
-    }
-
-    #[test]
-    fn annealing_beats_lop_and_keeps_invariants() {
-        let st = bumpy_state(600, 21, 1.0);
-        let e0 = st.energy();
-        let mut lop_state = st.clone();
-        lop(
-            &mut TacLop {
-                state: &mut lop_state,
-                order: AnnealParams::default().order(),
-            },
-            usize::MAX,
-        );
-        let r = anneal(st.clone(), quick(1)).unwrap();
-        r.mesh.validate(&st.uv()).unwrap();
-        assert!(r.energy <= e0);
-        assert!(
-            r.energy < lop_state.energy(),
-            "anneal {} vs lop {}",
-            r.energy,
-            lop_state.energy()
-        );
-        assert_eq!(r.trace.len(), 60);
-        assert!(r
-            .trace
-            .windows(2)
-            .all(|w| w[1].best <= w[0].best && w[1].temperature < w[0].temperature));
-    }
-
-    #[test]
-    fn same_seed_same_faces_other_seed_other_faces() {
-        let st = bumpy_state(300, 22, 1.0);
-        let a = anneal(st.clone(), quick(7)).unwrap();
-        let b = anneal(st.clone(), quick(7)).unwrap();
-        let c = anneal(st, quick(8)).unwrap();
-        assert_eq!(a.mesh.triangles(), b.mesh.triangles());
-        assert_ne!(a.mesh.triangles(), c.mesh.triangles());
-    }
-
-    #[test]
-    fn incremental_energy_tracks_full_recomputation_during_a_run() {
-        let st = bumpy_state(400, 23, 1.5);
-        let mut ann = Annealer::new(
-            st,
-            AnnealParams {
-                p: 1.5,
-                sweeps: 30,
-                ..quick(3)
-            },
-        )
-        .unwrap();
-        while !ann.is_done() {
-            ann.advance(1_000);
-            let scratch = ann.state().energy_from_scratch();
-            let inc = ann.state().energy();
-            assert!(
-                (inc - scratch).abs() <= 1e-9 * scratch,
-                "{inc} vs {scratch}"
-            );
-        }
-        let best = ann.trace().last().unwrap().best;
-        let r = ann.finish().unwrap();
-        assert!(r.energy <= best + 1e-12);
-    }
-
-    #[test]
-    fn corner_hints_follow_the_share_of_measured_proposals() {
-        // Live edges have a curved corner, so most proposals measure angles, on a curved
-        // state and on a plateau alike (whose flat interior is not live): hints stay on.
-        for (state, hinted) in [
-            (bumpy_state(400, 31, 1.0), true),
-            (plateau_state(400, 31, 1.0), true),
-        ] {
-            let mut ann = Annealer::new(state, quick(2)).unwrap();
-            assert!(ann.edges.hints.corners);
-            ann.advance(2 * ann.sweep_len());
-            assert_eq!(ann.edges.hints.corners, hinted);
-        }
-    }
-
-    #[test]
-    fn chunked_run_equals_one_shot_run() {
-        let st = bumpy_state(250, 24, 1.0);
-        let one = anneal(st.clone(), quick(5)).unwrap();
-        let mut ann = Annealer::new(st, quick(5)).unwrap();
-        while !ann.is_done() {
-            ann.advance(37);
-        }
-        assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
-    }
-
-    #[test]
-    fn deadline_chunks_change_nothing() {
-        let st = bumpy_state(250, 26, 1.0);
-        let one = anneal(st.clone(), quick(6)).unwrap();
-        let mut ann = Annealer::new(st, quick(6)).unwrap();
-        while !ann.is_done() {
-            ann.advance_until(usize::MAX, Some(Instant::now()));
-        }
-        assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
-    }
-
-    #[test]
-    fn best_state_survives_a_detached_log() {
-        // A long hot run detaches the log; the returned state must still be the best seen.
-        let st = bumpy_state(200, 25, 1.0);
-        let params = AnnealParams {
-            sweeps: 40,
-            initial_acceptance: 0.9,
-            final_temperature_ratio: 0.5,
-            polish: false,
-            patience: 0,
-            ..quick(9)
-        };
-        let r = anneal(st.clone(), params).unwrap();
-        let recomputed = TacState::new(r.mesh.clone(), st.uv(), st.xyz(), 1.0)
-            .unwrap()
-            .energy_from_scratch();
-        let best_seen = r.trace.iter().map(|s| s.best).fold(f64::INFINITY, f64::min);
-        assert!(
-            (recomputed - best_seen).abs() <= 1e-9 * best_seen,
-            "{recomputed} vs {best_seen}"
-        );
-        r.mesh.validate(&st.uv()).unwrap();
-    }
-
-    #[test]
-    fn runs_that_cost_too_much_are_refused_before_they_start() {
-        let st = bumpy_state(50, 1, 1.0);
-        let named = |params: AnnealParams| match params.check_cost(&st) {
-            Err(Error::TooCostly { name, .. }) => name,
-            other => panic!("{params:?}: {other:?}"),
-        };
-        let auto = AnnealParams::default();
-        // Too many chains calibrating before the run can be interrupted (was an abort).
-        assert_eq!(
-            named(AnnealParams {
-                chains: 1_000_000,
-                ..auto.clone()
-            }),
-            "chains"
-        );
-        // One chain's calibration alone too long (was a run without end).
-        assert_eq!(
-            named(AnnealParams {
-                calibration_samples: 1_000_000_000,
-                chains: 1,
-                ..auto.clone()
-            }),
-            "calibration_samples"
-        );
-        assert_eq!(
-            named(AnnealParams {
-                sweeps: usize::MAX,
-                ..auto.clone()
-            }),
-            "sweeps"
-        );
-        let e = AnnealParams {
-            sweeps: 1 << 40,
-            chains: 1,
-            ..auto.clone()
-        }
-        .check_cost(&st)
-        .unwrap_err();
-        assert!(
-            e.to_string().starts_with("sweeps=1099511627776 needs"),
-            "{e}"
-        );
-        assert!(e.to_string().contains("hours on one core"), "{e}");
-        // The sweep records of 10^10 sweeps outgrow any machine's memory.
-        if crate::budget::memory_available().is_some() {
-            assert_eq!(
-                named(AnnealParams {
-                    sweeps: 10_000_000_000,
-                    chains: 1,
-                    ..auto.clone()
-                }),
-                "sweeps"
-            );
-        }
-        // The defaults pass.
-        let chains = auto.check_cost(&st).unwrap();
-        assert_eq!(chains, auto.chain_count(st.count_interior_half_edges() / 2));
-    }
-
-    #[test]
-    fn no_live_edge_is_reported_as_exhaustion() {
-        // A plane: no vertex above the floor, nothing to anneal, no sweep.
-        let plane = |x: f64, y: f64| 0.3 * x - 0.2 * y;
-        let flat = crate::tac_state::tests::height_state(300, 2, 1.0, plane);
-        let r = anneal(flat, quick(1)).unwrap();
-        assert_eq!(r.stopped, Stop::Exhausted);
-        assert!(r.trace.is_empty());
-        // Curved: every sweep runs; with patience, the early stop says so.
-        let r = anneal(bumpy_state(200, 3, 1.0), quick(1)).unwrap();
-        assert_eq!(r.stopped, Stop::Sweeps);
-        assert_eq!(r.trace.len(), quick(1).sweeps);
-        let patient = AnnealParams {
-            sweeps: 100_000,
-            patience: 3,
-            ..quick(1)
-        };
-        let r = anneal(bumpy_state(200, 3, 1.0), patient).unwrap();
-        assert_eq!(r.stopped, Stop::Patience);
-        assert_eq!(Stop::of(5, 10, false, false), Stop::Unfinished);
-    }
-
-    #[test]
-    fn invalid_parameters_are_refused() {
-        let st = bumpy_state(50, 1, 1.0);
-        for bad in [
-            AnnealParams {
-                initial_acceptance: 1.0,
-                ..Default::default()
-            },
-            AnnealParams {
-                final_temperature_ratio: 0.0,
-                ..Default::default()
-            },
-            AnnealParams {
-                p: 0.5,
-                ..Default::default()
-            },
-            AnnealParams {
-                tie_tolerance: -1.0,
-                ..Default::default()
-            },
-        ] {
-            assert!(Annealer::new(st.clone(), bad).is_err());
-        }
-    }
-}
+pub(crate) mod tests;

@@ -1,16 +1,14 @@
 //! Planar Delaunay triangulation, with the map back to input indices: delaunator's sweep
 //! checked exactly, spade where the check fails.
 
-use crate::geometry::{check_planar, orient2d};
-use crate::locality::sweep_order;
+use crate::geometry::{check_planar, orient2d, unit_square};
+use crate::mesh::locality::sweep_order;
+use crate::mesh::NONE;
 use crate::mesh::{next, prev, HalfEdgeMesh};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use std::collections::HashMap;
-
-/// Marks "no such index" in index arrays (boundary twins, unique points).
-pub const NONE: u32 = u32::MAX;
 
 /// A Delaunay triangulation of planar points, in the caller's indices.
 #[derive(Debug, Clone)]
@@ -48,67 +46,6 @@ impl HasPosition for IndexedPoint {
     fn position(&self) -> Point2<f64> {
         self.position
     }
-}
-
-/// Scales planar coordinates by a power of two into [-1, 1]² and flushes values below 1e-40
-/// to zero.
-///
-/// spade accepts only coordinates that are 0 or of magnitude 2^-142..2^201; after this map
-/// every input from 1e-300 to 1e300 qualifies. Multiplying by a power of two is exact, so
-/// every orientation and in-circle sign is that of the caller's own coordinates (collinear
-/// stays exactly collinear, the root of valid faces on exact grids), except where a
-/// coordinate below 1e-40 of the largest magnitude is flushed. No translation: it would
-/// round. O(n).
-pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
-    unit_square_scaled(uv).0
-}
-
-/// [`unit_square`] and its scale as two powers of two whose product maps a length into the
-/// unit square (`x * s.0 * s.1`; one number could over- or underflow). O(n).
-pub(crate) fn unit_square_scaled(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, (f64, f64)) {
-    let largest = uv
-        .iter()
-        .flat_map(|p| [p[0].abs(), p[1].abs()])
-        .fold(0.0, f64::max);
-    unit_square_scaled_by(uv, largest)
-}
-
-/// [`unit_square_scaled`] with the scale of a larger set whose largest |coordinate| is
-/// `largest` (a part of a scan mapped as the whole scan is). O(n).
-pub(crate) fn unit_square_scaled_by(uv: &[[f64; 2]], largest: f64) -> (Vec<[f64; 2]>, (f64, f64)) {
-    // largest = f × 2^e with f in [0.5, 1): scaling by 2^-e brings it into [0.5, 1), done
-    // in two steps because 2^-e alone over- or underflows at the ends of the f64 range.
-    let e = binary_exponent(largest);
-    let (first, second) = (pow2(-e / 2), pow2(-e - (-e / 2)));
-    let flush = |x: f64| {
-        let y = x * first * second;
-        if y.abs() < 1e-40 {
-            0.0
-        } else {
-            y
-        }
-    };
-    let unit = uv.iter().map(|p| [flush(p[0]), flush(p[1])]).collect();
-    (unit, (first, second))
-}
-
-/// The e with `x = f × 2^e`, f in [0.5, 1), for finite x > 0; 0 for x = 0. O(1).
-fn binary_exponent(x: f64) -> i32 {
-    if x == 0.0 {
-        return 0;
-    }
-    let biased = ((x.to_bits() >> 52) & 0x7ff) as i32;
-    if biased == 0 {
-        // Subnormal: scale into the normal range first (exact).
-        return binary_exponent(x * pow2(64)) - 64;
-    }
-    biased - 1022
-}
-
-/// 2^k for k in -1022..=1023, exactly. O(1).
-fn pow2(k: i32) -> f64 {
-    debug_assert!((-1022..=1023).contains(&k));
-    f64::from_bits(((k + 1023) as u64) << 52)
 }
 
 /// Delaunay triangulation of `uv` (planar points, finite). O(n log n).

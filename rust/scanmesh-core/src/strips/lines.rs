@@ -286,10 +286,12 @@ pub const JUMP_WINDOW: usize = 2;
 
 /// Splits the segments of `scan` where consecutive points jump in depth (a wall, a step,
 /// the rim of a bore seen along the line): a step that is a jump by
-/// [`crate::trim::is_depth_jump`] with factor `factor`, against the local spacing of the
+/// [`crate::triangulate::jumps::is_depth_jump`] with factor `factor`, against the local spacing of
+/// the
 /// line there, the median 3-D step of the [`JUMP_WINDOW`] steps on either side of it and
 /// itself. `points` are the 3-D points and `uv` their orthogonal projection in the same
-/// units (as for [`crate::trim::DepthJumps`]); an infinite `factor` changes nothing. Pieces
+/// units (as for [`crate::triangulate::jumps::DepthJumps`]); an infinite `factor` changes nothing.
+/// Pieces
 /// stay in scan order; strips then pair each piece with the overlapping pieces of the
 /// neighbouring lines only. O(n).
 pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], factor: f64) {
@@ -325,7 +327,7 @@ pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], f
                 let spacing = *window.select_nth_unstable_by(mid, f64::total_cmp).1;
                 let w = [segment[i], segment[i + 1]];
                 let flat = planar_distance(uv[w[0] as usize], uv[w[1] as usize]) * to_unit;
-                if crate::trim::is_depth_jump(length3, flat, spacing, factor) {
+                if crate::triangulate::jumps::is_depth_jump(length3, flat, spacing, factor) {
                     pieces.push(Vec::new());
                 }
             }
@@ -488,7 +490,7 @@ mod tests {
 
     #[test]
     fn lines_are_cut_at_depth_jumps_only() {
-        let factor = crate::trim::DEFAULT_JUMP_FACTOR;
+        let factor = crate::triangulate::jumps::DEFAULT_JUMP_FACTOR;
         // A step 5 high between x = 9 and 10, and a bore 4 deep from x = 13 to 15.
         let (pts, uv, mut scan) = profile(|x| {
             let step = if x >= 10.0 { 5.0 } else { 0.0 };

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 /// blocks.
 ///
 /// Why: annealing draws its edges from the RNG ahead of time, independently of the state
-/// ([`crate::anneal`]), so the lines a proposal will read can be requested several
+/// ([`crate::optimize::anneal`]), so the lines a proposal will read can be requested several
 /// proposals early and their misses overlap instead of forming one dependent chain.
 #[inline(always)]
 #[allow(unsafe_code)]

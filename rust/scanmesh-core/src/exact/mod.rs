@@ -1,0 +1,3 @@
+//! Exact checks on small point sets: empty triangles and every triangulation.
+
+pub(crate) mod enumerate;

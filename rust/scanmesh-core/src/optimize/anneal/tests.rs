@@ -1,0 +1,277 @@
+use super::*;
+use crate::optimize::lop::{lop, TacLop};
+use crate::optimize::tac_state::tests::{bumpy_state, plateau_state};
+
+/// One plain chain run to its end in one call.
+pub(crate) fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
+    let mut run = Annealer::new(state, params)?;
+    while !run.is_done() {
+        run.advance(usize::MAX);
+    }
+    run.finish()
+}
+
+fn quick(seed: u64) -> AnnealParams {
+    AnnealParams {
+        sweeps: 60,
+        seed,
+        chains: 1,
+        ..AnnealParams::default()
+    }
+}
+
+#[test]
+fn automatic_chains_give_small_inputs_a_work_floor() {
+    let auto = AnnealParams::default();
+    assert_eq!(auto.chain_count(1_000_000), 1);
+    assert_eq!(auto.chain_count(8_000), 1);
+    assert_eq!(auto.chain_count(7_999), 2);
+    assert_eq!(auto.chain_count(75), 107);
+    assert_eq!(auto.chain_count(10), MAX_AUTO_CHAINS);
+    assert_eq!(auto.chain_count(0), MAX_AUTO_CHAINS);
+    let set = AnnealParams { chains: 3, ..auto };
+    assert_eq!(set.chain_count(75), 3);
+    assert_eq!(set.chain_count(1_000_000), 3);
+}
+
+#[test]
+fn chain_zero_keeps_the_seed_and_other_chains_differ() {
+    let params = quick(11);
+    assert_eq!(params.for_chain(0), params);
+    let seeds: std::collections::HashSet<u64> =
+        (0..100).map(|c| params.for_chain(c).seed).collect();
+    assert_eq!(seeds.len(), 100);
+    assert_eq!(params.for_chain(5).sweeps, params.sweeps);
+}
+
+#[test]
+fn annealing_beats_lop_and_keeps_invariants() {
+    let st = bumpy_state(600, 21, 1.0);
+    let e0 = st.energy();
+    let mut lop_state = st.clone();
+    lop(
+        &mut TacLop {
+            state: &mut lop_state,
+            order: AnnealParams::default().order(),
+        },
+        usize::MAX,
+    );
+    let r = anneal(st.clone(), quick(1)).unwrap();
+    r.mesh.validate(&st.uv()).unwrap();
+    assert!(r.energy <= e0);
+    assert!(
+        r.energy < lop_state.energy(),
+        "anneal {} vs lop {}",
+        r.energy,
+        lop_state.energy()
+    );
+    assert_eq!(r.trace.len(), 60);
+    assert!(r
+        .trace
+        .windows(2)
+        .all(|w| w[1].best <= w[0].best && w[1].temperature < w[0].temperature));
+}
+
+#[test]
+fn same_seed_same_faces_other_seed_other_faces() {
+    let st = bumpy_state(300, 22, 1.0);
+    let a = anneal(st.clone(), quick(7)).unwrap();
+    let b = anneal(st.clone(), quick(7)).unwrap();
+    let c = anneal(st, quick(8)).unwrap();
+    assert_eq!(a.mesh.triangles(), b.mesh.triangles());
+    assert_ne!(a.mesh.triangles(), c.mesh.triangles());
+}
+
+#[test]
+fn incremental_energy_tracks_full_recomputation_during_a_run() {
+    let st = bumpy_state(400, 23, 1.5);
+    let mut ann = Annealer::new(
+        st,
+        AnnealParams {
+            p: 1.5,
+            sweeps: 30,
+            ..quick(3)
+        },
+    )
+    .unwrap();
+    while !ann.is_done() {
+        ann.advance(1_000);
+        let scratch = ann.state().energy_from_scratch();
+        let inc = ann.state().energy();
+        assert!(
+            (inc - scratch).abs() <= 1e-9 * scratch,
+            "{inc} vs {scratch}"
+        );
+    }
+    let best = ann.trace().last().unwrap().best;
+    let r = ann.finish().unwrap();
+    assert!(r.energy <= best + 1e-12);
+}
+
+#[test]
+fn corner_hints_follow_the_share_of_measured_proposals() {
+    // Live edges have a curved corner, so most proposals measure angles, on a curved
+    // state and on a plateau alike (whose flat interior is not live): hints stay on.
+    for (state, hinted) in [
+        (bumpy_state(400, 31, 1.0), true),
+        (plateau_state(400, 31, 1.0), true),
+    ] {
+        let mut ann = Annealer::new(state, quick(2)).unwrap();
+        assert!(ann.edges.hints.corners);
+        ann.advance(2 * ann.sweep_len());
+        assert_eq!(ann.edges.hints.corners, hinted);
+    }
+}
+
+#[test]
+fn chunked_run_equals_one_shot_run() {
+    let st = bumpy_state(250, 24, 1.0);
+    let one = anneal(st.clone(), quick(5)).unwrap();
+    let mut ann = Annealer::new(st, quick(5)).unwrap();
+    while !ann.is_done() {
+        ann.advance(37);
+    }
+    assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
+}
+
+#[test]
+fn deadline_chunks_change_nothing() {
+    let st = bumpy_state(250, 26, 1.0);
+    let one = anneal(st.clone(), quick(6)).unwrap();
+    let mut ann = Annealer::new(st, quick(6)).unwrap();
+    while !ann.is_done() {
+        ann.advance_until(usize::MAX, Some(Instant::now()));
+    }
+    assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
+}
+
+#[test]
+fn best_state_survives_a_detached_log() {
+    // A long hot run detaches the log; the returned state must still be the best seen.
+    let st = bumpy_state(200, 25, 1.0);
+    let params = AnnealParams {
+        sweeps: 40,
+        initial_acceptance: 0.9,
+        final_temperature_ratio: 0.5,
+        polish: false,
+        patience: 0,
+        ..quick(9)
+    };
+    let r = anneal(st.clone(), params).unwrap();
+    let recomputed = TacState::new(r.mesh.clone(), st.uv(), st.xyz(), 1.0)
+        .unwrap()
+        .energy_from_scratch();
+    let best_seen = r.trace.iter().map(|s| s.best).fold(f64::INFINITY, f64::min);
+    assert!(
+        (recomputed - best_seen).abs() <= 1e-9 * best_seen,
+        "{recomputed} vs {best_seen}"
+    );
+    r.mesh.validate(&st.uv()).unwrap();
+}
+
+#[test]
+fn runs_that_cost_too_much_are_refused_before_they_start() {
+    let st = bumpy_state(50, 1, 1.0);
+    let named = |params: AnnealParams| match params.check_cost(&st) {
+        Err(Error::TooCostly { name, .. }) => name,
+        other => panic!("{params:?}: {other:?}"),
+    };
+    let auto = AnnealParams::default();
+    // Too many chains calibrating before the run can be interrupted (was an abort).
+    assert_eq!(
+        named(AnnealParams {
+            chains: 1_000_000,
+            ..auto.clone()
+        }),
+        "chains"
+    );
+    // One chain's calibration alone too long (was a run without end).
+    assert_eq!(
+        named(AnnealParams {
+            calibration_samples: 1_000_000_000,
+            chains: 1,
+            ..auto.clone()
+        }),
+        "calibration_samples"
+    );
+    assert_eq!(
+        named(AnnealParams {
+            sweeps: usize::MAX,
+            ..auto.clone()
+        }),
+        "sweeps"
+    );
+    let e = AnnealParams {
+        sweeps: 1 << 40,
+        chains: 1,
+        ..auto.clone()
+    }
+    .check_cost(&st)
+    .unwrap_err();
+    assert!(
+        e.to_string().starts_with("sweeps=1099511627776 needs"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("hours on one core"), "{e}");
+    // The sweep records of 10^10 sweeps outgrow any machine's memory.
+    if crate::budget::memory_available().is_some() {
+        assert_eq!(
+            named(AnnealParams {
+                sweeps: 10_000_000_000,
+                chains: 1,
+                ..auto.clone()
+            }),
+            "sweeps"
+        );
+    }
+    // The defaults pass.
+    let chains = auto.check_cost(&st).unwrap();
+    assert_eq!(chains, auto.chain_count(st.count_interior_half_edges() / 2));
+}
+
+#[test]
+fn no_live_edge_is_reported_as_exhaustion() {
+    // A plane: no vertex above the floor, nothing to anneal, no sweep.
+    let plane = |x: f64, y: f64| 0.3 * x - 0.2 * y;
+    let flat = crate::optimize::tac_state::tests::height_state(300, 2, 1.0, plane);
+    let r = anneal(flat, quick(1)).unwrap();
+    assert_eq!(r.stopped, Stop::Exhausted);
+    assert!(r.trace.is_empty());
+    // Curved: every sweep runs; with patience, the early stop says so.
+    let r = anneal(bumpy_state(200, 3, 1.0), quick(1)).unwrap();
+    assert_eq!(r.stopped, Stop::Sweeps);
+    assert_eq!(r.trace.len(), quick(1).sweeps);
+    let patient = AnnealParams {
+        sweeps: 100_000,
+        patience: 3,
+        ..quick(1)
+    };
+    let r = anneal(bumpy_state(200, 3, 1.0), patient).unwrap();
+    assert_eq!(r.stopped, Stop::Patience);
+    assert_eq!(Stop::of(5, 10, false, false), Stop::Unfinished);
+}
+
+#[test]
+fn invalid_parameters_are_refused() {
+    let st = bumpy_state(50, 1, 1.0);
+    for bad in [
+        AnnealParams {
+            initial_acceptance: 1.0,
+            ..Default::default()
+        },
+        AnnealParams {
+            final_temperature_ratio: 0.0,
+            ..Default::default()
+        },
+        AnnealParams {
+            p: 0.5,
+            ..Default::default()
+        },
+        AnnealParams {
+            tie_tolerance: -1.0,
+            ..Default::default()
+        },
+    ] {
+        assert!(Annealer::new(st.clone(), bad).is_err());
+    }
+}
