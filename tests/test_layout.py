@@ -64,11 +64,13 @@ def top_level_imports(tree: ast.Module):
 
 
 def local_imports(tree: ast.Module):
-    """Import statements inside a function or a class body."""
+    """Import statements inside a function or a class body (each once)."""
+    seen: set[int] = set()
     for node in ast.walk(tree):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             for inner in ast.walk(node):
-                if isinstance(inner, (ast.Import, ast.ImportFrom)):
+                if isinstance(inner, (ast.Import, ast.ImportFrom)) and id(inner) not in seen:
+                    seen.add(id(inner))
                     yield inner
 
 
