@@ -222,7 +222,7 @@ def _fan_cuts(
     a triangulation of the enumerated triangles.
     """
     import scipy.sparse as sp  # scipy loads only for the optimum: `import scanmesh` stays light
-    from scipy.optimize import linprog
+    from scipy.optimize import linprog  # the HiGHS LP, loaded with the optimum only
 
     tri, n_i = geo.tri, len(geo.interior)
     t_count, e_count = len(tri), geo.flow.shape[0]
