@@ -75,7 +75,7 @@ def schedule() -> None:
 
 
 def guard() -> None:
-    from scanmesh.truth import height_error
+    from scanmesh.evaluate.truth import height_error
 
     print(f"machine: {machine()}\n")
     print("| scan | method | tac_1 | tac_1 / Delaunay | sliver share | h_rms | h_max | time (s) |")
@@ -126,10 +126,10 @@ def paper(picture: Path | None, tiles: int) -> None:
     Writes ``<picture>`` (both meshes shaded, side by side, like the paper's figures 1 and 2),
     ``<picture>_segment.png`` (a segment with its edges) and ``<picture>_trace.png``.
     """
-    from scanmesh.cli import _auto_view
     from scanmesh.demo import demo_truth
-    from scanmesh.render import plot_convergence, render_compare
-    from scanmesh.truth import TrueSurface, height_error, normal_error
+    from scanmesh.evaluate.truth import TrueSurface, height_error, normal_error
+    from scanmesh.present.render import auto_view as _auto_view
+    from scanmesh.present.render import plot_convergence, render_compare
 
     pts, lines = scanmesh.load_demo()
     print(f"machine: {machine()}, load average {os.getloadavg()[0]:.1f} at the start\n")

@@ -5,7 +5,8 @@
 
 Renderers, each writing an 800 x 600 PNG of the same mesh seen from the same direction:
 
-- zbuffer: scanmesh.render.render_mesh (orthographic z-buffer in numpy), supersample 1 and 2;
+- zbuffer: scanmesh.present.render.render_mesh (orthographic z-buffer in numpy),
+  supersample 1 and 2;
 - polycollection: matplotlib PolyCollection, faces sorted far to near (painter's algorithm),
   colours from the same Lambert shading, no edges, no anti-aliasing;
 - trisurf: mpl_toolkits.mplot3d plot_trisurf with its own shading.
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scanmesh.render import COLOR, LIGHT, camera, render_mesh
+from scanmesh.present.render import COLOR, LIGHT, camera, render_mesh
 
 VIEW = (-0.55, -1.0, 0.9)
 SIZE = (800, 600)

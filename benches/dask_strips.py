@@ -1,4 +1,4 @@
-"""Strips of a scan too large for one process, on a 2-worker LocalCluster (issue 21).
+"""Strips of a scan too large for one process, on a 2-worker LocalCluster.
 
 A synthetic scan (a wavy surface with noise, zig-zag lines of ``--cols`` points) is written
 to disk in files of ``--lines-per-file`` lines (.npz: points and line ids), then meshed by

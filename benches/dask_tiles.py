@@ -77,7 +77,7 @@ def write_rod(points: int, per_part: int, folder: Path) -> tuple[list[Part], int
     of whole lines (cached in ``folder``: written once per size)."""
     done = folder / "parts.txt"
     if not done.exists():
-        from scanmesh.digitizer import simulate_scan
+        from scanmesh.evaluate.digitizer import simulate_scan
 
         folder.mkdir(parents=True, exist_ok=True)
         spacing = ROD_SPACING_1M * math.sqrt(1_000_000 / points)

@@ -2,7 +2,7 @@
 
     python benches/depth_jumps.py                  # every part, every method, Markdown table
     python benches/depth_jumps.py --parts "rocker arm"   # one part
-    python benches/depth_jumps.py --cad /work/shared/data/cad   # from a worktree
+    python benches/depth_jumps.py --cad DATA/cad   # data elsewhere
 
 Each part is scanned by the virtual digitizer (:func:`scanmesh.simulate_scan`, about
 15,000 points, no noise) along the axis it is machined from: the octagonal pocket along z,
@@ -18,11 +18,11 @@ a slot pocket and two small oil holes) along z. Rows:
   2 s, 4 s, normals estimated and oriented towards the scanner).
 
 Per mesh: height RMS against the CAD truth (closest-point distance at 100,000 random points
-on the mesh's area, :func:`scanmesh.truth.height_error`), its ratio to the reference, the
+on the mesh's area, :func:`scanmesh.evaluate.truth.height_error`), its ratio to the reference, the
 RMS on the area the mesh and the reference both cover (samples on the mesh whose ray along
 the axis hits the reference too) and its ratio, air and missed shadow in % of the part's
-shadow (:func:`scanmesh.truth.domain_error`), the sliver share (smallest angle below
-``scanmesh.quality.SLIVER_ANGLE_DEG``) and the longest 3-D edge over the median edge.
+shadow (:func:`scanmesh.evaluate.truth.domain_error`), the sliver share (smallest angle below
+``scanmesh.measures.SLIVER_ANGLE_DEG``) and the longest 3-D edge over the median edge.
 The peers are optional (benchmark-only dependencies): a missing one is skipped.
 """
 
@@ -40,11 +40,11 @@ from quality import CAD, machine
 
 import scanmesh
 from scanmesh import _core
-from scanmesh.delaunay import MAX_EDGE_FACTOR
-from scanmesh.digitizer import cast_grid
-from scanmesh.projection import project
-from scanmesh.quality import quality
-from scanmesh.truth import TrueSurface, domain_error, height_error
+from scanmesh.evaluate.digitizer import cast_grid
+from scanmesh.evaluate.truth import TrueSurface, domain_error, height_error
+from scanmesh.measures import quality
+from scanmesh.scan.projection import project
+from scanmesh.stages.options import MAX_EDGE_FACTOR
 
 N_POINTS = 15_000
 N_SAMPLES = 100_000

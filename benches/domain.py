@@ -9,7 +9,7 @@ triangles whose edges are at most ``k`` x the median spacing, the strips keep wh
 between consecutive scan lines. Flips never change it, so annealing inherits the domain of
 its initial mesh. Per part (the scans of ``benches/quality.py``) and domain: the area covered
 where the true part casts no shadow on the projection plane ("air") and the part's shadow
-left uncovered ("missed"), both in % of the shadow (:func:`scanmesh.truth.domain_error`,
+left uncovered ("missed"), both in % of the shadow (:func:`scanmesh.evaluate.truth.domain_error`,
 4 million rays), and the interior vertices (the ones tac is summed over). With ``--anneal``,
 default annealing (seed 0) from each trimmed Delaunay, scored against Delaunay on the same
 domain and against the default Delaunay: tac_1, height RMS (100,000 samples) and slivers.
@@ -25,9 +25,9 @@ import numpy as np
 from quality import CAD, PARTS, machine, scan
 
 import scanmesh
-from scanmesh.delaunay import MAX_EDGE_FACTOR
-from scanmesh.optimal import _interior_mask
-from scanmesh.truth import TrueSurface, domain_error, height_error
+from scanmesh.evaluate.truth import TrueSurface, domain_error, height_error
+from scanmesh.stages.optimal_program import _interior_mask
+from scanmesh.stages.options import MAX_EDGE_FACTOR
 
 #: Trimming lengths in multiples of the median spacing (5 is the default).
 FACTORS = (3.0, 4.0, 5.0, 6.0, 7.0, 8.0, math.inf)
@@ -100,7 +100,7 @@ def corner_figure(path: Path, rows: list[tuple], truth: TrueSurface, factors=(3.
     import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
 
-    from scanmesh.digitizer import cast_grid
+    from scanmesh.evaluate.digitizer import cast_grid
 
     (x0, x1), (z0, z1) = ROD_CORNER
     step = (x1 - x0) / 400

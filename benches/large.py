@@ -1,4 +1,4 @@
-"""Large scans (issue 9): time and peak memory of each stage at 100k, 1M and 10M points, and
+"""Large scans: time and peak memory of each stage at 100k, 1M and 10M points, and
 the command end to end.
 
     python benches/large.py                              # 100k, 1M, 10M: every stage
@@ -17,7 +17,7 @@ own; "RSS before" is the size after loading that stage's input (``.npy`` files s
 stage before, which are not part of the stage). Stages:
 
 - read: ``scanmesh.read(file)`` (text parse, checks, ScanPoints);
-- lines: ``scanmesh.lines.scan_lines(points, ids, plane="z")`` (projection, segments,
+- lines: ``scanmesh.scan.lines.scan_lines(points, ids, plane="z")`` (projection, segments,
   median step, gaps; the strips stage does this again inside its native call);
 - strips: ``strip_surface(points, lines=ids, plane="z")`` (projection, lines, shortest-path
   strips with the default weight, planar check), split by ``Surface.timings``;
@@ -106,9 +106,9 @@ def files(n: int) -> dict[str, Path]:
 def child(stage: str, n: int, sweeps: int) -> None:
     """Run one stage on size n and print a JSON line."""
     import scanmesh
-    from scanmesh.lines import scan_lines
-    from scanmesh.strips import strip_surface
-    from scanmesh.writers import save_mesh
+    from scanmesh.formats.write import save_mesh
+    from scanmesh.scan.lines import scan_lines
+    from scanmesh.stages.strips import strip_surface
 
     f = files(n)
     out: dict = {"stage": stage, "n": n}

@@ -1,4 +1,4 @@
-"""Annealing on large scans (issue 22): wall time, memory and quality against the goals.
+"""Annealing on large scans: wall time, memory and quality against the goals.
 
     python benches/large_anneal.py demo                   # the demo rod, default settings
     python benches/large_anneal.py paper                  # 3,000 sweeps on the rod with curtains
@@ -14,7 +14,7 @@ whole domain, with the curtains between the rod's two levels, as the paper trian
 it: the mesh on which annealing has work to do).
 
 Every measurement runs in its own Python process (``--old-python`` runs the same case
-under another interpreter, for example one with the annealer before issue 22 installed,
+under another interpreter, for example one with the annealer that proposed every edge installed,
 alternating with this one), which reports its wall times, peak resident size
 (``ru_maxrss``), the annealer's proposals, and per stage (Delaunay, the annealing stages
 noise / calibrate / anneal / polish, the quality report) its wall time and peak resident
@@ -50,7 +50,7 @@ def rod_scan(n: int):
     """(points, line_ids) of the rod scanned along y with about n points (cached)."""
     import numpy as np
 
-    from scanmesh.digitizer import simulate_scan
+    from scanmesh.evaluate.digitizer import simulate_scan
 
     path = CACHE / f"rod{n}.npz"
     if not path.exists():
@@ -103,7 +103,7 @@ class Stages:
 def child(spec: dict) -> dict:
     """One measurement in this process: see the module doc."""
     import scanmesh
-    from scanmesh.anneal import anneal_surface
+    from scanmesh.stages.anneal import anneal_surface
 
     stages = Stages()
     if spec["points"] == "demo":
@@ -131,7 +131,7 @@ def child(spec: dict) -> dict:
         "energy": a.options["energy"],
         "initial_energy": a.options["initial_energy"],
         "sweeps": sweeps,
-        # The annealer before issue 22 did not count: one proposal per interior edge and
+        # The annealer that proposed every edge did not count: one proposal per interior edge and
         # sweep (an upper bound with tiles, whose border edges wait).
         "proposals": (
             a.options["proposals"] if "proposals" in a.options else sweeps * interior_edges(d.faces)

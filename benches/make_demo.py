@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scanmesh.digitizer import simulate_scan
+from scanmesh.evaluate.digitizer import simulate_scan
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCE = ROOT.parent / "shared" / "data" / "cad" / "conrod_slevin48_onshape.stl"
@@ -92,7 +92,7 @@ Made by this project (no noise, so every point lies on the STL's surface):
 
 ```
 python benches/make_demo.py
-# i.e. scanmesh.digitizer.simulate_scan(
+# i.e. scanmesh.evaluate.digitizer.simulate_scan(
 #     "conrod_slevin48_onshape.stl", up="y", along="x", n_points=14339,
 #     noise=0.0, table=False)
 ```

@@ -3,7 +3,7 @@
     python benches/noise.py                          # CAD parts at three noise levels, real scans
     python benches/noise.py --cad conrod --real      # one part, and every real scan
     python benches/noise.py --real fran              # one real scan
-    python benches/noise.py --data /work/shared/data  # data elsewhere than ../shared/data
+    python benches/noise.py --data DATA       # data elsewhere than ../shared/data
     python benches/noise.py --plane                  # the noise floor on a noisy plane
 
 CAD parts (the settings of benches/quality.py: rod along y, fandisk along y, blade along
@@ -12,7 +12,7 @@ s/30 and s/10 (s: the median step along the lines of the noise-free scan; noise 
 Per method: the noise estimate (``scanmesh.noise``), tac_1, sliver share, height RMS
 against the CAD truth and its ratio to Delaunay's, and wall time. The height RMS is
 :func:`paired_height_rms` at Delaunay's density of 100,000 samples: the estimate of
-:func:`scanmesh.truth.height_error`, but every face sampled at points drawn from its own
+:func:`scanmesh.evaluate.truth.height_error`, but every face sampled at points drawn from its own
 vertex ids, so that meshes sharing most faces are compared on the same points (independent
 samples scatter the ratio by about 0.4 %, as much as the differences on the noisy rod).
 ``anneal`` is the default (noise-aware) annealing; ``anneal, planar ties`` the same with
@@ -21,7 +21,7 @@ angle); ``anneal, exact ties`` the annealing before noise awareness
 (``tie_tolerance=1e-10``).
 
 Real scans (``fran_cut.vtk``, ``SainteHelens.dem``, the LAS ground returns, class 2) have
-no truth: :func:`scanmesh.truth.holdout_error` withholds 10 % of the points (seed 0),
+no truth: :func:`scanmesh.evaluate.holdout.holdout_error` withholds 10 % of the points (seed 0),
 reconstructs the rest and measures the withheld points along the projection normal.
 
 The noise floor (column ``floor / Del.``, to hold against ``h_rms / Del.``): a mesh whose
@@ -49,9 +49,10 @@ import numpy as np
 from quality import PARTS, SHARED, machine
 
 import scanmesh
-from scanmesh.lines import scan_lines
+from scanmesh.evaluate.holdout import holdout_error
+from scanmesh.evaluate.truth import TrueSurface
 from scanmesh.methods import used_keywords
-from scanmesh.truth import TrueSurface, holdout_error
+from scanmesh.scan.lines import scan_lines
 
 #: CAD parts of the noise table (keys of quality.PARTS).
 CAD_PARTS = ("conrod", "fandisk", "turbineblade +y", "turbineblade -y")
@@ -104,7 +105,7 @@ def paired_height_rms(surface: scanmesh.Surface, truth: TrueSurface, density: fl
     """Height RMS of ``surface`` against ``truth`` at ``density`` samples per unit 3-D area,
     each face sampled at points drawn from its own vertex ids (sorted) alone.
 
-    The same estimate as :func:`scanmesh.truth.height_error` (uniform over the mesh's area:
+    The same estimate as :func:`scanmesh.evaluate.truth.height_error` (uniform over the mesh's area:
     a face of area A gets floor(A * density + u) samples, u uniform from its key), but with
     common random numbers: a face two meshes share gets the same samples in both, so their
     ratio measures only where the meshes differ (identical meshes: exactly 1). Independent

@@ -1,4 +1,4 @@
-"""Certified tac optimum against LOP and annealing on small patches (issue 8).
+"""Certified tac optimum against LOP and annealing on small patches.
 
 For random and real-scan patches of 20, 30, 40 and 60 points, triangulated over the whole
 convex hull (``max_edge=math.inf``), measures
@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 import scanmesh
-from scanmesh.optimal import optimal_surface
+from scanmesh.stages.optimal import optimal_surface
 
 ROOT = Path(__file__).resolve().parents[1]
 SCAN = ROOT.parent / "shared" / "data" / "scans" / "fran_cut.vtk"
@@ -106,7 +106,7 @@ def is_height_field(window: np.ndarray) -> bool:
 
 def load_scan() -> np.ndarray:
     """The fran_cut scan as (profiles, points, 3)."""
-    return scanmesh.readers.read_vtk(SCAN).points.reshape(45, 49, 3)
+    return scanmesh.formats.read_vtk(SCAN).points.reshape(45, 49, 3)
 
 
 #: the MILP's columns of a row, reusable when only the heuristics change

@@ -1,4 +1,4 @@
-"""Peers (issue 19): scanmesh against other triangulators on the same synthetic scans.
+"""Peers: scanmesh against other triangulators on the same synthetic scans.
 
     pip install -e ".[bench]"      # triangle, vtk, pyvista (scipy is a core dependency)
     python benches/peers.py                          # 100k, 1M, 10M points

@@ -1,4 +1,4 @@
-"""The plane chosen by the data (issue 17, item 4 and goal 3): steep share per part and axis.
+"""The plane chosen by the data: steep share per part and axis.
 
 Every CAD part in ../shared/data/cad/ (or the folder given) is scanned with
 ``scanmesh.simulate_scan`` along each of +-x, +-y, +-z at 1/100 of its larger extent across
@@ -24,8 +24,8 @@ import numpy as np
 import trimesh
 
 import scanmesh
-from scanmesh.digitizer import parse_axis
-from scanmesh.writers import write_points
+from scanmesh.formats.write import write_points
+from scanmesh.scan.axes import parse_axis
 
 #: ../shared/data/cad beside the repository (as the other benches find the shared data)
 SHARED_CAD = Path(__file__).resolve().parents[2] / "shared" / "data" / "cad"

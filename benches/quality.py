@@ -10,10 +10,11 @@ every point lies on the true surface) at the settings in :data:`PARTS`; each met
 triangulates the same points, projected along the scanning direction. Per mesh: tac norms,
 smallest 3-D angle, sliver share (the row ``scanmesh compare`` prints, from the same
 function), closest-point height error against the CAD mesh at 100,000 random points on the
-mesh's area (:func:`scanmesh.truth.height_error`, as ``scanmesh compare --truth``), the mean
-angle between mesh and true normals at the same points (:func:`scanmesh.truth.normal_error`),
-the domain against the part's shadow on the plane (air covered, shadow missed, in % of the
-shadow: :func:`scanmesh.truth.domain_error`, also in ``scanmesh compare --truth``) and wall
+mesh's area (:func:`scanmesh.evaluate.truth.height_error`, as ``scanmesh compare --truth``),
+the mean angle between mesh and true normals at the same points
+(:func:`scanmesh.evaluate.truth.normal_error`), the domain against the part's shadow on the
+plane (air covered, shadow missed, in % of the shadow:
+:func:`scanmesh.evaluate.truth.domain_error`, also in ``scanmesh compare --truth``) and wall
 time of the triangulation. Baselines: spade Delaunay (method ``delaunay``, trimmed at
 5 x median spacing) and ``scipy.spatial.Delaunay`` on the same projected points, trimmed by
 the same code at the same length.
@@ -34,8 +35,9 @@ from pathlib import Path
 import numpy as np
 
 import scanmesh
-from scanmesh.cli import _auto_view, _quality_row
-from scanmesh.truth import TrueSurface, domain_error, height_error, normal_error
+from scanmesh.cli._common import _quality_row
+from scanmesh.evaluate.truth import TrueSurface, domain_error, height_error, normal_error
+from scanmesh.present.render import auto_view as _auto_view
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 CAD = SHARED / "cad"
@@ -84,8 +86,8 @@ def scipy_delaunay(points: np.ndarray, plane: str) -> scanmesh.Surface:
     from scipy.spatial import Delaunay
 
     from scanmesh import _core
-    from scanmesh.delaunay import resolve_max_edge
-    from scanmesh.projection import project
+    from scanmesh.scan.projection import project
+    from scanmesh.stages.delaunay import resolve_max_edge
 
     uv, frame = project(points, plane)
     faces = np.ascontiguousarray(Delaunay(uv).simplices, dtype=np.int64)
@@ -129,7 +131,7 @@ def measure(part: str, figures: Path | None) -> list[dict]:
     for row in rows:
         row["points"], row["lines"], row["settings"] = len(points), int(lines.max()) + 1, settings
     if figures is not None:
-        from scanmesh.render import render_compare
+        from scanmesh.present.render import render_compare
 
         figures.mkdir(parents=True, exist_ok=True)
         ref = shown["delaunay"][0]
@@ -178,7 +180,7 @@ def print_table(rows: list[dict]) -> None:
 def check_cli() -> None:
     """Run the rod through ``scanmesh compare --truth --json`` and compare with the library."""
     from scanmesh.cli import main
-    from scanmesh.writers import write_points
+    from scanmesh.formats.write import write_points
 
     points, lines = scan("conrod")
     with tempfile.TemporaryDirectory() as tmp:

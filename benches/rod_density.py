@@ -31,7 +31,7 @@ import numpy as np
 from quality import machine, scipy_delaunay
 
 import scanmesh
-from scanmesh.truth import TrueSurface, height_error
+from scanmesh.evaluate.truth import TrueSurface, height_error
 
 CAD = Path(__file__).resolve().parents[2] / "shared" / "data" / "cad"
 ROD = CAD / "conrod_slevin48_onshape.stl"

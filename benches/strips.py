@@ -25,10 +25,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 import scanmesh
-import scanmesh.strips
+import scanmesh.stages.strips
 from scanmesh import _core
-from scanmesh.readers import read_dem, read_vtk
-from scanmesh.strips import CRITERIA, DEFAULT_WEIGHT, weight_coefficients
+from scanmesh.formats import read_dem, read_vtk
+from scanmesh.stages.strips import CRITERIA, DEFAULT_WEIGHT, weight_coefficients
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 ROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
@@ -73,7 +73,7 @@ def quality_table(repeat: int) -> None:
                     warnings.simplefilter("ignore")  # fran_cut folds in every plane
 
                     def run(p=points, ids=line_ids, pl=plane, m=method, w=weight):
-                        return scanmesh.strips.strip_surface(
+                        return scanmesh.stages.strips.strip_surface(
                             p, lines=ids, plane=pl, method=m, weight=w, alpha=3
                         )
 
@@ -98,7 +98,7 @@ def time_table(sizes: list[int], repeat: int) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             t_strips, s = best_time(
-                lambda p=points, ids=line_ids: scanmesh.strips.strip_surface(
+                lambda p=points, ids=line_ids: scanmesh.stages.strips.strip_surface(
                     p, lines=ids, plane="y"
                 ),
                 r,

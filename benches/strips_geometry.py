@@ -1,4 +1,4 @@
-"""Real geometry: depth jumps, gaps and crossing lines (issue 17, items 1 and 2).
+"""Real geometry: depth jumps, gaps and crossing lines.
 
     python benches/strips_geometry.py                      # Markdown table on stdout
     python benches/strips_geometry.py --json rows.json     # and the rows as JSON
@@ -14,7 +14,7 @@ any face over the median edge, how many faces exceed 8 x the median edge ("long"
 many of those are off the CAD surface (centroid farther than half a median edge from it:
 bridges, not sparsely sampled real surface), the 3-D area, the missed shadow (% of the
 part's shadow along the mesh's plane, ``truth.domain_error`` with 250,000 rays; "now" rows
-of CAD parts only) and points in no face. The goal of issue 17 counts meshes that are
+of CAD parts only) and points in no face. The goal counts meshes that are
 manifold with "longest / median edge" at most 8.
 """
 
@@ -30,16 +30,16 @@ import numpy as np
 
 import scanmesh
 from scanmesh import _core
-from scanmesh.readers import read_vtk
-from scanmesh.strips import strip_surface
-from scanmesh.truth import TrueSurface, domain_error
+from scanmesh.evaluate.truth import TrueSurface, domain_error
+from scanmesh.formats import read_vtk
+from scanmesh.stages.strips import strip_surface
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 CAD = SHARED / "cad"
 PARTS = ("conrod_slevin48_onshape.stl", "octagonal_pocket.ply", "fandisk.obj", "turbineblade.ply")
 VIEWS = (("z", "x"), ("-z", "x"), ("y", "x"), ("-y", "z"), ("x", "y"), ("-x", "z"))
 N_POINTS = 8_000
-#: The goal of issue 17: no face's longest 3-D edge above this many median edges.
+#: The goal: no face's longest 3-D edge above this many median edges.
 LONG = 8.0
 #: A long face whose centroid is farther than this many median edges from the CAD surface
 #: bridges air.

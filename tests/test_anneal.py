@@ -12,8 +12,8 @@ import pytest
 import scanmesh
 from conftest import bumpy_patch, seconds_to_interrupt
 from scanmesh import _core
-from scanmesh.anneal import anneal_surface
-from scanmesh.lop import lop_surface
+from scanmesh.stages.anneal import anneal_surface
+from scanmesh.stages.lop import lop_surface
 
 
 def canonical(faces):
@@ -62,7 +62,7 @@ def test_sliver_guard_keeps_tac_and_removes_slivers(rod_with_curtains):
     guarded = anneal_surface(rod_with_curtains, sweeps=60, seed=3)
     raw = anneal_surface(rod_with_curtains, sweeps=60, seed=3, sliver_guard=False)
     assert guarded.quality.tac_1 <= raw.quality.tac_1 * 1.02
-    # Annealing proposes only edges whose flip can lower tac (issue 22), so flat faces keep
+    # Annealing proposes only edges whose flip can lower tac, so flat faces keep
     # Delaunay's shapes even without the guard; the guard still removes slivers on top.
     assert guarded.quality.sliver_fraction < raw.quality.sliver_fraction
     assert guarded.quality.sliver_fraction < 0.5 * rod_with_curtains.quality.sliver_fraction
@@ -289,7 +289,7 @@ def test_without_a_time_limit_results_and_stop_reasons_are_unchanged():
     assert a.options["stopped"] == b.options["stopped"] == "sweeps"
     assert a.options["time_limit"] is None
     # a scan large enough for noise-level ties (MIN_TIE_POINTS): the chain freezes early
-    from scanmesh.noise import MIN_TIE_POINTS
+    from scanmesh.scan.noise import MIN_TIE_POINTS
 
     noisy = bumpy_patch(MIN_TIE_POINTS, 3)
     early = scanmesh.reconstruct(noisy, "anneal", sweeps=5000, patience=5, chains=1)
@@ -334,7 +334,7 @@ def test_bad_time_limit_names_the_option_and_value(bad):
 
 
 def test_seconds_left_follows_the_work_done_and_the_limit():
-    from scanmesh.anneal import seconds_left
+    from scanmesh.stages.anneal import seconds_left
 
     # half the proposals of the only sweep in 2 s: 2 s more
     assert seconds_left(0, 1, 50, 100, 2.0, None) == pytest.approx(2.0)

@@ -137,7 +137,7 @@ def test_optimal_takes_every_magnitude_from_1e_300_to_1e300() -> None:
 def test_noise_and_annealing_at_1e300() -> None:
     # Found as: annealing on points near 1e300 ended in IndexError in the noise estimate
     # (the neighbour search's squared distances overflowed, so neighbours went missing).
-    from scanmesh.noise import noise
+    from scanmesh.scan.noise import noise
 
     pts = _random_scan(67, 40)
     sigma = noise(pts, plane="z")

@@ -1,5 +1,6 @@
 """The ``scanmesh`` command, run as users run it (``python -m scanmesh ...`` in a subprocess),
-and the height-error measure (``scanmesh.truth``) that ``scanmesh compare --truth`` prints."""
+and the height-error measure (``scanmesh.evaluate.truth``) that ``scanmesh compare --truth``
+prints."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from PIL import Image
 
 import scanmesh
 from conftest import DATA
-from scanmesh.truth import TrueSurface, height_error, point_triangle_distance
+from scanmesh.evaluate.truth import TrueSurface, height_error, point_triangle_distance
 
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
 
@@ -404,7 +405,7 @@ def test_compare_without_truth_reports_the_holdout_error(scan):
     assert data["holdout_error"]["fraction"] == 0.1
     for row in data["methods"]:
         # the same seeded withholding through the API gives the same figures
-        expected = scanmesh.truth.holdout_error(
+        expected = scanmesh.evaluate.holdout.holdout_error(
             points.points, row["method"], fraction=0.1, seed=3, lines=points.line_ids
         )
         assert row["holdout_rms"] == pytest.approx(expected["rms"])
@@ -417,7 +418,7 @@ def test_compare_without_truth_reports_the_holdout_error(scan):
 
 
 @pytest.mark.skipif(
-    importlib.util.find_spec("scanmesh.strips") is None, reason="strip methods not built yet"
+    importlib.util.find_spec("scanmesh.stages.strips") is None, reason="strip methods not built yet"
 )
 def test_compare_runs_every_method_by_default(scan):
     result = run("compare", scan, "--sweeps", 20, "--json")

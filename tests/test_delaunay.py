@@ -12,7 +12,7 @@ from scipy.spatial import Delaunay as ScipyDelaunay
 import scanmesh
 from conftest import bumpy_patch
 from scanmesh import _core
-from scanmesh.delaunay import JUMP_FACTOR, MAX_EDGE_FACTOR
+from scanmesh.stages.options import JUMP_FACTOR, MAX_EDGE_FACTOR
 
 
 def canonical(faces: np.ndarray) -> np.ndarray:

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import scanmesh
-from scanmesh.optimal import optimal_surface
-from scanmesh.projection import project
+from scanmesh.scan.projection import project
+from scanmesh.stages.optimal import optimal_surface
 
 
 def exact_orient(a, b, c) -> Fraction:

@@ -11,9 +11,9 @@ import pytest
 
 import scanmesh
 from scanmesh import _core
-from scanmesh.delaunay import JUMP_FACTOR
-from scanmesh.projection import project
-from scanmesh.strips import strip_surface
+from scanmesh.scan.projection import project
+from scanmesh.stages.options import JUMP_FACTOR
+from scanmesh.stages.strips import strip_surface
 
 
 def terraced_scan(wall: float = 8.0) -> np.ndarray:

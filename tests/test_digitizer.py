@@ -9,8 +9,9 @@ import pytest
 import trimesh
 
 from conftest import DATA
-from scanmesh.digitizer import cast_grid, scan_frame, simulate_scan
 from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError, ScanmeshError
+from scanmesh.evaluate.digitizer import cast_grid, simulate_scan
+from scanmesh.scan.axes import scan_frame
 
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
 

@@ -16,7 +16,7 @@ from distributed import Client, LocalCluster, WorkerPlugin  # noqa: E402
 
 import scanmesh  # noqa: E402
 from scanmesh import _core  # noqa: E402
-from scanmesh.distributed import _tiles  # noqa: E402
+from scanmesh.distributed import _tile, _tiles  # noqa: E402
 from scanmesh.distributed._source import Part  # noqa: E402
 
 
@@ -250,7 +250,7 @@ def test_median_search_is_exact(client, monkeypatch, values):
     empty = dict(index=None, points=None, uv=None, lines=None, own=None, faces=None)
     # tasks, as in a run (scattered data cannot be recomputed if a worker lets it go)
     tiles = [
-        client.submit(_tiles.Tile, tile=i, nearest=a, **empty, pure=False)
+        client.submit(_tile.Tile, tile=i, nearest=a, **empty, pure=False)
         for i, a in enumerate(arrays)
     ]
     total = sum(len(a) for a in arrays)

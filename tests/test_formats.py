@@ -23,7 +23,7 @@ import pytest
 import scanmesh
 from scanmesh import FileFormatError, ParameterError
 from scanmesh.formats import format_of, read
-from scanmesh.writers import write_points
+from scanmesh.formats.write import write_points
 
 
 def write(path: Path, data: str | bytes) -> Path:

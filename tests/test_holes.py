@@ -12,8 +12,8 @@ import trimesh
 
 import scanmesh
 from scanmesh import _core
-from scanmesh.delaunay import HOLE_FACTOR, MAX_EDGE_FACTOR
-from scanmesh.truth import TrueSurface
+from scanmesh.evaluate.truth import TrueSurface
+from scanmesh.stages.options import HOLE_FACTOR, MAX_EDGE_FACTOR
 
 #: The plate: radius 10, 2 thick, a bore of radius 1.1 through its middle, scanned along z
 #: at spacing 0.5: the bore is 4.4 spacings across, narrower than the planar trim length.

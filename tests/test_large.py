@@ -1,4 +1,4 @@
-"""Large scans (issue 9): progress of every stage, the text-file -> STL path end to end on a
+"""Large scans: progress of every stage, the text-file -> STL path end to end on a
 100k-point synthetic scan (the 10M figures are in BENCHMARKS.md, from benches/large.py)."""
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def scan_file(tmp_path_factory) -> Path:
 
 def test_stage_progress_through_reconstruct(scan_file, monkeypatch):
     from scanmesh.formats import table
-    from scanmesh.writers import save_mesh
+    from scanmesh.formats.write import save_mesh
 
     monkeypatch.setattr(table, "CHUNK_BYTES", 1 << 19)
     rec = Recorder()
@@ -152,7 +152,7 @@ def test_every_stage_of_an_annealing_command_reports(tmp_path, monkeypatch, caps
 def test_collinear_check_on_many_points_uses_every_point():
     """The strided sample only short-cuts the rank-2 case: collinear input still raises,
     and one point off the line (which the sample misses) still counts."""
-    from scanmesh.strips import RANK_SAMPLE, _spans_plane
+    from scanmesh.stages.strips import RANK_SAMPLE, _spans_plane
 
     n = 3 * RANK_SAMPLE + 7
     t = np.linspace(0.0, 1.0, n)
@@ -168,7 +168,7 @@ def test_collinear_check_on_many_points_uses_every_point():
 
 def test_steep_fraction_matches_the_angle_formula():
     """The native cosine form gives the share the atan2 of every triangle gives."""
-    from scanmesh import surface as surface_module
+    from scanmesh.scan import steep as steep_module
 
     rng = np.random.default_rng(5)
     verts = rng.normal(size=(400, 3)) * [1.0, 1.0, 0.7]
@@ -178,11 +178,11 @@ def test_steep_fraction_matches_the_angle_formula():
     fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
     unit = normal / np.linalg.norm(normal)
     tilt = np.degrees(np.arctan2(np.linalg.norm(np.cross(fn, unit), axis=1), fn @ unit))
-    expect = float((tilt > surface_module.STEEP_ANGLE_DEG).mean())
+    expect = float((tilt > steep_module.STEEP_ANGLE_DEG).mean())
     assert 0.2 < expect < 0.8
-    assert surface_module.steep_fraction(verts, faces, normal) == expect
+    assert steep_module.steep_fraction(verts, faces, normal) == expect
     # column-major arrays take the binding's copying path: same count
-    tilt_limit = np.radians(surface_module.STEEP_ANGLE_DEG)
+    tilt_limit = np.radians(steep_module.STEEP_ANGLE_DEG)
     count = scanmesh._core.steep_count(
         np.asfortranarray(verts), np.asfortranarray(faces), normal, tilt_limit
     )
@@ -190,7 +190,7 @@ def test_steep_fraction_matches_the_angle_formula():
     bad = faces.copy()
     bad[7, 2] = 400
     with pytest.raises(scanmesh.InvalidMeshError, match="face 7"):
-        surface_module.steep_fraction(verts, bad, normal)
+        steep_module.steep_fraction(verts, bad, normal)
     bad[7, 2] = -1
     with pytest.raises(scanmesh.InvalidMeshError, match="face 7"):
-        surface_module.steep_fraction(verts, bad, normal)
+        steep_module.steep_fraction(verts, bad, normal)

@@ -9,8 +9,8 @@ import pytest
 
 import scanmesh
 from conftest import DATA
-from scanmesh.lines import GAP_FACTOR, ScanLines, as_line_ids, scan_lines
-from scanmesh.readers import read_dem, read_vtk
+from scanmesh.formats import read_dem, read_vtk
+from scanmesh.scan.lines import GAP_FACTOR, ScanLines, as_line_ids, scan_lines
 
 
 def line_scan(

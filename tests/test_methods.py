@@ -96,7 +96,7 @@ def test_annealing_tie_tolerance_is_automatic_unless_given():
     assert given.options["tie_tolerance"] == 0.25
     assert auto.options["tie_tolerance"] != 0.25
     # the automatic choice comes from the noise estimate (see test_noise) and is reported
-    assert auto.options["tie_tolerance"] >= scanmesh.anneal.ANNEAL_DEFAULTS["tie_tolerance"]
+    assert auto.options["tie_tolerance"] >= scanmesh.stages.anneal.ANNEAL_DEFAULTS["tie_tolerance"]
 
 
 def test_keywords_follow_the_initial_triangulation():
@@ -132,11 +132,13 @@ def test_good_values_pass_through_unchanged():
 def test_strip_options_of_the_other_method_are_refused():
     pts, ids = _points()
     with pytest.raises(ParameterError, match=r"\['alpha'\]"):
-        scanmesh.strips.strip_surface(pts, lines=ids, plane="z", alpha=4)
+        scanmesh.stages.strips.strip_surface(pts, lines=ids, plane="z", alpha=4)
     with pytest.raises(ParameterError, match=r"\['solver'\]"):
-        scanmesh.strips.strip_surface(pts, lines=ids, plane="z", method="lookahead", solver="dp")
+        scanmesh.stages.strips.strip_surface(
+            pts, lines=ids, plane="z", method="lookahead", solver="dp"
+        )
     with pytest.raises(ParameterError, match=r"weight\['angle'\]"):
-        scanmesh.strips.strip_surface(pts, lines=ids, plane="z", weight={"angle": "x"})
+        scanmesh.stages.strips.strip_surface(pts, lines=ids, plane="z", weight={"angle": "x"})
 
 
 def test_line_detection_checks_its_gap_factor():

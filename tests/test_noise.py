@@ -8,7 +8,7 @@ import trimesh
 
 import scanmesh
 from scanmesh.errors import DegenerateInputError
-from scanmesh.noise import line_residuals, robust_scale
+from scanmesh.scan.noise import line_residuals, robust_scale
 
 #: Point spacing of the simulated scans (model units).
 SPACING = 0.5
@@ -143,7 +143,7 @@ def test_shuffled_points_use_neighbourhoods(part):
 
 def default_and_exact_ties(points, lines, seed, plane="z"):
     """Annealing with the default (noise-aware) tie tolerance and with exact ties only."""
-    from scanmesh.anneal import ANNEAL_DEFAULTS
+    from scanmesh.stages.anneal import ANNEAL_DEFAULTS
 
     return [
         scanmesh.reconstruct(points, "anneal", lines=lines, plane=plane, seed=seed, **extra)
@@ -156,10 +156,10 @@ def test_noise_aware_annealing_beats_delaunay_on_a_noisy_rod():
     default annealing (tie tolerance from the noise) stays at Delaunay's height error with
     few slivers; annealing with exact ties only (the old default) chases the noise with
     slivers and lands farther from the true surface."""
-    from scanmesh.anneal import ANNEAL_DEFAULTS
     from scanmesh.demo import demo_truth
-    from scanmesh.lines import scan_lines
-    from scanmesh.truth import TrueSurface, height_error
+    from scanmesh.evaluate.truth import TrueSurface, height_error
+    from scanmesh.scan.lines import scan_lines
+    from scanmesh.stages.anneal import ANNEAL_DEFAULTS
 
     truth = TrueSurface(demo_truth())
     settings = {"up": "y", "along": "x", "n_points": 5000}
@@ -187,7 +187,7 @@ def test_noise_aware_annealing_beats_delaunay_on_a_noisy_rod():
 def test_noise_free_scans_anneal_with_exact_ties():
     """No noise: the tolerance stays the exact-tie default and the faces are those of an
     explicit exact-tie run."""
-    from scanmesh.anneal import ANNEAL_DEFAULTS
+    from scanmesh.stages.anneal import ANNEAL_DEFAULTS
 
     points, lines = scanmesh.simulate_scan(box_with_bore(), up="z", spacing=0.8)
     default, exact = default_and_exact_ties(points, lines, seed=1)
@@ -197,7 +197,7 @@ def test_noise_free_scans_anneal_with_exact_ties():
 
 
 def test_tie_tolerance_scales_with_noise_and_ignores_facet_level_estimates():
-    from scanmesh.noise import NOISE_FREE, TIE_PER_NOISE, tie_tolerance
+    from scanmesh.scan.noise import NOISE_FREE, TIE_PER_NOISE, tie_tolerance
 
     assert tie_tolerance(0.1, 1.0, floor=1e-10) == pytest.approx(TIE_PER_NOISE * 0.01)
     assert tie_tolerance(0.2, 2.0, p=2.0, floor=1e-10) == pytest.approx((TIE_PER_NOISE * 0.01) ** 2)
@@ -209,8 +209,8 @@ def test_small_noisy_inputs_anneal_with_exact_ties():
     """Below MIN_TIE_POINTS points the noise is still reported but annealing settles every
     tie by the energy (the certified-optimum patches); at MIN_TIE_POINTS the same surface
     and noise get the noise tolerance."""
-    from scanmesh.anneal import ANNEAL_DEFAULTS
-    from scanmesh.noise import MIN_TIE_POINTS
+    from scanmesh.scan.noise import MIN_TIE_POINTS
+    from scanmesh.stages.anneal import ANNEAL_DEFAULTS
 
     def patch(n):
         rng = np.random.default_rng(7)
@@ -232,8 +232,9 @@ def test_interpolated_noise_floor_on_a_plane():
     for any connectivity chosen without looking at the noise (Delaunay, and the grid's
     cells all split along the other diagonal), and a withheld noisy point lies
     sigma * sqrt(3 / 2) from it on average. Measured by trimesh's closest-point distance
-    to the plane (scanmesh.truth.height_error), an implementation independent of it."""
-    from scanmesh.truth import height_error, holdout_error
+    to the plane (scanmesh.evaluate.truth.height_error), an implementation independent of it."""
+    from scanmesh.evaluate.holdout import holdout_error
+    from scanmesh.evaluate.truth import height_error
 
     rng = np.random.default_rng(3)
     side, sigma = 120, 0.05

@@ -18,12 +18,8 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshError,
 )
-from scanmesh.optimal import (
-    MIP_REL_GAP,
-    brute_force_surface,
-    optimal_surface,
-    triangulations,
-)
+from scanmesh.stages.brute_force import brute_force_surface, triangulations
+from scanmesh.stages.optimal import MIP_REL_GAP, optimal_surface
 
 
 def bumpy(n: int, seed: int) -> np.ndarray:

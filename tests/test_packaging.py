@@ -17,7 +17,7 @@ import pytest
 import scanmesh
 from conftest import DATA
 from scanmesh import MissingExtraError, ScanmeshError
-from scanmesh.render import plot_convergence, render_compare, render_mesh
+from scanmesh.present.render import plot_convergence, render_compare, render_mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -59,8 +59,8 @@ def test_core_install_reconstructs_judges_and_draws_without_any_extra(tmp_path):
     result = run_without_extras(
         """
         import json, numpy as np, scanmesh
-        from scanmesh.render import render_mesh
-        from scanmesh.truth import height_error
+        from scanmesh.present.render import render_mesh
+        from scanmesh.evaluate.truth import height_error
         points, ids = scanmesh.load_demo()
         keep = ids < 20
         s = scanmesh.reconstruct(points[keep], "anneal", lines=ids[keep], plane="y", seed=0)
@@ -94,7 +94,7 @@ def test_a_feature_without_its_extra_names_the_extra(tmp_path, call, extra):
         f"""
         import numpy as np, scanmesh
         from pathlib import Path
-        from scanmesh.render import plot_convergence, render_compare
+        from scanmesh.present.render import plot_convergence, render_compare
         DATA = Path({str(DATA)!r})
         try:
             {call}

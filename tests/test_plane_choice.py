@@ -1,4 +1,4 @@
-"""The projection plane chosen by the data for ``plane=None`` (issue 17, item 4)."""
+"""The projection plane chosen by the data for ``plane=None``."""
 
 from __future__ import annotations
 
@@ -15,11 +15,11 @@ from scipy.spatial import Delaunay
 
 import scanmesh
 from conftest import DATA
-from scanmesh.digitizer import parse_axis
 from scanmesh.errors import NotAHeightFieldWarning, ParameterError
-from scanmesh.plane_choice import SAMPLE, TIE, choose_plane, quick_faces, score
-from scanmesh.surface import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
-from scanmesh.writers import write_points
+from scanmesh.formats.write import write_points
+from scanmesh.scan.axes import parse_axis
+from scanmesh.scan.plane_choice import SAMPLE, TIE, choose_plane, quick_faces, score
+from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
 
 CAD = DATA / "cad"
 
@@ -151,7 +151,7 @@ def test_the_choice_is_seeded():
 
 def test_skipped_candidates_could_not_have_won(conrod, pocket):
     """Measuring every candidate chooses the same plane as stopping once settled."""
-    import scanmesh.plane_choice as pc
+    import scanmesh.scan.plane_choice as pc
 
     for mesh, up in [(conrod, "x"), (conrod, "z"), (pocket, "x"), (pocket, "-z"), (pocket, "y")]:
         pts, _ = scan(mesh, up, div=30)

@@ -10,7 +10,7 @@ import trimesh
 
 import scanmesh
 from conftest import bumpy_patch
-from scanmesh.quality import SLIVER_ANGLE_DEG
+from scanmesh.measures import SLIVER_ANGLE_DEG
 
 
 def interior_mask(faces: np.ndarray, n: int) -> np.ndarray:
@@ -102,7 +102,7 @@ def test_quality_rejects_bad_faces():
 def test_sliver_share_is_counted_on_radians_as_on_degrees():
     """quality() counts slivers on the radians against _SLIVER_RADIANS: the same verdict as
     converting every angle to degrees first, at the limit's neighbouring floats too."""
-    from scanmesh.quality import _SLIVER_RADIANS
+    from scanmesh.measures import _SLIVER_RADIANS
 
     r = _SLIVER_RADIANS
     near = [np.nextafter(r, 0.0), r, np.nextafter(r, 1.0), math.radians(SLIVER_ANGLE_DEG)]

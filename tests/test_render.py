@@ -8,7 +8,7 @@ import trimesh
 from PIL import Image
 
 from scanmesh.errors import InvalidMeshError, ParameterError
-from scanmesh.render import (
+from scanmesh.present.render import (
     NO_VALUE,
     VIRIDIS,
     WIRE,

@@ -1,4 +1,4 @@
-"""Robustness (issue 7): every bad input gets a clear error, odd but valid input a valid mesh,
+"""Robustness: every bad input gets a clear error, odd but valid input a valid mesh,
 nothing panics, Ctrl-C returns quickly, threads agree with serial runs.
 
 Complements test_errors.py (shapes and options of ``delaunay``), test_readers.py (file
@@ -25,8 +25,8 @@ from scanmesh import (
     ScanmeshError,
     _core,
 )
-from scanmesh.strips import CrossingLinesWarning
-from scanmesh.surface import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION, steep_fraction
+from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION, steep_fraction
+from scanmesh.stages.strips import CrossingLinesWarning
 from test_lines import line_scan
 
 #: Every method but "optimal" (exponential; its errors are tested in test_optimal.py), with

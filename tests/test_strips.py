@@ -12,8 +12,8 @@ import scipy.spatial
 import scanmesh
 from conftest import DATA
 from scanmesh import _core
-from scanmesh.readers import read_dem, read_vtk
-from scanmesh.strips import (
+from scanmesh.formats import read_dem, read_vtk
+from scanmesh.stages.strips import (
     CRITERIA,
     DEFAULT_WEIGHT,
     CrossingLinesWarning,

@@ -11,14 +11,8 @@ import trimesh
 
 import scanmesh
 from scanmesh.errors import ParameterError
-from scanmesh.truth import (
-    TrueSurface,
-    domain_error,
-    holdout_error,
-    locate,
-    normal_error,
-    point_triangle_distance,
-)
+from scanmesh.evaluate.holdout import holdout_error, locate
+from scanmesh.evaluate.truth import TrueSurface, domain_error, normal_error, point_triangle_distance
 
 
 def grid_mesh(n: int, height) -> tuple[np.ndarray, np.ndarray]:

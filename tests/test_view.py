@@ -21,9 +21,9 @@ from PIL import Image
 import scanmesh
 from conftest import DATA
 from scanmesh import MissingExtraError, ParameterError
-from scanmesh import view as view_module
-from scanmesh.render import auto_view, face_colors, shade_mesh
-from scanmesh.view import html_page, notebook_html, save_glb, save_html, show
+from scanmesh.present import view as view_module
+from scanmesh.present.render import auto_view, face_colors, shade_mesh
+from scanmesh.present.view import html_page, notebook_html, save_glb, save_html, show
 from test_render import tilted_sheet
 
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"

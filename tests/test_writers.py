@@ -17,8 +17,8 @@ import pytest
 import trimesh
 
 from scanmesh import ParameterError, ScanmeshError
-from scanmesh.readers import read, read_xyz
-from scanmesh.writers import save_mesh, write_atomic, write_points
+from scanmesh.formats import read, read_xyz
+from scanmesh.formats.write import save_mesh, write_atomic, write_points
 
 
 def grid_mesh(nx=6, ny=5):
@@ -176,7 +176,7 @@ def test_write_points_overwrites_atomically(tmp_path):
 
 
 def test_write_points_in_blocks(tmp_path, monkeypatch):
-    from scanmesh import writers
+    from scanmesh.formats import write as writers
 
     monkeypatch.setattr(writers, "POINTS_PER_BLOCK", 7)
     pts = np.arange(150.0).reshape(50, 3) / 7
@@ -317,7 +317,7 @@ def test_sigterm_while_writing_removes_the_temporary(tmp_path):
     script = f"""
     import sys, time
     import numpy as np
-    from scanmesh.writers import save_mesh
+    from scanmesh.formats.write import save_mesh
     verts = np.random.default_rng(0).random((1000, 3))
     faces = np.random.default_rng(1).integers(0, 1000, (300_000, 3))
 
@@ -372,7 +372,7 @@ def test_ctrl_c_while_writing_a_large_obj_leaves_nothing(tmp_path):
     script = f"""
     import sys, time
     import numpy as np
-    from scanmesh.writers import save_mesh
+    from scanmesh.formats.write import save_mesh
     verts = np.random.default_rng(0).random((1_000_000, 3))
     faces = np.random.default_rng(1).integers(0, 1_000_000, (2_000_000, 3))
     print("started", flush=True)

@@ -18,9 +18,7 @@ The public API:
 
 from importlib import metadata as _metadata
 
-from scanmesh.delaunay import delaunay
 from scanmesh.demo import load_demo
-from scanmesh.digitizer import simulate_scan
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -32,15 +30,18 @@ from scanmesh.errors import (
     ScanmeshError,
     ScanmeshWarning,
 )
-from scanmesh.lines import detect_lines
+from scanmesh.evaluate.digitizer import simulate_scan
+from scanmesh.formats import ScanPoints, read
+from scanmesh.measures import Quality, quality
 from scanmesh.methods import METHODS
-from scanmesh.noise import noise
-from scanmesh.optimal import brute_force_surface, optimal_surface
-from scanmesh.projection import Frame, project
-from scanmesh.quality import Quality, quality
-from scanmesh.readers import ScanPoints, read
-from scanmesh.reconstruct import reconstruct
-from scanmesh.scan import PlanarScan, planar_scan
+from scanmesh.reconstruction import reconstruct
+from scanmesh.scan.lines import detect_lines
+from scanmesh.scan.noise import noise
+from scanmesh.scan.planar import PlanarScan, planar_scan
+from scanmesh.scan.projection import Frame, project
+from scanmesh.stages.brute_force import brute_force_surface
+from scanmesh.stages.delaunay import delaunay
+from scanmesh.stages.optimal import optimal_surface
 from scanmesh.surface import Surface
 
 #: The one version, written in Cargo.toml ([workspace.package]) and read back from the

@@ -74,7 +74,7 @@ class Stage:
         self._bar: Any = None
         self._ticker: threading.Event | None = None
         if progress is True:
-            from tqdm import tqdm
+            from tqdm import tqdm  # loaded only when a bar is drawn: `import scanmesh` stays light
 
             self._bar = tqdm(
                 total=self.total,

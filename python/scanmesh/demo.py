@@ -1,7 +1,7 @@
 """The embedded demo: a simulated scan of a connecting rod, and the rod's true surface.
 
 The rod is the paper's reference part (Weinert, Mehnen and Prestifilippo, 1997: 14,339
-points). The scan was made by :func:`scanmesh.digitizer.simulate_scan` without noise, so
+points). The scan was made by :func:`scanmesh.evaluate.digitizer.simulate_scan` without noise, so
 every point lies on :func:`demo_truth`; ``benches/make_demo.py`` regenerates it, and
 ``scanmesh/data/ATTRIBUTION.md`` gives the source, licence and settings.
 """

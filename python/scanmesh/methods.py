@@ -12,12 +12,13 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from scanmesh import anneal, lop, optimal, strips
 from scanmesh._checks import Option, check_options
 from scanmesh._progress import Progress
-from scanmesh.delaunay import MAX_EDGE_OPTION, delaunay
 from scanmesh.errors import ParameterError
-from scanmesh.scan import PlanarScan
+from scanmesh.scan.planar import PlanarScan
+from scanmesh.stages import anneal, lop, optimal, strips
+from scanmesh.stages.delaunay import delaunay
+from scanmesh.stages.options import MAX_EDGE_OPTION
 from scanmesh.surface import Surface
 
 #: Keywords of :func:`scanmesh.reconstruct` that several methods share, with their checks

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -11,48 +10,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from scanmesh import _core
 from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
-from scanmesh.projection import Frame
-from scanmesh.quality import Quality, quality
-from scanmesh.scan import PlanarScan
+from scanmesh.formats import write
+from scanmesh.measures import Quality, quality
+from scanmesh.present import view
+from scanmesh.scan.planar import PlanarScan
+from scanmesh.scan.projection import Frame
+from scanmesh.scan.steep import steep_fraction
 
 if TYPE_CHECKING:
     import trimesh
-
-
-#: A triangle is steep when its normal is more than this many degrees from the projection
-#: normal. Over a height field seen along a sensible normal, only walls and the rims of
-#: rounded parts come close (the demo rod along y: 1 % of its triangles); a surface folded
-#: over the plane makes most triangles steep or upside down (the rod along x: 100 %).
-STEEP_ANGLE_DEG: float = 75.0
-
-#: ``reconstruct`` warns (``NotAHeightFieldWarning``) when more than this share of the
-#: triangles is steep. A hemisphere seen from above is at 16 %, a cylinder seen from its
-#: side at about 50 %, the rod along its best plane at 1 %.
-STEEP_WARN_FRACTION: float = 0.10
-
-
-def steep_fraction(vertices: np.ndarray, faces: np.ndarray, normal: np.ndarray) -> float:
-    """Share of ``faces`` whose normal is more than ``STEEP_ANGLE_DEG`` from ``normal``.
-
-    vertices : (N, 3) float64; faces : (M, 3) int64, counter-clockwise seen against
-    ``normal`` ((3,) float64), so upside-down triangles (a fold) count as steep. Scale-free
-    (edge vectors are divided by the half extent of the vertices first). 0.0 for no faces.
-    O(M) time in native code on every core (``_core.steep_count``), no per-face temporaries
-    (it was 7 s at 20M faces in numpy blocks).
-    """
-    if len(faces) == 0:
-        return 0.0
-    steep = _core.steep_count(
-        np.ascontiguousarray(vertices, dtype=np.float64),
-        np.ascontiguousarray(faces, dtype=np.int64),
-        np.ascontiguousarray(normal, dtype=np.float64),
-        math.radians(STEEP_ANGLE_DEG),
-    )
-    return steep / len(faces)
 
 
 @dataclass(eq=False)
@@ -119,8 +88,8 @@ class Surface:
 
     def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
         """Write the mesh by file ending (.stl binary, .ply, .obj, .off; .html and .glb
-        through :meth:`to_html` and :func:`scanmesh.view.save_glb`), atomically;
-        ``progress`` as in :func:`scanmesh.writers.save_mesh` (stage "write").
+        through :meth:`to_html` and :func:`scanmesh.present.view.save_glb`), atomically;
+        ``progress`` as in :func:`scanmesh.formats.write.save_mesh` (stage "write").
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
         reconstructed from."""
@@ -128,34 +97,24 @@ class Surface:
         if suffix in (".html", ".htm"):
             return self.to_html(path)
         if suffix == ".glb":
-            from scanmesh.view import save_glb
-
-            return save_glb(self, path)
-        from scanmesh.writers import save_mesh
-
+            return view.save_glb(self, path)
         source = None if self.scan is None else self.scan.source
-        return save_mesh(path, self.vertices, self.faces, protect=source, progress=progress)
+        return write.save_mesh(path, self.vertices, self.faces, protect=source, progress=progress)
 
     def to_html(self, path: str | os.PathLike, **options: Any) -> Path:
         """Write a self-contained HTML page showing this mesh in 3-D (opens offline in any
         browser); ``options`` (``color_by``, ``truth``, ``view``, ``up``, ``title``) as in
-        :func:`scanmesh.view.html_page`."""
-        from scanmesh.view import save_html
-
-        return save_html(self, path, **options)
+        :func:`scanmesh.present.view.html_page`."""
+        return view.save_html(self, path, **options)
 
     def show(self, **options: Any) -> None:
         """Open an interactive 3-D window (PyVista or trimesh's viewer, when installed);
-        ``options`` as in :func:`scanmesh.view.show`."""
-        from scanmesh.view import show
-
-        show(self, **options)
+        ``options`` as in :func:`scanmesh.present.view.show`."""
+        view.show(self, **options)
 
     def _repr_html_(self) -> str | None:
         """Notebook display: the 3-D view of :meth:`to_html` (None for very large meshes)."""
-        from scanmesh.view import notebook_html
-
-        return notebook_html(self)
+        return view.notebook_html(self)
 
     def __repr__(self) -> str:
         return (

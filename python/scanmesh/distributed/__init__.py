@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -21,11 +22,14 @@ from typing import Any
 
 from scanmesh._extras import require
 from scanmesh.errors import DegenerateInputError, ParameterError
-from scanmesh.projection import PlaneSpec
+from scanmesh.methods import TABLE
+from scanmesh.scan.projection import PlaneSpec
 
 from ._output import StreamedMesh, Written, check_output, scratch_folder
 from ._report import combine, report
 from ._source import list_parts, resolve_plane, scan_bounds, source_paths, store_chunks
+from ._strips import strip_blocks
+from ._tiles import tile_blocks
 
 __all__ = ["DistributedResult", "reconstruct_distributed", "STRIP_METHODS"]
 
@@ -109,8 +113,6 @@ def reconstruct_distributed(
     """
     distributed = require("distributed", "dask", "reconstruct_distributed")
     target = check_output(output)
-    from scanmesh.methods import TABLE
-
     if method not in TABLE:
         raise ParameterError(f"method must be one of {sorted(TABLE)}, got {method!r}")
     if partition_lines is not None and (
@@ -147,8 +149,6 @@ def reconstruct_distributed(
         seams: list[Any] = []
         try:
             if method in STRIP_METHODS:
-                from ._strips import strip_blocks
-
                 blocks, seams, info = strip_blocks(
                     client,
                     parts,
@@ -163,8 +163,6 @@ def reconstruct_distributed(
                     mesh.add(block)
                 del blocks
             else:
-                from ._tiles import tile_blocks
-
                 # the tiles hand each block to the writer as it is submitted
                 _, info = tile_blocks(
                     client,
@@ -191,8 +189,6 @@ def reconstruct_distributed(
             client.close()
             owned.close()
         if stored is not None:
-            import shutil
-
             shutil.rmtree(stored, ignore_errors=True)
     total = combine([*(w.sums for w in written), *seam_sums])
     n_faces = int(total.get("faces", 0))
@@ -234,7 +230,7 @@ def _turns(written: list[Written]) -> list[bool]:
 
 def _is_dask_array(source: Any) -> bool:
     with contextlib.suppress(ImportError):
-        import dask.array as da
+        import dask.array as da  # the optional dask extra: absent on a core install
 
         if isinstance(source, tuple):
             return len(source) == 2 and all(isinstance(a, da.Array) for a in source)

@@ -15,7 +15,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from scanmesh import _core
-from scanmesh.quality import SLIVER_ANGLE_DEG
+from scanmesh.measures import SLIVER_ANGLE_DEG
 
 #: Sums combined by max and by min; every other key is added.
 BY_MAX: tuple[str, ...] = ("tac_inf",)

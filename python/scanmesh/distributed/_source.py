@@ -23,9 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh import _core
+from scanmesh import _core, formats
 from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
-from scanmesh.projection import PlaneSpec, plane_args
+from scanmesh.scan.plane_choice import choose_plane
+from scanmesh.scan.projection import PlaneSpec, plane_args
 
 
 @dataclass(frozen=True)
@@ -77,9 +78,7 @@ def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray, bool]:
     """A file's points and line ids, as :func:`load_part` describes them, and whether
     reading them again costs more than mapping a copy (anything but a .npy/.npz file that
     holds its line ids)."""
-    from scanmesh.formats import read
-
-    scan = read(path)
+    scan = formats.read(path)  # looked up at call time: a worker may wrap it
     points = scan.points
     binary = Path(path).suffix.lower() in (".npy", ".npz")
     if scan.line_ids is not None:
@@ -218,8 +217,6 @@ def resolve_plane(plane: PlaneSpec, summaries: list[PartSummary]) -> PlaneSpec:
         return plane
     sample = np.concatenate([s.sample for s in summaries if len(s.sample)])
     if plane is None:
-        from scanmesh.plane_choice import choose_plane
-
         plane = choose_plane(sample).spec
         if plane != "best-fit":
             return plane
@@ -273,7 +270,7 @@ def store_chunks(client: Any, array: Any, line_ids: Any, folder: Path) -> list[s
 
 
 def _delayed_store(points: Any, ids: Any, path: str) -> Any:
-    import dask
+    import dask  # the optional dask extra: absent on a core install
 
     return dask.delayed(_store)(points, ids, path)
 

@@ -32,8 +32,8 @@ import numpy as np
 
 from scanmesh._checks import check_options
 from scanmesh.errors import DegenerateInputError
-from scanmesh.projection import PlaneSpec
-from scanmesh.strips import OPTIONS, solve_strips
+from scanmesh.scan.projection import PlaneSpec
+from scanmesh.stages.strips import OPTIONS, solve_strips
 
 from ._output import FaceBlock
 from ._report import seam_sums, vertex_sums
@@ -246,7 +246,7 @@ def plan(
 
 
 def strip_options(method: str, options: dict[str, Any]) -> dict[str, Any]:
-    """The strip method's options checked (as :func:`scanmesh.strips.strip_surface` does)."""
+    """The strip method's options checked (as :func:`scanmesh.stages.strips.strip_surface` does)."""
     return check_options(OPTIONS[method], options, f"method {method!r}")
 
 

@@ -8,7 +8,7 @@ median spacing search.
 Rules, in order:
 
 - **Plane.** ``plane=`` as given (an axis name or a normal; "best-fit" and None are
-  resolved on the sample, see below). None: :func:`scanmesh.plane_choice.choose_plane` on a
+  resolved on the sample, see below). None: :func:`scanmesh.scan.plane_choice.choose_plane` on a
   seeded sample of at most ``SAMPLE_POINTS`` points drawn from all parts; a least-squares
   answer becomes the sample's least-squares normal. The frame's origin is the bounding-box
   centre of the whole scan (an exact min/max reduction), and every part is projected by the
@@ -57,29 +57,38 @@ points in 4 tiles, tac_1 3 % above (benches/results/distributed_tiles.md).
 
 from __future__ import annotations
 
-import dataclasses
 import math
-import os
 import shutil
 import tempfile
 import uuid
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from scanmesh import _core
-from scanmesh.anneal import ANNEAL_DEFAULTS, SEED_OPTION, drive
-from scanmesh.delaunay import JUMP_FACTOR, MAX_EDGE_FACTOR, MAX_EDGE_OPTION
-from scanmesh.distributed._output import FaceBlock
+from scanmesh.distributed._grid import Grid, _bin_part, project_with_box
 from scanmesh.distributed._source import Part, load_part
+from scanmesh.distributed._tile import (
+    _count,
+    _delaunay_block,
+    _nearest_only,
+    _noise,
+    _optimize_first,
+    _optimize_second,
+    _tile_seed,
+    _triangulate,
+    _trim,
+    _values_inside,
+)
 from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.methods import TABLE
-from scanmesh.noise import median_edge, noise, tie_tolerance
-from scanmesh.projection import Frame, PlaneSpec, plane_args
-from scanmesh.scan import PlanarScan
+from scanmesh.scan.noise import tie_tolerance
+from scanmesh.scan.plane_choice import choose_plane
+from scanmesh.scan.projection import Frame, PlaneSpec, plane_args
+from scanmesh.stages.anneal import ANNEAL_DEFAULTS
+from scanmesh.stages.options import MAX_EDGE_FACTOR, MAX_EDGE_OPTION, SEED_OPTION
 
 #: Points per tile the grid aims at (a tile's Delaunay and annealing state fit in ~1 GB).
 TILE_POINTS: int = 1_000_000
@@ -114,82 +123,6 @@ METHODS = ("delaunay", "lop", "anneal")
 # Geometry of the tiling
 
 
-@dataclass(frozen=True)
-class Grid:
-    """nx x ny cells of the plane, ``size`` wide, cell (0, 0) starting at ``origin``; the
-    outer cells reach to infinity. ``band``: how far a region reaches beyond its cell."""
-
-    origin: tuple[float, float]
-    size: tuple[float, float]
-    shape: tuple[int, int]
-    band: float
-
-    @property
-    def count(self) -> int:
-        """Number of tiles."""
-        return self.shape[0] * self.shape[1]
-
-    def cell_index(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(ix, iy) of the cell holding each planar point. O(n)."""
-        ix = np.floor((uv[:, 0] - self.origin[0]) / self.size[0])
-        iy = np.floor((uv[:, 1] - self.origin[1]) / self.size[1])
-        ix = np.clip(np.nan_to_num(ix), 0, self.shape[0] - 1).astype(np.int64)
-        iy = np.clip(np.nan_to_num(iy), 0, self.shape[1] - 1).astype(np.int64)
-        return ix, iy
-
-    def cells(self, uv: np.ndarray) -> np.ndarray:
-        """The tile owning each planar point (ix * ny + iy). O(n)."""
-        ix, iy = self.cell_index(uv)
-        return ix * self.shape[1] + iy
-
-    def cell_box(self, tile: int) -> tuple[float, float, float, float]:
-        """(umin, umax, vmin, vmax) of a cell, infinite at the outer sides."""
-        ix, iy = divmod(tile, self.shape[1])
-        nx, ny = self.shape
-        (ox, oy), (w, h) = self.origin, self.size
-        umin = -math.inf if ix == 0 else ox + ix * w
-        umax = math.inf if ix == nx - 1 else ox + (ix + 1) * w
-        vmin = -math.inf if iy == 0 else oy + iy * h
-        vmax = math.inf if iy == ny - 1 else oy + (iy + 1) * h
-        return umin, umax, vmin, vmax
-
-    def region(self, tile: int) -> tuple[float, float, float, float]:
-        """The cell widened by the band on every side."""
-        umin, umax, vmin, vmax = self.cell_box(tile)
-        b = self.band
-        return umin - b, umax + b, vmin - b, vmax + b
-
-    def tiles_meeting(self, box: tuple[float, float, float, float]) -> list[int]:
-        """Tiles whose region meets the box (umin, umax, vmin, vmax)."""
-        return [t for t in range(self.count) if _boxes_meet(self.region(t), box)]
-
-    def shifted(self) -> Grid:
-        """The grid of the second pass: borders in the middle of this grid's cells, so
-        (nx + 1) x (ny + 1) cells, the outer ones half as wide (an axis with one cell keeps
-        it: it has no border to anneal)."""
-        nx, ny = self.shape
-        (ox, oy), (w, h) = self.origin, self.size
-        return Grid(
-            origin=(ox - w / 2 if nx > 1 else ox, oy - h / 2 if ny > 1 else oy),
-            size=self.size,
-            shape=(nx + 1 if nx > 1 else 1, ny + 1 if ny > 1 else 1),
-            band=self.band,
-        )
-
-    def near_borders(self, uv: np.ndarray, width: float) -> np.ndarray:
-        """True for points within ``width`` of an inner cell border. O(n)."""
-        near = np.zeros(len(uv), dtype=bool)
-        for axis in (0, 1):
-            for k in range(1, self.shape[axis]):
-                border = self.origin[axis] + k * self.size[axis]
-                near |= np.abs(uv[:, axis] - border) <= width
-        return near
-
-
-def _boxes_meet(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
-    return a[0] <= b[1] and b[0] <= a[1] and a[2] <= b[3] and b[2] <= a[3]
-
-
 def make_grid(box: tuple[float, float, float, float], points: int, band: float) -> Grid:
     """A grid over the planar box with about TILE_POINTS points per cell (uniform density
     assumed), cells as square as the box allows. Inner borders are offset from round
@@ -222,16 +155,6 @@ def _part_survey(part: Part, sample: int, seed: int) -> dict[str, Any]:
     }
 
 
-def project_with_box(
-    points: np.ndarray, corners: np.ndarray, name: str | None, normal: np.ndarray | None
-) -> np.ndarray:
-    """Planar coordinates exactly as a single-process projection of the whole scan makes
-    them: the core projects onto a frame whose origin is the points' bounding-box centre,
-    so the scan's two box corners ride along. O(n)."""
-    uv, _ = _core.project(np.concatenate([points, corners]), name, normal)
-    return uv[: len(points)]
-
-
 def _part_plane_survey(part: Part, corners: np.ndarray, plane: tuple) -> dict[str, Any]:
     """A part's planar bounds and the median spacing of its first SPACING_SAMPLE points."""
     points, _ = load_part(part)
@@ -248,422 +171,16 @@ def _part_plane_survey(part: Part, corners: np.ndarray, plane: tuple) -> dict[st
     }
 
 
-@dataclass
-class Bins:
-    """Points of one part that fall in one tile's region."""
-
-    index: np.ndarray  # (k,) int64 global indices
-    points: np.ndarray  # (k, 3) float64
-    uv: np.ndarray  # (k, 2) float64
-    lines: np.ndarray  # (k,) int64
-
-
-def _bin_part(
-    part: Part, corners: np.ndarray, plane: tuple, grid: Grid, tile: int, after: None
-) -> Bins:
-    """A part's points in the region (cell + band) of ``tile``. ``after``: the gate of
-    :func:`_gated`, only waited for. Each tile reads its parts again (a part is read once
-    per tile it meets), so that no part's bins wait in memory for a later tile."""
-    points, lines = load_part(part)
-    uv = project_with_box(points, corners, *plane)
-    umin, umax, vmin, vmax = grid.region(tile)
-    inside = (uv[:, 0] >= umin) & (uv[:, 0] <= umax) & (uv[:, 1] >= vmin) & (uv[:, 1] <= vmax)
-    index = part.offset + np.flatnonzero(inside)
-    return Bins(index, points[inside], uv[inside], lines[inside])
-
-
 # ---------------------------------------------------------------------------------------
 # Tiles (run on workers)
-
-
-@dataclass
-class Tile:
-    """One tile's points (its region, sorted by global index) and triangulation."""
-
-    tile: int
-    index: np.ndarray
-    points: np.ndarray
-    uv: np.ndarray
-    lines: np.ndarray
-    own: np.ndarray  # (k,) bool: in this tile's cell
-    faces: np.ndarray  # (m, 3) int64 local: untrimmed Delaunay, then trimmed
-    nearest: np.ndarray  # sorted nearest-neighbour distances of own distinct points
-    extent: float = 0.0
-    meta: dict[str, Any] = field(default_factory=dict)
-
-
-def _merge_bins(tile: int, grid: Grid, *bins: Bins) -> Tile:
-    index = np.concatenate([b.index for b in bins]) if bins else np.zeros(0, np.int64)
-    order = np.argsort(index, kind="stable")
-
-    def cat(name: str, shape: tuple[int, ...], dtype: type) -> np.ndarray:
-        if not bins:
-            return np.zeros(shape, dtype)
-        return np.concatenate([getattr(b, name) for b in bins])[order]
-
-    uv = np.ascontiguousarray(cat("uv", (0, 2), np.float64))
-    return Tile(
-        tile=tile,
-        index=index[order],
-        points=np.ascontiguousarray(cat("points", (0, 3), np.float64)),
-        uv=uv,
-        lines=cat("lines", (0,), np.int64),
-        own=grid.cells(uv) == tile,
-        faces=np.zeros((0, 3), np.int64),
-        nearest=np.zeros(0),
-    )
-
-
-def _triangulate(tile: int, grid: Grid, extent: float, *bins: Bins) -> Tile:
-    """The tile's region triangulated (untrimmed) and its own points' nearest-neighbour
-    distances along Delaunay edges, as the core's median_spacing takes them."""
-    t = _merge_bins(tile, grid, *bins)
-    if len(t.index) >= 3:
-        try:
-            t.faces, duplicate_of = _core.delaunay(t.uv)
-        except ScanmeshError:  # all collinear or coincident: no triangle here
-            duplicate_of = np.full(len(t.index), -1)
-        t.meta["duplicates"] = int(np.count_nonzero((duplicate_of >= 0) & t.own))
-    if len(t.faces):
-        a = t.faces.ravel()
-        b = np.roll(t.faces, -1, axis=1).ravel()
-        d = np.hypot(*(t.uv[a] - t.uv[b]).T)
-        keep = d > 1e-9 * extent  # trim::NEAR_DUPLICATE_RELATIVE of the scan's extent
-        nearest = np.full(len(t.index), np.inf)
-        np.minimum.at(nearest, a[keep], d[keep])
-        np.minimum.at(nearest, b[keep], d[keep])
-        mine = nearest[t.own]
-        t.nearest = np.sort(mine[np.isfinite(mine)])
-    return t
-
-
-def _nearest_only(t: Tile) -> Tile:
-    """The tile's nearest-neighbour distances alone (what the median search reads), so
-    that its points and faces can go."""
-    return Tile(
-        tile=t.tile,
-        index=np.zeros(0, np.int64),
-        points=np.zeros((0, 3)),
-        uv=np.zeros((0, 2)),
-        lines=np.zeros(0, np.int64),
-        own=np.zeros(0, bool),
-        faces=np.zeros((0, 3), np.int64),
-        nearest=t.nearest,
-    )
-
-
-def _count(t: Tile, values: np.ndarray, side: str) -> np.ndarray:
-    """How many of the tile's distances are <= (side "right") or < ("left") each value."""
-    return np.searchsorted(t.nearest, values, side=side)
-
-
-def _values_inside(t: Tile, lo: float, hi: float, most: int) -> tuple[np.ndarray, int]:
-    """The tile's distances in the open interval (lo, hi), at most ``most`` of them evenly
-    by rank (the smallest always), and how many there are."""
-    a = np.searchsorted(t.nearest, lo, side="right")
-    b = np.searchsorted(t.nearest, hi, side="left")
-    inside = t.nearest[a:b]
-    if len(inside) <= most:
-        return inside, len(inside)
-    return inside[np.linspace(0, len(inside) - 1, most).astype(np.int64)], len(inside)
-
-
-def circumcentres(
-    uv: np.ndarray, faces: np.ndarray, index: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Circumcentre (m, 2) and radius (m,) of each face, computed from its corners in
-    global-index order so that every tile computes the same bits. A collinear face gets
-    its centroid and an infinite radius. O(m)."""
-    order = np.argsort(index[faces], axis=1)
-    f = np.take_along_axis(faces, order, axis=1)
-    a, b, c = uv[f[:, 0]], uv[f[:, 1]], uv[f[:, 2]]
-    bx, by = (b - a).T
-    cx, cy = (c - a).T
-    d = 2.0 * (bx * cy - by * cx)
-    b2, c2 = bx * bx + by * by, cx * cx + cy * cy
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ux = (cy * b2 - by * c2) / d
-        uy = (bx * c2 - cx * b2) / d
-    bad = ~np.isfinite(ux) | ~np.isfinite(uy)
-    centre = a + np.column_stack([ux, uy])
-    centre[bad] = (a[bad] + b[bad] + c[bad]) / 3
-    radius = np.hypot(ux, uy)
-    radius[bad] = np.inf
-    return centre, radius
-
-
-def certified(
-    centre: np.ndarray, radius: np.ndarray, region: tuple[float, ...], box: tuple[float, ...]
-) -> np.ndarray:
-    """True where the disk meets no part of the scan's planar box outside the region: the
-    parts of the box left, right, below and above the region are rectangles, and a disk
-    misses a rectangle when its centre is farther than its radius from it. O(m)."""
-    umin, umax, vmin, vmax = region
-    bu0, bu1, bv0, bv1 = box
-    outside = [
-        (bu0, min(umin, bu1), bv0, bv1),
-        (max(umax, bu0), bu1, bv0, bv1),
-        (bu0, bu1, bv0, min(vmin, bv1)),
-        (bu0, bu1, max(vmax, bv0), bv1),
-    ]
-    ok = np.ones(len(centre), dtype=bool)
-    margin = radius * (1 + 1e-9)
-    for r0, r1, s0, s1 in outside:
-        if not (r0 < r1 and s0 < s1):
-            continue
-        du = np.maximum(0.0, np.maximum(r0 - centre[:, 0], centre[:, 0] - r1))
-        dv = np.maximum(0.0, np.maximum(s0 - centre[:, 1], centre[:, 1] - s1))
-        ok &= np.hypot(du, dv) > margin
-    return ok
-
-
-def _trim(t: Tile, grid: Grid, box: tuple[float, ...], limit: float) -> Tile:
-    """Trims the tile's triangulation as the core trims the whole one, and marks the faces
-    this tile owns (circumcentre in its cell) and whether they are certified. A new Tile:
-    the input stays as it was, in case Dask runs this again."""
-    faces = t.faces
-    if len(faces):
-        jumps = JUMP_FACTOR if math.isfinite(limit) else math.inf
-        faces = _core.trim_long_edges(t.uv, faces, limit, t.points, jumps)
-    centre, radius = circumcentres(t.uv, faces, t.index)
-    owned = grid.cells(centre) == t.tile if len(faces) else np.zeros(0, bool)
-    uncertified = np.count_nonzero(
-        ~certified(centre[owned], radius[owned], grid.region(t.tile), box)
-    )
-    meta = {**t.meta, "owned": owned, "uncertified": int(uncertified)}
-    return dataclasses.replace(t, faces=faces, nearest=np.zeros(0), meta=meta)
-
-
-def _noise(t: Tile, frame: Frame, plane: PlaneSpec) -> tuple[float, float]:
-    """(noise sigma or NaN, median planar edge) of the tile's region, as annealing's
-    automatic tie tolerance measures them on a whole scan."""
-    if not len(t.faces):
-        return math.nan, math.nan
-    scan = PlanarScan(points=t.points, uv=t.uv, frame=frame, line_ids=t.lines, plane=plane)
-    try:
-        sigma = noise(scan)
-    except ScanmeshError:
-        sigma = math.nan
-    return sigma, median_edge(t.uv, t.faces)
-
-
-def own_tac(t: Tile) -> np.ndarray:
-    """tac of the tile's own interior vertices over its faces (their fans are whole in the
-    tile). O(n + m)."""
-    if not len(t.faces):
-        return np.zeros(0)
-    tac, _ = _core.mesh_quality(t.points, t.faces)
-    return tac[t.own & ~np.isnan(tac)]
-
-
-def face_block(t: Tile, faces: np.ndarray, uncertified: int) -> FaceBlock:
-    """The faces (local indices) as a FaceBlock over global indices, with the quality sums
-    of this tile's own vertices (their fans are complete in the tile) and of the faces."""
-    sums: dict[str, float] = {
-        "faces": float(len(faces)),
-        "uncertified": float(uncertified),
-        "duplicates": float(t.meta.get("duplicates", 0)),
-    }
-    mine = own_tac(t)
-    if len(faces):
-        _, min_angle = _core.mesh_quality(t.points, faces)
-        deg = np.degrees(min_angle)
-    else:
-        deg = np.zeros(0)
-    corners = t.points[faces]
-    area = 0.5 * np.linalg.norm(
-        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
-    )
-    sums.update(
-        n_interior=float(len(mine)),
-        tac_1=float(mine.sum()),
-        tac_2_squared=float(np.square(mine).sum()),
-        tac_inf=float(mine.max()) if len(mine) else 0.0,  # combine by max
-        min_angle_deg=float(deg.min()) if len(deg) else math.inf,  # combine by min
-        slivers=float(np.count_nonzero(deg < _core.SLIVER_ANGLE_DEG)),
-        area=float(area.sum()),
-    )
-    return FaceBlock(vertices=t.points, local=faces, index=t.index, sums=sums)
-
-
-def _delaunay_block(t: Tile) -> FaceBlock:
-    owned = t.meta["owned"]
-    return face_block(t, t.faces[owned], t.meta["uncertified"])
 
 
 # ---------------------------------------------------------------------------------------
 # LOP and annealing of pieces
 
 
-def piece_faces(faces: np.ndarray, movable: np.ndarray) -> np.ndarray:
-    """Flags of the faces whose three corners are movable, less those around vertices where
-    such faces would touch only at a point (the core takes no pinched vertex). O(m)."""
-    take = movable[faces].all(axis=1)
-    while True:
-        f = faces[take]
-        if not len(f):
-            return take
-        n = int(faces.max()) + 1
-        start = f.ravel()
-        end = np.roll(f, -1, axis=1).ravel()
-        key = start * n + end
-        twin = np.isin(end * n + start, key)
-        boundary_out = np.bincount(start[~twin], minlength=n)
-        pinched = boundary_out > 1
-        if not pinched.any():
-            return take
-        take &= ~pinched[faces].any(axis=1)
-
-
-def optimize_piece(
-    points: np.ndarray,
-    uv: np.ndarray,
-    faces: np.ndarray,
-    movable: np.ndarray,
-    method: str,
-    params: dict[str, Any],
-    seed: int,
-) -> np.ndarray:
-    """``faces`` with the piece of faces whose corners are all movable optimized by LOP or
-    annealing; every other face unchanged. O(piece work)."""
-    take = piece_faces(faces, movable) if len(faces) else np.zeros(0, bool)
-    piece = faces[take]
-    if len(piece) < 2:
-        return faces
-    used, local = np.unique(piece, return_inverse=True)
-    local = local.reshape(piece.shape).astype(np.int64)
-    pts, puv = np.ascontiguousarray(points[used]), np.ascontiguousarray(uv[used])
-    if method == "lop":
-        done, _ = _core.lop(
-            pts,
-            puv,
-            local,
-            params["criterion"],
-            params["p"],
-            params["sliver_guard"],
-            params["tie_tolerance"],
-        )
-    else:
-        # time_limit bounds each tile's pass (the tiles of a pass run side by side)
-        native = {k: v for k, v in params.items() if k != "time_limit"}
-        runner = _core.Annealer(pts, puv, local, seed=seed, **native)
-        drive(runner, 0, False, params.get("time_limit"))
-        done, _, _ = runner.finish()
-    return np.concatenate([faces[~take], used[done]])
-
-
-def _optimize_first(
-    t: Tile, grid: Grid, method: str, params: dict[str, Any], seed: int, path: str
-) -> dict[str, Any]:
-    """Pass 1: optimizes the faces whose corners this tile owns; writes the faces this
-    tile answers for (its piece, and the faces across cells whose circumcentre it holds)
-    with their corners' data to ``path`` (.npz, through a temporary renamed at the end, so
-    a rerun of the task replaces it whole), and returns the path with the tile's counts:
-    the mesh waits for pass 2 on disk, not in a worker's memory."""
-    faces = t.faces
-    cell = grid.cells(t.uv)
-    corner_cells = cell[faces] if len(faces) else np.zeros((0, 3), np.int64)
-    inside = (corner_cells == t.tile).all(axis=1)
-    mine = inside | (t.meta["owned"] & ~(corner_cells == corner_cells[:, :1]).all(axis=1))
-    kept = faces[mine]
-    # summed over tiles, the tiled Delaunay's tac_1 (as the "delaunay" method reports it)
-    before = own_tac(t)
-    done = optimize_piece(t.points, t.uv, kept, t.own, method, params, seed)
-    used, local = np.unique(done, return_inverse=True)
-    partial = f"{path}.{os.getpid()}.tmp"
-    with open(partial, "wb") as handle:
-        np.savez(
-            handle,
-            faces=t.index[used][local.reshape(done.shape)]
-            if len(done)
-            else np.zeros((0, 3), np.int64),
-            index=t.index[used],
-            points=t.points[used],
-            uv=t.uv[used],
-        )
-    os.replace(partial, path)
-    return {
-        "path": path,
-        "uncertified": t.meta["uncertified"],
-        "duplicates": t.meta.get("duplicates", 0),
-        "initial_tac_1": float(before.sum()),
-    }
-
-
-def _route(summary: dict[str, Any], grid: Grid, tile: int, counts: bool) -> dict[str, Any]:
-    """The faces of a pass-1 tile (read from its file) that shifted tile ``tile`` owns a
-    corner of; the pass-1 tile's counts when ``counts`` (true for exactly one shifted tile
-    per pass-1 tile)."""
-    with np.load(summary["path"]) as mesh:
-        index, faces, points, uv = mesh["index"], mesh["faces"], mesh["points"], mesh["uv"]
-    local = np.searchsorted(index, faces)
-    take = (grid.cells(uv)[local] == tile).any(axis=1)
-    used = np.unique(local[take])
-    return {
-        "faces": faces[take],
-        "index": index[used],
-        "points": points[used],
-        "uv": uv[used],
-        "uncertified": summary["uncertified"] if counts else 0,
-        "duplicates": summary["duplicates"] if counts else 0,
-        "initial_tac_1": summary["initial_tac_1"] if counts else 0.0,
-    }
-
-
-def _optimize_second(
-    tile: int,
-    grid: Grid,
-    first: Grid,
-    seam: float,
-    method: str,
-    params: dict[str, Any],
-    seed: int,
-    after: None,
-    counts: tuple[bool, ...],
-    *summaries: dict[str, Any],
-) -> FaceBlock:
-    """Pass 2 on a shifted tile: reads its share of the pass-1 tiles' meshes
-    (``summaries``, with ``counts`` as :func:`_route` takes them), optimizes the faces
-    within ``seam`` of pass 1's borders whose corners it owns, and returns the faces whose
-    lowest-index corner it owns. ``after``: the gate of :func:`_gated`."""
-    meshes = [_route(m, grid, tile, c) for m, c in zip(summaries, counts, strict=True)]
-    index = np.concatenate([m["index"] for m in meshes]) if meshes else np.zeros(0, np.int64)
-    index, first_at = np.unique(index, return_index=True)
-
-    def cat(name: str, shape: tuple[int, ...]) -> np.ndarray:
-        if not meshes:
-            return np.zeros(shape)
-        return np.ascontiguousarray(np.concatenate([m[name] for m in meshes])[first_at])
-
-    points, uv = cat("points", (0, 3)), cat("uv", (0, 2))
-    faces = np.concatenate([m["faces"] for m in meshes]) if meshes else np.zeros((0, 3), np.int64)
-    faces = np.searchsorted(index, faces)
-    own = grid.cells(uv) == tile
-    movable = own & first.near_borders(uv, seam)
-    faces = optimize_piece(points, uv, faces, movable, method, params, seed)
-    t = Tile(
-        tile=tile,
-        index=index,
-        points=points,
-        uv=uv,
-        lines=np.zeros(0, np.int64),
-        own=own,
-        faces=faces,
-        nearest=np.zeros(0),
-    )
-    lowest = faces.min(axis=1) if len(faces) else np.zeros(0, np.int64)  # index is sorted
-    t.meta["duplicates"] = sum(m["duplicates"] for m in meshes)
-    block = face_block(t, faces[own[lowest]], sum(m["uncertified"] for m in meshes))
-    block.sums["initial_tac_1"] = float(sum(m["initial_tac_1"] for m in meshes))
-    return block
-
-
 # ---------------------------------------------------------------------------------------
 # The driver (runs on the client)
-
-
-def _tile_seed(seed: int, phase: int, tile: int) -> int:
-    return int(np.random.SeedSequence([seed, phase, tile]).generate_state(1, np.uint64)[0])
 
 
 def check_tile_options(
@@ -693,8 +210,6 @@ def check_tile_options(
 def _resolve_plane(plane: PlaneSpec, sample: np.ndarray) -> tuple[str | None, np.ndarray | None]:
     """The plane as an axis name or a normal (never least squares over the whole scan)."""
     if plane is None:
-        from scanmesh.plane_choice import choose_plane
-
         plane = choose_plane(sample).spec
     name, normal = plane_args(plane)
     if name == "best-fit":
@@ -791,7 +306,7 @@ def tile_blocks(
     def wait(futures: list[Any]) -> None:
         """Until the futures are done (pass 2 reads pass 1's files, removed on return),
         with Dask's progress bar when asked; raises a task's error."""
-        import distributed
+        import distributed  # the optional dask extra: absent on a core install
 
         if progress:
             distributed.progress(futures)

@@ -15,7 +15,7 @@ Readers (each returns :class:`ScanPoints`):
 
 A file with an unknown ending is recognised by its first bytes (PLY, VTK, NPY, NPZ, LAS,
 ESRI grid). Mesh writers (each a generator of byte chunks for
-:func:`scanmesh.writers.write_atomic`): ``.stl`` binary (:mod:`.stl`), ``.ply`` binary
+:func:`scanmesh.formats.write.write_atomic`): ``.stl`` binary (:mod:`.stl`), ``.ply`` binary
 (:mod:`.ply`), ``.obj`` (:mod:`.obj`), ``.off`` (:mod:`.off`).
 
 Every problem with a file is a :class:`~scanmesh.errors.FileFormatError` naming the file

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from scanmesh._progress import Progress
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import check_declared, check_text, quote, read_bytes
+from scanmesh.formats.npy import load_arrays
 from scanmesh.formats.points import ScanPoints
 from scanmesh.formats.table import parse_free, read_table
 
@@ -94,8 +95,6 @@ def read_matrix(
     e.g. R's ``V1,...,V61``), as in :func:`height_grid`."""
     path = Path(path)
     if path.suffix.lower() in (".npy", ".npz"):
-        from scanmesh.formats.npy import load_arrays
-
         arrays = load_arrays(path)
         if len(arrays) != 1:
             raise FileFormatError(

@@ -8,45 +8,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
-from scanmesh._checks import Option
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError
-from scanmesh.projection import PlaneSpec
-from scanmesh.scan import PlanarScan, as_scan
-from scanmesh.surface import Surface
-
-#: Default ``max_edge`` in multiples of the median nearest-neighbour spacing (planar).
-MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
-
-#: A triangle whose longest 3-D edge exceeds this multiple of the local 3-D spacing (the
-#: median edge length at its best-sampled corner) bridges a depth jump and is dropped
-#: whenever ``max_edge`` is finite.
-JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
-
-#: A triangle at any slope whose longest 3-D edge exceeds this multiple of the 3-D spacing
-#: across lines at its best-sampled corner bridges a gap (a rung or fan across a missed
-#: stretch of a line, a sheet over a hole narrower than ``max_edge``) and is dropped with
-#: the depth jumps.
-BRIDGE_FACTOR: float = _core.DEFAULT_BRIDGE_FACTOR
-
-#: A triangle whose planar area exceeds this multiple of the local triangle area (the median
-#: over its corners of the lower median of the areas at each) covers missing samples (a
-#: hole or slot narrower than ``max_edge``, at one height) and is dropped with the depth jumps.
-HOLE_FACTOR: float = _core.DEFAULT_HOLE_FACTOR
-
-
-#: ``max_edge``, the shared trimming keyword: None means MAX_EDGE_FACTOR x median spacing.
-MAX_EDGE_OPTION = Option(
-    "max_edge",
-    "float",
-    None,
-    "drop triangles with a longer planar edge (input units; default 5 x median spacing,"
-    " math.inf keeps the convex hull)",
-    low=0.0,
-    low_open=True,
-    finite=False,
+from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.scan.projection import PlaneSpec
+from scanmesh.stages.options import (
+    JUMP_FACTOR,
+    MAX_EDGE_FACTOR,
+    MAX_EDGE_OPTION,
 )
+from scanmesh.surface import Surface
 
 
 def resolve_max_edge(uv: np.ndarray, faces: np.ndarray, max_edge: float | None) -> float:
@@ -71,7 +43,7 @@ def delaunay(
         Scan points; any real dtype and memory layout. A PlanarScan
         (:func:`scanmesh.planar_scan`) is triangulated in its own plane, not projected again.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
-        Projection plane (see :func:`scanmesh.projection.project`); with a PlanarScan,
+        Projection plane (see :func:`scanmesh.scan.projection.project`); with a PlanarScan,
         None or the scan's own.
     max_edge : float, optional
         Triangles with a longer planar edge (input units) are dropped, so holes and concave

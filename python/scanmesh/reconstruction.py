@@ -12,9 +12,10 @@ from scanmesh._progress import Progress, Stage
 from scanmesh.errors import NotAHeightFieldWarning
 from scanmesh.methods import METHODS, Keywords
 from scanmesh.methods import method as find_method
-from scanmesh.projection import PlaneSpec
-from scanmesh.scan import PlanarScan, planar_scan
-from scanmesh.surface import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION, Surface
+from scanmesh.scan.planar import PlanarScan, planar_scan
+from scanmesh.scan.projection import PlaneSpec
+from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
+from scanmesh.surface import Surface
 
 __all__ = ["reconstruct", "METHODS"]
 
@@ -105,8 +106,8 @@ def reconstruct(
     Warns
     -----
     NotAHeightFieldWarning
-        More than ``surface.STEEP_WARN_FRACTION`` (10 %) of the triangles are steeper than
-        ``surface.STEEP_ANGLE_DEG`` (75 degrees) over the projection plane (see
+        More than ``scan.steep.STEEP_WARN_FRACTION`` (10 %) of the triangles are steeper than
+        ``scan.steep.STEEP_ANGLE_DEG`` (75 degrees) over the projection plane (see
         ``Surface.steep_fraction``).
     """
     spec = find_method(method)

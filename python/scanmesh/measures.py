@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_faces, as_points
-from scanmesh.scan import PlanarScan
+from scanmesh.scan.planar import PlanarScan
 
 #: A triangle whose smallest 3-D angle is below this (degrees) counts as a sliver.
 SLIVER_ANGLE_DEG: float = _core.SLIVER_ANGLE_DEG

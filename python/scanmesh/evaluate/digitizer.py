@@ -7,7 +7,7 @@ All rays are parallel (direction ``-up``) and start on a regular grid, so castin
 an orthographic z-buffer: each triangle is tested only against the grid nodes inside its
 projected bounding box (integer arithmetic, no search tree), in vectorized chunks, with the
 hit height interpolated in float64 from the triangle's corners. The same routine,
-:func:`cast_grid`, rasterizes meshes for :mod:`scanmesh.render`.
+:func:`cast_grid`, rasterizes meshes for :mod:`scanmesh.present.render`.
 
 Frame: ``along`` (lines run this way), ``across = up x along`` (lines are stacked this way)
 and ``up`` form a right-handed frame; seen from above, ``along`` points right and
@@ -18,20 +18,16 @@ from __future__ import annotations
 
 import math
 import os
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from scanmesh._interrupt import import_interruptibly
-from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError
+from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.formats.mesh import load_mesh
+from scanmesh.scan.axes import AxisSpec, scan_frame
 
 if TYPE_CHECKING:
     import trimesh
-
-#: An axis: "x", "+y", "-z" (any case), or a 3-vector.
-AxisSpec = str | ArrayLike
 
 #: Grid nodes tested per vectorized chunk (bounds memory: about 150 bytes per node).
 CHUNK_NODES = 1 << 19
@@ -42,104 +38,6 @@ EDGE_TOL = 1e-12
 
 #: How close ``n_points`` must come (relative) before the spacing search stops early.
 N_POINTS_RTOL = 0.002
-
-_AXES = {"x": 0, "y": 1, "z": 2}
-
-
-def parse_axis(spec: AxisSpec, name: str) -> np.ndarray:
-    """Return an axis given as "x", "-y", "+Z" or a 3-vector as a (3,) float64 unit vector."""
-    if isinstance(spec, str):
-        text = spec.strip().lower()
-        sign = 1.0
-        if text[:1] in "+-" and text:
-            sign = -1.0 if text[0] == "-" else 1.0
-            text = text[1:]
-        if text not in _AXES:
-            raise ParameterError(
-                f"{name} must be an axis name ('x', 'y', 'z', optionally signed like '-y') "
-                f"or a 3-vector, got {spec!r}"
-            )
-        vec = np.zeros(3)
-        vec[_AXES[text]] = sign
-        return vec
-    try:
-        vec = np.asarray(spec, dtype=np.float64).ravel()
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be an axis name or a 3-vector, got {spec!r}") from None
-    if vec.shape != (3,):
-        raise ParameterError(f"{name} vector must have 3 components, got {vec.shape[0]}")
-    length = float(np.linalg.norm(vec))
-    if not np.all(np.isfinite(vec)) or length == 0.0:
-        raise ParameterError(f"{name} vector must be finite and non-zero, got {vec.tolist()}")
-    return vec / length
-
-
-def scan_frame(up: AxisSpec = "z", along: AxisSpec = "x") -> np.ndarray:
-    """The scanning frame as a (3, 3) float64 matrix with rows ``along``, ``across``, ``up``.
-
-    ``along`` loses its component along ``up`` (so it need not be exactly perpendicular),
-    but may not be parallel to it. For named axes the rows hold only 0 and +-1, so frame
-    coordinates convert back to the model's without rounding.
-    """
-    u = parse_axis(up, "up")
-    a = parse_axis(along, "along")
-    a = a - np.dot(a, u) * u
-    norm = float(np.linalg.norm(a))
-    if norm < 1e-9:
-        raise ParameterError(
-            f"along ({along!r}) is parallel to up ({up!r}): scan lines need a direction "
-            "across the scanning direction"
-        )
-    a = a / norm
-    c = np.cross(u, a)
-    return np.array([a, c, u])
-
-
-def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trimesh:
-    """Return a ``trimesh.Trimesh`` from a mesh object or a mesh file (STL, PLY, OBJ, OFF, ...).
-
-    Raises FileFormatError for a missing, unreadable or empty file and InvalidMeshError for
-    a mesh object without triangles.
-    """
-    trimesh = import_interruptibly("trimesh")
-
-    if isinstance(mesh_or_path, (str, os.PathLike)):
-        path = Path(mesh_or_path)
-        if not path.is_file():
-            raise FileFormatError(f"mesh file {path} does not exist")
-        if path.stat().st_size == 0:
-            raise FileFormatError(f"mesh file {path} is empty")
-        try:
-            mesh = trimesh.load_mesh(path)
-        except Exception as exc:  # trimesh raises many kinds for bad files
-            raise FileFormatError(f"cannot read mesh file {path}: {exc}") from None
-        if isinstance(mesh, trimesh.Scene):
-            mesh = _scene_mesh(mesh)
-        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-            raise FileFormatError(f"mesh file {path} holds no triangles")
-        return mesh
-    if isinstance(mesh_or_path, trimesh.Scene):
-        mesh_or_path = _scene_mesh(mesh_or_path)
-    if not isinstance(mesh_or_path, trimesh.Trimesh):
-        raise ParameterError(
-            f"expected a trimesh.Trimesh or a mesh file path, got {type(mesh_or_path).__name__}"
-        )
-    if len(mesh_or_path.faces) == 0:
-        raise InvalidMeshError("the mesh has no triangles")
-    if not np.all(np.isfinite(mesh_or_path.vertices)):
-        raise InvalidMeshError("the mesh has non-finite vertex coordinates")
-    return mesh_or_path
-
-
-def _scene_mesh(scene: trimesh.Scene) -> trimesh.Trimesh:
-    """All geometry of a scene as one mesh (``to_mesh`` in trimesh 4.1+, ``dump`` before)."""
-    trimesh = import_interruptibly("trimesh")
-
-    if not scene.geometry:
-        return trimesh.Trimesh()
-    if hasattr(scene, "to_mesh"):
-        return scene.to_mesh()
-    return scene.dump(concatenate=True)
 
 
 def cast_grid(

@@ -4,7 +4,7 @@ Faces are drawn in one colour or coloured by a figure of each face (:func:`face_
 its tac, its distance to a true surface, or its height), on the viridis scale.
 
 Meshes are drawn by a small orthographic z-buffer in numpy (the grid caster of
-:mod:`scanmesh.digitizer`, one ray per pixel), which renders a million triangles in about
+:mod:`scanmesh.evaluate.digitizer`, one ray per pixel), which renders a million triangles in about
 a second where matplotlib's polygon painter takes far longer (docs/benchmarks/speed.md,
 "Rendering"). Flat shading shows every facet, so a rough triangulation looks rough: the
 pictures are meant to judge smoothness, as in the 1997 paper's figures 1 and 2.
@@ -27,9 +27,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh._extras import require
-from scanmesh.digitizer import AxisSpec, cast_grid, parse_axis
 from scanmesh.errors import InvalidMeshError, ParameterError
-from scanmesh.writers import write_atomic
+from scanmesh.evaluate.digitizer import cast_grid
+from scanmesh.evaluate.truth import TrueSurface
+from scanmesh.formats.write import write_atomic
+from scanmesh.measures import quality
+from scanmesh.scan.axes import AxisSpec, parse_axis
 
 #: Default direction from the part to the eye: a three-quarter view from above (+z up).
 DEFAULT_VIEW = (-0.55, -1.0, 0.9)
@@ -157,7 +160,7 @@ def face_values(
         the surface bends, or the triangulation zig-zags.
     by : "error"
         the closest-point distance (model units) from the face's centroid to ``truth`` (a
-        CAD part: path, trimesh.Trimesh or :class:`scanmesh.truth.TrueSurface`): where the
+        CAD part: path, trimesh.Trimesh or :class:`scanmesh.evaluate.truth.TrueSurface`): where the
         mesh leaves the part.
     by : "height"
         the centroid's coordinate along ``up`` (model units).
@@ -166,8 +169,6 @@ def face_values(
     """
     vertices, faces = _mesh_arrays(mesh)
     if by == "tac":
-        from scanmesh.quality import quality
-
         tac = quality(vertices, faces).tac[faces]  # (M, 3), NaN on boundary corners
         counted = np.isfinite(tac).sum(axis=1)
         total = np.where(np.isfinite(tac), tac, 0.0).sum(axis=1)
@@ -179,8 +180,6 @@ def face_values(
     if by == "error":
         if truth is None:
             raise ParameterError("colouring by error needs the true surface (truth=, --truth)")
-        from scanmesh.truth import TrueSurface
-
         surface = truth if isinstance(truth, TrueSurface) else TrueSurface(truth)
         return surface.distance(centroid), ""
     if by == "height":

@@ -13,7 +13,7 @@ independent noise of deviation sigma every such normalized residual has deviatio
   noise-free scan give residuals far below s/200.
 - Creases and steps spoil only the few windows that straddle them (four per crossing),
   and gaps are never bridged (windows stay inside the segments of
-  :func:`scanmesh.lines.scan_lines`, which split lines at holes). Those residuals are
+  :func:`scanmesh.scan.lines.scan_lines`, which split lines at holes). Those residuals are
   outliers, so the scale is robust: it starts from the median absolute residual
   (x 1.4826) and is refined by a few rounds of a trimmed RMS (residuals within
   ``TRIM`` x the current estimate, corrected for the truncation of a Gaussian), which
@@ -46,9 +46,9 @@ from numpy.typing import ArrayLike
 
 from scanmesh._checks import power_of_two_exponent
 from scanmesh.errors import DegenerateInputError
-from scanmesh.lines import scan_lines
-from scanmesh.projection import PlaneSpec
-from scanmesh.scan import PlanarScan, as_scan
+from scanmesh.scan.lines import scan_lines
+from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.scan.projection import PlaneSpec
 
 if TYPE_CHECKING:
     from scanmesh.surface import Surface
@@ -183,7 +183,7 @@ def neighbourhood_residuals(points: ArrayLike | PlanarScan, plane: PlaneSpec = N
 
 def _neighbourhood_residuals(uv: np.ndarray, height: np.ndarray) -> np.ndarray:
     """:func:`neighbourhood_residuals` of points at planar ``uv`` with ``height`` (one unit)."""
-    from scipy.spatial import cKDTree
+    from scipy.spatial import cKDTree  # scipy loads only when needed: `import scanmesh` stays light
 
     if len(uv) <= NEIGHBOURS or not np.isfinite(uv).all():
         return np.zeros(0)

@@ -11,8 +11,14 @@ from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage, accepts, anneal_progress
-from scanmesh.lop import P_OPTION, SLIVER_GUARD_OPTION, TIE_TOLERANCE_OPTION, planar_start
-from scanmesh.noise import noise_tolerance
+from scanmesh.scan.noise import noise_tolerance
+from scanmesh.stages.options import (
+    P_OPTION,
+    SEED_OPTION,
+    SLIVER_GUARD_OPTION,
+    TIE_TOLERANCE_OPTION,
+    planar_start,
+)
 from scanmesh.surface import Surface
 
 #: Defaults of the annealing schedule, read from the Rust core (one source of truth).
@@ -48,11 +54,6 @@ MAX_COUNT: int = 10**9
 
 #: The most calibration proposals: T0 is a median, a few thousand samples fix it.
 MAX_CALIBRATION_SAMPLES: int = 10**6
-
-#: ``seed``, the shared keyword of the random methods: None means 0.
-SEED_OPTION = Option(
-    "seed", "int", None, "seed of every random choice (default 0)", low=0, high=2**64 - 1
-)
 
 #: ``time_limit``: wall seconds of annealing, then the best state so far (None: no limit).
 TIME_LIMIT_OPTION = Option(
@@ -159,7 +160,7 @@ def _progress_bar(progress: Progress, total: int) -> Callable[..., None] | None:
         return plain
     if not progress:
         return None
-    from tqdm import tqdm
+    from tqdm import tqdm  # loaded only when a bar is drawn: `import scanmesh` stays light
 
     # tqdm's own estimate assumes every planned sweep runs: the time left is ours.
     bar = tqdm(

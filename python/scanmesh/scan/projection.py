@@ -43,7 +43,7 @@ def project(points: ArrayLike, plane: PlaneSpec = None) -> tuple[np.ndarray, Fra
         None and "best-fit" use the least-squares plane (normal = smallest principal axis);
         an axis name looks along that axis; a vector looks along it. (Here None is the
         least-squares plane; :func:`scanmesh.planar_scan` and :func:`scanmesh.reconstruct`
-        choose the plane by the data for None, see :mod:`scanmesh.plane_choice`, and record
+        choose the plane by the data for None, see :mod:`scanmesh.scan.plane_choice`, and record
         it in ``PlanarScan.plane``.)
 
     Returns

@@ -12,28 +12,13 @@ import time
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
-from scanmesh.errors import ParameterError
+from scanmesh.stages.options import (
+    P_OPTION,
+    SLIVER_GUARD_OPTION,
+    TIE_TOLERANCE_OPTION,
+    planar_start,
+)
 from scanmesh.surface import Surface
-
-#: Defaults shared with annealing, read from the Rust core (one source of truth).
-_CORE_DEFAULTS = dict(_core.ANNEAL_DEFAULTS)
-
-#: The tac exponent p of the energy sum tac^p (LOP and annealing).
-P_OPTION = Option("p", "float", 1.0, "exponent p of the energy sum tac^p", low=1.0)
-
-#: Energy ties break toward well-shaped triangles (LOP and annealing's polish).
-SLIVER_GUARD_OPTION = Option(
-    "sliver_guard", "bool", True, "break energy ties toward the larger smallest angle"
-)
-
-#: Energy changes of at most this size are ties (LOP and annealing).
-TIE_TOLERANCE_OPTION = Option(
-    "tie_tolerance",
-    "float",
-    float(_CORE_DEFAULTS["tie_tolerance"]),
-    "energy changes of at most this size (radians^p) are ties",
-    low=0.0,
-)
 
 #: LOP's options.
 OPTIONS: tuple[Option, ...] = (
@@ -48,16 +33,6 @@ OPTIONS: tuple[Option, ...] = (
     SLIVER_GUARD_OPTION,
     TIE_TOLERANCE_OPTION,
 )
-
-
-def planar_start(initial: Surface, stage: str) -> Surface:
-    """``initial`` if it carries the scan it was built on, else ParameterError."""
-    if not isinstance(initial, Surface) or initial.scan is None:
-        raise ParameterError(
-            f"{stage} starts from a planar triangulation with its scan (a Surface from"
-            f" delaunay() or the strip methods), got {initial!r}"
-        )
-    return initial
 
 
 def lop_surface(

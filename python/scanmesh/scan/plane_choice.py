@@ -1,4 +1,4 @@
-"""The projection plane chosen by the data, for ``plane=None`` (issue 17, item 4).
+"""The projection plane chosen by the data, for ``plane=None``.
 
 A planar method triangulates the points projected onto a plane, so the plane must make the
 surface a height field: seen along the wrong normal, walls and folds become steep triangles
@@ -6,12 +6,12 @@ that stand on edge over the plane, and points above one another coincide. The
 least-squares plane is not always the right one (a rocker arm scanned along z: 54 % steep
 triangles over it). So, for ``plane=None``, :func:`choose_plane` measures on a quick
 trimmed Delaunay triangulation of a seeded subsample which candidate normal leaves the
-fewest steep triangles (``surface.STEEP_ANGLE_DEG``) and the fewest points left out, and
+fewest steep triangles (``scan.steep.STEEP_ANGLE_DEG``) and the fewest points left out, and
 picks it.
 
-This overrides DESIGN.md ("default: the normal of the least-squares plane"): issue 17 asks
-for the plane chosen by the data; an explicit ``plane=`` (including ``"best-fit"``) is
-always obeyed unchanged.
+This overrides DESIGN.md ("default: the normal of the least-squares plane"): a planar
+method needs a plane over which the surface is a height field, and the data show which one;
+an explicit ``plane=`` (including ``"best-fit"``) is always obeyed unchanged.
 
 Candidates, in order of preference (the first within ``TIE`` of the lowest score wins):
 the digitizer's ``up`` recorded in the file, the least-squares plane (the old default), the
@@ -30,8 +30,8 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh.errors import ScanmeshError
-from scanmesh.projection import PlaneSpec
-from scanmesh.surface import steep_fraction
+from scanmesh.scan.projection import PlaneSpec
+from scanmesh.scan.steep import steep_fraction
 
 #: Points triangulated per candidate at most: a larger scan is measured on a seeded random
 #: subsample of this size (at most 7 Delaunay triangulations of 20k points).
@@ -120,7 +120,7 @@ def quick_faces(points: np.ndarray, normal: np.ndarray) -> np.ndarray | None:
     """(M, 3) int64 Delaunay triangulation of ``points`` seen along ``normal``, trimmed as
     ``delaunay`` trims it (untrimmed if trimming leaves nothing); None when the points are
     collinear or coincide in that plane. O(M log M)."""
-    # the frame of scanmesh.projection (u x v = normal, so counter-clockwise faces face
+    # the frame of scanmesh.scan.projection (u x v = normal, so counter-clockwise faces face
     # along it), in numpy: the sample needs no checks, and no origin (steepness ignores it)
     helper = np.zeros(3)
     helper[np.argmin(np.abs(normal))] = 1.0

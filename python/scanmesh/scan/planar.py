@@ -2,7 +2,7 @@
 
 ``planar_scan`` checks the points (``as_points``) and the line ids (``as_line_ids``) and
 projects the points onto the plane, once; for ``plane=None`` it first chooses the plane by
-the data (:mod:`scanmesh.plane_choice`: fewest steep triangles among the file's recorded
+the data (:mod:`scanmesh.scan.plane_choice`: fewest steep triangles among the file's recorded
 ``up``, the least-squares plane, the axes and the principal axes), so every stage works on
 the chosen plane. Delaunay, trimming, strips, LOP, annealing, the
 optimum and the quality report all read the same planar coordinates from it, so the
@@ -17,7 +17,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -25,11 +25,9 @@ from numpy.typing import ArrayLike
 from scanmesh._checks import as_line_ids, as_points
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
-from scanmesh.projection import Frame, PlaneSpec, plane_args, project_checked
-
-if TYPE_CHECKING:
-    from scanmesh.plane_choice import PlaneChoice
-    from scanmesh.readers import ScanPoints
+from scanmesh.formats import ScanPoints, read
+from scanmesh.scan.plane_choice import PlaneChoice, choose_plane
+from scanmesh.scan.projection import Frame, PlaneSpec, plane_args, project_checked
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,14 +83,15 @@ def planar_scan(
         must then be left out or agree with it).
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane (see :func:`scanmesh.project`), obeyed as given. None (default):
-        chosen by the data (:func:`scanmesh.plane_choice.choose_plane`): among the
+        chosen by the data (:func:`scanmesh.scan.plane_choice.choose_plane`): among the
         direction the file records (``ScanPoints.up``), the least-squares plane, the axes x,
         y, z and the principal axes, the one with the fewest steep triangles on a quick
         Delaunay triangulation of at most 20,000 points (seeded), the recorded ``up`` first
         on ties. ``PlanarScan.plane`` is then the chosen plane, ``PlanarScan.choice`` says
         what each candidate measured.
     lines : (N,) int, optional
-        Scan line id of each point (see :func:`scanmesh.lines.as_line_ids`: integers, never cast).
+        Scan line id of each point (see :func:`scanmesh.scan.lines.as_line_ids`: integers,
+        never cast).
     progress : bool or callable
         Reading a file reports the stage "read" (see :func:`scanmesh.reconstruct`).
     read_options : mapping, optional
@@ -131,8 +130,6 @@ def planar_scan(
 def read_scan_file(path: Path, progress: Progress, options: Mapping[str, Any]) -> ScanPoints:
     """The one place a scan file is read for triangulation, with the reader's options
     (such as the columns to use)."""
-    from scanmesh.readers import read
-
     return read(path, progress=progress, **options)
 
 
@@ -166,9 +163,6 @@ def as_scan(
     choice = None
     timings = {}
     if plane is None:
-        # imported here: plane_choice measures steepness (scanmesh.surface), which imports us
-        from scanmesh.plane_choice import choose_plane
-
         choice = choose_plane(pts, up)
         plane = choice.spec
         timings["plane"] = time.perf_counter() - t0

@@ -27,8 +27,12 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh._checks import as_faces, as_points
 from scanmesh._interrupt import import_interruptibly
 from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.evaluate.digitizer import cast_grid
+from scanmesh.formats.mesh import load_mesh
+from scanmesh.scan.projection import project
 
 #: What :func:`height_error` measures, for reports.
 MEASURE = "closest-point distance to the true surface at random points on the mesh's area"
@@ -196,8 +200,6 @@ class TrueSurface:
     """
 
     def __init__(self, mesh: Any) -> None:
-        from scanmesh.digitizer import load_mesh
-
         self.mesh = load_mesh(mesh)
         #: (F, 3, 3) float64 triangle corners
         self.triangles = np.ascontiguousarray(self.mesh.triangles, dtype=np.float64)
@@ -372,9 +374,6 @@ def _as_trimesh(mesh: Any, name: str):
     """A ``trimesh.Trimesh`` from a Surface, a Trimesh, a (vertices, faces) pair or a path."""
     trimesh = import_interruptibly("trimesh")
 
-    from scanmesh._checks import as_faces, as_points
-    from scanmesh.digitizer import load_mesh
-
     if isinstance(mesh, (trimesh.Trimesh, str, os.PathLike)):
         return load_mesh(mesh)
     if isinstance(mesh, tuple) and len(mesh) == 2:
@@ -523,7 +522,7 @@ def domain_error(
     truth_mesh : TrueSurface, trimesh.Trimesh or path
         The true part.
     plane : None, "x", "y", "z" or (3,) float
-        Projection plane (as :func:`scanmesh.projection.project`); None takes the
+        Projection plane (as :func:`scanmesh.scan.projection.project`); None takes the
         Surface's own plane (``Surface.frame``), so it is required for other meshes.
     n_rays : int
         Rays cast (default :data:`DOMAIN_RAYS`), on a square grid over the box of both
@@ -537,9 +536,6 @@ def domain_error(
         ``mesh_area`` (shadow areas), ``step`` (ray spacing), ``measure``
         (:data:`DOMAIN_MEASURE`).
     """
-    from scanmesh.digitizer import cast_grid
-    from scanmesh.projection import project
-
     if isinstance(n_rays, bool) or not isinstance(n_rays, (int, np.integer)):
         raise ParameterError(f"n_rays must be a whole number, got {n_rays!r}")
     if n_rays < 1:
@@ -550,8 +546,6 @@ def domain_error(
     mesh = _as_trimesh(surface, "the mesh")
     true_mesh = truth_mesh.mesh if isinstance(truth_mesh, TrueSurface) else None
     if true_mesh is None:
-        from scanmesh.digitizer import load_mesh
-
         true_mesh = load_mesh(truth_mesh)
     if frame is None:
         _, frame = project(mesh.vertices, plane)
@@ -591,226 +585,4 @@ def domain_error(
         "mesh_area": float(in_mesh.sum()) * cell,
         "step": step,
         "measure": DOMAIN_MEASURE,
-    }
-
-
-#: What :func:`holdout_error` measures, for reports.
-HOLDOUT_MEASURE = (
-    "distance along the projection normal from withheld scan points to the mesh"
-    " reconstructed from the other points"
-)
-
-#: ``by=`` values of :func:`holdout_error`.
-HOLDOUT_BY = ("points", "lines")
-
-
-def locate(uv: np.ndarray, tri_uv: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """The planar triangle holding each query point, or -1.
-
-    Parameters
-    ----------
-    uv : (N, 2) float
-        Query points.
-    tri_uv : (F, 3, 2) float
-        Triangle corners (either orientation), e.g. a planar triangulation.
-    tol : float
-        A point this far outside a triangle, relative to the triangle's size, still counts
-        as inside (points on shared edges do not fall through).
-
-    Returns
-    -------
-    (N,) int64
-        Index of a triangle holding the point (the lowest one where several do), -1 where
-        none does. Triangles are binned in a uniform grid of cells about twice a typical
-        triangle's size: O(N + F) for triangulations of even size.
-    """
-    uv = np.ascontiguousarray(uv, dtype=np.float64)
-    if len(tri_uv) == 0 or len(uv) == 0:
-        return np.full(len(uv), -1, dtype=np.int64)
-    lo, hi = tri_uv.min(axis=1), tri_uv.max(axis=1)
-    origin = lo.min(axis=0)
-    extent = float((hi.max(axis=0) - origin).max()) or 1.0
-    cell = max(2.0 * float(np.median((hi - lo).max(axis=1))), extent / 4096)
-    cell_lo = np.floor((lo - origin) / cell).astype(np.int64)
-    span = np.floor((hi - origin) / cell).astype(np.int64) - cell_lo + 1
-    width = int(np.floor((hi.max(axis=0)[0] - origin[0]) / cell)) + 2
-    keys, tris = [], []
-    for owner, off in _expand(span.prod(axis=1)):
-        cx = cell_lo[owner, 0] + off % span[owner, 0]
-        cy = cell_lo[owner, 1] + off // span[owner, 0]
-        keys.append(cy * width + cx)
-        tris.append(owner)
-    key = np.concatenate(keys)
-    order = np.argsort(key, kind="stable")
-    key, tri = key[order], np.concatenate(tris)[order]
-    q = np.floor((uv - origin) / cell).astype(np.int64)
-    on_grid = (q[:, 0] >= 0) & (q[:, 0] < width) & (q[:, 1] >= 0)
-    qkey = np.where(on_grid, q[:, 1] * width + q[:, 0], -1)
-    start = np.searchsorted(key, qkey, side="left")
-    stop = np.searchsorted(key, qkey, side="right")
-    # orientation-free barycentric test: the point is on the same side of all three edges
-    a, b, c = tri_uv[:, 0], tri_uv[:, 1], tri_uv[:, 2]
-    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    sign = np.sign(area2)
-    best = np.full(len(uv), len(tri_uv), dtype=np.int64)  # lowest holding triangle so far
-    for rows, item in _expand(stop - start):
-        t = tri[start[rows] + item]
-        p = uv[rows]
-        slack = -tol * np.abs(area2[t])
-        inside = np.ones(len(t), dtype=bool)
-        for i, j in ((0, 1), (1, 2), (2, 0)):
-            e0, e1 = tri_uv[t, i], tri_uv[t, j]
-            cross = (e1[:, 0] - e0[:, 0]) * (p[:, 1] - e0[:, 1]) - (e1[:, 1] - e0[:, 1]) * (
-                p[:, 0] - e0[:, 0]
-            )
-            inside &= sign[t] * cross >= slack
-        inside &= area2[t] != 0
-        np.minimum.at(best, rows[inside], t[inside])
-    return np.where(best < len(tri_uv), best, -1)
-
-
-def _heights_at(
-    uv: np.ndarray, tri_uv: np.ndarray, tri_h: np.ndarray, face: np.ndarray
-) -> np.ndarray:
-    """Height of the plane of triangle ``face[i]`` at ``uv[i]`` (linear interpolation)."""
-    a, b, c = tri_uv[face, 0], tri_uv[face, 1], tri_uv[face, 2]
-    d1, d2, dp = b - a, c - a, uv - a
-    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-    w1 = (dp[:, 0] * d2[:, 1] - dp[:, 1] * d2[:, 0]) / det
-    w2 = (d1[:, 0] * dp[:, 1] - d1[:, 1] * dp[:, 0]) / det
-    h = tri_h[face]
-    return h[:, 0] + w1 * (h[:, 1] - h[:, 0]) + w2 * (h[:, 2] - h[:, 0])
-
-
-def holdout_error(
-    points: Any,
-    method: str = "anneal",
-    fraction: float = 0.1,
-    seed: int = 0,
-    by: str = "points",
-    **options: Any,
-) -> dict[str, Any]:
-    """Error of a reconstruction method without a true surface: withhold points, measure them.
-
-    A seeded random ``fraction`` of the points (``by="points"``) or of the scan lines
-    (``by="lines"``, whole lines, which tests the mesh between lines) is withheld; the rest
-    is reconstructed with ``method`` and ``options`` (as :func:`scanmesh.reconstruct`,
-    with ``seed`` for annealing), and each withheld point's distance to the mesh along the
-    projection normal is measured: the height of the mesh straight above or below it. A
-    withheld point outside the mesh's planar domain (beyond its outline or in a hole it
-    leaves) has no such distance and is counted in ``outside``. Withheld points carry the
-    scan's noise, so the figures include it: compare methods on one scan and seed.
-
-    Parameters
-    ----------
-    points : (N, 3) float or path
-        The scan (a file's scan lines are used unless ``lines`` is in ``options``).
-    method : str
-        A method of :func:`scanmesh.reconstruct`.
-    fraction : float
-        Share withheld, strictly between 0 and 1 (of the points, or of the lines).
-    seed : int
-        Seeds the choice of withheld points and the reconstruction.
-    by : "points" or "lines"
-        Withhold single points, or whole scan lines (lines from ``options["lines"]``, the
-        file, or detected from the point order).
-    **options
-        Passed to :func:`scanmesh.reconstruct` (``plane``, ``lines``, ``max_edge``, method
-        options).
-
-    Returns
-    -------
-    dict
-        ``rms``, ``p99``, ``max``: of the distances (model units) of the withheld points
-        inside the domain; ``n_withheld``, ``n_measured``, ``outside`` (counts);
-        ``method``, ``by``, ``fraction``, ``seed``, ``measure`` (:data:`HOLDOUT_MEASURE`);
-        ``surface``: the mesh reconstructed from the kept points (faces index the kept
-        points, whose indices into ``points`` are ``kept``). O(reconstruction + N).
-
-    Raises
-    ------
-    ParameterError
-        A bad ``fraction`` or ``by``, or a share that leaves nothing withheld or kept.
-    """
-    import os
-
-    from scanmesh._checks import as_points
-    from scanmesh.lines import as_line_ids, detect_lines
-    from scanmesh.methods import used_keywords
-    from scanmesh.reconstruct import reconstruct
-
-    if by not in HOLDOUT_BY:
-        raise ParameterError(f"by must be one of {HOLDOUT_BY}, got {by!r}")
-    frac = float(fraction) if isinstance(fraction, (int, float, np.integer, np.floating)) else None
-    if frac is None or not 0.0 < frac < 1.0:
-        raise ParameterError(
-            f"fraction must be a number strictly between 0 and 1, got {fraction!r}"
-        )
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ParameterError(f"seed must be a whole number >= 0, got {seed!r}")
-    lines = options.pop("lines", None)
-    if isinstance(points, (str, os.PathLike)):
-        from scanmesh.readers import read
-
-        scan = read(points)
-        pts, lines = scan.points, scan.line_ids if lines is None else lines
-    else:
-        pts = as_points(points)
-    plane = options.get("plane")
-    if lines is not None:
-        lines = as_line_ids(lines, len(pts))
-    rng = np.random.default_rng(seed)
-    if by == "lines":
-        if lines is None:
-            lines = detect_lines(pts, plane=plane)
-        ids = np.unique(lines)
-        n_out = int(round(frac * len(ids)))
-        out_ids = rng.choice(ids, size=n_out, replace=False) if n_out else ids[:0]
-        withheld = np.isin(lines, out_ids)
-        unit = "lines"
-        n_units = len(ids)
-    else:
-        n_out = int(round(frac * len(pts)))
-        withheld = np.zeros(len(pts), dtype=bool)
-        withheld[rng.choice(len(pts), size=n_out, replace=False)] = True
-        unit = "points"
-        n_units = len(pts)
-    if n_out == 0 or n_out == n_units:
-        raise ParameterError(
-            f"fraction {frac:g} of {n_units} {unit} withholds {n_out}: nothing to measure or"
-            " nothing to reconstruct from"
-        )
-    kept = np.flatnonzero(~withheld)
-    out = np.flatnonzero(withheld)
-    # lines and seed go to the method only where it uses them (it refuses the others)
-    used = used_keywords(method, options)
-    shared: dict[str, Any] = {"seed": seed} if "seed" in used else {}
-    if "lines" in used and lines is not None:
-        shared["lines"] = lines[kept]
-    surface = reconstruct(pts[kept], method, **shared, **options)
-    frame = surface.frame
-    axes = np.column_stack([frame.u, frame.v])
-    tri = pts[kept][surface.faces]  # (F, 3, 3)
-    tri_uv, tri_h = tri @ axes, tri @ frame.normal
-    uv = pts[out] @ axes
-    face = locate(uv, tri_uv)
-    inside = face >= 0
-    dist = np.abs(
-        pts[out[inside]] @ frame.normal - _heights_at(uv[inside], tri_uv, tri_h, face[inside])
-    )
-    measured = len(dist) > 0
-    return {
-        "rms": float(np.sqrt(np.mean(dist * dist))) if measured else math.nan,
-        "p99": float(np.percentile(dist, 99)) if measured else math.nan,
-        "max": float(dist.max()) if measured else math.nan,
-        "n_withheld": int(len(out)),
-        "n_measured": int(len(dist)),
-        "outside": int((~inside).sum()),
-        "method": method,
-        "by": by,
-        "fraction": frac,
-        "seed": int(seed),
-        "measure": HOLDOUT_MEASURE,
-        "surface": surface,
-        "kept": kept,
     }

@@ -3,7 +3,7 @@ an interactive window.
 
 The HTML page carries the mesh and a small WebGL 2 viewer written here (no library, no
 network): it opens from disk in any current browser, offline, and shows the mesh as the
-PNG pictures of :mod:`scanmesh.render` do: flat-shaded facets, lit from the same fixed
+PNG pictures of :mod:`scanmesh.present.render` do: flat-shaded facets, lit from the same fixed
 light, seen first from the same camera, optionally coloured by tac, error or height.
 Drag turns it, the wheel zooms, a double click goes back to the first view.
 
@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from scanmesh._interrupt import import_interruptibly
-from scanmesh.digitizer import AxisSpec
 from scanmesh.errors import InvalidMeshError, MissingExtraError, ParameterError
-from scanmesh.render import (
+from scanmesh.formats.write import write_atomic
+from scanmesh.present.render import (
     AMBIENT,
     COLOR,
     LIGHT,
@@ -40,7 +40,7 @@ from scanmesh.render import (
     camera,
     face_colors,
 )
-from scanmesh.writers import write_atomic
+from scanmesh.scan.axes import AxisSpec
 
 #: Above this many faces ``Surface._repr_html_`` gives no page (it would be over 13 MB in
 #: the notebook file); ``to_html`` still writes one.
@@ -186,7 +186,7 @@ def _legend(scale: ColorScale | None) -> str:
 
 
 def _camera_of(mesh: Any, vertices: np.ndarray, faces: np.ndarray, view, up) -> dict:
-    """The camera :mod:`scanmesh.render` would pick, with ``view``/``up`` overriding."""
+    """The camera :mod:`scanmesh.present.render` would pick, with ``view``/``up`` overriding."""
     chosen = auto_view(vertices, faces, getattr(mesh, "frame", None))
     if view is not None:
         chosen["view"] = view
@@ -211,7 +211,7 @@ def html_page(
     mesh : Surface, trimesh.Trimesh or (vertices, faces)
         What to show; faces are lit from both sides.
     color_by : "tac", "error" or "height", optional
-        Colour each face by that figure (:func:`scanmesh.render.face_colors`; "error" needs
+        Colour each face by that figure (:func:`scanmesh.present.render.face_colors`; "error" needs
         ``truth``, "height" is measured along ``up``), with a legend; default one colour.
     view, up : axis name or (3,) float, optional
         The first view: direction from the part to the eye and the model direction shown
@@ -279,7 +279,7 @@ def save_glb(
     Each face gets its own three vertices with the face's normal, so every viewer shows
     the facets flat-shaded as scanmesh's pictures do; ``color_by`` ("tac", "error" with
     ``truth``, "height" along ``up``, by default the surface's normal as in
-    :func:`scanmesh.render.auto_view`) stores the face colours as vertex colours.
+    :func:`scanmesh.present.render.auto_view`) stores the face colours as vertex colours.
     """
     trimesh = import_interruptibly("trimesh")
 
@@ -326,7 +326,7 @@ def show(mesh: Any, *, color_by: str | None = None, truth: Any = None, up: AxisS
         else face_colors(mesh, color_by, truth=truth, up=up)[0]
     )
     if importlib.util.find_spec("pyvista") is not None:
-        import pyvista
+        import pyvista  # optional, never required: used only when installed
 
         cells = np.column_stack([np.full(len(faces), 3), faces]).ravel()
         poly = pyvista.PolyData(vertices, cells)

@@ -24,17 +24,17 @@ from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
-from scanmesh.delaunay import JUMP_FACTOR
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
     ParameterError,
     ScanmeshWarning,
 )
-from scanmesh.lines import GAP_FACTOR_OPTION
-from scanmesh.projection import PlaneSpec
-from scanmesh.readers import count_lines
-from scanmesh.scan import PlanarScan, as_scan
+from scanmesh.formats import count_lines
+from scanmesh.scan.lines import GAP_FACTOR_OPTION
+from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.scan.projection import PlaneSpec
+from scanmesh.stages.options import JUMP_FACTOR
 from scanmesh.surface import Surface
 
 #: The path criteria, in the order the core takes their coefficients. Lengths are measured
@@ -49,7 +49,7 @@ CRITERIA: tuple[str, ...] = ("length", "area", "angle", "dihedral")
 #: A weight: one criterion by name, or a mapping of criteria to non-negative coefficients.
 WeightSpec = str | Mapping[str, float]
 
-#: Default weight, chosen by measurement (BENCHMARKS.md, "Strips (issue 3)": tac_1 and
+#: Default weight, chosen by measurement (BENCHMARKS.md, "Strips": tac_1 and
 #: smallest angle of every criterion on fran_cut and on the connecting-rod scan). On the rod
 #: every criterion gives the same mesh quality (tac_1 88.4, smallest angle 4.9 degrees), so
 #: fran_cut decides: area and length keep 12.5 degrees at tac_1 71.3 and 73.1, angle 12.5 at
@@ -307,7 +307,7 @@ def strip_surface(
         3-D step is steeper than 45 degrees and longer than this many times the median of
         the five steps around it, each piece is stitched only to the overlapping pieces
         of its neighbours, and triangles still bridging a jump by Delaunay's trimming rule
-        (:data:`scanmesh.delaunay.JUMP_FACTOR`), with the pinches that leaves, are dropped
+        (:data:`scanmesh.stages.options.JUMP_FACTOR`), with the pinches that leaves, are dropped
         (counted in ``options["dropped_jumps"]``; their points may end up unused). ``inf``
         keeps every strip whole.
     progress : bool or callable

@@ -22,8 +22,8 @@ from numpy.typing import ArrayLike
 from scanmesh import _core
 from scanmesh._checks import Option
 from scanmesh._checks import as_line_ids as as_line_ids  # the rule's public home
-from scanmesh.projection import PlaneSpec
-from scanmesh.scan import PlanarScan, as_scan
+from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.scan.projection import PlaneSpec
 
 #: Default gap factor k: a step longer than k x the median step is a gap or a jump.
 GAP_FACTOR: float = _core.DEFAULT_GAP_FACTOR

@@ -1,0 +1,194 @@
+"""What every subcommand uses: the console (results to stdout, notes and warnings to
+stderr), JSON output, output checks before any work, and the command's wording of errors."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from scanmesh.cli._args import _method_flags, _read_options
+from scanmesh.errors import ParameterError
+from scanmesh.formats import read
+from scanmesh.formats.write import FORMATS, _check_protected, _same_file, write_atomic
+from scanmesh.methods import SHARED
+
+
+def _json_safe(value: Any) -> Any:
+    """Plain JSON types: numpy values unwrapped, paths as text, NaN and infinities as null."""
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _json_safe(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    return str(value)
+
+
+def _dumps(data: Any) -> str:
+    return json.dumps(_json_safe(data), indent=2, allow_nan=False)
+
+
+def _write_text(path: Path, text: str) -> None:
+    write_atomic(path, [text.encode("utf-8")])
+
+
+def _check_outputs(inputs: Sequence[Path], outputs: Sequence[Path | None]) -> None:
+    """Refuse, before any work, outputs that name an input or each other, or a missing folder."""
+    given = [p for p in outputs if p is not None]
+    for k, out in enumerate(given):
+        _check_protected(out, inputs)
+        for other in given[:k]:
+            if _same_file(out, other):
+                raise ParameterError(f"{out} is named for two outputs; give each its own file")
+        folder = out.parent if str(out.parent) else Path(".")
+        if not folder.is_dir():
+            raise ParameterError(f"cannot write {out}: folder {folder} does not exist")
+
+
+def _check_mesh_ending(path: Path) -> None:
+
+    if path.suffix.lower() not in FORMATS:
+        raise ParameterError(
+            f"cannot write {path}: unknown ending {path.suffix!r}; use one of"
+            f" {', '.join(sorted(FORMATS))}"
+        )
+
+
+def _check_png(path: Path | None) -> None:
+    if path is not None and path.suffix.lower() != ".png":
+        raise ParameterError(f"pictures are written as PNG: {path} should end in .png")
+
+
+def _quality_row(surface: Any) -> dict[str, Any]:
+    q = surface.quality.as_dict()
+    return {k: q[k] for k in ("tac_1", "tac_2", "tac_inf", "min_angle_deg", "sliver_fraction")}
+
+
+def _fmt(value: Any, spec: str) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
+    return format(value, spec)
+
+
+class _Console:
+    """Where the command talks: results to stdout, notes and warnings to stderr."""
+
+    def __init__(self, quiet: bool, as_json: bool) -> None:
+        self.quiet = quiet
+        self.json = as_json
+        #: every warning of the run, in the command's words (for --report)
+        self.warnings: list[str] = []
+
+    @property
+    def progress(self) -> bool:
+        """Progress bars: on a terminal, unless --quiet."""
+        return not self.quiet and sys.stderr.isatty()
+
+    def out(self, text: str = "") -> None:
+        """Human output: the results asked for (nothing with --json)."""
+        if not self.json:
+            print(text, flush=True)
+
+    def summary(self, text: str) -> None:
+        """What was done and written (nothing with --json or --quiet)."""
+        if not self.quiet:
+            self.out(text)
+
+    def warn(self, message, category, filename, lineno, file=None, line=None) -> None:
+        """``warnings.showwarning``: one line on stderr naming flags, kept for --report."""
+        text = _speak_flags(" ".join(str(message).split()))
+        self.warnings.append(text)
+        print(f"scanmesh: warning: {text}", file=sys.stderr, flush=True)
+
+    def note(self, text: str) -> None:
+        """A remark on stderr (nothing with --quiet)."""
+        if not self.quiet:
+            print(f"scanmesh: {text}", file=sys.stderr, flush=True)
+
+
+def _read_scan(path: Path, progress: bool = False, args: argparse.Namespace | None = None):
+    return read(path, progress=progress, **_read_options(args))
+
+
+def _background(fn: Callable[[], Any]) -> Callable[[], Any]:
+    """Start ``fn()`` in a daemon thread; return a function that waits for its result (or
+    raises its exception). Waiting stays interruptible by Ctrl-C, and a daemon thread does
+    not hold up the exit of an interrupted command (a pool's worker would be joined)."""
+    box: dict[str, Any] = {}
+
+    def work() -> None:
+        try:
+            box["result"] = fn()
+        except BaseException as exc:  # noqa: BLE001 - handed to the waiting caller
+            box["error"] = exc
+
+    worker = threading.Thread(target=work, name="scanmesh-background", daemon=True)
+    worker.start()
+
+    def result() -> Any:
+        while worker.is_alive():
+            worker.join(0.05)
+        if "error" in box:
+            raise box["error"]
+        return box["result"]
+
+    return result
+
+
+def _seconds(fn: Callable[[], Any]) -> float:
+    """Seconds ``fn()`` takes."""
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        text = f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    else:
+        text = str(exc) or type(exc).__name__
+    return " ".join(text.split())
+
+
+#: Python advice in messages, and what the command's user types instead.
+_PYTHON_WORDS = (
+    (re.compile(r"reconstruct\(method='([\w-]+)'\)"), r"--method \1"),
+    (re.compile(r"Surface\.options\['(\w+)'\]"), r"the --report's options.\1"),
+    (re.compile(r"Surface\.duplicates"), "the --report's counts.duplicates"),
+    (re.compile(r"\bmath\.inf\b"), "inf"),
+)
+
+
+def _speak_flags(text: str) -> str:
+    """A library message in the command's words: ``name=`` of an option or a shared
+    keyword becomes its flag (``--max-edge``), Python calls become flags."""
+    names = set(_method_flags()) | set(SHARED) | {"plane"}
+    for pattern, replacement in _PYTHON_WORDS:
+        text = pattern.sub(replacement, text)
+    return (
+        re.sub(
+            r"\b([a-z][a-z_]*)=(?!=)",
+            lambda m: (
+                "--" + m.group(1).replace("_", "-") + " " if m.group(1) in names else m.group(0)
+            ),
+            text,
+        )
+        .replace(" ,", ",")
+        .replace(" )", ")")
+    )

@@ -1,0 +1,218 @@
+"""``scanmesh reconstruct``: one method on one scan file, in this process or on a Dask
+cluster, with an optional JSON report and PNG preview."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from scanmesh import __version__
+from scanmesh._extras import require
+from scanmesh._progress import Stage
+from scanmesh.cli._args import _method_options, _read_options, _refuse_stray_flags, _shared
+from scanmesh.cli._common import (
+    _background,
+    _check_mesh_ending,
+    _check_outputs,
+    _check_png,
+    _Console,
+    _dumps,
+    _fmt,
+    _seconds,
+    _write_text,
+)
+from scanmesh.distributed import reconstruct_distributed
+from scanmesh.formats import count_lines
+from scanmesh.formats.write import save_mesh
+from scanmesh.present.render import auto_view as _auto_view
+from scanmesh.present.render import render_mesh
+from scanmesh.reconstruction import reconstruct
+from scanmesh.scan.planar import planar_scan
+
+
+def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
+    """Read scan points, triangulate them, write the mesh (and a report and a preview)."""
+    if args.dask is not None:
+        return _reconstruct_on_dask(args, con)
+    if args.workers is not None or args.partition_lines is not None:
+        flag = "--workers" if args.workers is not None else "--partition-lines"
+        args._parser.error(f"{flag} applies with --dask only")
+    source, out = Path(args.input), Path(args.output)
+    report = Path(args.report) if args.report else None
+    preview = Path(args.preview) if args.preview else None
+    _refuse_stray_flags(args, [args.method])
+    options = _method_options(args, args.method)
+    shared = _shared(args, args.method, options)
+    _check_outputs([source], [out, report, preview])
+    _check_mesh_ending(out)
+    _check_png(preview)
+
+    scan = planar_scan(
+        source, plane=args.plane, progress=con.progress, read_options=_read_options(args)
+    )
+    t1 = time.perf_counter()
+    surface = reconstruct(scan, args.method, progress=con.progress, **shared, **options)
+    elapsed = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    # The quality report (tac over every vertex: 4 s of CPU at 10M points) is measured
+    # while the mesh is written: both release the GIL, so they overlap.
+    measured = _background(lambda: _seconds(lambda: surface.quality)) if args.quality else None
+    save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
+    t_write = time.perf_counter() - t2
+    if measured is not None:
+        with Stage(con.progress, "quality", len(surface.faces), blocking=True):
+            t_quality = measured()
+    data = _report(source, out, scan, surface, con, elapsed, args.quality)
+    data["timings"]["write"] = t_write
+    if measured is not None:
+        data["timings"]["quality"] = t_quality  # beside the write, not after it
+    if report is not None:
+        _write_text(report, _dumps(data) + "\n")
+    if preview is not None:
+        with Stage(con.progress, "preview", len(surface.faces), blocking=True):
+            view = _auto_view(surface.vertices, surface.faces, surface.frame)
+            render_mesh(surface, preview, **view)
+    if con.json:
+        print(_dumps(data))
+        return 0
+    q = data["quality"]
+    counts = data["counts"]
+    lines = f" on {counts['lines']:,} lines" if counts["lines"] else ""
+    con.summary(f"{source}: {counts['points']:,} points{lines}")
+    con.summary(f"{surface.method}: {counts['faces']:,} faces in {elapsed:.2f} s")
+    if q is None:
+        con.summary("  quality not measured (--no-quality)")
+    else:
+        con.summary(
+            f"  tac_1 {q['tac_1']:.4g}  tac_2 {q['tac_2']:.4g}  tac_inf {q['tac_inf']:.4g}"
+            f"  smallest angle {_fmt(q['min_angle_deg'], '.2f')} deg"
+            f"  slivers {100 * q['sliver_fraction']:.2f} %"
+        )
+    written = [str(out)] + [str(p) for p in (report, preview) if p is not None]
+    con.summary(f"wrote {', '.join(written)}")
+    return 0
+
+
+def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
+    """``reconstruct --dask``: the scan files (IN may be a glob) on a Dask cluster, the mesh
+    written block by block by the workers (:func:`scanmesh.distributed.reconstruct_distributed`)."""
+    distributed = require("distributed", "dask", "--dask")
+    out = Path(args.output)
+    report = Path(args.report) if args.report else None
+    given_flags = (("--preview", args.preview), ("--no-quality", not args.quality))
+    for flag, given in (*given_flags, *((f, True) for f in _read_flags(args))):
+        if given:
+            args._parser.error(f"{flag} cannot be used with --dask")
+    if args.dask != "local" and args.workers is not None:
+        args._parser.error("--workers applies with --dask local only (a cluster has its own)")
+    if out.suffix.lower() not in (".stl", ".ply"):
+        args._parser.error(f"--dask writes .stl or .ply (block by block), not {out}")
+    _refuse_stray_flags(args, [args.method])
+    options = _method_options(args, args.method)
+    shared = _shared(args, args.method, options)
+    _check_outputs([], [out, report])
+    progress = con.progress and not con.json
+    if args.dask == "local":
+        cluster = distributed.LocalCluster(
+            n_workers=args.workers, threads_per_worker=1, processes=True
+        )
+        client = distributed.Client(cluster)
+    else:
+        cluster, client = None, distributed.Client(args.dask)
+    try:
+        result = reconstruct_distributed(
+            args.input,
+            args.method,
+            client=client,
+            output=out,
+            partition_lines=args.partition_lines,
+            plane=args.plane,
+            progress=progress,
+            **shared,
+            **options,
+        )
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    data = {
+        "input": args.input,
+        "output": str(out),
+        "method": result.method,
+        "dask": args.dask,
+        "options": result.options,
+        # at the top level too, as in the one-process report (annealing measures it)
+        "noise": result.options.get("noise"),
+        "timings": result.timings,
+        "quality": result.quality,
+        "counts": {"points": result.n_points, "faces": result.n_faces},
+    }
+    if report is not None:
+        _write_text(report, _dumps(data) + "\n")
+    if con.json:
+        print(_dumps(data))
+        return 0
+    q = result.quality
+    con.summary(f"{args.input}: {result.n_points:,} points")
+    elapsed = sum(result.timings.values())
+    con.summary(f"{result.method}: {result.n_faces:,} faces in {elapsed:.2f} s on Dask")
+    con.summary(
+        f"  tac_1 {q['tac_1']:.4g}  tac_2 {q['tac_2']:.4g}  tac_inf {q['tac_inf']:.4g}"
+        f"  smallest angle {_fmt(q['min_angle_deg'], '.2f')} deg"
+        f"  slivers {100 * q['sliver_fraction']:.2f} %"
+    )
+    con.summary(f"wrote {', '.join(str(p) for p in (out, report) if p is not None)}")
+    return 0
+
+
+def _read_flags(args: argparse.Namespace) -> list[str]:
+    """The reader flags given (each file is read as its ending says, with no options)."""
+    return ["--" + k for k in _read_options(args)]
+
+
+def _n_lines(line_ids: np.ndarray | None) -> int | None:
+    return None if line_ids is None else int(count_lines(line_ids))
+
+
+def _report(
+    source, out, scan, surface, con: _Console, elapsed: float, quality: bool
+) -> dict[str, Any]:
+    """The command's report; ``quality`` False leaves the mesh unmeasured (``None``)."""
+    used = np.zeros(len(surface.vertices), dtype=bool)
+    used[surface.faces.ravel()] = True
+    data: dict[str, Any] = {
+        "scanmesh": __version__,
+        "input": str(source),
+        "output": str(out),
+        "method": surface.method,
+        "options": surface.options,
+        "plane": {
+            "asked": "chosen by the data" if scan.choice else scan.plane,
+            "used": scan.plane,
+            "normal": scan.frame.normal,
+            "choice": scan.choice.as_dict(scan.frame.normal) if scan.choice else None,
+        },
+        "noise": surface.options.get("noise"),
+        "warnings": con.warnings,
+        "time_s": elapsed,
+        "timings": {**scan.timings, **surface.timings},
+        "quality": surface.quality.as_dict() if quality else None,
+        "counts": {
+            "points": int(len(surface.vertices)),
+            "lines": _n_lines(scan.line_ids),
+            "faces": int(len(surface.faces)),
+            "used_points": int(used.sum()),
+            "unused_points": int((~used).sum()),
+            "duplicates": int(len(surface.duplicates)),
+        },
+    }
+    if surface.certified is not None:
+        data["certified"] = surface.certified
+        data["gap"] = surface.gap
+    if surface.trace is not None and "energy" in surface.trace:
+        data["counts"]["sweeps_run"] = int(len(surface.trace["energy"]))
+    return data

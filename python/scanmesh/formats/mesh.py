@@ -1,0 +1,63 @@
+"""Loading a triangle mesh (STL, PLY, OBJ, OFF, GLB, ... through trimesh) as a
+``trimesh.Trimesh``: a CAD part to scan or to judge against, or a mesh to picture."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from scanmesh._interrupt import import_interruptibly
+from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError
+
+if TYPE_CHECKING:
+    import trimesh
+
+
+def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trimesh:
+    """Return a ``trimesh.Trimesh`` from a mesh object or a mesh file (STL, PLY, OBJ, OFF, ...).
+
+    Raises FileFormatError for a missing, unreadable or empty file and InvalidMeshError for
+    a mesh object without triangles.
+    """
+    trimesh = import_interruptibly("trimesh")
+
+    if isinstance(mesh_or_path, (str, os.PathLike)):
+        path = Path(mesh_or_path)
+        if not path.is_file():
+            raise FileFormatError(f"mesh file {path} does not exist")
+        if path.stat().st_size == 0:
+            raise FileFormatError(f"mesh file {path} is empty")
+        try:
+            mesh = trimesh.load_mesh(path)
+        except Exception as exc:  # trimesh raises many kinds for bad files
+            raise FileFormatError(f"cannot read mesh file {path}: {exc}") from None
+        if isinstance(mesh, trimesh.Scene):
+            mesh = _scene_mesh(mesh)
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            raise FileFormatError(f"mesh file {path} holds no triangles")
+        return mesh
+    if isinstance(mesh_or_path, trimesh.Scene):
+        mesh_or_path = _scene_mesh(mesh_or_path)
+    if not isinstance(mesh_or_path, trimesh.Trimesh):
+        raise ParameterError(
+            f"expected a trimesh.Trimesh or a mesh file path, got {type(mesh_or_path).__name__}"
+        )
+    if len(mesh_or_path.faces) == 0:
+        raise InvalidMeshError("the mesh has no triangles")
+    if not np.all(np.isfinite(mesh_or_path.vertices)):
+        raise InvalidMeshError("the mesh has non-finite vertex coordinates")
+    return mesh_or_path
+
+
+def _scene_mesh(scene: trimesh.Scene) -> trimesh.Trimesh:
+    """All geometry of a scene as one mesh (``to_mesh`` in trimesh 4.1+, ``dump`` before)."""
+    trimesh = import_interruptibly("trimesh")
+
+    if not scene.geometry:
+        return trimesh.Trimesh()
+    if hasattr(scene, "to_mesh"):
+        return scene.to_mesh()
+    return scene.dump(concatenate=True)

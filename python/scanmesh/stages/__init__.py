@@ -1,0 +1,1 @@
+"""The reconstruction methods, one module per method, and the options they share."""

@@ -1,0 +1,78 @@
+"""What the stages share: the Option records of keywords several methods take (``p``,
+``sliver_guard``, ``tie_tolerance``, ``seed``, ``max_edge``), the trimming constants read
+from the core, and the check that an optimizer starts from a planar triangulation."""
+
+from __future__ import annotations
+
+from scanmesh import _core
+from scanmesh._checks import Option
+from scanmesh.errors import ParameterError
+from scanmesh.surface import Surface
+
+#: Default ``max_edge`` in multiples of the median nearest-neighbour spacing (planar).
+MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
+
+#: A triangle whose longest 3-D edge exceeds this multiple of the local 3-D spacing (the
+#: median edge length at its best-sampled corner) bridges a depth jump and is dropped
+#: whenever ``max_edge`` is finite.
+JUMP_FACTOR: float = _core.DEFAULT_JUMP_FACTOR
+
+#: A triangle at any slope whose longest 3-D edge exceeds this multiple of the 3-D spacing
+#: across lines at its best-sampled corner bridges a gap (a rung or fan across a missed
+#: stretch of a line, a sheet over a hole narrower than ``max_edge``) and is dropped with
+#: the depth jumps.
+BRIDGE_FACTOR: float = _core.DEFAULT_BRIDGE_FACTOR
+
+#: A triangle whose planar area exceeds this multiple of the local triangle area (the median
+#: over its corners of the lower median of the areas at each) covers missing samples (a
+#: hole or slot narrower than ``max_edge``, at one height) and is dropped with the depth jumps.
+HOLE_FACTOR: float = _core.DEFAULT_HOLE_FACTOR
+
+
+#: ``max_edge``, the shared trimming keyword: None means MAX_EDGE_FACTOR x median spacing.
+MAX_EDGE_OPTION = Option(
+    "max_edge",
+    "float",
+    None,
+    "drop triangles with a longer planar edge (input units; default 5 x median spacing,"
+    " math.inf keeps the convex hull)",
+    low=0.0,
+    low_open=True,
+    finite=False,
+)
+
+
+#: Defaults shared with annealing, read from the Rust core (one source of truth).
+_CORE_DEFAULTS = dict(_core.ANNEAL_DEFAULTS)
+
+#: The tac exponent p of the energy sum tac^p (LOP and annealing).
+P_OPTION = Option("p", "float", 1.0, "exponent p of the energy sum tac^p", low=1.0)
+
+#: Energy ties break toward well-shaped triangles (LOP and annealing's polish).
+SLIVER_GUARD_OPTION = Option(
+    "sliver_guard", "bool", True, "break energy ties toward the larger smallest angle"
+)
+
+#: Energy changes of at most this size are ties (LOP and annealing).
+TIE_TOLERANCE_OPTION = Option(
+    "tie_tolerance",
+    "float",
+    float(_CORE_DEFAULTS["tie_tolerance"]),
+    "energy changes of at most this size (radians^p) are ties",
+    low=0.0,
+)
+
+#: ``seed``, the shared keyword of the random methods: None means 0.
+SEED_OPTION = Option(
+    "seed", "int", None, "seed of every random choice (default 0)", low=0, high=2**64 - 1
+)
+
+
+def planar_start(initial: Surface, stage: str) -> Surface:
+    """``initial`` if it carries the scan it was built on, else ParameterError."""
+    if not isinstance(initial, Surface) or initial.scan is None:
+        raise ParameterError(
+            f"{stage} starts from a planar triangulation with its scan (a Surface from"
+            f" delaunay() or the strip methods), got {initial!r}"
+        )
+    return initial
