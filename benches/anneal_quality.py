@@ -4,8 +4,8 @@
     python benches/anneal_quality.py guard      # sliver guard on/off, with height error
     python benches/anneal_quality.py paper      # shortest path vs 3,000 sweeps on the rod
 
-Prints Markdown tables (for BENCHMARKS.md). Every run is seeded; times are wall seconds on
-whatever machine runs it (the table says which).
+Prints Markdown tables (for docs/benchmarks/quality.md). Every run is seeded; times are wall
+seconds on whatever machine runs it (the table says which).
 """
 
 from __future__ import annotations

@@ -11,9 +11,10 @@ alternating with the Dask run, and the two STL files are compared byte for byte.
     python benches/dask_strips.py --points 10_000_000 --single --repeat 2
     python benches/dask_strips.py --points 100_000_000
 
-Large data goes under --scratch (default /work/tmp_dask) and is deleted at the end. On a
-loaded Linux machine with autogroup scheduling the workers and the single process share one
-session's CPU, so the ratio then measures the Dask run's extra work, not its parallelism.
+Large data goes under --scratch (default: scanmesh-dask in the system's temporary folder)
+and is deleted at the end. On a loaded Linux machine with autogroup scheduling the workers
+and the single process share one autogroup's CPU time, so the ratio then measures the Dask
+run's extra work, not its parallelism.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import filecmp
 import os
 import shutil
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -105,7 +107,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--single", action="store_true", help="also run in one process")
     parser.add_argument("--repeat", type=int, default=1)
-    parser.add_argument("--scratch", default="/work/tmp_dask")
+    parser.add_argument("--scratch", default=str(Path(tempfile.gettempdir()) / "scanmesh-dask"))
     args = parser.parse_args()
 
     from distributed import Client, LocalCluster

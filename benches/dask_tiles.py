@@ -121,7 +121,11 @@ def main() -> None:
         help="annealing's tie tolerance (default: automatic, from the tiles' noise estimate)",
     )
     ap.add_argument("--compare", action="store_true", help="also run one process")
-    ap.add_argument("--scratch", default="/work/tmp_dask", help="where the rod scans are cached")
+    ap.add_argument(
+        "--scratch",
+        default=str(Path(tempfile.gettempdir()) / "scanmesh-dask"),
+        help="where the rod scans are cached (default: scanmesh-dask in the temporary folder)",
+    )
     ap.add_argument("--methods", default="delaunay,anneal", help="comma-separated")
     ap.add_argument(
         "--tile-points",

@@ -4,13 +4,13 @@ the command end to end.
     python benches/large.py                              # 100k, 1M, 10M: every stage
     python benches/large.py --sizes 100000 1000000 --anneal-sweeps 2
     python benches/large.py --cli 10000000               # the command alone, /usr/bin/time -v
-    python benches/large.py --cli 10000000 --method lookahead --cli-flags "" --work /tmp/x
+    python benches/large.py --cli 10000000 --method lookahead --cli-flags "" --work scratch
 
 The scan: a smooth height field (benches/speed.py's surface, in millimetres over a 100 mm
 square) on straight scan lines, positions jittered by up to 5 % of the spacing, written as
 XYZ text with a line-id column (``x y z line``, 4-5 decimals: 29 bytes per point) into
-/tmp/scanmesh-large/. 10M points are 3,000 lines of 3,333 points; smaller sizes keep the
-same shape (lines = 3,000 x sqrt(N / 10M)).
+scanmesh-large/ in the system's temporary folder. 10M points are 3,000 lines of 3,333
+points; smaller sizes keep the same shape (lines = 3,000 x sqrt(N / 10M)).
 
 Every stage runs in its own Python process, so its peak resident size (``ru_maxrss``) is its
 own; "RSS before" is the size after loading that stage's input (``.npy`` files saved by the
@@ -37,13 +37,14 @@ import re
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-WORK = Path("/tmp/scanmesh-large")
+WORK = Path(tempfile.gettempdir()) / "scanmesh-large"
 STAGES = ("read", "lines", "strips", "anneal", "write")
 
 

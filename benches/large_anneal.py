@@ -8,10 +8,10 @@
 
 Scans: the connecting rod (``../shared/data/cad/conrod_slevin48_onshape.stl``) scanned along
 its thickness (``simulate_scan(up="y", along="x", n_points=N)``, no noise, cached as .npz
-in /tmp/scanmesh-large-anneal/). Two triangulations of each: the default (trimmed at the
-default ``max_edge``, with depth-jump trimming: flat faces only) and ``max_edge=inf`` (the
-whole domain, with the curtains between the rod's two levels, as the paper triangulated
-it: the mesh on which annealing has work to do).
+in scanmesh-large-anneal/ in the temporary folder). Two triangulations of each: the
+default (trimmed at the default ``max_edge``, with depth-jump trimming: flat faces only)
+and ``max_edge=inf`` (the whole domain, with the curtains between the rod's two levels, as
+the paper triangulated it: the mesh on which annealing has work to do).
 
 Every measurement runs in its own Python process (``--old-python`` runs the same case
 under another interpreter, for example one with the annealer that proposed every edge installed,
@@ -21,7 +21,7 @@ noise / calibrate / anneal / polish, the quality report) its wall time and peak 
 size, printed as a comment under the row. "End to end" is
 ``scanmesh.reconstruct(points, "anneal", plane="y", ...)`` plus the quality report, from
 points in memory (the scan's simulation and the .npz load are not counted). The machine's
-load average is printed with every row; the figures go to benches/results/large_anneal.md
+load average is printed with every row; the figures go to docs/benchmarks/large-scans.md
 by hand, with the command.
 """
 
@@ -34,12 +34,13 @@ import os
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 ROD = SHARED / "cad" / "conrod_slevin48_onshape.stl"
-CACHE = Path("/tmp/scanmesh-large-anneal")
+CACHE = Path(tempfile.gettempdir()) / "scanmesh-large-anneal"
 
 
 def load() -> str:

@@ -428,7 +428,7 @@ def report(args: argparse.Namespace, rows: list[dict], elapsed: float) -> None:
             "",
             "Exact tac_1 optimum over all triangulations of the convex hull"
             " (`scanmesh.optimal_surface`: HiGHS MILP over empty triangles, see"
-            " `python/scanmesh/optimal.py`), against LOP and annealing with default settings"
+            " `python/scanmesh/stages/optimal.py`), against LOP and annealing with default settings"
             " (`reconstruct(..., max_edge=math.inf)`, annealing seed = instance index).",
             "Gap = (tac_1(method) - tac_1(optimum)) / tac_1(optimum). Where HiGHS stopped at"
             " the time limit the optimum is bracketed: `a..b` runs from the best triangulation"

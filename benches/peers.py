@@ -2,12 +2,14 @@
 
     pip install -e ".[bench]"      # triangle, vtk, pyvista (scipy is a core dependency)
     python benches/peers.py                          # 100k, 1M, 10M points
-    python benches/peers.py --sizes 100000 1000000 --repeat 3 --out benches/results/peers.md
+    python benches/peers.py --sizes 100000 1000000 --repeat 3 --out peers-table.md
 
 The scan: benches/large.py's smooth height field (millimetres over a 100 mm square) on
 ``large.lines_for(N)`` straight scan lines (3,000 at 10M points, about sqrt(N) lines of
 sqrt(N) points), positions jittered by up to 5 % of the spacing, seed 0, saved once per size
-as ``.npy`` in /tmp/scanmesh-peers/.
+as ``.npy`` in scanmesh-peers/ in the system's temporary folder. The table is printed;
+``--out`` also writes it to a file (docs/benchmarks/peers.md is edited by hand, never
+rewritten by a run).
 
 Every run is its own Python process (``--child``): it loads the points, imports its library
 and warms it up on a 3,000-point scan, then times the one call that turns the points into
@@ -44,6 +46,7 @@ import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -54,7 +57,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from large import lines_for, surface_z  # noqa: E402
 
-WORK = Path("/tmp/scanmesh-peers")
+WORK = Path(tempfile.gettempdir()) / "scanmesh-peers"
 BASE = "scanmesh delaunay"
 
 
@@ -204,7 +207,9 @@ def main() -> None:
         help="sizes above this run scipy and PyVista once (they take minutes there)",
     )
     parser.add_argument("--peers", nargs="+", default=list(PEERS), choices=list(PEERS))
-    parser.add_argument("--out", type=Path, default=HERE / "results" / "peers.md")
+    parser.add_argument(
+        "--out", type=Path, help="also write the table to this file (default: stdout only)"
+    )
     parser.add_argument("--child", nargs=2, metavar=("PEER", "N"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -225,8 +230,9 @@ def main() -> None:
                 print(n, rep, peer, r, flush=True)
         loads.append(load())
     table = markdown(results, peers, args, loads)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(table)
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(table)
     print(table)
 
 

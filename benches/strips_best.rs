@@ -1,5 +1,5 @@
 //! Best-of timings of the strips at 1M points, runs alternating, for a shared machine where
-//! criterion's means also catch other processes' work (BENCHMARKS.md, "Strips on two
+//! criterion's means also catch other processes' work (docs/benchmarks/speed.md, "Strips on two
 //! threads and the planar check from the strips"). The best of several runs drops the ones
 //! another process disturbed; alternating puts both sides under the same conditions.
 //!

@@ -52,7 +52,7 @@ Seeds: tile t of pass k anneals on a seed derived from (seed, k, t); automatic `
 (0) means one chain per piece. Annealing's automatic tie tolerance comes from the medians
 over tiles of the noise estimate and of the median edge. Measured (tests, a 14,400-point
 ridge in 2 tiles, 100 sweeps): tac_1 and height RMS within 2 % of one process; on 1M
-points in 4 tiles, tac_1 3 % above (benches/results/distributed_tiles.md).
+points in 4 tiles, tac_1 3 % above (docs/benchmarks/large-scans.md).
 """
 
 from __future__ import annotations

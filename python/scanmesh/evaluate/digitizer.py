@@ -1,7 +1,8 @@
 """A virtual digitizer: parallel scan lines of rays cast from above onto a triangle mesh.
 
 A CAD model scanned this way gives scan-line points whose true surface is known exactly,
-so a reconstruction's height error can be measured (DESIGN.md, "How quality is judged").
+so a reconstruction's height error can be measured (docs/definitions.md, "Judging a mesh
+against the true part").
 
 All rays are parallel (direction ``-up``) and start on a regular grid, so casting them is
 an orthographic z-buffer: each triangle is tested only against the grid nodes inside its

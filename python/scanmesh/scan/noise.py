@@ -289,7 +289,7 @@ def noise(
 
 
 #: Tie tolerance of annealing on tac_1 per (sigma / spacing)^2: a flip whose tac_1 change
-#: is within this of zero is a tie (BENCHMARKS.md, "Noise": chosen on the rod and the
+#: is within this of zero is a tie (docs/benchmarks/noise.md: chosen on the rod and the
 #: fandisk at sigma = s/30 and s/10).
 TIE_PER_NOISE: float = 20.0
 

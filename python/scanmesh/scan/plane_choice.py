@@ -9,9 +9,10 @@ trimmed Delaunay triangulation of a seeded subsample which candidate normal leav
 fewest steep triangles (``scan.steep.STEEP_ANGLE_DEG``) and the fewest points left out, and
 picks it.
 
-This overrides DESIGN.md ("default: the normal of the least-squares plane"): a planar
-method needs a plane over which the surface is a height field, and the data show which one;
-an explicit ``plane=`` (including ``"best-fit"``) is always obeyed unchanged.
+This replaces the earlier default, the least-squares plane (docs/definitions.md,
+"Projection"): a planar method needs a plane over which the surface is a height field, and
+the data show which one; an explicit ``plane=`` (including ``"best-fit"``) is always obeyed
+unchanged.
 
 Candidates, in order of preference (the first within ``TIE`` of the lowest score wins):
 the digitizer's ``up`` recorded in the file, the least-squares plane (the old default), the

@@ -279,7 +279,7 @@ def anneal_surface(
         flat up to the noise, is judged by the smallest planar angle alone, Delaunay's
         criterion, instead of by tac and 3-D angles, which there are the noise's: noisy
         flat parts then stay at Delaunay's height error, curved ones lose some of tac's
-        gain; benches/results/noise.md), ``polish`` (True),
+        gain; docs/benchmarks/noise.md), ``polish`` (True),
         ``calibration_samples``, ``chains`` (0: automatic); defaults in
         ``ANNEAL_DEFAULTS`` and the checks in :data:`OPTIONS`. ``chains`` independent runs
         start from ``initial`` with seeds derived from ``seed``, side by side on the cores
@@ -287,7 +287,7 @@ def anneal_surface(
         seed, not on the number of cores). Automatic: one chain
         from 8,000 interior edges (about 2,700 points) up, otherwise enough chains (at most
         128) to make 8,000 proposals per sweep in all: on small inputs restarts find the
-        optimum far more often than one longer chain (BENCHMARKS.md, "Certified optimum").
+        optimum far more often than one longer chain (docs/benchmarks/optimum.md).
         ``tiles`` (1): anneal each chain in this many stripes of the plane at once, on the
         cores (at most 64): each phase of 100 sweeps freezes the triangles that cross a
         stripe border, the stripes shift by half a stripe every phase, and the energy stays

@@ -51,9 +51,10 @@ def delaunay(
         spacing. With a finite ``max_edge``, triangles that bridge a depth jump (a wall, a
         step, a bore: a steep longest 3-D edge above ``JUMP_FACTOR`` (3) x the local 3-D
         spacing), a gap (any longest 3-D edge above ``BRIDGE_FACTOR`` (5) x the spacing
-        across lines) or a hole (a planar area above ``HOLE_FACTOR`` (5) x the local
-        triangle area) are dropped too. ``math.inf`` keeps the whole convex hull (less the
-        zero-area slivers that close straight stretches of it).
+        across lines) or a hole (a longest planar edge above ``HOLE_FACTOR`` (2.8) x the
+        local edge length and a planar area above the core's ``HOLE_AREA_FACTOR`` (1.8) x
+        the local triangle area) are dropped too. ``math.inf`` keeps the whole convex hull
+        (less the zero-area slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
         "delaunay" (points) and "trim" (faces): one native call does both, reported at its

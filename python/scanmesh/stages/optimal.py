@@ -2,7 +2,7 @@
 
 Both search all (fine) triangulations of the convex hull of the projected points: every
 point is a vertex (it is a scan sample), triangles tile the hull, and the tac norm
-(DESIGN.md: ``tac(v) = |2 pi - sum of 3-D corner angles at v|`` over interior vertices v)
+(docs/definitions.md: ``tac(v) = |2 pi - sum of 3-D corner angles at v|`` over interior vertices v)
 is minimized. Annealing and LOP search the same space heuristically; these functions say
 how far from the optimum they stop.
 
@@ -57,7 +57,7 @@ Hall, Math. Prog. Comp. 10 (2018)) through ``scipy.optimize.milp``.
 
 The LP relaxation is weak for tac: it can blend fans with positive and negative angle
 defects at a vertex (|s_v| of a blend is below the blend of |s_v|), so proofs need
-branching and grow quickly with the number of points (BENCHMARKS.md).
+branching and grow quickly with the number of points (docs/benchmarks/optimum.md).
 
 Optional fan cuts (``strengthen=True``, experimental): the Dantzig-Wolfe reformulation by
 vertex stars (Dantzig and Wolfe, Oper. Res. 8 (1960); Desaulniers, Desrosiers and Solomon,
@@ -114,7 +114,7 @@ FAN_SHARE: float = 0.5
 
 #: Most (distinct) points :func:`optimal_surface` accepts: the empty-triangle search is
 #: O(n^4) and the program has about 2 n^2 binary variables; proofs already take minutes
-#: for a few dozen points (BENCHMARKS.md).
+#: for a few dozen points (docs/benchmarks/optimum.md).
 MAX_OPTIMAL_POINTS: int = 400
 
 
@@ -161,7 +161,7 @@ def optimal_surface(
 
     Solves the mixed-integer program of the module docstring with HiGHS
     (``scipy.optimize.milp``). Meant for small inputs: proofs take seconds for about 20
-    points and can exceed a minute from about 40 (BENCHMARKS.md).
+    points and can exceed a minute from about 40 (docs/benchmarks/optimum.md).
 
     Parameters
     ----------

@@ -93,7 +93,7 @@ def _unit(points: np.ndarray) -> np.ndarray:
 def _corner_angles(xyz: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """(..., 3) corner angles (radians) of triangles ``tri`` (..., 3) over points (N, 2 or 3).
 
-    Column k is the angle at ``tri[..., k]``, in the atan2 form of DESIGN.md.
+    Column k is the angle at ``tri[..., k]``, in the atan2 form of docs/definitions.md.
     """
     if xyz.shape[1] == 2:
         xyz = np.column_stack([xyz, np.zeros(len(xyz))])

@@ -49,7 +49,7 @@ CRITERIA: tuple[str, ...] = ("length", "area", "angle", "dihedral")
 #: A weight: one criterion by name, or a mapping of criteria to non-negative coefficients.
 WeightSpec = str | Mapping[str, float]
 
-#: Default weight, chosen by measurement (BENCHMARKS.md, "Strips": tac_1 and
+#: Default weight, chosen by measurement (docs/benchmarks/speed.md, "Strips": tac_1 and
 #: smallest angle of every criterion on fran_cut and on the connecting-rod scan). On the rod
 #: every criterion gives the same mesh quality (tac_1 88.4, smallest angle 4.9 degrees), so
 #: fran_cut decides: area and length keep 12.5 degrees at tac_1 71.3 and 73.1, angle 12.5 at
@@ -282,7 +282,7 @@ def strip_surface(
         smallest angle of every criterion on fran_cut and a connecting-rod scan: the rod
         does not tell them apart; on fran_cut the mixture keeps the largest smallest angle
         (12.8 degrees) at 16 % less tac_1 than angle alone, where dihedral alone falls to
-        4.8 degrees (figures in BENCHMARKS.md).
+        4.8 degrees (figures in docs/benchmarks/speed.md).
     alpha : int
         Look-ahead depth in steps (``method="lookahead"`` only), >= 1; a depth that
         reaches a strip's end gives that strip's shortest path.

@@ -23,7 +23,8 @@ pub const MAX_PROPOSALS: u64 = 1_000_000_000_000;
 pub const MAX_CALIBRATION_PROPOSALS: u64 = 20_000_000;
 
 /// Proposals per second of one annealing chain on one core, measured on the rod
-/// (BENCHMARKS.md, "Annealing throughput": 11-15 million): only for the time in messages.
+/// (docs/benchmarks/speed.md, "Annealing throughput": 11-15 million): only for the time in
+/// messages.
 pub const PROPOSALS_PER_SECOND: f64 = 15e6;
 
 /// `count` of `what` (proposals) as a time on one core at [`PROPOSALS_PER_SECOND`], for

@@ -28,7 +28,7 @@ use rand_pcg::Pcg64Mcg;
 /// Proposals between the prefetch stages of a drawn edge (see [`TacState::prefetch`]):
 /// stage 0 right after the draw, stage 1 `STAGE_GAP` proposals later, stage 2 after another
 /// `STAGE_GAP`, and the proposal itself `STAGE_GAP` after that. On the rod and on 1M
-/// points 2 to 6 all help about alike (BENCHMARKS.md, "Annealing throughput").
+/// points 2 to 6 all help about alike (docs/benchmarks/speed.md, "Annealing throughput").
 const STAGE_GAP: usize = 4;
 
 /// From this many half-edges up, the lines a flip writes outside its two triangles are

@@ -18,7 +18,7 @@ use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::time::Instant;
 
-/// Annealing parameters; `Default` gives the measured defaults (see BENCHMARKS.md).
+/// Annealing parameters; `Default` gives the measured defaults (see docs/benchmarks/quality.md).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnnealParams {
     /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per live edge
@@ -63,7 +63,7 @@ pub struct AnnealParams {
 /// Automatic chains: as many as it takes for the chains together to propose at least this
 /// many flips per sweep (a triangulation with this many interior edges or more gets one
 /// chain). Small inputs are cheap, and on them independent restarts find the optimum far
-/// more often than one longer chain (BENCHMARKS.md, "Certified optimum"); counting edges,
+/// more often than one longer chain (docs/benchmarks/optimum.md); counting edges,
 /// not planned proposals, keeps a short run asked for (`sweeps`) proportionally short.
 pub const AUTO_CHAIN_EDGES: usize = 8_000;
 

@@ -2,7 +2,7 @@
 //!
 //! Why chains: on small inputs one annealing run often ends in a deep local minimum of tac,
 //! and independent restarts find the optimum far more often than one longer run (measured
-//! against the certified optimum, BENCHMARKS.md "Certified optimum"). Small inputs are
+//! against the certified optimum, docs/benchmarks/optimum.md). Small inputs are
 //! cheap, so [`AnnealParams::chain_count`] gives them many chains and large inputs one.
 //!
 //! Chains share nothing but the initial state; chain c runs on the seed

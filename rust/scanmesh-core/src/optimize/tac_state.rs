@@ -76,7 +76,7 @@ pub const COPLANAR_RELATIVE: f64 = 1e-13;
 /// rod (all flat) 99.9 % of the interior vertices of Delaunay's mesh have a tac below 1.8
 /// tolerances at sigma = s/30 and s/10; on the fandisk at s/30, 1.2 % (its creases) are
 /// above 4. Measured on the rod at s/10 (height RMS / Delaunay's, paired samples,
-/// benches/results/noise.md): 1.0004-1.0007 with 2; with 1, 1.005-1.007, and the real
+/// docs/benchmarks/noise.md): 1.0004-1.0007 with 2; with 1, 1.005-1.007, and the real
 /// scans' holdout above Delaunay's (LAS ground 1.04); judging only the near-ties of flat
 /// corners in the plane, not all their flips: 1.014 (with 1), 1.007 (with 2).
 pub const NOISE_TAC: f64 = 2.0;

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 /// those triangles' areas). Degenerate triangles are never dropped by this rule; the
 /// comparison is on squared lengths in single precision, in [`unit_square`] coordinates,
 /// so the rule is scale-free. Chosen by benches/depth_jumps.py (figures in
-/// benches/results/depth_jumps.md):
+/// docs/benchmarks/depth-jumps.md):
 /// on the rocker arm it drops the thin triangles left across its 1.4 mm oil holes (5.2
 /// spacings across, narrower than the planar trim length, at one height) and takes its
 /// height RMS from 0.046 to 0.009 times planar trimming's (3.0: 0.011); the pocket and the

@@ -28,7 +28,7 @@ pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 /// a gap the planar rules leave (a strip's rung across a missed stretch of the next line,
 /// lookahead's fan from the end of a line segment, a sheet over a hole narrower than the
 /// planar trim length) and is dropped with the depth jumps. Chosen on the scans of
-/// benches/strips_geometry.py (figures in benches/results/strips_geometry.md): 4 also drops
+/// benches/strips_geometry.py (figures in docs/benchmarks/depth-jumps.md): 4 also drops
 /// lookahead's rungs of 4.7 spacings on a clean jittered grid, 6 keeps some of its fans
 /// over the connecting rod's bore (3.5 median edges off the CAD surface).
 pub const DEFAULT_BRIDGE_FACTOR: f64 = 5.0;
