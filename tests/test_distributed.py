@@ -23,7 +23,7 @@ from scanmesh.errors import ParameterError, ScanmeshError
 distributed = pytest.importorskip("distributed")
 da = pytest.importorskip("dask.array")
 
-from scanmesh.distributed import _output, _strips, reconstruct_distributed  # noqa: E402
+from scanmesh.distributed import _median, _output, reconstruct_distributed  # noqa: E402
 
 
 def wavy_scan(rows: int, cols: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -205,9 +205,9 @@ def test_the_median_step_is_exact_over_parts(client):
     values.append(np.sort(np.repeat([0.5, 2.0**-1074, 7.0], 400)))
     futures = client.scatter(values)
     everything = np.sort(np.concatenate(values))
-    median = _strips.median_step(client, futures, len(everything))
+    median = _median.exact_median(client, futures, len(everything))
     assert median == everything[len(everything) // 2]
-    assert _strips.median_step(client, [], 0) == 0.0
+    assert _median.exact_median(client, [], 0) == 0.0
 
 
 def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
