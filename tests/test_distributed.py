@@ -13,6 +13,7 @@ import textwrap
 import threading
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ from scanmesh.errors import ParameterError, ScanmeshError
 distributed = pytest.importorskip("distributed")
 da = pytest.importorskip("dask.array")
 
-from scanmesh.distributed import _output, _strips, reconstruct_distributed  # noqa: E402
+from scanmesh.distributed import _median, _output, _tiles, reconstruct_distributed  # noqa: E402
 
 
 def wavy_scan(rows: int, cols: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -205,9 +206,23 @@ def test_the_median_step_is_exact_over_parts(client):
     values.append(np.sort(np.repeat([0.5, 2.0**-1074, 7.0], 400)))
     futures = client.scatter(values)
     everything = np.sort(np.concatenate(values))
-    median = _strips.median_step(client, futures, len(everything))
+    median = _median.exact_median(client, futures, len(everything))
     assert median == everything[len(everything) // 2]
-    assert _strips.median_step(client, [], 0) == 0.0
+    assert _median.exact_median(client, [], 0) == 0.0
+
+
+def test_one_exact_median_serves_steps_and_tiles(client):
+    """The one distributed median is numpy's median for an odd count, whether the workers
+    hold the sorted values (the strips' steps) or tiles carrying them (the tiles'
+    nearest-neighbour distances, read through ``_tiles.NEAREST``)."""
+    rng = np.random.default_rng(11)
+    values = [np.sort(rng.exponential(0.3, n)) for n in (301, 0, 1250, 2)]
+    total = sum(len(v) for v in values)
+    assert total % 2 == 1
+    expected = np.median(np.concatenate(values))
+    assert _median.exact_median(client, client.scatter(values), total) == expected
+    tiles = [client.submit(SimpleNamespace, nearest=v, pure=False) for v in values]
+    assert _median.exact_median(client, tiles, total, _tiles.NEAREST) == expected
 
 
 def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):

@@ -16,7 +16,7 @@ from distributed import Client, LocalCluster, WorkerPlugin  # noqa: E402
 
 import scanmesh  # noqa: E402
 from scanmesh import _core  # noqa: E402
-from scanmesh.distributed import _tile, _tiles  # noqa: E402
+from scanmesh.distributed import _median, _tile, _tiles  # noqa: E402
 from scanmesh.distributed._source import Part  # noqa: E402
 
 
@@ -237,11 +237,10 @@ def test_bad_options_are_refused(client, tmp_path):
 
 
 @pytest.mark.parametrize("values", ["ties", "distinct"])
-def test_median_search_is_exact(client, monkeypatch, values):
+def test_median_search_is_exact(client, values):
     """The distributed median of the tiles' nearest-neighbour distances is the value the
     core's median_spacing picks (index n // 2 of the sorted values), ties included (an
     exact grid has one distance almost everywhere)."""
-    monkeypatch.setattr(_tiles, "MEDIAN_SAMPLE", 16)  # several rounds on small inputs
     rng = np.random.default_rng(5)
     arrays = [
         np.sort(rng.integers(0, 7, n) * 0.125 if values == "ties" else rng.random(n))
@@ -255,7 +254,7 @@ def test_median_search_is_exact(client, monkeypatch, values):
     ]
     total = sum(len(a) for a in arrays)
     expected = np.sort(np.concatenate(arrays))[total // 2]
-    assert _tiles._median_nearest(client, tiles, total) == expected
+    assert _median.exact_median(client, tiles, total, _tiles.NEAREST) == expected
 
 
 def test_exact_grid_gives_one_valid_mesh(client, monkeypatch, tmp_path):

@@ -14,12 +14,12 @@ from scanmesh.cli.compare import _sliver_deg
 from scanmesh.cli.render import _mesh_file
 from scanmesh.errors import DegenerateInputError
 from scanmesh.measures import quality
-from scanmesh.scan.lines import detect_lines
+from scanmesh.scan.lines import GAP_FACTOR
 from scanmesh.scan.noise import noise
-from scanmesh.scan.planar import as_scan
+from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.scan.spacing import MAX_EDGE_FACTOR
 from scanmesh.scan.steep import STEEP_ANGLE_DEG
 from scanmesh.stages.delaunay import delaunay
-from scanmesh.stages.options import MAX_EDGE_FACTOR
 
 
 def cmd_info(args: argparse.Namespace, con: _Console) -> int:
@@ -30,12 +30,13 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
     scan = _read_scan(source, con.progress, args)  # the reader's details (format, line source)
     pts = scan.points
     # projected once for Delaunay, the lines and the noise estimate, on the plane chosen
-    # (with the file's up) for None
+    # (with the file's up) for None; the lines are detected once, for both
     planar = as_scan(pts, plane=args.plane, lines=scan.line_ids, up=scan.up)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # coincident points are counted below
         surface = delaunay(planar)
     # delaunay() trims at MAX_EDGE_FACTOR x the median nearest-neighbour spacing
+    # (scanmesh.scan.spacing.trim_length): the spacing reported is that length over the factor
     spacing = float(surface.options["max_edge"]) / MAX_EDGE_FACTOR
     normal = np.asarray(surface.frame.normal, dtype=np.float64)
     steep = surface.steep_fraction
@@ -139,7 +140,7 @@ def _judge_mesh(path: Path, con: _Console) -> int:
     return 0
 
 
-def _noise_or_none(planar) -> float | None:
+def _noise_or_none(planar: PlanarScan) -> float | None:
     """scanmesh.noise of the scan, or None when too few points allow an estimate."""
     try:
         return noise(planar)
@@ -147,9 +148,10 @@ def _noise_or_none(planar) -> float | None:
         return None
 
 
-def _lines_info(scan, planar) -> tuple[int | None, str]:
-    """Scan lines: from the file, else detected from the point order of the PlanarScan."""
+def _lines_info(scan, planar: PlanarScan) -> tuple[int | None, str]:
+    """Scan lines: from the file, else detected from the point order of the PlanarScan
+    (kept with it, so the noise estimate reads the same lines)."""
     if scan.line_ids is not None:
         return int(scan.n_lines), f"from the file: {scan.extra.get('line_ids_from') or 'ids'}"
-    ids = detect_lines(planar)
+    ids = planar.detected_line_ids(GAP_FACTOR)
     return int(len(np.unique(ids))), "detected from the point order"

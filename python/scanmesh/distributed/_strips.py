@@ -9,7 +9,8 @@ lines before it). So the work is three passes over the parts, each on the worker
 1. per part: lines, their chords and steps (:func:`line_stats`), the steps kept sorted on
    the worker that read them;
 2. the exact median of all steps, by three rounds of counting on those workers
-   (:func:`median_step`: 22, 21 and 21 bits of the float at a time, no step is gathered);
+   (:func:`scanmesh.distributed._median.exact_median`, as the tiles' median spacing: 22,
+   21 and 21 bits of the float at a time, no step is gathered);
 3. per partition: ``scanmesh_core::stitch_part`` with the scan's context (:func:`solve`).
 
 Partitions start and end on a line that has a strip on both sides and no lone point (an
@@ -35,12 +36,10 @@ from scanmesh.errors import DegenerateInputError
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.stages.strips import OPTIONS, solve_strips
 
+from ._median import exact_median
 from ._output import FaceBlock
 from ._report import seam_sums, vertex_sums
 from ._source import Part, load_part, project_as_whole
-
-#: Bits of a step's float resolved by each counting round of :func:`median_step`.
-ROUND_SHIFTS: tuple[int, ...] = (42, 21, 0)
 
 
 @dataclass(frozen=True)
@@ -109,43 +108,6 @@ def line_stats(
         n_steps=len(steps),
     )
     return stats, steps
-
-
-def count_keys(steps: np.ndarray, lo_bits: int, hi_bits: int, shift: int) -> tuple[int, Any, Any]:
-    """Of sorted positive steps: how many lie below ``lo_bits`` (as float bits), and the
-    distinct ``bits >> shift`` with their counts among those in [lo_bits, hi_bits)."""
-    bits = steps.view(np.int64)
-    a, b = np.searchsorted(bits, [lo_bits, hi_bits])
-    # positive floats' bits ascend with them: the keys come sorted, so runs, not a sort
-    keys = bits[a:b] >> shift
-    starts = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]])) if b > a else keys
-    counts = np.diff(np.append(starts, len(keys)))
-    return int(a), keys[starts], counts
-
-
-def median_step(client: Any, steps: list[Any], total: int) -> float:
-    """The exact median (element ``total // 2`` in ascending order, as the core takes it)
-    of the positive steps held sorted on the workers; 0 for none. Three rounds of
-    :func:`count_keys`; only counts travel."""
-    if total == 0:
-        return 0.0
-    rank, lo, hi = total // 2, 0, 1 << 63
-    for shift in ROUND_SHIFTS:
-        rounds = client.gather(
-            [
-                client.submit(count_keys, s, lo, hi, shift, key=f"scanmesh-median-{uuid.uuid4()}")
-                for s in steps
-            ]
-        )
-        below = sum(r[0] for r in rounds)
-        keys = np.concatenate([r[1] for r in rounds])
-        counts = np.concatenate([r[2] for r in rounds])
-        unique, inverse = np.unique(keys, return_inverse=True)
-        merged = np.zeros(len(unique), dtype=np.int64)
-        np.add.at(merged, inverse, counts)
-        at = int(np.searchsorted(below + np.cumsum(merged), rank, side="right"))
-        lo, hi = int(unique[at]) << shift, (int(unique[at]) + 1) << shift
-    return float(np.array([lo], dtype=np.int64).view(np.float64)[0])
 
 
 @dataclass(frozen=True)
@@ -376,7 +338,7 @@ def strip_blocks(
     stats: list[LineStats] = client.gather(stats_f)
     del stats_steps
     largest = max(s.largest for s in stats)
-    median = median_step(client, steps, sum(s.n_steps for s in stats))
+    median = exact_median(client, steps, sum(s.n_steps for s in stats))
     del steps
     gap = params["gap_factor"] * median
     partitions = plan(parts, stats, gap, largest, partition_lines)

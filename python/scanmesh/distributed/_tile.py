@@ -99,22 +99,6 @@ def _nearest_only(t: Tile) -> Tile:
     )
 
 
-def _count(t: Tile, values: np.ndarray, side: str) -> np.ndarray:
-    """How many of the tile's distances are <= (side "right") or < ("left") each value."""
-    return np.searchsorted(t.nearest, values, side=side)
-
-
-def _values_inside(t: Tile, lo: float, hi: float, most: int) -> tuple[np.ndarray, int]:
-    """The tile's distances in the open interval (lo, hi), at most ``most`` of them evenly
-    by rank (the smallest always), and how many there are."""
-    a = np.searchsorted(t.nearest, lo, side="right")
-    b = np.searchsorted(t.nearest, hi, side="left")
-    inside = t.nearest[a:b]
-    if len(inside) <= most:
-        return inside, len(inside)
-    return inside[np.linspace(0, len(inside) - 1, most).astype(np.int64)], len(inside)
-
-
 def _trim(t: Tile, grid: Grid, box: tuple[float, ...], limit: float) -> Tile:
     """Trims the tile's triangulation as the core trims the whole one, and marks the faces
     this tile owns (circumcentre in its cell) and whether they are certified. A new Tile:

@@ -2,8 +2,8 @@
 
 The scan stays in its parts (files of consecutive scan lines, :class:`Part`); no process
 ever holds all of it. What the client holds is small: bounds, a seeded sample of at most
-``SAMPLE_POINTS`` points (for the plane), per-tile counts, and the few values of the exact
-median spacing search.
+``SAMPLE_POINTS`` points (for the plane), per-tile counts, and the counts of the exact
+median spacing search (:mod:`scanmesh.distributed._median`, as the strips' median step).
 
 Rules, in order:
 
@@ -58,6 +58,7 @@ points in 4 tiles, tac_1 3 % above (docs/benchmarks/large-scans.md).
 from __future__ import annotations
 
 import math
+import operator
 import shutil
 import tempfile
 import uuid
@@ -69,9 +70,9 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh.distributed._grid import Grid, _bin_part, project_with_box
+from scanmesh.distributed._median import exact_median
 from scanmesh.distributed._source import Part, load_part
 from scanmesh.distributed._tile import (
-    _count,
     _delaunay_block,
     _nearest_only,
     _noise,
@@ -80,13 +81,13 @@ from scanmesh.distributed._tile import (
     _tile_seed,
     _triangulate,
     _trim,
-    _values_inside,
 )
 from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.methods import TABLE
 from scanmesh.scan.noise import tie_tolerance
 from scanmesh.scan.plane_choice import choose_plane
 from scanmesh.scan.projection import Frame, PlaneSpec, plane_args
+from scanmesh.scan.spacing import nearest_spacing
 from scanmesh.stages.anneal import ANNEAL_DEFAULTS
 from scanmesh.stages.options import MAX_EDGE_FACTOR, MAX_EDGE_OPTION, SEED_OPTION
 
@@ -107,8 +108,9 @@ BAND_EDGES: float = 4.0
 #: first pass's cell borders.
 SEAM_EDGES: float = 3.0
 
-#: Values per tile and round of the exact median search.
-MEDIAN_SAMPLE: int = 1024
+#: What the median spacing search reads of a tile: its own points' sorted nearest-neighbour
+#: distances (:func:`scanmesh.distributed._median.exact_median`'s ``values``).
+NEAREST = operator.attrgetter("nearest")
 
 #: Tiles in flight per worker thread: tile t's first task waits for tile t - k's last
 #: (k this times the cluster's threads), so a worker holds the data of a few tiles whatever
@@ -162,7 +164,7 @@ def _part_plane_survey(part: Part, corners: np.ndarray, plane: tuple) -> dict[st
     head = uv[:SPACING_SAMPLE]
     try:
         faces, _ = _core.delaunay(np.ascontiguousarray(head))
-        spacing = _core.median_spacing(head, faces)
+        spacing = nearest_spacing(head, faces)
     except (ScanmeshError, ValueError):
         spacing = math.nan
     return {
@@ -216,38 +218,6 @@ def _resolve_plane(plane: PlaneSpec, sample: np.ndarray) -> tuple[str | None, np
         _, frame = _core.project(sample, "best-fit", None)
         return None, np.asarray(frame[3], dtype=np.float64)
     return name, normal
-
-
-def _median_nearest(client: Any, tiles: list[Any], total: int) -> float:
-    """The exact upper median (index total // 2 of the sorted values) of the tiles'
-    nearest-neighbour distances, by rounds of counts: the client holds at most
-    ``MEDIAN_SAMPLE`` values per tile at a time. Each round samples the values in an open
-    interval known to hold the median and narrows it to two neighbouring samples, or finds
-    the median among the samples' ties. O(rounds x tiles) round trips, a few in practice."""
-    k = total // 2
-    lo, hi = -math.inf, math.inf
-
-    def counts(values: np.ndarray, side: str) -> np.ndarray:
-        return sum(
-            client.gather([client.submit(_count, t, values, side, pure=False) for t in tiles])
-        )
-
-    while True:
-        found = client.gather(
-            [client.submit(_values_inside, t, lo, hi, MEDIAN_SAMPLE, pure=False) for t in tiles]
-        )
-        below = int(counts(np.array([lo]), "right")[0]) if math.isfinite(lo) else 0
-        if all(len(values) == n for values, n in found):
-            merged = np.sort(np.concatenate([values for values, _ in found]))
-            return float(merged[k - below])
-        candidates = np.unique(np.concatenate([values for values, _ in found]))
-        at_most, under = counts(candidates, "right"), counts(candidates, "left")
-        hit = (under <= k) & (k < at_most)
-        if hit.any():
-            return float(candidates[np.argmax(hit)])
-        j = int(np.searchsorted(at_most, k, side="right"))  # first with more than k at most
-        lo = float(candidates[j - 1]) if j > 0 else lo
-        hi = float(candidates[j]) if j < len(candidates) else hi
 
 
 def tile_blocks(
@@ -452,7 +422,7 @@ def _tile_stages(
         )
         wait(nearest)
         counts = client.gather([client.submit(lambda t: len(t.nearest), t) for t in nearest])
-        limit = MAX_EDGE_FACTOR * _median_nearest(client, nearest, sum(counts))
+        limit = MAX_EDGE_FACTOR * exact_median(client, nearest, sum(counts), NEAREST)
         del nearest
     else:
         limit = max_edge

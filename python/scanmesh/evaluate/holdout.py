@@ -16,7 +16,8 @@ from scanmesh.evaluate.truth import _expand
 from scanmesh.formats import read
 from scanmesh.methods import used_keywords
 from scanmesh.reconstruction import reconstruct
-from scanmesh.scan.lines import as_line_ids, detect_lines
+from scanmesh.scan.lines import GAP_FACTOR, as_line_ids
+from scanmesh.scan.planar import as_scan
 
 #: What :func:`holdout_error` measures, for reports.
 HOLDOUT_MEASURE = (
@@ -177,7 +178,9 @@ def holdout_error(
     rng = np.random.default_rng(seed)
     if by == "lines":
         if lines is None:
-            lines = detect_lines(pts, plane=plane)
+            # detected on all points (withheld lines need ids); the kept points are projected
+            # by reconstruct on their own (their plane, their frame), and strips get these ids
+            lines = as_scan(pts, plane=plane).detected_line_ids(GAP_FACTOR)
         ids = np.unique(lines)
         n_out = int(round(frac * len(ids)))
         out_ids = rng.choice(ids, size=n_out, replace=False) if n_out else ids[:0]

@@ -14,8 +14,6 @@ exact rules); in short, with h the median step between consecutive points:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -23,34 +21,11 @@ from scanmesh import _core
 from scanmesh._checks import Option
 from scanmesh._checks import as_line_ids as as_line_ids  # the rule's public home
 from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.scan.planar import ScanLines as ScanLines  # made and kept by the scan
 from scanmesh.scan.projection import PlaneSpec
 
 #: Default gap factor k: a step longer than k x the median step is a gap or a jump.
 GAP_FACTOR: float = _core.DEFAULT_GAP_FACTOR
-
-
-@dataclass(frozen=True)
-class ScanLines:
-    """Scan lines split into segments, in the caller's point indices."""
-
-    #: lines in scan order; each a list of segments; each segment (K,) int64 point indices
-    lines: list[list[np.ndarray]]
-    #: median planar distance between consecutive points of a line (input units)
-    median_step: float
-    #: a longer step inside a line splits it (input units)
-    gap: float
-    #: (D, 2) int64 pairs (dropped point, the earlier point of its line it coincides with)
-    duplicates: np.ndarray
-
-    @property
-    def n_lines(self) -> int:
-        """Number of lines."""
-        return len(self.lines)
-
-    @property
-    def n_segments(self) -> int:
-        """Number of segments over all lines."""
-        return sum(len(line) for line in self.lines)
 
 
 #: The gap factor as an option of the strip methods and of the functions here.
@@ -82,10 +57,12 @@ def detect_lines(
     Returns
     -------
     (N,) int64
-        Line ids numbered 0..L-1 in scan order; non-decreasing.
+        Line ids numbered 0..L-1 in scan order; non-decreasing. A PlanarScan detects them
+        once per gap factor and keeps them (:meth:`PlanarScan.detected_line_ids`); this is a
+        copy of those.
     """
     k = GAP_FACTOR_OPTION.check(gap_factor)
-    return _core.detect_lines(as_scan(points, plane=plane).uv, k)
+    return as_scan(points, plane=plane).detected_line_ids(k).copy()
 
 
 def scan_lines(
@@ -117,9 +94,8 @@ def scan_lines(
     Returns
     -------
     ScanLines
+        Kept with the scan, once per gap factor (:meth:`PlanarScan.lines`): its arrays are
+        read-only.
     """
     k = GAP_FACTOR_OPTION.check(gap_factor)
-    scan = as_scan(points, plane=plane, lines=line_ids)
-    ids = _core.detect_lines(scan.uv, k) if scan.line_ids is None else scan.line_ids
-    lines, median_step, gap, duplicates = _core.scan_segments(scan.uv, ids, k)
-    return ScanLines(lines=lines, median_step=median_step, gap=gap, duplicates=duplicates)
+    return as_scan(points, plane=plane, lines=line_ids).lines(k)

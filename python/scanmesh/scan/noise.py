@@ -49,6 +49,7 @@ from scanmesh.errors import DegenerateInputError
 from scanmesh.scan.lines import scan_lines
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.scan.projection import PlaneSpec
+from scanmesh.scan.spacing import median_edge
 
 if TYPE_CHECKING:
     from scanmesh.surface import Surface
@@ -68,7 +69,7 @@ MAX_FITS: int = 100_000
 #: Points fitted per vectorized chunk of the neighbourhood fit (bounds memory).
 CHUNK: int = 1 << 16
 
-#: Points (or faces) per batch of the O(N) passes (line stencils, edge lengths, heights):
+#: Points per batch of the O(N) passes (line stencils, heights):
 #: bounds their temporaries, a few hundred MB whatever the scan's size.
 PASS_CHUNK: int = 1 << 20
 
@@ -266,8 +267,16 @@ def noise(
     ------
     DegenerateInputError
         Neither estimate has :data:`MIN_WINDOWS` residuals (too few points).
+
+    A PlanarScan keeps its estimate (:meth:`PlanarScan.once`): asked again (annealing's
+    tie tolerance, ``scanmesh info``), it is not computed again.
     """
     scan = as_scan(points, plane=plane, lines=lines)
+    return scan.once("noise", lambda: _noise(scan))
+
+
+def _noise(scan: PlanarScan) -> float:
+    """:func:`noise` of the scan, computed."""
     # Residuals scale with the coordinates: measured on an exactly rescaled copy, so that
     # squared distances and fits neither overflow at 1e300 nor vanish at 1e-300.
     exponent = power_of_two_exponent(scan.points)
@@ -298,22 +307,6 @@ TIE_PER_NOISE: float = 20.0
 #: estimate then measures the facets of a tessellated CAD model (turbine blade: s/1000) or
 #: rounding, and a tolerance from it only shuffles near-ties (fandisk: slivers 7.6 -> 7.9 %).
 NOISE_FREE: float = 1 / 500
-
-
-def median_edge(uv: np.ndarray, faces: np.ndarray) -> float:
-    """Median planar length of the triangles' edges (each interior edge counted twice).
-
-    Faces are measured in batches of :data:`PASS_CHUNK` into one array of 3F lengths,
-    whose median is taken in place: the corner coordinates of all faces at once were
-    three arrays of 48 bytes per face. O(F).
-    """
-    faces = np.asarray(faces)
-    lengths = np.empty(3 * len(faces))
-    for first in range(0, len(faces), PASS_CHUNK):
-        tri = uv[np.asarray(faces[first : first + PASS_CHUNK], dtype=np.int64)]
-        edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
-        lengths[3 * first : 3 * first + edges.size] = edges.ravel()
-    return float(np.median(lengths, overwrite_input=True)) if lengths.size else 0.0
 
 
 #: log of the largest float: the tie tolerance is capped there (finite, as the core needs).

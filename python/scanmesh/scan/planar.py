@@ -14,14 +14,15 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from scanmesh import _core
 from scanmesh._checks import as_line_ids, as_points
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
@@ -29,13 +30,41 @@ from scanmesh.formats import ScanPoints, read
 from scanmesh.scan.plane_choice import PlaneChoice, choose_plane
 from scanmesh.scan.projection import Frame, PlaneSpec, plane_args, project_checked
 
+_T = TypeVar("_T")
+
+
+@dataclass(frozen=True)
+class ScanLines:
+    """Scan lines split into segments, in the caller's point indices."""
+
+    #: lines in scan order; each a list of segments; each segment (K,) int64 point indices
+    lines: list[list[np.ndarray]]
+    #: median planar distance between consecutive points of a line (input units)
+    median_step: float
+    #: a longer step inside a line splits it (input units)
+    gap: float
+    #: (D, 2) int64 pairs (dropped point, the earlier point of its line it coincides with)
+    duplicates: np.ndarray
+
+    @property
+    def n_lines(self) -> int:
+        """Number of lines."""
+        return len(self.lines)
+
+    @property
+    def n_segments(self) -> int:
+        """Number of segments over all lines."""
+        return sum(len(line) for line in self.lines)
+
 
 @dataclass(frozen=True, eq=False)
 class PlanarScan:
     """Scan points with their projection: made by :func:`planar_scan`, never changed.
 
     The arrays are the caller's when they already had the right type (no copy); ``uv`` is
-    read-only.
+    read-only. What is derived from the scan alone (its scan lines and segments per gap
+    factor, its noise estimate) is computed on first request and kept with it
+    (:meth:`once`), so every stage reads the same values and none computes them again.
     """
 
     #: (N, 3) float64 the points, checked (finite, at least 3)
@@ -58,6 +87,47 @@ class PlanarScan:
     #: seconds spent reading ("read", files only), choosing the plane ("plane", for
     #: ``plane=None``) and checking and projecting ("project")
     timings: dict[str, float] = field(default_factory=dict)
+    #: values derived from the scan, by key (:meth:`once`); not part of the scan's identity
+    _derived: dict[Hashable, Any] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def once(self, key: Hashable, compute: Callable[[], _T]) -> _T:
+        """``compute()``, computed on the first request for ``key`` and kept with the scan:
+        the scan never changes, so neither does anything derived from it alone. A
+        ``compute`` that raises keeps nothing."""
+        if key not in self._derived:
+            self._derived[key] = compute()
+        return self._derived[key]
+
+    def detected_line_ids(self, gap_factor: float) -> np.ndarray:
+        """(N,) int64 line id of every point, detected from the point order with the
+        checked ``gap_factor`` (``_core.detect_lines``, see
+        :func:`scanmesh.scan.lines.detect_lines`), once per gap factor. Read-only. O(N)."""
+        return self.once(("line_ids", float(gap_factor)), lambda: _detect(self.uv, gap_factor))
+
+    def line_ids_for(self, gap_factor: float) -> np.ndarray:
+        """(N,) int64 line id of every point: ``line_ids`` when given, else
+        :meth:`detected_line_ids`."""
+        if self.line_ids is not None:
+            return self.line_ids
+        return self.detected_line_ids(gap_factor)
+
+    def lines(self, gap_factor: float) -> ScanLines:
+        """The scan lines of :meth:`line_ids_for` split into segments at gaps longer than
+        the checked ``gap_factor`` x the median step (``_core.scan_segments``, see
+        :func:`scanmesh.scan.lines.scan_lines`), once per gap factor. Its arrays are
+        shared: read-only. O(N)."""
+        return self.once(("lines", float(gap_factor)), lambda: self._segments(gap_factor))
+
+    def _segments(self, gap_factor: float) -> ScanLines:
+        ids = self.line_ids_for(gap_factor)
+        lines, median_step, gap, duplicates = _core.scan_segments(self.uv, ids, gap_factor)
+        for line in lines:
+            for segment in line:
+                segment.flags.writeable = False
+        duplicates.flags.writeable = False
+        return ScanLines(lines=lines, median_step=median_step, gap=gap, duplicates=duplicates)
 
     def __repr__(self) -> str:
         lines = "" if self.line_ids is None else ", with line ids"
@@ -180,6 +250,13 @@ def as_scan(
     )
 
 
+def _detect(uv: np.ndarray, gap_factor: float) -> np.ndarray:
+    """Line ids detected from the order of the points at ``uv``, read-only."""
+    ids = _core.detect_lines(uv, gap_factor)
+    ids.flags.writeable = False
+    return ids
+
+
 def same_plane(a: PlaneSpec, b: PlaneSpec) -> bool:
     """True when two plane specs name the same plane (None and "best-fit" alike)."""
     name_a, normal_a = plane_args(a)
@@ -189,4 +266,4 @@ def same_plane(a: PlaneSpec, b: PlaneSpec) -> bool:
     return bool(np.array_equal(normal_a, normal_b))
 
 
-__all__ = ["PlanarScan", "planar_scan", "as_scan"]
+__all__ = ["PlanarScan", "ScanLines", "planar_scan", "as_scan"]

@@ -32,6 +32,7 @@ import numpy as np
 from scanmesh import _core
 from scanmesh.errors import ScanmeshError
 from scanmesh.scan.projection import PlaneSpec
+from scanmesh.scan.spacing import trim_length
 from scanmesh.scan.steep import steep_fraction
 
 #: Points triangulated per candidate at most: a larger scan is measured on a seeded random
@@ -48,9 +49,6 @@ TIE: float = 0.02
 
 #: Candidates closer than this many degrees to an earlier one are the same plane.
 SAME_DEG: float = 2.0
-
-#: Trimming of the quick triangulation, in multiples of its median edge (as ``delaunay``).
-TRIM_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
@@ -132,8 +130,8 @@ def quick_faces(points: np.ndarray, normal: np.ndarray) -> np.ndarray | None:
         faces, _ = _core.delaunay(uv)
         if len(faces) == 0:
             return None
-        limit = TRIM_FACTOR * _core.median_spacing(uv, faces)
-        trimmed = _core.trim_long_edges(uv, faces, limit)
+        # trimmed at the default max_edge, as delaunay() trims
+        trimmed = _core.trim_long_edges(uv, faces, trim_length(uv, faces))
     except ScanmeshError:
         return None
     return trimmed if len(trimmed) else faces

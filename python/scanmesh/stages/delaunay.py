@@ -13,18 +13,15 @@ from scanmesh._progress import Progress, Stage
 from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.scan.projection import PlaneSpec
-from scanmesh.stages.options import (
-    JUMP_FACTOR,
-    MAX_EDGE_FACTOR,
-    MAX_EDGE_OPTION,
-)
+from scanmesh.scan.spacing import trim_length
+from scanmesh.stages.options import JUMP_FACTOR, MAX_EDGE_OPTION
 from scanmesh.surface import Surface
 
 
 def resolve_max_edge(uv: np.ndarray, faces: np.ndarray, max_edge: float | None) -> float:
     """The trimming length: ``max_edge`` itself, or MAX_EDGE_FACTOR x median spacing for None."""
     if max_edge is None:
-        return MAX_EDGE_FACTOR * _core.median_spacing(uv, faces)
+        return trim_length(uv, faces)
     return MAX_EDGE_OPTION.check(max_edge)
 
 

@@ -7,10 +7,8 @@ from __future__ import annotations
 from scanmesh import _core
 from scanmesh._checks import Option
 from scanmesh.errors import ParameterError
+from scanmesh.scan.spacing import MAX_EDGE_FACTOR as MAX_EDGE_FACTOR  # defined with the spacings
 from scanmesh.surface import Surface
-
-#: Default ``max_edge`` in multiples of the median nearest-neighbour spacing (planar).
-MAX_EDGE_FACTOR: float = _core.DEFAULT_MAX_EDGE_FACTOR
 
 #: A triangle whose longest 3-D edge exceeds this multiple of the local 3-D spacing (the
 #: median edge length at its best-sampled corner) bridges a depth jump and is dropped

@@ -361,7 +361,7 @@ def strip_surface(
         )
     t1 = time.perf_counter()
     with Stage(progress, "lines", len(pts), blocking=True):
-        ids = _core.detect_lines(uv, k) if scan.line_ids is None else scan.line_ids
+        ids = scan.line_ids_for(k)  # detected once per gap factor, kept with the scan
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
     with Stage(progress, "strips", len(pts), blocking=True):
