@@ -26,6 +26,7 @@ from scanmesh._checks import as_line_ids, as_points
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.formats import ScanPoints, read
+from scanmesh.formats._source import InputFile, input_file
 from scanmesh.scan.plane_choice import PlaneChoice, choose_plane
 from scanmesh.scan.projection import Frame, PlaneSpec, plane_args, project_checked
 
@@ -58,6 +59,8 @@ class PlanarScan:
     #: seconds spent reading ("read", files only), choosing the plane ("plane", for
     #: ``plane=None``) and checking and projecting ("project")
     timings: dict[str, float] = field(default_factory=dict)
+    #: ``source`` as it was when read (absolute path, device and inode): writers refuse it
+    source_file: InputFile | None = None
 
     def __repr__(self) -> str:
         lines = "" if self.line_ids is None else ", with line ids"
@@ -106,6 +109,7 @@ def planar_scan(
     if isinstance(source, (str, os.PathLike)):
         t0 = time.perf_counter()
         path = Path(source)
+        recorded = input_file(path)
         scan = read_scan_file(path, progress, read_options or {})
         seconds = time.perf_counter() - t0
         ids = scan.line_ids if lines is None else lines
@@ -119,6 +123,7 @@ def planar_scan(
             source=path,
             choice=made.choice,
             timings={"read": seconds, **made.timings},
+            source_file=recorded,
         )
     if read_options:
         raise ParameterError(
