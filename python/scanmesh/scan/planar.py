@@ -28,7 +28,7 @@ from scanmesh.errors import ParameterError
 from scanmesh.formats import ScanPoints, read
 from scanmesh.formats._source import InputFile, input_file
 from scanmesh.scan.plane_choice import PlaneChoice, choose_plane
-from scanmesh.scan.projection import Frame, PlaneSpec, plane_args, project_checked
+from scanmesh.scan.projection import Frame, PlaneSpec, check_span, plane_args, project_checked
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,6 +168,7 @@ def as_scan(
     choice = None
     timings = {}
     if plane is None:
+        check_span(pts)  # before the plane is fitted to the points' differences
         choice = choose_plane(pts, up)
         plane = choice.spec
         timings["plane"] = time.perf_counter() - t0
