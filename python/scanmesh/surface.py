@@ -93,13 +93,14 @@ class Surface:
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
         reconstructed from."""
+        inputs = write.inputs_of(self)  # recorded when read: a later os.chdir cannot fool it
+        write.check_not_input(path, inputs)
         suffix = Path(path).suffix.lower()
         if suffix in (".html", ".htm"):
             return self.to_html(path)
         if suffix == ".glb":
             return view.save_glb(self, path)
-        source = None if self.scan is None else self.scan.source
-        return write.save_mesh(path, self.vertices, self.faces, protect=source, progress=progress)
+        return write.save_mesh(path, self.vertices, self.faces, protect=inputs, progress=progress)
 
     def to_html(self, path: str | os.PathLike, **options: Any) -> Path:
         """Write a self-contained HTML page showing this mesh in 3-D (opens offline in any

@@ -19,7 +19,7 @@ import numpy as np
 from scanmesh.cli._args import _method_flags, _read_options
 from scanmesh.errors import ParameterError
 from scanmesh.formats import read
-from scanmesh.formats.write import FORMATS, _check_protected, _same_file, write_atomic
+from scanmesh.formats.write import FORMATS, _same_file, check_not_input, write_atomic
 from scanmesh.methods import SHARED
 
 
@@ -52,7 +52,7 @@ def _check_outputs(inputs: Sequence[Path], outputs: Sequence[Path | None]) -> No
     """Refuse, before any work, outputs that name an input or each other, or a missing folder."""
     given = [p for p in outputs if p is not None]
     for k, out in enumerate(given):
-        _check_protected(out, inputs)
+        check_not_input(out, inputs)
         for other in given[:k]:
             if _same_file(out, other):
                 raise ParameterError(f"{out} is named for two outputs; give each its own file")

@@ -22,6 +22,7 @@ from typing import Any
 
 from scanmesh._extras import require
 from scanmesh.errors import DegenerateInputError, ParameterError
+from scanmesh.formats.write import check_not_input
 from scanmesh.methods import TABLE
 from scanmesh.scan.projection import PlaneSpec
 
@@ -113,6 +114,9 @@ def reconstruct_distributed(
     """
     distributed = require("distributed", "dask", "reconstruct_distributed")
     target = check_output(output)
+    # the files a pattern matches now are the inputs: the output may be none of them
+    files = None if _is_dask_array(source) else source_paths(source)
+    check_not_input(target, files)
     if method not in TABLE:
         raise ParameterError(f"method must be one of {sorted(TABLE)}, got {method!r}")
     if partition_lines is not None and (
@@ -140,7 +144,8 @@ def reconstruct_distributed(
             array, ids = source if isinstance(source, tuple) else (source, None)
             paths = store_chunks(client, array, ids, stored)
         else:
-            paths = source_paths(source)
+            assert files is not None
+            paths = files
         parts, summaries = list_parts(client, paths, PLANE_SAMPLE, stored)
         lo, hi = scan_bounds(summaries)
         plane = resolve_plane(plane, summaries)

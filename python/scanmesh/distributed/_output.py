@@ -42,6 +42,7 @@ from scanmesh import _core
 from scanmesh.errors import ParameterError
 from scanmesh.formats.ply import PLY_FACE, ply_header
 from scanmesh.formats.stl import STL_HEADER
+from scanmesh.formats.write import create_temporary, remove_stale_temporaries
 
 from ._source import Part, load_part
 
@@ -209,7 +210,7 @@ class StreamedMesh:
         self.target = check_output(output)
         self.kind = self.target.suffix.lower()
         self.folder = scratch_folder(self.target)
-        self.temporary = self.target.parent / f".{self.target.name}.{uuid.uuid4().hex[:12]}.part"
+        self.temporary: Path | None = None  # created by finish (create_temporary)
         self.parts = parts
         self.blocks: list[Any] = []
         self.vertices: list[Any] = []
@@ -253,7 +254,8 @@ class StreamedMesh:
         else:
             header = ply_header(sum(p.count for p in self.parts), n_faces)
         total = len(header) + sum(w.size for w in vertices) + sum(w.size for w in written)
-        with open(self.temporary, "wb") as handle:
+        fd, self.temporary = create_temporary(self.target)  # the replaced file's mode kept
+        with os.fdopen(fd, "wb") as handle:
             handle.write(header)
             handle.truncate(total)
         offset, placing = len(header), []
@@ -277,6 +279,7 @@ class StreamedMesh:
             os.fsync(handle.fileno())
         os.replace(self.temporary, self.target)
         shutil.rmtree(self.folder, ignore_errors=True)
+        remove_stale_temporaries(self.target)
         return written
 
     def discard(self) -> None:
@@ -288,5 +291,6 @@ class StreamedMesh:
             if not self.folder.exists():
                 break
             time.sleep(0.1)
-        with contextlib.suppress(FileNotFoundError):
-            self.temporary.unlink()
+        if self.temporary is not None:
+            with contextlib.suppress(FileNotFoundError):
+                self.temporary.unlink()

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import stat
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,28 @@ from scanmesh.errors import FileFormatError
 
 #: Bytes read from a pipe per call.
 PIPE_CHUNK: int = 1 << 20
+
+
+@dataclass(frozen=True)
+class InputFile:
+    """A file read as input, as it was when read: its absolute path (a later ``os.chdir``
+    does not move it) and its (device, inode), None when it did not exist. Writers refuse
+    to replace it by any alias (:func:`scanmesh.formats.write.check_not_input`)."""
+
+    path: Path
+    key: tuple[int, int] | None = None
+
+
+def input_file(path: str | os.PathLike, record: bool = True) -> InputFile:
+    """The :class:`InputFile` of ``path`` now (``record`` False: the path only)."""
+    absolute = Path(os.path.abspath(path))
+    if not record:
+        return InputFile(absolute)
+    try:
+        info = os.stat(absolute)
+    except OSError:
+        return InputFile(absolute)
+    return InputFile(absolute, (info.st_dev, info.st_ino))
 
 
 def check_regular(path: Path, pipes: bool = False) -> int:

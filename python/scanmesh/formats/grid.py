@@ -9,6 +9,7 @@ grid's ``NODATA_value``) are holes, left out of the points and -1 in ``ScanPoint
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -134,6 +135,7 @@ def read_esri_ascii(path: str | os.PathLike, *, cell: Cell = None) -> ScanPoints
     data = read_bytes(path)
     check_text(path, data, "an ESRI ASCII grid")
     head: dict[str, float] = {}
+    head_lines: dict[str, int] = {}  # the line of each header keyword, for messages
     pos, line = 0, 1
     while True:
         end = data.find(b"\n", pos)
@@ -146,6 +148,7 @@ def read_esri_ascii(path: str | os.PathLike, *, cell: Cell = None) -> ScanPoints
             key = words[0].decode("latin-1").lower()
             try:
                 head[key] = float(words[1])
+                head_lines[key] = line
             except (IndexError, ValueError):
                 raise FileFormatError(
                     f"{path}, line {line}: bad ESRI grid header line: {quote(data[pos:end])}"
@@ -173,6 +176,14 @@ def read_esri_ascii(path: str | os.PathLike, *, cell: Cell = None) -> ScanPoints
         )
     else:
         default = (1.0, 1.0)
+    if cell is None:
+        for key in ("cellsize", "dx", "dy"):
+            value = head.get(key)
+            if key in head_lines and not (value is not None and 0 < value < math.inf):
+                raise FileFormatError(
+                    f"{path}, line {head_lines[key]}: ESRI grid header gives {key} {value!r};"
+                    f" {key} must be a positive finite spacing"
+                )
     dx, dy = _cell(cell if cell is not None else default, (1.0, 1.0))
     values = parse_free(path, data, pos, len(data), " in the ESRI grid")
     if len(values) != ncols * nrows:

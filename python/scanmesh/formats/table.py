@@ -158,7 +158,8 @@ def parse_rows(
     replaced by the delimiter's name).
     """
     first = list(range(ncols)) if split is None else list(split)
-    others = [c for c in range(ncols) if c not in first]
+    chosen = set(first)  # a set: one test per column, linear in the row's width
+    others = [c for c in range(ncols) if c not in chosen]
     limit = (stop - start + 1) // (2 * ncols) + 1
     capacity = 0
     values = np.empty((0, len(first)))

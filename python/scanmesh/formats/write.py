@@ -11,11 +11,15 @@ live in :mod:`scanmesh.formats`.
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import os
+import re
+import secrets
 import signal
 import stat
-import tempfile
 import threading
+import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -26,6 +30,7 @@ from numpy.typing import ArrayLike
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import ParameterError
 from scanmesh.formats import MESH_FORMATS
+from scanmesh.formats._source import InputFile, input_file
 from scanmesh.formats.xyz import xyz_rows
 
 #: File endings we write meshes to, mapped to their format.
@@ -48,57 +53,221 @@ def _same_file(a: Path, b: Path) -> bool:
         return a.resolve() == b.resolve()
 
 
-def _check_protected(target: Path, protect: PathSpec | Iterable[PathSpec] | None) -> None:
-    """Refuse to write over any path in ``protect`` (the input files)."""
-    if protect is None:
+def _names_input(target: Path, guarded: PathSpec | InputFile) -> bool:
+    """True when ``target`` names the input ``guarded`` by any alias: the same absolute
+    path, the same path once links are resolved, or (both existing) the same device and
+    inode, now or as recorded when the input was read (a hard link, a moved file)."""
+    given = guarded if isinstance(guarded, InputFile) else input_file(guarded, record=False)
+    if Path(os.path.abspath(target)) == given.path:
+        return True
+    if Path(os.path.realpath(target)) == Path(os.path.realpath(given.path)):
+        return True
+    try:
+        info = os.stat(target)
+    except OSError:
+        return False
+    if given.key is not None and (info.st_dev, info.st_ino) == given.key:
+        return True
+    return _same_file(target, given.path)
+
+
+def check_not_input(
+    target: PathSpec, inputs: PathSpec | InputFile | Iterable[PathSpec | InputFile] | None
+) -> None:
+    """The one rule of every writer: refuse (ParameterError, before anything is written)
+    an output that is one of the ``inputs`` by any alias (see :func:`_names_input`).
+    Inputs are paths, or :class:`InputFile` records made when they were read (so a later
+    ``os.chdir`` cannot make a relative output path miss them)."""
+    if inputs is None:
         return
-    paths = [protect] if isinstance(protect, str | os.PathLike) else list(protect)
-    for guarded in paths:
-        if _same_file(target, Path(guarded)):
+    single = isinstance(inputs, str | os.PathLike | InputFile)
+    guarded_all = [inputs] if single else list(inputs)  # type: ignore[list-item]
+    out = Path(target)
+    for guarded in guarded_all:
+        if _names_input(out, guarded):
+            shown = guarded.path if isinstance(guarded, InputFile) else guarded
             raise ParameterError(
-                f"refusing to write {target}: it is the input file {guarded}; choose another"
-                " output path"
+                f"refusing to write {out}: it is the input file {shown}; choose another output path"
             )
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+def inputs_of(mesh: Any) -> list[InputFile]:
+    """The files a mesh was made from (a Surface's scan file), for :func:`check_not_input`."""
+    scan = getattr(mesh, "scan", None)
+    recorded = getattr(scan, "source_file", None)
+    if isinstance(recorded, InputFile):
+        return [recorded]
+    source = getattr(scan, "source", None)
+    return [] if source is None else [input_file(source)]
 
 
-#: Permissions of new files: what ``open()`` would give (0o666 less the process umask);
-#: ``mkstemp`` alone would leave every output readable by its owner only.
-FILE_MODE = 0o666 & ~_umask()
+def refuse_remote(text: PathSpec, flag: str) -> None:
+    """Refuse a remote URL (``s3://bucket/x.stl``) given for ``flag``: outputs are files."""
+    if _URL.match(os.fspath(text)):
+        raise ParameterError(
+            f"{flag} {os.fspath(text)!r}: remote URLs are not supported; give a local path"
+            " (or one on a mounted filesystem) and copy the file after"
+        )
+
+
+_URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*://")
 
 
 class _Terminated(BaseException):
-    """SIGTERM arrived while a temporary file was being written."""
+    """SIGTERM or SIGHUP arrived while a temporary file was being written."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
 
 
-class _TermGuard:
-    """Within the block, SIGTERM raises ``_Terminated`` (so the temporary is removed) when
-    the process would otherwise die at once (default handler, main thread); on leaving by
-    ``_Terminated`` the default action is taken again, so the process still ends by SIGTERM."""
+#: Signals that end the process by default and that a writer turns into cleanup first.
+TERMINATING: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
 
-    def __enter__(self) -> _TermGuard:
-        self.active = (
-            threading.current_thread() is threading.main_thread()
-            and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
-        )
-        if self.active:
-            signal.signal(signal.SIGTERM, self._raise)
+
+class TermGuard:
+    """Within the block, SIGTERM and SIGHUP raise ``_Terminated`` (so temporaries are
+    removed) when the process would otherwise die at once (default handler, main thread);
+    on leaving by ``_Terminated`` the default action is taken again, so the process still
+    ends by that signal."""
+
+    def __enter__(self) -> TermGuard:
+        self.active: list[signal.Signals] = []
+        if threading.current_thread() is threading.main_thread():
+            self.active = [s for s in TERMINATING if signal.getsignal(s) is signal.SIG_DFL]
+        for signum in self.active:
+            signal.signal(signum, self._raise)
         return self
 
     @staticmethod
     def _raise(signum: int, frame: Any) -> None:
-        raise _Terminated
+        raise _Terminated(signum)
 
-    def __exit__(self, kind: type | None, *rest: object) -> None:
-        if self.active:
-            signal.signal(signal.SIGTERM, signal.SIG_DFL)
-            if kind is _Terminated:
-                os.kill(os.getpid(), signal.SIGTERM)
+    def __exit__(self, kind: type | None, error: BaseException | None, *rest: object) -> None:
+        for signum in self.active:
+            signal.signal(signum, signal.SIG_DFL)
+        if isinstance(error, _Terminated):
+            os.kill(os.getpid(), error.signum)
+
+
+#: Bytes a temporary's name adds to its stem: ``.<pid>-<12 hex>.part`` and a margin.
+TEMP_RESERVE: int = 32
+
+#: When this module was imported: a temporary last written before then is no writer's of
+#: this process.
+_STARTED: float = time.time()
+
+_TEMP_MIDDLE = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
+
+
+def temporary_stem(final: Path) -> str:
+    """What every temporary of ``final`` starts with: ``.<name>``, or, when a temporary
+    name would exceed the folder's NAME_MAX, ``.<start of name>~<hash of name>``."""
+    folder = final.parent if str(final.parent) else Path(".")
+    raw = os.fsencode(final.name)
+    limit = _name_max(folder) - TEMP_RESERVE
+    if len(raw) + 1 <= limit:
+        return f".{final.name}"
+    digest = hashlib.sha256(raw).hexdigest()[:16]
+    head = raw[: max(limit - len(digest) - 2, 0)].decode("utf-8", "ignore")
+    return f".{head}~{digest}"
+
+
+def temporary_name(final: Path) -> Path:
+    """A new temporary's path beside ``final``: ``<stem>.<pid>-<random>.part``."""
+    return final.parent / f"{temporary_stem(final)}.{os.getpid()}-{secrets.token_hex(6)}.part"
+
+
+def create_temporary(final: Path) -> tuple[int, Path]:
+    """Create a temporary for ``final`` (its descriptor, open for writing, and path).
+
+    A new output gets what ``open()`` would give (0o666 less the umask current now: the
+    kernel applies it, the process umask is never touched); a replaced file's mode, and
+    its owner and group where permitted, are copied onto the temporary."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+    for _ in range(100):
+        tmp = temporary_name(final)
+        try:
+            fd = os.open(tmp, flags, 0o666)
+            break
+        except FileExistsError:
+            continue
+    else:
+        raise FileExistsError(f"cannot create a temporary beside {final}")
+    try:
+        _keep_attributes(fd, final)
+    except BaseException:
+        os.close(fd)
+        tmp.unlink(missing_ok=True)
+        raise
+    return fd, tmp
+
+
+def _keep_attributes(fd: int, final: Path) -> None:
+    """Give the temporary ``fd`` the mode, owner and group of the file it will replace."""
+    try:
+        old = os.stat(final)
+    except OSError:
+        return
+    if not stat.S_ISREG(old.st_mode):
+        return
+    mine = os.fstat(fd)
+    if (mine.st_uid, mine.st_gid) != (old.st_uid, old.st_gid):
+        try:  # root can give the file back to its owner; others keep the group if theirs
+            os.fchown(fd, old.st_uid, old.st_gid)
+        except PermissionError:
+            with contextlib.suppress(PermissionError):
+                os.fchown(fd, -1, old.st_gid)
+    os.fchmod(fd, stat.S_IMODE(old.st_mode))  # after chown, which may clear set-id bits
+
+
+def remove_stale_temporaries(final: Path) -> None:
+    """Remove temporaries of ``final`` (named as :func:`temporary_name` names them, or as
+    earlier versions did: ``.<name>.<one word>.part``) last written before this process
+    started and not held by a live process of this host: left by a killed writer."""
+    folder = final.parent if str(final.parent) else Path(".")
+    stem = temporary_stem(final) + "."
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return
+    for entry in entries:
+        name = entry.name
+        if not (name.startswith(stem) and name.endswith(".part")):
+            continue
+        middle = name[len(stem) : -len(".part")]
+        if not _TEMP_MIDDLE.match(middle):
+            continue  # another output's temporary (``a.ply`` against ``a.ply.b.ply``)
+        with contextlib.suppress(OSError):
+            if not entry.is_file(follow_symlinks=False) or entry.stat().st_mtime >= _STARTED:
+                continue
+            pid = middle.split("-", 1)[0]
+            if "-" in middle and pid.isdigit() and _alive(int(pid)):
+                continue
+            os.unlink(entry.path)
+
+
+def _alive(pid: int) -> bool:
+    """True when another process ``pid`` runs on this host (or may: not ours to signal);
+    False for this process's pid (a temporary written before it started: a reused pid)."""
+    if pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
 
 
 def _direct_target(target: Path) -> bool:
@@ -122,12 +291,19 @@ def _direct_target(target: Path) -> bool:
     return False
 
 
-def write_atomic(path: PathSpec, chunks: Iterable[bytes | memoryview]) -> Path:
+def write_atomic(
+    path: PathSpec,
+    chunks: Iterable[bytes | memoryview],
+    *,
+    protect: PathSpec | InputFile | Iterable[PathSpec | InputFile] | None = None,
+) -> Path:
     """Write byte chunks to ``path`` by the writer rule of this module (atomic replace for
     regular files, in place for devices, FIFOs and pipes).
 
     Chunks may be any C-contiguous buffer (bytes, a memoryview of a numpy array), written
-    as they are, without a copy.
+    as they are, without a copy. ``protect``: the inputs ``path`` must not be
+    (:func:`check_not_input`). A replaced file keeps its mode (and owner where permitted);
+    stale temporaries of ``path`` are removed (:func:`remove_stale_temporaries`).
 
     Returns
     -------
@@ -135,17 +311,16 @@ def write_atomic(path: PathSpec, chunks: Iterable[bytes | memoryview]) -> Path:
         ``path``.
     """
     target = Path(path)
+    check_not_input(target, protect)
     if _direct_target(target):
         with open(target, "wb") as handle:
             for chunk in chunks:
                 handle.write(chunk)
         return target
     final = target.resolve() if target.is_symlink() and target.exists() else target
-    folder = final.parent if str(final.parent) else Path(".")
-    with _TermGuard():
-        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".part", dir=folder)
+    with TermGuard():
+        fd, tmp = create_temporary(final)
         try:
-            os.chmod(tmp, FILE_MODE)
             with os.fdopen(fd, "wb") as handle:
                 for chunk in chunks:
                     handle.write(chunk)
@@ -153,8 +328,9 @@ def write_atomic(path: PathSpec, chunks: Iterable[bytes | memoryview]) -> Path:
                 os.fsync(handle.fileno())
             os.replace(tmp, final)
         except BaseException:
-            Path(tmp).unlink(missing_ok=True)
+            tmp.unlink(missing_ok=True)
             raise
+    remove_stale_temporaries(final)
     return target
 
 
@@ -178,7 +354,7 @@ def save_mesh(
     faces: np.ndarray,
     *,
     normals: bool | ArrayLike = False,
-    protect: PathSpec | Iterable[PathSpec] | None = None,
+    protect: PathSpec | InputFile | Iterable[PathSpec | InputFile] | None = None,
     progress: Progress = False,
 ) -> Path:
     """Write a triangle mesh in the format of the file ending (.stl binary, .ply binary,
@@ -214,7 +390,7 @@ def save_mesh(
         raise ParameterError(
             f"cannot write {target}: unknown ending {target.suffix!r}; use one of {sorted(FORMATS)}"
         )
-    _check_protected(target, protect)
+    check_not_input(target, protect)
     verts = np.asarray(vertices, dtype=np.float64)
     tris = np.asarray(faces)
     if verts.ndim != 2 or verts.shape[1] != 3 or tris.ndim != 2 or tris.shape[1] != 3:
@@ -249,7 +425,7 @@ def write_points(
     line_ids: ArrayLike | None = None,
     *,
     up: ArrayLike | None = None,
-    protect: PathSpec | Iterable[PathSpec] | None = None,
+    protect: PathSpec | InputFile | Iterable[PathSpec | InputFile] | None = None,
 ) -> Path:
     """Write points as XYZ text: a header row naming the columns (``x y z`` or
     ``x y z line``), then one row per point, by the writer rule of :func:`write_atomic`.
@@ -304,6 +480,6 @@ def write_points(
         direction = np.asarray(up, dtype=np.float64)
         if direction.shape != (3,) or not np.isfinite(direction).all() or not direction.any():
             raise ParameterError(f"up must be a non-zero finite 3-vector, got {up!r}")
-    _check_protected(target, protect)
+    check_not_input(target, protect)
     blocks: Iterator[bytes] = xyz_rows(pts, ids, POINTS_PER_BLOCK, direction)
     return write_atomic(target, blocks)

@@ -30,7 +30,7 @@ from scanmesh._extras import require
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.evaluate.digitizer import cast_grid
 from scanmesh.evaluate.truth import TrueSurface
-from scanmesh.formats.write import write_atomic
+from scanmesh.formats.write import inputs_of, write_atomic
 from scanmesh.measures import quality
 from scanmesh.scan.axes import AxisSpec, parse_axis
 
@@ -375,7 +375,7 @@ def render_mesh(
     image = shade_mesh(
         mesh, size=size, view=view, up=up, wire=wire, color=color, supersample=supersample
     )
-    return write_atomic(target, [png_bytes(image)])
+    return write_atomic(target, [png_bytes(image)], protect=inputs_of(mesh))
 
 
 def png_bytes(image: np.ndarray) -> bytes:

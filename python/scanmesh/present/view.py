@@ -26,7 +26,7 @@ import numpy as np
 
 from scanmesh._interrupt import import_interruptibly
 from scanmesh.errors import InvalidMeshError, MissingExtraError, ParameterError
-from scanmesh.formats.write import write_atomic
+from scanmesh.formats.write import inputs_of, write_atomic
 from scanmesh.present.render import (
     AMBIENT,
     COLOR,
@@ -263,7 +263,9 @@ def save_html(mesh: Any, path: str | os.PathLike, **options: Any) -> Path:
     if target.suffix.lower() not in (".html", ".htm"):
         raise ParameterError(f"an HTML view is written to .html: {target} ends otherwise")
     options.setdefault("title", Path(target).stem)
-    return write_atomic(target, [html_page(mesh, **options).encode("utf-8")])
+    return write_atomic(
+        target, [html_page(mesh, **options).encode("utf-8")], protect=inputs_of(mesh)
+    )
 
 
 def save_glb(
@@ -296,7 +298,7 @@ def save_glb(
     rgba[:, :3] = np.repeat(np.clip(np.rint(np.asarray(rgb) * 255), 0, 255), 3, axis=0)
     flat.visual.vertex_colors = rgba
     data = trimesh.exchange.gltf.export_glb(flat, include_normals=True)
-    return write_atomic(target, [data])
+    return write_atomic(target, [data], protect=inputs_of(mesh))
 
 
 def notebook_html(mesh: Any, **options: Any) -> str | None:

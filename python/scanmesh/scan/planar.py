@@ -27,8 +27,9 @@ from scanmesh._checks import as_line_ids, as_points
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.formats import ScanPoints, read
+from scanmesh.formats._source import InputFile, input_file
 from scanmesh.scan.plane_choice import PlaneChoice, choose_plane
-from scanmesh.scan.projection import Frame, PlaneSpec, plane_args, project_checked
+from scanmesh.scan.projection import Frame, PlaneSpec, check_span, plane_args, project_checked
 
 _T = TypeVar("_T")
 
@@ -87,6 +88,8 @@ class PlanarScan:
     #: seconds spent reading ("read", files only), choosing the plane ("plane", for
     #: ``plane=None``) and checking and projecting ("project")
     timings: dict[str, float] = field(default_factory=dict)
+    #: ``source`` as it was when read (absolute path, device and inode): writers refuse it
+    source_file: InputFile | None = None
     #: values derived from the scan, by key (:meth:`once`); not part of the scan's identity
     _derived: dict[Hashable, Any] = field(
         default_factory=dict, init=False, repr=False, compare=False
@@ -176,6 +179,7 @@ def planar_scan(
     if isinstance(source, (str, os.PathLike)):
         t0 = time.perf_counter()
         path = Path(source)
+        recorded = input_file(path)
         scan = read_scan_file(path, progress, read_options or {})
         seconds = time.perf_counter() - t0
         ids = scan.line_ids if lines is None else lines
@@ -189,6 +193,7 @@ def planar_scan(
             source=path,
             choice=made.choice,
             timings={"read": seconds, **made.timings},
+            source_file=recorded,
         )
     if read_options:
         raise ParameterError(
@@ -233,6 +238,7 @@ def as_scan(
     choice = None
     timings = {}
     if plane is None:
+        check_span(pts)  # before the plane is fitted to the points' differences
         choice = choose_plane(pts, up)
         plane = choice.spec
         timings["plane"] = time.perf_counter() - t0

@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_points
-from scanmesh.errors import ParameterError
+from scanmesh.errors import DegenerateInputError, ParameterError
 
 #: The named planes: the least-squares plane and the three axes.
 PLANE_NAMES = ("best-fit", "x", "y", "z")
@@ -59,8 +59,24 @@ def project(points: ArrayLike, plane: PlaneSpec = None) -> tuple[np.ndarray, Fra
 def project_checked(points: np.ndarray, plane: PlaneSpec) -> tuple[np.ndarray, Frame]:
     """:func:`project` of points already checked by ``as_points`` (no second check)."""
     name, normal = plane_args(plane)
+    check_span(points)
     uv, frame = _core.project(points, name, normal)
+    if not np.isfinite(uv).all():  # the plane's coordinates of far points can overflow
+        raise DegenerateInputError(_TOO_LARGE)
     return uv, Frame(*frame)
+
+
+_TOO_LARGE = (
+    "the points' coordinates are too large for float64 arithmetic: their differences"
+    " overflow (magnitudes near 1.7e308); rescale or shift the points"
+)
+
+
+def check_span(points: np.ndarray) -> None:
+    """Refuse (DegenerateInputError) finite points whose differences overflow float64: the
+    plane, the projection and every measure work on differences. O(N)."""
+    if len(points) and not np.isfinite(points.max(axis=0) - points.min(axis=0)).all():
+        raise DegenerateInputError(_TOO_LARGE)
 
 
 def plane_args(plane: PlaneSpec) -> tuple[str | None, np.ndarray | None]:
@@ -92,4 +108,9 @@ def plane_args(plane: PlaneSpec) -> tuple[str | None, np.ndarray | None]:
     normal = np.ascontiguousarray(normal, dtype=np.float64)
     if not np.all(np.isfinite(normal)) or not np.any(normal):
         raise ParameterError(f"plane normal must be finite and non-zero, got {shown}")
+    big = float(np.abs(normal).max())
+    if not 1e-100 <= big <= 1e100:
+        # scaled by its largest component, so its length neither underflows to 0 (1e-200)
+        # nor overflows; normals of ordinary size are passed as given (same frame)
+        normal = normal / big
     return None, normal

@@ -1,0 +1,32 @@
+"""Readers take time linear in their input: a hostile wide row is refused at once."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+import scanmesh
+from scanmesh.errors import FileFormatError
+
+
+def _refuse_seconds(path, n_values: int) -> float:
+    """Seconds ``scanmesh.read`` takes to refuse a file whose rows hold ``n_values`` values."""
+    row = " ".join(["1.5"] * n_values)
+    path.write_text(f"{row}\n{row}\n")
+    t0 = time.perf_counter()
+    with pytest.raises(FileFormatError, match="line 1"):
+        scanmesh.read(path)
+    return time.perf_counter() - t0
+
+
+def test_wide_first_row_is_refused_quickly(tmp_path):
+    # a list membership test per column made this quadratic: 100,000 values took 36 s
+    assert _refuse_seconds(tmp_path / "wide.xyz", 100_000) < 5.0
+
+
+def test_wide_row_refusal_is_linear(tmp_path):
+    small = min(_refuse_seconds(tmp_path / "small.xyz", 20_000) for _ in range(3))
+    large = min(_refuse_seconds(tmp_path / "large.xyz", 80_000) for _ in range(3))
+    # linear: 4 times the values take about 4 times as long (quadratic: 16 times)
+    assert large < 8 * small + 0.05
