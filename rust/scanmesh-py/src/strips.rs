@@ -60,6 +60,10 @@ pub(crate) fn scan_segments<'py>(
     ))
 }
 
+/// A scan's context as Python passes it: (lo, hi) its 3-D bounding box, its largest
+/// |planar coordinate|, its median planar step, whether its first line runs against it.
+type Context = ([f64; 3], [f64; 3], f64, f64, bool);
+
 /// Strips between consecutive scan lines as one mesh over `points` (N, 3), with planar
 /// positions `uv` (N, 2) and a line id per point. `weight` = (length, area, angle,
 /// dihedral) coefficients; `method` "shortest-path" (with `solver` "banded", "dp" or
@@ -87,7 +91,7 @@ pub(crate) fn strip_mesh<'py>(
     gap_factor: f64,
     check: bool,
     jump_factor: f64,
-    context: Option<([f64; 3], [f64; 3], f64, f64, bool)>,
+    context: Option<Context>,
 ) -> PyResult<StripResult> {
     let params = strip_params(weight, method, alpha, solver, band, check, jump_factor)?;
     let context = context.map(|(lo, hi, largest, median_step, first_turned)| ScanContext {
