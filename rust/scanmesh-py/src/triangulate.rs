@@ -119,12 +119,13 @@ pub(crate) fn delaunay_trimmed<'py>(
 /// Median nearest-neighbour spacing of (N, 2) points along the edges of `faces`.
 #[pyfunction]
 pub(crate) fn median_spacing(
+    py: Python<'_>,
     uv: PyReadonlyArray2<'_, f64>,
     faces_: PyReadonlyArray2<'_, i64>,
 ) -> PyResult<f64> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    Ok(scanmesh_core::median_spacing(&pts, &t))
+    Ok(py.detach(|| scanmesh_core::median_spacing(&pts, &t)))
 }
 
 /// Drops faces whose longest planar edge exceeds `max_edge` and, given the (N, 3) `points`,
