@@ -199,10 +199,10 @@ def run_case(seed: int, caller_plane: bool = False) -> str | None:
         ).split()
 
         def anneal() -> np.ndarray:
-            run = _core.Annealer(pts, uv, faces, **{k: o[k] for k in keys})
+            run = _core.Annealer(pts, uv, faces, _core.AnnealParams(**{k: o[k] for k in keys}))
             while not run.done:
                 run.advance(10_000, 1.0)
-            return run.finish()[0]
+            return run.finish().faces
 
         out, finding, refused = _stage("anneal", anneal)
     else:

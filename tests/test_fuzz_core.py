@@ -61,9 +61,7 @@ def test_the_independent_check_catches_what_validate_catches() -> None:
 def _annealer(points: np.ndarray, **options: int) -> _core.Annealer:
     uv, _ = _core.project(points, "z")
     faces, _ = _core.delaunay(uv)
-    params = dict(_core.ANNEAL_DEFAULTS, seed=1)
-    params.update(options)
-    return _core.Annealer(points, uv, faces, **params)
+    return _core.Annealer(points, uv, faces, _core.AnnealParams(**{"seed": 1, **options}))
 
 
 def _bumpy(n: int) -> np.ndarray:
@@ -96,7 +94,7 @@ def test_stripes_too_narrow_for_an_edge_still_end() -> None:
             run = _annealer(_bumpy(n), tiles=tiles, sweeps=300, chains=1, patience=0)
             while not run.done:
                 run.advance(10_000, 1.0)
-            faces, trace, summary = run.finish()
+            trace = run.finish().trace
             assert len(trace) == 300, len(trace)
         print("ended")
         """

@@ -380,18 +380,18 @@ def test_native_chunk_parser_matches_the_numpy_reference(comma):
     for _ in range(20):
         data = random_table_text(rng, comma)
         native = _core.parse_text_table(data, 0, len(data), 4, "," if comma else None)
-        assert native[4] is None
+        assert native.problem is None
         ref = numpy_chunk(Path("t"), data, 0, len(data), 4, comma, 1, 1)
-        np.testing.assert_array_equal(native[0], ref[0])
-        np.testing.assert_array_equal(native[1], ref[1])
-        np.testing.assert_array_equal(native[2], ref[2])
-        assert native[3] == ref[3]
+        np.testing.assert_array_equal(native.values, ref[0])
+        np.testing.assert_array_equal(native.row_lines, ref[1])
+        np.testing.assert_array_equal(native.blank_lines, ref[2])
+        assert native.n_lines == ref[3]
         # any range of whole lines parses alone like the whole
         cut = data.find(b"\n", len(data) // 2) + 1
         if 0 < cut < len(data):
             head = _core.parse_text_table(data, 0, cut, 4, "," if comma else None)
             tail = _core.parse_text_table(data, cut, len(data), 4, "," if comma else None)
-            np.testing.assert_array_equal(np.concatenate([head[0], tail[0]]), native[0])
+            np.testing.assert_array_equal(np.concatenate([head.values, tail.values]), native.values)
 
 
 @pytest.mark.parametrize(
@@ -415,7 +415,7 @@ def test_native_chunk_parser_refuses_what_the_reference_refuses(line, comma):
 
     sep = "," if comma else " "
     data = f"1{sep}2{sep}3{sep}4\n{line}\n".encode()
-    *_, problem = _core.parse_text_table(data, 0, len(data), 4, "," if comma else None)
+    problem = _core.parse_text_table(data, 0, len(data), 4, "," if comma else None).problem
     with pytest.raises(FileFormatError, match=r"t, line 2:") as info:
         numpy_chunk(Path("t"), data, 0, len(data), 4, comma, 1, 1)
     assert problem is not None and problem[0] == 1

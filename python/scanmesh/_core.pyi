@@ -19,7 +19,6 @@ __all__ = [
     "DEFAULT_HOLE_FACTOR",
     "DEFAULT_JUMP_FACTOR",
     "DEFAULT_MAX_EDGE_FACTOR",
-    "ANNEAL_DEFAULTS",
     "project",
     "delaunay",
     "delaunay_trimmed",
@@ -40,7 +39,13 @@ __all__ = [
     "lop",
     "parse_text_table",
     "stl_records",
+    "AnnealParams",
     "Annealer",
+    "StripResult",
+    "AnnealOutcome",
+    "TrimmedDelaunay",
+    "CheapestFans",
+    "TextTable",
 ]
 
 class ScanmeshError(ValueError): ...
@@ -67,13 +72,7 @@ def delaunay_trimmed(
     points: npt.NDArray[np.float64],
     max_edge: float | None = None,
     jump_factor: float = ...,
-) -> tuple[
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-    float,
-    tuple[float, float],
-]: ...
+) -> TrimmedDelaunay: ...
 def median_spacing(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> float: ...
 def trim_long_edges(
     uv: npt.NDArray[np.float64],
@@ -104,25 +103,24 @@ def cheapest_fans(
     c: npt.NDArray[np.float64],
     vertices: npt.NDArray[np.int64],
     w: npt.NDArray[np.float64],
-) -> tuple[
-    npt.NDArray[np.float64],
-    npt.NDArray[np.int64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-]: ...
-
-ANNEAL_DEFAULTS: dict[str, int | float | bool]
+) -> CheapestFans: ...
 
 def lop(
     points: npt.NDArray[np.float64],
     uv: npt.NDArray[np.float64],
     faces_: npt.NDArray[np.int64],
     criterion: str,
-    p: float = 1.0,
-    sliver_guard: bool = True,
-    tie_tolerance: float = 1e-10,
+    p: float = ...,
+    sliver_guard: bool = ...,
+    tie_tolerance: float = ...,
 ) -> tuple[npt.NDArray[np.int64], int]: ...
+
+@final
+class AnnealParams:
+    """The core's annealing parameters: its defaults with the given keywords replaced."""
+
+    def __new__(cls, **params: int | float | bool) -> AnnealParams: ...
+    def as_dict(self) -> dict[str, int | float | bool]: ...
 
 @final
 class Annealer:
@@ -131,20 +129,7 @@ class Annealer:
         points: npt.NDArray[np.float64],
         uv: npt.NDArray[np.float64],
         faces: npt.NDArray[np.int64],
-        *,
-        sweeps: int,
-        p: float,
-        seed: int,
-        initial_acceptance: float,
-        final_temperature_ratio: float,
-        patience: int,
-        sliver_guard: bool,
-        tie_tolerance: float,
-        planar_ties: bool,
-        polish: bool,
-        calibration_samples: int,
-        chains: int,
-        tiles: int,
+        params: AnnealParams,
     ) -> Annealer: ...
     def advance(self, max_proposals: int, max_seconds: float) -> int: ...
     @property
@@ -157,11 +142,32 @@ class Annealer:
     def sweeps_done(self) -> int: ...
     @property
     def energy(self) -> float: ...
-    def finish(
-        self,
-    ) -> tuple[
-        npt.NDArray[np.int64], npt.NDArray[np.float64], dict[str, float | int | bool | list[float]]
-    ]: ...
+    def finish(self) -> AnnealOutcome: ...
+
+@final
+class AnnealOutcome:
+    @property
+    def faces(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def trace(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def initial_energy(self) -> float: ...
+    @property
+    def energy(self) -> float: ...
+    @property
+    def initial_temperature(self) -> float: ...
+    @property
+    def polish_flips(self) -> int: ...
+    @property
+    def proposals(self) -> int: ...
+    @property
+    def stopped(self) -> str: ...
+    @property
+    def chains(self) -> int: ...
+    @property
+    def best_chain(self) -> int: ...
+    @property
+    def chain_energies(self) -> list[float]: ...
 
 DEFAULT_GAP_FACTOR: float
 DEFAULT_BAND: int
@@ -183,27 +189,72 @@ def strip_mesh(
     check: bool = True,
     jump_factor: float = ...,
     context: tuple[Sequence[float], Sequence[float], float, float, bool] | None = None,
-) -> tuple[
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-    int,
-    float,
-    str | None,
-    int,
-    int,
-    npt.NDArray[np.int64],
-    float,
-]: ...
+) -> StripResult: ...
+
+@final
+class StripResult:
+    @property
+    def faces(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def unused(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def duplicates(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def n_strips(self) -> int: ...
+    @property
+    def cost(self) -> float: ...
+    @property
+    def planar_error(self) -> str | None: ...
+    @property
+    def dropped_jumps(self) -> int: ...
+    @property
+    def dropped_overlaps(self) -> int: ...
+    @property
+    def trimmed(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def signed_area(self) -> float: ...
 def parse_text_table(
     data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None
-) -> tuple[
-    npt.NDArray[np.float64],
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-    int,
-    tuple[int, int, str] | None,
-]: ...
+) -> TextTable: ...
+
+@final
+class TextTable:
+    @property
+    def values(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def row_lines(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def blank_lines(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def n_lines(self) -> int: ...
+    @property
+    def problem(self) -> tuple[int, int, str] | None: ...
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.uint8]: ...
+
+@final
+class TrimmedDelaunay:
+    @property
+    def faces(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def duplicate_of(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def trimmed(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def max_edge(self) -> float: ...
+    @property
+    def seconds(self) -> tuple[float, float]: ...
+
+@final
+class CheapestFans:
+    @property
+    def lower_bounds(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def owner(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def values(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def fans(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def offsets(self) -> npt.NDArray[np.int64]: ...

@@ -224,9 +224,9 @@ def optimize_piece(
     else:
         # time_limit bounds each tile's pass (the tiles of a pass run side by side)
         native = {k: v for k, v in params.items() if k != "time_limit"}
-        runner = _core.Annealer(pts, puv, local, seed=seed, **native)
+        runner = _core.Annealer(pts, puv, local, _core.AnnealParams(seed=seed, **native))
         drive(runner, 0, False, params.get("time_limit"))
-        done, _, _ = runner.finish()
+        done = runner.finish().faces
     return np.concatenate([faces[~take], used[done]])
 
 

@@ -174,9 +174,9 @@ def parse_rows(
         if end < stop:
             nl = data.find(b"\n", end - 1, stop)
             end = stop if nl < 0 else nl + 1
-        flat, rows, blank, n_lines, problem = _core.parse_text_table(
-            data, pos, end, ncols, delimiter
-        )
+        table = _core.parse_text_table(data, pos, end, ncols, delimiter)
+        flat, rows, blank, n_lines = table.values, table.row_lines, table.blank_lines, table.n_lines
+        problem = table.problem
         if problem is not None:
             raise_problem(path, data, pos, problem, expected, delimiter, context)
         need = n_rows + len(rows)
@@ -220,7 +220,8 @@ def parse_rows(
 def parse_free(path: Path, data: bytes, start: int, stop: int, context: str) -> np.ndarray:
     """Every number in ``data[start:stop]`` (whitespace-separated, any number per line), as
     one (V,) float64 array; raises naming the first token that is not a number."""
-    flat, _, _, _, problem = _core.parse_text_table(data, start, stop, 0, None)
+    table = _core.parse_text_table(data, start, stop, 0, None)
+    flat, problem = table.values, table.problem
     if problem is not None:
         raise_problem(path, data, start, problem, "numbers", None, context)
     return flat.reshape(-1)

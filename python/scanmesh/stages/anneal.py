@@ -13,6 +13,7 @@ from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage, accepts, anneal_progress
 from scanmesh.scan.noise import noise_tolerance
 from scanmesh.stages.options import (
+    CORE_ANNEAL_DEFAULTS,
     P_OPTION,
     SEED_OPTION,
     SLIVER_GUARD_OPTION,
@@ -21,8 +22,14 @@ from scanmesh.stages.options import (
 )
 from scanmesh.surface import Surface
 
+#: The core's annealing parameters handled in Python instead: ``seed`` is the shared keyword
+#: (:data:`SEED_OPTION`, None: 0), passed apart from the schedule.
+PYTHON_HANDLED: frozenset[str] = frozenset({"seed"})
+
 #: Defaults of the annealing schedule, read from the Rust core (one source of truth).
-ANNEAL_DEFAULTS: dict[str, Any] = dict(_core.ANNEAL_DEFAULTS)
+ANNEAL_DEFAULTS: dict[str, Any] = {
+    k: v for k, v in CORE_ANNEAL_DEFAULTS.items() if k not in PYTHON_HANDLED
+}
 
 #: Most tiles per chain (the core's limit).
 MAX_TILES: int = 64
@@ -42,6 +49,19 @@ TRACE_COLUMNS = ("temperature", "energy", "best", "acceptance")
 #: left ("exhausted": no flip could lower the energy by more than a tie, so more sweeps
 #: could not change the result; also when there was none to begin with).
 STOP_REASONS = ("time_limit", "patience", "sweeps", "exhausted")
+
+#: What a run's ``options`` take from the core's ``AnnealOutcome``, in this order.
+SUMMARY = (
+    "initial_energy",
+    "energy",
+    "initial_temperature",
+    "polish_flips",
+    "proposals",
+    "stopped",
+    "chains",
+    "best_chain",
+    "chain_energies",
+)
 
 
 #: Most chains one run may ask for (automatic runs use at most 128): each holds a copy of
@@ -330,18 +350,21 @@ def anneal_surface(
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
             n,
-            lambda: _core.Annealer(scan.points, scan.uv, start.faces, seed=seed_value, **params),
+            lambda: _core.Annealer(
+                scan.points, scan.uv, start.faces, _core.AnnealParams(seed=seed_value, **params)
+            ),
         )
     total = runner.chains * params["sweeps"]
     stopped = drive(runner, total, anneal_progress(progress), time_limit)
     with Stage(progress, "polish", len(start.faces), blocking=True):
-        faces, trace, summary = interruptible(n, runner.finish)
+        outcome = interruptible(n, runner.finish)
     if stopped is None:
-        stopped = summary["stopped"]
+        stopped = outcome.stopped
+    summary = {name: getattr(outcome, name) for name in SUMMARY}
     elapsed = time.perf_counter() - t0
     return Surface(
         vertices=scan.points,
-        faces=faces,
+        faces=outcome.faces,
         method="anneal",
         options={
             **start.options,
@@ -356,6 +379,6 @@ def anneal_surface(
         scan=scan,
         duplicates=start.duplicates,
         timings={**start.timings, "anneal": elapsed},
-        trace={name: trace[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)},
+        trace={name: outcome.trace[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)},
         line_ids=start.line_ids,
     )

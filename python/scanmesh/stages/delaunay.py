@@ -80,9 +80,9 @@ def delaunay(
     # Trimmed at max_edge=inf too: trimming also peels the numerically collinear slivers
     # that close straight stretches of the hull.
     with Stage(progress, "delaunay", len(pts), blocking=True):
-        faces, duplicate_of, trimmed, limit, (triangulate, trim) = interruptible(
-            len(pts), _core.delaunay_trimmed, uv, pts, max_edge, JUMP_FACTOR
-        )
+        result = interruptible(len(pts), _core.delaunay_trimmed, uv, pts, max_edge, JUMP_FACTOR)
+        faces, duplicate_of, trimmed = result.faces, result.duplicate_of, result.trimmed
+        limit, (triangulate, trim) = result.max_edge, result.seconds
     with Stage(progress, "trim", len(faces), blocking=True):
         pass
     if len(faces) == 0:

@@ -345,9 +345,8 @@ def _fan_cuts(
         for k, (lk, cv, wt) in enumerate(trials):
             price = np.zeros(tri.shape)
             price[ct, ck] = lk
-            lows, owner, _, flat, offsets = _core.cheapest_fans(
-                uv, tri, geo.dev, price, geo.interior, wt
-            )
+            fans = _core.cheapest_fans(uv, tri, geo.dev, price, geo.interior, wt)
+            lows, owner, flat, offsets = fans.lower_bounds, fans.owner, fans.fans, fans.offsets
             if k == 0:
                 # Lagrangian bound: the master value plus each vertex's least reduced cost.
                 bound = res.fun + float(np.minimum(lows - cv, 0.0).sum())

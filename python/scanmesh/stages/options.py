@@ -40,22 +40,29 @@ MAX_EDGE_OPTION = Option(
 )
 
 
-#: Defaults shared with annealing, read from the Rust core (one source of truth).
-_CORE_DEFAULTS = dict(_core.ANNEAL_DEFAULTS)
+#: Every annealing parameter's default, by name, as the Rust core declares them
+#: (``AnnealParams``, the one declaration); LOP shares ``p``, ``sliver_guard`` and
+#: ``tie_tolerance``.
+CORE_ANNEAL_DEFAULTS: dict[str, int | float | bool] = _core.AnnealParams().as_dict()
 
 #: The tac exponent p of the energy sum tac^p (LOP and annealing).
-P_OPTION = Option("p", "float", 1.0, "exponent p of the energy sum tac^p", low=1.0)
+P_OPTION = Option(
+    "p", "float", CORE_ANNEAL_DEFAULTS["p"], "exponent p of the energy sum tac^p", low=1.0
+)
 
 #: Energy ties break toward well-shaped triangles (LOP and annealing's polish).
 SLIVER_GUARD_OPTION = Option(
-    "sliver_guard", "bool", True, "break energy ties toward the larger smallest angle"
+    "sliver_guard",
+    "bool",
+    CORE_ANNEAL_DEFAULTS["sliver_guard"],
+    "break energy ties toward the larger smallest angle",
 )
 
 #: Energy changes of at most this size are ties (LOP and annealing).
 TIE_TOLERANCE_OPTION = Option(
     "tie_tolerance",
     "float",
-    float(_CORE_DEFAULTS["tie_tolerance"]),
+    CORE_ANNEAL_DEFAULTS["tie_tolerance"],
     "energy changes of at most this size (radians^p) are ties",
     low=0.0,
 )

@@ -15,7 +15,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -197,28 +197,9 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
 }
 
 
-class SolvedStrips(NamedTuple):
-    """What the core's strip stage returns (``_core.strip_mesh``), by name."""
-
-    #: (M, 3) int64 faces, counter-clockwise in the plane
-    faces: np.ndarray
-    #: (K,) int64 points in no triangle
-    unused: np.ndarray
-    #: (D, 2) int64 (dropped point, point it coincides with)
-    duplicates: np.ndarray
-    n_strips: int
-    #: sum of the strips' path costs
-    cost: float
-    #: why the mesh is not planar-valid, or None
-    planar_error: str | None
-    #: triangles dropped at depth jumps (and the pinches that left)
-    dropped_jumps: int
-    #: triangles dropped where lines cross or fold
-    dropped_overlaps: int
-    #: (T,) int64 unused points whose every triangle was dropped
-    trimmed: np.ndarray
-    #: twice the planar signed area before the faces were turned counter-clockwise
-    signed_area: float
+#: What the core's strip stage returns (``_core.strip_mesh``): faces, unused, duplicates,
+#: n_strips, cost, planar_error, dropped_jumps, dropped_overlaps, trimmed, signed_area, by name.
+SolvedStrips = _core.StripResult
 
 
 def solve_strips(
@@ -235,23 +216,21 @@ def solve_strips(
     (:data:`OPTIONS`); ``context`` solves them as part of a larger scan
     (``_core.strip_mesh``). Time: that of the method, see :func:`strip_surface`."""
     n = max(len(points), 1)
-    return SolvedStrips(
-        *_core.strip_mesh(
-            points,
-            uv,
-            line_ids,
-            tuple(params["weight"].values()),
-            method,
-            # Depths and widths beyond the longest strip change nothing (each strip has
-            # fewer than len(points) steps): capped, so that 10**30 is not an OverflowError.
-            int(min(params.get("alpha", DEFAULT_ALPHA), n)),
-            params.get("solver", "banded"),
-            int(min(params.get("band", _core.DEFAULT_BAND), n)),
-            gap_factor,
-            params["check"],
-            params["jump_factor"],
-            context,
-        )
+    return _core.strip_mesh(
+        points,
+        uv,
+        line_ids,
+        tuple(params["weight"].values()),
+        method,
+        # Depths and widths beyond the longest strip change nothing (each strip has
+        # fewer than len(points) steps): capped, so that 10**30 is not an OverflowError.
+        int(min(params.get("alpha", DEFAULT_ALPHA), n)),
+        params.get("solver", "banded"),
+        int(min(params.get("band", _core.DEFAULT_BAND), n)),
+        gap_factor,
+        params["check"],
+        params["jump_factor"],
+        context,
     )
 
 

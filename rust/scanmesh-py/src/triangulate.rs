@@ -1,0 +1,182 @@
+//! Planar triangulation: projection, Delaunay, its trimming, the median spacing, and the
+//! check that faces form a valid triangulation (`scanmesh_core` triangulate/, projection).
+
+use crate::convert::{
+    duplicates_out, faces, faces_out, indices_out, points2, points2_view, points3_view,
+    shape_error, uv_into, Floats2, Ints1, Ints2,
+};
+use crate::results::TrimmedDelaunay;
+use crate::{to_py, ParameterError};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use scanmesh_core::glam::DVec3;
+use scanmesh_core::{check_finite, HalfEdgeMesh, Plane};
+
+/// Projects (N, 3) points onto a plane. `plane` is "best-fit", "x", "y" or "z", or None
+/// with `normal` a 3-vector. Returns (uv (N, 2), frame (4, 3): origin, u, v, normal).
+#[pyfunction]
+#[pyo3(signature = (points, plane, normal=None))]
+pub(crate) fn project<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    plane: Option<&str>,
+    normal: Option<PyReadonlyArray1<'py, f64>>,
+) -> PyResult<(Floats2<'py>, Floats2<'py>)> {
+    let pts = points3_view(&points)?;
+    let plane = match (plane, normal) {
+        (Some("best-fit"), None) => Plane::BestFit,
+        (Some("x"), None) => Plane::Axis(0),
+        (Some("y"), None) => Plane::Axis(1),
+        (Some("z"), None) => Plane::Axis(2),
+        (None, Some(n)) => {
+            let n = n.as_array();
+            if n.len() != 3 {
+                return Err(shape_error("normal", "(3,)", n.shape()));
+            }
+            Plane::Normal(DVec3::new(n[0], n[1], n[2]))
+        }
+        (p, _) => {
+            return Err(ParameterError::new_err(format!(
+                "plane must be 'best-fit', 'x', 'y', 'z' or a normal vector, got {p:?}"
+            )))
+        }
+    };
+    let p = py
+        .detach(|| scanmesh_core::project(&pts, plane))
+        .map_err(to_py)?;
+    let f = p.frame;
+    let frame: Vec<f64> = [f.origin, f.u, f.v, f.normal]
+        .iter()
+        .flat_map(|v| v.to_array())
+        .collect();
+    Ok((
+        uv_into(py, p.uv),
+        Array2::from_shape_vec((4, 3), frame)
+            .expect("4x3")
+            .into_pyarray(py),
+    ))
+}
+
+/// Delaunay triangulation of (N, 2) points. Returns (faces (M, 3) int64 counter-clockwise,
+/// duplicate_of (N,) int64: -1, or the index of the earlier identical point standing in).
+#[pyfunction]
+pub(crate) fn delaunay<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+) -> PyResult<(Ints2<'py>, Ints1<'py>)> {
+    let pts = points2(&uv)?;
+    let d = py.detach(|| scanmesh_core::delaunay(&pts)).map_err(to_py)?;
+    Ok((
+        faces_out(py, &d.triangles),
+        duplicates_out(py, &d.duplicate_of),
+    ))
+}
+
+/// Refuses a trimming length or depth-jump factor that is NaN or not positive (the core's
+/// check, run before the arrays are converted).
+pub(crate) fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> PyResult<()> {
+    scanmesh_core::check_trim_lengths(max_edge, jump_factor).map_err(to_py)
+}
+
+/// Delaunay triangulation of (N, 2) `uv` trimmed in the same call (`delaunay_trimmed` in
+/// the core): at `max_edge`, or None for DEFAULT_MAX_EDGE_FACTOR x the median spacing, and
+/// when that is finite, depth jumps on the (N, 3) `points` at `jump_factor`. Returns a
+/// `TrimmedDelaunay`: faces, duplicate_of as in `delaunay`, trimmed (K,) int64, the
+/// max_edge used, (triangulate, trim) seconds.
+#[pyfunction]
+#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::DEFAULT_JUMP_FACTOR))]
+pub(crate) fn delaunay_trimmed<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+    points: PyReadonlyArray2<'py, f64>,
+    max_edge: Option<f64>,
+    jump_factor: f64,
+) -> PyResult<TrimmedDelaunay> {
+    check_trim_lengths(max_edge.unwrap_or(1.0), jump_factor)?;
+    let pts = points2_view(&uv)?;
+    let xyz = points3_view(&points)?;
+    if xyz.len() != pts.len() {
+        return Err(ParameterError::new_err(format!(
+            "{} points for {} planar points",
+            xyz.len(),
+            pts.len()
+        )));
+    }
+    check_finite(&xyz).map_err(to_py)?;
+    let t = py
+        .detach(|| scanmesh_core::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor))
+        .map_err(to_py)?;
+    Ok(TrimmedDelaunay {
+        faces: faces_out(py, &t.triangles).unbind(),
+        duplicate_of: duplicates_out(py, &t.duplicate_of).unbind(),
+        trimmed: indices_out(py, &t.trimmed).unbind(),
+        max_edge: t.max_edge,
+        seconds: (t.seconds[0], t.seconds[1]),
+    })
+}
+
+/// Median nearest-neighbour spacing of (N, 2) points along the edges of `faces`.
+#[pyfunction]
+pub(crate) fn median_spacing(
+    py: Python<'_>,
+    uv: PyReadonlyArray2<'_, f64>,
+    faces_: PyReadonlyArray2<'_, i64>,
+) -> PyResult<f64> {
+    let pts = points2(&uv)?;
+    let t = faces(&faces_, pts.len())?;
+    Ok(py.detach(|| scanmesh_core::median_spacing(&pts, &t)))
+}
+
+/// Drops faces whose longest planar edge exceeds `max_edge` and, given the (N, 3) `points`,
+/// faces that bridge a depth jump (longest 3-D edge above `jump_factor` times the local
+/// spacing; `inf` turns it off), a gap or a hole; then peels collinear hull slivers and
+/// resolves pinches.
+#[pyfunction]
+#[pyo3(signature = (uv, faces_, max_edge, points=None, jump_factor=f64::INFINITY))]
+pub(crate) fn trim_long_edges<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArray2<'py, f64>,
+    faces_: PyReadonlyArray2<'py, i64>,
+    max_edge: f64,
+    points: Option<PyReadonlyArray2<'py, f64>>,
+    jump_factor: f64,
+) -> PyResult<Ints2<'py>> {
+    check_trim_lengths(max_edge, jump_factor)?;
+    let pts = points2(&uv)?;
+    let t = faces(&faces_, pts.len())?;
+    let xyz = points.as_ref().map(points3_view).transpose()?;
+    if let Some(p) = &xyz {
+        if p.len() != pts.len() {
+            return Err(ParameterError::new_err(format!(
+                "{} points for {} planar points",
+                p.len(),
+                pts.len()
+            )));
+        }
+        check_finite(p).map_err(to_py)?;
+    }
+    let jumps = xyz.as_deref().map(|p| scanmesh_core::DepthJumps {
+        points: p,
+        factor: jump_factor,
+        gaps: true,
+    });
+    let kept = py
+        .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge, jumps))
+        .map_err(to_py)?;
+    Ok(faces_out(py, &kept))
+}
+
+/// Checks that `faces` form a valid planar triangulation of (N, 2) points; raises
+/// InvalidMeshError naming the broken invariant.
+#[pyfunction]
+pub(crate) fn validate(
+    py: Python<'_>,
+    uv: PyReadonlyArray2<'_, f64>,
+    faces_: PyReadonlyArray2<'_, i64>,
+) -> PyResult<()> {
+    let pts = scanmesh_core::unit_square(&points2(&uv)?);
+    let t = faces(&faces_, pts.len())?;
+    py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts)))
+        .map_err(to_py)
+}
