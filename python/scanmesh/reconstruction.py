@@ -10,18 +10,20 @@ from numpy.typing import ArrayLike
 
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import NotAHeightFieldWarning
+from scanmesh.formats import ScanPoints
 from scanmesh.methods import METHODS, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
+from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 __all__ = ["reconstruct", "METHODS"]
 
 
 def reconstruct(
-    source: ArrayLike | str | os.PathLike | PlanarScan,
+    source: ArrayLike | str | os.PathLike | PlanarScan | ScanPoints,
     method: str = "anneal",
     *,
     lines: ArrayLike | None = None,
@@ -35,10 +37,12 @@ def reconstruct(
 
     Parameters
     ----------
-    source : (N, 3) float array, path or PlanarScan
+    source : (N, 3) float array, path, ScanPoints or PlanarScan
         The points, or a scan file (see :func:`scanmesh.read` for the formats; a file's scan
-        lines are used unless ``lines`` is given), or a :func:`scanmesh.planar_scan` made
-        once and reused across methods (``plane`` and ``lines`` then belong to it).
+        lines are used unless ``lines`` is given), or what :func:`scanmesh.read` returned
+        (used as the file would be: its points, line ids and recorded ``up``), or a
+        :func:`scanmesh.planar_scan` made once and reused across methods (``plane`` and
+        ``lines`` then belong to it).
     method : str
         ``"delaunay"`` (max-min angle optimum in the plane), ``"lookahead"`` and
         ``"shortest-path"`` (Fuchs-matrix strips between consecutive scan lines), ``"lop"``
@@ -113,7 +117,10 @@ def reconstruct(
     spec = find_method(method)
     params = spec.check(options, {"lines": lines, "max_edge": max_edge, "seed": seed})
     # The one place the points are read (scan.read_scan_file), checked and projected.
-    scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
+    if isinstance(source, ScanPoints):
+        scan = scan_of(source, plane=plane, lines=lines)
+    else:
+        scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
     surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
     if scan.choice is not None:
         choice = scan.choice.as_dict(scan.frame.normal)
