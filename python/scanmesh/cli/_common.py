@@ -61,12 +61,16 @@ def _check_outputs(inputs: Sequence[Path], outputs: Sequence[Path | None]) -> No
             raise ParameterError(f"cannot write {out}: folder {folder} does not exist")
 
 
-def _check_mesh_ending(path: Path) -> None:
+#: endings Surface.save writes besides the mesh formats: a 3-D view and binary glTF
+VIEW_ENDINGS = (".glb", ".htm", ".html")
 
-    if path.suffix.lower() not in FORMATS:
+
+def _check_mesh_ending(path: Path) -> None:
+    """Refuse an ending ``Surface.save`` does not write."""
+    if path.suffix.lower() not in (*FORMATS, *VIEW_ENDINGS):
         raise ParameterError(
             f"cannot write {path}: unknown ending {path.suffix!r}; use one of"
-            f" {', '.join(sorted(FORMATS))}"
+            f" {', '.join(sorted((*FORMATS, *VIEW_ENDINGS)))}"
         )
 
 

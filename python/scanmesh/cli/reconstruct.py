@@ -16,6 +16,7 @@ from scanmesh._progress import Stage
 from scanmesh.cli._args import _method_options, _read_options, _refuse_stray_flags, _shared
 from scanmesh.cli._common import (
     _background,
+    VIEW_ENDINGS,
     _check_mesh_ending,
     _check_outputs,
     _check_png,
@@ -61,7 +62,10 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     # The quality report (tac over every vertex: 4 s of CPU at 10M points) is measured
     # while the mesh is written: both release the GIL, so they overlap.
     measured = _background(lambda: _seconds(lambda: surface.quality)) if args.quality else None
-    save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
+    if out.suffix.lower() in VIEW_ENDINGS:
+        surface.save(out, progress=con.progress)
+    else:
+        save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
     t_write = time.perf_counter() - t2
     if measured is not None:
         with Stage(con.progress, "quality", len(surface.faces), blocking=True):

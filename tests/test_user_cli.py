@@ -1,0 +1,35 @@
+"""The command on the files and habits users bring: outputs Surface.save writes, a point file
+where a mesh is expected, warnings that say what to do, temporary folders cleaned up."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from test_cli import assert_failed, grid_scan, run, write_xyz
+
+
+@pytest.mark.parametrize("ending", [".glb", ".html"])
+def test_reconstruct_writes_what_surface_save_writes(tmp_path, ending):
+    points, ids = grid_scan()
+    scan = write_xyz(tmp_path / "scan.xyz", points, ids)
+    out = tmp_path / f"out{ending}"
+    result = run("reconstruct", scan, "-o", out, "--method", "delaunay", "--quiet")
+    assert result.returncode == 0, result.stderr
+    data = out.read_bytes()
+    if ending == ".glb":
+        mesh = trimesh.load(out, force="mesh")
+        assert len(mesh.faces) > 0
+        assert data[:4] == b"glTF"
+    else:
+        assert b"<html" in data[:500].lower()
+
+
+def test_reconstruct_still_refuses_an_unknown_ending(tmp_path):
+    points, ids = grid_scan()
+    scan = write_xyz(tmp_path / "scan.xyz", points, ids)
+    err = assert_failed(run("reconstruct", scan, "-o", tmp_path / "out.xyz"))
+    assert ".glb" in err and ".stl" in err
