@@ -3,9 +3,6 @@ where a mesh is expected, warnings that say what to do, temporary folders cleane
 
 from __future__ import annotations
 
-import json
-
-import numpy as np
 import pytest
 import trimesh
 

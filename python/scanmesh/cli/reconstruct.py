@@ -15,8 +15,8 @@ from scanmesh._extras import require
 from scanmesh._progress import Stage
 from scanmesh.cli._args import _method_options, _read_options, _refuse_stray_flags, _shared
 from scanmesh.cli._common import (
-    _background,
     VIEW_ENDINGS,
+    _background,
     _check_mesh_ending,
     _check_outputs,
     _check_png,
