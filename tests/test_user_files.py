@@ -3,10 +3,18 @@ colours read true, errors name what happened."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
+import pytest
+import trimesh
 
 import scanmesh
+from conftest import DATA
 from scanmesh.formats.xyz import up_comment
+from scanmesh.present.render import auto_view, face_colors, render_mesh
+from scanmesh.present.view import html_page, save_glb
+from test_cli import run
 
 
 def _heights(tmp_path):
@@ -53,3 +61,59 @@ def test_reconstruct_of_read_uses_the_recorded_up(tmp_path):
     from_read = scanmesh.reconstruct(scanmesh.read(path), "delaunay")
     assert np.array_equal(from_read.faces, from_path.faces)
     assert from_read.options["plane_choice"] == from_path.options["plane_choice"]
+
+
+def _legend(page: str) -> tuple[float, str, float]:
+    lo, label, hi = re.search(
+        r'<div class="ends"><span>([^<]*)</span><span>([^<]*)</span><span>([^<]*)</span>', page
+    ).groups()
+    return float(lo), label, float(hi)
+
+
+@pytest.fixture(scope="module")
+def terrain():
+    """Mount St. Helens (USGS DEM, UTM metres, elevations 682-2,543 m) as a Delaunay mesh."""
+    scan = scanmesh.read(DATA / "terrain" / "SainteHelens.dem")
+    return scanmesh.reconstruct(scan.points, "delaunay")
+
+
+def test_colour_by_height_on_terrain_reads_the_elevations(terrain):
+    z = terrain.vertices[terrain.faces].mean(axis=1)[:, 2]
+    lo, label, hi = _legend(html_page(terrain, color_by="height"))
+    assert label.startswith("height")
+    assert lo == pytest.approx(z.min(), rel=1e-3) and hi == pytest.approx(z.max(), rel=1e-3)
+    assert 600 < lo < 800 and 2400 < hi < 2600
+    _, scale = face_colors(terrain, "height", up="z")
+    assert (scale.lo, scale.hi) == (z.min(), z.max())
+
+
+def test_glb_coloured_by_height_on_terrain_follows_the_elevation(tmp_path, terrain):
+    # by default, not a tilted mix of elevation and northing along the best-fit normal
+    default = save_glb(terrain, tmp_path / "default.glb", color_by="height")
+    along_z = save_glb(terrain, tmp_path / "z.glb", color_by="height", up="z")
+    assert default.read_bytes() == along_z.read_bytes()
+
+
+def test_scanmesh_render_colours_terrain_by_elevation(tmp_path, terrain):
+    mesh = tmp_path / "terrain.ply"
+    terrain.save(mesh)
+    png = tmp_path / "height.png"
+    result = run("render", mesh, "-o", png, "--color", "height", "--size", "200x150")
+    assert result.returncode == 0, result.stderr
+    loaded = trimesh.load_mesh(mesh, process=False)
+    vertices, faces = np.asarray(loaded.vertices), np.asarray(loaded.faces)
+    want = tmp_path / "want.png"
+    cam = auto_view(vertices, faces)
+    render_mesh((vertices, faces), want, size=(200, 150), color_by="height", height="z", **cam)
+    assert png.read_bytes() == want.read_bytes()
+
+
+def test_colour_by_height_along_a_slanted_direction_starts_at_zero():
+    rng = np.random.default_rng(1)
+    pts = np.column_stack(
+        [5e5 + 100 * rng.random(200), 5e6 + 100 * rng.random(200), 700 + rng.random(200)]
+    )
+    mesh = scanmesh.delaunay(pts, plane="z")
+    _, scale = face_colors(mesh, "height", up=(0.0, 0.6, 0.8))
+    assert scale.lo == 0.0
+    assert 0 < scale.hi < 100  # the part's own extent along that direction, not 3e6
