@@ -12,7 +12,7 @@ import trimesh
 import scanmesh
 from conftest import DATA
 from scanmesh.formats.xyz import up_comment
-from scanmesh.present.render import auto_view, face_colors, render_mesh
+from scanmesh.present.render import auto_view, face_colors, face_values, render_mesh
 from scanmesh.present.view import html_page, save_glb
 from test_cli import run
 
@@ -117,3 +117,21 @@ def test_colour_by_height_along_a_slanted_direction_starts_at_zero():
     _, scale = face_colors(mesh, "height", up=(0.0, 0.6, 0.8))
     assert scale.lo == 0.0
     assert 0 < scale.hi < 100  # the part's own extent along that direction, not 3e6
+
+
+def test_tac_colours_of_a_flat_part_are_one_colour():
+    rng = np.random.default_rng(5)
+    uv = rng.random((300, 2)) * 37.0
+    # a tilted plane: every corner angle rounds, so the tac is rounding only (~1e-15)
+    pts = np.column_stack([uv, 0.3 * uv[:, 0] - 0.7 * uv[:, 1] + 11.0])
+    mesh = scanmesh.delaunay(pts, plane="z")
+    tac = np.nan_to_num(scanmesh.quality(mesh.vertices, mesh.faces).tac)
+    assert 0 < tac.max() < 1e-12  # there is rounding to stretch
+    rgb, scale = face_colors(mesh, "tac")
+    assert scale.lo == 0.0 and scale.hi >= 1e-9
+    coloured = rgb[np.isfinite(face_values(mesh, "tac")[0])]
+    assert len(np.unique(coloured, axis=0)) == 1
+    # and real curvature is still coloured
+    bent = scanmesh.delaunay(np.column_stack([uv, 0.01 * (uv**2).sum(axis=1)]), plane="z")
+    rgb, scale = face_colors(bent, "tac")
+    assert scale.hi > 1e-6 and len(np.unique(rgb, axis=0)) > 10

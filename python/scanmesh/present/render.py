@@ -49,6 +49,10 @@ MARGIN = 0.04
 
 #: What ``color_by=`` (``--color``) can colour faces by.
 COLOR_BY = ("tac", "error", "height")
+#: A face tac (radians) at most this is rounding of the corner angles, not curvature: drawn
+#: as zero, and the top of every tac scale (angles round at about 1e-16 rad each, the sum
+#: of a vertex's corners at about 1e-15; the annealer's energy ties are 1e-10).
+TAC_ROUNDING = 1e-9
 #: A default height direction within this angle (degrees) of a coordinate axis is that axis
 #: (:func:`height_axis`).
 HEIGHT_AXIS_DEG = 20.0
@@ -231,7 +235,9 @@ def face_colors(
 
     The scale runs from the smallest to the largest figure, except tac, which runs from 0
     to its 99th percentile: a few spikes (bores, creases) would otherwise leave the rest
-    of the surface one colour.
+    of the surface one colour. A tac of at most ``TAC_ROUNDING`` is drawn as zero and the
+    tac scale reaches at least ``TAC_ROUNDING``, so a flat part is one colour, not its
+    rounding stretched into hot spots.
     """
     if by is None:
         if truth is not None:
@@ -242,11 +248,13 @@ def face_colors(
             np.asarray(COLOR, dtype=np.float64), (len(_mesh_arrays(mesh)[1]), 3)
         ), None
     values, unit = face_values(mesh, by, truth=truth, up=up)
+    if by == "tac":  # rounding of the corner angles is no curvature: drawn as zero
+        values = np.where(values <= TAC_ROUNDING, 0.0, values)
     finite = values[np.isfinite(values)]
     if len(finite) == 0:
         lo = hi = 0.0
     elif by == "tac":
-        lo, hi = 0.0, float(np.percentile(finite, 99))
+        lo, hi = 0.0, max(float(np.percentile(finite, 99)), TAC_ROUNDING)
     else:
         lo, hi = float(finite.min()), float(finite.max())
     return colormap(values, lo, hi), ColorScale(by, lo, hi, unit)
