@@ -4,6 +4,7 @@ colours read true, errors name what happened."""
 from __future__ import annotations
 
 import re
+import traceback
 
 import numpy as np
 import pytest
@@ -135,3 +136,42 @@ def test_tac_colours_of_a_flat_part_are_one_colour():
     bent = scanmesh.delaunay(np.column_stack([uv, 0.01 * (uv**2).sum(axis=1)]), plane="z")
     rgb, scale = face_colors(bent, "tac")
     assert scale.hi > 1e-6 and len(np.unique(rgb, axis=0)) > 10
+
+
+@pytest.mark.parametrize("name", ["nope.xyz", "nope.stl", "nope.ply"])
+def test_a_missing_input_is_a_file_not_found_error(tmp_path, name):
+    path = tmp_path / name
+    for call in (scanmesh.read, lambda p: scanmesh.reconstruct(p, "delaunay")):
+        with pytest.raises(FileNotFoundError) as caught:
+            call(path)
+        assert isinstance(caught.value, scanmesh.FileFormatError)  # still a ScanmeshError
+        assert caught.value.filename == str(path) and str(path) in str(caught.value)
+        assert not str(caught.value).startswith("[Errno")
+
+
+def test_a_missing_mesh_is_a_file_not_found_error(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nothing.stl"):
+        scanmesh.simulate_scan(tmp_path / "nothing.stl", up="z", spacing=0.5)
+
+
+def test_errors_are_shown_by_their_public_names():
+    for name in ("ScanmeshError", "DegenerateInputError", "ParameterError", "FileFormatError"):
+        cls = getattr(scanmesh, name)
+        assert f"{cls.__module__}.{cls.__qualname__}" == f"scanmesh.{name}"
+    try:
+        scanmesh.delaunay(np.zeros((2, 3)))
+    except scanmesh.ScanmeshError as exc:
+        shown = "".join(traceback.format_exception_only(type(exc), exc))
+    assert shown.startswith("scanmesh.DegenerateInputError: ")
+    assert "_core" not in shown
+
+
+def test_a_nan_reads_nan_in_messages():
+    pts = np.array([[0.0, 0.0, 0.0], [1.0, np.nan, 0.0], [0.0, 1.0, 0.0]])
+    with pytest.raises(scanmesh.ScanmeshError, match=r"y=nan\b") as caught:
+        scanmesh.reconstruct(pts, "delaunay")
+    assert "np.float64" not in str(caught.value)
+    with pytest.raises(scanmesh.ParameterError, match=r"got nan$") as caught:
+        scanmesh.reconstruct(
+            np.random.default_rng(0).random((10, 3)), "delaunay", max_edge=np.float64("nan")
+        )

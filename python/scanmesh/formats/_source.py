@@ -17,10 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
-from scanmesh.errors import FileFormatError
+from scanmesh.errors import FileFormatError, MissingFileError
 
 #: Bytes read from a pipe per call.
 PIPE_CHUNK: int = 1 << 20
+
+
+def missing_file(path: Path) -> MissingFileError:
+    """The error for an input ``path`` that does not exist (``filename`` set)."""
+    error = MissingFileError(f"{path}: cannot read the file: No such file or directory")
+    error.filename = str(path)
+    return error
 
 
 def check_regular(path: Path, pipes: bool = False) -> int:
@@ -29,6 +36,8 @@ def check_regular(path: Path, pipes: bool = False) -> int:
     are followed)."""
     try:
         info = os.stat(path)
+    except FileNotFoundError as exc:
+        raise missing_file(path) from exc
     except OSError as exc:
         raise FileFormatError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
     if pipes and stat.S_ISFIFO(info.st_mode):

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from scanmesh._interrupt import import_interruptibly
-from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError
+from scanmesh.errors import FileFormatError, InvalidMeshError, MissingFileError, ParameterError
 
 if TYPE_CHECKING:
     import trimesh
@@ -26,8 +26,12 @@ def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trim
 
     if isinstance(mesh_or_path, (str, os.PathLike)):
         path = Path(mesh_or_path)
+        if not path.exists():
+            error = MissingFileError(f"mesh file {path} does not exist")
+            error.filename = str(path)
+            raise error
         if not path.is_file():
-            raise FileFormatError(f"mesh file {path} does not exist")
+            raise FileFormatError(f"mesh file {path} is not a regular file")
         if path.stat().st_size == 0:
             raise FileFormatError(f"mesh file {path} is empty")
         try:
