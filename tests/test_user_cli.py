@@ -3,6 +3,7 @@ where a mesh is expected, warnings that say what to do, temporary folders cleane
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import trimesh
 
@@ -30,3 +31,26 @@ def test_reconstruct_still_refuses_an_unknown_ending(tmp_path):
     scan = write_xyz(tmp_path / "scan.xyz", points, ids)
     err = assert_failed(run("reconstruct", scan, "-o", tmp_path / "out.xyz"))
     assert ".glb" in err and ".stl" in err
+
+
+@pytest.mark.parametrize("command", ["render", "view", "info-truth"])
+@pytest.mark.parametrize("ending", [".xyz", ".ply"])
+def test_a_point_file_where_a_mesh_is_expected_says_so(tmp_path, command, ending):
+    points, ids = grid_scan()
+    scan = tmp_path / f"scan{ending}"
+    if ending == ".xyz":
+        with open(scan, "w") as f:
+            f.write("# x y z\n")  # a header comment, as scan files have
+        with open(scan, "a") as f:
+            np.savetxt(f, points)
+    else:
+        trimesh.PointCloud(points).export(scan)
+    if command == "render":
+        args = ["render", scan, "-o", tmp_path / "p.png"]
+    elif command == "view":
+        args = ["view", scan, "-o", tmp_path / "v.html"]
+    else:
+        args = ["compare", write_xyz(tmp_path / "s.xyz", points, ids), "--truth", scan]
+    err = assert_failed(run(*args))
+    assert "mesh" in err and "expected" in err and str(scan) in err
+    assert "convert string" not in err
