@@ -3,10 +3,15 @@ where a mesh is expected, warnings that say what to do, temporary folders cleane
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import trimesh
 
+import scanmesh
 from test_cli import assert_failed, grid_scan, run, write_xyz
 
 
@@ -54,3 +59,26 @@ def test_a_point_file_where_a_mesh_is_expected_says_so(tmp_path, command, ending
     err = assert_failed(run(*args))
     assert "mesh" in err and "expected" in err and str(scan) in err
     assert "convert string" not in err
+
+
+def test_view_leaves_no_folder_per_run(tmp_path):
+    points, ids = grid_scan()
+    mesh = tmp_path / "mesh.stl"
+    scanmesh.reconstruct(points, "delaunay", plane="z").save(mesh)
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    env = {**os.environ, "TMPDIR": str(temp)}
+    pages = []
+    for _ in range(3):
+        result = subprocess.run(
+            [sys.executable, "-m", "scanmesh", "view", str(mesh), "--no-open"],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=120,
+        )
+        assert result.returncode == 0, result.stderr
+        pages.append(result.stdout + result.stderr)
+    assert len(list(temp.iterdir())) == 1  # one folder for every view, not one per run
+    assert all("mesh.html" in page for page in pages)
+    assert len(list(next(temp.iterdir()).glob("*.html"))) == 1
