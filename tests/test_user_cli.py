@@ -3,7 +3,9 @@ where a mesh is expected, warnings that say what to do, temporary folders cleane
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import subprocess
 import sys
 
@@ -82,3 +84,39 @@ def test_view_leaves_no_folder_per_run(tmp_path):
     assert len(list(temp.iterdir())) == 1  # one folder for every view, not one per run
     assert all("mesh.html" in page for page in pages)
     assert len(list(next(temp.iterdir()).glob("*.html"))) == 1
+
+
+def _lone_point_scan(folder):
+    """A scan whose last line is one lone point: in no strip, with an UnusedPointsWarning."""
+    points, ids = grid_scan(12, 6)
+    return write_xyz(folder / "lone.xyz", np.vstack([points, [[3.0, 3.0, 0.0]]]), np.append(ids, 6))
+
+
+def test_warnings_point_only_to_a_report_that_is_written(tmp_path):
+    scan = _lone_point_scan(tmp_path)
+    out = tmp_path / "m.stl"
+    without = run("reconstruct", scan, "-o", out, "--method", "shortest-path")
+    assert without.returncode == 0, without.stderr
+    assert "in no strip" in without.stderr
+    assert "the --report's" not in without.stderr and "--report lists them" in without.stderr
+    report = tmp_path / "r.json"
+    given = run("reconstruct", scan, "-o", out, "--method", "shortest-path", "--report", report)
+    assert "see the --report's options.unused" in given.stderr
+    assert "options.unused" in json.loads(report.read_text())["warnings"][0]
+
+
+def test_compare_names_the_method_of_each_warning_once(tmp_path):
+    scan = _lone_point_scan(tmp_path)
+    result = run("compare", scan, "--methods", "shortest-path", "lookahead")
+    warned = [line for line in result.stderr.splitlines() if "in no strip" in line]
+    assert sorted(warned) == sorted(set(warned))  # no warning twice
+    assert any("shortest-path:" in w for w in warned) and any("lookahead:" in w for w in warned)
+    assert not any("--report" in w for w in warned)  # compare writes no report
+
+
+def test_one_face_is_one_face(tmp_path):
+    scan = write_xyz(tmp_path / "tri.xyz", np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0.5]]))
+    result = run("reconstruct", scan, "-o", tmp_path / "tri.stl", "--method", "delaunay")
+    assert result.returncode == 0, result.stderr
+    assert re.search(r"\b1 face in\b", result.stdout), result.stdout
+    assert "1 faces" not in result.stdout

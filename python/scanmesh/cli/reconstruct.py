@@ -23,6 +23,7 @@ from scanmesh.cli._common import (
     _Console,
     _dumps,
     _fmt,
+    _plural,
     _seconds,
     _write_text,
 )
@@ -49,6 +50,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     options = _method_options(args, args.method)
     shared = _shared(args, args.method, options)
     _check_outputs([source], [out, report, preview])
+    con.report = "--report" if report is not None else "--json output" if con.json else ""
     _check_mesh_ending(out)
     _check_png(preview)
 
@@ -85,9 +87,9 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
         return 0
     q = data["quality"]
     counts = data["counts"]
-    lines = f" on {counts['lines']:,} lines" if counts["lines"] else ""
-    con.summary(f"{source}: {counts['points']:,} points{lines}")
-    con.summary(f"{surface.method}: {counts['faces']:,} faces in {elapsed:.2f} s")
+    lines = f" on {_plural(counts['lines'], 'line')}" if counts["lines"] else ""
+    con.summary(f"{source}: {_plural(counts['points'], 'point')}{lines}")
+    con.summary(f"{surface.method}: {_plural(counts['faces'], 'face')} in {elapsed:.2f} s")
     if q is None:
         con.summary("  quality not measured (--no-quality)")
     else:
@@ -163,7 +165,7 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     q = result.quality
     con.summary(f"{args.input}: {result.n_points:,} points")
     elapsed = sum(result.timings.values())
-    con.summary(f"{result.method}: {result.n_faces:,} faces in {elapsed:.2f} s on Dask")
+    con.summary(f"{result.method}: {_plural(result.n_faces, 'face')} in {elapsed:.2f} s on Dask")
     con.summary(
         f"  tac_1 {q['tac_1']:.4g}  tac_2 {q['tac_2']:.4g}  tac_inf {q['tac_inf']:.4g}"
         f"  smallest angle {_fmt(q['min_angle_deg'], '.2f')} deg"
