@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 import traceback
+import warnings
 
 import numpy as np
 import pytest
@@ -175,3 +176,21 @@ def test_a_nan_reads_nan_in_messages():
         scanmesh.reconstruct(
             np.random.default_rng(0).random((10, 3)), "delaunay", max_edge=np.float64("nan")
         )
+
+
+@pytest.mark.parametrize("plane", [None, "z"])
+def test_no_height_field_warning_for_a_smooth_height_field(plane):
+    rng = np.random.default_rng(0)
+    xy = rng.random((30, 2))
+    pts = np.column_stack([xy, np.sin(3 * xy[:, 0]) * np.cos(2 * xy[:, 1])])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", scanmesh.NotAHeightFieldWarning)
+        surface = scanmesh.reconstruct(pts, "anneal", plane=plane)
+    assert surface.steep_fraction > 0.10  # annealing's own steep slivers, still measured
+
+
+def test_a_surface_folded_over_the_plane_still_warns():
+    t, h = np.meshgrid(np.linspace(0.2, 2 * np.pi - 0.2, 40), np.linspace(0, 1, 12))
+    pts = np.column_stack([np.cos(t).ravel(), h.ravel(), np.sin(t).ravel()])  # a tube's side
+    with pytest.warns(scanmesh.NotAHeightFieldWarning):
+        scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=5)
