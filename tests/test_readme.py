@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import shlex
 import subprocess
@@ -43,7 +44,10 @@ def _commands(block: str) -> list[list[str]]:
 
 
 def _run(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    result = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, timeout=600)
+    temp = cwd / "temp"  # scanmesh view's page, kept out of the real temporary folder
+    temp.mkdir(exist_ok=True)
+    env = {**os.environ, "TMPDIR": str(temp)}
+    result = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, timeout=600, env=env)
     assert result.returncode == 0, (argv, result.stderr)
     return result
 
