@@ -266,7 +266,8 @@ def test_height_and_error_of_a_face():
     height, _ = face_values((vertices, faces), "height", up=(0, 0, 2))
     np.testing.assert_allclose(height, vertices[faces].mean(axis=1)[:, 2], atol=1e-12)
     tilted, _ = face_values((vertices, faces), "height", up=(1, 0, 1))
-    np.testing.assert_allclose(tilted, vertices[faces].mean(axis=1) @ [0.5**0.5, 0, 0.5**0.5])
+    along = vertices[faces].mean(axis=1) @ [0.5**0.5, 0, 0.5**0.5]
+    np.testing.assert_allclose(tilted, along - along.min(), atol=1e-12)  # above the lowest face
     # the sheet lifted by 0.01 against itself: every centroid is about 0.01 off the truth
     truth = trimesh.Trimesh(vertices, faces, process=False)
     lifted = vertices + [0, 0, 0.01]

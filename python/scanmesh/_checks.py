@@ -13,6 +13,12 @@ from numpy.typing import ArrayLike
 from scanmesh.errors import DegenerateInputError, InvalidMeshError, ParameterError, ScanmeshError
 
 
+def _shown(value: object) -> str:
+    """``repr`` of a value for a message, numpy scalars as the Python numbers they hold
+    (``nan``, not ``np.float64(nan)``)."""
+    return repr(value.item() if isinstance(value, np.generic) else value)
+
+
 def as_points(points: ArrayLike, name: str = "points") -> np.ndarray:
     """Return ``points`` as a C-contiguous (N, 3) float64 array, or raise naming the problem.
 
@@ -35,7 +41,7 @@ def as_points(points: ArrayLike, name: str = "points") -> np.ndarray:
     if bad.any():
         row, col = np.argwhere(bad)[0]
         raise DegenerateInputError(
-            f"{name}[{row}] has a non-finite coordinate {'xyz'[col]}={arr[row, col]!r}"
+            f"{name}[{row}] has a non-finite coordinate {'xyz'[col]}={float(arr[row, col])!r}"
             f" ({int(bad.any(axis=1).sum())} such point(s) in all)"
         )
     if len(arr) < 3:
@@ -176,16 +182,18 @@ class Option:
             return self.convert(value)
         if self.kind == "bool":
             if not isinstance(value, (bool, np.bool_)):
-                raise ParameterError(f"{name} must be True or False, got {value!r}")
+                raise ParameterError(f"{name} must be True or False, got {_shown(value)}")
             return bool(value)
         if self.kind == "choice":
             if not any(type(value) is type(c) and value == c for c in self.choices):
                 shown = ", ".join(repr(c) for c in self.choices)
-                raise ParameterError(f"{name} must be one of {shown}, got {value!r}")
+                raise ParameterError(f"{name} must be one of {shown}, got {_shown(value)}")
             return value
         if self.kind == "int":
             if not _is_real(value) or not isinstance(value, (int, np.integer)):
-                raise ParameterError(f"{name} must be a whole number{self._range()}, got {value!r}")
+                raise ParameterError(
+                    f"{name} must be a whole number{self._range()}, got {_shown(value)}"
+                )
             number: Any = int(value)
         else:
             try:
@@ -194,17 +202,17 @@ class Option:
                 number = math.nan
             if math.isnan(number) or (self.finite and math.isinf(number)):
                 what = "a finite number" if self.finite else "a number"
-                raise ParameterError(f"{name} must be {what}{self._range()}, got {value!r}")
+                raise ParameterError(f"{name} must be {what}{self._range()}, got {_shown(value)}")
             if self.choices and number not in self.choices:
                 shown = " or ".join(f"{c:g}" for c in self.choices)
-                raise ParameterError(f"{name} must be {shown}, got {value!r}")
+                raise ParameterError(f"{name} must be {shown}, got {_shown(value)}")
         low_ok = self.low is None or (number > self.low if self.low_open else number >= self.low)
         high_ok = self.high is None or (
             number < self.high if self.high_open else number <= self.high
         )
         if not (low_ok and high_ok):
             what = "a whole number" if self.kind == "int" else "a number"
-            raise ParameterError(f"{name} must be {what}{self._range()}, got {value!r}")
+            raise ParameterError(f"{name} must be {what}{self._range()}, got {_shown(value)}")
         return number
 
     def _range(self) -> str:

@@ -15,6 +15,15 @@ class FileFormatError(ScanmeshError):
     """
 
 
+class MissingFileError(FileFormatError, FileNotFoundError):
+    """An input file that does not exist: a :class:`FileFormatError` like every file that
+    cannot be read, and a ``FileNotFoundError`` (an ``OSError``), so ``except OSError``
+    catches it; ``filename`` is the path."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""  # the message, not OSError's form
+
+
 class MissingExtraError(ScanmeshError, ImportError):
     """A feature needs a package that is installed only with one of scanmesh's extras; the
     message names the feature, the package and the ``pip install "scanmesh[extra]"`` line.
@@ -34,12 +43,30 @@ class NotAHeightFieldWarning(ScanmeshWarning):
     the surface is probably not a height field there; another ``plane=`` may fit it better."""
 
 
+# Raised and shown as scanmesh.ScanmeshError, ...: the public names, not the modules that
+# define them (the core's classes would otherwise read _core.ScanmeshError in tracebacks).
+for _cls in (
+    ScanmeshError,
+    DegenerateInputError,
+    ParameterError,
+    InvalidMeshError,
+    FileFormatError,
+    MissingFileError,
+    MissingExtraError,
+    ScanmeshWarning,
+    CoincidentPointsWarning,
+    NotAHeightFieldWarning,
+):
+    _cls.__module__ = "scanmesh"
+del _cls
+
 __all__ = [
     "ScanmeshError",
     "DegenerateInputError",
     "ParameterError",
     "InvalidMeshError",
     "FileFormatError",
+    "MissingFileError",
     "MissingExtraError",
     "ScanmeshWarning",
     "CoincidentPointsWarning",

@@ -9,19 +9,22 @@ from typing import Any
 from numpy.typing import ArrayLike
 
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import NotAHeightFieldWarning
+from scanmesh.errors import NotAHeightFieldWarning, ScanmeshError
+from scanmesh.formats import ScanPoints
 from scanmesh.methods import METHODS, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
+from scanmesh.stages.delaunay import delaunay
+from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 __all__ = ["reconstruct", "METHODS"]
 
 
 def reconstruct(
-    source: ArrayLike | str | os.PathLike | PlanarScan,
+    source: ArrayLike | str | os.PathLike | PlanarScan | ScanPoints,
     method: str = "anneal",
     *,
     lines: ArrayLike | None = None,
@@ -35,10 +38,12 @@ def reconstruct(
 
     Parameters
     ----------
-    source : (N, 3) float array, path or PlanarScan
+    source : (N, 3) float array, path, ScanPoints or PlanarScan
         The points, or a scan file (see :func:`scanmesh.read` for the formats; a file's scan
-        lines are used unless ``lines`` is given), or a :func:`scanmesh.planar_scan` made
-        once and reused across methods (``plane`` and ``lines`` then belong to it).
+        lines are used unless ``lines`` is given), or what :func:`scanmesh.read` returned
+        (used as the file would be: its points, line ids and recorded ``up``), or a
+        :func:`scanmesh.planar_scan` made once and reused across methods (``plane`` and
+        ``lines`` then belong to it).
     method : str
         ``"delaunay"`` (max-min angle optimum in the plane), ``"lookahead"`` and
         ``"shortest-path"`` (Fuchs-matrix strips between consecutive scan lines), ``"lop"``
@@ -108,19 +113,23 @@ def reconstruct(
     NotAHeightFieldWarning
         More than ``scan.steep.STEEP_WARN_FRACTION`` (10 %) of the triangles are steeper than
         ``scan.steep.STEEP_ANGLE_DEG`` (75 degrees) over the projection plane (see
-        ``Surface.steep_fraction``).
+        ``Surface.steep_fraction``), and of the points' Delaunay triangulation there too (so
+        a method's own slivers over a height field do not warn).
     """
     spec = find_method(method)
     params = spec.check(options, {"lines": lines, "max_edge": max_edge, "seed": seed})
     # The one place the points are read (scan.read_scan_file), checked and projected.
-    scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
+    if isinstance(source, ScanPoints):
+        scan = scan_of(source, plane=plane, lines=lines)
+    else:
+        scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
     surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
     if scan.choice is not None:
         choice = scan.choice.as_dict(scan.frame.normal)
         surface.options = {**surface.options, "plane_choice": choice}
     with Stage(progress, "steep", len(surface.faces), blocking=True):
         steep = surface.steep_fraction
-    if steep is not None and steep > STEEP_WARN_FRACTION:
+    if steep is not None and steep > STEEP_WARN_FRACTION and _points_steep(scan, surface):
         warnings.warn(
             f"{100 * steep:.0f} % of the triangles are steep (normal more than"
             f" {STEEP_ANGLE_DEG:g} deg from the projection normal): the surface is probably"
@@ -130,3 +139,22 @@ def reconstruct(
             stacklevel=2,
         )
     return surface
+
+
+def _points_steep(scan: PlanarScan, surface: Surface) -> bool:
+    """Whether the points themselves are steep over the scan's plane, not only the faces a
+    method chose: their Delaunay triangulation there (fewest slivers of any triangulation)
+    is steep too. A method's own slivers (annealing's, a strip's across a gap) can stand
+    steep over a smooth height field; the plane choice's quick triangulation measured the
+    chosen plane already."""
+    if surface.method == "delaunay":
+        return True
+    if scan.choice is not None and scan.choice.steep.get(scan.choice.chosen) is not None:
+        return scan.choice.steep[scan.choice.chosen] > STEEP_WARN_FRACTION
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # said once already, by the method
+        try:
+            base = delaunay(scan)
+        except ScanmeshError:
+            return True
+    return base.steep_fraction is not None and base.steep_fraction > STEEP_WARN_FRACTION

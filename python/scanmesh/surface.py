@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from scanmesh import shape
 from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
@@ -116,6 +117,27 @@ class Surface:
     def _repr_html_(self) -> str | None:
         """Notebook display: the 3-D view of :meth:`to_html` (None for very large meshes)."""
         return view.notebook_html(self)
+
+    @cached_property
+    def normals(self) -> np.ndarray:
+        """(N, 3) float64 unit vertex normals: the area-weighted mean of each vertex's face
+        normals, by the faces' winding (zero for a point no face uses)."""
+        return shape.vertex_normals(self.vertices, self.faces)
+
+    @cached_property
+    def face_normals(self) -> np.ndarray:
+        """(M, 3) float64 unit face normals, by the faces' winding."""
+        return shape.face_normals(self.vertices, self.faces)
+
+    @cached_property
+    def area(self) -> float:
+        """Total area of the faces (model units squared)."""
+        return shape.area(self.vertices, self.faces)
+
+    def boundary_loops(self) -> list[np.ndarray]:
+        """The outline and every hole as a closed loop of point indices (see
+        :func:`scanmesh.shape.boundary_loops`)."""
+        return shape.boundary_loops(self.faces)
 
     def __repr__(self) -> str:
         return (

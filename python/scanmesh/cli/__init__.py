@@ -95,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
         parents=[common, with_json, shape],
         help="triangulate a scan file and write the mesh",
         description="Read scan points (XYZ, CSV, PLY, NPY, VTK, DEM, LAS), triangulate them and"
-        " write the mesh by its file ending (.stl, .ply, .obj, .off).",
+        " write the mesh by its file ending (.stl, .ply, .obj, .off; .glb or .html: a view).",
     )
     p.add_argument("input", metavar="IN", help="scan file")
     _add_read_flags(p)

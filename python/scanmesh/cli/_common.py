@@ -61,13 +61,22 @@ def _check_outputs(inputs: Sequence[Path], outputs: Sequence[Path | None]) -> No
             raise ParameterError(f"cannot write {out}: folder {folder} does not exist")
 
 
-def _check_mesh_ending(path: Path) -> None:
+#: endings Surface.save writes besides the mesh formats: a 3-D view and binary glTF
+VIEW_ENDINGS = (".glb", ".htm", ".html")
 
-    if path.suffix.lower() not in FORMATS:
+
+def _check_mesh_ending(path: Path) -> None:
+    """Refuse an ending ``Surface.save`` does not write."""
+    if path.suffix.lower() not in (*FORMATS, *VIEW_ENDINGS):
         raise ParameterError(
             f"cannot write {path}: unknown ending {path.suffix!r}; use one of"
-            f" {', '.join(sorted(FORMATS))}"
+            f" {', '.join(sorted((*FORMATS, *VIEW_ENDINGS)))}"
         )
+
+
+def _plural(count: int, word: str) -> str:
+    """``1 face``, ``2 faces``, ``27,715 faces``."""
+    return f"{count:,} {word}{'' if count == 1 else 's'}"
 
 
 def _check_png(path: Path | None) -> None:
@@ -94,6 +103,12 @@ class _Console:
         self.json = as_json
         #: every warning of the run, in the command's words (for --report)
         self.warnings: list[str] = []
+        #: the flag of the report the command writes ("--report") when one was asked for,
+        #: "" when the command could write one, None when it writes none (warnings then
+        #: point to nothing it does not write)
+        self.report: str | None = None
+        #: what the command is running (a method of compare), named in its warnings
+        self.context: str | None = None
 
     @property
     def progress(self) -> bool:
@@ -112,7 +127,11 @@ class _Console:
 
     def warn(self, message, category, filename, lineno, file=None, line=None) -> None:
         """``warnings.showwarning``: one line on stderr naming flags, kept for --report."""
-        text = _speak_flags(" ".join(str(message).split()))
+        text = _speak_flags(" ".join(str(message).split()), self.report)
+        if self.context is not None:
+            text = f"{self.context}: {text}"
+        if text in self.warnings:
+            return  # the same step warned of the same thing again (compare's holdout)
         self.warnings.append(text)
         print(f"scanmesh: warning: {text}", file=sys.stderr, flush=True)
 
@@ -169,16 +188,30 @@ def _one_line(exc: BaseException) -> str:
 #: Python advice in messages, and what the command's user types instead.
 _PYTHON_WORDS = (
     (re.compile(r"reconstruct\(method='([\w-]+)'\)"), r"--method \1"),
-    (re.compile(r"Surface\.options\['(\w+)'\]"), r"the --report's options.\1"),
-    (re.compile(r"Surface\.duplicates"), "the --report's counts.duplicates"),
     (re.compile(r"\bmath\.inf\b"), "inf"),
 )
+#: Where a message sends the user to the surface's lists, and the report's names for them.
+_LISTS = re.compile(r"(;\s*)?see Surface\.(options\['(\w+)'\]|duplicates)")
 
 
-def _speak_flags(text: str) -> str:
+def _listed(match: re.Match, report: str | None) -> str:
+    """``see Surface.options['unused']`` in the command's words: the report's entry when
+    one is written, how to get one when it could be, nothing when the command writes none."""
+    entry = "counts.duplicates" if match.group(2) == "duplicates" else f"options.{match.group(3)}"
+    lead = match.group(1) or ""
+    if report is None:
+        return ""
+    if report:
+        return f"{lead}see the {report}'s {entry}"
+    return f"{lead}--report lists them ({entry})"
+
+
+def _speak_flags(text: str, report: str | None = "--report") -> str:
     """A library message in the command's words: ``name=`` of an option or a shared
-    keyword becomes its flag (``--max-edge``), Python calls become flags."""
+    keyword becomes its flag (``--max-edge``), Python calls become flags; ``report`` as
+    for :attr:`_Console.report`."""
     names = set(_method_flags()) | set(SHARED) | {"plane"}
+    text = _LISTS.sub(lambda m: _listed(m, report), text)
     for pattern, replacement in _PYTHON_WORDS:
         text = pattern.sub(replacement, text)
     return (

@@ -72,6 +72,7 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         return built[0]
 
     for method in methods:
+        con.context = method  # its warnings name it
         if con.progress:
             con.note(f"{method} ...")
         kwargs = {**shared[method], **options[method]}
@@ -103,6 +104,7 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         rows.append(row)
         surfaces.append(surface)
 
+    con.context = None
     if picture is not None and surfaces:
         titles = [
             f"{r['method']}: tac_1 {r['tac_1']:.4g}, {r['time_s']:.2g} s"

@@ -15,6 +15,7 @@ from scanmesh._extras import require
 from scanmesh._progress import Stage
 from scanmesh.cli._args import _method_options, _read_options, _refuse_stray_flags, _shared
 from scanmesh.cli._common import (
+    VIEW_ENDINGS,
     _background,
     _check_mesh_ending,
     _check_outputs,
@@ -22,6 +23,7 @@ from scanmesh.cli._common import (
     _Console,
     _dumps,
     _fmt,
+    _plural,
     _seconds,
     _write_text,
 )
@@ -50,6 +52,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     options = _method_options(args, args.method)
     shared = _shared(args, args.method, options)
     _check_outputs([source], [out, report, preview])
+    con.report = "--report" if report is not None else "--json output" if con.json else ""
     _check_mesh_ending(out)
     _check_png(preview)
 
@@ -63,7 +66,10 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     # The quality report (tac over every vertex: 4 s of CPU at 10M points) is measured
     # while the mesh is written: both release the GIL, so they overlap.
     measured = _background(lambda: _seconds(lambda: surface.quality)) if args.quality else None
-    save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
+    if out.suffix.lower() in VIEW_ENDINGS:
+        surface.save(out, progress=con.progress)
+    else:
+        save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
     t_write = time.perf_counter() - t2
     if measured is not None:
         with Stage(con.progress, "quality", len(surface.faces), blocking=True):
@@ -83,9 +89,9 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
         return 0
     q = data["quality"]
     counts = data["counts"]
-    lines = f" on {counts['lines']:,} lines" if counts["lines"] else ""
-    con.summary(f"{source}: {counts['points']:,} points{lines}")
-    con.summary(f"{surface.method}: {counts['faces']:,} faces in {elapsed:.2f} s")
+    lines = f" on {_plural(counts['lines'], 'line')}" if counts["lines"] else ""
+    con.summary(f"{source}: {_plural(counts['points'], 'point')}{lines}")
+    con.summary(f"{surface.method}: {_plural(counts['faces'], 'face')} in {elapsed:.2f} s")
     if q is None:
         con.summary("  quality not measured (--no-quality)")
     else:
@@ -163,7 +169,7 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     q = result.quality
     con.summary(f"{args.input}: {result.n_points:,} points")
     elapsed = sum(result.timings.values())
-    con.summary(f"{result.method}: {result.n_faces:,} faces in {elapsed:.2f} s on Dask")
+    con.summary(f"{result.method}: {_plural(result.n_faces, 'face')} in {elapsed:.2f} s on Dask")
     con.summary(
         f"  tac_1 {q['tac_1']:.4g}  tac_2 {q['tac_2']:.4g}  tac_inf {q['tac_inf']:.4g}"
         f"  smallest angle {_fmt(q['min_angle_deg'], '.2f')} deg"

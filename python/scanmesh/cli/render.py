@@ -10,7 +10,7 @@ import numpy as np
 from scanmesh.cli._common import _check_outputs, _check_png, _Console
 from scanmesh.formats.mesh import load_mesh
 from scanmesh.present.render import auto_view as _auto_view
-from scanmesh.present.render import render_mesh
+from scanmesh.present.render import height_axis, render_mesh
 
 
 def _mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -30,7 +30,8 @@ def cmd_render(args: argparse.Namespace, con: _Console) -> int:
         camera["view"] = args.view
     if args.up is not None:
         camera["up"] = args.up
-    colors = {"color_by": args.color, "truth": args.truth}
+    height = height_axis(camera["up"]) if args.up is None else args.up
+    colors = {"color_by": args.color, "truth": args.truth, "height": height}
     render_mesh((vertices, faces), out, size=args.size, wire=args.wire, **colors, **camera)
     con.summary(f"wrote {out}")
     return 0

@@ -46,8 +46,9 @@ class Part:
     cache: str | None = None
 
 
-#: Line ids detected in a file without a line column are numbered from ``index * LINE_STRIDE``
-#: (files in order, lines in order: ascending over the whole scan).
+#: Line ids detected in a file without a line column, or given by its blank lines, are
+#: numbered from ``index * LINE_STRIDE`` (files in order, lines in order: ascending over
+#: the whole scan).
 LINE_STRIDE: int = 1 << 32
 
 
@@ -82,6 +83,8 @@ def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray, bool]:
     points = scan.points
     binary = Path(path).suffix.lower() in (".npy", ".npz")
     if scan.line_ids is not None:
+        if scan.extra.get("line_ids_from") == "blank lines":  # numbered from 0 in each file
+            return points, scan.line_ids + index * LINE_STRIDE, not binary
         return points, scan.line_ids, not binary
     if len(points) < 3:
         return points, np.full(len(points), index * LINE_STRIDE, dtype=np.int64), not binary

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scanmesh.errors import FileFormatError
+from scanmesh.errors import FileFormatError, MissingFileError
 
 #: Bytes read from a pipe per call.
 PIPE_CHUNK: int = 1 << 20
@@ -46,12 +46,21 @@ def input_file(path: str | os.PathLike, record: bool = True) -> InputFile:
     return InputFile(absolute, (info.st_dev, info.st_ino))
 
 
+def missing_file(path: Path) -> MissingFileError:
+    """The error for an input ``path`` that does not exist (``filename`` set)."""
+    error = MissingFileError(f"{path}: cannot read the file: No such file or directory")
+    error.filename = str(path)
+    return error
+
+
 def check_regular(path: Path, pipes: bool = False) -> int:
     """The size of ``path`` in bytes (-1 for a pipe or FIFO when ``pipes``), or a
     FileFormatError when it is missing, unreadable or not a regular file (symbolic links
     are followed)."""
     try:
         info = os.stat(path)
+    except FileNotFoundError as exc:
+        raise missing_file(path) from exc
     except OSError as exc:
         raise FileFormatError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
     if pipes and stat.S_ISFIFO(info.st_mode):

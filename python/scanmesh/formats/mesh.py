@@ -10,10 +10,22 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from scanmesh._interrupt import import_interruptibly
-from scanmesh.errors import FileFormatError, InvalidMeshError, ParameterError
+from scanmesh.errors import FileFormatError, InvalidMeshError, MissingFileError, ParameterError
+from scanmesh.formats import MESH_FORMATS, READERS
 
 if TYPE_CHECKING:
     import trimesh
+
+
+#: Endings of files that hold scan points only (no faces): refused as meshes by name.
+POINT_ENDINGS = tuple(sorted(set(READERS) - set(MESH_FORMATS) - {".vtk"}))
+
+
+def _not_a_mesh(path: Path, what: str) -> FileFormatError:
+    return FileFormatError(
+        f"{path} {what}: a mesh (.stl, .ply, .obj, .off, .glb) is expected here; make one"
+        f" with: scanmesh reconstruct {path} -o mesh.stl"
+    )
 
 
 def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trimesh:
@@ -26,16 +38,24 @@ def load_mesh(mesh_or_path: trimesh.Trimesh | str | os.PathLike) -> trimesh.Trim
 
     if isinstance(mesh_or_path, (str, os.PathLike)):
         path = Path(mesh_or_path)
+        if not path.exists():
+            error = MissingFileError(f"mesh file {path} does not exist")
+            error.filename = str(path)
+            raise error
         if not path.is_file():
-            raise FileFormatError(f"mesh file {path} does not exist")
+            raise FileFormatError(f"mesh file {path} is not a regular file")
         if path.stat().st_size == 0:
             raise FileFormatError(f"mesh file {path} is empty")
+        if path.suffix.lower() in POINT_ENDINGS:
+            raise _not_a_mesh(path, "is a file of points")
         try:
             mesh = trimesh.load_mesh(path)
         except Exception as exc:  # trimesh raises many kinds for bad files
             raise FileFormatError(f"cannot read mesh file {path}: {exc}") from None
         if isinstance(mesh, trimesh.Scene):
             mesh = _scene_mesh(mesh)
+        if not len(getattr(mesh, "faces", ())) and path.suffix.lower() in READERS:
+            raise _not_a_mesh(path, "holds points but no triangles")
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise FileFormatError(f"mesh file {path} holds no triangles")
         return mesh

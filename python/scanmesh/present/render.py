@@ -49,6 +49,13 @@ MARGIN = 0.04
 
 #: What ``color_by=`` (``--color``) can colour faces by.
 COLOR_BY = ("tac", "error", "height")
+#: A face tac (radians) at most this is rounding of the corner angles, not curvature: drawn
+#: as zero, and the top of every tac scale (angles round at about 1e-16 rad each, the sum
+#: of a vertex's corners at about 1e-15; the annealer's energy ties are 1e-10).
+TAC_ROUNDING = 1e-9
+#: A default height direction within this angle (degrees) of a coordinate axis is that axis
+#: (:func:`height_axis`).
+HEIGHT_AXIS_DEG = 20.0
 #: Colour of faces with no figure (tac of a face with no interior corner).
 NO_VALUE = (0.75, 0.75, 0.75)
 #: The viridis scale (matplotlib's), sampled at 9 even steps from low to high: dark blue
@@ -136,6 +143,20 @@ def auto_view(vertices: np.ndarray, faces: np.ndarray, frame: Any = None) -> dic
     return {"view": tuple(float(x) for x in view), "up": tuple(float(x) for x in n)}
 
 
+def height_axis(normal: AxisSpec) -> np.ndarray:
+    """(3,) float64 direction heights are measured along by default: the signed coordinate
+    axis nearest ``normal`` (a surface's normal) when within ``HEIGHT_AXIS_DEG`` of it,
+    else ``normal``: terrain's best-fit normal leans a degree or two, and its height is
+    then its elevation, not a tilted mix of elevation and easting."""
+    n = parse_axis(normal, "up")
+    k = int(np.argmax(np.abs(n)))
+    if abs(float(n[k])) >= math.cos(math.radians(HEIGHT_AXIS_DEG)):
+        axis = np.zeros(3)
+        axis[k] = math.copysign(1.0, float(n[k]))
+        return axis
+    return n
+
+
 class ColorScale(NamedTuple):
     """What the face colours of :func:`face_colors` mean: ``lo`` is the darkest (viridis
     blue), ``hi`` the brightest (yellow); values beyond are drawn as the end colours."""
@@ -163,7 +184,8 @@ def face_values(
         CAD part: path, trimesh.Trimesh or :class:`scanmesh.evaluate.truth.TrueSurface`): where the
         mesh leaves the part.
     by : "height"
-        the centroid's coordinate along ``up`` (model units).
+        the centroid's coordinate along ``up`` (model units) when ``up`` is a coordinate
+        axis, else its height along ``up`` above the lowest face's.
 
     Returns ((M,) float64, unit). O(N + M), plus the truth's distance queries for "error".
     """
@@ -183,7 +205,14 @@ def face_values(
         surface = truth if isinstance(truth, TrueSurface) else TrueSurface(truth)
         return surface.distance(centroid), ""
     if by == "height":
-        return centroid @ parse_axis(up, "up"), ""
+        direction = parse_axis(up, "up")
+        axes = np.flatnonzero(direction)
+        if len(axes) == 1:  # a coordinate axis: the coordinate itself (elevation on terrain)
+            return centroid[:, axes[0]] * direction[axes[0]], ""
+        # another direction: dotted with georeferenced coordinates it would read a number
+        # of no meaning (-1.5e5 for heights of 700-2,500 m): measured from the lowest face
+        height = (centroid - centroid.mean(axis=0)) @ direction
+        return height - height.min(), ""
     raise ParameterError(f"color_by must be one of {', '.join(COLOR_BY)}, got {by!r}")
 
 
@@ -206,7 +235,9 @@ def face_colors(
 
     The scale runs from the smallest to the largest figure, except tac, which runs from 0
     to its 99th percentile: a few spikes (bores, creases) would otherwise leave the rest
-    of the surface one colour.
+    of the surface one colour. A tac of at most ``TAC_ROUNDING`` is drawn as zero and the
+    tac scale reaches at least ``TAC_ROUNDING``, so a flat part is one colour, not its
+    rounding stretched into hot spots.
     """
     if by is None:
         if truth is not None:
@@ -217,11 +248,13 @@ def face_colors(
             np.asarray(COLOR, dtype=np.float64), (len(_mesh_arrays(mesh)[1]), 3)
         ), None
     values, unit = face_values(mesh, by, truth=truth, up=up)
+    if by == "tac":  # rounding of the corner angles is no curvature: drawn as zero
+        values = np.where(values <= TAC_ROUNDING, 0.0, values)
     finite = values[np.isfinite(values)]
     if len(finite) == 0:
         lo = hi = 0.0
     elif by == "tac":
-        lo, hi = 0.0, float(np.percentile(finite, 99))
+        lo, hi = 0.0, max(float(np.percentile(finite, 99)), TAC_ROUNDING)
     else:
         lo, hi = float(finite.min()), float(finite.max())
     return colormap(values, lo, hi), ColorScale(by, lo, hi, unit)
@@ -364,14 +397,15 @@ def render_mesh(
     supersample: int = 2,
     color_by: str | None = None,
     truth: Any = None,
+    height: AxisSpec | None = None,
 ) -> Path:
     """Write a flat-shaded picture of a mesh to a PNG file (see :func:`shade_mesh`).
 
-    ``color_by`` ("tac", "error" with ``truth``, or "height" along ``up``) colours each
-    face by that figure (:func:`face_colors`); default: one colour.
+    ``color_by`` ("tac", "error" with ``truth``, or "height" along ``height``, by default
+    ``up``) colours each face by that figure (:func:`face_colors`); default: one colour.
     """
     target = _png_path(path)
-    color = face_colors(mesh, color_by, truth=truth, up=up)[0]
+    color = face_colors(mesh, color_by, truth=truth, up=up if height is None else height)[0]
     image = shade_mesh(
         mesh, size=size, view=view, up=up, wire=wire, color=color, supersample=supersample
     )

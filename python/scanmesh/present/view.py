@@ -39,6 +39,7 @@ from scanmesh.present.render import (
     auto_view,
     camera,
     face_colors,
+    height_axis,
 )
 from scanmesh.scan.axes import AxisSpec
 
@@ -212,7 +213,9 @@ def html_page(
         What to show; faces are lit from both sides.
     color_by : "tac", "error" or "height", optional
         Colour each face by that figure (:func:`scanmesh.present.render.face_colors`; "error" needs
-        ``truth``, "height" is measured along ``up``), with a legend; default one colour.
+        ``truth``, "height" is measured along ``up``, by default along the coordinate axis
+        nearest the surface's normal: :func:`scanmesh.present.render.height_axis`), with a
+        legend; default one colour.
     view, up : axis name or (3,) float, optional
         The first view: direction from the part to the eye and the model direction shown
         upwards; by default the camera of ``scanmesh render`` (three-quarter, from the side
@@ -222,7 +225,8 @@ def html_page(
     """
     vertices, faces = _mesh_arrays(mesh)
     cam = _camera_of(mesh, vertices, faces, view, up)
-    rgb, scale = face_colors((vertices, faces), color_by, truth=truth, up=cam["up"])
+    height = height_axis(cam["up"]) if up is None else up
+    rgb, scale = face_colors((vertices, faces), color_by, truth=truth, up=height)
     used = vertices[_used(faces, len(vertices))]
     middle = 0.5 * (used.min(axis=0) + used.max(axis=0))
     radius = float(np.max(np.linalg.norm(used - middle, axis=1))) or 1.0
@@ -280,8 +284,9 @@ def save_glb(
 
     Each face gets its own three vertices with the face's normal, so every viewer shows
     the facets flat-shaded as scanmesh's pictures do; ``color_by`` ("tac", "error" with
-    ``truth``, "height" along ``up``, by default the surface's normal as in
-    :func:`scanmesh.present.render.auto_view`) stores the face colours as vertex colours.
+    ``truth``, "height" along ``up``, by default the coordinate axis nearest the surface's
+    normal as in :func:`scanmesh.present.render.height_axis`) stores the face colours as
+    vertex colours.
     """
     trimesh = import_interruptibly("trimesh")
 
@@ -290,7 +295,7 @@ def save_glb(
         raise ParameterError(f"a GLB file is written to .glb: {target} ends otherwise")
     vertices, faces = _mesh_arrays(mesh)
     if up is None:
-        up = auto_view(vertices, faces, getattr(mesh, "frame", None))["up"]
+        up = height_axis(auto_view(vertices, faces, getattr(mesh, "frame", None))["up"])
     rgb = face_colors((vertices, faces), color_by, truth=truth, up=up)[0]
     corners = vertices[faces].reshape(-1, 3)
     flat = trimesh.Trimesh(corners, np.arange(len(corners)).reshape(-1, 3), process=False)

@@ -11,10 +11,12 @@ from scanmesh import _core
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError
-from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.formats import ScanPoints
+from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.spacing import trim_length
 from scanmesh.stages.options import JUMP_FACTOR, MAX_EDGE_OPTION
+from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 
@@ -26,7 +28,7 @@ def resolve_max_edge(uv: np.ndarray, faces: np.ndarray, max_edge: float | None) 
 
 
 def delaunay(
-    points: ArrayLike | PlanarScan,
+    points: ArrayLike | PlanarScan | ScanPoints,
     *,
     plane: PlaneSpec = None,
     max_edge: float | None = None,
@@ -36,9 +38,10 @@ def delaunay(
 
     Parameters
     ----------
-    points : (N, 3) float or PlanarScan
+    points : (N, 3) float, PlanarScan or ScanPoints
         Scan points; any real dtype and memory layout. A PlanarScan
-        (:func:`scanmesh.planar_scan`) is triangulated in its own plane, not projected again.
+        (:func:`scanmesh.planar_scan`) is triangulated in its own plane, not projected again;
+        a ScanPoints (:func:`scanmesh.read`) as its file would be.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane (see :func:`scanmesh.scan.projection.project`); with a PlanarScan,
         None or the scan's own.
@@ -71,7 +74,7 @@ def delaunay(
         Wrong shape, non-finite values, fewer than 3 distinct points, collinear points, or
         a trimming length that leaves no triangle.
     """
-    scan = as_scan(points, plane=plane)
+    scan = scan_of(points, plane=plane)
     if max_edge is not None:
         max_edge = MAX_EDGE_OPTION.check(max_edge)  # before the work, not after it
     pts, uv = scan.points, scan.uv

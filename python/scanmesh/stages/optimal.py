@@ -87,6 +87,7 @@ from numpy.typing import ArrayLike
 from scanmesh import _core
 from scanmesh._checks import Option, as_faces, check_options
 from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.formats import ScanPoints
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.stages.lop import lop_surface
@@ -149,7 +150,7 @@ OPTIONS: tuple[Option, ...] = (
 
 
 def optimal_surface(
-    points: ArrayLike | PlanarScan,
+    points: ArrayLike | PlanarScan | ScanPoints,
     *,
     p: float = 1,
     plane: PlaneSpec = None,

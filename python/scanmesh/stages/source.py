@@ -1,0 +1,27 @@
+"""What the stages take as a source: points, a PlanarScan, or what ``scanmesh.read`` returns."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from numpy.typing import ArrayLike
+
+from scanmesh.formats import ScanPoints
+from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.scan.projection import PlaneSpec
+
+
+def scan_of(
+    source: ArrayLike | PlanarScan | ScanPoints,
+    *,
+    plane: PlaneSpec = None,
+    lines: ArrayLike | None = None,
+) -> PlanarScan:
+    """``source`` checked and projected (:func:`scanmesh.scan.planar.as_scan`); a
+    :class:`ScanPoints` gives its points, its line ids (unless ``lines`` is given) and its
+    recorded ``up`` as reading its file would, and its file as the scan's source."""
+    if isinstance(source, ScanPoints):
+        ids = source.line_ids if lines is None else lines
+        made = as_scan(source.points, plane=plane, lines=ids, up=source.up)
+        return dataclasses.replace(made, source=source.source)
+    return as_scan(source, plane=plane, lines=lines)
