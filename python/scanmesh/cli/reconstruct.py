@@ -33,7 +33,7 @@ from scanmesh.cli._common import (
 from scanmesh.distributed import reconstruct_distributed
 from scanmesh.distributed._source import source_paths
 from scanmesh.formats import count_lines
-from scanmesh.formats.write import TermGuard, refuse_remote, save_mesh
+from scanmesh.formats.write import TermGuard, save_mesh
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.present.render import render_mesh
 from scanmesh.reconstruction import reconstruct
@@ -47,7 +47,6 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     if args.workers is not None or args.partition_lines is not None:
         flag = "--workers" if args.workers is not None else "--partition-lines"
         args._parser.error(f"{flag} applies with --dask only")
-    _refuse_remote(args)
     source, out = Path(args.input), Path(args.output)
     report = Path(args.report) if args.report else None
     preview = Path(args.preview) if args.preview else None
@@ -146,7 +145,6 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     """``reconstruct --dask``: the scan files (IN may be a glob) on a Dask cluster, the mesh
     written block by block by the workers (:func:`scanmesh.distributed.reconstruct_distributed`)."""
     distributed = require("distributed", "dask", "--dask")
-    _refuse_remote(args)
     out = Path(args.output)
     report = Path(args.report) if args.report else None
     given_flags = (("--preview", args.preview), ("--no-quality", not args.quality))
@@ -214,15 +212,6 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     )
     con.summary(f"wrote {', '.join(str(p) for p in (out, report) if p is not None)}")
     return 0
-
-
-def _refuse_remote(args: argparse.Namespace) -> None:
-    """Outputs are files: a remote URL (``s3://...``) is refused naming its flag."""
-    for flag, given in (("-o/--output", args.output), ("--report", args.report)):
-        if given:
-            refuse_remote(given, flag)
-    if getattr(args, "preview", None):
-        refuse_remote(args.preview, "--preview")
 
 
 def _read_flags(args: argparse.Namespace) -> list[str]:
