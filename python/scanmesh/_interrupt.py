@@ -9,7 +9,8 @@ dropped; it holds only its own copies of the inputs), or ends with the process.
 
 Whether a call goes to a worker is decided by its expected cost, not its input's size: a
 quadratic solver on 40,000 points, or the exact optimum on 200, takes seconds. Cheap calls
-run directly (a thread costs about 0.1 ms, too much for the many tiny calls of a fuzz run).
+run directly (a worker thread costs a fraction of a millisecond, too much for the many
+tiny calls of a fuzz run).
 """
 
 from __future__ import annotations
