@@ -120,7 +120,7 @@ def _quiet_distributed() -> Iterator[None]:
 
 
 def _local_cluster(distributed: Any, workers: int | None) -> Any:
-    """A LocalCluster (no dashboard) whose worker processes log nothing and ignore SIGINT:
+    """A LocalCluster (HTTP on a free port) whose worker processes log nothing and ignore SIGINT:
     Ctrl-C at the terminal reaches the whole process group, and workers that die of it
     print their tracebacks and hold up the closing; this process cancels the work and
     closes them."""
@@ -132,9 +132,9 @@ def _local_cluster(distributed: Any, workers: int | None) -> Any:
             threads_per_worker=1,
             processes=True,
             silence_logs=logging.CRITICAL + 1,
-            # no dashboard: the command shows its own progress, and a dashboard port taken
-            # by another cluster only gave warnings
-            dashboard_address=None,
+            # the scheduler's HTTP server on a free port: 8787 taken by another cluster
+            # gave warnings (and None still tries 8787)
+            dashboard_address=":0",
         )
     finally:
         if previous is not None:
