@@ -4,6 +4,7 @@ a worker killed mid-run changes nothing. Skipped only when dask is not installed
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -12,6 +13,7 @@ import sys
 import textwrap
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -353,3 +355,63 @@ def test_the_command_runs_on_a_local_cluster(scan, tmp_path, capsys):
     assert out.read_bytes() == (tmp_path / "single.stl").read_bytes()
     assert report["counts"]["faces"] == len(single.faces) and not leftovers(tmp_path)
     assert report["noise"] == single.options.get("noise")  # the one-process report's key
+
+
+def _command(tmp_path: Path, *args: str) -> subprocess.Popen:
+    """``scanmesh reconstruct ... --dask local --workers 1`` in its own process group, as
+    a terminal runs it (Ctrl-C there reaches every process of the group)."""
+    restore = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+    run = restore + "import sys\nfrom scanmesh.cli import main\nsys.exit(main())\n"
+    return subprocess.Popen(
+        [sys.executable, "-c", run, "reconstruct", *args, "--dask", "local", "--workers", "1"],
+        cwd=tmp_path,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+
+
+def test_a_bad_file_under_dask_is_one_line(tmp_path):
+    (tmp_path / "bad.xyz").write_text("1 2 3\n4 5 x\n")
+    proc = _command(tmp_path, "bad.xyz", "-o", "m.ply", "--method", "delaunay", "--quiet")
+    err = proc.communicate(timeout=300)[1]
+    assert proc.returncode == 1
+    assert err.splitlines() == ["scanmesh: error: bad.xyz, line 2: 'x' is not a number: '4 5 x'"]
+
+
+def _signal_a_dask_run(tmp_path: Path, kill: Callable[[int], None]) -> tuple[str, float, int]:
+    """Start a long annealing run under --dask, ``kill(pid)`` once it works; return its
+    stderr, the seconds it took to end after that, and its exit status."""
+    rng = np.random.default_rng(0)
+    xy = rng.random((60_000, 2))
+    np.save(tmp_path / "scan.npy", np.column_stack([xy, np.sin(5 * xy[:, 0]) * xy[:, 1]]))
+    proc = _command(
+        tmp_path, "scan.npy", "-o", "m.ply", "--method", "anneal", "--sweeps", "100000", "--quiet"
+    )
+    try:
+        deadline = time.monotonic() + 240
+        while not leftovers(tmp_path) and time.monotonic() < deadline:  # the run's scratch
+            time.sleep(0.05)
+        time.sleep(1.0)  # well inside the annealing of the tiles
+        assert proc.poll() is None
+        sent = time.monotonic()
+        kill(proc.pid)
+        err = proc.communicate(timeout=120)[1]
+        return err, time.monotonic() - sent, proc.returncode
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+
+
+def test_sigterm_under_dask_discards_the_temporaries(tmp_path):
+    _, _, code = _signal_a_dask_run(tmp_path, lambda pid: os.kill(pid, signal.SIGTERM))
+    assert code == -signal.SIGTERM  # still ended by the signal, after the cleanup
+    assert not leftovers(tmp_path) and not (tmp_path / "m.ply").exists()
+
+
+def test_ctrl_c_under_dask_is_one_line_and_prompt(tmp_path):
+    err, took, code = _signal_a_dask_run(tmp_path, lambda pid: os.killpg(pid, signal.SIGINT))
+    assert code == 130
+    assert err.splitlines() == ["scanmesh: interrupted"]
+    assert took < 4.0  # typically 1-2 s: the workers are stopped and the cluster closed
+    assert not leftovers(tmp_path)

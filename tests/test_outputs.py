@@ -158,6 +158,26 @@ def test_remote_output_is_refused_naming_the_flag(tmp_path):
     assert "does not exist" not in message
 
 
+@pytest.mark.parametrize(
+    ("args", "flag"),
+    [
+        (("render", "MESH", "-o", "s3://b/x.png"), "-o/--output"),
+        (("view", "MESH", "-o", "gs://b/x.html", "--no-open"), "-o/--output"),
+        (("simulate", "MESH", "-o", "s3://b/x.xyz", "--spacing", "0.1"), "-o/--output"),
+        (("compare", "SCAN", "--picture", "s3://b/x.png"), "--picture"),
+        (("demo", "-o", "s3://b/demo"), "-o/--output-dir"),
+        (("reconstruct", "SCAN", "-o", "m.stl", "--report", "s3://b/r.json"), "--report"),
+    ],
+)
+def test_every_command_refuses_a_remote_output_naming_the_flag(tmp_path, args, flag):
+    scan, mesh = tmp_path / "scan.xyz", tmp_path / "m.ply"
+    scanmesh.formats.write.write_points(scan, _patch())
+    save_mesh(mesh, _patch(), np.array([[0, 1, 6], [1, 7, 6]]))
+    given = [{"MESH": str(mesh), "SCAN": str(scan)}.get(a, a) for a in args]
+    message = assert_failed(run(*given))
+    assert "remote URLs are not supported" in message and f"{flag} " in message
+
+
 # --------------------------------------------------------------------------- temporaries
 
 

@@ -432,6 +432,45 @@ def test_ctrl_c_while_reading_a_large_text_file_returns_quickly(tmp_path):
     assert seconds_to_interrupt(script, 0.1) < 0.2
 
 
+SLOW_SMALL_SCRIPT = """
+import sys, time
+import numpy as np
+import scipy.optimize  # loaded before the clock starts, as the stage's first run does
+import scanmesh
+rng = np.random.default_rng(0)
+def progress(done, total, value, stage):
+    if stage == "strips" and done == 0:
+        print("started", flush=True)
+if METHOD == "optimal":
+    # 200 points: HiGHS runs for tens of seconds, in one call
+    xy = rng.random((200, 2))
+    pts = np.column_stack([xy, 0.1 * np.sin(5 * xy[:, 0])])
+    kw = {"time_limit": 120.0}
+    print("started", flush=True)
+else:
+    # two lines of 20,000 points: the whole-matrix solver's 4e8 cells take a minute
+    t = np.linspace(0.0, 1.0, 20_000)
+    pts = np.vstack([np.column_stack([t, 0 * t, 0.01 * np.sin(20 * t)]),
+                     np.column_stack([t + 1e-5, 0 * t + 1e-3, 0.01 * np.cos(20 * t)])])
+    kw = {"lines": np.repeat([0, 1], 20_000), "solver": "dp", "progress": progress}
+try:
+    scanmesh.reconstruct(pts, METHOD, plane="z", **kw)
+except KeyboardInterrupt:
+    print(f"interrupted {time.monotonic()!r}", flush=True)
+    sys.exit(0)
+print("finished", flush=True)
+"""
+
+
+@pytest.mark.parametrize("method, wait", [("optimal", 3.0), ("shortest-path", 0.3)])
+def test_ctrl_c_during_a_slow_call_on_few_points_returns_quickly(method, wait):
+    """Small but slow: the exact optimum (HiGHS) on 200 points, the whole-matrix strip
+    solver on 2 x 20,000 points. Below the point count that used to move a call into a
+    worker thread, they ran in the main thread and Ctrl-C waited for them."""
+    script = SLOW_SMALL_SCRIPT.replace("METHOD", repr(method))
+    assert seconds_to_interrupt(script, wait) < 0.5
+
+
 def test_ctrl_c_during_an_import_that_swallows_it_still_interrupts(tmp_path):
     """trimesh guards its optional imports with ``except BaseException``: a Ctrl-C landing
     there was swallowed and ``compare --truth`` ran on. A stand-in module that sleeps inside

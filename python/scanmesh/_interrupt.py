@@ -6,11 +6,17 @@ Python only handles a signal when it runs, so Ctrl-C would wait for the call to 
 thread and waits in short slices, so ``KeyboardInterrupt`` reaches the caller within
 about ``POLL_SECONDS``. The abandoned call finishes in the background (its result is
 dropped; it holds only its own copies of the inputs), or ends with the process.
+
+Whether a call goes to a worker is decided by its expected cost, not its input's size: a
+quadratic solver on 40,000 points, or the exact optimum on 200, takes seconds. Cheap calls
+run directly (a worker thread costs a fraction of a millisecond, too much for the many
+tiny calls of a fuzz run).
 """
 
 from __future__ import annotations
 
 import importlib
+import math
 import sys
 import threading
 from collections.abc import Callable
@@ -19,18 +25,25 @@ from typing import Any, TypeVar
 
 T = TypeVar("T")
 
-#: Calls on fewer points than this run directly (they return within milliseconds).
-THREAD_MIN_POINTS: int = 50_000
+#: Calls of an expected cost below this run directly (they return within milliseconds).
+#: Cost is counted in points of a linear-time stage (Delaunay, banded strips: about a
+#: microsecond each); callers of costlier algorithms scale their estimate to that unit.
+THREAD_MIN_COST: float = 50_000
+
+#: The cost of calls that cannot be bounded cheaply beforehand (the exact optimum's MILP):
+#: they always run in a worker.
+UNBOUNDED: float = math.inf
 
 #: How often the waiting thread lets Python check for Ctrl-C (seconds).
 POLL_SECONDS: float = 0.02
 
 
-def interruptible(n_points: int, fn: Callable[..., T], *args: Any) -> T:
-    """``fn(*args)``, run in a worker thread when ``n_points`` is large, so that Ctrl-C
-    raises ``KeyboardInterrupt`` here within about ``POLL_SECONDS``; exceptions of ``fn``
-    are re-raised unchanged."""
-    if n_points < THREAD_MIN_POINTS or threading.current_thread() is not threading.main_thread():
+def interruptible(cost: float, fn: Callable[..., T], *args: Any) -> T:
+    """``fn(*args)``, run in a worker thread when its expected ``cost`` (see
+    :data:`THREAD_MIN_COST`; the number of points for a linear-time call) is large, so that
+    Ctrl-C raises ``KeyboardInterrupt`` here within about ``POLL_SECONDS``; exceptions of
+    ``fn`` are re-raised unchanged."""
+    if cost < THREAD_MIN_COST or threading.current_thread() is not threading.main_thread():
         # Signals are delivered to the main thread only: elsewhere a worker gains nothing.
         return fn(*args)
     return _in_worker(fn, *args)

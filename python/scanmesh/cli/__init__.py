@@ -30,7 +30,7 @@ from scanmesh.cli._args import (
     _size,
     _vector,
 )
-from scanmesh.cli._common import _Console, _one_line, _speak_flags
+from scanmesh.cli._common import _Console, _one_line, _refuse_remote_outputs, _speak_flags
 from scanmesh.cli.compare import COMPARE_METHODS, HOLDOUT_FRACTION, cmd_compare
 from scanmesh.cli.demo import DEMO_MESH, DEMO_PREVIEW, cmd_demo
 from scanmesh.cli.info import cmd_info
@@ -290,6 +290,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(_join_vectors(sys.argv[1:] if argv is None else argv))
         con = _Console(quiet=getattr(args, "quiet", False), as_json=getattr(args, "json", False))
         run: Callable[[argparse.Namespace, _Console], int] = args.func
+        _refuse_remote_outputs(args)  # every command's outputs are files
         with warnings.catch_warnings():
             warnings.simplefilter("always")  # every warning reaches the report
             warnings.showwarning = con.warn

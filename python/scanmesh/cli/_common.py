@@ -19,7 +19,13 @@ import numpy as np
 from scanmesh.cli._args import _method_flags, _read_options
 from scanmesh.errors import ParameterError
 from scanmesh.formats import read
-from scanmesh.formats.write import FORMATS, _same_file, check_not_input, write_atomic
+from scanmesh.formats.write import (
+    FORMATS,
+    _same_file,
+    check_not_input,
+    refuse_remote,
+    write_atomic,
+)
 from scanmesh.methods import SHARED
 
 
@@ -46,6 +52,25 @@ def _dumps(data: Any) -> str:
 
 def _write_text(path: Path, text: str) -> None:
     write_atomic(path, [text.encode("utf-8")])
+
+
+#: Every flag that names a file or folder a command writes (argparse name: flag).
+OUTPUT_FLAGS: dict[str, str] = {
+    "output": "-o/--output",
+    "output_dir": "-o/--output-dir",
+    "report": "--report",
+    "preview": "--preview",
+    "picture": "--picture",
+}
+
+
+def _refuse_remote_outputs(args: argparse.Namespace) -> None:
+    """Outputs are files: a remote URL (``s3://...``) given for any output flag of any
+    command is refused, naming the flag."""
+    for name, flag in OUTPUT_FLAGS.items():
+        given = getattr(args, name, None)
+        if given:
+            refuse_remote(given, flag)
 
 
 def _check_outputs(inputs: Sequence[Path], outputs: Sequence[Path | None]) -> None:

@@ -4,7 +4,12 @@ cluster, with an optional JSON report and PNG preview."""
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
+import signal
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +35,7 @@ from scanmesh.cli._common import (
 from scanmesh.distributed import reconstruct_distributed
 from scanmesh.distributed._source import source_paths
 from scanmesh.formats import count_lines
-from scanmesh.formats.write import refuse_remote, save_mesh
+from scanmesh.formats.write import TermGuard, save_mesh
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.present.render import render_mesh
 from scanmesh.reconstruction import reconstruct
@@ -44,7 +49,6 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     if args.workers is not None or args.partition_lines is not None:
         flag = "--workers" if args.workers is not None else "--partition-lines"
         args._parser.error(f"{flag} applies with --dask only")
-    _refuse_remote(args)
     source, out = Path(args.input), Path(args.output)
     report = Path(args.report) if args.report else None
     preview = Path(args.preview) if args.preview else None
@@ -105,11 +109,48 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _quiet_distributed() -> Iterator[None]:
+    """distributed's own log records ("Compute Failed" with the worker's traceback, workers
+    lost while closing) kept from the terminal for the run: the command reports a failure
+    or an interrupt in one line."""
+    loggers = [logging.getLogger(name) for name in ("distributed", "asyncio")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
+
+
+def _local_cluster(distributed: Any, workers: int | None) -> Any:
+    """A LocalCluster (HTTP on a free port) whose worker processes log nothing and ignore SIGINT:
+    Ctrl-C at the terminal reaches the whole process group, and workers that die of it
+    print their tracebacks and hold up the closing; this process cancels the work and
+    closes them."""
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if in_main else None
+    try:  # ignored signals stay ignored in the processes started meanwhile
+        return distributed.LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            silence_logs=logging.CRITICAL + 1,
+            # the scheduler's HTTP server on a free port: 8787 taken by another cluster
+            # gave warnings (and None still tries 8787)
+            dashboard_address=":0",
+        )
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
 def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     """``reconstruct --dask``: the scan files (IN may be a glob) on a Dask cluster, the mesh
     written block by block by the workers (:func:`scanmesh.distributed.reconstruct_distributed`)."""
     distributed = require("distributed", "dask", "--dask")
-    _refuse_remote(args)
     out = Path(args.output)
     report = Path(args.report) if args.report else None
     given_flags = (("--preview", args.preview), ("--no-quality", not args.quality))
@@ -126,29 +167,29 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     # every file the pattern matches now is an input: none may be an output
     _check_outputs([Path(p) for p in source_paths(args.input)], [out, report])
     progress = con.progress and not con.json
-    if args.dask == "local":
-        cluster = distributed.LocalCluster(
-            n_workers=args.workers, threads_per_worker=1, processes=True
-        )
-        client = distributed.Client(cluster)
-    else:
-        cluster, client = None, distributed.Client(args.dask)
-    try:
-        result = reconstruct_distributed(
-            args.input,
-            args.method,
-            client=client,
-            output=out,
-            partition_lines=args.partition_lines,
-            plane=args.plane,
-            progress=progress,
-            **shared,
-            **options,
-        )
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    # SIGTERM and SIGHUP close the cluster before the process ends by them
+    with TermGuard(), _quiet_distributed():
+        if args.dask == "local":
+            cluster = _local_cluster(distributed, args.workers)
+            client = distributed.Client(cluster)
+        else:
+            cluster, client = None, distributed.Client(args.dask)
+        try:
+            result = reconstruct_distributed(
+                args.input,
+                args.method,
+                client=client,
+                output=out,
+                partition_lines=args.partition_lines,
+                plane=args.plane,
+                progress=progress,
+                **shared,
+                **options,
+            )
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
     data = {
         "input": args.input,
         "output": str(out),
@@ -177,15 +218,6 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     )
     con.summary(f"wrote {', '.join(str(p) for p in (out, report) if p is not None)}")
     return 0
-
-
-def _refuse_remote(args: argparse.Namespace) -> None:
-    """Outputs are files: a remote URL (``s3://...``) is refused naming its flag."""
-    for flag, given in (("-o/--output", args.output), ("--report", args.report)):
-        if given:
-            refuse_remote(given, flag)
-    if getattr(args, "preview", None):
-        refuse_remote(args.preview, "--preview")
 
 
 def _read_flags(args: argparse.Namespace) -> list[str]:

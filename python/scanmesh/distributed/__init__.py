@@ -22,7 +22,7 @@ from typing import Any
 
 from scanmesh._extras import require
 from scanmesh.errors import DegenerateInputError, ParameterError
-from scanmesh.formats.write import check_not_input
+from scanmesh.formats.write import TermGuard, check_not_input
 from scanmesh.methods import TABLE
 from scanmesh.scan.projection import PlaneSpec
 
@@ -135,66 +135,68 @@ def reconstruct_distributed(
         owned = distributed.LocalCluster(processes=True, threads_per_worker=1)
         client = distributed.Client(owned)
     stored: Path | None = None
-    try:
-        t0 = time.perf_counter()
-        # the dask array's chunks, and copies of the files costly to read again (each
-        # stage reads every part), go beside the output, visible to every worker
-        stored = scratch_folder(target)
-        if _is_dask_array(source):
-            array, ids = source if isinstance(source, tuple) else (source, None)
-            paths = store_chunks(client, array, ids, stored)
-        else:
-            assert files is not None
-            paths = files
-        parts, summaries = list_parts(client, paths, PLANE_SAMPLE, stored)
-        lo, hi = scan_bounds(summaries)
-        plane = resolve_plane(plane, summaries)
-        t1 = time.perf_counter()
-        mesh = StreamedMesh(client, target, parts)
-        seams: list[Any] = []
+    # SIGTERM and SIGHUP, like Ctrl-C: the work cancelled, the temporaries removed
+    with TermGuard():
         try:
-            if method in STRIP_METHODS:
-                blocks, seams, info = strip_blocks(
-                    client,
-                    parts,
-                    method,
-                    options,
-                    plane=plane,
-                    lo=lo,
-                    hi=hi,
-                    partition_lines=partition_lines,
-                )
-                for block in blocks:
-                    mesh.add(block)
-                del blocks
+            t0 = time.perf_counter()
+            # the dask array's chunks, and copies of the files costly to read again (each
+            # stage reads every part), go beside the output, visible to every worker
+            stored = scratch_folder(target)
+            if _is_dask_array(source):
+                array, ids = source if isinstance(source, tuple) else (source, None)
+                paths = store_chunks(client, array, ids, stored)
             else:
-                # the tiles hand each block to the writer as it is submitted
-                _, info = tile_blocks(
-                    client,
-                    parts,
-                    method,
-                    options,
-                    plane=plane,
-                    progress=progress,
-                    scratch=mesh.folder,
-                    add=mesh.add,
-                )
-            if progress:
-                distributed.progress([*mesh.blocks, *seams])
-            seam_sums = client.gather(seams)
-            t2 = time.perf_counter()
-            written = mesh.finish(_turns)
-        except BaseException:
-            client.cancel([*mesh.blocks, *mesh.vertices, *seams])
-            mesh.discard()
-            raise
-        t3 = time.perf_counter()
-    finally:
-        if owned is not None:
-            client.close()
-            owned.close()
-        if stored is not None:
-            shutil.rmtree(stored, ignore_errors=True)
+                assert files is not None
+                paths = files
+            parts, summaries = list_parts(client, paths, PLANE_SAMPLE, stored)
+            lo, hi = scan_bounds(summaries)
+            plane = resolve_plane(plane, summaries)
+            t1 = time.perf_counter()
+            mesh = StreamedMesh(client, target, parts)
+            seams: list[Any] = []
+            try:
+                if method in STRIP_METHODS:
+                    blocks, seams, info = strip_blocks(
+                        client,
+                        parts,
+                        method,
+                        options,
+                        plane=plane,
+                        lo=lo,
+                        hi=hi,
+                        partition_lines=partition_lines,
+                    )
+                    for block in blocks:
+                        mesh.add(block)
+                    del blocks
+                else:
+                    # the tiles hand each block to the writer as it is submitted
+                    _, info = tile_blocks(
+                        client,
+                        parts,
+                        method,
+                        options,
+                        plane=plane,
+                        progress=progress,
+                        scratch=mesh.folder,
+                        add=mesh.add,
+                    )
+                if progress:
+                    distributed.progress([*mesh.blocks, *seams])
+                seam_sums = client.gather(seams)
+                t2 = time.perf_counter()
+                written = mesh.finish(_turns)
+            except BaseException:
+                client.cancel([*mesh.blocks, *mesh.vertices, *seams])
+                mesh.discard()
+                raise
+            t3 = time.perf_counter()
+        finally:
+            if owned is not None:
+                client.close()
+                owned.close()
+            if stored is not None:
+                shutil.rmtree(stored, ignore_errors=True)
     total = combine([*(w.sums for w in written), *seam_sums])
     n_faces = int(total.get("faces", 0))
     details = {key: int(total[key]) for key in ("n_strips", "unused", "duplicates") if key in total}

@@ -188,6 +188,14 @@ def _neighbourhood_residuals(uv: np.ndarray, height: np.ndarray) -> np.ndarray:
 
     if len(uv) <= NEIGHBOURS or not np.isfinite(uv).all():
         return np.zeros(0)
+    # Distinct planar positions only (the first of each, as Delaunay keeps them): a copy
+    # tells a fit nothing, and a million coincident points made the tree's queries
+    # quadratic (minutes, for three distinct points).
+    distinct = _first_of_each(uv)
+    if len(distinct) < len(uv):
+        uv, height = uv[distinct], height[distinct]
+        if len(uv) <= NEIGHBOURS:
+            return np.zeros(0)
     centres = np.arange(len(uv))
     if len(uv) > MAX_FITS:
         centres = np.sort(np.random.default_rng(0).choice(len(uv), MAX_FITS, replace=False))
@@ -215,6 +223,15 @@ def _neighbourhood_residuals(uv: np.ndarray, height: np.ndarray) -> np.ndarray:
         sol = np.linalg.solve(gram[ok], rhs)
         out.append((height[own[ok]] - sol[:, 0, 0]) / np.sqrt(1.0 + sol[:, 0, 1]))
     return np.concatenate(out)
+
+
+def _first_of_each(uv: np.ndarray) -> np.ndarray:
+    """Sorted indices of the first point at each distinct position of ``uv`` (N, 2): all
+    of them when none coincide. O(N log N)."""
+    rows = np.ascontiguousarray(uv, dtype=np.float64) + 0.0  # -0.0 as 0.0
+    keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * 2))).ravel()
+    _, first = np.unique(keys, return_index=True)
+    return np.sort(first)
 
 
 def robust_scale(residuals: np.ndarray) -> float:

@@ -7,6 +7,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh._interrupt import interruptible
@@ -346,25 +348,33 @@ def anneal_surface(
         sigma, params["tie_tolerance"] = noise_tolerance(
             start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
         )
+    # Annealed on the distinct points: the coincident copies left out of the start (in no
+    # face) would be in every chain's copy of the state, which sizes the chains' memory.
+    keep = _without_duplicates(n, start.duplicates)
+    local = np.full(n, -1, dtype=np.int64)
+    local[keep] = np.arange(len(keep))
     with Stage(progress, "calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
-            n,
+            len(keep),
             lambda: _core.Annealer(
-                scan.points, scan.uv, start.faces, _core.AnnealParams(seed=seed_value, **params)
+                scan.points[keep],
+                scan.uv[keep],
+                local[start.faces],
+                _core.AnnealParams(seed=seed_value, **params),
             ),
         )
     total = runner.chains * params["sweeps"]
     stopped = drive(runner, total, anneal_progress(progress), time_limit)
     with Stage(progress, "polish", len(start.faces), blocking=True):
-        outcome = interruptible(n, runner.finish)
+        outcome = interruptible(len(keep), runner.finish)
     if stopped is None:
         stopped = outcome.stopped
     summary = {name: getattr(outcome, name) for name in SUMMARY}
     elapsed = time.perf_counter() - t0
     return Surface(
         vertices=scan.points,
-        faces=outcome.faces,
+        faces=keep[outcome.faces],
         method="anneal",
         options={
             **start.options,
@@ -382,3 +392,12 @@ def anneal_surface(
         trace={name: outcome.trace[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)},
         line_ids=start.line_ids,
     )
+
+
+def _without_duplicates(n: int, duplicates: np.ndarray | None) -> np.ndarray:
+    """Sorted indices of the ``n`` points other than the dropped duplicates (the first
+    column of ``duplicates``, (D, 2) (dropped, kept)). O(n)."""
+    keep = np.ones(n, dtype=bool)
+    if duplicates is not None and len(duplicates):
+        keep[np.asarray(duplicates)[:, 0]] = False
+    return np.flatnonzero(keep)

@@ -86,6 +86,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import Option, as_faces, check_options
+from scanmesh._interrupt import UNBOUNDED, interruptible
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.formats import ScanPoints
 from scanmesh.scan.planar import PlanarScan
@@ -230,7 +231,7 @@ def optimal_surface(
     # Exactly rescaled: the same orientations, but no overflow at 1e300 or underflow at
     # 1e-300 in the predicates and planar angles.
     uv = np.ascontiguousarray(inst.uv[inst.keep])
-    tri = _core.empty_triangles(uv)  # (T, 3) local indices, counter-clockwise
+    tri = interruptible(n**3, _core.empty_triangles, uv)  # (T, 3) local, counter-clockwise
     geo = _geometry(inst, uv, tri)
     t1 = time.perf_counter()
     cuts = None
@@ -249,12 +250,17 @@ def optimal_surface(
     options: dict[str, object] = {"disp": False, "mip_rel_gap": MIP_REL_GAP}
     if math.isfinite(limit):
         options["time_limit"] = max(limit - (t2 - t1), 0.05 * limit)
-    res = milp(
-        model.c,
-        integrality=model.integrality,
-        bounds=Bounds(0.0, model.upper),
-        constraints=LinearConstraint(model.a, model.lower_rows, model.upper_rows),
-        options=options,
+    # HiGHS releases the GIL but can run for minutes (past its time limit at the root):
+    # in a worker, so that Ctrl-C is not kept waiting
+    res = interruptible(
+        UNBOUNDED,
+        lambda: milp(
+            model.c,
+            integrality=model.integrality,
+            bounds=Bounds(0.0, model.upper),
+            constraints=LinearConstraint(model.a, model.lower_rows, model.upper_rows),
+            options=options,
+        ),
     )
     t3 = time.perf_counter()
     proven_by_cutoff = known is not None and res.status == 2

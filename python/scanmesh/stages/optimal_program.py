@@ -8,6 +8,7 @@ import math
 import time
 import warnings
 from dataclasses import dataclass
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,6 +16,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import power_of_two_unit
+from scanmesh._interrupt import UNBOUNDED, interruptible
 from scanmesh.formats import ScanPoints
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.projection import PlaneSpec
@@ -315,18 +317,15 @@ def _fan_cuts(
                 ],
                 format="csr",
             )
-            res = linprog(
-                cost,
-                A_ub=a_ub,
-                b_ub=np.zeros(n_i),
-                A_eq=a_eq,
-                b_eq=b_eq,
-                bounds=bounds,
-                method="highs",
-            )
+            master = {"A_ub": a_ub, "b_ub": np.zeros(n_i)}
         else:
             cost = np.r_[np.zeros(t_count), np.abs(fan_s)]
-            res = linprog(cost, A_eq=a_eq, b_eq=b_eq, bounds=bounds, method="highs")
+            master = {}
+        # HiGHS in a worker, so that Ctrl-C is not kept waiting by a slow master LP
+        res = interruptible(
+            UNBOUNDED,
+            partial(linprog, cost, A_eq=a_eq, b_eq=b_eq, bounds=bounds, method="highs", **master),
+        )
         if res.status != 0:
             raise RuntimeError(f"fan master LP failed ({res.message}); please report it")
         duals = res.eqlin.marginals

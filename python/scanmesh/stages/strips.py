@@ -202,6 +202,17 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
 SolvedStrips = _core.StripResult
 
 
+def _expected_cost(n: int, n_lines: int, method: str, params: Mapping[str, Any]) -> float:
+    """What :func:`solve_strips` costs, in the unit of ``scanmesh._interrupt.interruptible``
+    (points of a linear-time stage), counted generously as path-matrix cells: the banded
+    solver is near-linear (n), the whole-matrix solvers ("dp", "dijkstra") visit about
+    n^2 / lines cells, the look-ahead n alpha^2 (at most the whole matrices). O(1)."""
+    whole = n * (n / max(n_lines, 1))
+    if method == "lookahead":
+        return min(n * float(params.get("alpha", DEFAULT_ALPHA)) ** 2, whole)
+    return whole if params.get("solver", "banded") in ("dp", "dijkstra") else float(n)
+
+
 def solve_strips(
     points: np.ndarray,
     uv: np.ndarray,
@@ -344,7 +355,8 @@ def strip_surface(
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
     with Stage(progress, "strips", len(pts), blocking=True):
-        solved = interruptible(len(pts), solve_strips, pts, uv, ids, method, params, k)
+        work = _expected_cost(len(pts), n_lines, method, params)
+        solved = interruptible(work, solve_strips, pts, uv, ids, method, params, k)
     faces, unused, duplicates = solved.faces, solved.unused, solved.duplicates
     n_strips, cost, planar_error = solved.n_strips, solved.cost, solved.planar_error
     dropped_jumps, dropped_overlaps = solved.dropped_jumps, solved.dropped_overlaps
