@@ -1,9 +1,9 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
+use crate::geometry::orient2d;
 use crate::geometry::planar_distance;
 use crate::geometry::unit_square;
-use crate::geometry::orient2d;
 use crate::mesh::NONE;
 use crate::mesh::{prev, HalfEdgeMesh, COLLINEAR_SINE};
 use crate::triangulate::delaunay::relabel;
