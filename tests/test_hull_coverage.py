@@ -134,3 +134,23 @@ def test_untrimmed_faces_cover_the_hull_exactly(n, seed, copies, exponent, origi
     surface = untrimmed(with_near_duplicates(n, seed, copies, exponent, origin), method)
     assert len(surface.options["trimmed"]) == 0
     assert hull_faults(surface) == []
+
+
+#: The property fuzz's seeds of the issue; as seeds of ``test_properties.make_points``'s
+#: "duplicates" kind (a third of the points copied, half of them 1e-12 away) every one of
+#: them lost hull area or a hull vertex at several sizes before the fix.
+ISSUE_SEEDS = (10563, 17425, 10925, 14206, 16380, 17010)
+
+
+@pytest.mark.parametrize("seed", ISSUE_SEEDS)
+def test_issue_seeds_keep_the_whole_hull(seed):
+    from test_properties import make_points
+
+    for n in range(4, 13):
+        points = make_points("duplicates", n, seed, 1.0)
+        for method in sorted(OPTIONS):
+            try:
+                surface = untrimmed(points, method)
+            except scanmesh.DegenerateInputError:
+                continue
+            assert hull_faults(surface) == [], (n, method)
