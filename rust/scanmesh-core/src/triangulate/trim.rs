@@ -365,7 +365,7 @@ pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
 /// A triangle with one tiny angle only (a needle: two corners a near-duplicate pair, the
 /// third far away, angles about (0, φ, π − φ)) is not a sliver: it is a real part of the
 /// surface, and peeling it off the hull would open a gap whose far corner then pinches
-/// the mesh in two (issue 31: a hull corner and 62 % of the area lost at `max_edge = ∞`).
+/// the mesh in two (five points lost a hull corner and 62 % of the area at `max_edge = ∞`).
 /// [`well_formed`](crate::mesh::well_formed) bounds the smallest angle and refuses both,
 /// as flips must; peeling may only drop the first. O(1).
 fn collinear_sliver(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {

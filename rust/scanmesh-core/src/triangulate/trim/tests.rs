@@ -444,7 +444,7 @@ fn area2_sum(uv: &[[f64; 2]], t: &[[u32; 3]]) -> f64 {
 
 #[test]
 fn near_duplicate_corners_are_not_peeled_as_slivers() {
-    // Issue 31: points 0 and 3 are 1.4e-9 apart (a few ulps at 1e6). The needle (3, 2, 0)
+    // Points 0 and 3 are 1.4e-9 apart (a few ulps at 1e6). The needle (3, 2, 0)
     // on the hull has one tiny angle only; peeling it as a collinear sliver pinched the
     // mesh at 2 and dropped (2, 3, 4): one face left, 62 % of the hull gone, at ∞.
     let uv = vec![
