@@ -7,6 +7,6 @@ pub(crate) mod locality;
 mod validate;
 
 pub(crate) use fans::Fans;
-pub(crate) use halfedge::{convex_quad, well_formed};
+pub(crate) use halfedge::{convex_quad, well_formed, COLLINEAR_SINE};
 pub use halfedge::{next, prev, HalfEdgeMesh, NONE};
 pub(crate) use validate::count_cycles;

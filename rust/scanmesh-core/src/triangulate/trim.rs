@@ -1,10 +1,11 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
+use crate::geometry::orient2d;
 use crate::geometry::planar_distance;
 use crate::geometry::unit_square;
 use crate::mesh::NONE;
-use crate::mesh::{prev, well_formed, HalfEdgeMesh};
+use crate::mesh::{prev, HalfEdgeMesh, COLLINEAR_SINE};
 use crate::triangulate::delaunay::relabel;
 use crate::triangulate::holes::{covering_holes, DEFAULT_HOLE_FACTOR};
 use crate::triangulate::jumps::{
@@ -355,6 +356,30 @@ pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
     Ok(peel_flags(uv, &kept, &twins, keep, None))
 }
 
+/// True when planar triangle (a, b, c) is not counter-clockwise, or is a numerically
+/// collinear sliver: its angles are about (0, 0, π), one corner lying on the segment between
+/// the other two, so that it covers no area beyond rounding. Tested on the middle angle,
+/// whose sine is twice the area over the product of the longest and shortest edges (they
+/// meet at its corner), against [`COLLINEAR_SINE`].
+///
+/// A triangle with one tiny angle only (a needle: two corners a near-duplicate pair, the
+/// third far away, angles about (0, φ, π − φ)) is not a sliver: it is a real part of the
+/// surface, and peeling it off the hull would open a gap whose far corner then pinches
+/// the mesh in two (five points lost a hull corner and 62 % of the area at `max_edge = ∞`).
+/// [`well_formed`](crate::mesh::well_formed) bounds the smallest angle and refuses both,
+/// as flips must; peeling may only drop the first. O(1).
+fn collinear_sliver(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
+    let area2 = orient2d(a, b, c);
+    if area2 <= 0.0 {
+        return true;
+    }
+    let length = |p: [f64; 2], q: [f64; 2]| planar_distance(p, q);
+    let sides = [length(a, b), length(b, c), length(c, a)];
+    let longest = sides[0].max(sides[1]).max(sides[2]);
+    let shortest = sides[0].min(sides[1]).min(sides[2]);
+    area2 <= COLLINEAR_SINE * longest * shortest
+}
+
 /// The half-edge twins of `triangles` over `n_points` points (half-edge 3t + k runs from
 /// corner k of triangle t; [`NONE`] on the boundary), as
 /// [`Delaunay::twins`](crate::Delaunay::twins) has them.
@@ -390,8 +415,8 @@ impl Kept<'_> {
         self.triangles[(h / 3) as usize][(h % 3) as usize]
     }
 
-    /// Kept boundary triangles (an edge without kept twin) that are numerically collinear.
-    /// O(m), on the rayon pool.
+    /// Kept boundary triangles (an edge without kept twin) that are collinear slivers
+    /// ([`collinear_sliver`]). O(m), on the rayon pool.
     fn degenerate_boundary_triangles(&self, uv: &[[f64; 2]]) -> Vec<u32> {
         (0..self.triangles.len() as u32)
             .into_par_iter()
@@ -399,7 +424,7 @@ impl Kept<'_> {
             .filter(|&t| {
                 self.keep[t as usize] && (3 * t..3 * t + 3).any(|h| self.twin(h) == NONE) && {
                     let [a, b, c] = self.triangles[t as usize].map(|v| uv[v as usize]);
-                    !well_formed(a, b, c)
+                    collinear_sliver(a, b, c)
                 }
             })
             .collect()

@@ -1,4 +1,5 @@
 use super::*;
+use crate::mesh::well_formed;
 use crate::triangulate::delaunay::delaunay;
 use crate::triangulate::jumps::*;
 use glam::DVec3;
@@ -432,4 +433,52 @@ fn trimming_refuses_lengths_and_factors_out_of_range() {
     // Infinite values turn the rules off; jumps off need no 3-D points.
     assert!(trim_long_edges(&uv, &triangles, f64::INFINITY, None).is_ok());
     assert!(delaunay_trimmed(&uv, &[], Some(f64::INFINITY), f64::INFINITY).is_ok());
+}
+
+/// Twice the area of `t` over `uv`, summed (floating point; the exact check is Python's).
+fn area2_sum(uv: &[[f64; 2]], t: &[[u32; 3]]) -> f64 {
+    t.iter()
+        .map(|f| orient2d(uv[f[0] as usize], uv[f[1] as usize], uv[f[2] as usize]))
+        .sum()
+}
+
+#[test]
+fn near_duplicate_corners_are_not_peeled_as_slivers() {
+    // Points 0 and 3 are 1.4e-9 apart (a few ulps at 1e6). The needle (3, 2, 0)
+    // on the hull has one tiny angle only; peeling it as a collinear sliver pinched the
+    // mesh at 2 and dropped (2, 3, 4): one face left, 62 % of the hull gone, at ∞.
+    let uv = vec![
+        [864018.0169228879, 578188.7247198023],
+        [982831.7604447701, 466903.4418308231],
+        [50990.34647276224, 311484.921899309],
+        [864018.0169228867, 578188.7247198031],
+        [120643.19475619245, 574708.3977747394],
+    ];
+    let d = delaunay(&uv).unwrap();
+    assert_eq!(d.triangles.len(), 3);
+    assert!(d.duplicates().is_empty());
+    let kept = trim_long_edges(&uv, &d.triangles, f64::INFINITY, None).unwrap();
+    assert_eq!(kept, d.triangles);
+    let t = delaunay_trimmed(&uv, &[], Some(f64::INFINITY), f64::INFINITY).unwrap();
+    assert_eq!(t.triangles.len(), 3);
+    assert!(t.trimmed.is_empty());
+    assert_eq!(area2_sum(&uv, &t.triangles), area2_sum(&uv, &d.triangles));
+    HalfEdgeMesh::from_triangles(uv.len(), &t.triangles)
+        .unwrap()
+        .validate(&uv)
+        .unwrap();
+}
+
+#[test]
+fn only_slivers_with_a_straight_angle_are_collinear() {
+    let (a, b) = ([0.0, 0.0], [1.0, 0.0]);
+    // A corner 1e-12 off the middle of a-b: angles (0, 0, π).
+    assert!(collinear_sliver(a, b, [0.5, 1e-12]));
+    // A near-duplicate of a, 1e-12 away at 60°: angles (0, 60°, 120°), a real needle.
+    let needle = [0.5e-12, 0.866e-12];
+    assert!(!collinear_sliver(a, b, needle));
+    assert!(!well_formed(a, b, needle));
+    // Clockwise or flat: always peeled.
+    assert!(collinear_sliver(a, [0.5, 1e-12], b));
+    assert!(collinear_sliver(a, [0.5, 0.0], b));
 }
