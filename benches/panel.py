@@ -220,7 +220,8 @@ def child(kind: str, info: dict, method: str, out: mp.Queue) -> None:
     else:
         rms = []
         for seed in HOLDOUT_SEEDS:
-            r = holdout_error(pts, method, fraction=HOLDOUT_FRACTION, seed=seed, **kw)
+            rest = {k: v for k, v in kw.items() if k != "seed"}  # the split's seed seeds it
+            r = holdout_error(pts, method, fraction=HOLDOUT_FRACTION, seed=seed, **rest)
             rms.append(r["rms"])
         out.put({"holdout": float(np.mean(rms))})
     out.put({"done": True})
