@@ -72,7 +72,7 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         return built[0]
 
     for method in methods:
-        if con.progress:
+        if con.progress is True:
             con.note(f"{method} ...")
         kwargs = {**shared[method], **options[method]}
         try:
