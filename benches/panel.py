@@ -157,7 +157,8 @@ def prepare(scan: dict, folder: Path) -> dict:
     """Make the scan once (parent process): points and lines to an .npz, the truth to .ply."""
     import scanmesh
 
-    out = folder / f"{scan['name']}.npz"
+    stem = scan["name"].replace("/", "-")
+    out = folder / f"{stem}.npz"
     info = {"npz": str(out)}
     if scan["kind"] == "real":
         with warnings.catch_warnings():
@@ -179,7 +180,7 @@ def prepare(scan: dict, folder: Path) -> dict:
             pts, lines, mesh, s = _scan_part(
                 scan["part"], scan["up"], scan["oblique"], scan["cells"], scan["sigma"]
             )
-        truth = folder / f"{scan['name']}_truth.ply"
+        truth = folder / f"{stem}_truth.ply"
         mesh.export(truth)
         info["truth"], info["spacing"], info["plane"] = str(truth), s, scan["up"]
     np.savez(out, points=pts, lines=np.asarray(lines) if lines is not None else np.zeros(0))
