@@ -144,3 +144,92 @@ def anneal_progress(progress: Progress) -> Progress:
         call(done, total, energy, stage="anneal", **(extra if keep else {}))
 
     return report
+
+
+#: Longest silence of a running stage in a log (stderr not a terminal), in seconds.
+LOG_INTERVAL_SECONDS: float = 10.0
+
+
+def _duration(seconds: float) -> str:
+    s = max(int(round(seconds)), 0)
+    return f"{s // 3600} h {s // 60 % 60:02d} min" if s >= 3600 else f"{s // 60} min {s % 60:02d} s"
+
+
+class LogProgress:
+    """Progress for a log (stderr not a terminal, where bars would be carriage-return noise):
+    a stage-aware callable (``progress(done, total, value, stage=, seconds_left=)``) that
+    writes one line, ``scanmesh: anneal: 1,200 / 5,000 sweeps (24 %), 2 min 10 s elapsed,
+    about 6 min 51 s left``, for every stage still running after ``interval`` seconds (default
+    :data:`LOG_INTERVAL_SECONDS`, read when made), and
+    again every ``interval`` seconds while it runs, also through one blocking native call
+    (a watcher thread writes the last known state; short stages write nothing). The time
+    left is annealing's own estimate where it gives one, else the rate so far.
+
+    ``clock`` and ``start=False`` are for tests: call :meth:`tick` to write what is due.
+    """
+
+    def __init__(
+        self,
+        write: Callable[[str], Any],
+        interval: float | None = None,
+        clock: Callable[[], float] | None = None,
+        start: bool = True,
+    ) -> None:
+        import time
+
+        self._write = write
+        self.interval = float(LOG_INTERVAL_SECONDS if interval is None else interval)
+        self._clock = clock or time.monotonic
+        self._lock = threading.Lock()
+        self._state: dict[str, Any] | None = None  # the running stage
+        self._stop = threading.Event()
+        if start:
+            threading.Thread(target=self._watch, daemon=True).start()
+
+    def __call__(
+        self,
+        done: int,
+        total: int,
+        value: float | None = None,
+        stage: str = "anneal",
+        seconds_left: float | None = None,
+    ) -> None:
+        now = self._clock()
+        with self._lock:
+            s = self._state
+            if s is None or s["stage"] != stage or done < s["done"]:
+                s = self._state = {"stage": stage, "start": now, "last": now, "done": done}
+            s.update(done=done, total=total, left=seconds_left)
+            if total > 0 and done >= total:
+                self._state = None  # finished: nothing more to say
+                return
+        self.tick()
+
+    def tick(self) -> None:
+        """Write a line for the running stage if ``interval`` has passed since the last."""
+        now = self._clock()
+        with self._lock:
+            s = self._state
+            if s is None or now - s["last"] < self.interval:
+                return
+            s["last"] = now
+            elapsed = now - s["start"]
+            done, total, left = s["done"], s["total"], s["left"]
+            if left is None and 0 < done < total:
+                left = elapsed * (total - done) / done
+            unit = STAGES.get(s["stage"], "")
+            share = f" ({100 * done / total:.0f} %)" if total > 0 else ""
+            tail = "time left unknown" if left is None else f"about {_duration(left)} left"
+            line = (
+                f"scanmesh: {s['stage']}: {done:,} / {total:,} {unit}{share},"
+                f" {_duration(elapsed)} elapsed, {tail}"
+            )
+        self._write(line)
+
+    def _watch(self) -> None:
+        while not self._stop.wait(min(self.interval / 4, 1.0)):
+            self.tick()
+
+    def close(self) -> None:
+        """Stop the watcher thread."""
+        self._stop.set()

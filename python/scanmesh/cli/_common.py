@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh._progress import LogProgress, Progress
 from scanmesh.cli._args import _method_flags, _read_options
 from scanmesh.errors import ParameterError
 from scanmesh.formats import read
@@ -134,11 +135,19 @@ class _Console:
         self.report: str | None = None
         #: what the command is running (a method of compare), named in its warnings
         self.context: str | None = None
+        self._log: LogProgress | None = None
 
     @property
-    def progress(self) -> bool:
-        """Progress bars: on a terminal, unless --quiet."""
-        return not self.quiet and sys.stderr.isatty()
+    def progress(self) -> Progress:
+        """Progress bars on a terminal; in a log (stderr not a terminal) a line at least every
+        LOG_INTERVAL_SECONDS for each long stage (:class:`LogProgress`); nothing with --quiet."""
+        if self.quiet:
+            return False
+        if sys.stderr.isatty():
+            return True
+        if self._log is None:
+            self._log = LogProgress(lambda line: print(line, file=sys.stderr, flush=True))
+        return self._log
 
     def out(self, text: str = "") -> None:
         """Human output: the results asked for (nothing with --json)."""
@@ -166,7 +175,7 @@ class _Console:
             print(f"scanmesh: {text}", file=sys.stderr, flush=True)
 
 
-def _read_scan(path: Path, progress: bool = False, args: argparse.Namespace | None = None):
+def _read_scan(path: Path, progress: Progress = False, args: argparse.Namespace | None = None):
     return read(path, progress=progress, **_read_options(args))
 
 

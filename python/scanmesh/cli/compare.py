@@ -73,7 +73,7 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
 
     for method in methods:
         con.context = method  # its warnings name it
-        if con.progress:
+        if con.progress is True:
             con.note(f"{method} ...")
         kwargs = {**shared[method], **options[method]}
         try:

@@ -166,7 +166,7 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     shared = _shared(args, args.method, options)
     # every file the pattern matches now is an input: none may be an output
     _check_outputs([Path(p) for p in source_paths(args.input)], [out, report])
-    progress = con.progress and not con.json
+    progress = con.progress is True and not con.json  # bars only: tasks on workers
     # SIGTERM and SIGHUP close the cluster before the process ends by them
     with TermGuard(), _quiet_distributed():
         if args.dask == "local":

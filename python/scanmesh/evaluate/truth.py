@@ -392,6 +392,19 @@ def _as_trimesh(mesh: Any, name: str):
     return trimesh.Trimesh(vertices=v, faces=f, process=False)
 
 
+def _canonical(mesh: Any):
+    """The same triangles in one order that depends on the face set only: each face's
+    vertex indices sorted, then the faces sorted, so that the random samples (drawn face by
+    face along the cumulative area, from each face's first corner) are the same for the same
+    faces in any order and with their corners in any order. Orientation is dropped: both
+    measures on the samples are unsigned."""
+    trimesh = import_interruptibly("trimesh")
+
+    faces = np.sort(np.asarray(mesh.faces, dtype=np.int64), axis=1)
+    faces = faces[np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))]
+    return trimesh.Trimesh(vertices=mesh.vertices, faces=faces, process=False)
+
+
 def height_error(
     surface: Any, truth_mesh: Any, n_samples: int = 100_000, seed: int = 0
 ) -> dict[str, Any]:
@@ -408,7 +421,7 @@ def height_error(
     n_samples : int
         Random points sampled on ``surface``'s area (default 100,000).
     seed : int
-        Seed of the sampling: the same seed gives the same figures.
+        Seed of the sampling: the same seed gives the same figures, for the same faces in any order.
 
     Returns
     -------
@@ -423,7 +436,7 @@ def height_error(
         raise ParameterError(f"n_samples must be a whole number, got {n_samples!r}")
     if n_samples < 1:
         raise ParameterError(f"n_samples must be at least 1, got {n_samples}")
-    mesh = _as_trimesh(surface, "the mesh")
+    mesh = _canonical(_as_trimesh(surface, "the mesh"))
     truth = truth_mesh if isinstance(truth_mesh, TrueSurface) else TrueSurface(truth_mesh)
     area = float(mesh.area)
     if not math.isfinite(area) or area <= 0:
@@ -466,7 +479,7 @@ def normal_error(
         raise ParameterError(f"n_samples must be a whole number, got {n_samples!r}")
     if n_samples < 1:
         raise ParameterError(f"n_samples must be at least 1, got {n_samples}")
-    mesh = _as_trimesh(surface, "the mesh")
+    mesh = _canonical(_as_trimesh(surface, "the mesh"))
     truth = truth_mesh if isinstance(truth_mesh, TrueSurface) else TrueSurface(truth_mesh)
     area = float(mesh.area)
     if not math.isfinite(area) or area <= 0:

@@ -187,18 +187,44 @@ pub fn angle_sums(points: &[DVec3], faces: &[[u32; 3]]) -> Vec<f64> {
         .collect()
 }
 
+/// Sum of the corner angles at `v` over the faces `fan` around it, added in ascending
+/// order of the angles (`scratch` holds them), so that the sum depends on the set of faces
+/// around `v` only, not on their order in the face list nor on the order of the corners
+/// within a face (a corner's angle is the same number either way). O(d log d).
+#[inline]
+fn canonical_angle_sum(
+    faces: &[[u32; 3]],
+    angles: &[[f64; 3]],
+    v: u32,
+    fan: &[u32],
+    scratch: &mut Vec<f64>,
+) -> f64 {
+    scratch.clear();
+    scratch.extend(fan.iter().map(|&f| {
+        let t = faces[f as usize];
+        let k = t
+            .iter()
+            .position(|&x| x == v)
+            .expect("v is a corner of its fan");
+        angles[f as usize][k]
+    }));
+    scratch.sort_unstable_by(f64::total_cmp);
+    scratch.iter().fold(0.0, |sum, &a| sum + a)
+}
+
 /// tac per vertex from the corner angles of every face (interior check and angle sum
-/// from one fan table). O(n + m), in parallel over the vertices.
+/// from one fan table); each sum adds its angles in ascending order, so the same faces in
+/// any order give the same tac, bit for bit. O(n + m), in parallel over the vertices.
 fn tac_from_angles(n_vertices: usize, faces: &[[u32; 3]], angles: &[[f64; 3]]) -> Vec<f64> {
     let fans = Fans::new(n_vertices, faces);
     (0..n_vertices)
         .into_par_iter()
         .map_init(
-            || (Vec::new(), Vec::new()),
-            |(link, ends), v| {
+            || (Vec::new(), Vec::new(), Vec::new()),
+            |(link, ends, scratch), v| {
                 let fan = fans.of(v);
                 if is_interior(v as u32, fan, faces, link, ends) {
-                    (TAU - fan_angle_sum(faces, angles, v as u32, fan)).abs()
+                    (TAU - canonical_angle_sum(faces, angles, v as u32, fan, scratch)).abs()
                 } else {
                     f64::NAN
                 }
@@ -378,7 +404,8 @@ mod tests {
     }
 
     /// The former implementation, kept as the oracle: edge uses by binary search in the
-    /// sorted edge list, angle sums by a serial pass over the faces.
+    /// sorted edge list, angle sums by a serial pass over the faces (each vertex's angles
+    /// then added in ascending order).
     fn reference_tac(points: &[DVec3], faces: &[[u32; 3]]) -> (Vec<bool>, Vec<f64>) {
         let key = |a: u32, b: u32| ((a.min(b) as u64) << 32) | a.max(b) as u64;
         let mut edges: Vec<u64> = faces
@@ -401,18 +428,26 @@ mod tests {
             interior[v as usize] = closed && link_is_one_cycle(&link);
         }
         let unit = Normalizer::fit(points).apply_all(points);
-        let mut sums = vec![0.0; n];
+        let mut corners = vec![Vec::new(); n];
         for t in faces {
             let [a, b, c] = t.map(|v| unit[v as usize]);
             let angles = triangle_angles(a, b, c);
             for k in 0..3 {
-                sums[t[k] as usize] += angles[k];
+                corners[t[k] as usize].push(angles[k]);
             }
         }
-        let tac = sums
-            .iter()
+        let tac = corners
+            .iter_mut()
             .zip(&interior)
-            .map(|(&s, &i)| if i { (TAU - s).abs() } else { f64::NAN })
+            .map(|(c, &i)| {
+                c.sort_by(f64::total_cmp);
+                let s: f64 = c.iter().fold(0.0, |sum, &a| sum + a);
+                if i {
+                    (TAU - s).abs()
+                } else {
+                    f64::NAN
+                }
+            })
             .collect();
         (interior, tac)
     }
@@ -483,6 +518,50 @@ mod tests {
                 m == crate::geometry::smallest_angle(a, b, c)
             }));
         }
+    }
+
+    #[test]
+    fn tac_does_not_depend_on_face_order_or_corner_order() {
+        use rand_core::{RngCore, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(29);
+        let (rows, cols) = (12u32, 15u32);
+        let at = |r: u32, c: u32| r * cols + c;
+        let mut points = Vec::new();
+        for r in 0..rows {
+            for c in 0..cols {
+                let z = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+                points.push(DVec3::new(c as f64, r as f64 + 0.1 * c as f64, z));
+            }
+        }
+        let mut faces = Vec::new();
+        for r in 0..rows - 1 {
+            for c in 0..cols - 1 {
+                let (a, b, d, e) = (at(r, c), at(r, c + 1), at(r + 1, c), at(r + 1, c + 1));
+                faces.extend([[a, b, e], [a, e, d]]);
+            }
+        }
+        let (tac, min_angle) = tac_and_min_angles(&points, &faces).unwrap();
+        for _ in 0..20 {
+            let mut shuffled = faces.clone();
+            for i in (1..shuffled.len()).rev() {
+                let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+                shuffled.swap(i, j);
+            }
+            for t in &mut shuffled {
+                t.rotate_left((rng.next_u64() % 3) as usize);
+                if rng.next_u64() % 2 == 0 {
+                    t.swap(1, 2);
+                }
+            }
+            let (tac2, _) = tac_and_min_angles(&points, &shuffled).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&tac), bits(&tac2));
+            assert_eq!(
+                Norm::P(1.0).of(&tac).to_bits(),
+                Norm::P(1.0).of(&tac2).to_bits()
+            );
+        }
+        assert_eq!(min_angle.len(), faces.len());
     }
 
     #[test]
