@@ -53,6 +53,18 @@ def test_save_after_chdir_refuses_the_scan(tmp_path, monkeypatch):
     assert (tmp_path / "sub" / "mesh.ply").stat().st_size > 0
 
 
+def test_save_after_chdir_refuses_the_scan_read_first(tmp_path, monkeypatch):
+    """The same through ``scanmesh.read``: the points it returns keep their file."""
+    monkeypatch.chdir(tmp_path)
+    original = _ply_points(tmp_path / "scan.ply")
+    surface = scanmesh.reconstruct(scanmesh.read("scan.ply"), "delaunay")
+    (tmp_path / "sub").mkdir()
+    monkeypatch.chdir(tmp_path / "sub")
+    with pytest.raises(ParameterError, match="input file"):
+        surface.save("../scan.ply")
+    assert (tmp_path / "scan.ply").read_bytes() == original
+
+
 def test_save_refuses_the_scan_by_content_glb_and_moved(tmp_path):
     scan = tmp_path / "scan.glb"  # a PLY read by its content
     original = _ply_points(scan)
