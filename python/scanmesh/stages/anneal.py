@@ -142,6 +142,21 @@ OPTIONS: tuple[Option, ...] = (
     ),
     Option("polish", "bool", ANNEAL_DEFAULTS["polish"], "run LOP from the best state at the end"),
     Option(
+        "descend",
+        "bool",
+        ANNEAL_DEFAULTS["descend"],
+        "start the walk from LOP's local optimum of the initial triangulation",
+    ),
+    Option(
+        "sliver_angle",
+        "float",
+        ANNEAL_DEFAULTS["sliver_angle"],
+        "refuse flips that make a smallest 3-D angle fall below this (degrees; 0: off)",
+        low=0.0,
+        high=60.0,
+        high_open=True,
+    ),
+    Option(
         "calibration_samples",
         "int",
         ANNEAL_DEFAULTS["calibration_samples"],

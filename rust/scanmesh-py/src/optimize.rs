@@ -52,6 +52,8 @@ anneal_fields!(
     tie_tolerance,
     planar_ties,
     polish,
+    descend,
+    sliver_angle,
     calibration_samples,
     chains,
     tiles,

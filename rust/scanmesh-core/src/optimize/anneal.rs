@@ -46,6 +46,15 @@ pub struct AnnealParams {
     pub planar_ties: bool,
     /// Run LOP from the best state at the end.
     pub polish: bool,
+    /// Start the walk from the local optimum that LOP (under [`order`](Self::order))
+    /// reaches from the given triangulation, found once before the chains split: the walk
+    /// then spends its proposals below the cheap baseline instead of re-finding it.
+    pub descend: bool,
+    /// Flips that would make the smallest 3-D angle of their two triangles fall below this
+    /// (degrees) and below what it was are refused, in the walk, the descent and the polish:
+    /// slivers are held down by the move set, not by the energy (0: off). Coplanar ties are
+    /// left to the polish's angle order.
+    pub sliver_angle: f64,
     /// Proposals sampled to calibrate T0.
     pub calibration_samples: usize,
     /// Independent chains (restarts from the same initial state with derived seeds, see
@@ -86,6 +95,8 @@ impl Default for AnnealParams {
             tie_tolerance: 1e-10,
             planar_ties: false,
             polish: true,
+            descend: true,
+            sliver_angle: crate::criteria::SLIVER_ANGLE_DEG,
             calibration_samples: 2000,
             chains: 0,
             tiles: 1,
@@ -125,6 +136,13 @@ impl AnnealParams {
                 "tie_tolerance",
                 self.tie_tolerance.to_string(),
                 "a finite value >= 0",
+            );
+        }
+        if !(self.sliver_angle >= 0.0 && self.sliver_angle < 60.0) {
+            return bad(
+                "sliver_angle",
+                self.sliver_angle.to_string(),
+                "an angle in degrees from 0 (off) up to, not including, 60",
             );
         }
         if self.tiles == 0 || self.tiles > MAX_TILES {
@@ -267,6 +285,7 @@ impl AnnealParams {
             tie_tolerance: self.tie_tolerance,
             sliver_guard: self.sliver_guard,
             planar_ties: self.planar_ties,
+            sliver_angle: self.sliver_angle.to_radians(),
         }
     }
 }
@@ -562,7 +581,9 @@ impl Annealer {
             .planar_ties
             .then(|| self.state.flat_quad_uv(h, self.order.tie_tolerance))
             .flatten();
-        let accept = if let Some(quad) = flat {
+        let accept = if self.order.makes_sliver(&mv) {
+            false
+        } else if let Some(quad) = flat {
             planar_flip_improves(quad)
         } else if self.order.is_tie(&mv) || mv.delta_energy < 0.0 {
             true
