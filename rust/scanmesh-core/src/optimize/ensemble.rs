@@ -11,8 +11,8 @@
 
 use crate::budget;
 use crate::mesh::HalfEdgeMesh;
-use crate::optimize::lop::tac_lop;
 use crate::optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
+use crate::optimize::lop::tac_lop;
 use crate::optimize::tac_state::TacState;
 use crate::optimize::tiles::TiledAnnealer;
 use crate::Result;
