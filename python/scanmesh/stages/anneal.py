@@ -93,10 +93,12 @@ OPTIONS: tuple[Option, ...] = (
     Option(
         "sweeps",
         "int",
-        ANNEAL_DEFAULTS["sweeps"],
-        "sweeps (one proposal per live edge each: flippable, by a corner with tac above ties)",
+        None,
+        "sweeps (one proposal per live edge each: flippable, by a corner with tac above ties)"
+        " (automatic: sized to the scan, see AnnealParams.auto_sweeps)",
         low=0,
         high=MAX_COUNT,
+        automatic=True,
     ),
     P_OPTION,
     Option(
@@ -127,11 +129,12 @@ OPTIONS: tuple[Option, ...] = (
         high=MAX_COUNT,
     ),
     SLIVER_GUARD_OPTION,
-    # None: from the scan's noise (noise.noise_tolerance); exact ties on noise-free scans
+    # None: from the scan's noise (noise.noise_tolerance). Not the default: measured on the
+    # panel, the noise's tolerance switched annealing off on real scans (SainteHelens,
+    # fran_cut) and the automatic choice of a method guards noisy scans instead.
     dataclasses.replace(
         TIE_TOLERANCE_OPTION,
-        default=None,
-        doc=TIE_TOLERANCE_OPTION.doc + " (automatic: from the scan's noise estimate)",
+        doc=TIE_TOLERANCE_OPTION.doc + " (None: from the scan's noise estimate)",
         automatic=True,
     ),
     Option(
@@ -310,8 +313,13 @@ def anneal_surface(
         keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
     **schedule
-        ``sweeps`` (1000), ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
-        ``patience``, ``sliver_guard`` (True), ``tie_tolerance``, ``planar_ties``
+        ``sweeps`` (automatic: a budget of 24 proposals per point, at least 2 million in
+        all, shared by the chains, between 8 and 1000 sweeps; ``AnnealParams.auto_sweeps``),
+        ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
+        ``patience``, ``sliver_guard`` (True), ``tie_tolerance`` (1e-10, exact ties; None:
+        from the scan's noise estimate), ``descend`` (True: the walk starts from the local
+        optimum LOP reaches from ``initial``), ``sliver_angle`` (5 degrees: flips that make
+        a smaller smallest 3-D angle than this and than before are refused), ``planar_ties``
         (False; True: a flip whose four corners have a tac within twice the tie tolerance,
         flat up to the noise, is judged by the smallest planar angle alone, Delaunay's
         criterion, instead of by tac and 3-D angles, which there are the noise's: noisy
@@ -368,6 +376,11 @@ def anneal_surface(
     keep = _without_duplicates(n, start.duplicates)
     local = np.full(n, -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
+    if params["sweeps"] is None:
+        planned = _core.AnnealParams(
+            **{**params, "seed": seed_value, "sweeps": ANNEAL_DEFAULTS["sweeps"]}
+        )
+        params["sweeps"] = planned.auto_sweeps(len(keep), interior_edges(start.faces))
     with Stage(progress, "calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
@@ -407,6 +420,14 @@ def anneal_surface(
         trace={name: outcome.trace[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)},
         line_ids=start.line_ids,
     )
+
+
+def interior_edges(faces: np.ndarray) -> int:
+    """Edges shared by two of ``faces`` (F, 3) int: (3F - boundary edges) / 2. O(F log F)."""
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).astype(np.int64), axis=1)
+    keys = edges[:, 0] * (int(edges.max(initial=0)) + 1) + edges[:, 1]
+    _, counts = np.unique(keys, return_counts=True)
+    return int((counts == 2).sum())
 
 
 def _without_duplicates(n: int, duplicates: np.ndarray | None) -> np.ndarray:

@@ -99,6 +99,12 @@ impl AnnealParams {
         Ok(AnnealParams(out))
     }
 
+    /// Sweeps of the automatic schedule for `n_points` points and `interior_edges` interior
+    /// edges (`scanmesh_core::AnnealParams::auto_sweeps`).
+    fn auto_sweeps(&self, n_points: usize, interior_edges: usize) -> usize {
+        self.0.auto_sweeps(n_points, interior_edges)
+    }
+
     /// Every field by name, in the core's order.
     fn as_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         fields_dict(py, &self.0)

@@ -79,6 +79,21 @@ pub const AUTO_CHAIN_EDGES: usize = 8_000;
 /// Automatic chains never exceed this count.
 pub const MAX_AUTO_CHAINS: usize = 128;
 
+/// Proposals per point an automatic schedule plans, all chains together
+/// ([`AnnealParams::auto_sweeps`]): measured on the panel (docs/benchmarks/panel.md), the
+/// sweeps from LOP's optimum take SainteHelens (148,885 points) from tac_1 1,310 to 1,217
+/// (4 sweeps), 1,189 (7), 1,168 (10) and 1,150 (14), against LOP's 1,267; 24 per point
+/// plans 9 sweeps there, to stay within a few times LOP's time.
+pub const AUTO_PROPOSALS_PER_POINT: u64 = 24;
+
+/// The least proposals an automatic schedule plans in all: small scans are cheap, and on
+/// them longer runs keep lowering tac (fran_cut, 2,205 points: 14 sweeps end at 101, 150
+/// at 83).
+pub const AUTO_MIN_PROPOSALS: u64 = 2_000_000;
+
+/// The fewest sweeps of an automatic schedule: fewer cool too fast to leave the start.
+pub const AUTO_MIN_SWEEPS: usize = 8;
+
 /// Largest accepted [`AnnealParams::tiles`].
 pub const MAX_TILES: usize = 64;
 
@@ -257,6 +272,20 @@ impl AnnealParams {
         AUTO_CHAIN_EDGES
             .div_ceil(interior_edges.max(1))
             .clamp(1, MAX_AUTO_CHAINS)
+    }
+
+    /// Sweeps of the automatic schedule on a triangulation of `n_vertices` points with
+    /// `interior_edges` interior edges: the budget max([`AUTO_PROPOSALS_PER_POINT`] × n,
+    /// [`AUTO_MIN_PROPOSALS`]) proposals shared by the [`chain_count`](Self::chain_count)
+    /// chains, one proposal per interior edge and sweep, kept between
+    /// [`AUTO_MIN_SWEEPS`] and `self.sweeps`. The plan depends on the input alone, never on
+    /// the clock, so a seed still fixes the result. O(1).
+    pub fn auto_sweeps(&self, n_vertices: usize, interior_edges: usize) -> usize {
+        let edges = interior_edges.max(1) as u64;
+        let chains = self.chain_count(interior_edges) as u64;
+        let budget = (AUTO_PROPOSALS_PER_POINT * n_vertices as u64).max(AUTO_MIN_PROPOSALS);
+        let sweeps = budget.div_ceil(chains * edges);
+        (sweeps as usize).clamp(AUTO_MIN_SWEEPS, self.sweeps.max(AUTO_MIN_SWEEPS))
     }
 
     /// The parameters of chain `chain`: chain 0 keeps `seed`, chain c > 0 runs on a seed
