@@ -104,7 +104,6 @@ def cheapest_fans(
     vertices: npt.NDArray[np.int64],
     w: npt.NDArray[np.float64],
 ) -> CheapestFans: ...
-
 def lop(
     points: npt.NDArray[np.float64],
     uv: npt.NDArray[np.float64],
@@ -214,6 +213,7 @@ class StripResult:
     def trimmed(self) -> npt.NDArray[np.int64]: ...
     @property
     def signed_area(self) -> float: ...
+
 def parse_text_table(
     data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None
 ) -> TextTable: ...
@@ -230,6 +230,7 @@ class TextTable:
     def n_lines(self) -> int: ...
     @property
     def problem(self) -> tuple[int, int, str] | None: ...
+
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.uint8]: ...
