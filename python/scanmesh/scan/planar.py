@@ -3,11 +3,11 @@
 ``planar_scan`` checks the points (``as_points``) and the line ids (``as_line_ids``) and
 projects the points onto the plane, once; for ``plane=None`` it first chooses the plane by
 the data (:mod:`scanmesh.scan.plane_choice`: few steep triangles and a holdout, among the
-file's recorded ``up``, the axes, the least-squares plane and the principal axes), so every stage works on
-the chosen plane. Delaunay, trimming, strips, LOP, annealing, the
-optimum and the quality report all read the same planar coordinates from it, so the
-annealer tests convexity on exactly the roundings the Delaunay triangulation and its
-trimming were judged on, and ``Surface.frame`` is the frame every stage worked in.
+file's recorded ``up``, the axes, the least-squares plane and the principal axes), so every
+stage works on the chosen plane. Delaunay, trimming, strips, LOP, annealing, the optimum
+and the quality report all read the same planar coordinates from it, so the annealer tests
+convexity on exactly the roundings the Delaunay triangulation and its trimming were judged
+on, and ``Surface.frame`` is the frame every stage worked in.
 """
 
 from __future__ import annotations

@@ -59,6 +59,9 @@ MARGIN: float = 0.10
 #: wins.
 HOLDOUT_TIE: float = 0.02
 
+#: Fewer sampled points are too few to judge by a holdout.
+MIN_HOLDOUT_POINTS: int = 30
+
 #: A candidate whose mesh leaves more of the withheld points outside (beyond its outline)
 #: than the fewest by this share is not judged by the holdout: it measured too few.
 OUTSIDE_MARGIN: float = 0.10
@@ -233,10 +236,15 @@ def judge(
     close = [k for k, total in totals.items() if total <= lowest + MARGIN]
     if len(close) == 1:
         return close[0], {}
-    judged = {k: holdout(sample, normals[k]) for k in close}
+    judged = {
+        k: holdout(sample, normals[k]) if len(sample) >= MIN_HOLDOUT_POINTS else None for k in close
+    }
     valid = {k: m for k, m in judged.items() if m is not None}
     if not valid:
-        return close[0], {k: None for k in close}
+        # nothing measured (too few distinct points): no evidence against the least-squares
+        # plane, the old default; else the score alone decides
+        fallback = "best-fit" if "best-fit" in close else min(close, key=totals.__getitem__)
+        return fallback, {k: None for k in close}
     fewest_outside = min(m[1] for m in valid.values())
     fair = {k: m[0] for k, m in valid.items() if m[1] <= fewest_outside + OUTSIDE_MARGIN}
     best = min(fair.values())

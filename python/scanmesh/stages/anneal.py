@@ -376,11 +376,7 @@ def anneal_surface(
     keep = _without_duplicates(n, start.duplicates)
     local = np.full(n, -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
-    if params["sweeps"] is None:
-        planned = _core.AnnealParams(
-            **{**params, "seed": seed_value, "sweeps": ANNEAL_DEFAULTS["sweeps"]}
-        )
-        params["sweeps"] = planned.auto_sweeps(len(keep), interior_edges(start.faces))
+    params = planned(params, len(keep), start.faces)
     with Stage(progress, "calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
@@ -420,6 +416,18 @@ def anneal_surface(
         trace={name: outcome.trace[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)},
         line_ids=start.line_ids,
     )
+
+
+def planned(params: dict[str, Any], n_points: int, faces: np.ndarray) -> dict[str, Any]:
+    """``params`` (checked options of :data:`OPTIONS`, without ``seed``) with an automatic
+    ``sweeps`` (None) replaced by the core's plan for ``n_points`` points triangulated by
+    ``faces`` (``AnnealParams.auto_sweeps``); every run of a ``_core.Annealer`` (this module,
+    the tiles of :mod:`scanmesh.distributed`) plans here. O(F log F)."""
+    if params["sweeps"] is not None:
+        return params
+    core = {k: v for k, v in params.items() if k != "time_limit"}
+    rule = _core.AnnealParams(**{**core, "sweeps": ANNEAL_DEFAULTS["sweeps"]})
+    return {**params, "sweeps": rule.auto_sweeps(n_points, interior_edges(faces))}
 
 
 def interior_edges(faces: np.ndarray) -> int:
