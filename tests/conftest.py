@@ -41,8 +41,9 @@ def seconds_to_interrupt(script: str, wait: float) -> float:
     # it ignored: the child would never see the interrupt and readline() would wait for
     # ever. Python's own handler is put back first, as in an interactive shell.
     restore = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
-    proc = subprocess.Popen([sys.executable, "-c", restore + textwrap.dedent(script)],
-                            stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", restore + textwrap.dedent(script)], stdout=subprocess.PIPE, text=True
+    )
     try:
         assert proc.stdout.readline().strip() == "started"
         time.sleep(wait)

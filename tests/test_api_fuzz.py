@@ -29,7 +29,6 @@ from scanmesh.methods import TABLE
 EXAMPLES = 300
 
 
-
 def test_reconstruct_gives_a_valid_mesh_or_a_scanmesh_error_naming_the_bad_input() -> None:
     findings, outcomes = run_many(range(EXAMPLES), timeout=60.0, memory_bytes=3 * 2**30)
     report = "\n".join(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gzip
 import hashlib
+import io
 from importlib import resources
 
 import numpy as np
@@ -12,7 +13,18 @@ import trimesh
 
 import scanmesh
 from conftest import DATA
-from scanmesh.demo import SCAN_SETTINGS, TRUTH_FILE, TRUTH_SHA256, demo_truth, load_demo
+from scanmesh.demo import (
+    PART_FILE,
+    PART_SCAN,
+    PART_SHA256,
+    SCAN_SETTINGS,
+    TRUTH_FILE,
+    TRUTH_SHA256,
+    demo_part,
+    demo_truth,
+    load_demo,
+    scan_demo_part,
+)
 
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
 PACKAGE_DATA = resources.files("scanmesh.data")
@@ -80,3 +92,33 @@ def test_attribution_names_source_licence_and_settings():
 def test_exported_from_the_package():
     assert scanmesh.load_demo is load_demo
     assert callable(scanmesh.simulate_scan)
+
+
+def test_the_demo_part_is_the_fandisk_turned_about_y():
+    raw = gzip.decompress(PACKAGE_DATA.joinpath(PART_FILE).read_bytes())
+    assert hashlib.sha256(raw).hexdigest() == PART_SHA256
+    plain = trimesh.load_mesh(io.BytesIO(raw), file_type="obj")
+    part = demo_part()
+    assert len(part.vertices) == len(plain.vertices) == 2877
+    # turned about y through the centroid: y and the centroid kept, x and z changed
+    np.testing.assert_allclose(part.vertices[:, 1], plain.vertices[:, 1], atol=1e-12)
+    np.testing.assert_allclose(part.centroid, plain.centroid, atol=1e-9)
+    turned = np.radians(PART_SCAN["turn_deg"])
+    moved = part.vertices[:, [0, 2]] - part.centroid[[0, 2]]
+    before = plain.vertices[:, [0, 2]] - plain.centroid[[0, 2]]
+    angles = np.arctan2(moved[:, 1], moved[:, 0]) - np.arctan2(before[:, 1], before[:, 0])
+    far = np.linalg.norm(before, axis=1) > 0.1
+    assert np.allclose(np.abs(np.angle(np.exp(1j * angles[far]))), turned, atol=1e-9)
+
+
+def test_the_demo_scan_is_seeded_and_lies_on_the_part_within_its_noise():
+    part = demo_part()
+    points, line_ids, spacing = scan_demo_part(part)
+    again, again_ids, _ = scan_demo_part(part)
+    np.testing.assert_array_equal(points, again)
+    np.testing.assert_array_equal(line_ids, again_ids)
+    assert 8_000 < len(points) < 12_000
+    sigma = PART_SCAN["noise"] * spacing
+    _, distance, _ = trimesh.proximity.closest_point(part, points[::10])
+    assert np.sqrt(np.mean(distance**2)) < 2 * sigma
+    assert distance.max() < 6 * sigma

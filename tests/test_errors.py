@@ -12,8 +12,12 @@ from scanmesh import DegenerateInputError, ParameterError, ScanmeshError
 
 def test_error_hierarchy():
     assert issubclass(ScanmeshError, ValueError)
-    for cls in (DegenerateInputError, ParameterError, scanmesh.InvalidMeshError,
-                scanmesh.FileFormatError):
+    for cls in (
+        DegenerateInputError,
+        ParameterError,
+        scanmesh.InvalidMeshError,
+        scanmesh.FileFormatError,
+    ):
         assert issubclass(cls, ScanmeshError)
 
 

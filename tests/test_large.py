@@ -143,8 +143,17 @@ def test_every_stage_of_an_annealing_command_reports(tmp_path, monkeypatch, caps
     assert main([*args, "--method", "anneal", "--preview", str(tmp_path / "small.png")]) == 0
     rec.check_monotone()
     assert list(rec.by_stage()) == [
-        "read", "delaunay", "trim", "noise", "calibrate", "anneal", "polish", "steep",
-        "write", "quality", "preview",
+        "read",
+        "delaunay",
+        "trim",
+        "noise",
+        "calibrate",
+        "anneal",
+        "polish",
+        "steep",
+        "write",
+        "quality",
+        "preview",
     ]
     capsys.readouterr()
 

@@ -85,13 +85,18 @@ def test_keywords_a_method_does_not_use_are_refused(method, keyword, value):
 
 def test_annealing_estimates_its_noise_along_the_given_lines():
     pts, ids = _points()
-    surface = scanmesh.reconstruct(pts, "anneal", plane="z", lines=ids, sweeps=5)
+    surface = scanmesh.reconstruct(
+        pts, "anneal", plane="z", lines=ids, sweeps=5, tie_tolerance=None
+    )
     assert surface.options["noise"] == pytest.approx(scanmesh.noise(pts, lines=ids, plane="z"))
+    # with a tolerance given (the default, exact ties) no estimate is needed or made
+    exact = scanmesh.reconstruct(pts, "anneal", plane="z", lines=ids, sweeps=5)
+    assert exact.options["noise"] is None
 
 
-def test_annealing_tie_tolerance_is_automatic_unless_given():
+def test_annealing_tie_tolerance_is_automatic_when_asked():
     pts, ids = _points()
-    auto = scanmesh.reconstruct(pts, "anneal", plane="z", lines=ids, sweeps=5)
+    auto = scanmesh.reconstruct(pts, "anneal", plane="z", lines=ids, sweeps=5, tie_tolerance=None)
     given = scanmesh.reconstruct(pts, "anneal", plane="z", sweeps=5, tie_tolerance=0.25)
     assert given.options["tie_tolerance"] == 0.25
     assert auto.options["tie_tolerance"] != 0.25

@@ -210,8 +210,17 @@ def test_a_stopped_search_accounts_for_every_point():
     collinear hull sliver) is returned, and the point it leaves out is listed, not lost
     (found by the API fuzz, case 26756)."""
     points = np.array(
-        [[0, 2, 0], [0, 1, 0], [0, 0, 0], [1, 0, 0], [1, 2, 2],
-         [2, 2, 0], [2, 1, 1], [2, 0, -1], [1, 1, 1]],
+        [
+            [0, 2, 0],
+            [0, 1, 0],
+            [0, 0, 0],
+            [1, 0, 0],
+            [1, 2, 2],
+            [2, 2, 0],
+            [2, 1, 1],
+            [2, 0, -1],
+            [1, 1, 1],
+        ],
         dtype=np.float64,
     )
     surface = scanmesh.reconstruct(points, "optimal", time_limit=5e-324)
@@ -309,9 +318,7 @@ def test_optimum_is_never_worse_than_lop_or_annealing(p):
         best = exact.quality.tac_norm(p)
         for method in worse:
             seeded = {"seed": seed} if method == "anneal" else {}
-            heuristic = scanmesh.reconstruct(
-                pts, method, plane="z", max_edge=math.inf, **seeded
-            )
+            heuristic = scanmesh.reconstruct(pts, method, plane="z", max_edge=math.inf, **seeded)
             assert_full_triangulation(pts, heuristic.faces)
             value = heuristic.quality.tac_norm(p)
             assert best <= value * (1 + 4 * MIP_REL_GAP) + 1e-12, (method, seed, best, value)

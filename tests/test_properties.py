@@ -125,12 +125,14 @@ def scans(draw):
 
 
 @SETTINGS
-@given(scan=scans(), method=st.sampled_from(["shortest-path", "lookahead"]),
-       given_lines=st.booleans())
+@given(
+    scan=scans(), method=st.sampled_from(["shortest-path", "lookahead"]), given_lines=st.booleans()
+)
 def test_strip_meshes_of_clean_scans_are_valid(scan, method, given_lines):
     pts, ids = scan
-    surface = quietly(scanmesh.reconstruct, pts, method, plane="z",
-                      lines=ids if given_lines else None)
+    surface = quietly(
+        scanmesh.reconstruct, pts, method, plane="z", lines=ids if given_lines else None
+    )
     if surface is None:
         return
     if given_lines:

@@ -89,10 +89,14 @@ def assert_no_panic(call) -> BaseException | None:
 
 
 BAD_POINTS = {
-    "nan": (np.where(np.arange(60).reshape(20, 3) == 31, np.nan, bumpy_patch(20, 1)),
-            r"points\[10\].*y=.*nan"),
-    "inf": (np.where(np.arange(60).reshape(20, 3) == 5, -np.inf, bumpy_patch(20, 1)),
-            r"points\[1\].*z=.*inf"),
+    "nan": (
+        np.where(np.arange(60).reshape(20, 3) == 31, np.nan, bumpy_patch(20, 1)),
+        r"points\[10\].*y=.*nan",
+    ),
+    "inf": (
+        np.where(np.arange(60).reshape(20, 3) == 5, -np.inf, bumpy_patch(20, 1)),
+        r"points\[1\].*z=.*inf",
+    ),
     "no points": (np.empty((0, 3)), "at least 3 points"),
     "two points": (np.eye(3)[:2], "at least 3 points"),
     "three identical": (np.ones((3, 3)), "3 distinct points"),
@@ -261,8 +265,9 @@ def test_scrambled_line_ids_never_give_a_wrong_mesh_silently(method, seed):
 
 def cylinder(n_around: int = 60, n_along: int = 20) -> np.ndarray:
     """Points on a unit cylinder around the z axis (not a height field over x or y)."""
-    th, z = np.meshgrid(np.linspace(0, 2 * np.pi, n_around, endpoint=False),
-                        np.linspace(0, 3, n_along))
+    th, z = np.meshgrid(
+        np.linspace(0, 2 * np.pi, n_around, endpoint=False), np.linspace(0, 3, n_along)
+    )
     return np.column_stack([np.cos(th).ravel(), np.sin(th).ravel(), z.ravel()])
 
 
@@ -405,8 +410,7 @@ print("finished", flush=True)
 
 @pytest.mark.parametrize("method, max_edge", [("shortest-path", None), ("delaunay", 5.0)])
 def test_ctrl_c_during_a_long_native_call_returns_quickly(method, max_edge):
-    script = (CTRL_C_SCRIPT.replace("METHOD", repr(method))
-              .replace("MAX_EDGE", repr(max_edge)))
+    script = CTRL_C_SCRIPT.replace("METHOD", repr(method)).replace("MAX_EDGE", repr(max_edge))
     # 0.8 s is inside the native call (600k points take seconds).
     assert seconds_to_interrupt(script, 0.8) < 0.2
 
@@ -476,11 +480,7 @@ def test_ctrl_c_during_an_import_that_swallows_it_still_interrupts(tmp_path):
     there was swallowed and ``compare --truth`` ran on. A stand-in module that sleeps inside
     such a guard: imported through import_interruptibly, Ctrl-C still interrupts."""
     (tmp_path / "swallowing.py").write_text(
-        "import time\n"
-        "try:\n"
-        "    time.sleep(3)\n"
-        "except BaseException:\n"
-        "    pass\n"
+        "import time\ntry:\n    time.sleep(3)\nexcept BaseException:\n    pass\n"
     )
     script = f"""
     import sys, time

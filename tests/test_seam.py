@@ -18,9 +18,10 @@ PYTHON_ONLY = {"time_limit"}
 #: shared by every random method (``SEED_OPTION``, None meaning 0), passed apart.
 CORE_ONLY = {"seed"}
 
-#: Options whose table default is not the core's, on purpose: ``tie_tolerance`` defaults to
-#: None, an estimate from the scan's noise floored at the core's default.
-AUTOMATIC = {"tie_tolerance"}
+#: Options whose table default is not the core's, on purpose: ``sweeps`` defaults to None,
+#: a schedule sized to the scan by the core (``AnnealParams.auto_sweeps``, capped at the
+#: core's default).
+AUTOMATIC = {"sweeps"}
 
 
 def core_defaults() -> dict:

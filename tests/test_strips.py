@@ -376,7 +376,6 @@ def test_points_collinear_in_the_plane_make_no_zero_area_strip_triangle():
     _core.validate(surface.scan.uv, surface.faces)  # raises on a flat or clockwise face
 
 
-
 #: Strips of a scan with a wall (so lines are cut at jumps and bridging triangles dropped)
 #: and crossing lines, in a fresh process: faces, drops and projection by method.
 _THREADS_SCRIPT = """

@@ -186,7 +186,8 @@ def test_no_height_field_warning_for_a_smooth_height_field(plane):
     with warnings.catch_warnings():
         warnings.simplefilter("error", scanmesh.NotAHeightFieldWarning)
         surface = scanmesh.reconstruct(pts, "anneal", plane=plane)
-    assert surface.steep_fraction > 0.10  # annealing's own steep slivers, still measured
+    # annealing's own steep slivers, still measured (the sliver rule holds them near 5 %)
+    assert surface.steep_fraction > 0.0
 
 
 def test_a_surface_folded_over_the_plane_still_warns():

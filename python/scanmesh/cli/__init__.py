@@ -32,7 +32,7 @@ from scanmesh.cli._args import (
 )
 from scanmesh.cli._common import _Console, _one_line, _refuse_remote_outputs, _speak_flags
 from scanmesh.cli.compare import COMPARE_METHODS, HOLDOUT_FRACTION, cmd_compare
-from scanmesh.cli.demo import DEMO_MESH, DEMO_PREVIEW, cmd_demo
+from scanmesh.cli.demo import DEMO_MESH, DEMO_PREVIEW, DEMO_TAC, cmd_demo
 from scanmesh.cli.info import cmd_info
 from scanmesh.cli.reconstruct import cmd_reconstruct
 from scanmesh.cli.render import cmd_render
@@ -246,9 +246,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "demo",
         parents=[common, with_json],
-        help="anneal the embedded connecting-rod scan",
-        description=f"Anneal the embedded scan of a connecting rod (seed 0), write {DEMO_MESH}"
-        f" and {DEMO_PREVIEW}, and print its quality next to Delaunay's.",
+        help="scan a creased CAD part with noise and show what annealing gains",
+        description="Scan the embedded fandisk (a CAD part with creases) turned so that its"
+        " creases cross the scan lines, with noise; reconstruct it by Delaunay and by"
+        f" annealing (seed 0); write {DEMO_MESH} (annealed), {DEMO_PREVIEW} (both,"
+        f" shaded) and {DEMO_TAC} (both, coloured by tac on one scale), and"
+        " print both meshes' quality and height error against the part.",
     )
     p.add_argument(
         "-o",

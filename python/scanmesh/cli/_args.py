@@ -173,6 +173,7 @@ UNLIMITED_BY_NONE = frozenset({"time_limit"})
 def _flag_help(name: str, users: list[str]) -> str:
     """Help of the flag of option ``name``: its doc and default, per method where the
     methods using it differ in either (e.g. --time-limit of annealing and of optimal)."""
+
     def default(option: Any) -> str:
         if option.default is None:
             return "no limit" if option.name in UNLIMITED_BY_NONE else "automatic"

@@ -19,7 +19,7 @@ from scanmesh.errors import ScanmeshError
 from scanmesh.scan.noise import median_edge, noise
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.projection import Frame, PlaneSpec
-from scanmesh.stages.anneal import drive
+from scanmesh.stages.anneal import drive, planned
 from scanmesh.stages.options import JUMP_FACTOR
 
 
@@ -223,7 +223,8 @@ def optimize_piece(
         )
     else:
         # time_limit bounds each tile's pass (the tiles of a pass run side by side)
-        native = {k: v for k, v in params.items() if k != "time_limit"}
+        planned_params = planned(params, len(used), local)
+        native = {k: v for k, v in planned_params.items() if k != "time_limit"}
         runner = _core.Annealer(pts, puv, local, _core.AnnealParams(seed=seed, **native))
         drive(runner, 0, False, params.get("time_limit"))
         done = runner.finish().faces

@@ -12,11 +12,11 @@ import numpy as np
 
 from scanmesh._checks import as_points
 from scanmesh.errors import ParameterError
-from scanmesh.evaluate.truth import _expand
 from scanmesh.formats import read
 from scanmesh.methods import used_keywords
 from scanmesh.reconstruction import reconstruct
 from scanmesh.scan.lines import GAP_FACTOR, as_line_ids
+from scanmesh.scan.locate import heights_at, locate
 from scanmesh.scan.planar import as_scan
 
 #: What :func:`holdout_error` measures, for reports.
@@ -27,84 +27,6 @@ HOLDOUT_MEASURE = (
 
 #: ``by=`` values of :func:`holdout_error`.
 HOLDOUT_BY = ("points", "lines")
-
-
-def locate(uv: np.ndarray, tri_uv: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """The planar triangle holding each query point, or -1.
-
-    Parameters
-    ----------
-    uv : (N, 2) float
-        Query points.
-    tri_uv : (F, 3, 2) float
-        Triangle corners (either orientation), e.g. a planar triangulation.
-    tol : float
-        A point this far outside a triangle, relative to the triangle's size, still counts
-        as inside (points on shared edges do not fall through).
-
-    Returns
-    -------
-    (N,) int64
-        Index of a triangle holding the point (the lowest one where several do), -1 where
-        none does. Triangles are binned in a uniform grid of cells about twice a typical
-        triangle's size: O(N + F) for triangulations of even size.
-    """
-    uv = np.ascontiguousarray(uv, dtype=np.float64)
-    if len(tri_uv) == 0 or len(uv) == 0:
-        return np.full(len(uv), -1, dtype=np.int64)
-    lo, hi = tri_uv.min(axis=1), tri_uv.max(axis=1)
-    origin = lo.min(axis=0)
-    extent = float((hi.max(axis=0) - origin).max()) or 1.0
-    cell = max(2.0 * float(np.median((hi - lo).max(axis=1))), extent / 4096)
-    cell_lo = np.floor((lo - origin) / cell).astype(np.int64)
-    span = np.floor((hi - origin) / cell).astype(np.int64) - cell_lo + 1
-    width = int(np.floor((hi.max(axis=0)[0] - origin[0]) / cell)) + 2
-    keys, tris = [], []
-    for owner, off in _expand(span.prod(axis=1)):
-        cx = cell_lo[owner, 0] + off % span[owner, 0]
-        cy = cell_lo[owner, 1] + off // span[owner, 0]
-        keys.append(cy * width + cx)
-        tris.append(owner)
-    key = np.concatenate(keys)
-    order = np.argsort(key, kind="stable")
-    key, tri = key[order], np.concatenate(tris)[order]
-    q = np.floor((uv - origin) / cell).astype(np.int64)
-    on_grid = (q[:, 0] >= 0) & (q[:, 0] < width) & (q[:, 1] >= 0)
-    qkey = np.where(on_grid, q[:, 1] * width + q[:, 0], -1)
-    start = np.searchsorted(key, qkey, side="left")
-    stop = np.searchsorted(key, qkey, side="right")
-    # orientation-free barycentric test: the point is on the same side of all three edges
-    a, b, c = tri_uv[:, 0], tri_uv[:, 1], tri_uv[:, 2]
-    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    sign = np.sign(area2)
-    best = np.full(len(uv), len(tri_uv), dtype=np.int64)  # lowest holding triangle so far
-    for rows, item in _expand(stop - start):
-        t = tri[start[rows] + item]
-        p = uv[rows]
-        slack = -tol * np.abs(area2[t])
-        inside = np.ones(len(t), dtype=bool)
-        for i, j in ((0, 1), (1, 2), (2, 0)):
-            e0, e1 = tri_uv[t, i], tri_uv[t, j]
-            cross = (e1[:, 0] - e0[:, 0]) * (p[:, 1] - e0[:, 1]) - (e1[:, 1] - e0[:, 1]) * (
-                p[:, 0] - e0[:, 0]
-            )
-            inside &= sign[t] * cross >= slack
-        inside &= area2[t] != 0
-        np.minimum.at(best, rows[inside], t[inside])
-    return np.where(best < len(tri_uv), best, -1)
-
-
-def _heights_at(
-    uv: np.ndarray, tri_uv: np.ndarray, tri_h: np.ndarray, face: np.ndarray
-) -> np.ndarray:
-    """Height of the plane of triangle ``face[i]`` at ``uv[i]`` (linear interpolation)."""
-    a, b, c = tri_uv[face, 0], tri_uv[face, 1], tri_uv[face, 2]
-    d1, d2, dp = b - a, c - a, uv - a
-    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-    w1 = (dp[:, 0] * d2[:, 1] - dp[:, 1] * d2[:, 0]) / det
-    w2 = (d1[:, 0] * dp[:, 1] - d1[:, 1] * dp[:, 0]) / det
-    h = tri_h[face]
-    return h[:, 0] + w1 * (h[:, 1] - h[:, 0]) + w2 * (h[:, 2] - h[:, 0])
 
 
 def holdout_error(
@@ -214,7 +136,7 @@ def holdout_error(
     face = locate(uv, tri_uv)
     inside = face >= 0
     dist = np.abs(
-        pts[out[inside]] @ frame.normal - _heights_at(uv[inside], tri_uv, tri_h, face[inside])
+        pts[out[inside]] @ frame.normal - heights_at(uv[inside], tri_uv, tri_h, face[inside])
     )
     measured = len(dist) > 0
     return {

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -32,6 +31,7 @@ from scanmesh._interrupt import import_interruptibly
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.evaluate.digitizer import cast_grid
 from scanmesh.formats.mesh import load_mesh
+from scanmesh.scan.locate import expand
 from scanmesh.scan.projection import project
 
 #: What :func:`height_error` measures, for reports.
@@ -42,9 +42,6 @@ NORMAL_MEASURE = (
     "unoriented angle between the mesh's face normal and the normal of the closest true"
     " triangle, at random points on the mesh's area"
 )
-
-#: Candidate (point, triangle) pairs evaluated per step (bounds temporary memory).
-PAIRS_PER_STEP: int = 1 << 20
 
 #: Most (cell, triangle box) pairs the grid expands while binning; cells grow until it fits.
 MAX_BINNED: int = 1 << 22
@@ -138,25 +135,6 @@ def _edges_distance(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.sqrt(best)
 
 
-def _expand(
-    count: np.ndarray, step: int = PAIRS_PER_STEP
-) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Walk ``sum(count)`` (owner, item) pairs in steps of at most ``step``.
-
-    Yields (owner, offset): (n,) int64 arrays, owners ascending; item ``offset`` of ``owner``.
-    """
-    count = np.asarray(count, dtype=np.int64)
-    ends = np.cumsum(count)
-    if len(ends) == 0:
-        return
-    starts = ends - count
-    total = int(ends[-1])
-    for first in range(0, total, step):
-        flat = np.arange(first, min(first + step, total), dtype=np.int64)
-        owner = np.searchsorted(ends, flat, side="right")
-        yield owner, flat - starts[owner]
-
-
 def _box_cells(lo: np.ndarray, span: np.ndarray, owner: np.ndarray, off: np.ndarray) -> np.ndarray:
     """(n, 3) int64 cell indices: item ``off`` of the cell box of ``owner`` (x fastest)."""
     s = span[owner]
@@ -221,7 +199,7 @@ class TrueSurface:
         self.cell, self.origin = h, origin
         self.shape = cell_lo.max(axis=0) + span.max(axis=0) + 1
         keys, tris = [], []
-        for owner, off in _expand(span.prod(axis=1)):
+        for owner, off in expand(span.prod(axis=1)):
             cells = _box_cells(cell_lo, span, owner, off)
             # keep a triangle in a cell only if it comes within the cell's circumsphere
             centre = origin + (cells + 0.5) * h
@@ -255,12 +233,12 @@ class TrueSurface:
         lo = np.clip(lo, 0, self.shape - 1)
         hi = np.clip(hi, -1, self.shape - 1)
         span = np.maximum(hi - lo + 1, 0)
-        for rows, off in _expand(span.prod(axis=1)):
+        for rows, off in expand(span.prod(axis=1)):
             key = self._key(_box_cells(lo, span, rows, off))
             slot = np.clip(np.searchsorted(self.keys, key), 0, max(len(self.keys) - 1, 0))
             hit = (self.keys[slot] == key) if len(self.keys) else np.zeros(len(key), bool)
             count = np.where(hit, self.stops[slot] - self.starts[slot], 0)
-            for k, item in _expand(count):
+            for k, item in expand(count):
                 tri = self.tris[self.starts[slot[k]] + item]
                 who = rows[k]
                 dist = point_triangle_distance(self.triangles[tri], points[who])
@@ -285,7 +263,7 @@ class TrueSurface:
             ids = ids.astype(np.int64)
             sub = best[todo]
             sub_arg = arg[todo] if arg is not None else None
-            for rows, off in _expand(counts):
+            for rows, off in expand(counts):
                 found = ids[starts[rows] + off]
                 dist = point_triangle_distance(self.triangles[found], q[rows])
                 _reduce_min(sub, rows, dist, sub_arg, found)

@@ -375,18 +375,19 @@ def noise_tolerance(
     Returns
     -------
     sigma : float or None
-        :func:`noise` of the vertices (None when too few points give an estimate).
+        :func:`noise` of the vertices (None when too few points give an estimate, or when
+        ``given`` is a tolerance: then the estimate is not needed and not made).
     tolerance : float
         O(N) (O(N log N) for points in no scan order).
     """
+    if given is not None:
+        return None, float(given)
     scan = initial.scan
     assert scan is not None
     try:
         sigma = noise(scan)
     except DegenerateInputError:
         sigma = None
-    if given is not None:
-        return sigma, float(given)
     if sigma is None or len(scan.points) < MIN_TIE_POINTS:
         return sigma, floor
     return sigma, tie_tolerance(sigma, median_edge(scan.uv, initial.faces), p, floor)

@@ -2,12 +2,12 @@
 
 ``planar_scan`` checks the points (``as_points``) and the line ids (``as_line_ids``) and
 projects the points onto the plane, once; for ``plane=None`` it first chooses the plane by
-the data (:mod:`scanmesh.scan.plane_choice`: fewest steep triangles among the file's recorded
-``up``, the least-squares plane, the axes and the principal axes), so every stage works on
-the chosen plane. Delaunay, trimming, strips, LOP, annealing, the
-optimum and the quality report all read the same planar coordinates from it, so the
-annealer tests convexity on exactly the roundings the Delaunay triangulation and its
-trimming were judged on, and ``Surface.frame`` is the frame every stage worked in.
+the data (:mod:`scanmesh.scan.plane_choice`: few steep triangles and a holdout, among the
+file's recorded ``up``, the axes, the least-squares plane and the principal axes), so every
+stage works on the chosen plane. Delaunay, trimming, strips, LOP, annealing, the optimum
+and the quality report all read the same planar coordinates from it, so the annealer tests
+convexity on exactly the roundings the Delaunay triangulation and its trimming were judged
+on, and ``Surface.frame`` is the frame every stage worked in.
 """
 
 from __future__ import annotations
@@ -157,9 +157,10 @@ def planar_scan(
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane (see :func:`scanmesh.project`), obeyed as given. None (default):
         chosen by the data (:func:`scanmesh.scan.plane_choice.choose_plane`): among the
-        direction the file records (``ScanPoints.up``), the least-squares plane, the axes x,
-        y, z and the principal axes, the one with the fewest steep triangles on a quick
-        Delaunay triangulation of at most 20,000 points (seeded), the recorded ``up`` first
+        direction the file records (``ScanPoints.up``), the axes x, y, z, the least-squares
+        plane and the principal axes, those with the fewest steep triangles on a quick
+        Delaunay triangulation of at most 20,000 points (seeded), judged by a holdout on
+        those points when several come close, the recorded ``up`` first
         on ties. ``PlanarScan.plane`` is then the chosen plane, ``PlanarScan.choice`` says
         what each candidate measured.
     lines : (N,) int, optional

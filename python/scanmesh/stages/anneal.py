@@ -93,10 +93,12 @@ OPTIONS: tuple[Option, ...] = (
     Option(
         "sweeps",
         "int",
-        ANNEAL_DEFAULTS["sweeps"],
-        "sweeps (one proposal per live edge each: flippable, by a corner with tac above ties)",
+        None,
+        "sweeps (one proposal per live edge each: flippable, by a corner with tac above ties)"
+        " (automatic: sized to the scan, see AnnealParams.auto_sweeps)",
         low=0,
         high=MAX_COUNT,
+        automatic=True,
     ),
     P_OPTION,
     Option(
@@ -127,11 +129,12 @@ OPTIONS: tuple[Option, ...] = (
         high=MAX_COUNT,
     ),
     SLIVER_GUARD_OPTION,
-    # None: from the scan's noise (noise.noise_tolerance); exact ties on noise-free scans
+    # None: from the scan's noise (noise.noise_tolerance). Not the default: measured on the
+    # panel, the noise's tolerance switched annealing off on real scans (SainteHelens,
+    # fran_cut) and the automatic choice of a method guards noisy scans instead.
     dataclasses.replace(
         TIE_TOLERANCE_OPTION,
-        default=None,
-        doc=TIE_TOLERANCE_OPTION.doc + " (automatic: from the scan's noise estimate)",
+        doc=TIE_TOLERANCE_OPTION.doc + " (None: from the scan's noise estimate)",
         automatic=True,
     ),
     Option(
@@ -141,6 +144,21 @@ OPTIONS: tuple[Option, ...] = (
         "judge flips between corners flat up to the noise by the planar angle (Delaunay's)",
     ),
     Option("polish", "bool", ANNEAL_DEFAULTS["polish"], "run LOP from the best state at the end"),
+    Option(
+        "descend",
+        "bool",
+        ANNEAL_DEFAULTS["descend"],
+        "start the walk from LOP's local optimum of the initial triangulation",
+    ),
+    Option(
+        "sliver_angle",
+        "float",
+        ANNEAL_DEFAULTS["sliver_angle"],
+        "refuse flips that make a smallest 3-D angle fall below this (degrees; 0: off)",
+        low=0.0,
+        high=60.0,
+        high_open=True,
+    ),
     Option(
         "calibration_samples",
         "int",
@@ -295,8 +313,13 @@ def anneal_surface(
         keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
     **schedule
-        ``sweeps`` (1000), ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
-        ``patience``, ``sliver_guard`` (True), ``tie_tolerance``, ``planar_ties``
+        ``sweeps`` (automatic: a budget of 24 proposals per point, at least 2 million in
+        all, shared by the chains, between 8 and 1000 sweeps; ``AnnealParams.auto_sweeps``),
+        ``p`` (1), ``initial_acceptance``, ``final_temperature_ratio``,
+        ``patience``, ``sliver_guard`` (True), ``tie_tolerance`` (1e-10, exact ties; None:
+        from the scan's noise estimate), ``descend`` (True: the walk starts from the local
+        optimum LOP reaches from ``initial``), ``sliver_angle`` (5 degrees: flips that make
+        a smaller smallest 3-D angle than this and than before are refused), ``planar_ties``
         (False; True: a flip whose four corners have a tac within twice the tie tolerance,
         flat up to the noise, is judged by the smallest planar angle alone, Delaunay's
         criterion, instead of by tac and 3-D angles, which there are the noise's: noisy
@@ -353,6 +376,7 @@ def anneal_surface(
     keep = _without_duplicates(n, start.duplicates)
     local = np.full(n, -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
+    params = planned(params, len(keep), start.faces)
     with Stage(progress, "calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
@@ -392,6 +416,26 @@ def anneal_surface(
         trace={name: outcome.trace[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)},
         line_ids=start.line_ids,
     )
+
+
+def planned(params: dict[str, Any], n_points: int, faces: np.ndarray) -> dict[str, Any]:
+    """``params`` (checked options of :data:`OPTIONS`, without ``seed``) with an automatic
+    ``sweeps`` (None) replaced by the core's plan for ``n_points`` points triangulated by
+    ``faces`` (``AnnealParams.auto_sweeps``); every run of a ``_core.Annealer`` (this module,
+    the tiles of :mod:`scanmesh.distributed`) plans here. O(F log F)."""
+    if params["sweeps"] is not None:
+        return params
+    core = {k: v for k, v in params.items() if k != "time_limit"}
+    rule = _core.AnnealParams(**{**core, "sweeps": ANNEAL_DEFAULTS["sweeps"]})
+    return {**params, "sweeps": rule.auto_sweeps(n_points, interior_edges(faces))}
+
+
+def interior_edges(faces: np.ndarray) -> int:
+    """Edges shared by two of ``faces`` (F, 3) int: (3F - boundary edges) / 2. O(F log F)."""
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).astype(np.int64), axis=1)
+    keys = edges[:, 0] * (int(edges.max(initial=0)) + 1) + edges[:, 1]
+    _, counts = np.unique(keys, return_counts=True)
+    return int((counts == 2).sum())
 
 
 def _without_duplicates(n: int, duplicates: np.ndarray | None) -> np.ndarray:

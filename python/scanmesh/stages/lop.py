@@ -59,8 +59,12 @@ def lop_surface(
     start = planar_start(initial, "LOP")
     params = check_options(
         OPTIONS,
-        {"criterion": criterion, "p": p, "sliver_guard": sliver_guard,
-         "tie_tolerance": tie_tolerance},
+        {
+            "criterion": criterion,
+            "p": p,
+            "sliver_guard": sliver_guard,
+            "tie_tolerance": tie_tolerance,
+        },
         "LOP",
     )
     scan = start.scan

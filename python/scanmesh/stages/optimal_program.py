@@ -52,7 +52,6 @@ class _Instance:
     #: seconds spent projecting and triangulating
     seconds: float
 
-
     @property
     def points(self) -> np.ndarray:
         """(N, 3) float64 the input points."""

@@ -52,6 +52,8 @@ anneal_fields!(
     tie_tolerance,
     planar_ties,
     polish,
+    descend,
+    sliver_angle,
     calibration_samples,
     chains,
     tiles,
@@ -95,6 +97,12 @@ impl AnnealParams {
         }
         out.check().map_err(to_py)?;
         Ok(AnnealParams(out))
+    }
+
+    /// Sweeps of the automatic schedule for `n_points` points and `interior_edges` interior
+    /// edges (`scanmesh_core::AnnealParams::auto_sweeps`).
+    fn auto_sweeps(&self, n_points: usize, interior_edges: usize) -> usize {
+        self.0.auto_sweeps(n_points, interior_edges)
     }
 
     /// Every field by name, in the core's order.

@@ -46,6 +46,15 @@ pub struct AnnealParams {
     pub planar_ties: bool,
     /// Run LOP from the best state at the end.
     pub polish: bool,
+    /// Start the walk from the local optimum that LOP (under [`order`](Self::order))
+    /// reaches from the given triangulation, found once before the chains split: the walk
+    /// then spends its proposals below the cheap baseline instead of re-finding it.
+    pub descend: bool,
+    /// Flips that would make the smallest 3-D angle of their two triangles fall below this
+    /// (degrees) and below what it was are refused, in the walk, the descent and the polish:
+    /// slivers are held down by the move set, not by the energy (0: off). Coplanar ties are
+    /// left to the polish's angle order.
+    pub sliver_angle: f64,
     /// Proposals sampled to calibrate T0.
     pub calibration_samples: usize,
     /// Independent chains (restarts from the same initial state with derived seeds, see
@@ -70,6 +79,21 @@ pub const AUTO_CHAIN_EDGES: usize = 8_000;
 /// Automatic chains never exceed this count.
 pub const MAX_AUTO_CHAINS: usize = 128;
 
+/// Proposals per point an automatic schedule plans, all chains together
+/// ([`AnnealParams::auto_sweeps`]): measured on the panel (docs/benchmarks/panel.md), the
+/// sweeps from LOP's optimum take SainteHelens (148,885 points) from tac_1 1,310 to 1,217
+/// (4 sweeps), 1,189 (7), 1,168 (10) and 1,150 (14), against LOP's 1,267; 24 per point
+/// plans 9 sweeps there, to stay within a few times LOP's time.
+pub const AUTO_PROPOSALS_PER_POINT: u64 = 24;
+
+/// The least proposals an automatic schedule plans in all: small scans are cheap, and on
+/// them longer runs keep lowering tac (fran_cut, 2,205 points: 14 sweeps end at 101, 150
+/// at 83).
+pub const AUTO_MIN_PROPOSALS: u64 = 2_000_000;
+
+/// The fewest sweeps of an automatic schedule: fewer cool too fast to leave the start.
+pub const AUTO_MIN_SWEEPS: usize = 8;
+
 /// Largest accepted [`AnnealParams::tiles`].
 pub const MAX_TILES: usize = 64;
 
@@ -86,6 +110,8 @@ impl Default for AnnealParams {
             tie_tolerance: 1e-10,
             planar_ties: false,
             polish: true,
+            descend: true,
+            sliver_angle: crate::criteria::SLIVER_ANGLE_DEG,
             calibration_samples: 2000,
             chains: 0,
             tiles: 1,
@@ -125,6 +151,13 @@ impl AnnealParams {
                 "tie_tolerance",
                 self.tie_tolerance.to_string(),
                 "a finite value >= 0",
+            );
+        }
+        if !(self.sliver_angle >= 0.0 && self.sliver_angle < 60.0) {
+            return bad(
+                "sliver_angle",
+                self.sliver_angle.to_string(),
+                "an angle in degrees from 0 (off) up to, not including, 60",
             );
         }
         if self.tiles == 0 || self.tiles > MAX_TILES {
@@ -241,6 +274,20 @@ impl AnnealParams {
             .clamp(1, MAX_AUTO_CHAINS)
     }
 
+    /// Sweeps of the automatic schedule on a triangulation of `n_vertices` points with
+    /// `interior_edges` interior edges: the budget max([`AUTO_PROPOSALS_PER_POINT`] × n,
+    /// [`AUTO_MIN_PROPOSALS`]) proposals shared by the [`chain_count`](Self::chain_count)
+    /// chains, one proposal per interior edge and sweep, kept between
+    /// [`AUTO_MIN_SWEEPS`] and `self.sweeps`. The plan depends on the input alone, never on
+    /// the clock, so a seed still fixes the result. O(1).
+    pub fn auto_sweeps(&self, n_vertices: usize, interior_edges: usize) -> usize {
+        let edges = interior_edges.max(1) as u64;
+        let chains = self.chain_count(interior_edges) as u64;
+        let budget = (AUTO_PROPOSALS_PER_POINT * n_vertices as u64).max(AUTO_MIN_PROPOSALS);
+        let sweeps = budget.div_ceil(chains * edges);
+        (sweeps as usize).clamp(AUTO_MIN_SWEEPS, self.sweeps.max(AUTO_MIN_SWEEPS))
+    }
+
     /// The parameters of chain `chain`: chain 0 keeps `seed`, chain c > 0 runs on a seed
     /// mixed from (seed, c) by the SplitMix64 finalizer, so chains are independent and a
     /// (seed, chain) pair means the same run everywhere. O(1).
@@ -267,6 +314,7 @@ impl AnnealParams {
             tie_tolerance: self.tie_tolerance,
             sliver_guard: self.sliver_guard,
             planar_ties: self.planar_ties,
+            sliver_angle: self.sliver_angle.to_radians(),
         }
     }
 }
@@ -562,7 +610,9 @@ impl Annealer {
             .planar_ties
             .then(|| self.state.flat_quad_uv(h, self.order.tie_tolerance))
             .flatten();
-        let accept = if let Some(quad) = flat {
+        let accept = if self.order.makes_sliver(&mv) {
+            false
+        } else if let Some(quad) = flat {
             planar_flip_improves(quad)
         } else if self.order.is_tie(&mv) || mv.delta_energy < 0.0 {
             true

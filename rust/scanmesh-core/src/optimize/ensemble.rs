@@ -10,7 +10,9 @@
 //! the thread count or on where the caller's chunks end.
 
 use crate::budget;
+use crate::mesh::HalfEdgeMesh;
 use crate::optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
+use crate::optimize::lop::tac_lop;
 use crate::optimize::tac_state::TacState;
 use crate::optimize::tiles::TiledAnnealer;
 use crate::Result;
@@ -20,6 +22,10 @@ use std::time::Instant;
 /// A resumable set of annealing chains, advanced together on the rayon pool.
 pub struct Ensemble {
     chains: Vec<Chain>,
+    // The triangulation the caller gave and its energy: a run never returns a state above
+    // it (the descent and the polish may trade ties within the tolerance).
+    start: HalfEdgeMesh,
+    start_energy: f64,
 }
 
 /// One chain: the sequential annealer, or the tiled one when [`AnnealParams::tiles`] > 1.
@@ -98,9 +104,15 @@ impl Ensemble {
     /// ([`AnnealParams::check_cost`]); the copies are fallible, so memory that runs out
     /// ends in an error naming `chains`. O(chains × (calibration_samples + m)) work, in
     /// parallel; memory O(chains × m).
-    pub fn new(state: TacState, params: AnnealParams) -> Result<Self> {
+    pub fn new(mut state: TacState, params: AnnealParams) -> Result<Self> {
         params.check_for(&state)?;
         let count = params.check_cost(&state)?;
+        let start = state.mesh().clone();
+        let start_energy = state.resync_energy();
+        if params.descend {
+            tac_lop(&mut state, params.order());
+            state.resync_energy();
+        }
         let out_of_memory =
             || budget::allocation_failed("chains", count, count as u64 * state.heap_bytes());
         let mut chains = Vec::new();
@@ -114,7 +126,11 @@ impl Ensemble {
         }));
         chains.push(Chain::new(state, params.for_chain(count - 1)));
         let chains = chains.into_iter().collect::<Result<Vec<_>>>()?;
-        Ok(Ensemble { chains })
+        Ok(Ensemble {
+            chains,
+            start,
+            start_energy,
+        })
     }
 
     /// Number of chains. O(1).
@@ -172,8 +188,12 @@ impl Ensemble {
     /// Ends every chain (best state, polish) and returns the winner with the chain summary.
     /// O(chains × (m + polish flips)), in parallel.
     pub fn finish(self) -> Result<(AnnealResult, EnsembleSummary)> {
-        let results = self
-            .chains
+        let Ensemble {
+            chains,
+            start,
+            start_energy,
+        } = self;
+        let results = chains
             .into_par_iter()
             .map(Chain::finish)
             .collect::<Result<Vec<_>>>()?;
@@ -182,10 +202,15 @@ impl Ensemble {
         let best_chain = (0..energies.len())
             .min_by(|&a, &b| energies[a].total_cmp(&energies[b]))
             .expect("an ensemble has at least one chain");
-        let best = results
+        let mut best = results
             .into_iter()
             .nth(best_chain)
             .expect("best_chain indexes the results");
+        best.initial_energy = start_energy;
+        if best.energy > start_energy {
+            best.mesh = start;
+            best.energy = start_energy;
+        }
         Ok((
             best,
             EnsembleSummary {

@@ -35,6 +35,9 @@ pub struct TacOrder {
     pub sliver_guard: bool,
     /// Measure the smallest angle of ties in the plane instead of in 3-D.
     pub planar_ties: bool,
+    /// A move that makes the smallest 3-D angle of its two triangles fall below this
+    /// (radians) and below what it was never improves (0: no such rule).
+    pub sliver_angle: f64,
 }
 
 impl TacOrder {
@@ -52,7 +55,16 @@ impl TacOrder {
             tie_tolerance,
             sliver_guard,
             planar_ties: false,
+            sliver_angle: 0.0,
         })
+    }
+
+    /// True when `mv` would make a sliver: its new smallest 3-D angle is below
+    /// `sliver_angle` and below the old one. Moves whose angles were not measured (NaN:
+    /// coplanar ties evaluated for their energy only) are not judged. O(1).
+    #[inline]
+    pub fn makes_sliver(&self, mv: &FlipMove) -> bool {
+        mv.new_min_angle < self.sliver_angle && mv.new_min_angle < mv.old_min_angle
     }
 
     /// True when `mv` is a tie under this order. O(1).
@@ -67,6 +79,9 @@ impl TacOrder {
     /// `None`; asked for only with `planar_ties`. O(1).
     #[inline]
     pub fn improves(&self, mv: &FlipMove, flat: impl FnOnce(f64) -> Option<[[f64; 2]; 4]>) -> bool {
+        if self.makes_sliver(mv) {
+            return false;
+        }
         if let Some(quad) = self.planar_ties.then(|| flat(self.tie_tolerance)).flatten() {
             return planar_flip_improves(quad);
         }
@@ -432,6 +447,7 @@ mod tests {
                 tie_tolerance,
                 sliver_guard: true,
                 planar_ties,
+                sliver_angle: 0.0,
             };
             assert!(tac_lop(&mut st, order) > 0);
             st.mesh().validate(&uv).unwrap();
@@ -462,6 +478,7 @@ mod tests {
             tie_tolerance: 1e-12,
             sliver_guard: true,
             planar_ties: false,
+            sliver_angle: 0.0,
         };
         let flips = lop(
             &mut TacLop {
