@@ -13,8 +13,9 @@ import numpy as np
 from scanmesh import shape
 from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
-from scanmesh.errors import ParameterError
+from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.formats import write
+from scanmesh.formats.points import checked_point_data, colors_of
 from scanmesh.measures import Quality, quality
 from scanmesh.present import view
 from scanmesh.scan.planar import PlanarScan
@@ -60,12 +61,28 @@ class Surface:
     #: the checked, projected points the faces were built on (planar methods), with the
     #: file they were read from
     scan: PlanarScan | None = None
+    #: per-vertex values by name, each (N,): what the scan file carried (colours as uint8
+    #: ``red``, ``green``, ``blue``; ``intensity``, ...; the scan's ``point_data`` when not
+    #: given); :meth:`save` writes them to PLY
+    point_data: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.scan is not None:
             if self.frame is not None and self.frame is not self.scan.frame:
                 raise ParameterError("a Surface's frame must be its scan's frame")
             self.frame = self.scan.frame
+            if not self.point_data:
+                self.point_data = dict(self.scan.point_data)
+        try:
+            self.point_data = checked_point_data(self.point_data, len(self.vertices))
+        except ScanmeshError as exc:
+            raise ParameterError(str(exc)) from None
+
+    @property
+    def colors(self) -> np.ndarray | None:
+        """(N, 3) or (N, 4) uint8 vertex colours from :attr:`point_data` (``red``, ``green``,
+        ``blue``, ``alpha``; 16-bit and 0..1 float channels scaled), or None without them."""
+        return colors_of(self.point_data)
 
     @cached_property
     def quality(self) -> Quality:
@@ -88,8 +105,9 @@ class Surface:
         return trimesh.Trimesh(vertices=self.vertices, faces=self.faces, process=False)
 
     def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
-        """Write the mesh by file ending (.stl binary, .ply, .obj, .off; .html and .glb
-        through :meth:`to_html` and :func:`scanmesh.present.view.save_glb`), atomically;
+        """Write the mesh by file ending (.stl binary, .ply with :attr:`point_data`, .obj,
+        .off; .html and .glb through :meth:`to_html` and
+        :func:`scanmesh.present.view.save_glb`), atomically;
         ``progress`` as in :func:`scanmesh.formats.write.save_mesh` (stage "write").
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
@@ -101,7 +119,11 @@ class Surface:
             return self.to_html(path)
         if suffix == ".glb":
             return view.save_glb(self, path)
-        return write.save_mesh(path, self.vertices, self.faces, protect=inputs, progress=progress)
+        fmt = write.FORMATS.get(suffix)
+        keep = self.point_data if fmt is not None and fmt.point_data else None
+        return write.save_mesh(
+            path, self.vertices, self.faces, point_data=keep, protect=inputs, progress=progress
+        )
 
     def to_html(self, path: str | os.PathLike, **options: Any) -> Path:
         """Write a self-contained HTML page showing this mesh in 3-D (opens offline in any
