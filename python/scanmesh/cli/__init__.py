@@ -104,6 +104,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
     p.add_argument("--preview", metavar="P.png", help="also write a shaded picture")
     p.add_argument(
+        "--view",
+        type=_axis,
+        help="--preview camera: direction from the part to the eye (default: three-quarter,"
+        " from the side the surface faces)",
+    )
+    p.add_argument("--up", type=_axis, help="--preview camera: model direction shown upwards")
+    p.add_argument(
         "--no-quality",
         dest="quality",
         action="store_false",
@@ -220,6 +227,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH", help="(800x600)")
     p.add_argument("--wire", action="store_true", help="draw the triangle edges")
     _color_flags(p)
+    p.add_argument(
+        "--no-bar",
+        dest="bar",
+        action="store_false",
+        help="with --color: the picture alone (--size exactly), no title and colour bar",
+    )
     p.set_defaults(func=cmd_render, _parser=p)
 
     p = sub.add_parser(
