@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from scanmesh import shape
+from scanmesh._extras import require
 from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError, ScanmeshError
@@ -23,6 +24,8 @@ from scanmesh.scan.projection import Frame
 from scanmesh.scan.steep import steep_fraction
 
 if TYPE_CHECKING:
+    import open3d
+    import pyvista
     import trimesh
 
 
@@ -99,10 +102,48 @@ class Surface:
         return steep_fraction(self.vertices, self.faces, self.frame.normal)
 
     def to_trimesh(self) -> trimesh.Trimesh:
-        """A ``trimesh.Trimesh`` sharing vertex indices (``process=False``)."""
+        """A ``trimesh.Trimesh`` sharing vertex indices (``process=False``), with the vertex
+        colours of :attr:`colors` when the scan carried them."""
         trimesh = import_interruptibly("trimesh")
 
-        return trimesh.Trimesh(vertices=self.vertices, faces=self.faces, process=False)
+        return trimesh.Trimesh(
+            vertices=self.vertices, faces=self.faces, vertex_colors=self.colors, process=False
+        )
+
+    def to_pyvista(self) -> pyvista.PolyData:
+        """A ``pyvista.PolyData`` of the triangles over the same vertex indices, with every
+        :attr:`point_data` array as point data and :attr:`colors` as ``"RGB"``/``"RGBA"``
+        (plot with ``rgb=True``). O(N + M). Needs PyVista (``pip install
+        "scanmesh[pyvista]"``; MissingExtraError otherwise)."""
+        pyvista = require("pyvista", "pyvista", "Surface.to_pyvista()")
+        cells = np.empty((len(self.faces), 4), dtype=np.int64)
+        cells[:, 0] = 3
+        cells[:, 1:] = self.faces
+        mesh = pyvista.PolyData(np.array(self.vertices), cells.ravel())
+        for name, values in self.point_data.items():
+            mesh.point_data[name] = values
+        colors = self.colors
+        if colors is not None:
+            mesh.point_data["RGB" if colors.shape[1] == 3 else "RGBA"] = colors
+        return mesh
+
+    def to_open3d(self) -> open3d.geometry.TriangleMesh:
+        """An ``open3d.geometry.TriangleMesh`` over the same vertex indices, with
+        :attr:`normals` as vertex normals and :attr:`colors` (RGB, 0..1) as vertex colours
+        when the scan carried them (Open3D keeps no other per-vertex values). O(N + M).
+        Needs Open3D (``pip install "scanmesh[open3d]"``; MissingExtraError otherwise)."""
+        o3d = require("open3d", "open3d", "Surface.to_open3d()")
+        vectors = o3d.utility
+        mesh = o3d.geometry.TriangleMesh(
+            vectors.Vector3dVector(np.ascontiguousarray(self.vertices, dtype=np.float64)),
+            vectors.Vector3iVector(np.ascontiguousarray(self.faces, dtype=np.int32)),
+        )
+        mesh.vertex_normals = vectors.Vector3dVector(np.ascontiguousarray(self.normals))
+        colors = self.colors
+        if colors is not None:
+            rgb = np.ascontiguousarray(colors[:, :3], dtype=np.float64) / 255.0
+            mesh.vertex_colors = vectors.Vector3dVector(rgb)
+        return mesh
 
     def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
         """Write the mesh by file ending (.stl binary, .ply with :attr:`point_data`, .obj,
