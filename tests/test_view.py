@@ -185,8 +185,10 @@ def test_notebook_display(monkeypatch, rod):
     assert shown.startswith("<iframe srcdoc=") and "<script" not in shown
     inner = html.unescape(shown[len('<iframe srcdoc="') : shown.index('" style=')])
     assert page_data(inner)["faces"] == len(rod.faces)
-    monkeypatch.setattr(view_module, "MAX_NOTEBOOK_FACES", len(rod.faces) - 1)
-    assert rod._repr_html_() is None
+    monkeypatch.setattr(view_module, "NOTEBOOK_FACES", len(rod.faces) // 4)
+    coarse = html.unescape(rod._repr_html_())
+    assert f"of {len(rod.faces):,} faces)" in coarse and "decimated for display" in coarse
+    assert 0 < page_data(coarse[coarse.index("<!DOCTYPE") :])["faces"] <= len(rod.faces) // 4
     assert notebook_html((rod.vertices, rod.faces[:0])) is None
 
 

@@ -178,7 +178,8 @@ class Surface:
         view.show(self, **options)
 
     def _repr_html_(self) -> str | None:
-        """Notebook display: the 3-D view of :meth:`to_html` (None for very large meshes)."""
+        """Notebook display: the 3-D view of :meth:`to_html`, decimated for display above
+        ``present.view.NOTEBOOK_FACES`` faces (the view says so)."""
         return view.notebook_html(self)
 
     @cached_property
