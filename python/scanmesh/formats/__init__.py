@@ -14,6 +14,7 @@ Readers (each returns :class:`ScanPoints`):
 - ``.pcd`` - :mod:`.pcd`: PCL point clouds, ASCII or binary, an organized cloud's rows as
   scan lines;
 - ``.las``, ``.laz`` - :mod:`.las`: LiDAR through laspy (``pip install scanmesh[las]``);
+- ``.e57`` - :mod:`.e57`: laser scans through pye57 (``pip install scanmesh[e57]``);
 - any text or ``.npy`` matrix of heights with ``grid=True`` (:mod:`.grid`).
 
 Text, PLY, VTK, DEM, PTS and PCD files may be gzip-compressed (``scan.ply.gz``): they are
@@ -45,6 +46,7 @@ from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import GZIP_MAGIC, check_regular, is_gzip
 from scanmesh.formats.csv import read_csv
 from scanmesh.formats.dem import read_dem
+from scanmesh.formats.e57 import E57_MAGIC, read_e57
 from scanmesh.formats.grid import Cell, height_grid, is_esri_ascii, read_esri_ascii, read_matrix
 from scanmesh.formats.las import read_las
 from scanmesh.formats.npy import read_npy
@@ -94,6 +96,7 @@ FORMATS: tuple[Format, ...] = (
     Format("dem", (".dem",), None, read_dem, (), None),
     Format("pts", (".pts",), None, read_pts, (), None),
     Format("pcd", (".pcd",), b"# .PCD", read_pcd, (), None),
+    Format("e57", (".e57",), E57_MAGIC, read_e57, (), None),
     Format("stl", (".stl",), None, None, (), stl_chunks),
     Format("obj", (".obj",), None, None, (), obj_chunks, True),
     Format("off", (".off",), None, None, (), off_chunks, True),
@@ -109,7 +112,7 @@ READERS: dict[str, Callable[..., ScanPoints]] = {
 #: File ending (lower case) -> format of the meshes written there.
 MESH_FORMATS: dict[str, Format] = {e: f for f in FORMATS if f.writer is not None for e in f.endings}
 
-_TAKES_PROGRESS = (read_xyz, read_csv, read_ply, read_pts, read_pcd)
+_TAKES_PROGRESS = (read_xyz, read_csv, read_ply, read_pts, read_pcd, read_e57)
 
 
 #: Formats whose readers decompress a gzip-compressed file (those reading it as bytes).
@@ -252,6 +255,7 @@ __all__ = [
     "read_esri_ascii",
     "read_pts",
     "read_pcd",
+    "read_e57",
     "read_matrix",
     "Columns",
     "Format",
