@@ -141,8 +141,9 @@ def test_progress_total_never_jumps_when_the_time_limit_stops_before_a_sweep():
     def progress(done, total, value, stage):
         seen.append((stage, done, total, 100 * done / total))
 
-    s = scanmesh.reconstruct(pts, "anneal", sweeps=1000, chains=1, time_limit=1e-6,
-                             progress=progress)
+    s = scanmesh.reconstruct(
+        pts, "anneal", sweeps=1000, chains=1, time_limit=1e-6, progress=progress
+    )
     assert s.options["stopped"] == "time_limit"
     for stage in {st for st, *_ in seen}:
         totals = {t for st, _, t, _ in seen if st == stage}

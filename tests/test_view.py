@@ -293,10 +293,8 @@ def test_render_command_colours_by_error_against_the_truth(tmp_path):
     bent.export(bent_path)
     plain, error = tmp_path / "plain.png", tmp_path / "error.png"
     assert run("render", bent_path, "-o", plain, "--size", "160x120").returncode == 0
-    result = run(
-        "render", bent_path, "-o", error, "--size", "160x120", "--color", "error",
-        "--truth", CONROD, "--no-bar",
-    )
+    flags = ("--size", "160x120", "--color", "error", "--truth", CONROD, "--no-bar")
+    result = run("render", bent_path, "-o", error, *flags)
     assert result.returncode == 0, result.stderr
     a, b = (np.asarray(Image.open(p).convert("RGB")).astype(int) for p in (plain, error))
     assert np.array_equal(a.sum(-1) == 765, b.sum(-1) == 765)  # same silhouette
