@@ -181,6 +181,9 @@ def _colorbar(fig: Any, scale: ColorScale, left: float, fig_w: float, fig_h: flo
     span = fig_h - top - 2 * TITLE_INCHES
     ax = fig.add_axes((left, TITLE_INCHES / fig_h, 0.22 / fig_w, max(span, 0.5) / fig_h))
     bar = fig.colorbar(mappable, cax=ax)
+    # every tick its own number (no "1e-9" offset above the bar: a flat part's tac scale)
+    bar.formatter = require("matplotlib.ticker", "plots", "colour bars").FormatStrFormatter("%.3g")
+    bar.update_ticks()
     bar.set_label(_bar_label(scale), fontsize=10)
     bar.ax.tick_params(labelsize=9)
 
