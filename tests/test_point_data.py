@@ -2,6 +2,9 @@
 to PLY, and gzip-compressed inputs, cross-checked against trimesh's PLY reader and writer."""
 
 import gzip
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -127,3 +130,33 @@ def test_bad_gzip_inputs_are_named(tmp_path):
     rows = body.split(b"\n", 1)[1]  # the second member without the header row
     (tmp_path / "two.xyz.gz").write_bytes(gzip.compress(body) + gzip.compress(rows))
     assert len(scanmesh.read(tmp_path / "two.xyz.gz")) == 2 * half
+
+
+def test_the_command_writes_the_scans_colours_to_its_ply(tmp_path):
+    peers = Path(__file__).resolve().parent / "data" / "peers"
+    out = tmp_path / "mesh.ply"
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "scanmesh",
+            "reconstruct",
+            str(peers / "open3d_cloud.pts"),
+            "-o",
+            str(out),
+            "--method",
+            "delaunay",
+            "-q",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    scan = scanmesh.read(peers / "open3d_cloud.pts")
+    mesh = trimesh.load(out, process=False)
+    assert np.array_equal(
+        mesh.visual.vertex_colors[:, :3],
+        scanmesh.Surface(scan.points, np.asarray(mesh.faces), point_data=scan.point_data).colors,
+    )
+    assert np.array_equal(scanmesh.read(out).point_data["intensity"], scan.point_data["intensity"])
