@@ -128,8 +128,9 @@ def paper(picture: Path | None, tiles: int) -> None:
     """
     from scanmesh.demo import demo_truth
     from scanmesh.evaluate.truth import TrueSurface, height_error, normal_error
+    from scanmesh.present.panels import render_compare
     from scanmesh.present.render import auto_view as _auto_view
-    from scanmesh.present.render import plot_convergence, render_compare
+    from scanmesh.present.render import plot_convergence
 
     pts, lines = scanmesh.load_demo()
     print(f"machine: {machine()}, load average {os.getloadavg()[0]:.1f} at the start\n")

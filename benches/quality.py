@@ -131,7 +131,7 @@ def measure(part: str, figures: Path | None) -> list[dict]:
     for row in rows:
         row["points"], row["lines"], row["settings"] = len(points), int(lines.max()) + 1, settings
     if figures is not None:
-        from scanmesh.present.render import render_compare
+        from scanmesh.present.panels import render_compare
 
         figures.mkdir(parents=True, exist_ok=True)
         ref = shown["delaunay"][0]

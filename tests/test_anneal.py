@@ -139,9 +139,28 @@ def test_progress_ends_where_an_early_stop_ended_the_run():
     )
     ran = len(s.trace["energy"])
     assert ran < 5000  # stopped early
-    assert seen[-1][:2] == (ran, ran)  # the last report: done == total == sweeps run
-    assert all(d <= ran for d, _, _ in seen)
+    assert seen[-1][:2] == (ran, 5000)  # the last report: the sweeps run, the same total
+    assert all(d <= ran and t == 5000 for d, t, _ in seen)
     assert [d for d, _, _ in seen] == sorted(d for d, _, _ in seen)
+
+
+def test_progress_total_never_jumps_when_the_time_limit_stops_before_a_sweep():
+    # A time limit reached before the first sweep reported 0/2000 then 0/0: a total that
+    # changed mid-stage, and a division by zero for a callable showing a percentage.
+    pts = bumpy_patch(300, 5)
+    seen = []
+
+    def progress(done, total, value, stage):
+        seen.append((stage, done, total, 100 * done / total))
+
+    s = scanmesh.reconstruct(
+        pts, "anneal", sweeps=1000, chains=1, time_limit=1e-6, progress=progress
+    )
+    assert s.options["stopped"] == "time_limit"
+    for stage in {st for st, *_ in seen}:
+        totals = {t for st, _, t, _ in seen if st == stage}
+        assert len(totals) == 1 and 0 not in totals, (stage, totals)
+    assert [t for st, _, t, _ in seen if st == "anneal"][-1] == 1000
 
 
 @pytest.mark.parametrize(

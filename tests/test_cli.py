@@ -21,6 +21,7 @@ from PIL import Image
 
 import scanmesh
 from conftest import DATA
+from scanmesh.evaluate.holdout import holdout_error
 from scanmesh.evaluate.truth import TrueSurface, height_error, point_triangle_distance
 
 CONROD = DATA / "cad" / "conrod_slevin48_onshape.stl"
@@ -405,7 +406,7 @@ def test_compare_without_truth_reports_the_holdout_error(scan):
     assert data["holdout_error"]["fraction"] == 0.1
     for row in data["methods"]:
         # the same seeded withholding through the API gives the same figures
-        expected = scanmesh.evaluate.holdout.holdout_error(
+        expected = holdout_error(
             points.points, row["method"], fraction=0.1, seed=3, lines=points.line_ids
         )
         assert row["holdout_rms"] == pytest.approx(expected["rms"])

@@ -17,12 +17,13 @@ import pytest
 import scanmesh
 from conftest import DATA
 from scanmesh import MissingExtraError, ScanmeshError
-from scanmesh.present.render import plot_convergence, render_compare, render_mesh
+from scanmesh.present.panels import render_compare, render_panels
+from scanmesh.present.render import plot_convergence, render_mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 
 #: Modules only the extras install.
-EXTRA_MODULES = ("matplotlib", "PIL", "laspy")
+EXTRA_MODULES = ("matplotlib", "PIL", "laspy", "pye57", "pyvista", "open3d")
 
 #: Put in front of a child's script: importing any extra's module fails, as on a core install.
 BLOCK_EXTRAS = f"""
@@ -87,6 +88,14 @@ def test_core_install_reconstructs_judges_and_draws_without_any_extra(tmp_path):
             "render_compare([scanmesh.delaunay(np.random.default_rng(0).random((9, 3)))], 'p.png')",
             "plots",
         ),
+        (
+            "render_panels([scanmesh.delaunay(np.random.default_rng(0).random((9, 3)))], 'p.png',"
+            " color_by='tac')",
+            "plots",
+        ),
+        ("scanmesh.delaunay(np.random.default_rng(0).random((9, 3))).to_pyvista()", "pyvista"),
+        ("scanmesh.delaunay(np.random.default_rng(0).random((9, 3))).to_open3d()", "open3d"),
+        ("Path('s.e57').write_bytes(b'ASTM-E57' + bytes(64)); scanmesh.read('s.e57')", "e57"),
     ],
 )
 def test_a_feature_without_its_extra_names_the_extra(tmp_path, call, extra):
@@ -94,7 +103,8 @@ def test_a_feature_without_its_extra_names_the_extra(tmp_path, call, extra):
         f"""
         import numpy as np, scanmesh
         from pathlib import Path
-        from scanmesh.present.render import plot_convergence, render_compare
+        from scanmesh.present.panels import render_compare, render_panels
+        from scanmesh.present.render import plot_convergence
         DATA = Path({str(DATA)!r})
         try:
             {call}
@@ -129,6 +139,7 @@ def test_extras_present_here_do_their_work(tmp_path):
     assert surface.certified
     plot_convergence({"energy": [3.0, 2.0, 1.0]}, tmp_path / "c.png")
     render_compare([surface], tmp_path / "p.png")
+    render_panels([surface], tmp_path / "q.png", color_by="height")
     render_mesh(surface, tmp_path / "m.png", size=(40, 30))
     assert all((tmp_path / n).stat().st_size > 100 for n in ("c.png", "p.png", "m.png"))
     with pytest.raises(ScanmeshError):  # a MissingExtraError is also an input-error class

@@ -85,3 +85,10 @@ def test_the_command_tour_runs(folder):
     assert (folder / "mesh.stl").is_file() and (folder / "mesh.png").is_file()
     picture = folder / "methods.png"  # "one table, one picture"
     assert picture.is_file() and picture.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_pictures_example_runs(tmp_path, monkeypatch):
+    (code,) = [block for block in _blocks("python") if "render_panels" in block]
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, str(README), "exec"), {"scanmesh": scanmesh})
+    assert (tmp_path / "side.png").stat().st_size > 0 and (tmp_path / "tac.png").is_file()

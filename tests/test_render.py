@@ -8,6 +8,7 @@ import trimesh
 from PIL import Image
 
 from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.present.panels import render_compare
 from scanmesh.present.render import (
     NO_VALUE,
     VIRIDIS,
@@ -16,7 +17,6 @@ from scanmesh.present.render import (
     face_colors,
     face_values,
     plot_convergence,
-    render_compare,
     render_mesh,
     shade_mesh,
 )

@@ -14,6 +14,7 @@ import pytest
 import trimesh
 
 import scanmesh
+from conftest import DATA
 from test_cli import assert_failed, grid_scan, run, write_xyz
 
 
@@ -120,3 +121,19 @@ def test_one_face_is_one_face(tmp_path):
     assert result.returncode == 0, result.stderr
     assert re.search(r"\b1 face in\b", result.stdout), result.stdout
     assert "1 faces" not in result.stdout
+
+
+@pytest.mark.parametrize("name", ["conrod_slevin48_onshape.stl", "turbineblade_cut.ply"])
+def test_info_on_a_mesh_gives_area_watertightness_and_boundary_as_trimesh(name):
+    path = DATA / "cad" / name
+    result = run("info", path, "--json")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    peer = trimesh.load_mesh(path)
+    assert data["area"] == pytest.approx(peer.area, rel=1e-12)
+    assert data["watertight"] == peer.is_watertight
+    outline = trimesh.grouping.group_rows(peer.edges_sorted, require_count=1)
+    assert data["boundary_edges"] == len(outline)
+    assert (data["boundary_loops"] == 0) == data["watertight"]
+    text = run("info", path).stdout
+    assert "watertight" in text and "boundary" in text and "area" in text

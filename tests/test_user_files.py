@@ -100,7 +100,7 @@ def test_scanmesh_render_colours_terrain_by_elevation(tmp_path, terrain):
     mesh = tmp_path / "terrain.ply"
     terrain.save(mesh)
     png = tmp_path / "height.png"
-    result = run("render", mesh, "-o", png, "--color", "height", "--size", "200x150")
+    result = run("render", mesh, "-o", png, "--color", "height", "--size", "200x150", "--no-bar")
     assert result.returncode == 0, result.stderr
     loaded = trimesh.load_mesh(mesh, process=False)
     vertices, faces = np.asarray(loaded.vertices), np.asarray(loaded.faces)

@@ -185,8 +185,10 @@ def test_notebook_display(monkeypatch, rod):
     assert shown.startswith("<iframe srcdoc=") and "<script" not in shown
     inner = html.unescape(shown[len('<iframe srcdoc="') : shown.index('" style=')])
     assert page_data(inner)["faces"] == len(rod.faces)
-    monkeypatch.setattr(view_module, "MAX_NOTEBOOK_FACES", len(rod.faces) - 1)
-    assert rod._repr_html_() is None
+    monkeypatch.setattr(view_module, "NOTEBOOK_FACES", len(rod.faces) // 4)
+    coarse = html.unescape(rod._repr_html_())
+    assert f"of {len(rod.faces):,} faces)" in coarse and "decimated for display" in coarse
+    assert 0 < page_data(coarse[coarse.index("<!DOCTYPE") :])["faces"] <= len(rod.faces) // 4
     assert notebook_html((rod.vertices, rod.faces[:0])) is None
 
 
@@ -291,9 +293,8 @@ def test_render_command_colours_by_error_against_the_truth(tmp_path):
     bent.export(bent_path)
     plain, error = tmp_path / "plain.png", tmp_path / "error.png"
     assert run("render", bent_path, "-o", plain, "--size", "160x120").returncode == 0
-    result = run(
-        "render", bent_path, "-o", error, "--size", "160x120", "--color", "error", "--truth", CONROD
-    )
+    flags = ("--size", "160x120", "--color", "error", "--truth", CONROD, "--no-bar")
+    result = run("render", bent_path, "-o", error, *flags)
     assert result.returncode == 0, result.stderr
     a, b = (np.asarray(Image.open(p).convert("RGB")).astype(int) for p in (plain, error))
     assert np.array_equal(a.sum(-1) == 765, b.sum(-1) == 765)  # same silhouette

@@ -5,11 +5,12 @@ tqdm bar on stderr; a callable is called as ``progress(done, total, value)``. A 
 that accepts a keyword argument ``stage`` (or ``**kwargs``) is called for every stage, as
 ``progress(done, total, value, stage=name)``; one that does not is called for annealing
 only, as before (so existing ``(done, total, energy)`` callbacks keep working and never see
-bytes where they expect sweeps). Within a stage ``done`` never decreases and the last call
-has ``done == total``; ``value`` is the energy for annealing and None elsewhere. Annealing
-also passes ``seconds_left=`` (its estimated time left: the sweeps still planned at the rate
-so far, at most what ``time_limit`` leaves) to a callable that accepts that keyword (or
-``**kwargs``).
+bytes where they expect sweeps). Within a stage ``total`` never changes, ``done`` never
+decreases and the last call has ``done == total``, except for annealing stopped early
+(``time_limit``, ``patience``), whose last call has the sweeps that ran; ``value`` is the
+energy for annealing and None elsewhere. Annealing also passes ``seconds_left=`` (its
+estimated time left: the sweeps still planned at the rate so far, at most what
+``time_limit`` leaves) to a callable that accepts that keyword (or ``**kwargs``).
 """
 
 from __future__ import annotations

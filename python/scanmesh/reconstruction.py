@@ -80,7 +80,9 @@ def reconstruct(
         :meth:`Surface.save` / the command, ``"write"`` (faces; the command also reports
         ``"quality"`` and, with --preview, ``"preview"``). Otherwise it is called for
         annealing only, as ``progress(sweeps_done, sweeps_total, energy)``. Within a stage
-        ``done`` never decreases and the last call has ``done == total``; stages that are
+        ``total`` never changes, ``done`` never decreases and the last call has ``done ==
+        total`` (annealing stopped early by ``time_limit`` or ``patience``: the sweeps that
+        ran; ``options["stopped"]`` says why); stages that are
         one native call or one pass (lines, strips, Delaunay, trimming, noise, calibrate,
         polish, steep, quality, preview) report their start and end only. See
         ``scanmesh._progress``.

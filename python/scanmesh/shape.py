@@ -61,3 +61,14 @@ def boundary_loops(faces: np.ndarray) -> list[np.ndarray]:
             here = following[here].pop()
         loops.append(np.array(loop, dtype=np.int64))
     return loops
+
+
+def is_watertight(faces: np.ndarray) -> bool:
+    """True when every edge lies on exactly two faces (trimesh's definition: closed and
+    edge-manifold; winding is not judged); False for no faces. O(M log M)."""
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) == 0:
+        return False
+    edges = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return bool((counts == 2).all())

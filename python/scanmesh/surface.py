@@ -11,10 +11,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from scanmesh import shape
+from scanmesh._extras import require
 from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
-from scanmesh.errors import ParameterError
+from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.formats import write
+from scanmesh.formats.points import checked_point_data, colors_of
 from scanmesh.measures import Quality, quality
 from scanmesh.present import view
 from scanmesh.scan.planar import PlanarScan
@@ -22,6 +24,8 @@ from scanmesh.scan.projection import Frame
 from scanmesh.scan.steep import steep_fraction
 
 if TYPE_CHECKING:
+    import open3d
+    import pyvista
     import trimesh
 
 
@@ -60,12 +64,28 @@ class Surface:
     #: the checked, projected points the faces were built on (planar methods), with the
     #: file they were read from
     scan: PlanarScan | None = None
+    #: per-vertex values by name, each (N,): what the scan file carried (colours as uint8
+    #: ``red``, ``green``, ``blue``; ``intensity``, ...; the scan's ``point_data`` when not
+    #: given); :meth:`save` writes them to PLY
+    point_data: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.scan is not None:
             if self.frame is not None and self.frame is not self.scan.frame:
                 raise ParameterError("a Surface's frame must be its scan's frame")
             self.frame = self.scan.frame
+            if not self.point_data:
+                self.point_data = dict(self.scan.point_data)
+        try:
+            self.point_data = checked_point_data(self.point_data, len(self.vertices))
+        except ScanmeshError as exc:
+            raise ParameterError(str(exc)) from None
+
+    @property
+    def colors(self) -> np.ndarray | None:
+        """(N, 3) or (N, 4) uint8 vertex colours from :attr:`point_data` (``red``, ``green``,
+        ``blue``, ``alpha``; 16-bit and 0..1 float channels scaled), or None without them."""
+        return colors_of(self.point_data)
 
     @cached_property
     def quality(self) -> Quality:
@@ -82,14 +102,53 @@ class Surface:
         return steep_fraction(self.vertices, self.faces, self.frame.normal)
 
     def to_trimesh(self) -> trimesh.Trimesh:
-        """A ``trimesh.Trimesh`` sharing vertex indices (``process=False``)."""
+        """A ``trimesh.Trimesh`` sharing vertex indices (``process=False``), with the vertex
+        colours of :attr:`colors` when the scan carried them."""
         trimesh = import_interruptibly("trimesh")
 
-        return trimesh.Trimesh(vertices=self.vertices, faces=self.faces, process=False)
+        return trimesh.Trimesh(
+            vertices=self.vertices, faces=self.faces, vertex_colors=self.colors, process=False
+        )
+
+    def to_pyvista(self) -> pyvista.PolyData:
+        """A ``pyvista.PolyData`` of the triangles over the same vertex indices, with every
+        :attr:`point_data` array as point data and :attr:`colors` as ``"RGB"``/``"RGBA"``
+        (plot with ``rgb=True``). O(N + M). Needs PyVista (``pip install
+        "scanmesh[pyvista]"``; MissingExtraError otherwise)."""
+        pyvista = require("pyvista", "pyvista", "Surface.to_pyvista()")
+        cells = np.empty((len(self.faces), 4), dtype=np.int64)
+        cells[:, 0] = 3
+        cells[:, 1:] = self.faces
+        mesh = pyvista.PolyData(np.array(self.vertices), cells.ravel())
+        for name, values in self.point_data.items():
+            mesh.point_data[name] = values
+        colors = self.colors
+        if colors is not None:
+            mesh.point_data["RGB" if colors.shape[1] == 3 else "RGBA"] = colors
+        return mesh
+
+    def to_open3d(self) -> open3d.geometry.TriangleMesh:
+        """An ``open3d.geometry.TriangleMesh`` over the same vertex indices, with
+        :attr:`normals` as vertex normals and :attr:`colors` (RGB, 0..1) as vertex colours
+        when the scan carried them (Open3D keeps no other per-vertex values). O(N + M).
+        Needs Open3D (``pip install "scanmesh[open3d]"``; MissingExtraError otherwise)."""
+        o3d = require("open3d", "open3d", "Surface.to_open3d()")
+        vectors = o3d.utility
+        mesh = o3d.geometry.TriangleMesh(
+            vectors.Vector3dVector(np.ascontiguousarray(self.vertices, dtype=np.float64)),
+            vectors.Vector3iVector(np.ascontiguousarray(self.faces, dtype=np.int32)),
+        )
+        mesh.vertex_normals = vectors.Vector3dVector(np.ascontiguousarray(self.normals))
+        colors = self.colors
+        if colors is not None:
+            rgb = np.ascontiguousarray(colors[:, :3], dtype=np.float64) / 255.0
+            mesh.vertex_colors = vectors.Vector3dVector(rgb)
+        return mesh
 
     def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
-        """Write the mesh by file ending (.stl binary, .ply, .obj, .off; .html and .glb
-        through :meth:`to_html` and :func:`scanmesh.present.view.save_glb`), atomically;
+        """Write the mesh by file ending (.stl binary, .ply with :attr:`point_data`, .obj,
+        .off; .html and .glb through :meth:`to_html` and
+        :func:`scanmesh.present.view.save_glb`), atomically;
         ``progress`` as in :func:`scanmesh.formats.write.save_mesh` (stage "write").
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
@@ -101,7 +160,11 @@ class Surface:
             return self.to_html(path)
         if suffix == ".glb":
             return view.save_glb(self, path)
-        return write.save_mesh(path, self.vertices, self.faces, protect=inputs, progress=progress)
+        fmt = write.FORMATS.get(suffix)
+        keep = self.point_data if fmt is not None and fmt.point_data else None
+        return write.save_mesh(
+            path, self.vertices, self.faces, point_data=keep, protect=inputs, progress=progress
+        )
 
     def to_html(self, path: str | os.PathLike, **options: Any) -> Path:
         """Write a self-contained HTML page showing this mesh in 3-D (opens offline in any
@@ -115,7 +178,8 @@ class Surface:
         view.show(self, **options)
 
     def _repr_html_(self) -> str | None:
-        """Notebook display: the 3-D view of :meth:`to_html` (None for very large meshes)."""
+        """Notebook display: the 3-D view of :meth:`to_html`, decimated for display above
+        ``present.view.NOTEBOOK_FACES`` faces (the view says so)."""
         return view.notebook_html(self)
 
     @cached_property

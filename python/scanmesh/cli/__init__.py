@@ -31,6 +31,7 @@ from scanmesh.cli._args import (
     _vector,
 )
 from scanmesh.cli._common import _Console, _one_line, _refuse_remote_outputs, _speak_flags
+from scanmesh.cli._parser import Parser
 from scanmesh.cli.compare import COMPARE_METHODS, HOLDOUT_FRACTION, cmd_compare
 from scanmesh.cli.demo import DEMO_MESH, DEMO_PREVIEW, DEMO_TAC, cmd_demo
 from scanmesh.cli.info import cmd_info
@@ -57,7 +58,8 @@ def build_parser() -> argparse.ArgumentParser:
     with_json.add_argument(
         "--json", action="store_true", help="print the results as JSON and nothing else"
     )
-    shape = argparse.ArgumentParser(add_help=False)
+    shape_flags = argparse.ArgumentParser(add_help=False)
+    shape = shape_flags.add_argument_group("triangulation (every method)")
     shape.add_argument(
         "--plane",
         type=_plane,
@@ -78,9 +80,8 @@ def build_parser() -> argparse.ArgumentParser:
     shape.add_argument(
         "--seed", type=_count, default=None, metavar="S", help="random seed (anneal; 0)"
     )
-    _add_method_flags(shape)
 
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="scanmesh",
         parents=[common],
         description="Smooth, honest triangle meshes from digitized scan-line points.",
@@ -92,7 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "reconstruct",
-        parents=[common, with_json, shape],
+        parents=[common, with_json, shape_flags],
         help="triangulate a scan file and write the mesh",
         description="Read scan points (XYZ, CSV, PLY, NPY, VTK, DEM, LAS), triangulate them and"
         " write the mesh by its file ending (.stl, .ply, .obj, .off; .glb or .html: a view).",
@@ -104,33 +105,42 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
     p.add_argument("--preview", metavar="P.png", help="also write a shaded picture")
     p.add_argument(
+        "--view",
+        type=_axis,
+        help="--preview camera: direction from the part to the eye (default: three-quarter,"
+        " from the side the surface faces)",
+    )
+    p.add_argument("--up", type=_axis, help="--preview camera: model direction shown upwards")
+    p.add_argument(
         "--no-quality",
         dest="quality",
         action="store_false",
         help="do not measure the mesh (tac norms, smallest angle, slivers: about 4 s of CPU"
         " at 10M points); the report's quality is then null",
     )
-    p.add_argument(
+    dask = p.add_argument_group("on a Dask cluster")
+    dask.add_argument(
         "--dask",
         metavar="ADDRESS",
         help="run on a Dask cluster: 'local' (a local cluster of processes) or a scheduler"
         " address (tcp://host:8786); IN may then be a quoted glob of files, each a run of"
         " consecutive scan lines; OUT (.stl or .ply) must be on a folder every worker sees",
     )
-    p.add_argument(
+    dask.add_argument(
         "--workers", type=_positive_count, metavar="N", help="workers of --dask local (one a core)"
     )
-    p.add_argument(
+    dask.add_argument(
         "--partition-lines",
         type=_positive_count,
         metavar="L",
         help="with --dask: scan lines per strip partition (default: one partition per file)",
     )
+    _add_method_flags(p)
     p.set_defaults(func=cmd_reconstruct, _parser=p)
 
     p = sub.add_parser(
         "compare",
-        parents=[common, with_json, shape],
+        parents=[common, with_json, shape_flags],
         help="run several methods on one scan; print one table",
         description="Run each method on the same points and print time and quality side by"
         " side; with --truth also the distance of each mesh to the true surface (closest-point"
@@ -157,6 +167,7 @@ def build_parser() -> argparse.ArgumentParser:
         f" the rest and measure the withheld points' height error ({HOLDOUT_FRACTION:g};"
         " 0: off)",
     )
+    _add_method_flags(p)
     p.set_defaults(func=cmd_compare, _parser=p)
 
     p = sub.add_parser(
@@ -220,6 +231,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH", help="(800x600)")
     p.add_argument("--wire", action="store_true", help="draw the triangle edges")
     _color_flags(p)
+    p.add_argument(
+        "--no-bar",
+        dest="bar",
+        action="store_false",
+        help="with --color: the picture alone (--size exactly), no title and colour bar",
+    )
     p.set_defaults(func=cmd_render, _parser=p)
 
     p = sub.add_parser(

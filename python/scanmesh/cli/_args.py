@@ -112,6 +112,7 @@ def _size(text: str) -> tuple[int, int]:
 
 def _add_read_flags(p: argparse.ArgumentParser) -> None:
     """Flags that choose what is read from a scan file (see scanmesh.formats)."""
+    p = p.add_argument_group("reading the scan file")  # type: ignore[assignment]
     p.add_argument(
         "--columns",
         metavar="COLS",
@@ -189,8 +190,15 @@ def _flag_help(name: str, users: list[str]) -> str:
 
 
 def _add_method_flags(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("method options (each applies to the methods named)")
+    """One flag per method option of the table, listed in the help under the first method
+    that takes it (its help names every method that does)."""
+    groups: dict[str, Any] = {}
     for option, users in _method_flags().values():
+        if users[0] not in groups:
+            groups[users[0]] = parser.add_argument_group(
+                f"options of --method {users[0]} (and of the methods each names)"
+            )
+        group = groups[users[0]]
         text = _flag_help(option.name, users).replace("%", "%%")
         if option.kind == "bool":
             group.add_argument(

@@ -25,8 +25,8 @@ from scanmesh.errors import ScanmeshError
 from scanmesh.evaluate.holdout import HOLDOUT_MEASURE, holdout_error
 from scanmesh.evaluate.truth import DOMAIN_MEASURE, MEASURE, TrueSurface, domain_error, height_error
 from scanmesh.measures import SLIVER_ANGLE_DEG
+from scanmesh.present.panels import render_compare
 from scanmesh.present.render import auto_view as _auto_view
-from scanmesh.present.render import render_compare
 from scanmesh.reconstruction import reconstruct
 from scanmesh.scan.planar import planar_scan
 

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scanmesh.cli._common import _Console, _dumps, _fmt, _read_scan
+from scanmesh import shape
+from scanmesh.cli._common import _Console, _dumps, _fmt, _plural, _read_scan
 from scanmesh.cli.compare import _sliver_deg
 from scanmesh.cli.render import _mesh_file
 from scanmesh.errors import DegenerateInputError
@@ -113,12 +114,17 @@ def _judge_mesh(path: Path, con: _Console) -> int:
     vertices, faces = _mesh_file(path)
     q = quality(vertices, faces)
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    loops = shape.boundary_loops(faces)
     data = {
         "input": str(path),
         "kind": "mesh",
         "vertices": int(len(vertices)),
         "faces": int(len(faces)),
         "extent": {"min": lo, "max": hi, "size": hi - lo},
+        "area": shape.area(vertices, faces),
+        "watertight": shape.is_watertight(faces),
+        "boundary_loops": len(loops),
+        "boundary_edges": int(sum(len(loop) for loop in loops)),
         "quality": q.as_dict(),
     }
     if con.json:
@@ -128,6 +134,13 @@ def _judge_mesh(path: Path, con: _Console) -> int:
     con.out(f"  vertices          {len(vertices):,}")
     con.out(f"  faces             {len(faces):,}")
     _print_extent(con, lo, hi)
+    con.out(f"  area              {data['area']:.6g} (model units squared)")
+    closed = "yes (every edge on two faces)" if data["watertight"] else "no"
+    con.out(f"  watertight        {closed}")
+    con.out(
+        f"  boundary          {_plural(len(loops), 'loop')} of"
+        f" {_plural(data['boundary_edges'], 'edge')} (outline and holes)"
+    )
     con.out(
         f"  tac_1 / 2 / inf   {q.tac_1:.4g} / {q.tac_2:.4g} / {q.tac_inf:.4g} rad"
         f" over {q.n_interior:,} interior vertices"

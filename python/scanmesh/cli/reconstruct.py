@@ -20,7 +20,6 @@ from scanmesh._extras import require
 from scanmesh._progress import Stage
 from scanmesh.cli._args import _method_options, _read_options, _refuse_stray_flags, _shared
 from scanmesh.cli._common import (
-    VIEW_ENDINGS,
     _background,
     _check_mesh_ending,
     _check_outputs,
@@ -35,7 +34,7 @@ from scanmesh.cli._common import (
 from scanmesh.distributed import reconstruct_distributed
 from scanmesh.distributed._source import source_paths
 from scanmesh.formats import count_lines
-from scanmesh.formats.write import TermGuard, save_mesh
+from scanmesh.formats.write import TermGuard
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.present.render import render_mesh
 from scanmesh.reconstruction import reconstruct
@@ -59,6 +58,9 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     con.report = "--report" if report is not None else "--json output" if con.json else ""
     _check_mesh_ending(out)
     _check_png(preview)
+    if preview is None and (args.view is not None or args.up is not None):
+        flag = "--view" if args.view is not None else "--up"
+        args._parser.error(f"{flag} sets the --preview camera: give --preview P.png too")
 
     scan = planar_scan(
         source, plane=args.plane, progress=con.progress, read_options=_read_options(args)
@@ -70,10 +72,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     # The quality report (tac over every vertex: 4 s of CPU at 10M points) is measured
     # while the mesh is written: both release the GIL, so they overlap.
     measured = _background(lambda: _seconds(lambda: surface.quality)) if args.quality else None
-    if out.suffix.lower() in VIEW_ENDINGS:
-        surface.save(out, progress=con.progress)
-    else:
-        save_mesh(out, surface.vertices, surface.faces, protect=[source], progress=con.progress)
+    surface.save(out, progress=con.progress)  # a PLY keeps the file's per-point values
     t_write = time.perf_counter() - t2
     if measured is not None:
         with Stage(con.progress, "quality", len(surface.faces), blocking=True):
@@ -86,8 +85,12 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
         _write_text(report, _dumps(data) + "\n")
     if preview is not None:
         with Stage(con.progress, "preview", len(surface.faces), blocking=True):
-            view = _auto_view(surface.vertices, surface.faces, surface.frame)
-            render_mesh(surface, preview, **view)
+            camera = _auto_view(surface.vertices, surface.faces, surface.frame)
+            if args.view is not None:
+                camera["view"] = args.view
+            if args.up is not None:
+                camera["up"] = args.up
+            render_mesh(surface, preview, **camera)
     if con.json:
         print(_dumps(data))
         return 0
@@ -153,7 +156,12 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
     distributed = require("distributed", "dask", "--dask")
     out = Path(args.output)
     report = Path(args.report) if args.report else None
-    given_flags = (("--preview", args.preview), ("--no-quality", not args.quality))
+    given_flags = (
+        ("--preview", args.preview),
+        ("--view", args.view is not None),
+        ("--up", args.up is not None),
+        ("--no-quality", not args.quality),
+    )
     for flag, given in (*given_flags, *((f, True) for f in _read_flags(args))):
         if given:
             args._parser.error(f"{flag} cannot be used with --dask")

@@ -9,6 +9,7 @@ import numpy as np
 
 from scanmesh.cli._common import _check_outputs, _check_png, _Console
 from scanmesh.formats.mesh import load_mesh
+from scanmesh.present.panels import render_panels
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.present.render import height_axis, render_mesh
 
@@ -20,7 +21,8 @@ def _mesh_file(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def cmd_render(args: argparse.Namespace, con: _Console) -> int:
-    """A flat-shaded PNG picture of a mesh file."""
+    """A flat-shaded PNG picture of a mesh file; with --color, the mesh at --size with a
+    title and a colour bar beside it (unless --no-bar)."""
     mesh_path, out = Path(args.mesh), Path(args.output)
     _check_outputs([mesh_path], [out])
     _check_png(out)
@@ -32,6 +34,17 @@ def cmd_render(args: argparse.Namespace, con: _Console) -> int:
         camera["up"] = args.up
     height = height_axis(camera["up"]) if args.up is None else args.up
     colors = {"color_by": args.color, "truth": args.truth, "height": height}
-    render_mesh((vertices, faces), out, size=args.size, wire=args.wire, **colors, **camera)
+    if args.color is not None and args.bar:  # the colours' meaning beside them
+        render_panels(
+            [(vertices, faces)],
+            out,
+            titles=[mesh_path.name],
+            size=args.size,
+            wire=args.wire,
+            **colors,
+            **camera,
+        )
+    else:
+        render_mesh((vertices, faces), out, size=args.size, wire=args.wire, **colors, **camera)
     con.summary(f"wrote {out}")
     return 0

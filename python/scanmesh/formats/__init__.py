@@ -10,11 +10,19 @@ Readers (each returns :class:`ScanPoints`):
 - ``.npy``, ``.npz`` - :mod:`.npy`: numpy arrays, never unpickled;
 - ``.vtk`` - :mod:`.vtk`: legacy VTK POLYDATA, UNSTRUCTURED_GRID or STRUCTURED_GRID;
 - ``.dem`` - :mod:`.dem`: USGS ASCII DEM, one scan line per profile;
+- ``.pts`` - :mod:`.pts`: Leica/CloudCompare PTS text, intensity and colours kept;
+- ``.pcd`` - :mod:`.pcd`: PCL point clouds, ASCII or binary, an organized cloud's rows as
+  scan lines;
 - ``.las``, ``.laz`` - :mod:`.las`: LiDAR through laspy (``pip install scanmesh[las]``);
+- ``.e57`` - :mod:`.e57`: laser scans through pye57 (``pip install scanmesh[e57]``);
 - any text or ``.npy`` matrix of heights with ``grid=True`` (:mod:`.grid`).
 
+Text, PLY, VTK, DEM, PTS and PCD files may be gzip-compressed (``scan.ply.gz``): they are
+decompressed as read. Per-point values a file carries (PLY vertex properties, PTS and PCD
+intensity and colours) come as ``ScanPoints.point_data`` and are written to PLY meshes.
+
 A file with an unknown ending is recognised by its first bytes (PLY, VTK, NPY, NPZ, LAS,
-ESRI grid). Mesh writers (each a generator of byte chunks for
+ESRI grid, PCD). Mesh writers (each a generator of byte chunks for
 :func:`scanmesh.formats.write.write_atomic`): ``.stl`` binary (:mod:`.stl`), ``.ply`` binary
 (:mod:`.ply`), ``.obj`` (:mod:`.obj`), ``.off`` (:mod:`.off`).
 
@@ -25,7 +33,9 @@ declares against its size before allocating (:mod:`._source`).
 
 from __future__ import annotations
 
+import gzip
 import os
+import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,16 +43,19 @@ from typing import Any
 
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import FileFormatError, ParameterError
-from scanmesh.formats._source import check_regular
+from scanmesh.formats._source import GZIP_MAGIC, check_regular, is_gzip
 from scanmesh.formats.csv import read_csv
 from scanmesh.formats.dem import read_dem
+from scanmesh.formats.e57 import E57_MAGIC, read_e57
 from scanmesh.formats.grid import Cell, height_grid, is_esri_ascii, read_esri_ascii, read_matrix
 from scanmesh.formats.las import read_las
 from scanmesh.formats.npy import read_npy
 from scanmesh.formats.obj import obj_chunks
 from scanmesh.formats.off import off_chunks
+from scanmesh.formats.pcd import read_pcd
 from scanmesh.formats.ply import ply_chunks, read_ply
 from scanmesh.formats.points import ScanPoints, count_lines
+from scanmesh.formats.pts import read_pts
 from scanmesh.formats.stl import stl_chunks
 from scanmesh.formats.vtk import read_vtk
 from scanmesh.formats.xyz import Columns, read_xyz
@@ -67,11 +80,13 @@ class Format:
     writer: MeshWriter | None
     #: the writer stores vertex normals
     normals: bool = False
+    #: the writer stores per-vertex values (``point_data=``: colours, scalars)
+    point_data: bool = False
 
 
 #: Every format, in the order the content check tries them.
 FORMATS: tuple[Format, ...] = (
-    Format("ply", (".ply",), b"ply", read_ply, ("lines",), ply_chunks, True),
+    Format("ply", (".ply",), b"ply", read_ply, ("lines",), ply_chunks, True, True),
     Format("vtk", (".vtk",), b"# vtk DataFile", read_vtk, (), None),
     Format("npy", (".npy", ".npz"), b"\x93NUMPY", read_npy, (), None),
     Format("npz", (), b"PK\x03\x04", read_npy, (), None),
@@ -79,6 +94,9 @@ FORMATS: tuple[Format, ...] = (
     Format("xyz", (".xyz", ".txt", ".asc"), None, read_xyz, ("columns",), None),
     Format("csv", (".csv",), None, read_csv, ("columns",), None),
     Format("dem", (".dem",), None, read_dem, (), None),
+    Format("pts", (".pts",), None, read_pts, (), None),
+    Format("pcd", (".pcd",), b"# .PCD", read_pcd, (), None),
+    Format("e57", (".e57",), E57_MAGIC, read_e57, (), None),
     Format("stl", (".stl",), None, None, (), stl_chunks),
     Format("obj", (".obj",), None, None, (), obj_chunks, True),
     Format("off", (".off",), None, None, (), off_chunks, True),
@@ -94,13 +112,27 @@ READERS: dict[str, Callable[..., ScanPoints]] = {
 #: File ending (lower case) -> format of the meshes written there.
 MESH_FORMATS: dict[str, Format] = {e: f for f in FORMATS if f.writer is not None for e in f.endings}
 
-_TAKES_PROGRESS = (read_xyz, read_csv, read_ply)
+_TAKES_PROGRESS = (read_xyz, read_csv, read_ply, read_pts, read_pcd, read_e57)
+
+
+#: Formats whose readers decompress a gzip-compressed file (those reading it as bytes).
+GZIP_READABLE: frozenset[str] = frozenset(
+    {"ply", "vtk", "xyz", "csv", "dem", "pts", "pcd", "esri ascii grid"}
+)
 
 
 def _by_content(path: Path) -> Format | None:
-    """The format whose magic bytes open ``path`` (or an ESRI grid header), else None."""
+    """The format whose magic bytes open ``path`` (or an ESRI grid header; the first
+    decompressed bytes of a gzip file), else None."""
     with open(path, "rb") as handle:
         head = handle.read(64)
+        if head.startswith(GZIP_MAGIC):
+            handle.seek(0)
+            try:
+                with gzip.GzipFile(fileobj=handle) as inner:
+                    head = inner.read(64)
+            except (OSError, EOFError, zlib.error):
+                return None  # the reader reports the corrupt stream
     for fmt in FORMATS:
         if fmt.magic is not None and head.startswith(fmt.magic):
             return fmt
@@ -111,7 +143,22 @@ def format_of(path: str | os.PathLike) -> Format:
     """The format ``read`` uses for ``path``: by ending, then (for ``.asc`` and unknown
     endings) by content."""
     target = Path(path)
+    fmt = _format_of(target)
+    if fmt.name not in GZIP_READABLE and (
+        target.suffix.lower() == ".gz" or (target.is_file() and is_gzip(target))
+    ):
+        raise FileFormatError(
+            f"{target}: a gzip-compressed {fmt.name} file cannot be read; decompress it first"
+            f" (gzip-compressed {', '.join(sorted(GZIP_READABLE))} files are read as they are)"
+        )
+    return fmt
+
+
+def _format_of(target: Path) -> Format:
+    """:func:`format_of` before the gzip check: ``name.ext.gz`` is judged as ``name.ext``."""
     ending = target.suffix.lower()
+    if ending == ".gz":
+        ending = Path(target.stem).suffix.lower()
     known = [f for f in FORMATS if ending in f.endings and f.reader is not None]
     if known and ending != ".asc":
         return known[0]
@@ -123,7 +170,7 @@ def format_of(path: str | os.PathLike) -> Format:
         return known[0]
     raise FileFormatError(
         f"{target}: unknown file ending {target.suffix!r} and content; readable endings are"
-        f" {', '.join(sorted(READERS))}"
+        f" {', '.join(sorted(READERS))} (and those of text and PLY files with .gz added)"
     )
 
 
@@ -206,6 +253,9 @@ __all__ = [
     "read_dem",
     "read_las",
     "read_esri_ascii",
+    "read_pts",
+    "read_pcd",
+    "read_e57",
     "read_matrix",
     "Columns",
     "Format",

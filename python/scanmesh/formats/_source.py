@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import stat
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -83,19 +84,80 @@ def check_regular(path: Path, pipes: bool = False) -> int:
     return info.st_size
 
 
+#: The first bytes of a gzip stream.
+GZIP_MAGIC: bytes = b"\x1f\x8b"
+
+
 def read_bytes(path: Path) -> bytes:
-    """The content of the regular file, pipe or FIFO ``path`` (see :func:`check_regular`)."""
+    """The content of the regular file, pipe or FIFO ``path`` (see :func:`check_regular`),
+    decompressed when it is gzip-compressed (:func:`gunzip`)."""
     size = check_regular(path, pipes=True)
     try:
         with open(path, "rb") as handle:
             if size >= 0:
-                return handle.read(size)  # a file growing meanwhile is read up to its size
-            chunks = []  # a pipe: memory follows what arrives
-            while chunk := handle.read(PIPE_CHUNK):
-                chunks.append(chunk)
-            return b"".join(chunks)
+                data = handle.read(size)  # a file growing meanwhile is read up to its size
+            else:
+                chunks = []  # a pipe: memory follows what arrives
+                while chunk := handle.read(PIPE_CHUNK):
+                    chunks.append(chunk)
+                data = b"".join(chunks)
     except OSError as exc:
         raise FileFormatError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
+    return gunzip(path, data) if data.startswith(GZIP_MAGIC) else data
+
+
+def _memory_bytes() -> int:
+    """The machine's physical memory in bytes (2**40 where the system does not say)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, OSError, ValueError):
+        return 1 << 40
+
+
+def gunzip(path: Path, data: bytes, limit: int | None = None) -> bytes:
+    """The decompressed content of gzip ``data`` (every member, as ``gzip -d`` does), in
+    chunks, refused (FileFormatError) when corrupt, truncated or larger than ``limit``
+    bytes (default: half the machine's memory, so a compression bomb is refused instead of
+    exhausting memory). O(output)."""
+    limit = _memory_bytes() // 2 if limit is None else limit
+    out: list[bytes] = []
+    total, rest = 0, data
+    try:
+        while rest.startswith(GZIP_MAGIC):
+            inflate = zlib.decompressobj(wbits=31)
+            pending = rest
+            while True:
+                piece = inflate.decompress(pending, PIPE_CHUNK)
+                total += len(piece)
+                if total > limit:
+                    raise FileFormatError(
+                        f"{path}: the gzip-compressed file decompresses to more than"
+                        f" {limit:,} bytes (half this machine's memory); decompress it first"
+                    )
+                out.append(piece)
+                pending = inflate.unconsumed_tail
+                if inflate.eof or (not piece and not pending):
+                    break
+            if not inflate.eof:
+                raise FileFormatError(
+                    f"{path}: truncated gzip file (the stream ends after {len(data):,} bytes"
+                    f" without its end marker)"
+                )
+            rest = inflate.unused_data.lstrip(b"\x00")  # members may be zero-padded
+    except zlib.error as exc:
+        raise FileFormatError(f"{path}: corrupt gzip file: {exc}") from None
+    if rest:
+        raise FileFormatError(f"{path}: trailing bytes after the gzip data (corrupt?)")
+    return b"".join(out)
+
+
+def is_gzip(path: Path) -> bool:
+    """True when the regular file ``path`` starts with the gzip magic bytes."""
+    try:
+        with open(path, "rb") as handle:
+            return handle.read(2) == GZIP_MAGIC
+    except OSError:
+        return False
 
 
 def check_declared(

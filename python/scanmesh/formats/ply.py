@@ -298,6 +298,7 @@ def read_ply(
             pos = end
         cols = [prop_names.index(c) for c in "xyz"]
         points = np.ascontiguousarray(vertices[:, cols])
+        data_of = {p[0]: vertices[:, k].astype(p[1]) for k, p in enumerate(vertex_el.props)}
     else:
         order = "<" if head.fmt == "binary_little_endian" else ">"
         with Stage(progress, "read", len(data), blocking=True):
@@ -308,6 +309,7 @@ def read_ply(
                 elif el.name == "range_grid":
                     grid = got
         points = np.column_stack([vertices[c].astype(np.float64) for c in "xyz"])
+        data_of = {p[0]: vertices[p[0]].astype(p[1]) for p in vertex_el.props}
     check_finite(path, points, "vertex")
     extra: dict[str, Any] = {"format": "ply", "encoding": head.fmt, "obj_info": head.info}
     line_ids, cells = None, None
@@ -326,6 +328,7 @@ def read_ply(
         extra=extra,
         grid=cells,
         up=parse_up(path, head.comments),
+        point_data={k: v for k, v in data_of.items() if k not in ("x", "y", "z")},
     )
 
 
@@ -407,14 +410,49 @@ def _range_grid_lines(
 PLY_FACE = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
 
 
-def ply_header(n_vertices: int, n_faces: int, normals: bool = False) -> bytes:
+#: numpy kind and size -> the PLY type written for a point_data column.
+_PLY_NAMES = {
+    "u1": "uchar",
+    "i1": "char",
+    "u2": "ushort",
+    "i2": "short",
+    "u4": "uint",
+    "i4": "int",
+    "f4": "float",
+    "f8": "double",
+}
+
+
+def ply_column(values: np.ndarray) -> np.ndarray:
+    """``values`` in a type PLY has: 64-bit integers as int/uint when they fit, else double
+    (PLY has no 64-bit integer); other types as they are, little-endian."""
+    code = f"{values.dtype.kind}{values.dtype.itemsize}"
+    if code not in _PLY_NAMES:
+        small = "u4" if values.dtype.kind == "u" else "i4"
+        info = np.iinfo(small)
+        fits = values.dtype.kind in "iu" and (
+            not values.size or (values.min() >= info.min and values.max() <= info.max)
+        )
+        values = values.astype(small if fits else "f8")
+    return values.astype(values.dtype.newbyteorder("<"), copy=False)
+
+
+def ply_header(
+    n_vertices: int,
+    n_faces: int,
+    normals: bool = False,
+    point_data: dict[str, np.ndarray] | None = None,
+) -> bytes:
     """The header of the binary PLY written here: double x, y, z (and nx, ny, nz) per
-    vertex, then triangles as uchar-counted int lists."""
+    vertex, then each ``point_data`` column (already :func:`ply_column`), then triangles as
+    uchar-counted int lists."""
     head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh"]
     head += [f"element vertex {n_vertices}"]
     head += [f"property double {c}" for c in ("x", "y", "z")]
     if normals:
         head += [f"property double {c}" for c in ("nx", "ny", "nz")]
+    for name, values in (point_data or {}).items():
+        head.append(f"property {_PLY_NAMES[f'{values.dtype.kind}{values.dtype.itemsize}']} {name}")
     head += [f"element face {n_faces}", "property list uchar int vertex_indices", "end_header"]
     return ("\n".join(head) + "\n").encode("ascii")
 
@@ -424,11 +462,27 @@ def ply_chunks(
     faces: np.ndarray,
     normals: np.ndarray | None,
     stage: Stage,
+    point_data: dict[str, np.ndarray] | None = None,
 ) -> Iterator[bytes | memoryview]:
-    """Binary little-endian PLY of a triangle mesh, block by block."""
-    yield ply_header(len(vertices), len(faces), normals is not None)
-    columns = vertices if normals is None else np.hstack([vertices, normals])
-    yield memoryview(np.ascontiguousarray(columns, dtype="<f8")).cast("B")
+    """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals and
+    per-vertex ``point_data`` columns (each (N,), PLY types by :func:`ply_column`) when
+    given."""
+    columns = {k: ply_column(np.asarray(v)) for k, v in (point_data or {}).items()}
+    yield ply_header(len(vertices), len(faces), normals is not None, columns)
+    coords = vertices if normals is None else np.hstack([vertices, normals])
+    if not columns:
+        yield memoryview(np.ascontiguousarray(coords, dtype="<f8")).cast("B")
+    else:
+        names = ["x", "y", "z"] + (["nx", "ny", "nz"] if normals is not None else [])
+        record = np.dtype([(n, "<f8") for n in names] + [(k, v.dtype) for k, v in columns.items()])
+        for start in range(0, len(vertices), FACES_PER_BLOCK):
+            stop = min(start + FACES_PER_BLOCK, len(vertices))
+            out = np.empty(stop - start, dtype=record)
+            for k, name in enumerate(names):
+                out[name] = coords[start:stop, k]
+            for name, values in columns.items():
+                out[name] = values[start:stop]
+            yield memoryview(out).cast("B")
     for start in range(0, len(faces), FACES_PER_BLOCK):
         block = faces[start : start + FACES_PER_BLOCK]
         out = np.empty(len(block), dtype=PLY_FACE)

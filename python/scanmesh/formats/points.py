@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,49 @@ def count_lines(ids: np.ndarray) -> int:
     return int(len(np.unique(ids)))
 
 
+#: The per-point colour channels, in the order they are written, as PLY names them.
+COLOR_CHANNELS: tuple[str, ...] = ("red", "green", "blue", "alpha")
+
+
+def checked_point_data(data: Mapping[str, Any] | None, n: int) -> dict[str, np.ndarray]:
+    """``data`` as a dict of (n,) numeric arrays (booleans as uint8), or ScanmeshError naming
+    the first value that is not one, or a name that is not one word."""
+    out: dict[str, np.ndarray] = {}
+    for name, values in (data or {}).items():
+        if not isinstance(name, str) or not name or len(name.split()) != 1 or not name.isascii():
+            raise ScanmeshError(f"point_data names must be single ASCII words, got {name!r}")
+        arr = np.asarray(values)
+        if arr.dtype == np.bool_:
+            arr = arr.astype(np.uint8)
+        if arr.shape != (n,) or arr.dtype.kind not in "iuf":
+            raise ScanmeshError(
+                f"point_data[{name!r}] must hold one number per point ({n},), got"
+                f" {arr.dtype} {arr.shape}"
+            )
+        out[name] = arr
+    return out
+
+
+def colors_of(point_data: Mapping[str, np.ndarray]) -> np.ndarray | None:
+    """(N, 3) or (N, 4) uint8 RGB(A) colours from ``point_data``'s ``red``, ``green``,
+    ``blue`` (and ``alpha``) channels, or None when it lacks one of the three. Channels of
+    a wider type (16-bit LAS colours) are scaled to 0..255 by their type's range."""
+    if not all(c in point_data for c in COLOR_CHANNELS[:3]):
+        return None
+    names = [c for c in COLOR_CHANNELS if c in point_data]
+    out = np.empty((len(point_data["red"]), len(names)), dtype=np.uint8)
+    for k, name in enumerate(names):
+        values = point_data[name]
+        if values.dtype.kind == "f":  # 0..1 floats, as PCL and Open3D keep them
+            out[:, k] = np.clip(np.rint(values * 255.0), 0, 255)
+        elif values.dtype.itemsize > 1:
+            top = np.iinfo(values.dtype).max if values.max(initial=0) > 255 else 255
+            out[:, k] = np.clip(np.rint(values * (255.0 / top)), 0, 255)
+        else:
+            out[:, k] = values
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class ScanPoints:
     """Points read from a file, in file order, with their scan lines when the file gives them."""
@@ -40,6 +84,10 @@ class ScanPoints:
     #: (3,) float64 unit direction the digitizer looked down along, reversed (its ``up``),
     #: when the file records one (``# scanmesh up x y z``), else None
     up: np.ndarray | None = None
+    #: per-point values the file carried besides the coordinates, by name, each (N,) in the
+    #: file's number type: colours as ``red``, ``green``, ``blue`` (``alpha``) uint8,
+    #: scalars such as ``intensity`` or ``quality``; written to PLY with the mesh
+    point_data: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.points)
@@ -81,6 +129,7 @@ class ScanPoints:
                 raise ScanmeshError(f"{self.source}: up must be a non-zero 3-vector, got {up}")
             object.__setattr__(self, "up", up / length)
         object.__setattr__(self, "source", Path(self.source))
+        object.__setattr__(self, "point_data", checked_point_data(self.point_data, len(pts)))
 
     def __len__(self) -> int:
         return len(self.points)

@@ -252,7 +252,7 @@ def skip_lines(path: Path, data: bytes, start: int, count: int, what: str) -> in
             return pos + int(np.flatnonzero(u == 10)[left - 1]) + 1
         left -= here
         if end == len(data):
-            if left == 1 and data[pos:end].rstrip(b"\n").strip():
+            if left == 1 and data[max(pos, data.rfind(b"\n", pos, end) + 1) : end].strip():
                 return end  # a last line without its line end
             line, _ = line_at(data, len(data))
             raise FileFormatError(

@@ -20,7 +20,7 @@ import signal
 import stat
 import threading
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -28,9 +28,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import ParameterError
+from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.formats import MESH_FORMATS
 from scanmesh.formats._source import InputFile, input_file
+from scanmesh.formats.points import checked_point_data
 from scanmesh.formats.xyz import xyz_rows
 
 #: File endings we write meshes to, mapped to their format.
@@ -354,6 +355,7 @@ def save_mesh(
     faces: np.ndarray,
     *,
     normals: bool | ArrayLike = False,
+    point_data: Mapping[str, ArrayLike] | None = None,
     protect: PathSpec | InputFile | Iterable[PathSpec | InputFile] | None = None,
     progress: Progress = False,
 ) -> Path:
@@ -372,6 +374,10 @@ def save_mesh(
     normals : bool or (N, 3) float
         Vertex normals to store (PLY, OBJ, OFF): True computes them
         (:func:`vertex_normals`), an array gives them.
+    point_data : dict of name -> (N,) numbers, optional
+        Per-vertex values to store as PLY vertex properties in their own number type
+        (colours as uint8 ``red``, ``green``, ``blue``; scalars such as ``intensity``);
+        PLY only.
     protect : path or iterable of paths, optional
         Files that must not be overwritten (the input): writing to one of them raises
         ``ParameterError`` before anything is written.
@@ -414,9 +420,26 @@ def save_mesh(
             raise ParameterError(
                 f"normals must be finite and shaped like the vertices {verts.shape}"
             )
+    extra: dict[str, Any] = {}
+    if point_data:
+        if not fmt.point_data:
+            raise ParameterError(
+                f"cannot store per-vertex values in {target.suffix} files; use .ply"
+            )
+        try:
+            columns = checked_point_data(point_data, len(verts))
+        except ScanmeshError as exc:
+            raise ParameterError(str(exc)) from None
+        taken = {"x", "y", "z"} | ({"nx", "ny", "nz"} if vn is not None else set())
+        if taken & set(columns):
+            raise ParameterError(
+                f"point_data names {sorted(taken & set(columns))} are the vertex coordinates"
+                " or normals; rename them"
+            )
+        extra["point_data"] = columns
     assert fmt.writer is not None
     with Stage(progress, "write", len(tris)) as stage:
-        return write_atomic(target, fmt.writer(verts, tris, vn, stage))
+        return write_atomic(target, fmt.writer(verts, tris, vn, stage, **extra))
 
 
 def write_points(

@@ -248,16 +248,30 @@ def face_colors(
             np.asarray(COLOR, dtype=np.float64), (len(_mesh_arrays(mesh)[1]), 3)
         ), None
     values, unit = face_values(mesh, by, truth=truth, up=up)
-    if by == "tac":  # rounding of the corner angles is no curvature: drawn as zero
-        values = np.where(values <= TAC_ROUNDING, 0.0, values)
-    finite = values[np.isfinite(values)]
+    values = drawn_values(values, by)
+    scale = color_scale([values], by, unit)
+    return colormap(values, scale.lo, scale.hi), scale
+
+
+def drawn_values(values: np.ndarray, by: str) -> np.ndarray:
+    """Face figures as drawn: a tac of at most ``TAC_ROUNDING`` (rounding of the corner
+    angles, no curvature) as zero; other figures as they are."""
+    return np.where(values <= TAC_ROUNDING, 0.0, values) if by == "tac" else values
+
+
+def color_scale(values: Sequence[np.ndarray], by: str, unit: str) -> ColorScale:
+    """The one scale of several meshes' :func:`drawn_values` (one array per mesh): the
+    smallest to the largest figure, except tac, from 0 to its 99th percentile and at least
+    ``TAC_ROUNDING`` (see :func:`face_colors`). O(total faces)."""
+    every = np.concatenate([np.asarray(v, dtype=np.float64).ravel() for v in values])
+    finite = every[np.isfinite(every)]
     if len(finite) == 0:
         lo = hi = 0.0
     elif by == "tac":
         lo, hi = 0.0, max(float(np.percentile(finite, 99)), TAC_ROUNDING)
     else:
         lo, hi = float(finite.min()), float(finite.max())
-    return colormap(values, lo, hi), ColorScale(by, lo, hi, unit)
+    return ColorScale(by, lo, hi, unit)
 
 
 def camera(view: AxisSpec = DEFAULT_VIEW, up: AxisSpec = "z") -> np.ndarray:
@@ -436,75 +450,18 @@ def png_bytes(image: np.ndarray) -> bytes:
     )
 
 
-def _figure(width_in: float, height_in: float, dpi: int = 100):
+def new_figure(width_in: float, height_in: float, dpi: int = 100) -> Any:
+    """A matplotlib Figure of that size in inches, made without pyplot (no display needed);
+    MissingExtraError naming the "plots" extra when matplotlib is missing."""
     figure = require("matplotlib.figure", "plots", "pictures with titles and plots")
     return figure.Figure(figsize=(width_in, height_in), dpi=dpi)
 
 
-def _save_figure(fig, path: Path, dpi: int = 100) -> Path:
+def save_figure(fig: Any, path: Path, dpi: int = 100, protect: Any = None) -> Path:
+    """Write ``fig`` to the PNG ``path`` atomically (never over ``protect``, the inputs)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, facecolor="white")
-    return write_atomic(path, [buf.getvalue()])
-
-
-def render_compare(
-    meshes: Sequence[Any],
-    path: str | os.PathLike,
-    *,
-    titles: Sequence[str] | None = None,
-    size: tuple[int, int] = (560, 420),
-    columns: int | None = None,
-    view: AxisSpec = DEFAULT_VIEW,
-    up: AxisSpec = "z",
-    wire: bool = False,
-    suptitle: str | None = None,
-) -> Path:
-    """Write several meshes side by side with titles, seen by one camera at one scale.
-
-    Parameters
-    ----------
-    meshes : sequence of Surface, trimesh.Trimesh or (vertices, faces)
-        The meshes to compare (usually one point set triangulated by several methods).
-    titles : sequence of str, optional
-        One per mesh (method names and figures, say); default "mesh 1", "mesh 2", ...
-    size : (width, height) int
-        Pixels of each panel's picture.
-    columns : int, optional
-        Panels per row (default: all in one row up to 3, then rows of 3).
-    """
-    target = _png_path(path)
-    if len(meshes) == 0:
-        raise ParameterError("render_compare needs at least one mesh")
-    if titles is None:
-        titles = [f"mesh {k + 1}" for k in range(len(meshes))]
-    if len(titles) != len(meshes):
-        raise ParameterError(f"got {len(meshes)} meshes but {len(titles)} titles")
-    arrays = [_mesh_arrays(m) for m in meshes]
-    frame = camera(view, up)
-    # one screen box for all, so equal sizes look equal
-    xy = np.concatenate([(v[_used(f, len(v))] @ frame.T)[:, :2] for v, f in arrays])
-    bounds = (xy.min(axis=0), xy.max(axis=0))
-    images = [shade_mesh(m, size=size, view=view, up=up, wire=wire, bounds=bounds) for m in arrays]
-    cols = int(columns) if columns else (len(images) if len(images) <= 3 else 3)
-    if cols < 1:
-        raise ParameterError(f"columns must be at least 1, got {columns}")
-    rows = math.ceil(len(images) / cols)
-    dpi = 100
-    title_h = 0.45  # inches above each panel
-    top = 0.5 if suptitle else 0.0
-    fig = _figure(cols * size[0] / dpi, rows * (size[1] / dpi + title_h) + top, dpi)
-    panel_h = 1.0 / rows * (1 - top / fig.get_figheight())
-    for k, (image, title) in enumerate(zip(images, titles, strict=True)):
-        r, c = divmod(k, cols)
-        bottom = 1 - top / fig.get_figheight() - (r + 1) * panel_h
-        pic_h = panel_h * (size[1] / dpi) / (size[1] / dpi + title_h)
-        ax = fig.add_axes((c / cols, bottom, 1 / cols, pic_h))
-        ax.imshow(image, interpolation="nearest")
-        ax.set_axis_off()
-        ax.set_title(str(title), fontsize=11, pad=6)
-    if suptitle:
-        fig.suptitle(suptitle, fontsize=13, y=1 - 0.15 / fig.get_figheight())
-    return _save_figure(fig, target, dpi)
+    return write_atomic(path, [buf.getvalue()], protect=protect)
 
 
 def _trace_series(trace: Mapping[str, ArrayLike]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -558,7 +515,7 @@ def plot_convergence(
     sweep, series = _trace_series(trace)
     panels = ["energy"]
     panels += [k for k in ("temperature", "acceptance") if k in series]
-    fig = _figure(*size)
+    fig = new_figure(*size)
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     for ax, panel in zip(axes, panels, strict=True):
         if panel == "energy":
@@ -582,7 +539,7 @@ def plot_convergence(
     if title:
         axes[0].set_title(title)
     fig.tight_layout()
-    return _save_figure(fig, target)
+    return save_figure(fig, target)
 
 
 def _maybe_log(ax, values: np.ndarray) -> None:

@@ -27,6 +27,7 @@ import numpy as np
 from scanmesh._interrupt import import_interruptibly
 from scanmesh.errors import InvalidMeshError, MissingExtraError, ParameterError
 from scanmesh.formats.write import inputs_of, write_atomic
+from scanmesh.present.decimate import cluster
 from scanmesh.present.render import (
     AMBIENT,
     COLOR,
@@ -43,9 +44,10 @@ from scanmesh.present.render import (
 )
 from scanmesh.scan.axes import AxisSpec
 
-#: Above this many faces ``Surface._repr_html_`` gives no page (it would be over 13 MB in
-#: the notebook file); ``to_html`` still writes one.
-MAX_NOTEBOOK_FACES: int = 300_000
+#: Most faces ``Surface._repr_html_`` puts in a notebook (about 60 bytes a face: 4.5 MB);
+#: a larger mesh is shown decimated (:func:`scanmesh.present.decimate.cluster`), and the
+#: view says so. ``to_html`` always writes every face.
+NOTEBOOK_FACES: int = 75_000
 
 _PAGE = """<!DOCTYPE html>
 <html lang="en">
@@ -307,14 +309,23 @@ def save_glb(
 
 
 def notebook_html(mesh: Any, **options: Any) -> str | None:
-    """An ``<iframe>`` holding :func:`html_page` of ``mesh``, for notebooks; None for no
-    faces or above ``MAX_NOTEBOOK_FACES`` (the notebook then shows the text repr)."""
+    """An ``<iframe>`` holding :func:`html_page` of ``mesh``, for notebooks (None for no
+    faces: the notebook then shows the text repr). Above ``NOTEBOOK_FACES`` faces the page
+    shows the mesh decimated for display, seen by the mesh's own camera, and its title says
+    how many faces of how many are shown, so a notebook stays small (5 MB at most)."""
     try:
-        _, faces = _mesh_arrays(mesh)
+        vertices, faces = _mesh_arrays(mesh)
     except InvalidMeshError:
         return None
-    if len(faces) > MAX_NOTEBOOK_FACES:
-        return None
+    if len(faces) > NOTEBOOK_FACES:
+        cam = _camera_of(mesh, vertices, faces, options.pop("view", None), options.pop("up", None))
+        shown = cluster(vertices, faces, NOTEBOOK_FACES)
+        title = options.pop("title", "scanmesh")
+        options["title"] = (
+            f"{title} (decimated for display: {len(shown[1]):,} of {len(faces):,} faces)"
+        )
+        mesh = shown
+        options.update(cam)
     page = html.escape(html_page(mesh, **options), quote=True)
     return f'<iframe srcdoc="{page}" style="width: 100%; height: 480px; border: 0"></iframe>'
 

@@ -90,6 +90,9 @@ class PlanarScan:
     timings: dict[str, float] = field(default_factory=dict)
     #: ``source`` as it was when read (absolute path, device and inode): writers refuse it
     source_file: InputFile | None = None
+    #: per-point values the file carried (``ScanPoints.point_data``: colours, intensity,
+    #: ...), by name, each (N,); kept on the Surface and written to PLY
+    point_data: dict[str, np.ndarray] = field(default_factory=dict)
     #: values derived from the scan, by key (:meth:`once`); not part of the scan's identity
     _derived: dict[Hashable, Any] = field(
         default_factory=dict, init=False, repr=False, compare=False
@@ -195,6 +198,7 @@ def planar_scan(
             choice=made.choice,
             timings={"read": seconds, **made.timings},
             source_file=recorded,
+            point_data=scan.point_data,
         )
     if read_options:
         raise ParameterError(

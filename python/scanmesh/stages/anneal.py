@@ -279,9 +279,10 @@ def drive(
                 report(runner.sweeps_done, total, runner.energy, seconds_left=left)
         if report is not None:
             # Chains that stop early (or the time limit) leave the count short of the
-            # planned total: the last report ends the stage where the run ended (the total
-            # shrinks to what ran).
-            report(runner.sweeps_done, runner.sweeps_done, runner.energy, seconds_left=0.0)
+            # planned total. The total stays what was announced (a total that changed,
+            # even to 0 when no sweep ran, reads as a new stage and divides by zero):
+            # the last report keeps the sweeps that ran, and options["stopped"] says why.
+            report(runner.sweeps_done, total, runner.energy, seconds_left=0.0)
     finally:
         if report is not None and hasattr(report, "close"):
             report.close()
