@@ -1,5 +1,8 @@
 """Meshes side by side in one picture: one camera, one scale, and, when coloured, one colour
 scale with its bar, so that what differs between the pictures is the meshes alone.
+
+Drawn with numpy alone, so ``scanmesh demo`` needs no extra; with matplotlib (the ``plots``
+extra), :mod:`scanmesh.present.panels` draws the same with titles and a labelled bar.
 """
 
 from __future__ import annotations
@@ -15,13 +18,14 @@ from scanmesh.errors import ParameterError
 from scanmesh.formats.write import inputs_of, write_atomic
 from scanmesh.present.render import (
     COLOR,
-    TAC_ROUNDING,
     ColorScale,
     _mesh_arrays,
     _png_path,
     _used,
     camera,
+    color_scale,
     colormap,
+    drawn_values,
     face_values,
     png_bytes,
     shade_mesh,
@@ -34,18 +38,12 @@ BAR = 18
 
 
 def shared_scale(meshes: Sequence[Any], by: str) -> ColorScale:
-    """One colour scale for every mesh coloured by ``by`` ("tac" or "height"): tac from 0 to
-    the 99th percentile of all faces' tac (rounding drawn as zero), height over all faces.
-    O(total faces)."""
-    values = [face_values(mesh, by)[0] for mesh in meshes]
-    finite = np.concatenate([v[np.isfinite(v)] for v in values])
-    if by == "tac":
-        hi = max(float(np.percentile(finite, 99)), TAC_ROUNDING) if len(finite) else TAC_ROUNDING
-        return ColorScale(by, 0.0, hi, "rad")
-    if by == "height":
-        lo, hi = (float(finite.min()), float(finite.max())) if len(finite) else (0.0, 0.0)
-        return ColorScale(by, lo, hi, "")
-    raise ParameterError(f"side-by-side pictures colour by 'tac' or 'height', not {by!r}")
+    """One colour scale for every mesh coloured by ``by`` ("tac" or "height"), by the rule
+    of :func:`scanmesh.present.render.color_scale`. O(total faces)."""
+    if by not in ("tac", "height"):
+        raise ParameterError(f"side-by-side pictures colour by 'tac' or 'height', not {by!r}")
+    values = [drawn_values(face_values(mesh, by)[0], by) for mesh in meshes]
+    return color_scale(values, by, "rad" if by == "tac" else "")
 
 
 def side_by_side(
@@ -78,9 +76,7 @@ def side_by_side(
         if scale is None:
             color: Any = COLOR
         else:
-            values = face_values(mesh, scale.by)[0]
-            if scale.by == "tac":
-                values = np.where(values <= TAC_ROUNDING, 0.0, values)
+            values = drawn_values(face_values(mesh, scale.by)[0], scale.by)
             color = colormap(values, scale.lo, scale.hi)
         pictures.append(
             shade_mesh(mesh, size=size, view=view, up=up, wire=wire, color=color, bounds=bounds)
