@@ -204,7 +204,8 @@ def main() -> None:
     if args.case == "demo":
         cases = [("demo rod, defaults", {"points": "demo", "trim": True, "options": {}})]
     elif args.case == "paper":
-        paper = {"sweeps": 3000, "patience": 0}
+        # the paper's annealing: from Delaunay itself, every flip judged by tac alone
+        paper = {"sweeps": 3000, "patience": 0, "descend": False, "sliver_angle": 0.0}
         cases = [
             (
                 "rod with curtains, 3,000 sweeps",
@@ -222,7 +223,7 @@ def main() -> None:
             (f"{n:,} points with curtains, defaults", {"points": n, "trim": False, "options": {}}),
         ]
         if not args.no_reference:
-            ref = {"sweeps": 3000, "patience": 0, "tiles": 8}
+            ref = {"sweeps": 3000, "patience": 0, "tiles": 8, "descend": False, "sliver_angle": 0.0}
             cases.append(
                 (
                     f"{n:,} points with curtains, 3,000 sweeps, 8 tiles",

@@ -109,10 +109,7 @@ impl Ensemble {
         let count = params.check_cost(&state)?;
         let start = state.mesh().clone();
         let start_energy = state.resync_energy();
-        if params.descend {
-            tac_lop(&mut state, params.order());
-            state.resync_energy();
-        }
+        descend(&mut state, &params);
         let out_of_memory =
             || budget::allocation_failed("chains", count, count as u64 * state.heap_bytes());
         let mut chains = Vec::new();
@@ -221,6 +218,15 @@ impl Ensemble {
     }
 }
 
+/// The walk's start: when `params.descend`, the local optimum LOP reaches from `state`
+/// under the run's order (with its sliver rule), found once for every chain. O(flips + m).
+pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) {
+    if params.descend {
+        tac_lop(state, params.order());
+        state.resync_energy();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -235,8 +241,11 @@ mod tests {
         }
     }
 
+    /// One plain chain from `state`, descended first as the ensemble does.
     fn single(state: &TacState, params: AnnealParams) -> AnnealResult {
-        let mut one = Annealer::new(state.clone(), params).unwrap();
+        let mut start = state.clone();
+        descend(&mut start, &params);
+        let mut one = Annealer::new(start, params).unwrap();
         while !one.is_done() {
             one.advance(usize::MAX);
         }
