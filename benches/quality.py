@@ -162,15 +162,20 @@ def print_table(rows: list[dict]) -> None:
     )
     print("|---|" + "---|" * 15)
     base = rows[0]
+
+    def ratio(value: float, reference: float) -> str:
+        # a flat part's trimmed Delaunay has tac exactly 0: no ratio to give
+        return f"{value / reference:.3f}" if reference else "-"
+
     for r in rows:
         label = {"delaunay": "spade Delaunay", "scipy": "scipy Delaunay"}.get(
             r["method"], r["method"]
         )
         print(
             f"| {label} | {r['time_s']:.2f} | {r['tac_1']:.4g} | {r['tac_2']:.4g} |"
-            f" {r['tac_inf']:.3g} | {r['tac_1'] / base['tac_1']:.3f} | {r['min_angle_deg']:.2g} |"
+            f" {r['tac_inf']:.3g} | {ratio(r['tac_1'], base['tac_1'])} | {r['min_angle_deg']:.2g} |"
             f" {100 * r['sliver_fraction']:.2f} % | {r['h_rms']:.3g} | {r['h_mean']:.3g} |"
-            f" {r['h_max']:.3g} | {r['h_rms'] / base['h_rms']:.3f} | {r['n_mean_deg']:.2f} |"
+            f" {r['h_max']:.3g} | {ratio(r['h_rms'], base['h_rms'])} | {r['n_mean_deg']:.2f} |"
             f" {r['n_median_deg']:.2g} | {100 * r['air_share']:.3f} % |"
             f" {100 * r['missed_share']:.2f} % |",
             flush=True,
