@@ -19,9 +19,12 @@ __all__ = [
     "DEFAULT_HOLE_FACTOR",
     "DEFAULT_JUMP_FACTOR",
     "DEFAULT_MAX_EDGE_FACTOR",
+    "DEFAULT_GRID_TURN_DEG",
+    "DEFAULT_GRID_EDGE_FACTOR",
     "project",
     "delaunay",
     "delaunay_trimmed",
+    "grid_triangulate",
     "median_spacing",
     "trim_long_edges",
     "validate",
@@ -44,6 +47,7 @@ __all__ = [
     "StripResult",
     "AnnealOutcome",
     "TrimmedDelaunay",
+    "GridTriangles",
     "CheapestFans",
     "TextTable",
 ]
@@ -57,6 +61,8 @@ SLIVER_ANGLE_DEG: float
 DEFAULT_BRIDGE_FACTOR: float
 DEFAULT_HOLE_FACTOR: float
 DEFAULT_JUMP_FACTOR: float
+DEFAULT_GRID_TURN_DEG: float
+DEFAULT_GRID_EDGE_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 
 def project(
@@ -73,6 +79,14 @@ def delaunay_trimmed(
     max_edge: float | None = None,
     jump_factor: float = ...,
 ) -> TrimmedDelaunay: ...
+def grid_triangulate(
+    grid: npt.NDArray[np.int64],
+    uv: npt.NDArray[np.float64],
+    points: npt.NDArray[np.float64],
+    sight: npt.NDArray[np.float64],
+    max_turn_deg: float = ...,
+    edge_factor: float = ...,
+) -> GridTriangles: ...
 def median_spacing(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> float: ...
 def trim_long_edges(
     uv: npt.NDArray[np.float64],
@@ -104,7 +118,6 @@ def cheapest_fans(
     vertices: npt.NDArray[np.int64],
     w: npt.NDArray[np.float64],
 ) -> CheapestFans: ...
-
 def lop(
     points: npt.NDArray[np.float64],
     uv: npt.NDArray[np.float64],
@@ -213,6 +226,7 @@ class StripResult:
     def trimmed(self) -> npt.NDArray[np.int64]: ...
     @property
     def signed_area(self) -> float: ...
+
 def parse_text_table(
     data: bytes, start: int, stop: int, ncols: int, delimiter: str | None = None
 ) -> TextTable: ...
@@ -229,6 +243,7 @@ class TextTable:
     def n_lines(self) -> int: ...
     @property
     def problem(self) -> tuple[int, int, str] | None: ...
+
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.uint8]: ...
@@ -245,6 +260,21 @@ class TrimmedDelaunay:
     def max_edge(self) -> float: ...
     @property
     def seconds(self) -> tuple[float, float]: ...
+
+@final
+class GridTriangles:
+    @property
+    def faces(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def candidates(self) -> int: ...
+    @property
+    def turned(self) -> int: ...
+    @property
+    def long(self) -> int: ...
+    @property
+    def folded(self) -> int: ...
+    @property
+    def spacing(self) -> float: ...
 
 @final
 class CheapestFans:

@@ -1,4 +1,5 @@
-"""Quality criteria of a mesh: total absolute curvature (tac) norms and the max-min angle."""
+"""Quality criteria of a mesh: total absolute curvature (tac) norms, the max-min angle, and
+the curtains (faces a scanner looking along a line of sight cannot have seen)."""
 
 from __future__ import annotations
 
@@ -28,6 +29,13 @@ def _radians_from(limit_deg: float) -> float:
         r = float(np.nextafter(r, math.inf))
     return r
 
+
+#: A face whose plane comes within this angle (degrees) of the line of sight is a curtain:
+#: the scanner's rays graze it, so no sample can lie inside it.
+CURTAIN_ANGLE_DEG: float = 5.0
+
+#: Curtains covering more than this share of a mesh's area are warned about.
+CURTAIN_WARN_FRACTION: float = 0.005
 
 #: A face is a sliver when its smallest angle in radians is below this (SLIVER_ANGLE_DEG).
 _SLIVER_RADIANS: float = _radians_from(SLIVER_ANGLE_DEG)
@@ -117,4 +125,59 @@ def quality(vertices: ArrayLike | PlanarScan, faces: ArrayLike) -> Quality:
         sliver_fraction=float(slivers),
         tac=tac,
         face_min_angle=min_angle,
+    )
+
+
+@dataclass(frozen=True)
+class Curtains:
+    """The faces of a mesh within CURTAIN_ANGLE_DEG of a line of sight (their normal within
+    that angle of perpendicular to it): sheets a scanner's rays pass along, not surface."""
+
+    #: number of curtain faces
+    count: int
+    #: their total area (model units squared)
+    area: float
+    #: their share of the mesh's area (0 for a mesh without area)
+    fraction: float
+    #: (K,) int64 the curtain faces, largest first
+    faces: np.ndarray = field(repr=False)
+
+    def as_dict(self) -> dict[str, float | int]:
+        """The scalar figures, for reports and JSON."""
+        return {"count": self.count, "area": self.area, "fraction": self.fraction}
+
+
+def curtains(vertices: ArrayLike, faces: ArrayLike, sight: ArrayLike) -> Curtains:
+    """The faces within CURTAIN_ANGLE_DEG of the (3,) line of sight ``sight`` (either sign).
+
+    Parameters
+    ----------
+    vertices : (N, 3) float
+    faces : (M, 3) int
+    sight : (3,) float, non-zero
+
+    Returns
+    -------
+    Curtains
+        Zero-area faces are not counted. O(M).
+    """
+    pts = as_points(vertices, "vertices")
+    tri = as_faces(faces, len(pts))
+    s = np.asarray(sight, dtype=np.float64).reshape(3)
+    s = s / np.linalg.norm(s)
+    corner = pts[tri]
+    normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
+    twice = np.linalg.norm(normal, axis=1)
+    # |cos| of the angle between normal and sight below sin(5 deg): the plane is within
+    # 5 deg of the sight line
+    graze = (np.abs(normal @ s) <= math.sin(math.radians(CURTAIN_ANGLE_DEG)) * twice) & (twice > 0)
+    which = np.flatnonzero(graze)
+    which = which[np.argsort(-twice[which], kind="stable")]
+    area = 0.5 * float(twice[which].sum())
+    total = 0.5 * float(twice.sum())
+    return Curtains(
+        count=len(which),
+        area=area,
+        fraction=area / total if total > 0 else 0.0,
+        faces=which.astype(np.int64),
     )

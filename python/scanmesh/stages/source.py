@@ -20,12 +20,12 @@ def scan_of(
 ) -> PlanarScan:
     """``source`` checked and projected (:func:`scanmesh.scan.planar.as_scan`); a
     :class:`ScanPoints` gives its points, its line ids (unless ``lines`` is given) and its
-    recorded ``up`` as reading its file would, and its file as the scan's source (recorded
-    now, by absolute path and inode, so that no writer replaces it)."""
+    recorded ``up`` and range grid as reading its file would, and its file as the scan's
+    source (recorded now, by absolute path and inode, so that no writer replaces it)."""
     if isinstance(source, ScanPoints):
         ids = source.line_ids if lines is None else lines
         made = as_scan(source.points, plane=plane, lines=ids, up=source.up)
         return dataclasses.replace(
-            made, source=source.source, source_file=input_file(source.source)
+            made, source=source.source, source_file=input_file(source.source), grid=source.grid
         )
     return as_scan(source, plane=plane, lines=lines)

@@ -1,0 +1,438 @@
+//! Triangulation along a range grid: neighbours in the scanner's grid of samples form the
+//! candidate triangles, and a triangle is kept only where the scanner could have seen it
+//! (its normal within a turn of the line of sight, its edges within a multiple of the
+//! local grid spacing), so no curtain hangs across a depth jump.
+//!
+//! ```text
+//!   row r    a ── b        4 corners: split along the shorter 3-D diagonal
+//!            │ ╲  │        (a-e here: triangles a b e and a e d);
+//!   row r+1  d ── e        3 corners: their one triangle; fewer: nothing
+//! ```
+
+use crate::{Error, Result};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Default largest turn (degrees) of a kept triangle's normal away from the line of sight.
+/// Chosen by benches/curtains.py (figures in docs/benchmarks/curtains.md): on simulated
+/// range scans of CAD parts, 80° keeps the walls a scanner still samples at grazing angles
+/// (their faces stand up to 76-79° from the ray) and drops the sheets across depth jumps,
+/// which stand at 85-90°; 85° keeps some of those sheets, 70° opens holes on steep walls.
+pub const DEFAULT_GRID_TURN_DEG: f64 = 80.0;
+
+/// Default edge factor: a triangle with a 3-D edge longer than this multiple of the local
+/// grid spacing (see [`grid_triangulate`]) is dropped. A face at the largest kept turn θ
+/// has edges up to `√(1 + 1/cos²θ)` ≈ 5.8 spacings at 80°; 6 keeps those and drops longer
+/// bridges whose normal happens to face the scanner (figures in docs/benchmarks/curtains.md).
+pub const DEFAULT_GRID_EDGE_FACTOR: f64 = 6.0;
+
+/// Rows of the grid per rayon task.
+const ROWS_PER_TASK: usize = 64;
+
+/// The rules of [`grid_triangulate`]: where the scanner looked from and what it can see.
+#[derive(Debug, Clone, Copy)]
+pub struct GridParams {
+    /// The line of sight (either sign; normalized here).
+    pub sight: DVec3,
+    /// θ: the largest turn (degrees, in (0, 90]) of a kept normal from the line of sight.
+    pub max_turn_deg: f64,
+    /// k: the longest kept 3-D edge in local grid spacings (> 0; ∞ turns the rule off).
+    pub edge_factor: f64,
+}
+
+impl GridParams {
+    /// The defaults ([`DEFAULT_GRID_TURN_DEG`], [`DEFAULT_GRID_EDGE_FACTOR`]) along `sight`.
+    pub fn along(sight: DVec3) -> Self {
+        Self {
+            sight,
+            max_turn_deg: DEFAULT_GRID_TURN_DEG,
+            edge_factor: DEFAULT_GRID_EDGE_FACTOR,
+        }
+    }
+}
+
+/// What [`grid_triangulate`] made and why it dropped what it dropped.
+#[derive(Debug, Clone, Default)]
+pub struct GridTriangles {
+    /// Kept triangles, counter-clockwise in the plane (`uv`), over the caller's indices.
+    pub triangles: Vec<[u32; 3]>,
+    /// Candidate triangles (grid neighbours).
+    pub candidates: usize,
+    /// Candidates dropped because their normal turns more than θ from the line of sight.
+    pub turned: usize,
+    /// Candidates dropped for an edge longer than k x the local grid spacing.
+    pub long: usize,
+    /// Candidates dropped because they are folded over or degenerate in the plane.
+    pub folded: usize,
+    /// Median grid spacing across the line of sight (input units; 0 when there is none).
+    pub spacing: f64,
+}
+
+/// Checks the grid's shape and indices and the two factors.
+fn check(grid: &[i64], rows: usize, cols: usize, n: usize, turn: f64, factor: f64) -> Result<()> {
+    if rows.checked_mul(cols) != Some(grid.len()) {
+        return Err(Error::InvalidParameter {
+            name: "grid",
+            value: format!("{} cells for {rows} x {cols}", grid.len()),
+            expected: "rows x cols cells",
+        });
+    }
+    if let Some(cell) = grid.iter().position(|&g| g < -1 || g >= n as i64) {
+        return Err(Error::InvalidParameter {
+            name: "grid",
+            value: format!("cell {cell} = {} (of {n} points)", grid[cell]),
+            expected: "-1 or the index of a point",
+        });
+    }
+    if !(turn > 0.0 && turn <= 90.0) {
+        return Err(Error::InvalidParameter {
+            name: "max_turn",
+            value: format!("{turn}"),
+            expected: "degrees in (0, 90]",
+        });
+    }
+    if factor.is_nan() || factor <= 0.0 {
+        return Err(Error::InvalidParameter {
+            name: "edge_factor",
+            value: format!("{factor}"),
+            expected: "a positive number (inf: no limit)",
+        });
+    }
+    Ok(())
+}
+
+/// Length of `d` across the unit line of sight `s`.
+fn across(d: DVec3, s: DVec3) -> f64 {
+    (d - d.dot(s) * s).length()
+}
+
+/// Median of `values` (NaN for none); reorders them. O(n).
+fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Per row, the median spacing between neighbours along it, and per column, between
+/// neighbours across rows, measured across the line of sight (NaN where a row or column
+/// has no neighbouring pair). O(rows x cols).
+fn local_spacings(
+    grid: &[i64],
+    rows: usize,
+    cols: usize,
+    points: &[DVec3],
+    s: DVec3,
+) -> (Vec<f64>, Vec<f64>) {
+    let at = |r: usize, c: usize| grid[r * cols + c];
+    let row_spacing: Vec<f64> = (0..rows)
+        .into_par_iter()
+        .map(|r| {
+            let mut steps: Vec<f64> = (0..cols.saturating_sub(1))
+                .filter_map(|c| match (at(r, c), at(r, c + 1)) {
+                    (a, b) if a >= 0 && b >= 0 => {
+                        Some(across(points[b as usize] - points[a as usize], s))
+                    }
+                    _ => None,
+                })
+                .collect();
+            median(&mut steps)
+        })
+        .collect();
+    let col_spacing: Vec<f64> = (0..cols)
+        .into_par_iter()
+        .map(|c| {
+            let mut steps: Vec<f64> = (0..rows.saturating_sub(1))
+                .filter_map(|r| match (at(r, c), at(r + 1, c)) {
+                    (a, b) if a >= 0 && b >= 0 => {
+                        Some(across(points[b as usize] - points[a as usize], s))
+                    }
+                    _ => None,
+                })
+                .collect();
+            median(&mut steps)
+        })
+        .collect();
+    (row_spacing, col_spacing)
+}
+
+/// Twice the signed planar area of (a, b, c).
+fn area2(uv: &[[f64; 2]], a: usize, b: usize, c: usize) -> f64 {
+    let (p, q, r) = (uv[a], uv[b], uv[c]);
+    (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+}
+
+/// The candidate triangles of the cell whose top-left corner is (r, c), in the grid's own
+/// winding (a, b, e / a, e, d or the three present corners in the same turn).
+fn cell_triangles(corners: [i64; 4], points: &[DVec3], out: &mut Vec<[u32; 3]>) {
+    let [a, b, d, e] = corners;
+    let p = |k: i64| points[k as usize];
+    match (a >= 0, b >= 0, d >= 0, e >= 0) {
+        (true, true, true, true) => {
+            if (p(e) - p(a)).length_squared() <= (p(d) - p(b)).length_squared() {
+                out.push([a as u32, b as u32, e as u32]);
+                out.push([a as u32, e as u32, d as u32]);
+            } else {
+                out.push([a as u32, b as u32, d as u32]);
+                out.push([b as u32, e as u32, d as u32]);
+            }
+        }
+        (false, true, true, true) => out.push([b as u32, e as u32, d as u32]),
+        (true, false, true, true) => out.push([a as u32, e as u32, d as u32]),
+        (true, true, false, true) => out.push([a as u32, b as u32, e as u32]),
+        (true, true, true, false) => out.push([a as u32, b as u32, d as u32]),
+        _ => {}
+    }
+}
+
+/// The candidates of a block of rows: those kept (in the grid's winding) with their signed
+/// planar areas, and the counts of each verdict.
+#[derive(Default)]
+struct Block {
+    kept: Vec<[u32; 3]>,
+    areas: Vec<f64>,
+    candidates: usize,
+    turned: usize,
+    long: usize,
+}
+
+/// What becomes of a candidate: kept, or dropped by which rule.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Verdict {
+    Keep,
+    Turned,
+    Long,
+}
+
+/// Triangulates a range grid: the candidate triangles of every grid cell (a 2 x 2 block of
+/// neighbouring samples; four present corners split along the shorter 3-D diagonal, three
+/// give one triangle), less those the scanner cannot have seen:
+///
+/// - **turned**: the triangle's normal turns more than `params.max_turn_deg` (θ) from the
+///   line of sight `params.sight` (either sign): a sheet across a depth jump stands edge-on to the rays;
+/// - **long**: a 3-D edge exceeds `params.edge_factor` (k) x the local grid spacing, the largest
+///   of the median neighbour spacings (measured across the line of sight) of the cell's
+///   rows and columns;
+/// - **folded**: zero or reversed area in the plane `uv` against the grid's own winding
+///   (the sign of the total signed area of the candidates), so the kept triangles never
+///   overlap locally in the plane.
+///
+/// `grid` is `rows x cols`, row-major: `grid[r * cols + c]` the index of the sample at row
+/// `r` (a scan line) and column `c`, or -1 where the scanner saw nothing. `uv` (planar) and
+/// `points` (3-D) share indices. Kept triangles are counter-clockwise in `uv`. O(rows x
+/// cols), in parallel over blocks of rows; the output keeps row order, so it does not
+/// depend on the number of threads.
+///
+/// # Errors
+/// `InvalidParameter` for a grid of the wrong size or with an index out of range, a zero
+/// or non-finite line of sight, θ outside (0, 90], or a factor that is not positive.
+pub fn grid_triangulate(
+    grid: &[i64],
+    rows: usize,
+    cols: usize,
+    uv: &[[f64; 2]],
+    points: &[DVec3],
+    params: GridParams,
+) -> Result<GridTriangles> {
+    let GridParams {
+        sight,
+        max_turn_deg,
+        edge_factor,
+    } = params;
+    let n = points.len().min(uv.len());
+    check(grid, rows, cols, n, max_turn_deg, edge_factor)?;
+    let s = sight.normalize_or_zero();
+    if !s.is_finite() || s == DVec3::ZERO {
+        return Err(Error::InvalidParameter {
+            name: "sight",
+            value: format!("{sight}"),
+            expected: "a non-zero finite direction",
+        });
+    }
+    let (row_spacing, col_spacing) = local_spacings(grid, rows, cols, points, s);
+    let mut all: Vec<f64> = row_spacing
+        .iter()
+        .chain(&col_spacing)
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
+    let spacing = median(&mut all);
+    let spacing = if spacing.is_finite() { spacing } else { 0.0 };
+    let cos_turn = max_turn_deg.to_radians().cos();
+    // The local spacing of a cell: its rows' and columns' medians, the scan's where a row
+    // or column has none.
+    let local = |r: usize, c: usize| -> f64 {
+        [
+            row_spacing[r],
+            row_spacing[(r + 1).min(rows - 1)],
+            col_spacing[c],
+            col_spacing[(c + 1).min(cols - 1)],
+        ]
+        .into_iter()
+        .filter(|x| x.is_finite())
+        .fold(f64::NAN, f64::max)
+    };
+    let judge = |t: &[u32; 3], h: f64| -> Verdict {
+        let [a, b, c] = t.map(|k| points[k as usize]);
+        let n = (b - a).cross(c - a);
+        let length = n.length();
+        if length == 0.0 || n.dot(s).abs() < cos_turn * length {
+            return Verdict::Turned;
+        }
+        let limit = edge_factor * if h.is_finite() { h } else { spacing };
+        let longest = (b - a)
+            .length_squared()
+            .max((c - b).length_squared())
+            .max((a - c).length_squared());
+        if longest > limit * limit {
+            return Verdict::Long;
+        }
+        Verdict::Keep
+    };
+    let blocks: Vec<Block> = (0..rows.saturating_sub(1))
+        .collect::<Vec<_>>()
+        .par_chunks(ROWS_PER_TASK)
+        .map(|block| {
+            let mut out = Block::default();
+            let mut cell = Vec::with_capacity(2);
+            for &r in block {
+                for c in 0..cols.saturating_sub(1) {
+                    let at = |i: usize, j: usize| grid[i * cols + j];
+                    cell.clear();
+                    let corners = [at(r, c), at(r, c + 1), at(r + 1, c), at(r + 1, c + 1)];
+                    cell_triangles(corners, points, &mut cell);
+                    let h = local(r, c);
+                    for t in &cell {
+                        out.candidates += 1;
+                        match judge(t, h) {
+                            Verdict::Keep => {
+                                out.kept.push(*t);
+                                let [a, b, c] = t.map(|k| k as usize);
+                                out.areas.push(area2(uv, a, b, c));
+                            }
+                            Verdict::Turned => out.turned += 1,
+                            Verdict::Long => out.long += 1,
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let total: f64 = blocks.iter().flat_map(|b| b.areas.iter()).sum();
+    let sign = if total < 0.0 { -1.0 } else { 1.0 };
+    let mut out = GridTriangles {
+        spacing,
+        ..GridTriangles::default()
+    };
+    out.triangles
+        .reserve(blocks.iter().map(|b| b.kept.len()).sum());
+    for block in blocks {
+        out.candidates += block.candidates;
+        out.turned += block.turned;
+        out.long += block.long;
+        for (t, area) in block.kept.into_iter().zip(block.areas) {
+            if sign * area > 0.0 {
+                out.triangles
+                    .push(if sign > 0.0 { t } else { [t[0], t[2], t[1]] });
+            } else {
+                out.folded += 1;
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rules(sight: DVec3, max_turn_deg: f64, edge_factor: f64) -> GridParams {
+        GridParams {
+            sight,
+            max_turn_deg,
+            edge_factor,
+        }
+    }
+
+    /// A rows x cols grid of unit spacing in x, y with heights `h(r, c)`, seen along z.
+    fn terrain(
+        rows: usize,
+        cols: usize,
+        h: impl Fn(usize, usize) -> f64,
+    ) -> (Vec<i64>, Vec<[f64; 2]>, Vec<DVec3>) {
+        let mut pts = Vec::new();
+        for r in 0..rows {
+            for c in 0..cols {
+                pts.push(DVec3::new(c as f64, r as f64, h(r, c)));
+            }
+        }
+        let uv = pts.iter().map(|p| [p.x, p.y]).collect();
+        ((0..(rows * cols) as i64).collect(), uv, pts)
+    }
+
+    #[test]
+    fn flat_grid_gives_two_triangles_per_cell_counter_clockwise() {
+        let (g, uv, p) = terrain(4, 5, |_, _| 0.0);
+        let t = grid_triangulate(&g, 4, 5, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.triangles.len(), 2 * 3 * 4);
+        assert_eq!(t.candidates, 24);
+        assert!((t.spacing - 1.0).abs() < 1e-12);
+        for f in &t.triangles {
+            assert!(area2(&uv, f[0] as usize, f[1] as usize, f[2] as usize) > 0.0);
+        }
+    }
+
+    #[test]
+    fn a_step_loses_its_curtain_and_keeps_both_levels() {
+        // columns 0..3 at height 0, columns 3.. at height 10: the cells between columns 2
+        // and 3 stand edge-on to the rays
+        let (g, uv, p) = terrain(5, 6, |_, c| if c >= 3 { 10.0 } else { 0.0 });
+        let t = grid_triangulate(&g, 5, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.turned, 2 * 4);
+        assert_eq!(t.triangles.len(), 2 * 4 * 4);
+        // with no turn limit the edge rule still drops them (10 > 6 spacings)
+        let t = grid_triangulate(&g, 5, 6, &uv, &p, rules(DVec3::Z, 90.0, 6.0)).unwrap();
+        assert_eq!(t.long, 2 * 4);
+    }
+
+    #[test]
+    fn missing_samples_leave_three_corner_cells_and_holes() {
+        let (mut g, uv, p) = terrain(3, 3, |_, _| 0.0);
+        g[4] = -1; // the centre
+        let t = grid_triangulate(&g, 3, 3, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.triangles.len(), 4);
+        assert!(t.triangles.iter().all(|f| !f.contains(&4)));
+    }
+
+    #[test]
+    fn reversed_rows_are_wound_counter_clockwise_and_folds_are_dropped() {
+        let (g, uv, p) = terrain(3, 3, |_, _| 0.0);
+        let flipped: Vec<[f64; 2]> = uv.iter().map(|q| [q[0], -q[1]]).collect();
+        let t = grid_triangulate(&g, 3, 3, &flipped, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.triangles.len(), 8);
+        for f in &t.triangles {
+            assert!(area2(&flipped, f[0] as usize, f[1] as usize, f[2] as usize) > 0.0);
+        }
+        let mut folded = uv.clone();
+        folded[4] = [3.0, 1.0]; // the centre pulled past its right neighbour
+        let t =
+            grid_triangulate(&g, 3, 3, &folded, &p, rules(DVec3::Z, 90.0, f64::INFINITY)).unwrap();
+        assert!(t.folded > 0);
+    }
+
+    #[test]
+    fn bad_grids_and_parameters_are_refused() {
+        let (g, uv, p) = terrain(2, 2, |_, _| 0.0);
+        assert!(grid_triangulate(&g, 2, 3, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).is_err());
+        assert!(
+            grid_triangulate(&[0, 1, 2, 9], 2, 2, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).is_err()
+        );
+        assert!(grid_triangulate(&g, 2, 2, &uv, &p, rules(DVec3::ZERO, 80.0, 6.0)).is_err());
+        assert!(grid_triangulate(&g, 2, 2, &uv, &p, rules(DVec3::Z, f64::NAN, 6.0)).is_err());
+        assert!(grid_triangulate(&g, 2, 2, &uv, &p, rules(DVec3::Z, 80.0, 0.0)).is_err());
+        let empty = grid_triangulate(&[], 0, 0, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert!(empty.triangles.is_empty());
+    }
+}
