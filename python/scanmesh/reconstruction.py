@@ -18,6 +18,7 @@ from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
 from scanmesh.stages.delaunay import delaunay
+from scanmesh.stages.hidden import drop_hidden
 from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
@@ -100,7 +101,10 @@ def reconstruct(
     -------
     Surface
         Faces over the input points with ``method``, ``options``, ``timings`` and, for
-        annealing, ``trace``.
+        annealing, ``trace``. Where the scan records its line of sight (a file's ``up``, a
+        simulated range scan) and was projected on another plane, no face hides a sample
+        from the scanner (``stages.hidden``; ``options["hidden_dropped"]`` counts those
+        dropped).
 
     Raises
     ------
@@ -130,6 +134,7 @@ def reconstruct(
     else:
         scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
     surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
+    surface = drop_hidden(scan, surface)
     if scan.choice is not None:
         choice = scan.choice.as_dict(scan.frame.normal)
         surface.options = {**surface.options, "plane_choice": choice}

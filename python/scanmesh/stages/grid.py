@@ -102,7 +102,9 @@ def grid_surface(
         method "grid"; ``options`` holds ``max_turn``, ``edge_factor``, the grid
         ``spacing`` (median, across the line of sight), the candidate count and how many
         were dropped by each rule (``dropped_turned``, ``dropped_long``,
-        ``dropped_folded``), and ``trimmed``, the points in no face. O(cells).
+        ``dropped_folded``, and ``dropped_peeled``: pinches and boundary slivers peeled so
+        that LOP and annealing can start from it), and ``trimmed``, the points in no face.
+        O(cells).
 
     Raises
     ------
@@ -155,6 +157,7 @@ def grid_surface(
             "dropped_turned": result.turned,
             "dropped_long": result.long,
             "dropped_folded": result.folded,
+            "dropped_peeled": result.peeled,
             "trimmed": np.flatnonzero(~used),
         },
         scan=scan,

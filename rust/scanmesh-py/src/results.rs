@@ -90,6 +90,8 @@ pub(crate) struct GridTriangles {
     pub long: usize,
     /// Candidates dropped as folded or degenerate in the plane.
     pub folded: usize,
+    /// Triangles peeled afterwards (pinches, boundary slivers).
+    pub peeled: usize,
     /// Median grid spacing across the line of sight (input units).
     pub spacing: f64,
 }

@@ -12,6 +12,7 @@ use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::{check_finite, HalfEdgeMesh, Plane};
+use std::borrow::Cow;
 
 /// Projects (N, 3) points onto a plane. `plane` is "best-fit", "x", "y" or "z", or None
 /// with `normal` a 3-vector. Returns (uv (N, 2), frame (4, 3): origin, u, v, normal).
@@ -151,7 +152,11 @@ pub(crate) fn grid_triangulate<'py>(
     }
     let g = grid.as_array();
     let (rows, cols) = (g.nrows(), g.ncols());
-    let cells: Vec<i64> = g.iter().copied().collect();
+    // C-ordered grids (every scanmesh reader's) are read in place
+    let cells: Cow<'_, [i64]> = match g.as_slice() {
+        Some(flat) => Cow::Borrowed(flat),
+        None => Cow::Owned(g.iter().copied().collect()),
+    };
     let params = scanmesh_core::GridParams {
         sight: DVec3::new(s[0], s[1], s[2]),
         max_turn_deg,
@@ -166,6 +171,7 @@ pub(crate) fn grid_triangulate<'py>(
         turned: t.turned,
         long: t.long,
         folded: t.folded,
+        peeled: t.peeled,
         spacing: t.spacing,
     })
 }

@@ -9,6 +9,8 @@
 //!   row r+1  d ── e        3 corners: their one triangle; fewer: nothing
 //! ```
 
+use crate::mesh::NONE;
+use crate::triangulate::trim::peel_flags;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -64,6 +66,9 @@ pub struct GridTriangles {
     pub long: usize,
     /// Candidates dropped because they are folded over or degenerate in the plane.
     pub folded: usize,
+    /// Triangles dropped afterwards so that the rest is a valid planar triangulation:
+    /// the smaller fans at a pinched vertex, collinear slivers on the boundary.
+    pub peeled: usize,
     /// Median grid spacing across the line of sight (input units; 0 when there is none).
     pub spacing: f64,
 }
@@ -163,27 +168,93 @@ fn area2(uv: &[[f64; 2]], a: usize, b: usize, c: usize) -> f64 {
     (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
 }
 
-/// The candidate triangles of the cell whose top-left corner is (r, c), in the grid's own
-/// winding (a, b, e / a, e, d or the three present corners in the same turn).
-fn cell_triangles(corners: [i64; 4], points: &[DVec3], out: &mut Vec<[u32; 3]>) {
+/// Corners of a grid cell by code: 0 = a (r, c), 1 = b (r, c + 1), 2 = d (r + 1, c),
+/// 3 = e (r + 1, c + 1).
+type Codes = [u8; 3];
+
+/// The candidate triangles of a cell with these corner indices (-1: missing), as corner
+/// codes in the grid's own winding (a b e / a e d or a b d / b e d, or the three present
+/// corners in the same turn).
+fn cell_triangles(corners: [i64; 4], points: &[DVec3], out: &mut Vec<Codes>) {
     let [a, b, d, e] = corners;
     let p = |k: i64| points[k as usize];
     match (a >= 0, b >= 0, d >= 0, e >= 0) {
         (true, true, true, true) => {
             if (p(e) - p(a)).length_squared() <= (p(d) - p(b)).length_squared() {
-                out.push([a as u32, b as u32, e as u32]);
-                out.push([a as u32, e as u32, d as u32]);
+                out.extend([[0, 1, 3], [0, 3, 2]]);
             } else {
-                out.push([a as u32, b as u32, d as u32]);
-                out.push([b as u32, e as u32, d as u32]);
+                out.extend([[0, 1, 2], [1, 3, 2]]);
             }
         }
-        (false, true, true, true) => out.push([b as u32, e as u32, d as u32]),
-        (true, false, true, true) => out.push([a as u32, e as u32, d as u32]),
-        (true, true, false, true) => out.push([a as u32, b as u32, e as u32]),
-        (true, true, true, false) => out.push([a as u32, b as u32, d as u32]),
+        (false, true, true, true) => out.push([1, 3, 2]),
+        (true, false, true, true) => out.push([0, 3, 2]),
+        (true, true, false, true) => out.push([0, 1, 3]),
+        (true, true, true, false) => out.push([0, 1, 2]),
         _ => {}
     }
+}
+
+/// The neighbouring cell (offset in rows and columns) across the cell edge between corner
+/// codes `x` and `y`, and the codes of the same two corners there; the diagonal stays in
+/// the cell.
+fn across_edge(x: u8, y: u8) -> (isize, isize, u8, u8) {
+    // corner (dr, dc) of code k: 0 = (0, 0), 1 = (0, 1), 2 = (1, 0), 3 = (1, 1)
+    let (rx, cx, ry, cy) = (
+        (x >> 1) as isize,
+        (x & 1) as isize,
+        (y >> 1) as isize,
+        (y & 1) as isize,
+    );
+    let (dr, dc) = match (rx == ry, cx == cy) {
+        (true, false) => (2 * rx - 1, 0), // a row edge: the cell above (top edge) or below
+        (false, true) => (0, 2 * cx - 1), // a column edge: the cell left or right
+        _ => (0, 0),                      // the diagonal
+    };
+    let code = |r: isize, c: isize| ((r - dr) * 2 + (c - dc)) as u8;
+    (dr, dc, code(rx, cx), code(ry, cy))
+}
+
+/// Half-edge twins of triangles given by cell and corner codes, cells ascending (half-edge
+/// 3t + k runs from corner k of triangle t; NONE on the boundary), from the grid itself:
+/// the twin lies in the same cell or the one across the edge, found through each cell's
+/// first triangle, in parallel. O(m + cells).
+fn grid_twins(cells: &[u32], codes: &[Codes], cols: usize, rows: usize) -> Vec<u32> {
+    let n_cells = (rows - 1) * (cols - 1);
+    let mut first = vec![0u32; n_cells + 1];
+    for &cell in cells {
+        first[cell as usize + 1] += 1;
+    }
+    for k in 0..n_cells {
+        first[k + 1] += first[k];
+    }
+    (0..3 * codes.len())
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .map(|h| {
+            let (t, k) = (h / 3, h % 3);
+            let cell = cells[t] as usize;
+            let (x, y) = (codes[t][k], codes[t][(k + 1) % 3]);
+            let (dr, dc, nx, ny) = across_edge(x, y);
+            let (r, c) = (
+                (cell / (cols - 1)) as isize + dr,
+                (cell % (cols - 1)) as isize + dc,
+            );
+            if r < 0 || c < 0 || r as usize >= rows - 1 || c as usize >= cols - 1 {
+                return NONE;
+            }
+            let other = r as usize * (cols - 1) + c as usize;
+            // the twin runs the other way: from y to x
+            (first[other]..first[other + 1])
+                .filter(|&u| u as usize != t)
+                .find_map(|u| {
+                    let code = codes[u as usize];
+                    (0..3)
+                        .find(|&j| code[j] == ny && code[(j + 1) % 3] == nx)
+                        .map(|j| 3 * u + j as u32)
+                })
+                .unwrap_or(NONE)
+        })
+        .collect()
 }
 
 /// The candidates of a block of rows: those kept (in the grid's winding) with their signed
@@ -191,6 +262,8 @@ fn cell_triangles(corners: [i64; 4], points: &[DVec3], out: &mut Vec<[u32; 3]>) 
 #[derive(Default)]
 struct Block {
     kept: Vec<[u32; 3]>,
+    codes: Vec<Codes>,
+    cells: Vec<u32>,
     areas: Vec<f64>,
     candidates: usize,
     turned: usize,
@@ -216,7 +289,10 @@ enum Verdict {
 ///   rows and columns;
 /// - **folded**: zero or reversed area in the plane `uv` against the grid's own winding
 ///   (the sign of the total signed area of the candidates), so the kept triangles never
-///   overlap locally in the plane.
+///   overlap locally in the plane;
+/// - **peeled**: then the smaller fans at each pinched vertex and the collinear slivers on
+///   the boundary (as trimming peels them), so the result is a valid planar triangulation
+///   LOP and annealing can start from.
 ///
 /// `grid` is `rows x cols`, row-major: `grid[r * cols + c]` the index of the sample at row
 /// `r` (a scan line) and column `c`, or -1 where the scanner saw nothing. `uv` (planar) and
@@ -303,11 +379,14 @@ pub fn grid_triangulate(
                     let corners = [at(r, c), at(r, c + 1), at(r + 1, c), at(r + 1, c + 1)];
                     cell_triangles(corners, points, &mut cell);
                     let h = local(r, c);
-                    for t in &cell {
+                    for code in &cell {
                         out.candidates += 1;
-                        match judge(t, h) {
+                        let t = code.map(|k| corners[k as usize] as u32);
+                        match judge(&t, h) {
                             Verdict::Keep => {
-                                out.kept.push(*t);
+                                out.kept.push(t);
+                                out.codes.push(*code);
+                                out.cells.push((r * (cols - 1) + c) as u32);
                                 let [a, b, c] = t.map(|k| k as usize);
                                 out.areas.push(area2(uv, a, b, c));
                             }
@@ -326,20 +405,47 @@ pub fn grid_triangulate(
         spacing,
         ..GridTriangles::default()
     };
-    out.triangles
-        .reserve(blocks.iter().map(|b| b.kept.len()).sum());
+    let total_kept = blocks.iter().map(|b| b.kept.len()).sum();
+    out.triangles.reserve(total_kept);
+    let (mut codes, mut cells) = (
+        Vec::with_capacity(total_kept),
+        Vec::with_capacity(total_kept),
+    );
     for block in blocks {
         out.candidates += block.candidates;
         out.turned += block.turned;
         out.long += block.long;
-        for (t, area) in block.kept.into_iter().zip(block.areas) {
+        let rows = block
+            .kept
+            .into_iter()
+            .zip(block.areas)
+            .zip(block.codes)
+            .zip(block.cells);
+        for (((t, area), code), cell) in rows {
             if sign * area > 0.0 {
+                let flip = sign < 0.0;
                 out.triangles
-                    .push(if sign > 0.0 { t } else { [t[0], t[2], t[1]] });
+                    .push(if flip { [t[0], t[2], t[1]] } else { t });
+                codes.push(if flip {
+                    [code[0], code[2], code[1]]
+                } else {
+                    code
+                });
+                cells.push(cell);
             } else {
                 out.folded += 1;
             }
         }
+    }
+    // Cells dropped around a vertex can leave it joining two fans (a pinch); LOP and
+    // annealing need a manifold start, as trimming gives them. The twins come from the
+    // grid's edges, so no half-edge search is needed.
+    if !out.triangles.is_empty() {
+        let twins = grid_twins(&cells, &codes, cols, rows);
+        let kept = out.triangles.len();
+        let keep = vec![true; kept];
+        out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None);
+        out.peeled = kept - out.triangles.len();
     }
     Ok(out)
 }
@@ -399,11 +505,12 @@ mod tests {
 
     #[test]
     fn missing_samples_leave_three_corner_cells_and_holes() {
-        let (mut g, uv, p) = terrain(3, 3, |_, _| 0.0);
-        g[4] = -1; // the centre
-        let t = grid_triangulate(&g, 3, 3, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
-        assert_eq!(t.triangles.len(), 4);
-        assert!(t.triangles.iter().all(|f| !f.contains(&4)));
+        let (mut g, uv, p) = terrain(5, 5, |_, _| 0.0);
+        g[12] = -1; // (2, 2): its four cells keep one triangle each, the rest two
+        let t = grid_triangulate(&g, 5, 5, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.triangles.len(), 2 * 16 - 4);
+        assert!(t.triangles.iter().all(|f| !f.contains(&12)));
+        assert_eq!(t.peeled, 0);
     }
 
     #[test]
@@ -420,6 +527,50 @@ mod tests {
         let t =
             grid_triangulate(&g, 3, 3, &folded, &p, rules(DVec3::Z, 90.0, f64::INFINITY)).unwrap();
         assert!(t.folded > 0);
+    }
+
+    #[test]
+    fn pinches_are_peeled_so_the_result_is_a_valid_triangulation() {
+        // samples missing so that two triangles meet at the centre (1, 1) only
+        let (mut g, uv, p) = terrain(3, 3, |_, _| 0.0);
+        for k in [2, 3, 5, 6] {
+            g[k] = -1;
+        }
+        let t = grid_triangulate(&g, 3, 3, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!((t.peeled, t.triangles.len()), (1, 1));
+        let (g, uv, p) = terrain(6, 6, |r, c| if r >= 3 && c >= 3 { 9.0 } else { 0.0 });
+        let t = grid_triangulate(&g, 6, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        let unit = crate::unit_square(&uv);
+        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        mesh.validate(&unit).unwrap();
+    }
+
+    #[test]
+    fn grid_twins_are_the_half_edge_meshs_twins() {
+        let (rows, cols) = (7, 9);
+        let (mut g, _, p) = terrain(rows, cols, |r, c| ((r * 7 + c * 3) % 5) as f64 * 0.1);
+        for k in [3, 11, 12, 30, 40, 41, 62] {
+            g[k] = -1;
+        }
+        let (mut tris, mut codes, mut cells) = (Vec::new(), Vec::new(), Vec::new());
+        for r in 0..rows - 1 {
+            for c in 0..cols - 1 {
+                let at = |i: usize, j: usize| g[i * cols + j];
+                let corners = [at(r, c), at(r, c + 1), at(r + 1, c), at(r + 1, c + 1)];
+                let mut cell = Vec::new();
+                cell_triangles(corners, &p, &mut cell);
+                for code in cell {
+                    // the grid's winding is clockwise in (x, y) here: flip to counter-clockwise
+                    let code = [code[0], code[2], code[1]];
+                    tris.push(code.map(|k| corners[k as usize] as u32));
+                    codes.push(code);
+                    cells.push((r * (cols - 1) + c) as u32);
+                }
+            }
+        }
+        let mesh = crate::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
+        let expected: Vec<u32> = (0..3 * tris.len() as u32).map(|h| mesh.twin(h)).collect();
+        assert_eq!(grid_twins(&cells, &codes, cols, rows), expected);
     }
 
     #[test]
