@@ -3,6 +3,7 @@
     python benches/curtains.py                       # panel, sweep, time; Markdown tables
     python benches/curtains.py --only time           # the 1M-point timing alone
     python benches/curtains.py --cad DATA/cad --points 10000
+    python benches/curtains.py --only panel --scans "rocker arm z" --noise 0 --grazing 90
 
 The panel: CAD parts (the octagonal pocket, the fandisk, the connecting rod and a rocker
 arm built here, benches/depth_jumps.py) each scanned by the virtual range scanner
@@ -140,12 +141,15 @@ def meshes(sp, axis: str, s: float) -> list[tuple[str, np.ndarray, float]]:
     return out
 
 
-def measure(name: str, cad, up: str, along: str, n_points: int) -> tuple[list[dict], dict]:
-    """The rows of one scan, and the sweep's raw figures of its plain range grid."""
+def measure(
+    name: str, cad, up: str, along: str, n_points: int, noise: float, grazing: float
+) -> tuple[list[dict], dict]:
+    """The rows of one scan (noise in spacings, grazing in degrees), and the sweep's raw
+    figures of its plain range grid."""
     clean = simulate_range_scan(cad, up=up, along=along, n_points=n_points)
     s = float(clean.extra["spacing"])
     sp = simulate_range_scan(
-        cad, up=up, along=along, n_points=n_points, noise=NOISE * s, seed=SEED, grazing=GRAZING
+        cad, up=up, along=along, n_points=n_points, noise=noise * s, seed=SEED, grazing=grazing
     )
     truth = TrueSurface(cad)
     _, frame = project(sp.points, up)
@@ -244,7 +248,7 @@ def table(rows: list[dict]) -> str:
     ]
     for r in rows:
         out.append(
-            f"| {r['scan']} | {r['method']} | {r['faces']:,} | {r['h_rms'] / r['s']:.3f} |"
+            f"| {r['scan']} | {r['method']} | {r['faces']:,} | {r['h_rms'] / r['s']:.3g} |"
             f" {r['far']:,} | {r['missed']:.2f} | {r['edge']:.1f} | {r['curtains']:,} |"
             f" {r['seconds']:.2f} |"
         )
@@ -325,14 +329,20 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=N_POINTS, help="points per scan")
     ap.add_argument("--only", choices=("panel", "time"), help="run one part")
     ap.add_argument("--scans", nargs="*", help="subset of the panel's scan names")
+    ap.add_argument("--noise", type=float, default=NOISE, help="noise sigma in spacings")
+    ap.add_argument("--grazing", type=float, default=GRAZING, help="dropout angle, degrees")
     args = ap.parse_args()
     print(f"machine: {machine()}")
+    print(
+        f"{args.points:,} points per scan, noise {args.noise:g} s,"
+        f" dropout beyond {args.grazing:g} deg"
+    )
     if args.only != "time":
         rows, raw = [], []
         for name, cad, up, along in panel(args.cad):
             if args.scans and name not in args.scans:
                 continue
-            got, figures = measure(name, cad, up, along, args.points)
+            got, figures = measure(name, cad, up, along, args.points, args.noise, args.grazing)
             for r in got:
                 r["s"] = figures["s"]
             rows += got
