@@ -4,6 +4,8 @@
     python benches/curtains.py --only time           # the 1M-point timing alone
     python benches/curtains.py --cad DATA/cad --points 10000
     python benches/curtains.py --only panel --scans "rocker arm z" --noise 0 --grazing 90
+    python benches/curtains.py --only hidden         # unstructured, projected off the sight
+    python benches/curtains.py --only fran           # fran_cut's curtains per method
 
 The panel: CAD parts (the octagonal pocket, the fandisk, the connecting rod and a rocker
 arm built here, benches/depth_jumps.py) each scanned by the virtual range scanner
@@ -33,6 +35,7 @@ numpy range-grid triangulation in the same run (best of ``REPEATS``, interleaved
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import time
 import warnings
@@ -50,8 +53,10 @@ from scanmesh.formats.grid import height_grid
 from scanmesh.measures import curtains
 from scanmesh.scan.projection import project
 from scanmesh.stages.grid import grid_surface
+from scanmesh.stages.hidden import hiding_faces
 from scanmesh.stages.source import scan_of
 
+FRAN = Path(__file__).resolve().parents[1] / "tests" / "data" / "scans" / "fran_cut.vtk"
 N_POINTS = 12_000
 N_SAMPLES = 50_000
 N_RAYS = 500_000
@@ -287,6 +292,83 @@ def summary(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+def tilted(up: str) -> np.ndarray:
+    """A plane normal 30 degrees off the axis ``up`` (towards the next axis)."""
+    axes = "xyz"
+    k = axes.index(up)
+    normal = np.zeros(3)
+    normal[k] = math.cos(math.radians(30))
+    normal[(k + 1) % 3] = math.sin(math.radians(30))
+    return normal
+
+
+def hidden(cad_dir: Path, n_points: int, noise: float, grazing: float) -> str:
+    """Unstructured points with a known line of sight projected 30 degrees off it: Delaunay
+    of the points alone (no line of sight) against ``reconstruct`` with the recorded ``up``
+    (faces that would hide a sample dropped)."""
+    out = [
+        "| scan | faces hiding a sample, points alone | dropped with `up` | faces > 2 s off:"
+        " alone / with `up` | missed %: alone / with `up` |",
+        "|---|---:|---:|---|---|",
+    ]
+    for name, cad, up, along in panel(cad_dir):
+        clean = simulate_range_scan(cad, up=up, along=along, n_points=n_points)
+        s = float(clean.extra["spacing"])
+        sp = simulate_range_scan(
+            cad,
+            up=up,
+            along=along,
+            n_points=n_points,
+            noise=noise * s,
+            seed=SEED,
+            grazing=grazing,
+        )
+        unstructured = dataclasses.replace(sp, grid=None)
+        truth = TrueSurface(cad)
+        plane = tilted(up)
+        _, frame = project(sp.points, up)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            alone = scanmesh.delaunay(sp.points, plane=plane)
+            kept = scanmesh.reconstruct(unstructured, "delaunay", plane=plane)
+        cells = []
+        for faces in (alone.faces, kept.faces):
+            surface = scanmesh.Surface(vertices=sp.points, faces=faces, frame=frame)
+            off = truth.distance(sp.points[faces].mean(axis=1))
+            missed = 100 * domain_error(surface, truth, n_rays=N_RAYS)["missed_share"]
+            cells.append((int((off > 2 * s).sum()), missed))
+        hiding = len(hiding_faces(sp.points, alone.faces, sp.up))
+        out.append(
+            f"| {name} | {hiding:,} | {kept.options['hidden_dropped']:,} |"
+            f" {cells[0][0]:,} / {cells[1][0]:,} | {cells[0][1]:.2f} / {cells[1][1]:.2f} |"
+        )
+        print(f"  {name}: hidden done", flush=True)
+    return "\n".join(out)
+
+
+def fran(path: Path) -> str:
+    """fran_cut (a Cyberware scan, a structured VTK grid): curtains (faces within 5 degrees
+    of the projection normal; the file records no line of sight) per method."""
+    sp = scanmesh.read(path)
+    out = [
+        f"{len(sp.points):,} points, grid {sp.grid.shape if sp.grid is not None else None}:",
+        "",
+        "| method | faces | curtains | curtain area % | longest / median edge | start |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for method in ("delaunay", "shortest-path", "grid", "lop", "anneal"):
+            s = scanmesh.reconstruct(sp, method)
+            edges = np.linalg.norm(sp.points[s.faces] - sp.points[np.roll(s.faces, 1, 1)], axis=2)
+            c = s.options["curtains"]
+            out.append(
+                f"| {method} | {len(s.faces):,} | {c['count']:,} | {100 * c['fraction']:.2f} |"
+                f" {edges.max() / np.median(edges):.1f} | {s.options.get('initial', '')} |"
+            )
+    return "\n".join(out)
+
+
 def timing(n: int = 1000) -> str:
     """The grid triangulation of an n x n range grid against the numpy range-grid
     triangulation, same arrays, best of REPEATS interleaved."""
@@ -327,7 +409,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cad", type=Path, default=CAD, help=f"CAD folder (default {CAD})")
     ap.add_argument("--points", type=int, default=N_POINTS, help="points per scan")
-    ap.add_argument("--only", choices=("panel", "time"), help="run one part")
+    ap.add_argument("--only", choices=("panel", "time", "hidden", "fran"), help="run one part")
+    ap.add_argument("--fran", type=Path, default=FRAN, help="fran_cut.vtk")
     ap.add_argument("--scans", nargs="*", help="subset of the panel's scan names")
     ap.add_argument("--noise", type=float, default=NOISE, help="noise sigma in spacings")
     ap.add_argument("--grazing", type=float, default=GRAZING, help="dropout angle, degrees")
@@ -337,6 +420,12 @@ def main() -> None:
         f"{args.points:,} points per scan, noise {args.noise:g} s,"
         f" dropout beyond {args.grazing:g} deg"
     )
+    if args.only == "hidden":
+        print(hidden(args.cad, args.points, args.noise, args.grazing))
+        return
+    if args.only == "fran":
+        print(fran(args.fran))
+        return
     if args.only != "time":
         rows, raw = [], []
         for name, cad, up, along in panel(args.cad):

@@ -82,6 +82,18 @@ def test_delaunay_off_the_line_of_sight_would_hide_samples_without_the_rule():
     assert len(hiding_faces(sp.points, plain.faces, sp.up)) == kept.options["hidden_dropped"]
 
 
+@pytest.mark.parametrize("scale", [1e-300, 1e300])
+def test_hiding_faces_at_extreme_magnitudes(scale):
+    rng = np.random.default_rng(5)
+    pts = rng.random((80, 3)) * [1, 1, 0.3]
+    faces = np.array([rng.choice(80, 3, replace=False) for _ in range(120)])
+    sight = np.array([0.1, -0.2, 1.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scaled = hiding_faces(pts * scale, faces, sight, depth=0.01 * scale)
+    assert scaled.tolist() == hiding_faces(pts, faces, sight, depth=0.01).tolist()
+
+
 def test_projected_along_the_line_of_sight_nothing_is_checked():
     sp = _steps_with_up()
     s = scanmesh.reconstruct(sp, "delaunay", plane="z")

@@ -159,13 +159,18 @@ def curtains(vertices: ArrayLike, faces: ArrayLike, sight: ArrayLike) -> Curtain
     Returns
     -------
     Curtains
-        Zero-area faces are not counted. O(M).
+        Zero-area faces are not counted. O(M). Measured in a box scaled by a power of two:
+        the same faces at any magnitude (the area is ``inf`` past the float range).
     """
     pts = as_points(vertices, "vertices")
     tri = as_faces(faces, len(pts))
     s = np.asarray(sight, dtype=np.float64).reshape(3)
     s = s / np.linalg.norm(s)
-    corner = pts[tri]
+    # in a box of side about 1 (a power of two: exact), so that coordinates from 1e-300 to
+    # 1e300 neither overflow nor underflow in the cross products
+    largest = float(np.abs(pts).max()) if len(pts) else 0.0
+    scale = 2.0 ** math.frexp(largest)[1] if largest > 0 else 1.0
+    corner = pts[tri] / scale
     normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
     twice = np.linalg.norm(normal, axis=1)
     # |cos| of the angle between normal and sight below sin(5 deg): the plane is within
@@ -177,7 +182,7 @@ def curtains(vertices: ArrayLike, faces: ArrayLike, sight: ArrayLike) -> Curtain
     total = 0.5 * float(twice.sum())
     return Curtains(
         count=len(which),
-        area=area,
+        area=area * scale * scale,  # Python floats: inf past 1e308, no warning
         fraction=area / total if total > 0 else 0.0,
         faces=which.astype(np.int64),
     )

@@ -143,8 +143,6 @@ def grid_surface(
             f" (max_turn={params['max_turn']:g}, edge_factor={params['edge_factor']:g}):"
             " the grid does not face the line of sight"
         )
-    used = np.zeros(len(scan.points), dtype=bool)
-    used[faces.ravel()] = True
     return Surface(
         vertices=scan.points,
         faces=faces,
@@ -158,7 +156,7 @@ def grid_surface(
             "dropped_long": result.long,
             "dropped_folded": result.folded,
             "dropped_peeled": result.peeled,
-            "trimmed": np.flatnonzero(~used),
+            "trimmed": result.unused,
         },
         scan=scan,
         timings={**scan.timings, "triangulate": time.perf_counter() - t0},

@@ -14,6 +14,7 @@ or chosen by the data over the recorded ``up``).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -65,6 +66,13 @@ def hiding_faces(
     if len(faces) == 0:
         return np.empty(0, dtype=np.int64)
     frame = _frame(np.asarray(sight, dtype=np.float64))
+    # in a box of side about 1 (a power of two: exact), so that coordinates from 1e-300 to
+    # 1e300 neither overflow nor underflow
+    largest = float(np.abs(points).max())
+    scale = 2.0 ** math.frexp(largest)[1] if largest > 0 else 1.0
+    points = points / scale
+    if depth is not None:
+        depth = depth / scale
     local = points @ frame.T  # (N, 3): across, across, height towards the scanner
     xy, h = local[:, :2], local[:, 2]
     tri = xy[faces]  # (M, 3, 2)

@@ -94,6 +94,8 @@ pub(crate) struct GridTriangles {
     pub peeled: usize,
     /// Median grid spacing across the line of sight (input units).
     pub spacing: f64,
+    /// (K,) int64 points in no face.
+    pub unused: Ints1,
 }
 
 /// The cheapest fans around some vertices (`cheapest_fans`): for K fans found, the

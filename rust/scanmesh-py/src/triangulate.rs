@@ -173,6 +173,7 @@ pub(crate) fn grid_triangulate<'py>(
         folded: t.folded,
         peeled: t.peeled,
         spacing: t.spacing,
+        unused: indices_out(py, &t.unused).unbind(),
     })
 }
 

@@ -77,6 +77,8 @@ pub struct GridTriangles {
     pub peeled: usize,
     /// Median grid spacing across the line of sight (input units; 0 when there is none).
     pub spacing: f64,
+    /// The points in no kept triangle (in the grid or not), ascending.
+    pub unused: Vec<u32>,
 }
 
 /// Checks the grid's shape and indices and the two factors.
@@ -112,9 +114,15 @@ fn check(grid: &[i64], rows: usize, cols: usize, n: usize, turn: f64, factor: f6
     Ok(())
 }
 
-/// Length of `d` across the unit line of sight `s`.
+/// Length of `d` across the unit line of sight `s`, measured on `d` scaled to about 1 so
+/// that coordinates from 1e-300 to 1e300 neither overflow nor underflow.
 fn across(d: DVec3, s: DVec3) -> f64 {
-    (d - d.dot(s) * s).length()
+    let m = d.abs().max_element();
+    if m == 0.0 {
+        return 0.0;
+    }
+    let u = d / m;
+    (u - u.dot(s) * s).length() * m
 }
 
 /// Median of `values` (NaN for none); reorders them. O(n).
@@ -168,10 +176,24 @@ fn local_spacings(
     (row_spacing, col_spacing)
 }
 
-/// Twice the signed planar area of (a, b, c).
-fn area2(uv: &[[f64; 2]], a: usize, b: usize, c: usize) -> f64 {
+/// The sign of the planar area of (a, b, c): 1, -1, or 0 when degenerate (computed on the
+/// edges scaled to about 1, so that no product overflows or underflows).
+fn area_sign(uv: &[[f64; 2]], a: usize, b: usize, c: usize) -> i8 {
     let (p, q, r) = (uv[a], uv[b], uv[c]);
-    (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+    let e = [q[0] - p[0], q[1] - p[1], r[0] - p[0], r[1] - p[1]];
+    let m = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if m == 0.0 {
+        return 0;
+    }
+    let [ux, uy, vx, vy] = e.map(|x| x / m);
+    let area = ux * vy - uy * vx;
+    if area > 0.0 {
+        1
+    } else if area < 0.0 {
+        -1
+    } else {
+        0
+    }
 }
 
 /// Corners of a grid cell by code: 0 = a (r, c), 1 = b (r, c + 1), 2 = d (r + 1, c),
@@ -263,14 +285,14 @@ fn grid_twins(cells: &[u32], codes: &[Codes], cols: usize, rows: usize) -> Vec<u
         .collect()
 }
 
-/// The candidates of a block of rows: those kept (in the grid's winding) with their signed
-/// planar areas, and the counts of each verdict.
+/// The candidates of a block of rows: those kept (in the grid's winding) with the signs of
+/// their planar areas, and the counts of each verdict.
 #[derive(Default)]
 struct Block {
     kept: Vec<[u32; 3]>,
     codes: Vec<Codes>,
     cells: Vec<u32>,
-    areas: Vec<f64>,
+    signs: Vec<i8>,
     candidates: usize,
     turned: usize,
     long: usize,
@@ -294,7 +316,7 @@ enum Verdict {
 ///   of the median neighbour spacings (measured across the line of sight) of the cell's
 ///   rows and columns;
 /// - **folded**: zero or reversed area in the plane `uv` against the grid's own winding
-///   (the sign of the total signed area of the candidates), so the kept triangles never
+///   (the sign most candidates have), so the kept triangles never
 ///   overlap locally in the plane;
 /// - **peeled**: then the smaller fans at each pinched vertex and the collinear slivers on
 ///   the boundary (as trimming peels them), so the result is a valid planar triangulation
@@ -357,16 +379,19 @@ pub fn grid_triangulate(
     };
     let judge = |t: &[u32; 3], h: f64| -> Verdict {
         let [a, b, c] = t.map(|k| points[k as usize]);
-        let n = (b - a).cross(c - a);
+        // edges scaled to about 1: no overflow or underflow from 1e-300 to 1e300
+        let m = (b - a).abs().max_element().max((c - a).abs().max_element());
+        let (e1, e2) = ((b - a) / m, (c - a) / m);
+        let n = e1.cross(e2);
         let length = n.length();
-        if length == 0.0 || n.dot(s).abs() < cos_turn * length {
+        if m == 0.0 || length == 0.0 || n.dot(s).abs() < cos_turn * length {
             return Verdict::Turned;
         }
-        let limit = edge_factor * if h.is_finite() { h } else { spacing };
-        let longest = (b - a)
+        let limit = edge_factor * if h.is_finite() { h } else { spacing } / m;
+        let longest = e1
             .length_squared()
-            .max((c - b).length_squared())
-            .max((a - c).length_squared());
+            .max(e2.length_squared())
+            .max((e2 - e1).length_squared());
         if longest > limit * limit {
             return Verdict::Long;
         }
@@ -394,7 +419,7 @@ pub fn grid_triangulate(
                                 out.codes.push(*code);
                                 out.cells.push((r * (cols - 1) + c) as u32);
                                 let [a, b, c] = t.map(|k| k as usize);
-                                out.areas.push(area2(uv, a, b, c));
+                                out.signs.push(area_sign(uv, a, b, c));
                             }
                             Verdict::Turned => out.turned += 1,
                             Verdict::Long => out.long += 1,
@@ -405,8 +430,12 @@ pub fn grid_triangulate(
             out
         })
         .collect();
-    let total: f64 = blocks.iter().flat_map(|b| b.areas.iter()).sum();
-    let sign = if total < 0.0 { -1.0 } else { 1.0 };
+    let total: i64 = blocks
+        .iter()
+        .flat_map(|b| b.signs.iter())
+        .map(|&x| i64::from(x))
+        .sum();
+    let sign: i8 = if total < 0 { -1 } else { 1 };
     let mut out = GridTriangles {
         spacing,
         ..GridTriangles::default()
@@ -424,12 +453,12 @@ pub fn grid_triangulate(
         let rows = block
             .kept
             .into_iter()
-            .zip(block.areas)
+            .zip(block.signs)
             .zip(block.codes)
             .zip(block.cells);
         for (((t, area), code), cell) in rows {
-            if sign * area > 0.0 {
-                let flip = sign < 0.0;
+            if area == sign {
+                let flip = sign < 0;
                 out.triangles
                     .push(if flip { [t[0], t[2], t[1]] } else { t });
                 codes.push(if flip {
@@ -453,6 +482,15 @@ pub fn grid_triangulate(
         out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None);
         out.peeled = kept - out.triangles.len();
     }
+    let mut used = vec![false; points.len()];
+    for t in &out.triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    out.unused = (0..points.len() as u32)
+        .filter(|&v| !used[v as usize])
+        .collect();
     Ok(out)
 }
 
@@ -492,7 +530,10 @@ mod tests {
         assert_eq!(t.candidates, 24);
         assert!((t.spacing - 1.0).abs() < 1e-12);
         for f in &t.triangles {
-            assert!(area2(&uv, f[0] as usize, f[1] as usize, f[2] as usize) > 0.0);
+            assert_eq!(
+                area_sign(&uv, f[0] as usize, f[1] as usize, f[2] as usize),
+                1
+            );
         }
     }
 
@@ -516,6 +557,7 @@ mod tests {
         let t = grid_triangulate(&g, 5, 5, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
         assert_eq!(t.triangles.len(), 2 * 16 - 4);
         assert!(t.triangles.iter().all(|f| !f.contains(&12)));
+        assert_eq!(t.unused, vec![12]);
         assert_eq!(t.peeled, 0);
     }
 
@@ -526,7 +568,10 @@ mod tests {
         let t = grid_triangulate(&g, 3, 3, &flipped, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
         assert_eq!(t.triangles.len(), 8);
         for f in &t.triangles {
-            assert!(area2(&flipped, f[0] as usize, f[1] as usize, f[2] as usize) > 0.0);
+            assert_eq!(
+                area_sign(&flipped, f[0] as usize, f[1] as usize, f[2] as usize),
+                1
+            );
         }
         let mut folded = uv.clone();
         folded[4] = [3.0, 1.0]; // the centre pulled past its right neighbour
@@ -577,6 +622,18 @@ mod tests {
         let mesh = crate::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
         let expected: Vec<u32> = (0..3 * tris.len() as u32).map(|h| mesh.twin(h)).collect();
         assert_eq!(grid_twins(&cells, &codes, cols, rows), expected);
+    }
+
+    #[test]
+    fn extreme_magnitudes_give_the_same_triangles() {
+        let (g, uv, p) = terrain(5, 6, |_, c| if c >= 3 { 10.0 } else { 0.1 * c as f64 });
+        let t = grid_triangulate(&g, 5, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        for scale in [1e-300, 1e-150, 1e150, 1e300] {
+            let uv_s: Vec<[f64; 2]> = uv.iter().map(|q| [q[0] * scale, q[1] * scale]).collect();
+            let p_s: Vec<DVec3> = p.iter().map(|q| *q * scale).collect();
+            let s = grid_triangulate(&g, 5, 6, &uv_s, &p_s, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+            assert_eq!(s.triangles, t.triangles, "scale {scale}");
+        }
     }
 
     #[test]
