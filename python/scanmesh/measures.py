@@ -128,6 +128,20 @@ def quality(vertices: ArrayLike | PlanarScan, faces: ArrayLike) -> Quality:
     )
 
 
+def unit_factors(largest: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Two powers of two whose product takes ``largest`` (>= 0) into [0.5, 1), and the two
+    that take it back: one factor alone over- or underflows at the ends of the float range.
+    Multiplying by powers of two is exact (bar subnormals)."""
+    if not largest > 0 or not math.isfinite(largest):
+        return (1.0, 1.0), (1.0, 1.0)
+    e = math.frexp(largest)[1]
+    half = e // 2
+    return (math.ldexp(1.0, -half), math.ldexp(1.0, half - e)), (
+        math.ldexp(1.0, half),
+        math.ldexp(1.0, e - half),
+    )
+
+
 @dataclass(frozen=True)
 class Curtains:
     """The faces of a mesh within CURTAIN_ANGLE_DEG of a line of sight (their normal within
@@ -168,9 +182,8 @@ def curtains(vertices: ArrayLike, faces: ArrayLike, sight: ArrayLike) -> Curtain
     s = s / np.linalg.norm(s)
     # in a box of side about 1 (a power of two: exact), so that coordinates from 1e-300 to
     # 1e300 neither overflow nor underflow in the cross products
-    largest = float(np.abs(pts).max()) if len(pts) else 0.0
-    scale = 2.0 ** math.frexp(largest)[1] if largest > 0 else 1.0
-    corner = pts[tri] / scale
+    down, up = unit_factors(float(np.abs(pts).max()) if len(pts) else 0.0)
+    corner = pts[tri] * down[0] * down[1]
     normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
     twice = np.linalg.norm(normal, axis=1)
     # |cos| of the angle between normal and sight below sin(5 deg): the plane is within
@@ -182,7 +195,7 @@ def curtains(vertices: ArrayLike, faces: ArrayLike, sight: ArrayLike) -> Curtain
     total = 0.5 * float(twice.sum())
     return Curtains(
         count=len(which),
-        area=area * scale * scale,  # Python floats: inf past 1e308, no warning
+        area=area * up[0] * up[0] * up[1] * up[1],  # Python floats: inf past 1e308
         fraction=area / total if total > 0 else 0.0,
         faces=which.astype(np.int64),
     )

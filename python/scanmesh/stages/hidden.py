@@ -14,10 +14,10 @@ or chosen by the data over the recorded ``up``).
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
+from scanmesh.measures import unit_factors
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.surface import Surface
 
@@ -68,11 +68,10 @@ def hiding_faces(
     frame = _frame(np.asarray(sight, dtype=np.float64))
     # in a box of side about 1 (a power of two: exact), so that coordinates from 1e-300 to
     # 1e300 neither overflow nor underflow
-    largest = float(np.abs(points).max())
-    scale = 2.0 ** math.frexp(largest)[1] if largest > 0 else 1.0
-    points = points / scale
+    down, _ = unit_factors(float(np.abs(points).max()))
+    points = points * down[0] * down[1]
     if depth is not None:
-        depth = depth / scale
+        depth = depth * down[0] * down[1]
     local = points @ frame.T  # (N, 3): across, across, height towards the scanner
     xy, h = local[:, :2], local[:, 2]
     tri = xy[faces]  # (M, 3, 2)
