@@ -10,6 +10,7 @@ The public API:
 - :func:`noise` - the scan noise along the projection normal (robust, from the scan lines);
 - :func:`optimal_surface`, :func:`brute_force_surface` - the certified tac optimum (small inputs);
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
+  :func:`simulate_range_scan` the same with its grid of rays and line of sight;
 - :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
 - :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
 - :class:`Surface`, :class:`Quality`, :class:`Frame`, :class:`PlanarScan` - the results;
@@ -21,6 +22,7 @@ from importlib import metadata as _metadata
 from scanmesh.demo import load_demo
 from scanmesh.errors import (
     CoincidentPointsWarning,
+    CurtainsWarning,
     DegenerateInputError,
     FileFormatError,
     InvalidMeshError,
@@ -31,7 +33,7 @@ from scanmesh.errors import (
     ScanmeshError,
     ScanmeshWarning,
 )
-from scanmesh.evaluate.digitizer import simulate_scan
+from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
 from scanmesh.formats import ScanPoints, read
 from scanmesh.measures import Quality, quality
 from scanmesh.methods import METHODS
@@ -56,6 +58,7 @@ __all__ = [
     "PlanarScan",
     "delaunay",
     "simulate_scan",
+    "simulate_range_scan",
     "load_demo",
     "quality",
     "detect_lines",
@@ -78,4 +81,5 @@ __all__ = [
     "ScanmeshWarning",
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",
+    "CurtainsWarning",
 ]

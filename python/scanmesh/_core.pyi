@@ -19,9 +19,12 @@ __all__ = [
     "DEFAULT_HOLE_FACTOR",
     "DEFAULT_JUMP_FACTOR",
     "DEFAULT_MAX_EDGE_FACTOR",
+    "DEFAULT_GRID_TURN_DEG",
+    "DEFAULT_GRID_EDGE_FACTOR",
     "project",
     "delaunay",
     "delaunay_trimmed",
+    "grid_triangulate",
     "median_spacing",
     "trim_long_edges",
     "validate",
@@ -44,6 +47,7 @@ __all__ = [
     "StripResult",
     "AnnealOutcome",
     "TrimmedDelaunay",
+    "GridTriangles",
     "CheapestFans",
     "TextTable",
 ]
@@ -57,6 +61,8 @@ SLIVER_ANGLE_DEG: float
 DEFAULT_BRIDGE_FACTOR: float
 DEFAULT_HOLE_FACTOR: float
 DEFAULT_JUMP_FACTOR: float
+DEFAULT_GRID_TURN_DEG: float
+DEFAULT_GRID_EDGE_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 
 def project(
@@ -73,6 +79,14 @@ def delaunay_trimmed(
     max_edge: float | None = None,
     jump_factor: float = ...,
 ) -> TrimmedDelaunay: ...
+def grid_triangulate(
+    grid: npt.NDArray[np.int64],
+    uv: npt.NDArray[np.float64],
+    points: npt.NDArray[np.float64],
+    sight: npt.NDArray[np.float64],
+    max_turn_deg: float = ...,
+    edge_factor: float = ...,
+) -> GridTriangles: ...
 def median_spacing(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> float: ...
 def trim_long_edges(
     uv: npt.NDArray[np.float64],
@@ -247,6 +261,25 @@ class TrimmedDelaunay:
     def max_edge(self) -> float: ...
     @property
     def seconds(self) -> tuple[float, float]: ...
+
+@final
+class GridTriangles:
+    @property
+    def faces(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def candidates(self) -> int: ...
+    @property
+    def turned(self) -> int: ...
+    @property
+    def long(self) -> int: ...
+    @property
+    def folded(self) -> int: ...
+    @property
+    def peeled(self) -> int: ...
+    @property
+    def unused(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def spacing(self) -> float: ...
 
 @final
 class CheapestFans:

@@ -43,6 +43,12 @@ class NotAHeightFieldWarning(ScanmeshWarning):
     the surface is probably not a height field there; another ``plane=`` may fit it better."""
 
 
+class CurtainsWarning(ScanmeshWarning):
+    """Faces within ``measures.CURTAIN_ANGLE_DEG`` of the line of sight cover more than
+    ``measures.CURTAIN_WARN_FRACTION`` of the mesh's area (``options["curtains"]``): sheets
+    the scanner's rays pass along, hung across depth jumps, not surface it saw."""
+
+
 # Raised and shown as scanmesh.ScanmeshError, ...: the public names, not the modules that
 # define them (the core's classes would otherwise read _core.ScanmeshError in tracebacks).
 for _cls in (
@@ -56,6 +62,7 @@ for _cls in (
     ScanmeshWarning,
     CoincidentPointsWarning,
     NotAHeightFieldWarning,
+    CurtainsWarning,
 ):
     _cls.__module__ = "scanmesh"
 del _cls
@@ -71,4 +78,5 @@ __all__ = [
     "ScanmeshWarning",
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",
+    "CurtainsWarning",
 ]

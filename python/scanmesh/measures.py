@@ -1,4 +1,5 @@
-"""Quality criteria of a mesh: total absolute curvature (tac) norms and the max-min angle."""
+"""Quality criteria of a mesh: total absolute curvature (tac) norms, the max-min angle, and
+the curtains (faces a scanner looking along a line of sight cannot have seen)."""
 
 from __future__ import annotations
 
@@ -28,6 +29,13 @@ def _radians_from(limit_deg: float) -> float:
         r = float(np.nextafter(r, math.inf))
     return r
 
+
+#: A face whose plane comes within this angle (degrees) of the line of sight is a curtain:
+#: the scanner's rays graze it, so no sample can lie inside it.
+CURTAIN_ANGLE_DEG: float = 5.0
+
+#: Curtains covering more than this share of a mesh's area are warned about.
+CURTAIN_WARN_FRACTION: float = 0.005
 
 #: A face is a sliver when its smallest angle in radians is below this (SLIVER_ANGLE_DEG).
 _SLIVER_RADIANS: float = _radians_from(SLIVER_ANGLE_DEG)
@@ -117,4 +125,77 @@ def quality(vertices: ArrayLike | PlanarScan, faces: ArrayLike) -> Quality:
         sliver_fraction=float(slivers),
         tac=tac,
         face_min_angle=min_angle,
+    )
+
+
+def unit_factors(largest: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Two powers of two whose product takes ``largest`` (>= 0) into [0.5, 1), and the two
+    that take it back: one factor alone over- or underflows at the ends of the float range.
+    Multiplying by powers of two is exact (bar subnormals)."""
+    if not largest > 0 or not math.isfinite(largest):
+        return (1.0, 1.0), (1.0, 1.0)
+    e = math.frexp(largest)[1]
+    half = e // 2
+    return (math.ldexp(1.0, -half), math.ldexp(1.0, half - e)), (
+        math.ldexp(1.0, half),
+        math.ldexp(1.0, e - half),
+    )
+
+
+@dataclass(frozen=True)
+class Curtains:
+    """The faces of a mesh within CURTAIN_ANGLE_DEG of a line of sight (their normal within
+    that angle of perpendicular to it): sheets a scanner's rays pass along, not surface."""
+
+    #: number of curtain faces
+    count: int
+    #: their total area (model units squared)
+    area: float
+    #: their share of the mesh's area (0 for a mesh without area)
+    fraction: float
+    #: (K,) int64 the curtain faces, largest first
+    faces: np.ndarray = field(repr=False)
+
+    def as_dict(self) -> dict[str, float | int]:
+        """The scalar figures, for reports and JSON."""
+        return {"count": self.count, "area": self.area, "fraction": self.fraction}
+
+
+def curtains(vertices: ArrayLike, faces: ArrayLike, sight: ArrayLike) -> Curtains:
+    """The faces within CURTAIN_ANGLE_DEG of the (3,) line of sight ``sight`` (either sign).
+
+    Parameters
+    ----------
+    vertices : (N, 3) float
+    faces : (M, 3) int
+    sight : (3,) float, non-zero
+
+    Returns
+    -------
+    Curtains
+        Zero-area faces are not counted. O(M). Measured in a box scaled by a power of two:
+        the same faces at any magnitude (the area is ``inf`` past the float range).
+    """
+    pts = as_points(vertices, "vertices")
+    tri = as_faces(faces, len(pts))
+    s = np.asarray(sight, dtype=np.float64).reshape(3)
+    s = s / np.linalg.norm(s)
+    # in a box of side about 1 (a power of two: exact), so that coordinates from 1e-300 to
+    # 1e300 neither overflow nor underflow in the cross products
+    down, up = unit_factors(float(np.abs(pts).max()) if len(pts) else 0.0)
+    corner = pts[tri] * down[0] * down[1]
+    normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
+    twice = np.linalg.norm(normal, axis=1)
+    # |cos| of the angle between normal and sight below sin(5 deg): the plane is within
+    # 5 deg of the sight line
+    graze = (np.abs(normal @ s) <= math.sin(math.radians(CURTAIN_ANGLE_DEG)) * twice) & (twice > 0)
+    which = np.flatnonzero(graze)
+    which = which[np.argsort(-twice[which], kind="stable")]
+    area = 0.5 * float(twice[which].sum())
+    total = 0.5 * float(twice.sum())
+    return Curtains(
+        count=len(which),
+        area=area * up[0] * up[0] * up[1] * up[1],  # Python floats: inf past 1e308
+        fraction=area / total if total > 0 else 0.0,
+        faces=which.astype(np.int64),
     )

@@ -16,7 +16,7 @@ from scanmesh._checks import Option, check_options
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.scan.planar import PlanarScan
-from scanmesh.stages import anneal, lop, optimal, strips
+from scanmesh.stages import anneal, grid, lop, optimal, strips
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.options import MAX_EDGE_OPTION
 from scanmesh.surface import Surface
@@ -31,8 +31,16 @@ SHARED: dict[str, Option] = {
     "seed": anneal.SEED_OPTION,
 }
 
-#: Initial triangulations LOP and annealing start from, by name.
-INITIALS = ("delaunay", "shortest-path")
+#: Initial triangulations LOP and annealing start from, by name ("auto": see
+#: :func:`default_initial`).
+INITIALS = ("auto", "delaunay", "shortest-path", "grid")
+
+
+def default_initial(scan: PlanarScan, max_edge: float | None = None) -> str:
+    """The start ``initial="auto"`` (the default) names for ``scan``: "grid" for a gridded
+    scan (a range grid of at least 2 x 2 samples: ``grid.is_gridded``) unless a Delaunay
+    trimming length ``max_edge`` was given, else "delaunay"."""
+    return "grid" if grid.is_gridded(scan) and max_edge is None else "delaunay"
 
 
 @dataclass(frozen=True)
@@ -95,9 +103,9 @@ class Method:
 def _initial_uses(params: dict[str, Any]) -> frozenset[str]:
     """LOP and annealing use the keywords of their initial triangulation."""
     initial = params["initial"]
-    if isinstance(initial, Surface):
+    if isinstance(initial, Surface) or initial == "grid":
         return frozenset()
-    return frozenset({"max_edge"} if initial == "delaunay" else {"lines"})
+    return frozenset({"max_edge"} if initial in ("auto", "delaunay") else {"lines"})
 
 
 def _anneal_uses(params: dict[str, Any]) -> frozenset[str]:
@@ -121,8 +129,9 @@ def _check_initial(value: Any) -> str | Surface:
 INITIAL_OPTION = Option(
     "initial",
     "any",
-    "delaunay",
-    "starting triangulation: delaunay, shortest-path (or a Surface on the same scan)",
+    "auto",
+    "starting triangulation: auto (grid for gridded scans, else delaunay), delaunay,"
+    " shortest-path, grid (or a Surface on the same scan)",
     convert=_check_initial,
 )
 
@@ -137,6 +146,10 @@ def initial_surface(scan: PlanarScan, initial: str | Surface, keywords: Keywords
                 " (Surface.scan) as the source"
             )
         return initial
+    if initial == "auto":
+        initial = default_initial(scan, keywords.max_edge)
+    if initial == "grid":
+        return grid.grid_surface(scan, progress=keywords.progress)
     if initial == "delaunay":
         return delaunay(scan, max_edge=keywords.max_edge, progress=keywords.progress)
     return strips.strip_surface(scan, method="shortest-path", progress=keywords.progress)
@@ -144,6 +157,10 @@ def initial_surface(scan: PlanarScan, initial: str | Surface, keywords: Keywords
 
 def _run_delaunay(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
     return delaunay(scan, max_edge=kw.max_edge, progress=kw.progress)
+
+
+def _run_grid(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
+    return grid.grid_surface(scan, progress=kw.progress, **params)
 
 
 def _strip_runner(name: str) -> Callable[[PlanarScan, dict[str, Any], Keywords], Surface]:
@@ -179,6 +196,13 @@ TABLE: dict[str, Method] = {
             frozenset({"max_edge"}),
             (),
             "max-min angle optimum in the plane, trimmed to the outline",
+        ),
+        Method(
+            "grid",
+            _run_grid,
+            frozenset(),
+            grid.OPTIONS,
+            "range-grid neighbours, less the faces the scanner cannot have seen",
         ),
         Method(
             "lookahead",
@@ -249,5 +273,6 @@ __all__ = [
     "SHARED",
     "method",
     "initial_surface",
+    "default_initial",
     "used_keywords",
 ]

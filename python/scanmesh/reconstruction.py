@@ -9,14 +9,16 @@ from typing import Any
 from numpy.typing import ArrayLike
 
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import NotAHeightFieldWarning, ScanmeshError
+from scanmesh.errors import CurtainsWarning, NotAHeightFieldWarning, ScanmeshError
 from scanmesh.formats import ScanPoints
+from scanmesh.measures import CURTAIN_ANGLE_DEG, CURTAIN_WARN_FRACTION, curtains
 from scanmesh.methods import METHODS, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
 from scanmesh.stages.delaunay import delaunay
+from scanmesh.stages.hidden import drop_hidden
 from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
@@ -101,7 +103,10 @@ def reconstruct(
     -------
     Surface
         Faces over the input points with ``method``, ``options``, ``timings`` and, for
-        annealing, ``trace``.
+        annealing, ``trace``. Where the scan records its line of sight (a file's ``up``, a
+        simulated range scan) and was projected on another plane, no face hides a sample
+        from the scanner (``stages.hidden``; ``options["hidden_dropped"]`` counts those
+        dropped).
 
     Raises
     ------
@@ -112,6 +117,11 @@ def reconstruct(
 
     Warns
     -----
+    CurtainsWarning
+        Faces within ``measures.CURTAIN_ANGLE_DEG`` (5 degrees) of the line of sight (the
+        scan's recorded ``up``, else the projection normal) cover more than
+        ``measures.CURTAIN_WARN_FRACTION`` (0.5 %) of the area; ``options["curtains"]``
+        always gives their ``count``, ``area``, ``fraction`` and the ``sight`` used.
     NotAHeightFieldWarning
         More than ``scan.steep.STEEP_WARN_FRACTION`` (10 %) of the triangles are steeper than
         ``scan.steep.STEEP_ANGLE_DEG`` (75 degrees) over the projection plane (see
@@ -126,9 +136,11 @@ def reconstruct(
     else:
         scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
     surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
+    surface = drop_hidden(scan, surface)
     if scan.choice is not None:
         choice = scan.choice.as_dict(scan.frame.normal)
         surface.options = {**surface.options, "plane_choice": choice}
+    _report_curtains(scan, surface)
     with Stage(progress, "steep", len(surface.faces), blocking=True):
         steep = surface.steep_fraction
     if steep is not None and steep > STEEP_WARN_FRACTION and _points_steep(scan, surface):
@@ -141,6 +153,32 @@ def reconstruct(
             stacklevel=2,
         )
     return surface
+
+
+def _report_curtains(scan: PlanarScan, surface: Surface) -> None:
+    """``options["curtains"]``: the faces within CURTAIN_ANGLE_DEG of the line of sight, and
+    a CurtainsWarning naming them when they cover more than CURTAIN_WARN_FRACTION of the
+    area."""
+    recorded = scan.up is not None
+    sight = scan.up if recorded else scan.frame.normal
+    found = curtains(surface.vertices, surface.faces, sight)
+    report = {
+        **found.as_dict(),
+        "sight": "recorded up" if recorded else "projection normal",
+        "angle_deg": CURTAIN_ANGLE_DEG,
+    }
+    surface.options = {**surface.options, "curtains": report}
+    if found.fraction > CURTAIN_WARN_FRACTION:
+        shown = ", ".join(str(f) for f in found.faces[:5])
+        warnings.warn(
+            f"{found.count} face(s) within {CURTAIN_ANGLE_DEG:g} deg of the line of sight"
+            f" ({report['sight']}) cover {100 * found.fraction:.2g} % of the area"
+            f" ({found.area:.6g}; largest faces: {shown}): curtains the scanner's rays pass"
+            " along, probably hung across depth jumps; a gridded scan's method 'grid' or"
+            " 'delaunay' (trimmed) keeps fewer",
+            CurtainsWarning,
+            stacklevel=3,
+        )
 
 
 def _points_steep(scan: PlanarScan, surface: Surface) -> bool:

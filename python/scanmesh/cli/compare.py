@@ -25,6 +25,7 @@ from scanmesh.errors import ScanmeshError
 from scanmesh.evaluate.holdout import HOLDOUT_MEASURE, holdout_error
 from scanmesh.evaluate.truth import DOMAIN_MEASURE, MEASURE, TrueSurface, domain_error, height_error
 from scanmesh.measures import SLIVER_ANGLE_DEG
+from scanmesh.methods import default_initial
 from scanmesh.present.panels import render_compare
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.reconstruction import reconstruct
@@ -81,7 +82,10 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
                 surface, seconds = delaunay_base()
             else:
                 start = 0.0
-                if method in ("lop", "anneal") and kwargs.get("initial", "delaunay") == "delaunay":
+                initial = kwargs.get("initial", "auto")
+                if initial == "auto":
+                    initial = default_initial(scan, kwargs.get("max_edge"))
+                if method in ("lop", "anneal") and initial == "delaunay":
                     kwargs.pop("max_edge", None)
                     kwargs["initial"], start = delaunay_base()
                 t0 = time.perf_counter()

@@ -189,7 +189,8 @@ def check_tile_options(
     method: str, options: dict[str, Any]
 ) -> tuple[dict[str, Any], float | None, int]:
     """The method's options checked by its table entry; returns (params, max_edge, seed).
-    ``initial`` must be "delaunay" (tiles start from the tiled Delaunay triangulation)."""
+    ``initial`` must be "delaunay" or "auto" (tiles start from the tiled Delaunay
+    triangulation)."""
     if method not in METHODS:
         raise ParameterError(f"method {method!r} does not run in tiles; use one of {METHODS}")
     rest = dict(options)
@@ -197,7 +198,7 @@ def check_tile_options(
     if "lines" in shared:
         raise ParameterError("lines= comes from the parts' files in a distributed run")
     params = TABLE[method].check(rest, shared)
-    if params.pop("initial", "delaunay") != "delaunay":
+    if params.pop("initial", "delaunay") not in ("auto", "delaunay"):
         raise ParameterError(
             f"method {method!r} in tiles starts from initial='delaunay' only (got"
             f" {options.get('initial')!r})"
@@ -242,7 +243,7 @@ def tile_blocks(
     method : "delaunay", "lop" or "anneal"
     options : dict
         The method's options as in :data:`scanmesh.methods.TABLE` (``initial`` must be
-        "delaunay"), plus the shared keywords ``max_edge`` and ``seed``.
+        "delaunay" or "auto"), plus the shared keywords ``max_edge`` and ``seed``.
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         The projection plane; None chooses it on a seeded sample of the parts.
     progress : bool or callable

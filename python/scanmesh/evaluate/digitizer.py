@@ -19,12 +19,14 @@ from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.formats.mesh import load_mesh
+from scanmesh.formats.points import ScanPoints
 from scanmesh.scan.axes import AxisSpec, scan_frame
 
 if TYPE_CHECKING:
@@ -216,6 +218,8 @@ class _Scanner:
         self.lo = local.min(axis=0)
         self.hi = local.max(axis=0)
         self.scale = float(np.max(self.hi - self.lo)) or 1.0
+        #: (rays,) int64 triangle each ray of the last cast hit (-1: none)
+        self.last_face = np.empty(0, dtype=np.int64)
 
     def grid(self, spacing: float, line_spacing: float) -> tuple[float, int, float, int]:
         a0, na = _grid_axis(self.lo[0], self.hi[0], spacing)
@@ -229,7 +233,7 @@ class _Scanner:
                 f"spacing {spacing:g} / line_spacing {line_spacing:g} would cast "
                 f"{na * nc:,} rays over a part {self.scale:g} across; use a larger spacing"
             )
-        height, _ = cast_grid(
+        height, face = cast_grid(
             self.tri_uv,
             self.tri_h,
             (a0, c0),
@@ -237,7 +241,17 @@ class _Scanner:
             (na, nc),
             tol=EDGE_TOL * self.scale,
         )
+        self.last_face = face
         return height, grid
+
+    def facing(self, face: np.ndarray) -> np.ndarray:
+        """(n,) float64 |cos| of the angle between the ray and the normal of each hit
+        triangle ``face`` (indices into the mesh; -1 for a table hit gives 1)."""
+        tri = np.concatenate([self.tri_uv, self.tri_h[..., None]], axis=2)[np.maximum(face, 0)]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        length = np.linalg.norm(normal, axis=1)
+        cos = np.abs(normal[:, 2]) / np.where(length > 0, length, 1.0)
+        return np.where(face < 0, 1.0, cos)
 
 
 def simulate_scan(
@@ -289,6 +303,44 @@ def simulate_scan(
     line_ids : (N,) int64
         Line of each point, 0..L-1 in stacking order (lines without hits are skipped).
     """
+    scan = simulate_range_scan(
+        mesh_or_path,
+        up=up,
+        along=along,
+        spacing=spacing,
+        line_spacing=line_spacing,
+        n_points=n_points,
+        noise=noise,
+        table=table,
+        seed=seed,
+    )
+    assert scan.line_ids is not None
+    return scan.points, scan.line_ids
+
+
+def simulate_range_scan(
+    mesh_or_path: trimesh.Trimesh | str | os.PathLike,
+    *,
+    up: AxisSpec = "z",
+    along: AxisSpec = "x",
+    spacing: float | None = None,
+    line_spacing: float | None = None,
+    n_points: int | None = None,
+    noise: float = 0.0,
+    table: bool = False,
+    seed: int | np.random.Generator | None = None,
+    grazing: float = 90.0,
+) -> ScanPoints:
+    """:func:`simulate_scan` with what a range scanner knows besides the points: the grid of
+    rays (``ScanPoints.grid``: row = scan line, column = position along the lines) and the
+    direction the rays came from (``ScanPoints.up``), so that the grid triangulation and the
+    curtain report can use the line of sight. ``grazing`` (degrees, in (0, 90]) drops the
+    samples on faces turned more than this from the ray, as a real scanner loses its
+    returns at grazing angles (the noise is drawn before the dropout, so the kept points
+    are those of the same scan without it). The same points and line ids as
+    :func:`simulate_scan` for ``grazing=90``; ``ScanPoints.source`` is
+    ``Path("simulated")``."""
+
     spacing = _positive(spacing, "spacing")
     line_spacing = _positive(line_spacing, "line_spacing")
     noise_f = float(noise) if isinstance(noise, (int, float, np.floating, np.integer)) else None
@@ -316,6 +368,9 @@ def simulate_scan(
     a0, na, c0, nc = grid
     step_c = line_spacing or spacing
 
+    grazing_f = _positive(grazing, "grazing")
+    if grazing_f is None or grazing_f > 90.0:
+        raise ParameterError(f"grazing must be an angle in (0, 90] degrees, got {grazing!r}")
     hit = np.isfinite(height)
     if table:
         height = np.where(hit, height, scanner.lo[2])
@@ -328,8 +383,21 @@ def simulate_scan(
     if noise_f > 0.0:
         rng = np.random.default_rng(seed)
         points = points - rng.normal(0.0, noise_f, size=len(points))[:, None] * frame[2]
-    _, line_ids = np.unique(j, return_inverse=True)
-    return np.ascontiguousarray(points), line_ids.astype(np.int64)
+    keep = np.ones(len(ray), dtype=bool)
+    if grazing_f < 90.0:
+        keep = scanner.facing(scanner.last_face[ray]) >= math.cos(math.radians(grazing_f))
+    points, i, j = points[keep], i[keep], j[keep]
+    rows, line_ids = np.unique(j, return_inverse=True)
+    cells = np.full((len(rows), na), -1, dtype=np.int64)
+    cells[line_ids, i] = np.arange(len(points))
+    return ScanPoints(
+        points=np.ascontiguousarray(points),
+        line_ids=line_ids.astype(np.int64),
+        source=Path("simulated"),
+        extra={"format": "simulated range scan", "spacing": spacing, "line_spacing": step_c},
+        grid=cells,
+        up=frame[2],
+    )
 
 
 def _search_spacing(
@@ -354,9 +422,9 @@ def _search_spacing(
         hits = len(height) if table else int(np.isfinite(height).sum())
         miss = abs(hits - n_points) / n_points
         if best is None or miss < best[0]:
-            best = (miss, spacing, height, grid)
+            best = (miss, spacing, height, grid, scanner.last_face)
         if miss <= N_POINTS_RTOL or (hits == 0 and spacing < 1e-9 * scanner.scale):
             break
         spacing *= (max(hits, 1) / n_points) ** (1.0 / power)
-    _, spacing, height, grid = best
+    _, spacing, height, grid, scanner.last_face = best
     return spacing, height, grid

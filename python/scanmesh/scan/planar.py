@@ -93,6 +93,11 @@ class PlanarScan:
     #: per-point values the file carried (``ScanPoints.point_data``: colours, intensity,
     #: ...), by name, each (N,); kept on the Surface and written to PLY
     point_data: dict[str, np.ndarray] = field(default_factory=dict)
+    #: (L, K) int64 range grid of point indices (-1: no sample) when the scan came with one
+    #: (``ScanPoints.grid``: a PLY ``range_grid``, a height grid, a simulated range scan)
+    grid: np.ndarray | None = None
+    #: (3,) float64 unit direction towards the scanner when recorded (``ScanPoints.up``)
+    up: np.ndarray | None = None
     #: values derived from the scan, by key (:meth:`once`); not part of the scan's identity
     _derived: dict[Hashable, Any] = field(
         default_factory=dict, init=False, repr=False, compare=False
@@ -199,6 +204,8 @@ def planar_scan(
             timings={"read": seconds, **made.timings},
             source_file=recorded,
             point_data=scan.point_data,
+            grid=scan.grid,
+            up=made.up,
         )
     if read_options:
         raise ParameterError(
@@ -222,8 +229,8 @@ def as_scan(
 ) -> PlanarScan:
     """``points`` as a PlanarScan: projected now from an array (a path is refused as points)
     on ``plane``, or for None on the plane chosen by the data (``up``: the direction the
-    file records, a candidate); or a PlanarScan checked to agree with ``plane`` and
-    ``lines``."""
+    file records, a candidate, kept as ``PlanarScan.up``); or a PlanarScan checked to agree
+    with ``plane`` and ``lines``."""
     if isinstance(points, PlanarScan):
         if plane is not None and not same_plane(plane, points.plane):
             raise ParameterError(
@@ -258,6 +265,7 @@ def as_scan(
         plane=plane,
         choice=choice,
         timings={**timings, "project": time.perf_counter() - t1},
+        up=None if up is None else np.asarray(up, dtype=np.float64),
     )
 
 

@@ -20,8 +20,9 @@ def scan_of(
 ) -> PlanarScan:
     """``source`` checked and projected (:func:`scanmesh.scan.planar.as_scan`); a
     :class:`ScanPoints` gives its points, its line ids (unless ``lines`` is given) and its
-    recorded ``up`` as reading its file would, and its file as the scan's source (recorded
-    now, by absolute path and inode, so that no writer replaces it) and its ``point_data``."""
+    recorded ``up`` and range grid as reading its file would, its file as the scan's source
+    (recorded now, by absolute path and inode, so that no writer replaces it) and its
+    ``point_data``."""
     if isinstance(source, ScanPoints):
         ids = source.line_ids if lines is None else lines
         made = as_scan(source.points, plane=plane, lines=ids, up=source.up)
@@ -30,5 +31,6 @@ def scan_of(
             source=source.source,
             source_file=input_file(source.source),
             point_data=source.point_data,
+            grid=source.grid,
         )
     return as_scan(source, plane=plane, lines=lines)

@@ -13,7 +13,8 @@
 //! - `criteria`: max-min angle and tac (total absolute curvature) with p-norms;
 //! - `triangulate/`: planar Delaunay (delaunator checked exactly, else spade; input indices
 //!   kept) and its trimming: long hull triangles (`trim`), depth jumps and gaps (`jumps`),
-//!   covering holes (`holes`), so outlines and holes stay open;
+//!   covering holes (`holes`), so outlines and holes stay open; the triangulation along a
+//!   range grid, curtains across depth jumps left out (`grid`);
 //! - `strips/`: scan lines detected from point order or given by id, split at gaps
 //!   (`lines`); the Fuchs matrix between two lines, one solver per file (`fuchs/`: weights,
 //!   dp, banded, dijkstra, lookahead, outside); strips stitched into one mesh in parallel
@@ -69,6 +70,9 @@ pub use strips::lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACT
 pub use strips::stitch::{stitch, stitch_part};
 pub use strips::{Method, ScanContext, StripMesh, StripParams};
 pub use triangulate::delaunay::{delaunay, Delaunay};
+pub use triangulate::grid::{
+    grid_triangulate, GridParams, GridTriangles, DEFAULT_GRID_EDGE_FACTOR, DEFAULT_GRID_TURN_DEG,
+};
 pub use triangulate::holes::DEFAULT_HOLE_FACTOR;
 pub use triangulate::jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};
 pub use triangulate::trim::{

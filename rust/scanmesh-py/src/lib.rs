@@ -82,11 +82,20 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         scanmesh_core::DEFAULT_BRIDGE_FACTOR,
     )?;
     m.add("DEFAULT_HOLE_FACTOR", scanmesh_core::DEFAULT_HOLE_FACTOR)?;
+    m.add(
+        "DEFAULT_GRID_TURN_DEG",
+        scanmesh_core::DEFAULT_GRID_TURN_DEG,
+    )?;
+    m.add(
+        "DEFAULT_GRID_EDGE_FACTOR",
+        scanmesh_core::DEFAULT_GRID_EDGE_FACTOR,
+    )?;
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::median_spacing, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::trim_long_edges, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay_trimmed, m)?)?;
+    m.add_function(wrap_pyfunction!(triangulate::grid_triangulate, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(criteria::mesh_quality, m)?)?;
     m.add_function(wrap_pyfunction!(criteria::tac_norm, m)?)?;
@@ -107,6 +116,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<results::StripResult>()?;
     m.add_class::<results::AnnealOutcome>()?;
     m.add_class::<results::TrimmedDelaunay>()?;
+    m.add_class::<results::GridTriangles>()?;
     m.add_class::<results::CheapestFans>()?;
     m.add_class::<results::TextTable>()?;
     Ok(())

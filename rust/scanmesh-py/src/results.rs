@@ -77,6 +77,27 @@ pub(crate) struct TrimmedDelaunay {
     pub seconds: (f64, f64),
 }
 
+/// A range grid triangulated along its neighbours (`grid_triangulate`).
+#[pyclass(frozen, get_all, module = "scanmesh._core")]
+pub(crate) struct GridTriangles {
+    /// (M, 3) int64 faces, counter-clockwise in the plane.
+    pub faces: Ints2,
+    /// Candidate triangles (grid neighbours).
+    pub candidates: usize,
+    /// Candidates dropped for a normal turned more than θ from the line of sight.
+    pub turned: usize,
+    /// Candidates dropped for an edge longer than k x the local grid spacing.
+    pub long: usize,
+    /// Candidates dropped as folded or degenerate in the plane.
+    pub folded: usize,
+    /// Triangles peeled afterwards (pinches, boundary slivers).
+    pub peeled: usize,
+    /// Median grid spacing across the line of sight (input units).
+    pub spacing: f64,
+    /// (K,) int64 points in no face.
+    pub unused: Ints1,
+}
+
 /// The cheapest fans around some vertices (`cheapest_fans`): for K fans found, the
 /// cheapest of each vertex first, fan k is `fans[offsets[k]:offsets[k + 1]]`.
 #[pyclass(frozen, get_all, module = "scanmesh._core")]

@@ -1,17 +1,18 @@
-//! Planar triangulation: projection, Delaunay, its trimming, the median spacing, and the
-//! check that faces form a valid triangulation (`scanmesh_core` triangulate/, projection).
+//! Planar triangulation: projection, Delaunay, its trimming, the median spacing, the
+//! triangulation along a range grid, and the check that faces form a valid triangulation (`scanmesh_core` triangulate/, projection).
 
 use crate::convert::{
     duplicates_out, faces, faces_out, indices_out, points2, points2_view, points3_view,
     shape_error, uv_into, Floats2, Ints1, Ints2,
 };
-use crate::results::TrimmedDelaunay;
+use crate::results::{GridTriangles, TrimmedDelaunay};
 use crate::{to_py, ParameterError};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use scanmesh_core::glam::DVec3;
 use scanmesh_core::{check_finite, HalfEdgeMesh, Plane};
+use std::borrow::Cow;
 
 /// Projects (N, 3) points onto a plane. `plane` is "best-fit", "x", "y" or "z", or None
 /// with `normal` a 3-vector. Returns (uv (N, 2), frame (4, 3): origin, u, v, normal).
@@ -113,6 +114,66 @@ pub(crate) fn delaunay_trimmed<'py>(
         trimmed: indices_out(py, &t.trimmed).unbind(),
         max_edge: t.max_edge,
         seconds: (t.seconds[0], t.seconds[1]),
+    })
+}
+
+/// Triangulates a range grid (`grid_triangulate` in the core): (R, C) int64 `grid` of
+/// point indices (-1: no sample) over (N, 2) `uv` and (N, 3) `points`, seen along the
+/// (3,) `sight`; drops faces turned more than `max_turn_deg` from it or with an edge over
+/// `edge_factor` local grid spacings. Returns a `GridTriangles`.
+#[pyfunction]
+#[pyo3(signature = (
+    grid, uv, points, sight,
+    max_turn_deg=scanmesh_core::DEFAULT_GRID_TURN_DEG,
+    edge_factor=scanmesh_core::DEFAULT_GRID_EDGE_FACTOR,
+))]
+pub(crate) fn grid_triangulate<'py>(
+    py: Python<'py>,
+    grid: PyReadonlyArray2<'py, i64>,
+    uv: PyReadonlyArray2<'py, f64>,
+    points: PyReadonlyArray2<'py, f64>,
+    sight: PyReadonlyArray1<'py, f64>,
+    max_turn_deg: f64,
+    edge_factor: f64,
+) -> PyResult<GridTriangles> {
+    let pts = points2_view(&uv)?;
+    let xyz = points3_view(&points)?;
+    if xyz.len() != pts.len() {
+        return Err(ParameterError::new_err(format!(
+            "{} points for {} planar points",
+            xyz.len(),
+            pts.len()
+        )));
+    }
+    check_finite(&xyz).map_err(to_py)?;
+    let s = sight.as_array();
+    if s.len() != 3 {
+        return Err(shape_error("sight", "(3,)", s.shape()));
+    }
+    let g = grid.as_array();
+    let (rows, cols) = (g.nrows(), g.ncols());
+    // C-ordered grids (every scanmesh reader's) are read in place
+    let cells: Cow<'_, [i64]> = match g.as_slice() {
+        Some(flat) => Cow::Borrowed(flat),
+        None => Cow::Owned(g.iter().copied().collect()),
+    };
+    let params = scanmesh_core::GridParams {
+        sight: DVec3::new(s[0], s[1], s[2]),
+        max_turn_deg,
+        edge_factor,
+    };
+    let t = py
+        .detach(|| scanmesh_core::grid_triangulate(&cells, rows, cols, &pts, &xyz, params))
+        .map_err(to_py)?;
+    Ok(GridTriangles {
+        faces: faces_out(py, &t.triangles).unbind(),
+        candidates: t.candidates,
+        turned: t.turned,
+        long: t.long,
+        folded: t.folded,
+        peeled: t.peeled,
+        spacing: t.spacing,
+        unused: indices_out(py, &t.unused).unbind(),
     })
 }
 

@@ -312,7 +312,7 @@ impl ShortEnough {
 /// the numerically degenerate triangles on the boundary of what is kept and with every
 /// pinch resolved, repeated until neither is left; `to_input` as in [`trim`]. O(m) per
 /// round.
-fn peel_flags(
+pub(crate) fn peel_flags(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     twins: &[u32],

@@ -1,0 +1,652 @@
+//! Triangulation along a range grid: neighbours in the scanner's grid of samples form the
+//! candidate triangles, and a triangle is kept only where the scanner could have seen it
+//! (its normal within a turn of the line of sight, its edges within a multiple of the
+//! local grid spacing), so no curtain hangs across a depth jump.
+//!
+//! ```text
+//!   row r    a ── b        4 corners: split along the shorter 3-D diagonal
+//!            │ ╲  │        (a-e here: triangles a b e and a e d);
+//!   row r+1  d ── e        3 corners: their one triangle; fewer: nothing
+//! ```
+
+use crate::mesh::NONE;
+use crate::triangulate::trim::peel_flags;
+use crate::{Error, Result};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Default largest turn (degrees) of a kept triangle's normal away from the line of sight.
+/// Chosen by benches/curtains.py (figures in docs/benchmarks/curtains.md): over nine
+/// simulated range scans of four CAD parts (noise 0.05 spacings, dropout beyond 80°), the
+/// faces of the plain range grid within 0.25 spacings of the part turn 9.7° at the median
+/// and 80.2° at the 99th percentile, those 0.25 to 2 spacings off it (sheets across walls)
+/// 84.1° at the median, those farther off 88.9°. At 80° with the edge factor 6, no face
+/// more than 2 spacings off is kept and the kept faces' RMS distance to the part is 0.034
+/// spacings (0.616 with nothing dropped); 75° measures 0.033 and drops 1.3 points more of
+/// the area on the part; 85°-88° keep the same faces here.
+pub const DEFAULT_GRID_TURN_DEG: f64 = 80.0;
+
+/// Default edge factor: a triangle with a 3-D edge longer than this multiple of the local
+/// grid spacing (see [`grid_triangulate`]) is dropped. On the same panel the longest edge of
+/// faces within 0.25 spacings of the part is 5.88 spacings at the 99th percentile, of the
+/// sheets 0.25 to 2 spacings off 7.0 at the median; without the turn rule, 6 keeps no face
+/// more than 2 spacings off (8 keeps none either but an RMS distance of 0.070 spacings, ∞
+/// keeps all 88 of them).
+pub const DEFAULT_GRID_EDGE_FACTOR: f64 = 6.0;
+
+/// Rows of the grid per rayon task.
+const ROWS_PER_TASK: usize = 64;
+
+/// The rules of [`grid_triangulate`]: where the scanner looked from and what it can see.
+#[derive(Debug, Clone, Copy)]
+pub struct GridParams {
+    /// The line of sight (either sign; normalized here).
+    pub sight: DVec3,
+    /// θ: the largest turn (degrees, in (0, 90]) of a kept normal from the line of sight.
+    pub max_turn_deg: f64,
+    /// k: the longest kept 3-D edge in local grid spacings (> 0; ∞ turns the rule off).
+    pub edge_factor: f64,
+}
+
+impl GridParams {
+    /// The defaults ([`DEFAULT_GRID_TURN_DEG`], [`DEFAULT_GRID_EDGE_FACTOR`]) along `sight`.
+    pub fn along(sight: DVec3) -> Self {
+        Self {
+            sight,
+            max_turn_deg: DEFAULT_GRID_TURN_DEG,
+            edge_factor: DEFAULT_GRID_EDGE_FACTOR,
+        }
+    }
+}
+
+/// What [`grid_triangulate`] made and why it dropped what it dropped.
+#[derive(Debug, Clone, Default)]
+pub struct GridTriangles {
+    /// Kept triangles, counter-clockwise in the plane (`uv`), over the caller's indices.
+    pub triangles: Vec<[u32; 3]>,
+    /// Candidate triangles (grid neighbours).
+    pub candidates: usize,
+    /// Candidates dropped because their normal turns more than θ from the line of sight.
+    pub turned: usize,
+    /// Candidates dropped for an edge longer than k x the local grid spacing.
+    pub long: usize,
+    /// Candidates dropped because they are folded over or degenerate in the plane.
+    pub folded: usize,
+    /// Triangles dropped afterwards so that the rest is a valid planar triangulation:
+    /// the smaller fans at a pinched vertex, collinear slivers on the boundary.
+    pub peeled: usize,
+    /// Median grid spacing across the line of sight (input units; 0 when there is none).
+    pub spacing: f64,
+    /// The points in no kept triangle (in the grid or not), ascending.
+    pub unused: Vec<u32>,
+}
+
+/// Checks the grid's shape and indices and the two factors.
+fn check(grid: &[i64], rows: usize, cols: usize, n: usize, turn: f64, factor: f64) -> Result<()> {
+    if rows.checked_mul(cols) != Some(grid.len()) {
+        return Err(Error::InvalidParameter {
+            name: "grid",
+            value: format!("{} cells for {rows} x {cols}", grid.len()),
+            expected: "rows x cols cells",
+        });
+    }
+    if let Some(cell) = grid.iter().position(|&g| g < -1 || g >= n as i64) {
+        return Err(Error::InvalidParameter {
+            name: "grid",
+            value: format!("cell {cell} = {} (of {n} points)", grid[cell]),
+            expected: "-1 or the index of a point",
+        });
+    }
+    if !(turn > 0.0 && turn <= 90.0) {
+        return Err(Error::InvalidParameter {
+            name: "max_turn",
+            value: format!("{turn}"),
+            expected: "degrees in (0, 90]",
+        });
+    }
+    if factor.is_nan() || factor <= 0.0 {
+        return Err(Error::InvalidParameter {
+            name: "edge_factor",
+            value: format!("{factor}"),
+            expected: "a positive number (inf: no limit)",
+        });
+    }
+    Ok(())
+}
+
+/// Length of `d` across the unit line of sight `s`, measured on `d` scaled to about 1 so
+/// that coordinates from 1e-300 to 1e300 neither overflow nor underflow.
+fn across(d: DVec3, s: DVec3) -> f64 {
+    let m = d.abs().max_element();
+    if m == 0.0 {
+        return 0.0;
+    }
+    let u = d / m;
+    (u - u.dot(s) * s).length() * m
+}
+
+/// Median of `values` (NaN for none); reorders them. O(n).
+fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Per row, the median spacing between neighbours along it, and per column, between
+/// neighbours across rows, measured across the line of sight (NaN where a row or column
+/// has no neighbouring pair). O(rows x cols).
+fn local_spacings(
+    grid: &[i64],
+    rows: usize,
+    cols: usize,
+    points: &[DVec3],
+    s: DVec3,
+) -> (Vec<f64>, Vec<f64>) {
+    let at = |r: usize, c: usize| grid[r * cols + c];
+    let row_spacing: Vec<f64> = (0..rows)
+        .into_par_iter()
+        .map(|r| {
+            let mut steps: Vec<f64> = (0..cols.saturating_sub(1))
+                .filter_map(|c| match (at(r, c), at(r, c + 1)) {
+                    (a, b) if a >= 0 && b >= 0 => {
+                        Some(across(points[b as usize] - points[a as usize], s))
+                    }
+                    _ => None,
+                })
+                .collect();
+            median(&mut steps)
+        })
+        .collect();
+    let col_spacing: Vec<f64> = (0..cols)
+        .into_par_iter()
+        .map(|c| {
+            let mut steps: Vec<f64> = (0..rows.saturating_sub(1))
+                .filter_map(|r| match (at(r, c), at(r + 1, c)) {
+                    (a, b) if a >= 0 && b >= 0 => {
+                        Some(across(points[b as usize] - points[a as usize], s))
+                    }
+                    _ => None,
+                })
+                .collect();
+            median(&mut steps)
+        })
+        .collect();
+    (row_spacing, col_spacing)
+}
+
+/// The sign of the planar area of (a, b, c): 1, -1, or 0 when degenerate (computed on the
+/// edges scaled to about 1, so that no product overflows or underflows).
+fn area_sign(uv: &[[f64; 2]], a: usize, b: usize, c: usize) -> i8 {
+    let (p, q, r) = (uv[a], uv[b], uv[c]);
+    let e = [q[0] - p[0], q[1] - p[1], r[0] - p[0], r[1] - p[1]];
+    let m = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if m == 0.0 {
+        return 0;
+    }
+    let [ux, uy, vx, vy] = e.map(|x| x / m);
+    let area = ux * vy - uy * vx;
+    if area > 0.0 {
+        1
+    } else if area < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+/// Corners of a grid cell by code: 0 = a (r, c), 1 = b (r, c + 1), 2 = d (r + 1, c),
+/// 3 = e (r + 1, c + 1).
+type Codes = [u8; 3];
+
+/// The candidate triangles of a cell with these corner indices (-1: missing), as corner
+/// codes in the grid's own winding (a b e / a e d or a b d / b e d, or the three present
+/// corners in the same turn).
+fn cell_triangles(corners: [i64; 4], points: &[DVec3], out: &mut Vec<Codes>) {
+    let [a, b, d, e] = corners;
+    let p = |k: i64| points[k as usize];
+    match (a >= 0, b >= 0, d >= 0, e >= 0) {
+        (true, true, true, true) => {
+            if (p(e) - p(a)).length_squared() <= (p(d) - p(b)).length_squared() {
+                out.extend([[0, 1, 3], [0, 3, 2]]);
+            } else {
+                out.extend([[0, 1, 2], [1, 3, 2]]);
+            }
+        }
+        (false, true, true, true) => out.push([1, 3, 2]),
+        (true, false, true, true) => out.push([0, 3, 2]),
+        (true, true, false, true) => out.push([0, 1, 3]),
+        (true, true, true, false) => out.push([0, 1, 2]),
+        _ => {}
+    }
+}
+
+/// The neighbouring cell (offset in rows and columns) across the cell edge between corner
+/// codes `x` and `y`, and the codes of the same two corners there; the diagonal stays in
+/// the cell.
+fn across_edge(x: u8, y: u8) -> (isize, isize, u8, u8) {
+    // corner (dr, dc) of code k: 0 = (0, 0), 1 = (0, 1), 2 = (1, 0), 3 = (1, 1)
+    let (rx, cx, ry, cy) = (
+        (x >> 1) as isize,
+        (x & 1) as isize,
+        (y >> 1) as isize,
+        (y & 1) as isize,
+    );
+    let (dr, dc) = match (rx == ry, cx == cy) {
+        (true, false) => (2 * rx - 1, 0), // a row edge: the cell above (top edge) or below
+        (false, true) => (0, 2 * cx - 1), // a column edge: the cell left or right
+        _ => (0, 0),                      // the diagonal
+    };
+    let code = |r: isize, c: isize| ((r - dr) * 2 + (c - dc)) as u8;
+    (dr, dc, code(rx, cx), code(ry, cy))
+}
+
+/// Half-edge twins of triangles given by cell and corner codes, cells ascending (half-edge
+/// 3t + k runs from corner k of triangle t; NONE on the boundary), from the grid itself:
+/// the twin lies in the same cell or the one across the edge, found through each cell's
+/// first triangle, in parallel. O(m + cells).
+fn grid_twins(cells: &[u32], codes: &[Codes], cols: usize, rows: usize) -> Vec<u32> {
+    let n_cells = (rows - 1) * (cols - 1);
+    let mut first = vec![0u32; n_cells + 1];
+    for &cell in cells {
+        first[cell as usize + 1] += 1;
+    }
+    for k in 0..n_cells {
+        first[k + 1] += first[k];
+    }
+    (0..3 * codes.len())
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .map(|h| {
+            let (t, k) = (h / 3, h % 3);
+            let cell = cells[t] as usize;
+            let (x, y) = (codes[t][k], codes[t][(k + 1) % 3]);
+            let (dr, dc, nx, ny) = across_edge(x, y);
+            let (r, c) = (
+                (cell / (cols - 1)) as isize + dr,
+                (cell % (cols - 1)) as isize + dc,
+            );
+            if r < 0 || c < 0 || r as usize >= rows - 1 || c as usize >= cols - 1 {
+                return NONE;
+            }
+            let other = r as usize * (cols - 1) + c as usize;
+            // the twin runs the other way: from y to x
+            (first[other]..first[other + 1])
+                .filter(|&u| u as usize != t)
+                .find_map(|u| {
+                    let code = codes[u as usize];
+                    (0..3)
+                        .find(|&j| code[j] == ny && code[(j + 1) % 3] == nx)
+                        .map(|j| 3 * u + j as u32)
+                })
+                .unwrap_or(NONE)
+        })
+        .collect()
+}
+
+/// The candidates of a block of rows: those kept (in the grid's winding) with the signs of
+/// their planar areas, and the counts of each verdict.
+#[derive(Default)]
+struct Block {
+    kept: Vec<[u32; 3]>,
+    codes: Vec<Codes>,
+    cells: Vec<u32>,
+    signs: Vec<i8>,
+    candidates: usize,
+    turned: usize,
+    long: usize,
+}
+
+/// What becomes of a candidate: kept, or dropped by which rule.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Verdict {
+    Keep,
+    Turned,
+    Long,
+}
+
+/// Triangulates a range grid: the candidate triangles of every grid cell (a 2 x 2 block of
+/// neighbouring samples; four present corners split along the shorter 3-D diagonal, three
+/// give one triangle), less those the scanner cannot have seen:
+///
+/// - **turned**: the triangle's normal turns more than `params.max_turn_deg` (θ) from the
+///   line of sight `params.sight` (either sign): a sheet across a depth jump stands edge-on to the rays;
+/// - **long**: a 3-D edge exceeds `params.edge_factor` (k) x the local grid spacing, the largest
+///   of the median neighbour spacings (measured across the line of sight) of the cell's
+///   rows and columns;
+/// - **folded**: zero or reversed area in the plane `uv` against the grid's own winding
+///   (the sign most candidates have), so the kept triangles never
+///   overlap locally in the plane;
+/// - **peeled**: then the smaller fans at each pinched vertex and the collinear slivers on
+///   the boundary (as trimming peels them), so the result is a valid planar triangulation
+///   LOP and annealing can start from.
+///
+/// `grid` is `rows x cols`, row-major: `grid[r * cols + c]` the index of the sample at row
+/// `r` (a scan line) and column `c`, or -1 where the scanner saw nothing. `uv` (planar) and
+/// `points` (3-D) share indices. Kept triangles are counter-clockwise in `uv`. O(rows x
+/// cols), in parallel over blocks of rows; the output keeps row order, so it does not
+/// depend on the number of threads.
+///
+/// # Errors
+/// `InvalidParameter` for a grid of the wrong size or with an index out of range, a zero
+/// or non-finite line of sight, θ outside (0, 90], or a factor that is not positive.
+pub fn grid_triangulate(
+    grid: &[i64],
+    rows: usize,
+    cols: usize,
+    uv: &[[f64; 2]],
+    points: &[DVec3],
+    params: GridParams,
+) -> Result<GridTriangles> {
+    let GridParams {
+        sight,
+        max_turn_deg,
+        edge_factor,
+    } = params;
+    let n = points.len().min(uv.len());
+    check(grid, rows, cols, n, max_turn_deg, edge_factor)?;
+    let s = sight.normalize_or_zero();
+    if !s.is_finite() || s == DVec3::ZERO {
+        return Err(Error::InvalidParameter {
+            name: "sight",
+            value: format!("{sight}"),
+            expected: "a non-zero finite direction",
+        });
+    }
+    let (row_spacing, col_spacing) = local_spacings(grid, rows, cols, points, s);
+    let mut all: Vec<f64> = row_spacing
+        .iter()
+        .chain(&col_spacing)
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
+    let spacing = median(&mut all);
+    let spacing = if spacing.is_finite() { spacing } else { 0.0 };
+    let cos_turn = max_turn_deg.to_radians().cos();
+    // The local spacing of a cell: its rows' and columns' medians, the scan's where a row
+    // or column has none.
+    let local = |r: usize, c: usize| -> f64 {
+        [
+            row_spacing[r],
+            row_spacing[(r + 1).min(rows - 1)],
+            col_spacing[c],
+            col_spacing[(c + 1).min(cols - 1)],
+        ]
+        .into_iter()
+        .filter(|x| x.is_finite())
+        .fold(f64::NAN, f64::max)
+    };
+    let judge = |t: &[u32; 3], h: f64| -> Verdict {
+        let [a, b, c] = t.map(|k| points[k as usize]);
+        // edges scaled to about 1: no overflow or underflow from 1e-300 to 1e300
+        let m = (b - a).abs().max_element().max((c - a).abs().max_element());
+        let (e1, e2) = ((b - a) / m, (c - a) / m);
+        let n = e1.cross(e2);
+        let length = n.length();
+        if m == 0.0 || length == 0.0 || n.dot(s).abs() < cos_turn * length {
+            return Verdict::Turned;
+        }
+        let limit = edge_factor * if h.is_finite() { h } else { spacing } / m;
+        let longest = e1
+            .length_squared()
+            .max(e2.length_squared())
+            .max((e2 - e1).length_squared());
+        if longest > limit * limit {
+            return Verdict::Long;
+        }
+        Verdict::Keep
+    };
+    let blocks: Vec<Block> = (0..rows.saturating_sub(1))
+        .collect::<Vec<_>>()
+        .par_chunks(ROWS_PER_TASK)
+        .map(|block| {
+            let mut out = Block::default();
+            let mut cell = Vec::with_capacity(2);
+            for &r in block {
+                for c in 0..cols.saturating_sub(1) {
+                    let at = |i: usize, j: usize| grid[i * cols + j];
+                    cell.clear();
+                    let corners = [at(r, c), at(r, c + 1), at(r + 1, c), at(r + 1, c + 1)];
+                    cell_triangles(corners, points, &mut cell);
+                    let h = local(r, c);
+                    for code in &cell {
+                        out.candidates += 1;
+                        let t = code.map(|k| corners[k as usize] as u32);
+                        match judge(&t, h) {
+                            Verdict::Keep => {
+                                out.kept.push(t);
+                                out.codes.push(*code);
+                                out.cells.push((r * (cols - 1) + c) as u32);
+                                let [a, b, c] = t.map(|k| k as usize);
+                                out.signs.push(area_sign(uv, a, b, c));
+                            }
+                            Verdict::Turned => out.turned += 1,
+                            Verdict::Long => out.long += 1,
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let total: i64 = blocks
+        .iter()
+        .flat_map(|b| b.signs.iter())
+        .map(|&x| i64::from(x))
+        .sum();
+    let sign: i8 = if total < 0 { -1 } else { 1 };
+    let mut out = GridTriangles {
+        spacing,
+        ..GridTriangles::default()
+    };
+    let total_kept = blocks.iter().map(|b| b.kept.len()).sum();
+    out.triangles.reserve(total_kept);
+    let (mut codes, mut cells) = (
+        Vec::with_capacity(total_kept),
+        Vec::with_capacity(total_kept),
+    );
+    for block in blocks {
+        out.candidates += block.candidates;
+        out.turned += block.turned;
+        out.long += block.long;
+        let rows = block
+            .kept
+            .into_iter()
+            .zip(block.signs)
+            .zip(block.codes)
+            .zip(block.cells);
+        for (((t, area), code), cell) in rows {
+            if area == sign {
+                let flip = sign < 0;
+                out.triangles
+                    .push(if flip { [t[0], t[2], t[1]] } else { t });
+                codes.push(if flip {
+                    [code[0], code[2], code[1]]
+                } else {
+                    code
+                });
+                cells.push(cell);
+            } else {
+                out.folded += 1;
+            }
+        }
+    }
+    // Cells dropped around a vertex can leave it joining two fans (a pinch); LOP and
+    // annealing need a manifold start, as trimming gives them. The twins come from the
+    // grid's edges, so no half-edge search is needed.
+    if !out.triangles.is_empty() {
+        let twins = grid_twins(&cells, &codes, cols, rows);
+        let kept = out.triangles.len();
+        let keep = vec![true; kept];
+        out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None);
+        out.peeled = kept - out.triangles.len();
+    }
+    let mut used = vec![false; points.len()];
+    for t in &out.triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    out.unused = (0..points.len() as u32)
+        .filter(|&v| !used[v as usize])
+        .collect();
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rules(sight: DVec3, max_turn_deg: f64, edge_factor: f64) -> GridParams {
+        GridParams {
+            sight,
+            max_turn_deg,
+            edge_factor,
+        }
+    }
+
+    /// A rows x cols grid of unit spacing in x, y with heights `h(r, c)`, seen along z.
+    fn terrain(
+        rows: usize,
+        cols: usize,
+        h: impl Fn(usize, usize) -> f64,
+    ) -> (Vec<i64>, Vec<[f64; 2]>, Vec<DVec3>) {
+        let mut pts = Vec::new();
+        for r in 0..rows {
+            for c in 0..cols {
+                pts.push(DVec3::new(c as f64, r as f64, h(r, c)));
+            }
+        }
+        let uv = pts.iter().map(|p| [p.x, p.y]).collect();
+        ((0..(rows * cols) as i64).collect(), uv, pts)
+    }
+
+    #[test]
+    fn flat_grid_gives_two_triangles_per_cell_counter_clockwise() {
+        let (g, uv, p) = terrain(4, 5, |_, _| 0.0);
+        let t = grid_triangulate(&g, 4, 5, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.triangles.len(), 2 * 3 * 4);
+        assert_eq!(t.candidates, 24);
+        assert!((t.spacing - 1.0).abs() < 1e-12);
+        for f in &t.triangles {
+            assert_eq!(
+                area_sign(&uv, f[0] as usize, f[1] as usize, f[2] as usize),
+                1
+            );
+        }
+    }
+
+    #[test]
+    fn a_step_loses_its_curtain_and_keeps_both_levels() {
+        // columns 0..3 at height 0, columns 3.. at height 10: the cells between columns 2
+        // and 3 stand edge-on to the rays
+        let (g, uv, p) = terrain(5, 6, |_, c| if c >= 3 { 10.0 } else { 0.0 });
+        let t = grid_triangulate(&g, 5, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.turned, 2 * 4);
+        assert_eq!(t.triangles.len(), 2 * 4 * 4);
+        // with no turn limit the edge rule still drops them (10 > 6 spacings)
+        let t = grid_triangulate(&g, 5, 6, &uv, &p, rules(DVec3::Z, 90.0, 6.0)).unwrap();
+        assert_eq!(t.long, 2 * 4);
+    }
+
+    #[test]
+    fn missing_samples_leave_three_corner_cells_and_holes() {
+        let (mut g, uv, p) = terrain(5, 5, |_, _| 0.0);
+        g[12] = -1; // (2, 2): its four cells keep one triangle each, the rest two
+        let t = grid_triangulate(&g, 5, 5, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.triangles.len(), 2 * 16 - 4);
+        assert!(t.triangles.iter().all(|f| !f.contains(&12)));
+        assert_eq!(t.unused, vec![12]);
+        assert_eq!(t.peeled, 0);
+    }
+
+    #[test]
+    fn reversed_rows_are_wound_counter_clockwise_and_folds_are_dropped() {
+        let (g, uv, p) = terrain(3, 3, |_, _| 0.0);
+        let flipped: Vec<[f64; 2]> = uv.iter().map(|q| [q[0], -q[1]]).collect();
+        let t = grid_triangulate(&g, 3, 3, &flipped, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!(t.triangles.len(), 8);
+        for f in &t.triangles {
+            assert_eq!(
+                area_sign(&flipped, f[0] as usize, f[1] as usize, f[2] as usize),
+                1
+            );
+        }
+        let mut folded = uv.clone();
+        folded[4] = [3.0, 1.0]; // the centre pulled past its right neighbour
+        let t =
+            grid_triangulate(&g, 3, 3, &folded, &p, rules(DVec3::Z, 90.0, f64::INFINITY)).unwrap();
+        assert!(t.folded > 0);
+    }
+
+    #[test]
+    fn pinches_are_peeled_so_the_result_is_a_valid_triangulation() {
+        // samples missing so that two triangles meet at the centre (1, 1) only
+        let (mut g, uv, p) = terrain(3, 3, |_, _| 0.0);
+        for k in [2, 3, 5, 6] {
+            g[k] = -1;
+        }
+        let t = grid_triangulate(&g, 3, 3, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert_eq!((t.peeled, t.triangles.len()), (1, 1));
+        let (g, uv, p) = terrain(6, 6, |r, c| if r >= 3 && c >= 3 { 9.0 } else { 0.0 });
+        let t = grid_triangulate(&g, 6, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        let unit = crate::unit_square(&uv);
+        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        mesh.validate(&unit).unwrap();
+    }
+
+    #[test]
+    fn grid_twins_are_the_half_edge_meshs_twins() {
+        let (rows, cols) = (7, 9);
+        let (mut g, _, p) = terrain(rows, cols, |r, c| ((r * 7 + c * 3) % 5) as f64 * 0.1);
+        for k in [3, 11, 12, 30, 40, 41, 62] {
+            g[k] = -1;
+        }
+        let (mut tris, mut codes, mut cells) = (Vec::new(), Vec::new(), Vec::new());
+        for r in 0..rows - 1 {
+            for c in 0..cols - 1 {
+                let at = |i: usize, j: usize| g[i * cols + j];
+                let corners = [at(r, c), at(r, c + 1), at(r + 1, c), at(r + 1, c + 1)];
+                let mut cell = Vec::new();
+                cell_triangles(corners, &p, &mut cell);
+                for code in cell {
+                    // the grid's winding is clockwise in (x, y) here: flip to counter-clockwise
+                    let code = [code[0], code[2], code[1]];
+                    tris.push(code.map(|k| corners[k as usize] as u32));
+                    codes.push(code);
+                    cells.push((r * (cols - 1) + c) as u32);
+                }
+            }
+        }
+        let mesh = crate::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
+        let expected: Vec<u32> = (0..3 * tris.len() as u32).map(|h| mesh.twin(h)).collect();
+        assert_eq!(grid_twins(&cells, &codes, cols, rows), expected);
+    }
+
+    #[test]
+    fn extreme_magnitudes_give_the_same_triangles() {
+        let (g, uv, p) = terrain(5, 6, |_, c| if c >= 3 { 10.0 } else { 0.1 * c as f64 });
+        let t = grid_triangulate(&g, 5, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        for scale in [1e-300, 1e-150, 1e150, 1e300] {
+            let uv_s: Vec<[f64; 2]> = uv.iter().map(|q| [q[0] * scale, q[1] * scale]).collect();
+            let p_s: Vec<DVec3> = p.iter().map(|q| *q * scale).collect();
+            let s = grid_triangulate(&g, 5, 6, &uv_s, &p_s, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+            assert_eq!(s.triangles, t.triangles, "scale {scale}");
+        }
+    }
+
+    #[test]
+    fn bad_grids_and_parameters_are_refused() {
+        let (g, uv, p) = terrain(2, 2, |_, _| 0.0);
+        assert!(grid_triangulate(&g, 2, 3, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).is_err());
+        assert!(
+            grid_triangulate(&[0, 1, 2, 9], 2, 2, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).is_err()
+        );
+        assert!(grid_triangulate(&g, 2, 2, &uv, &p, rules(DVec3::ZERO, 80.0, 6.0)).is_err());
+        assert!(grid_triangulate(&g, 2, 2, &uv, &p, rules(DVec3::Z, f64::NAN, 6.0)).is_err());
+        assert!(grid_triangulate(&g, 2, 2, &uv, &p, rules(DVec3::Z, 80.0, 0.0)).is_err());
+        let empty = grid_triangulate(&[], 0, 0, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert!(empty.triangles.is_empty());
+    }
+}

@@ -1,0 +1,215 @@
+"""The triangulation along a range grid, the "grid" start of LOP and annealing, simulated
+range scans, and the curtain report."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+import trimesh
+
+import scanmesh
+from conftest import DATA
+from scanmesh import _core
+from scanmesh.cli import main
+from scanmesh.errors import CurtainsWarning, ParameterError
+from scanmesh.evaluate.digitizer import simulate_range_scan
+from scanmesh.formats.grid import height_grid
+from scanmesh.measures import CURTAIN_ANGLE_DEG, curtains
+from scanmesh.methods import default_initial
+from scanmesh.scan.planar import planar_scan
+from scanmesh.stages.grid import sight_of
+
+STEPS = DATA / "scans" / "steps_range_grid.ply"
+POCKET = DATA / "cad" / "octagonal_pocket.ply"
+
+
+def steps_range_grid() -> str:
+    """The text of tests/data/scans/steps_range_grid.ply: a Cyberware-style range grid (24
+    frames of 20 samples, 0.5 apart, seen along z) of a block 10 high on a gentle slope,
+    with a 3 x 3 hole the scanner did not see."""
+    cols, rows, step = 24, 20, 0.5
+    cells, pts = [], []
+    for r in range(rows):
+        for c in range(cols):
+            x, y = c * step, r * step
+            if 4 <= r <= 6 and 17 <= c <= 19:
+                cells.append("0")
+                continue
+            z = 10.0 if 8 <= c <= 15 and 5 <= r <= 14 else 0.02 * x
+            cells.append(f"1 {len(pts)}")
+            pts.append((x, y, z))
+    head = [
+        "ply",
+        "format ascii 1.0",
+        "comment synthetic range grid: a block on a slope, seen along z",
+        "obj_info is_cyberware_data 1",
+        f"obj_info num_cols {cols}",
+        f"obj_info num_rows {rows}",
+        f"obj_info echo_lgincr {step}",
+        f"element vertex {len(pts)}",
+        "property float x",
+        "property float y",
+        "property float z",
+        f"element range_grid {rows * cols}",
+        "property list uchar int vertex_indices",
+        "end_header",
+    ]
+    body = [f"{x:g} {y:g} {z:g}" for x, y, z in pts] + cells
+    return "\n".join(head + body) + "\n"
+
+
+def test_the_test_file_is_what_its_generator_writes():
+    assert STEPS.read_text() == steps_range_grid()
+
+
+def _angles_to_sight(points: np.ndarray, faces: np.ndarray, sight) -> np.ndarray:
+    """Degrees between each face's plane and the line of sight, face by face (brute force)."""
+    s = np.asarray(sight, dtype=float) / np.linalg.norm(sight)
+    out = []
+    for f in faces:
+        a, b, c = points[f]
+        n = np.cross(b - a, c - a)
+        out.append(math.degrees(math.asin(min(1.0, abs(n @ s) / np.linalg.norm(n)))))
+    return np.array(out)
+
+
+def test_grid_drops_the_curtains_of_a_range_grid_ply_and_keeps_both_levels():
+    sp = scanmesh.read(STEPS)
+    assert sp.grid.shape == (24, 20)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", CurtainsWarning)
+        s = scanmesh.reconstruct(sp, "grid")
+    pts = sp.points
+    # every face is seen by the scanner: its normal within max_turn of the line of sight
+    # (no recorded up: the normal of the plane chosen), its edges short
+    normal_tilt = 90 - _angles_to_sight(pts, s.faces, sight_of(s.scan))
+    assert normal_tilt.max() <= s.options["max_turn"]
+    edges = np.linalg.norm(pts[s.faces] - pts[np.roll(s.faces, 1, axis=1)], axis=2)
+    assert edges.max() <= s.options["edge_factor"] * 0.5 * 1.0001
+    assert s.options["dropped_turned"] > 0 and s.options["curtains"]["count"] == 0
+    # the block's top and the slope around it are both there; the hole stays open
+    top = np.flatnonzero(np.isclose(pts[:, 2], 10.0))
+    assert np.isin(top, s.faces).all()
+    on_top = np.isin(s.faces, top)
+    assert np.all(on_top.all(axis=1) | ~on_top.any(axis=1))  # no face hangs from the block
+    _core.validate(s.scan.uv, s.faces)
+    # Delaunay of the whole hull hangs sheets from the block: the report names them
+    with pytest.warns(CurtainsWarning, match="within 5 deg of the line of sight"):
+        hull = scanmesh.reconstruct(sp, "delaunay", max_edge=math.inf)
+    assert hull.options["curtains"]["count"] > 0
+
+
+def test_a_flat_height_grid_gives_two_triangles_per_cell():
+    z = np.fromfunction(lambda i, j: 0.1 * i + 0.05 * j, (6, 7))
+    s = scanmesh.reconstruct(height_grid(z, cell=2.0), "grid")
+    assert len(s.faces) == 2 * 5 * 6
+    assert s.options["spacing"] == pytest.approx(2.0, rel=1e-2)
+    assert len(s.options["trimmed"]) == 0
+
+
+def test_edge_factor_and_max_turn_are_obeyed():
+    sp = scanmesh.read(STEPS)
+    with pytest.warns(CurtainsWarning):
+        loose = scanmesh.reconstruct(sp, "grid", max_turn=90.0, edge_factor=math.inf)
+    strict = scanmesh.reconstruct(sp, "grid", max_turn=90.0, edge_factor=4.0)
+    assert len(loose.faces) > len(strict.faces)  # the sheets (20 spacings tall) go at k = 4
+    assert strict.options["dropped_long"] > 0 and loose.options["dropped_long"] == 0
+    for bad in ({"max_turn": 0.0}, {"max_turn": 91.0}, {"edge_factor": -1.0}):
+        with pytest.raises(ParameterError):
+            scanmesh.reconstruct(sp, "grid", **bad)
+
+
+def test_grid_needs_a_grid():
+    pts = np.random.default_rng(0).random((50, 3))
+    with pytest.raises(ParameterError, match="range grid"):
+        scanmesh.reconstruct(pts, "grid", plane="z")
+
+
+def test_simulated_range_scans_keep_simulate_scans_points_and_know_their_grid():
+    sp = simulate_range_scan(POCKET, up="z", n_points=3000, noise=1e-4, seed=3)
+    pts, ids = scanmesh.simulate_scan(POCKET, up="z", n_points=3000, noise=1e-4, seed=3)
+    np.testing.assert_array_equal(sp.points, pts)
+    np.testing.assert_array_equal(sp.line_ids, ids)
+    np.testing.assert_array_equal(sp.up, [0, 0, 1])
+    # each row of the grid is one line, in order along x
+    for line, row in enumerate(sp.grid):
+        members = row[row >= 0]
+        assert np.all(ids[members] == line) and np.all(np.diff(pts[members, 0]) > 0)
+    assert (sp.grid >= 0).sum() == len(pts)
+    rod = DATA / "cad" / "conrod_slevin48_onshape.stl"  # round bosses, seen from the side
+    whole = simulate_range_scan(rod, up="x", along="y", n_points=3000)
+    dropped = simulate_range_scan(rod, up="x", along="y", n_points=3000, grazing=60.0)
+    assert 0.5 * len(whole.points) < len(dropped.points) < len(whole.points)
+    assert np.isin(dropped.points, whole.points).all()
+    with pytest.raises(ParameterError, match="grazing"):
+        simulate_range_scan(POCKET, up="z", n_points=3000, grazing=0.0)
+
+
+def test_grid_faces_lie_on_the_part_where_delaunay_bridges_its_walls():
+    sp = simulate_range_scan(POCKET, up="z", n_points=6000)
+    truth = trimesh.load(POCKET, force="mesh")
+    s = scanmesh.reconstruct(sp, "grid")
+    hull = scanmesh.delaunay(sp, max_edge=math.inf)
+    spacing = s.options["spacing"]
+
+    def off(faces):
+        centroids = sp.points[faces].mean(axis=1)
+        return np.abs(trimesh.proximity.closest_point(truth, centroids)[1])
+
+    assert off(s.faces).max() <= 2 * spacing
+    assert off(hull.faces).max() > 2 * spacing  # the check can fail
+
+
+def test_lop_and_annealing_start_from_the_grid_of_a_gridded_scan():
+    sp = simulate_range_scan(POCKET, up="z", n_points=3000)
+    scan = planar_scan(sp.points, plane="z")
+    assert default_initial(scan) == "delaunay"
+    gridded = scanmesh.scan.planar.as_scan(sp.points, plane="z")
+    assert gridded.grid is None
+    start = scanmesh.reconstruct(sp, "grid")
+    assert default_initial(start.scan) == "grid"
+    for method, extra in (("lop", {}), ("anneal", {"sweeps": 5})):
+        s = scanmesh.reconstruct(sp, method, **extra)
+        assert s.options["initial"] == "grid"
+        _core.validate(s.scan.uv, s.faces)
+        # flips stay inside the start's domain: the same outline and holes
+        loops = {frozenset(loop.tolist()) for loop in s.boundary_loops()}
+        assert loops == {frozenset(loop.tolist()) for loop in start.boundary_loops()}
+    explicit = scanmesh.reconstruct(sp, "lop", initial="delaunay")
+    assert explicit.options["initial"] == "delaunay"
+    arrays = scanmesh.reconstruct(sp.points, "lop", plane="z")
+    assert arrays.options["initial"] == "delaunay"
+
+
+def test_curtains_agree_with_a_brute_force_count():
+    rng = np.random.default_rng(7)
+    pts = rng.normal(size=(60, 3))
+    faces = np.array([rng.choice(60, 3, replace=False) for _ in range(200)])
+    sight = np.array([0.3, -0.2, 1.0])
+    found = curtains(pts, faces, sight)
+    angles = _angles_to_sight(pts, faces, sight)
+    graze = angles <= CURTAIN_ANGLE_DEG
+    area = 0.5 * np.linalg.norm(
+        np.cross(pts[faces[:, 1]] - pts[faces[:, 0]], pts[faces[:, 2]] - pts[faces[:, 0]]), axis=1
+    )
+    assert found.count == graze.sum() > 0
+    assert found.area == pytest.approx(area[graze].sum())
+    assert found.fraction == pytest.approx(area[graze].sum() / area.sum())
+    assert set(found.faces.tolist()) == set(np.flatnonzero(graze).tolist())
+
+
+def test_the_command_reports_curtains(tmp_path):
+    report = tmp_path / "r.json"
+    args = ["reconstruct", str(STEPS), "-o", str(tmp_path / "m.stl"), "--report", str(report)]
+    assert main([*args, "--method", "grid", "-q"]) == 0
+    data = json.loads(report.read_text())
+    assert data["options"]["curtains"]["count"] == 0
+    assert data["options"]["curtains"]["sight"] == "projection normal"
+    assert main([*args, "--method", "delaunay", "--max-edge", "inf", "-q"]) == 0
+    data = json.loads(report.read_text())
+    assert data["options"]["curtains"]["count"] > 0
+    assert any("line of sight" in w for w in data["warnings"])
