@@ -15,10 +15,10 @@ against the CAD truth and its ratio to Delaunay's, and wall time. The height RMS
 :func:`scanmesh.evaluate.truth.height_error`, but every face sampled at points drawn from its own
 vertex ids, so that meshes sharing most faces are compared on the same points (independent
 samples scatter the ratio by about 0.4 %, as much as the differences on the noisy rod).
-``anneal`` is the default (noise-aware) annealing; ``anneal, planar ties`` the same with
-``planar_ties=True`` (flips between corners flat up to the noise judged by the planar
-angle); ``anneal, exact ties`` the annealing before noise awareness
-(``tie_tolerance=1e-10``).
+``anneal`` is the default annealing (exact ties); ``anneal, noise ties`` anneals with the
+tie tolerance from the noise estimate (``tie_tolerance=None``), ``anneal, planar ties`` the
+same with ``planar_ties=True`` (flips between corners flat up to the noise judged by the
+planar angle).
 
 Real scans (``fran_cut.vtk``, ``SainteHelens.dem``, the LAS ground returns, class 2) have
 no truth: :func:`scanmesh.evaluate.holdout.holdout_error` withholds 10 % of the points (seed 0),
@@ -67,8 +67,8 @@ VARIANTS = (
     ("shortest-path", "shortest-path", {}),
     ("lop", "lop", {}),
     ("anneal", "anneal", {}),
-    ("anneal, planar ties", "anneal", {"planar_ties": True}),
-    ("anneal, exact ties", "anneal", {"tie_tolerance": 1e-10}),
+    ("anneal, noise ties", "anneal", {"tie_tolerance": None}),
+    ("anneal, planar ties", "anneal", {"tie_tolerance": None, "planar_ties": True}),
 )
 
 #: Real scans: name -> (file under shared/data, reader options, projection plane).
