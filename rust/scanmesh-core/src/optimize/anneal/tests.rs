@@ -271,7 +271,37 @@ fn invalid_parameters_are_refused() {
             tie_tolerance: -1.0,
             ..Default::default()
         },
+        AnnealParams {
+            sliver_angle: 60.0,
+            ..Default::default()
+        },
     ] {
         assert!(Annealer::new(st.clone(), bad).is_err());
     }
+}
+
+#[test]
+fn the_automatic_schedule_shares_its_budget_among_the_chains() {
+    let p = AnnealParams::default();
+    // one chain (many edges): the budget per point over the edges, rounded up
+    let (n, edges) = (1_000_000, 3_000_000);
+    let per_point = AUTO_PROPOSALS_PER_POINT as usize * n;
+    assert_eq!(p.chain_count(edges), 1);
+    assert_eq!(p.auto_sweeps(n, edges), per_point.div_ceil(edges));
+    // a small scan: at least AUTO_MIN_PROPOSALS in all, shared by its automatic chains
+    let (n, edges) = (2_000, 5_800);
+    let chains = p.chain_count(edges);
+    assert!(chains > 1);
+    let expected = (AUTO_MIN_PROPOSALS as usize).div_ceil(chains * edges);
+    assert_eq!(
+        p.auto_sweeps(n, edges),
+        expected.clamp(AUTO_MIN_SWEEPS, p.sweeps)
+    );
+    // never fewer than AUTO_MIN_SWEEPS, never more than the sweeps asked for
+    assert_eq!(p.auto_sweeps(10_000_000, 100_000_000), AUTO_MIN_SWEEPS);
+    let short = AnnealParams {
+        sweeps: 20,
+        ..Default::default()
+    };
+    assert_eq!(short.auto_sweeps(100, 250), 20);
 }
