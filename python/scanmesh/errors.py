@@ -3,6 +3,7 @@
 from scanmesh._core import (
     DegenerateInputError,
     InvalidMeshError,
+    MemoryLimitError,
     ParameterError,
     ScanmeshError,
 )
@@ -50,6 +51,7 @@ for _cls in (
     DegenerateInputError,
     ParameterError,
     InvalidMeshError,
+    MemoryLimitError,
     FileFormatError,
     MissingFileError,
     MissingExtraError,
@@ -65,6 +67,7 @@ __all__ = [
     "DegenerateInputError",
     "ParameterError",
     "InvalidMeshError",
+    "MemoryLimitError",
     "FileFormatError",
     "MissingFileError",
     "MissingExtraError",

@@ -46,6 +46,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// below any real difference (a millionth of a step per edge).
 pub const TIE_BREAK: f64 = 1e-6;
 
+/// Peak memory of [`stitch_part`] per input point, checked before it starts: a whole
+/// shortest-path run (Python's part included) needs about 130 bytes a point more address
+/// space (bisected on 200,000 and 800,000 points, docs/benchmarks/memory.md), plus room.
+const PEAK_BYTES_PER_POINT: u64 = 250;
+
 /// Points or triangles per rayon task in the passes over all of them: large enough that
 /// splitting costs nothing next to the work, small enough to share a million among threads.
 pub(super) const BLOCK: usize = 1 << 14;
@@ -342,6 +347,10 @@ pub fn stitch_part(
     params: &StripParams,
     context: Option<&ScanContext>,
 ) -> Result<(StripMesh, Vec<(u32, u32)>)> {
+    crate::budget::check_stage(
+        || format!("strips on {} points", uv.len()),
+        PEAK_BYTES_PER_POINT.saturating_mul(uv.len() as u64),
+    )?;
     let median = context.map(|c| c.median_step);
     let mut scan = crate::strips::lines::segment_lines_at(uv, line_ids, gap_factor, median)?;
     check_jump_factor(params.jump_factor)?;
