@@ -190,7 +190,8 @@ def strip_mesh(
     gap_factor: float,
     check: bool = True,
     jump_factor: float = ...,
-    context: tuple[Sequence[float], Sequence[float], float, float, bool] | None = None,
+    context: tuple[Sequence[float], Sequence[float], float, float, bool, tuple[int, int] | None]
+    | None = None,
 ) -> StripResult: ...
 
 @final

@@ -89,6 +89,7 @@ fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
                 largest_planar: largest,
                 median_step: median,
                 first_turned: first % 2 == 1,
+                own_rows: None,
             };
             let (part, _) = stitch_part(
                 &pts[start..end],
