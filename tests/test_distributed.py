@@ -110,6 +110,47 @@ def test_strips_are_the_single_process_file_byte_for_byte(
     assert result.options["planar_valid"] is True and not leftovers(tmp_path)
 
 
+def stepped_scan(rows: int = 24, cols: int = 30, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Zig-zag lines over two depth steps, one across the lines (between lines 10 and 11)
+    and one along them, every fifth line swinging 1.2 line spacings to each side, so that it
+    crosses its neighbours: strips are dropped at jumps and overlaps near every border."""
+    rng = np.random.default_rng(seed)
+    pts, ids = [], []
+    for r in range(rows):
+        c = np.arange(cols, dtype=float)[:: -1 if r % 2 else 1]
+        x = c * 0.5 + rng.normal(0, 0.03, cols)
+        y = r * 0.7 + rng.normal(0, 0.03, cols) + 1.2 * np.sin(1.3 * x + r) * (r % 5 == 2)
+        z = 3.0 * (x > 8.0 + 0.3 * np.sin(r)) + 2.5 * (y > 7.3) + rng.normal(0, 0.01, cols)
+        pts.append(np.column_stack([x, y, z]))
+        ids.append(np.full(cols, r))
+    return np.concatenate(pts), np.concatenate(ids)
+
+
+def test_drops_at_jumps_and_crossings_near_borders_are_the_single_process_ones(client, tmp_path):
+    """Depth jumps and crossing lines at partition borders: every partitioning gives the
+    one-process file. Each partition decided the drops there on its own triangles before
+    (a depth jump's local spacing saw one side of the border line; 2 to 159 faces
+    differed), now also on the lines beyond its borders."""
+    points, ids = stepped_scan()
+    single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
+    assert single.options["dropped_jumps"] > 50 and single.options["dropped_overlaps"] > 200
+    single.save(tmp_path / "single.ply")
+    paths = write_files(tmp_path, points, ids, [0, 7, 11, 16, 24])
+    for partition_lines in (None, *range(2, 9)):
+        out = tmp_path / "dask.ply"
+        result = reconstruct_distributed(
+            paths,
+            "shortest-path",
+            client=client,
+            output=out,
+            partition_lines=partition_lines,
+            plane="z",
+        )
+        assert out.read_bytes() == (tmp_path / "single.ply").read_bytes(), partition_lines
+        assert result.options["cost"] == pytest.approx(single.options["cost"], rel=1e-12)
+        assert result.options["unused"] == len(single.options["unused"]), partition_lines
+
+
 def test_text_files_a_glob_and_a_detected_plane(client, scan, tmp_path):
     points, ids = scan
     write_files(tmp_path, points, ids, [0, 40, 80, 200], ending=".xyz")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from math import comb
 
 import numpy as np
@@ -294,6 +295,41 @@ def test_time_limit_gives_an_honest_uncertified_triangulation():
     assert (
         result.quality.tac_1 <= scanmesh.delaunay(pts, plane="z", max_edge=math.inf).quality.tac_1
     )
+
+
+@pytest.mark.parametrize("strengthen", [False, True])
+def test_every_highs_call_is_given_only_the_time_left(monkeypatch, strengthen):
+    """time_limit=8 spent 53 s. Every HiGHS call is given what is left of the limit, counted
+    from the start: the enumeration of empty triangles is made to take 10 s of a 30 s limit
+    (a clock that jumps, not a measured time), so no call may be given more than 20 s. The
+    fan cuts' master LPs were given no limit before, the MILP 30 s less only the cuts' time."""
+    import scipy.optimize
+
+    limit, jump, offset, calls = 30.0, 10.0, [0.0], []
+    clock = time.perf_counter
+    monkeypatch.setattr(time, "perf_counter", lambda: clock() + offset[0])
+
+    def slow_enumeration(*args):
+        offset[0] += jump
+        return enumerate_empty(*args)
+
+    def recording(solver):
+        def call(*args, **kwargs):
+            calls.append((solver.__name__, (kwargs.get("options") or {}).get("time_limit")))
+            return solver(*args, **kwargs)
+
+        return call
+
+    enumerate_empty = _core.empty_triangles
+    monkeypatch.setattr(_core, "empty_triangles", slow_enumeration)
+    monkeypatch.setattr(scipy.optimize, "linprog", recording(scipy.optimize.linprog))
+    monkeypatch.setattr(scipy.optimize, "milp", recording(scipy.optimize.milp))
+    result = optimal_surface(bumpy(12, 7), plane="z", time_limit=limit, strengthen=strengthen)
+    assert result.certified
+    names = [name for name, _ in calls]
+    assert names.count("milp") == 1 and (names.count("linprog") >= 1) == strengthen, names
+    for name, given in calls:
+        assert given is not None and 0 < given <= limit - jump, (name, given)
 
 
 # --- heuristics against the optimum -------------------------------------------------------

@@ -14,6 +14,7 @@ __all__ = [
     "DegenerateInputError",
     "ParameterError",
     "InvalidMeshError",
+    "MemoryLimitError",
     "SLIVER_ANGLE_DEG",
     "DEFAULT_BRIDGE_FACTOR",
     "DEFAULT_HOLE_FACTOR",
@@ -56,6 +57,7 @@ class ScanmeshError(ValueError): ...
 class DegenerateInputError(ScanmeshError): ...
 class ParameterError(ScanmeshError): ...
 class InvalidMeshError(ScanmeshError): ...
+class MemoryLimitError(ScanmeshError, MemoryError): ...
 
 SLIVER_ANGLE_DEG: float
 DEFAULT_BRIDGE_FACTOR: float
@@ -202,7 +204,8 @@ def strip_mesh(
     gap_factor: float,
     check: bool = True,
     jump_factor: float = ...,
-    context: tuple[Sequence[float], Sequence[float], float, float, bool] | None = None,
+    context: tuple[Sequence[float], Sequence[float], float, float, bool, tuple[int, int] | None]
+    | None = None,
 ) -> StripResult: ...
 
 @final

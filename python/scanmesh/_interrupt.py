@@ -23,6 +23,8 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any, TypeVar
 
+from scanmesh.errors import MemoryLimitError
+
 T = TypeVar("T")
 
 #: Calls of an expected cost below this run directly (they return within milliseconds).
@@ -74,7 +76,12 @@ def _in_worker(fn: Callable[..., T], *args: Any) -> T:
             box["error"] = exc
 
     worker = threading.Thread(target=work, name="scanmesh-native", daemon=True)
-    worker.start()
+    try:
+        worker.start()
+    except RuntimeError as exc:  # "can't start new thread": no room for its stack
+        raise MemoryLimitError(
+            f"a worker thread for this stage needs a stack, more than this process may have ({exc})"
+        ) from None
     while worker.is_alive():
         worker.join(POLL_SECONDS)
     if "error" in box:

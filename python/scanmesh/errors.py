@@ -3,6 +3,7 @@
 from scanmesh._core import (
     DegenerateInputError,
     InvalidMeshError,
+    MemoryLimitError,
     ParameterError,
     ScanmeshError,
 )
@@ -56,6 +57,7 @@ for _cls in (
     DegenerateInputError,
     ParameterError,
     InvalidMeshError,
+    MemoryLimitError,
     FileFormatError,
     MissingFileError,
     MissingExtraError,
@@ -72,6 +74,7 @@ __all__ = [
     "DegenerateInputError",
     "ParameterError",
     "InvalidMeshError",
+    "MemoryLimitError",
     "FileFormatError",
     "MissingFileError",
     "MissingExtraError",

@@ -326,3 +326,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ScanmeshError, FileNotFoundError, OSError) as exc:
         print(f"scanmesh: error: {_speak_flags(_one_line(exc))}", file=sys.stderr, flush=True)
         return 1
+    except MemoryError as exc:  # numpy's, or Python's: the limit stops the run, not a bug
+        what = _one_line(exc) or "an allocation failed"
+        print(f"scanmesh: error: out of memory: {what}", file=sys.stderr, flush=True)
+        return 1

@@ -14,9 +14,13 @@ lines before it). So the work is three passes over the parts, each on the worker
 3. per partition: ``scanmesh_core::stitch_part`` with the scan's context (:func:`solve`).
 
 Partitions start and end on a line that has a strip on both sides and no lone point (an
-"eligible" line): each solves the strips from its first line to its last, and the next one
-starts on that last line, so every strip is solved exactly once, as the whole scan solves
-it. The faces are the single-process faces exactly (tested), listed partition by partition.
+"eligible" line): each returns the strips from its first line to its last, and the next one
+starts on that last line, so every strip is returned exactly once, as the whole scan solves
+it. What is dropped at depth jumps and where lines cross is decided on the triangles around
+a corner (local spacings, overlapping neighbours), which at a partition's border lie on
+both sides of it: so each partition also solves :data:`OVERLAP_LINES` lines beyond each
+border, and these only inform those decisions (the core's ``own_rows``). The faces are the
+single-process faces exactly (tested), listed partition by partition.
 The one whole-scan decision a partition cannot make, turning the mesh counter-clockwise by
 the sign of its total planar area, is made when all partitions are done: each block is
 turned round while it is written when its own sign differs (the "strips" turn key).
@@ -40,6 +44,12 @@ from ._median import exact_median
 from ._output import FaceBlock
 from ._report import seam_sums, vertex_sums
 from ._source import Part, load_part, project_as_whole
+
+#: Lines beyond each border a partition solves as well, so that the drops at depth jumps
+#: (decided on the triangles around each corner, one strip to each side) and at crossing
+#: lines (on overlapping neighbours and the peeling after them) near the border are made
+#: on the same triangles as in one process.
+OVERLAP_LINES: int = 3
 
 
 @dataclass(frozen=True)
@@ -116,9 +126,13 @@ class Partition:
 
     first: int
     last: int
-    #: (part, first row, end row) slices of the parts holding those lines
+    #: (part, first row, end row) slices of the parts holding those lines and up to
+    #: OVERLAP_LINES lines on each side
     slices: tuple[tuple[Part, int, int], ...]
-    #: whether the first line with a strip is turned round in the whole scan
+    #: rows of those slices before the first line and after the last (the overlap)
+    rows_before: int
+    rows_after: int
+    #: whether the first line with a strip in the slices is turned round in the whole scan
     first_turned: bool
     #: whether a partition comes before (its first line is shared) and after (its last)
     shares_first: bool
@@ -184,22 +198,33 @@ def plan(
         if len(nxt) and start + nxt[0] > bounds[-1] and start + nxt[0] < n_lines - 1:
             bounds.append(int(start + nxt[0]))
     bounds = sorted(set(bounds))
-    out = []
-    for i, b in enumerate(bounds):
-        last = bounds[i + 1] if i + 1 < len(bounds) else n_lines - 1
+
+    def slices_of(first: int, last: int) -> list[tuple[Part, int, int]]:
+        """(part, first row, end row) of the lines first..last."""
         slices = []
         for p, s in enumerate(stats):
-            lo_line, hi_line = max(b, line_start[p]), min(last, line_start[p + 1] - 1)
+            lo_line, hi_line = max(first, line_start[p]), min(last, line_start[p + 1] - 1)
             if lo_line <= hi_line:
                 rows = s.starts[lo_line - line_start[p]], s.starts[hi_line - line_start[p] + 1]
                 slices.append((parts[p], int(rows[0]), int(rows[1])))
-        first_kept = np.flatnonzero(kept[b : last + 1])
+        return slices
+
+    def rows(first: int, last: int) -> int:
+        return sum(b - a for _, a, b in slices_of(first, last))
+
+    out = []
+    for i, b in enumerate(bounds):
+        last = bounds[i + 1] if i + 1 < len(bounds) else n_lines - 1
+        lo, hi = max(b - OVERLAP_LINES, 0), min(last + OVERLAP_LINES, n_lines - 1)
+        first_kept = np.flatnonzero(kept[lo : hi + 1])
         out.append(
             Partition(
                 first=b,
                 last=last,
-                slices=tuple(slices),
-                first_turned=bool(turned[b + first_kept[0]]) if len(first_kept) else False,
+                slices=tuple(slices_of(lo, hi)),
+                rows_before=rows(lo, b - 1),
+                rows_after=rows(last + 1, hi),
+                first_turned=bool(turned[lo + first_kept[0]]) if len(first_kept) else False,
                 shares_first=i > 0,
                 shares_last=i + 1 < len(bounds),
             )
@@ -237,12 +262,10 @@ def solve(
     points = np.ascontiguousarray(np.concatenate(pts))
     line_ids = np.ascontiguousarray(np.concatenate(ids))
     global_index = np.concatenate(index)
-    # consecutive lines of consecutive parts: global indices are one offset away
-    start = int(global_index[0])
-    contiguous = bool(global_index[-1] - start == len(global_index) - 1)
     del loaded, pts, ids, index
     uv = project_as_whole(points, plane, lo, hi)
-    n = len(points)
+    # the partition's own rows, between the overlap lines
+    a, b = partition.rows_before, len(points) - partition.rows_after
     solved = solve_strips(
         points,
         uv,
@@ -250,9 +273,16 @@ def solve(
         method,
         params,
         params["gap_factor"],
-        (tuple(lo), tuple(hi), largest, median, partition.first_turned),
+        (tuple(lo), tuple(hi), largest, median, partition.first_turned, (a, b)),
     )
-    faces, unused, duplicates = solved.faces, solved.unused, solved.duplicates
+    points, line_ids, global_index = points[a:b], line_ids[a:b], global_index[a:b]
+    # consecutive lines of consecutive parts: global indices are one offset away
+    start = int(global_index[0])
+    contiguous = bool(global_index[-1] - start == len(global_index) - 1)
+    n = len(points)
+    faces, unused = solved.faces - a, solved.unused - a
+    duplicates = solved.duplicates
+    duplicates = duplicates[((duplicates >= a) & (duplicates < b)).all(axis=1)] - a
     # rows of the shared lines: the first line when a partition comes before, the last
     # when one comes after (owned by that one: its points are counted there)
     first_end = int(np.searchsorted(line_ids, line_ids[0], side="right"))

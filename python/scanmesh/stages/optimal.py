@@ -211,6 +211,7 @@ def optimal_surface(
         Bad points (shape, non-finite, too few distinct, collinear), p other than 1 or
         inf, a non-positive time limit, or more than MAX_OPTIMAL_POINTS distinct points.
     """
+    started = time.perf_counter()  # time_limit counts from here: every stage spends it
     # scipy's optimize is imported here, not at module load: `import scanmesh` stays light.
     from scipy.optimize import Bounds, LinearConstraint, milp
 
@@ -239,7 +240,7 @@ def optimal_surface(
         local = np.full(len(inst.points), -1, dtype=np.int64)
         local[inst.keep] = np.arange(len(inst.keep))
         lop_faces = local[lop_surface(inst.delaunay, p=1.0).faces]
-        cuts = _fan_cuts(geo, uv, p, [inst.delaunay_local, lop_faces], t1 + FAN_SHARE * limit)
+        cuts = _fan_cuts(geo, uv, p, [inst.delaunay_local, lop_faces], started + FAN_SHARE * limit)
     model = _assemble(geo, p, cuts)
     known = None
     if incumbent is not None:
@@ -249,7 +250,9 @@ def optimal_surface(
     t2 = time.perf_counter()
     options: dict[str, object] = {"disp": False, "mip_rel_gap": MIP_REL_GAP}
     if math.isfinite(limit):
-        options["time_limit"] = max(limit - (t2 - t1), 0.05 * limit)
+        # what is left of the limit after the triangulations, the enumeration, the cuts and
+        # the assembly (at least a twentieth of it, for HiGHS to return what it finds)
+        options["time_limit"] = max(limit - (t2 - started), 0.05 * limit)
     # HiGHS releases the GIL but can run for minutes (past its time limit at the root):
     # in a worker, so that Ctrl-C is not kept waiting
     res = interruptible(

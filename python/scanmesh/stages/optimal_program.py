@@ -207,6 +207,11 @@ class _Cuts:
     info: dict
 
 
+#: Least time limit (seconds) a HiGHS call is given, however little of ``time_limit`` is
+#: left: it must be able to return what it has.
+MIN_SOLVER_SECONDS: float = 0.01
+
+
 def _fan_cuts(
     geo: _Geometry, uv: np.ndarray, p: float, starts: list[np.ndarray], deadline: float
 ) -> _Cuts | None:
@@ -320,11 +325,28 @@ def _fan_cuts(
         else:
             cost = np.r_[np.zeros(t_count), np.abs(fan_s)]
             master = {}
-        # HiGHS in a worker, so that Ctrl-C is not kept waiting by a slow master LP
+        # HiGHS in a worker, so that Ctrl-C is not kept waiting by a slow master LP; given
+        # the time left, so that the column generation keeps to its share of time_limit
+        left = deadline - time.perf_counter()
+        if left <= 0.0 and best_duals is not None:
+            break
         res = interruptible(
             UNBOUNDED,
-            partial(linprog, cost, A_eq=a_eq, b_eq=b_eq, bounds=bounds, method="highs", **master),
+            partial(
+                linprog,
+                cost,
+                A_eq=a_eq,
+                b_eq=b_eq,
+                bounds=bounds,
+                method="highs",
+                options={"time_limit": max(left, MIN_SOLVER_SECONDS)},
+                **master,
+            ),
         )
+        if res.status == 1:  # stopped at the time limit: the cuts of the duals so far
+            if best_duals is None:
+                return None
+            break
         if res.status != 0:
             raise RuntimeError(f"fan master LP failed ({res.message}); please report it")
         duals = res.eqlin.marginals

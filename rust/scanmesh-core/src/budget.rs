@@ -55,26 +55,114 @@ pub fn describe_bytes(bytes: u64) -> String {
     }
 }
 
-/// Memory this process may still allocate: the smallest of the physical memory and the
-/// room left under the address-space and data-size limits (`ulimit -v`, `-d`), read from
-/// `/proc`. `None` where `/proc` does not tell (not Linux): then only the fallible copies
-/// guard. Deterministic on a machine: physical memory, not what other processes use now.
-/// O(1) (three small files).
-pub fn memory_available() -> Option<u64> {
+/// The memory this process may still allocate and the limit that leaves it ("the 520.3 MiB
+/// left under RLIMIT_AS (ulimit -v) of 700.0 MiB"), for messages.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Room {
+    /// Bytes this process may still allocate.
+    pub bytes: u64,
+    /// The limit that leaves them, for messages.
+    pub limit: String,
+}
+
+/// Memory this process may still allocate: the smallest of the physical memory, the room
+/// left under the address-space and data-size limits (`RLIMIT_AS`, `RLIMIT_DATA`: `ulimit
+/// -v`, `-d`) and under its cgroup's `memory.max` (a container's limit), read from `/proc`
+/// and `/sys/fs/cgroup`. `None` where `/proc` does not tell (not Linux): then only the
+/// fallible copies guard. Physical memory, not what other processes use now; the cgroup's
+/// room is its limit less its current use, since exceeding it kills the process. O(1)
+/// (a few small files).
+pub fn memory_room() -> Option<Room> {
     let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let mut room = kib_field(&meminfo, "MemTotal:")?;
+    let total = kib_field(&meminfo, "MemTotal:")?;
+    let mut room = Room {
+        bytes: total,
+        limit: format!("the {} of physical memory", describe_bytes(total)),
+    };
+    let mut tighten = |bytes: u64, limit: String| {
+        if bytes < room.bytes {
+            room = Room { bytes, limit };
+        }
+    };
     let limits = std::fs::read_to_string("/proc/self/limits").unwrap_or_default();
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    for (limit, used) in [
-        ("Max address space", "VmSize:"),
-        ("Max data size", "VmData:"),
+    for (limit, used, name) in [
+        ("Max address space", "VmSize:", "RLIMIT_AS (ulimit -v)"),
+        ("Max data size", "VmData:", "RLIMIT_DATA (ulimit -d)"),
     ] {
         if let Some(max) = soft_limit(&limits, limit) {
-            let used = kib_field(&status, used).unwrap_or(0);
-            room = room.min(max.saturating_sub(used));
+            let left = max.saturating_sub(kib_field(&status, used).unwrap_or(0));
+            let of = describe_bytes(max);
+            tighten(
+                left,
+                format!("the {} left under {name} of {of}", describe_bytes(left)),
+            );
         }
     }
+    if let Some((max, current)) = cgroup_memory() {
+        let left = max.saturating_sub(current);
+        let of = describe_bytes(max);
+        let text = format!(
+            "the {} left under the cgroup's memory.max of {of}",
+            describe_bytes(left)
+        );
+        tighten(left, text);
+    }
     Some(room)
+}
+
+/// Memory this process may still allocate, in bytes: [`memory_room`]'s. O(1).
+pub fn memory_available() -> Option<u64> {
+    memory_room().map(|room| room.bytes)
+}
+
+/// This process's cgroup (v2) `memory.max` and `memory.current` in bytes; `None` without
+/// a cgroup v2 limit.
+fn cgroup_memory() -> Option<(u64, u64)> {
+    let cgroup = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let path = cgroup.lines().find_map(|l| l.strip_prefix("0::"))?.trim();
+    let dir = std::path::Path::new("/sys/fs/cgroup").join(path.trim_start_matches('/'));
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
+    let max = read("memory.max")?.trim().parse().ok()?; // "max" when unlimited
+    let current = read("memory.current")?.trim().parse().unwrap_or(0);
+    Some((max, current))
+}
+
+/// Refuses a stage whose peak memory, estimated from its input as `bytes`, this process
+/// cannot have: `what` names the stage and its input ("Delaunay of 2000000 points"). Beyond
+/// the limits read by [`memory_room`], the estimate is reserved once (address space only:
+/// nothing is touched) and freed, so a limit `/proc` does not show refuses too. O(1).
+pub fn check_stage(what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
+    let refuse = |limit: String| Error::OutOfMemory {
+        what: what(),
+        needs: bytes,
+        limit,
+    };
+    if let Some(room) = memory_room() {
+        if bytes > room.bytes {
+            return Err(refuse(room.limit));
+        }
+    }
+    let mut probe: Vec<u8> = Vec::new();
+    match usize::try_from(bytes)
+        .ok()
+        .map(|b| probe.try_reserve_exact(b))
+    {
+        Some(Ok(())) => Ok(()),
+        _ => Err(refuse("what the allocator could give".into())),
+    }
+}
+
+/// An empty vector with room for `len` items of `T`, whose allocation may fail (an
+/// [`Error::OutOfMemory`] naming `what`) instead of aborting the process. O(1).
+pub fn try_vec<T>(what: &str, len: usize) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).map_err(|_| Error::OutOfMemory {
+        what: format!("{what} ({len} items)"),
+        needs: (len as u64).saturating_mul(std::mem::size_of::<T>() as u64),
+        limit: "what the allocator could give".into(),
+    })?;
+    Ok(v)
 }
 
 /// The value of a `Name:   123 kB` line, in bytes.
@@ -93,12 +181,12 @@ fn soft_limit(limits: &str, name: &str) -> Option<u64> {
 /// Refuses `bytes` of memory asked for by option `name` = `value` when this process cannot
 /// have them (see [`memory_available`]). O(1).
 pub fn check_memory(name: &'static str, value: impl ToString, bytes: u64) -> Result<()> {
-    match memory_available() {
-        Some(room) if bytes > room => Err(Error::TooCostly {
+    match memory_room() {
+        Some(room) if bytes > room.bytes => Err(Error::TooCostly {
             name,
             value: value.to_string(),
             needs: format!("about {} of memory", describe_bytes(bytes)),
-            limit: format!("the {} this process may use", describe_bytes(room)),
+            limit: room.limit,
         }),
         _ => Ok(()),
     }
@@ -154,6 +242,20 @@ mod tests {
         assert_eq!(describe_bytes(3 << 30), "3.0 GiB");
         assert!(describe_proposals(15_000_000 * 3600 * 10, "proposals").contains("10 hours"));
         assert!(describe_proposals(30_000_000, "proposals").contains("2 s"));
+    }
+
+    #[test]
+    fn stages_beyond_memory_are_refused_and_failed_allocations_are_errors() {
+        let e = check_stage(|| "Delaunay of 7 points".into(), u64::MAX).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("Delaunay of 7 points needs about"),
+            "{e}"
+        );
+        assert!(check_stage(|| "a small stage".into(), 1 << 20).is_ok());
+        let e = try_vec::<u64>("edges", usize::MAX / 16).unwrap_err();
+        assert!(matches!(e, Error::OutOfMemory { .. }), "{e}");
+        assert!(try_vec::<u64>("edges", 10).unwrap().capacity() >= 10);
     }
 
     #[test]

@@ -45,6 +45,16 @@ pub enum Error {
         /// The limit it exceeds.
         limit: String,
     },
+    /// A stage's memory, estimated from its input before it runs or asked for by an
+    /// allocation that failed, is more than this process may have (see [`crate::budget`]).
+    OutOfMemory {
+        /// The stage and its input ("Delaunay of 2000000 points").
+        what: String,
+        /// The bytes it needs.
+        needs: u64,
+        /// The limit it exceeds ("the 520.3 MiB left under RLIMIT_AS (ulimit -v) of ...").
+        limit: String,
+    },
     /// A face refers to a vertex that does not exist, repeats a vertex, or is degenerate.
     InvalidFace {
         /// Index of the face.
@@ -97,6 +107,11 @@ impl fmt::Display for Error {
                 needs,
                 limit,
             } => write!(f, "{name}={value} needs {needs}, more than {limit}"),
+            Error::OutOfMemory { what, needs, limit } => write!(
+                f,
+                "{what} needs about {} of memory, more than {limit}",
+                crate::budget::describe_bytes(*needs)
+            ),
             Error::InvalidFace { face, reason } => write!(f, "face {face}: {reason}"),
             Error::Invariant(what) => write!(f, "mesh invariant violated: {what}"),
             Error::Interrupted => write!(f, "interrupted"),

@@ -5,8 +5,10 @@
 
 use numpy::PyArray1;
 use pyo3::create_exception;
-use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyDict, PyTuple, PyType};
 use scanmesh_core::Error;
 
 mod convert;
@@ -43,6 +45,36 @@ create_exception!(
     "Faces that do not form a valid triangulation."
 );
 
+/// `MemoryLimitError`: a stage that needs more memory than the process may have, refused
+/// before it runs or failed in an allocation. Both a `ScanmeshError` and a `MemoryError`
+/// (two bases, which `create_exception!` cannot declare, so it is made once by `type`).
+static MEMORY_LIMIT_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+fn memory_limit_error(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    let class = MEMORY_LIMIT_ERROR.get_or_try_init(py, || -> PyResult<Py<PyType>> {
+        let bases = PyTuple::new(
+            py,
+            [
+                py.get_type::<ScanmeshError>(),
+                py.get_type::<PyMemoryError>(),
+            ],
+        )?;
+        let body = PyDict::new(py);
+        body.set_item("__module__", "scanmesh._core")?;
+        body.set_item(
+            "__doc__",
+            "A stage needs more memory than this process may have (its estimate, or an \
+             allocation that failed); the message names the need and the limit. Also a \
+             MemoryError.",
+        )?;
+        let made = py
+            .get_type::<PyType>()
+            .call1(("MemoryLimitError", bases, body))?;
+        Ok(made.cast_into::<PyType>()?.unbind())
+    })?;
+    Ok(class.bind(py))
+}
+
 /// The one place where core errors become Python exceptions.
 pub(crate) fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
@@ -53,6 +85,10 @@ pub(crate) fn to_py(e: Error) -> PyErr {
         Error::InvalidParameter { .. } | Error::TooCostly { .. } => ParameterError::new_err(msg),
         Error::InvalidFace { .. } | Error::Invariant(_) => InvalidMeshError::new_err(msg),
         Error::Interrupted => PyKeyboardInterrupt::new_err(msg),
+        Error::OutOfMemory { .. } => Python::attach(|py| match memory_limit_error(py) {
+            Ok(class) => PyErr::from_type(class.clone(), msg),
+            Err(e) => e,
+        }),
     }
 }
 
@@ -71,6 +107,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("ParameterError", py.get_type::<ParameterError>())?;
     m.add("InvalidMeshError", py.get_type::<InvalidMeshError>())?;
+    m.add("MemoryLimitError", memory_limit_error(py)?)?;
     m.add("SLIVER_ANGLE_DEG", scanmesh_core::SLIVER_ANGLE_DEG)?;
     m.add(
         "DEFAULT_MAX_EDGE_FACTOR",

@@ -61,8 +61,9 @@ pub(crate) fn scan_segments<'py>(
 }
 
 /// A scan's context as Python passes it: (lo, hi) its 3-D bounding box, its largest
-/// |planar coordinate|, its median planar step, whether its first line runs against it.
-type Context = ([f64; 3], [f64; 3], f64, f64, bool);
+/// |planar coordinate|, its median planar step, whether its first line runs against it,
+/// and the rows (start, end) whose strips are returned (None: all).
+type Context = ([f64; 3], [f64; 3], f64, f64, bool, Option<(usize, usize)>);
 
 /// Strips between consecutive scan lines as one mesh over `points` (N, 3), with planar
 /// positions `uv` (N, 2) and a line id per point. `weight` = (length, area, angle,
@@ -72,7 +73,8 @@ type Context = ([f64; 3], [f64; 3], f64, f64, bool);
 /// are some consecutive lines of a larger scan, to be solved as that scan solves them
 /// (`scanmesh_core::ScanContext`: (lo, hi) its 3-D bounding box, its largest |planar
 /// coordinate|, its median planar step, whether the first line with two points runs
-/// against the scan). Returns a `StripResult` (faces counter-clockwise in the plane, unused
+/// against the scan, the rows (start, end) whose strips are returned, the lines around them
+/// only informing the drops at depth jumps and overlaps, or None). Returns a `StripResult` (faces counter-clockwise in the plane, unused
 /// and trimmed points, duplicates, the strips' count and cost, the planar error, the
 /// triangles dropped, the signed area).
 #[pyfunction]
@@ -94,12 +96,16 @@ pub(crate) fn strip_mesh<'py>(
     context: Option<Context>,
 ) -> PyResult<StripResult> {
     let params = strip_params(weight, method, alpha, solver, band, check, jump_factor)?;
-    let context = context.map(|(lo, hi, largest, median_step, first_turned)| ScanContext {
-        bounds: [DVec3::from_array(lo), DVec3::from_array(hi)],
-        largest_planar: largest,
-        median_step,
-        first_turned,
-    });
+    let context =
+        context.map(
+            |(lo, hi, largest, median_step, first_turned, own_rows)| ScanContext {
+                bounds: [DVec3::from_array(lo), DVec3::from_array(hi)],
+                largest_planar: largest,
+                median_step,
+                first_turned,
+                own_rows,
+            },
+        );
     let (faces, unused, duplicates, mesh) = run_strips(
         py,
         &points,

@@ -36,7 +36,8 @@ where
             ),
         });
     }
-    let mut out = vec![0u8; faces.len() * RECORD_BYTES];
+    let mut out = crate::budget::try_vec("STL records", faces.len() * RECORD_BYTES)?;
+    out.resize(faces.len() * RECORD_BYTES, 0u8);
     // Faces in groups (one rayon task each), every record assembled on the stack and
     // copied once: per-face tasks and per-value slice checks cost more than the arithmetic.
     out.par_chunks_mut(GROUP * RECORD_BYTES)

@@ -81,6 +81,12 @@ pub const COPLANAR_RELATIVE: f64 = 1e-13;
 /// corners in the plane, not all their flips: 1.014 (with 1), 1.007 (with 2).
 pub const NOISE_TAC: f64 = 2.0;
 
+/// Peak memory of [`TacState::from_input`] and one run of LOP on it, per point, checked
+/// before the state is built: a whole LOP run (its Delaunay included) needs about 470 bytes
+/// a point more address space (bisected on 200,000 and 800,000 points,
+/// docs/benchmarks/memory.md), plus room.
+const STATE_PEAK_BYTES_PER_POINT: u64 = 500;
+
 /// Optional lines for [`TacState::prefetch`]: each helps on some inputs and crowds the
 /// useful hints (a core tracks only so many misses) on others.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -334,6 +340,10 @@ impl TacState {
             });
         }
         crate::criteria::check_faces(points.len(), &triangles)?;
+        crate::budget::check_stage(
+            || format!("the flip state of {} points", points.len()),
+            STATE_PEAK_BYTES_PER_POINT.saturating_mul(points.len() as u64),
+        )?;
         let relabel = Relabel::morton(uv);
         // One copy of the triangles at a time, none once the mesh holds them.
         let local = relabel.triangles_to_local(&triangles);

@@ -107,4 +107,10 @@ pub struct ScanContext {
     /// Whether the first line with a segment of two points or more is turned round in the
     /// whole scan (the orientation walk over the lines before it).
     pub first_turned: bool,
+    /// The rows (start, end) of these points whose strips are returned, `None`: all. The
+    /// lines around them are solved too and only inform what is dropped at depth jumps and
+    /// overlaps (local spacings, conflicts, peeling), so those decisions at the border are
+    /// the whole scan's; the triangles, counts, cost and area returned are those of the
+    /// strips between lines within the rows.
+    pub own_rows: Option<(usize, usize)>,
 }

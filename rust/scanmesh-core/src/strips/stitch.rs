@@ -46,6 +46,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// below any real difference (a millionth of a step per edge).
 pub const TIE_BREAK: f64 = 1e-6;
 
+/// Peak memory of [`stitch_part`] per input point, checked before it starts: a whole
+/// shortest-path run (Python's part included) needs about 130 bytes a point more address
+/// space (bisected on 200,000 and 800,000 points, docs/benchmarks/memory.md), plus room.
+const PEAK_BYTES_PER_POINT: u64 = 250;
+
 /// Points or triangles per rayon task in the passes over all of them: large enough that
 /// splitting costs nothing next to the work, small enough to share a million among threads.
 pub(super) const BLOCK: usize = 1 << 14;
@@ -342,6 +347,10 @@ pub fn stitch_part(
     params: &StripParams,
     context: Option<&ScanContext>,
 ) -> Result<(StripMesh, Vec<(u32, u32)>)> {
+    crate::budget::check_stage(
+        || format!("strips on {} points", uv.len()),
+        PEAK_BYTES_PER_POINT.saturating_mul(uv.len() as u64),
+    )?;
     let median = context.map(|c| c.median_step);
     let mut scan = crate::strips::lines::segment_lines_at(uv, line_ids, gap_factor, median)?;
     check_jump_factor(params.jump_factor)?;
@@ -398,11 +407,15 @@ fn stitch_with(
         solved,
     } = solve_strips(points, &unit, &tasks, params, plan.as_ref())?;
     let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
-    // Sums in task order.
-    let (mut cost, mut signed_area) = (0.0, 0.0);
-    for s in &solved {
-        cost += s.cost;
-        signed_area += s.signed_area;
+    let own = Own(context.and_then(|c| c.own_rows));
+    // Sums in task order, over the strips returned.
+    let (mut cost, mut signed_area, mut n_strips) = (0.0, 0.0, 0);
+    for (task, s) in tasks.iter().zip(&solved) {
+        if own.task(task) {
+            cost += s.cost;
+            signed_area += s.signed_area;
+            n_strips += 1;
+        }
     }
     // One orientation for the whole mesh: counter-clockwise in the plane where most of the
     // area is (all of it, unless lines cross).
@@ -413,7 +426,9 @@ fn stitch_with(
     // Which points the strips use, before anything is dropped: a point all of whose
     // triangles are dropped is trimmed, not unused.
     let used_by_strips = used_points(points.len(), &triangles);
+    let own_before = own.count(&triangles);
     let dropped_jumps = drop_jumps(points, caller_uv, uv, params.jump_factor, &mut triangles);
+    let own_after_jumps = own.count(&triangles);
     // Lone points' triangles and dropped triangles are not strips: then only the global
     // check knows.
     let verdict = plan
@@ -433,25 +448,55 @@ fn stitch_with(
     } else {
         None
     };
-    let (unused, trimmed) = unused_and_trimmed(
+    let (mut unused, mut trimmed) = unused_and_trimmed(
         points.len(),
         &triangles,
         &used_by_strips,
         dropped_jumps + dropped_overlaps > 0,
     );
+    if let Own(Some((lo, hi))) = own {
+        let inside = |k: &u32| (lo..hi).contains(&(*k as usize));
+        triangles.retain(|t| t.iter().all(inside));
+        unused.retain(inside);
+        trimmed.retain(inside);
+    }
     let mesh = StripMesh {
+        dropped_jumps: own_before.map_or(dropped_jumps, |b| b - own_after_jumps.unwrap_or(b)),
+        dropped_overlaps: own_after_jumps.map_or(dropped_overlaps, |a| a - triangles.len()),
         triangles,
         unused,
-        n_strips: tasks.len(),
+        n_strips,
         cost,
         planar_error,
-        dropped_jumps,
-        dropped_overlaps,
         trimmed,
         signed_area,
     };
     let asked = params.check && local;
     Ok((mesh, asked.then_some(verdict == Some(true)), first_error))
+}
+
+/// The rows whose strips a partition returns ([`ScanContext::own_rows`]); `None`: all.
+#[derive(Clone, Copy)]
+struct Own(Option<(usize, usize)>);
+
+impl Own {
+    /// Whether `task` is a strip between lines within the rows. O(1).
+    fn task(&self, task: &Task) -> bool {
+        let Own(Some((lo, hi))) = *self else {
+            return true;
+        };
+        let first = |s: &[u32]| s.first().map_or(lo, |&k| k as usize);
+        (lo..hi).contains(&first(&task.a)) && (lo..hi).contains(&first(&task.b))
+    }
+
+    /// How many `triangles` lie within the rows; `None` when all are returned. O(m).
+    fn count(&self, triangles: &[[u32; 3]]) -> Option<usize> {
+        let Own(Some((lo, hi))) = *self else {
+            return None;
+        };
+        let inside = |t: &&[u32; 3]| t.iter().all(|&k| (lo..hi).contains(&(k as usize)));
+        Some(triangles.par_iter().filter(inside).count())
+    }
 }
 
 /// The checks of [`stitch_with`]'s input: one planar position per point, finite points,

@@ -10,6 +10,11 @@ use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use std::collections::HashMap;
 
+/// Peak memory of [`delaunay_trimmed`](crate::delaunay_trimmed) per input point, checked
+/// before it starts: the smallest address-space limit it ran under grows by about 390 bytes
+/// a point (bisected on 200,000 and 800,000 points, docs/benchmarks/memory.md), plus room.
+const PEAK_BYTES_PER_POINT: u64 = 450;
+
 /// A Delaunay triangulation of planar points, in the caller's indices.
 #[derive(Debug, Clone)]
 pub struct Delaunay {
@@ -76,6 +81,10 @@ pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
 /// O(n log n).
 pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<u32>>)> {
     check_planar(uv)?;
+    crate::budget::check_stage(
+        || format!("Delaunay of {} points", uv.len()),
+        PEAK_BYTES_PER_POINT.saturating_mul(uv.len() as u64),
+    )?;
     if uv.len() < (NONE / 8) as usize {
         let swept = {
             let unit = unit_square(uv);

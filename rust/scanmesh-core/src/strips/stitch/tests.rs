@@ -89,6 +89,7 @@ fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
                 largest_planar: largest,
                 median_step: median,
                 first_turned: first % 2 == 1,
+                own_rows: None,
             };
             let (part, _) = stitch_part(
                 &pts[start..end],
@@ -104,6 +105,66 @@ fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
         }
         assert_eq!(joined, whole.triangles, "{params:?}");
     }
+}
+
+#[test]
+fn parts_solved_with_their_overlap_drop_at_border_jumps_what_the_whole_scan_drops() {
+    // Depth steps across the lines at both part borders (lines 4 and 7) and along them.
+    let (mut pts, ids) = grid(11, 25, true, |_, _| false);
+    for p in &mut pts {
+        p.z += 3.0 * f64::from(u8::from(p.y > 3.1)) + 2.5 * f64::from(u8::from(p.y > 5.2));
+        p.z += 2.0 * f64::from(u8::from(p.x > 6.0 + 0.2 * p.y.sin()));
+    }
+    let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+    let (lo, hi) = pts.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let largest = uv.iter().flat_map(|p| [p[0].abs(), p[1].abs()]);
+    let largest = largest.fold(0.0, f64::max);
+    let median = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR)
+        .unwrap()
+        .median_step;
+    let params = StripParams {
+        jump_factor: crate::triangulate::jumps::DEFAULT_JUMP_FACTOR,
+        ..StripParams::default()
+    };
+    let (whole, _) = stitch_part(&pts, &uv, &ids, DEFAULT_GAP_FACTOR, &params, None).unwrap();
+    assert!(whole.dropped_jumps > 0);
+    let (mut joined, mut dropped, mut strips, mut cost) = (Vec::new(), 0, 0, 0.0);
+    for (first, last) in [(0, 4), (4, 7), (7, 10)] {
+        // Three lines beyond each border; only the part's own strips come back.
+        let (lo_line, hi_line) = (first.max(3) - 3, (last + 3).min(10));
+        let start = ids.partition_point(|&l| l < lo_line);
+        let end = ids.partition_point(|&l| l <= hi_line);
+        let own = (
+            ids.partition_point(|&l| l < first) - start,
+            ids.partition_point(|&l| l <= last) - start,
+        );
+        let context = ScanContext {
+            bounds: [lo, hi],
+            largest_planar: largest,
+            median_step: median,
+            first_turned: lo_line % 2 == 1,
+            own_rows: Some(own),
+        };
+        let (part, _) = stitch_part(
+            &pts[start..end],
+            &uv[start..end],
+            &ids[start..end],
+            DEFAULT_GAP_FACTOR,
+            &params,
+            Some(&context),
+        )
+        .unwrap();
+        joined.extend(part.triangles.iter().map(|t| t.map(|k| k + start as u32)));
+        dropped += part.dropped_jumps;
+        strips += part.n_strips;
+        cost += part.cost;
+    }
+    assert_eq!(joined, whole.triangles);
+    assert_eq!((dropped, strips), (whole.dropped_jumps, whole.n_strips));
+    assert!((cost - whole.cost).abs() <= 1e-9 * whole.cost);
 }
 
 #[test]

@@ -1,0 +1,114 @@
+"""Under a memory limit every stage refuses before it allocates, naming what it needs and the
+limit, instead of dying in an allocation that fails (Rust aborts the process then).
+
+Each case runs in its own process under ``RLIMIT_AS`` (``ulimit -v``), set just above what
+the process holds once the points are made, so the stage itself is what does not fit.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.skipif(
+    not Path("/proc/self/status").exists(), reason="the limits are read from /proc (Linux)"
+)
+
+# A wavy grid of points in scan order; `room` is what the limit leaves above the process's
+# address space once they exist, far below what any stage needs for them.
+CHILD = textwrap.dedent(
+    """
+    import resource, sys
+    import numpy as np
+    import scanmesh
+    from scanmesh.cli import main
+
+    what, n, room = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+    side = int(n ** 0.5)
+    g = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2) * 1.0
+    X = np.c_[g, np.sin(g[:, 0] / 7)]
+    scan = scanmesh.planar_scan(X, plane="z")
+    np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
+    faces = np.zeros((n, 3), dtype=np.int64)  # n faces on point 0: 50 n bytes of STL
+    if what == "command":
+        np.savetxt(sys.argv[4], X, fmt="%.6g")
+    size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
+                if l.startswith("VmSize:"))
+    resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
+    if what == "command":
+        sys.exit(main(["reconstruct", sys.argv[4], "-o", sys.argv[5], "--method", "delaunay",
+                       "--plane", "z", "--quiet"]))
+    try:
+        if what == "stl":
+            scanmesh._core.stl_records(X, faces)
+        else:
+            scanmesh.reconstruct(scan, what, **({"sweeps": 1} if what == "anneal" else {}))
+        print("built")
+    except scanmesh.MemoryLimitError as e:
+        assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
+        print("refused:", e)
+    """
+)
+
+
+def run_child(*args: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-c", CHILD, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+@pytest.mark.parametrize(
+    "method, stage",
+    [
+        ("delaunay", "Delaunay of"),
+        ("shortest-path", "strips on"),
+        ("lop", "Delaunay of"),
+        ("anneal", "Delaunay of"),
+    ],
+)
+def test_a_stage_beyond_the_address_space_limit_is_refused_with_need_and_limit(method, stage):
+    """Before the refusal, Delaunay of 2 million points under a 700 MB limit died with
+    SIGABRT ('memory allocation of 78726248 bytes failed'); the strips, LOP and annealing
+    too. 90,000 points with 15 MB to spare trip the same check."""
+    r = run_child(method, 90_000, 15_000_000)
+    assert r.returncode == 0, (r.returncode, r.stderr[-800:])
+    line = r.stdout.strip()
+    assert line.startswith(f"refused: {stage} 90000 points") and "needs about" in line, line
+    assert "MiB of memory, more than the" in line and "RLIMIT_AS (ulimit -v)" in line, line
+
+
+def test_no_limit_between_nothing_and_enough_aborts_the_process():
+    """Whatever the room, the process ends normally: built, or refused with a
+    MemoryLimitError (a ScanmeshError and a MemoryError); never killed by a signal."""
+    for room in range(10_000_000, 130_000_000, 30_000_000):
+        r = run_child("delaunay", 90_000, room)
+        assert r.returncode == 0, (room, r.returncode, r.stderr[-800:])
+        assert r.stdout.startswith(("built", "refused: ")), (room, r.stdout)
+
+
+def test_the_command_under_ulimit_v_exits_1_with_one_line(tmp_path):
+    """`ulimit -v 700000` on the command aborted it with no message."""
+    out = tmp_path / "mesh.ply"
+    r = run_child("command", 90_000, 15_000_000, tmp_path / "scan.xyz", out)
+    assert r.returncode == 1, (r.returncode, r.stderr[-800:])
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith("scanmesh: error: Delaunay of 90000 points"), lines
+    assert "RLIMIT_AS" in lines[0], lines
+    assert not out.exists()
+
+
+def test_a_failed_allocation_is_a_memory_error_not_an_abort():
+    """What the core sizes from its input without an estimate is reserved fallibly: the STL
+    records of 2 million faces (100 MB) under 30 MB of room are a MemoryError."""
+    r = run_child("stl", 2_000_000, 30_000_000)
+    assert r.returncode == 0, (r.returncode, r.stderr[-800:])
+    line = r.stdout.strip()
+    assert line.startswith("refused: STL records (") and "the allocator" in line, line
