@@ -133,6 +133,14 @@ def solve_exact(points: np.ndarray, plane, time_limit: float) -> dict:
     }
 
 
+def _option(text: str) -> tuple[str, float | bool]:
+    """``name=value`` of ``--anneal``: a number, or true/false."""
+    name, _, value = text.partition("=")
+    if value.lower() in ("true", "false"):
+        return name, value.lower() == "true"
+    return name, float(value)
+
+
 def run_instance(
     points: np.ndarray,
     plane,
@@ -140,6 +148,7 @@ def run_instance(
     seed: int,
     known: dict | None = None,
     settle: float = 0.0,
+    anneal_options: dict | None = None,
 ) -> dict:
     """Optimum (or ``known``'s MILP columns), LOP and annealing on one patch: tac_1
     values, times and gaps. With ``settle`` > 0 seconds, an instance whose annealing
@@ -152,7 +161,7 @@ def run_instance(
     surfaces = {}
     for method in ("lop", "anneal"):
         t0 = time.perf_counter()
-        kwargs = {"seed": seed} if method == "anneal" else {}
+        kwargs = {"seed": seed, **(anneal_options or {})} if method == "anneal" else {}
         with warnings.catch_warnings():
             # Whole-hull slivers along nearly straight profile ends are steep: not a fold.
             warnings.simplefilter("ignore", scanmesh.errors.NotAHeightFieldWarning)
@@ -303,6 +312,14 @@ def main() -> None:
         " instances of --settle-sizes whose 1 %% verdict is still open (0: none)",
     )
     parser.add_argument("--settle-sizes", type=int, nargs="+", default=[30])
+    parser.add_argument(
+        "--anneal",
+        type=_option,
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="an annealing option (a number), e.g. sliver_angle=0; repeat for more",
+    )
     args = parser.parse_args()
     if args.from_log:
         rows = [json.loads(line) for line in args.from_log.read_text().splitlines() if line]
@@ -356,6 +373,7 @@ def measure(args: argparse.Namespace) -> tuple[list[dict], float]:
                             k,
                             reuse,
                             args.settle if n in args.settle_sizes else 0.0,
+                            dict(args.anneal),
                         ),
                     }
                     rows.append(row)
