@@ -12,7 +12,7 @@
 use crate::budget;
 use crate::mesh::HalfEdgeMesh;
 use crate::optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
-use crate::optimize::lop::tac_lop;
+use crate::optimize::lop::{tac_lop, TacOrder};
 use crate::optimize::tac_state::TacState;
 use crate::optimize::tiles::TiledAnnealer;
 use crate::Result;
@@ -218,12 +218,47 @@ impl Ensemble {
     }
 }
 
+/// A start without the sliver rule is taken when its energy is below this share of the
+/// start with it: refusing slivers then costs more than half of the attainable tac.
+pub(crate) const SLIVER_COST: f64 = 0.5;
+
+/// ... and at most this share of its triangles are slivers (the panel's goal is 5 %).
+pub(crate) const SLIVER_BUDGET: f64 = 0.01;
+
 /// The walk's start: when `params.descend`, the local optimum LOP reaches from `state`
-/// under the run's order (with its sliver rule), found once for every chain. O(flips + m).
+/// under the run's order (with its sliver rule), found once for every chain.
+///
+/// A crease that crosses the scan lines obliquely can only be followed by thin triangles,
+/// so the sliver rule can hold the walk far above LOP's own optimum (the octagonal pocket
+/// turned 30 degrees: tac_1 11.8 against LOP's 3.1, docs/benchmarks/panel.md). LOP is
+/// therefore also run without the rule, on a copy, and its optimum is the start when it
+/// is below [`SLIVER_COST`] × the other's energy with at most [`SLIVER_BUDGET`] slivers;
+/// the walk still refuses new slivers from there. The copy is skipped when memory for it
+/// cannot be had. O(flips + m), twice.
 pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) {
-    if params.descend {
-        tac_lop(state, params.order());
-        state.resync_energy();
+    if !params.descend {
+        return;
+    }
+    let order = params.order();
+    let free = (order.sliver_angle > 0.0)
+        .then(|| state.try_clone().ok())
+        .flatten();
+    tac_lop(state, order);
+    let ruled = state.resync_energy();
+    if let Some(mut free) = free {
+        tac_lop(
+            &mut free,
+            TacOrder {
+                sliver_angle: 0.0,
+                ..order
+            },
+        );
+        let budget = SLIVER_BUDGET * free.mesh().n_triangles() as f64;
+        if free.resync_energy() < SLIVER_COST * ruled
+            && free.count_slivers(order.sliver_angle) as f64 <= budget
+        {
+            *state = free;
+        }
     }
 }
 

@@ -473,6 +473,18 @@ impl TacState {
             .sum()
     }
 
+    /// Number of triangles whose smallest 3-D corner angle is below `angle` (radians). O(m).
+    pub fn count_slivers(&mut self, angle: f64) -> usize {
+        (0..self.mesh.n_triangles())
+            .filter(|&t| {
+                self.fresh_corners(t)
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min)
+                    < angle
+            })
+            .count()
+    }
+
     /// Number of half-edges that have a twin (twice the number of interior edges). O(m).
     pub fn count_interior_half_edges(&self) -> usize {
         (0..self.mesh.n_half_edges() as u32)
