@@ -2,6 +2,7 @@
 
     python benches/default_time.py                       # SainteHelens, 2 rounds
     python benches/default_time.py --scan terrain/SainteHelens.dem --rounds 3
+    python benches/default_time.py --scan /tmp/turbineblade_1M.npz --plane y --rounds 1
 
 Each round times ``reconstruct(scan, "lop")`` and ``reconstruct(scan)`` (the default) on the
 same scan, read once; the figure to read is the ratio within a round (the goal: the default
@@ -27,18 +28,20 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=SHARED, help="the shared data folder")
     parser.add_argument("--scan", default="terrain/SainteHelens.dem", help="file under --data")
     parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--plane", default=None, help="projection plane for both (default: chosen)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    scan = scanmesh.read(args.data / args.scan)
+    scan = scanmesh.read(args.data / args.scan)  # an absolute --scan is taken as it is
+    plane = {} if args.plane is None else {"plane": args.plane}
     print(f"{args.scan}: {len(scan.points):,} points; load {os.getloadavg()}")
     print("| round | LOP (s) | default (s) | default / LOP | tac_1 LOP | tac_1 default |")
     print("|---:|---:|---:|---:|---:|---:|")
     for k in range(args.rounds):
         t = time.perf_counter()
-        lop = scanmesh.reconstruct(scan, "lop")
+        lop = scanmesh.reconstruct(scan, "lop", **plane)
         t_lop = time.perf_counter() - t
         t = time.perf_counter()
-        default = scanmesh.reconstruct(scan)
+        default = scanmesh.reconstruct(scan, **plane)
         t_default = time.perf_counter() - t
         print(
             f"| {k} | {t_lop:.2f} | {t_default:.2f} | {t_default / t_lop:.2f} |"
