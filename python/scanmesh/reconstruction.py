@@ -160,8 +160,7 @@ def _report_curtains(scan: PlanarScan, surface: Surface) -> None:
     a CurtainsWarning naming them when they cover more than CURTAIN_WARN_FRACTION of the
     area."""
     recorded = scan.up is not None
-    sight = scan.up if recorded else scan.frame.normal
-    found = curtains(surface.vertices, surface.faces, sight)
+    found = curtains(surface.vertices, surface.faces, scan.sight)
     report = {
         **found.as_dict(),
         "sight": "recorded up" if recorded else "projection normal",
