@@ -259,3 +259,28 @@ def test_the_curtain_rule_needs_a_known_line_of_sight():
     assert not np.array_equal(up[0].faces, up[1].faces)
     with pytest.raises(ParameterError, match="curtain_angle"):
         scanmesh.reconstruct(dome.points, "lop", curtain_angle=90.0)
+
+
+def test_a_plane_the_scan_folds_over_is_named_as_such():
+    """plane="best-fit" on the steps: the block's 10-unit height gives z more variance than
+    y, so the least-squares plane stands along y, the grid's columns stack up in it and
+    trimming keeps nothing. The error says so (with the spacings that show it) and names
+    the way out; plane=None meshes the same scan."""
+    with pytest.raises(scanmesh.DegenerateInputError) as caught:
+        scanmesh.reconstruct(STEPS, "delaunay", plane="best-fit")
+    text = str(caught.value)
+    assert "folds onto itself over plane='best-fit'" in text and "plane=None" in text
+    # the spacings it quotes, measured apart (brute force): 0.5 in 3-D, far less in the plane
+    scan = planar_scan(scanmesh.read(STEPS).points, plane="best-fit")
+    for coords, quoted in ((scan.points, "0.5 apart in 3-D"), (scan.uv, None)):
+        d = np.sqrt(((coords[:, None] - coords[None]) ** 2).sum(-1))
+        np.fill_diagonal(d, np.inf)
+        nearest = np.median(d.min(axis=1))
+        if quoted:
+            assert quoted in text and math.isclose(nearest, 0.5)
+        else:
+            assert f"{nearest:.3g} apart in the plane" in text and nearest < 0.05
+    assert len(scanmesh.reconstruct(STEPS, "delaunay").faces) > 0
+    # a plane it does not fold over, trimmed too short: the other cause
+    with pytest.raises(scanmesh.DegenerateInputError, match="too sparse"):
+        scanmesh.reconstruct(STEPS, "delaunay", plane="z", max_edge=0.1)
