@@ -135,9 +135,10 @@ def _why_nothing_kept(scan: PlanarScan, limit: float) -> str:
         there = f"{in_plane:.3g} apart" if in_plane > 0 else "on top of each other"
         return (
             f"the scan folds onto itself over plane={scan.plane!r} (normal {normal}):"
-            f" points a median {in_3d:.3g} apart in 3-D lie {there} in the plane, so trimming at max_edge={limit:.6g} left no triangle; the surface is no"
-            " height field over this plane: plane=None chooses one over which it is, or give"
-            " another plane="
+            f" points a median {in_3d:.3g} apart in 3-D lie {there} in the plane, so"
+            f" trimming at max_edge={limit:.6g} left no triangle; the surface is no height"
+            " field over this plane: plane=None chooses one over which it is, or give another"
+            " plane="
         )
     return (
         f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse for"
