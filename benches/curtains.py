@@ -48,6 +48,7 @@ from quality import CAD, machine
 import scanmesh
 from scanmesh import _core
 from scanmesh.evaluate.digitizer import simulate_range_scan
+from scanmesh.evaluate.holdout import holdout_error
 from scanmesh.evaluate.truth import TrueSurface, domain_error, height_error
 from scanmesh.formats.grid import height_grid
 from scanmesh.measures import curtains
@@ -67,6 +68,8 @@ SEED = 0
 REPEATS = 5
 TURNS = (70.0, 75.0, 80.0, 85.0, 88.0, 90.0)
 FACTORS = (3.0, 4.0, 5.0, 6.0, 8.0, math.inf)
+# annealing's (and LOP's) curtain rule at other angles than the default (0: off)
+OTHER_CURTAIN_ANGLES = (0.0, 5.0)
 
 
 def panel(cad: Path) -> list[tuple[str, object, str, str]]:
@@ -129,6 +132,11 @@ def meshes(sp, axis: str, s: float) -> list[tuple[str, np.ndarray, float]]:
             surface = scanmesh.reconstruct(sp, method)
             name = "anneal (default)" if method == "anneal" else method
             out.append((f"scanmesh {name}", surface.faces, time.perf_counter() - t0))
+        for angle in OTHER_CURTAIN_ANGLES:
+            t0 = time.perf_counter()
+            surface = scanmesh.reconstruct(sp, "anneal", curtain_angle=angle)
+            name = f"scanmesh anneal (curtain_angle={angle:g})"
+            out.append((name, surface.faces, time.perf_counter() - t0))
     t0 = time.perf_counter()
     out.append(("numpy range grid", numpy_range_grid(sp.grid, sp.points), time.perf_counter() - t0))
     peers = [(f"pyvista delaunay_2d(alpha={a:g} s)", pyvista_alpha, a * s) for a in ALPHAS]
@@ -348,23 +356,33 @@ def hidden(cad_dir: Path, n_points: int, noise: float, grazing: float) -> str:
 
 def fran(path: Path) -> str:
     """fran_cut (a Cyberware scan, a structured VTK grid): curtains (faces within 5 degrees
-    of the projection normal; the file records no line of sight) per method."""
+    of the projection normal; the file records no line of sight) per method, with tac_1 and
+    the holdout error (10 % of the points withheld, seed 0; the points alone, so LOP and
+    annealing start from Delaunay there), LOP and annealing also at the
+    curtain angles OTHER_CURTAIN_ANGLES (0: the rule off)."""
     sp = scanmesh.read(path)
     out = [
         f"{len(sp.points):,} points, grid {sp.grid.shape if sp.grid is not None else None}:",
         "",
-        "| method | faces | curtains | curtain area % | longest / median edge | start |",
-        "|---|---:|---:|---:|---:|---|",
+        "| method | faces | curtains | curtain area % | longest / median edge | tac_1"
+        " | holdout RMS | start |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
     ]
+    runs = [(m, {}) for m in ("delaunay", "shortest-path", "grid", "lop", "anneal")]
+    runs += [(m, {"curtain_angle": a}) for m in ("lop", "anneal") for a in OTHER_CURTAIN_ANGLES]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for method in ("delaunay", "shortest-path", "grid", "lop", "anneal"):
-            s = scanmesh.reconstruct(sp, method)
+        for method, options in runs:
+            s = scanmesh.reconstruct(sp, method, **options)
             edges = np.linalg.norm(sp.points[s.faces] - sp.points[np.roll(s.faces, 1, 1)], axis=2)
             c = s.options["curtains"]
+            # the grid has no holdout (withheld samples leave no grid)
+            held = holdout_error(sp.points, method, **options) if method != "grid" else None
+            name = method + "".join(f" ({k}={v:g})" for k, v in options.items())
             out.append(
-                f"| {method} | {len(s.faces):,} | {c['count']:,} | {100 * c['fraction']:.2f} |"
-                f" {edges.max() / np.median(edges):.1f} | {s.options.get('initial', '')} |"
+                f"| {name} | {len(s.faces):,} | {c['count']:,} | {100 * c['fraction']:.2f} |"
+                f" {edges.max() / np.median(edges):.1f} | {s.quality.tac_1:.1f} |"
+                f" {held['rms'] if held else math.nan:.4g} | {s.options.get('initial', '')} |"
             )
     return "\n".join(out)
 

@@ -425,7 +425,26 @@ def test_compare_runs_every_method_by_default(scan):
     result = run("compare", scan, "--sweeps", 20, "--json")
     assert result.returncode == 0, result.stderr
     methods = [row["method"] for row in json.loads(result.stdout)["methods"]]
+    # an xyz file has no range grid: no "grid" row (it would fail)
     assert methods == ["delaunay", "lookahead", "shortest-path", "lop", "anneal"]
+
+
+def test_compare_runs_the_grid_on_a_gridded_scan_by_default():
+    ply = DATA / "scans" / "steps_range_grid.ply"
+    result = run("compare", ply, "--sweeps", 5, "--holdout", 0, "--json")
+    assert result.returncode == 0, result.stderr
+    rows = json.loads(result.stdout)["methods"]
+    assert [row["method"] for row in rows] == [
+        "delaunay",
+        "grid",
+        "lookahead",
+        "shortest-path",
+        "lop",
+        "anneal",
+    ]
+    # the grid's row is the grid method's own mesh
+    grid = scanmesh.reconstruct(ply, "grid")
+    assert rows[1]["faces"] == len(grid.faces)
 
 
 def test_compare_reports_a_failing_method_and_goes_on(tmp_path):

@@ -3,6 +3,7 @@ range scans, and the curtain report."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import warnings
@@ -21,7 +22,6 @@ from scanmesh.formats.grid import height_grid
 from scanmesh.measures import CURTAIN_ANGLE_DEG, curtains
 from scanmesh.methods import default_initial
 from scanmesh.scan.planar import planar_scan
-from scanmesh.stages.grid import sight_of
 
 STEPS = DATA / "scans" / "steps_range_grid.ply"
 POCKET = DATA / "cad" / "octagonal_pocket.ply"
@@ -86,7 +86,7 @@ def test_grid_drops_the_curtains_of_a_range_grid_ply_and_keeps_both_levels():
     pts = sp.points
     # every face is seen by the scanner: its normal within max_turn of the line of sight
     # (no recorded up: the normal of the plane chosen), its edges short
-    normal_tilt = 90 - _angles_to_sight(pts, s.faces, sight_of(s.scan))
+    normal_tilt = 90 - _angles_to_sight(pts, s.faces, s.scan.sight)
     assert normal_tilt.max() <= s.options["max_turn"]
     edges = np.linalg.norm(pts[s.faces] - pts[np.roll(s.faces, 1, axis=1)], axis=2)
     assert edges.max() <= s.options["edge_factor"] * 0.5 * 1.0001
@@ -213,3 +213,74 @@ def test_the_command_reports_curtains(tmp_path):
     data = json.loads(report.read_text())
     assert data["options"]["curtains"]["count"] > 0
     assert any("line of sight" in w for w in data["warnings"])
+
+
+def _turns(surface) -> np.ndarray:
+    """Degrees between each face's normal and z (atan2, apart from the core's facing)."""
+    p = surface.vertices[surface.faces]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    return np.degrees(np.arctan2(np.hypot(n[:, 0], n[:, 1]), np.abs(n[:, 2])))
+
+
+def _dome(n: int = 40):
+    """A noisy dome seen from above as a height grid: steep at its rim."""
+    rng = np.random.default_rng(3)
+    i, j = np.mgrid[0:n, 0:n] / (n - 1) * 2 - 1
+    r2 = i * i + j * j
+    z = np.sqrt(np.clip(1.02 - r2, 0, None)) + 0.01 * rng.standard_normal(i.shape)
+    z[r2 > 1] = np.nan
+    return height_grid(z, cell=2 / (n - 1))
+
+
+@pytest.mark.parametrize("method", ["lop", "anneal"])
+def test_flips_from_the_grid_never_turn_a_face_past_the_curtain_angle(method):
+    sp = _dome()
+    start = _turns(scanmesh.reconstruct(sp, "grid")).max()
+    free = _turns(scanmesh.reconstruct(sp, method, curtain_angle=0.0)).max()
+    # without the rule tac's flips stand faces steeper than any of the grid's
+    assert free > start + 1.0
+    for angle in (10.0, 20.0, 30.0):
+        s = scanmesh.reconstruct(sp, method, curtain_angle=angle)
+        assert s.options["curtain_angle"] == angle
+        # a flip may not make a face steeper than 90 - angle and than the faces it replaces
+        assert _turns(s).max() <= max(start, 90.0 - angle) + 1e-9
+
+
+def test_the_curtain_rule_needs_a_known_line_of_sight():
+    dome = _dome()
+    # the dome's points alone (no grid, no recorded up): the projection normal is no line
+    # of sight, and the rule is off whatever the angle
+    alone = [scanmesh.reconstruct(dome.points, "lop", curtain_angle=a) for a in (0.0, 30.0)]
+    assert np.array_equal(alone[0].faces, alone[1].faces)
+    # the same points with the scanner's up recorded: the rule holds flips back
+    seen = dataclasses.replace(dome, grid=None, up=np.array([0.0, 0.0, 1.0]))
+    up = [scanmesh.reconstruct(seen, "lop", curtain_angle=a) for a in (0.0, 30.0)]
+    assert up[0].options["initial"] == up[1].options["initial"] == "delaunay"
+    assert not np.array_equal(up[0].faces, up[1].faces)
+    with pytest.raises(ParameterError, match="curtain_angle"):
+        scanmesh.reconstruct(dome.points, "lop", curtain_angle=90.0)
+
+
+def test_a_plane_the_scan_folds_over_is_named_as_such():
+    """plane="best-fit" on the steps: the block's 10-unit height gives z more variance than
+    y, so the least-squares plane stands along y, the grid's columns stack up in it and
+    trimming keeps nothing. The error says so (with the spacings that show it) and names
+    the way out; plane=None meshes the same scan."""
+    with pytest.raises(scanmesh.DegenerateInputError) as caught:
+        scanmesh.reconstruct(STEPS, "delaunay", plane="best-fit")
+    text = str(caught.value)
+    assert "folds onto itself over plane='best-fit'" in text and "plane=None" in text
+    # the spacings it quotes, measured apart (brute force): 0.5 in 3-D, far less in the plane
+    scan = planar_scan(scanmesh.read(STEPS).points, plane="best-fit")
+    for coords, quoted in ((scan.points, "0.5 apart in 3-D"), (scan.uv, None)):
+        d = np.sqrt(((coords[:, None] - coords[None]) ** 2).sum(-1))
+        np.fill_diagonal(d, np.inf)
+        nearest = np.median(d.min(axis=1))
+        if quoted:
+            assert quoted in text and math.isclose(nearest, 0.5)
+        else:
+            assert f"{nearest:.3g} apart in the plane" in text and nearest < 0.05
+    assert len(scanmesh.reconstruct(STEPS, "delaunay").faces) > 0
+    # a plane it does not fold over, trimmed too short: the other cause
+    with pytest.raises(scanmesh.DegenerateInputError, match="too sparse"):
+        scanmesh.reconstruct(STEPS, "delaunay", plane="z", max_edge=0.1)

@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import math
+import multiprocessing
+import subprocess
+import sys
+import textwrap
 import time
 from math import comb
 
@@ -11,7 +16,9 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import scanmesh
+from conftest import seconds_to_interrupt
 from scanmesh import _core
+from scanmesh._killable import call_killable
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -19,6 +26,7 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshError,
 )
+from scanmesh.stages import optimal as optimal_stage
 from scanmesh.stages.brute_force import brute_force_surface, triangulations
 from scanmesh.stages.optimal import MIP_REL_GAP, optimal_surface
 
@@ -320,10 +328,15 @@ def test_every_highs_call_is_given_only_the_time_left(monkeypatch, strengthen):
 
         return call
 
+    def recording_child(fn, args=(), kwargs=None, *, deadline=None):
+        # the MILP runs in a child process (pickled by reference): recorded on its way there
+        calls.append((fn.__name__, (kwargs.get("options") or {}).get("time_limit")))
+        return call_killable(fn, args, kwargs, deadline=deadline)
+
     enumerate_empty = _core.empty_triangles
     monkeypatch.setattr(_core, "empty_triangles", slow_enumeration)
     monkeypatch.setattr(scipy.optimize, "linprog", recording(scipy.optimize.linprog))
-    monkeypatch.setattr(scipy.optimize, "milp", recording(scipy.optimize.milp))
+    monkeypatch.setattr(optimal_stage, "call_killable", recording_child)
     result = optimal_surface(bumpy(12, 7), plane="z", time_limit=limit, strengthen=strengthen)
     assert result.certified
     names = [name for name, _ in calls]
@@ -397,3 +410,70 @@ def test_a_wrong_incumbent_is_refused_not_trusted():
         optimal_surface(pts, plane="z", incumbent=np.zeros((3, 2)))
     with pytest.raises(InvalidMeshError, match="refers to a vertex outside"):
         optimal_surface(pts, plane="z", incumbent=best.faces + 100)
+
+
+# --- HiGHS in a child process that is killed -------------------------------------------
+
+
+def _killable_children() -> list:
+    return [p for p in multiprocessing.active_children() if p.name == "scanmesh-killable"]
+
+
+def test_a_killable_call_returns_raises_and_is_killed_at_its_deadline():
+    assert call_killable(math.hypot, (3.0, 4.0)) == 5.0
+    with pytest.raises(ValueError, match="math domain error"):
+        call_killable(math.sqrt, (-1.0,))
+    # a stand-in that sleeps for a minute, given one second: killed, nothing left running
+    t0 = time.monotonic()
+    assert call_killable(time.sleep, (60.0,), deadline=time.monotonic() + 1.0) is None
+    assert time.monotonic() - t0 < 30.0  # generous: a loaded machine forks slowly
+    assert _killable_children() == []
+
+
+def test_ctrl_c_ends_a_killable_call_and_its_child():
+    script = """
+    import multiprocessing, sys, time
+    from scanmesh._killable import call_killable
+    call_killable(abs, (1,))  # the fork server started before the clock does
+    print("started", flush=True)
+    try:
+        call_killable(time.sleep, (60.0,))
+    except KeyboardInterrupt:
+        at = time.monotonic()
+        left = [p for p in multiprocessing.active_children() if p.name == "scanmesh-killable"]
+        print(f"interrupted {at!r}", flush=True)
+        sys.exit(0 if not left else 3)  # the child was ended, not left running
+    print("finished", flush=True)
+    """
+    assert seconds_to_interrupt(script, 0.5) < 0.5
+
+
+def test_optimal_keeps_its_time_limit_when_highs_overruns_it(tmp_path):
+    """A stand-in for scipy's milp that sleeps a minute, as HiGHS's presolve overran
+    time_limit=8 by 18 s: the call ends soon after its limit with the best triangulation
+    known (LOP's or Delaunay's), not certified, and says why."""
+    (tmp_path / "standin.py").write_text(
+        "import time\n\ndef milp(*args, **kwargs):\n    time.sleep(60.0)\n"
+    )
+    script = f"""
+    import sys, time, json
+    sys.path.insert(0, {str(tmp_path)!r})  # before the fork server starts: it imports standin
+    import numpy as np, scipy.optimize, standin
+    import scanmesh
+    scipy.optimize.milp = standin.milp
+    rng = np.random.default_rng(1)
+    pts = np.column_stack([rng.random((12, 2)), 0.1 * rng.random(12)])
+    t0 = time.monotonic()
+    s = scanmesh.reconstruct(pts, "optimal", plane="z", time_limit=3.0)
+    print(json.dumps({{"seconds": time.monotonic() - t0, "certified": s.certified,
+                      "status": s.options["status"], "source": s.options["source"],
+                      "faces": len(s.faces)}}))
+    """
+    done = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(script)], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert out["seconds"] < 30.0, out  # generous: the stand-in alone sleeps 60 s
+    assert not out["certified"] and "overran" in out["status"], out
+    assert out["source"] in ("lop", "delaunay") and out["faces"] > 0, out

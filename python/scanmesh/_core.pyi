@@ -128,6 +128,8 @@ def lop(
     p: float = ...,
     sliver_guard: bool = ...,
     tie_tolerance: float = ...,
+    sight: npt.NDArray[np.float64] | None = None,
+    curtain_angle: float = ...,
 ) -> tuple[npt.NDArray[np.int64], int]: ...
 
 @final
@@ -146,6 +148,7 @@ class Annealer:
         uv: npt.NDArray[np.float64],
         faces: npt.NDArray[np.int64],
         params: AnnealParams,
+        sight: npt.NDArray[np.float64] | None = None,
     ) -> Annealer: ...
     def advance(self, max_proposals: int, max_seconds: float) -> int: ...
     @property

@@ -95,7 +95,8 @@ def reconstruct(
         ``sliver_guard``, ``chains``, ``tiles``, ``time_limit`` (seconds of sweeps, then
         the best state so far; ``options["stopped"]`` says what ended the run), ...;
         ``lop``: ``initial``, ``criterion`` ("tac" or "max-min"), ``p``, ``sliver_guard``,
-        ``tie_tolerance``; ``lookahead``: ``weight``, ``alpha``, ``gap_factor``, ``check``;
+        ``tie_tolerance``, ``curtain_angle`` (as annealing's: no flip makes a curtain where
+        the scan knows its line of sight, a recorded ``up`` or a range grid); ``lookahead``: ``weight``, ``alpha``, ``gap_factor``, ``check``;
         ``shortest-path``: ``weight``, ``solver``, ``band``, ``gap_factor``, ``check``;
         ``optimal``: ``p``, ``time_limit``, ``strengthen``, ``incumbent``.
 
@@ -160,8 +161,7 @@ def _report_curtains(scan: PlanarScan, surface: Surface) -> None:
     a CurtainsWarning naming them when they cover more than CURTAIN_WARN_FRACTION of the
     area."""
     recorded = scan.up is not None
-    sight = scan.up if recorded else scan.frame.normal
-    found = curtains(surface.vertices, surface.faces, sight)
+    found = curtains(surface.vertices, surface.faces, scan.sight)
     report = {
         **found.as_dict(),
         "sight": "recorded up" if recorded else "projection normal",

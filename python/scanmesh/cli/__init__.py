@@ -154,7 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="+",
         choices=METHODS,
         metavar="M",
-        help=f"methods to run (default: {' '.join(COMPARE_METHODS)}; choices:"
+        help=f"methods to run (default: {' '.join(COMPARE_METHODS)}, grid on gridded scans"
+        " only; choices:"
         f" {', '.join(METHODS)})",
     )
     p.add_argument("--picture", metavar="P.png", help="write the meshes side by side")

@@ -29,10 +29,17 @@ from scanmesh.methods import default_initial
 from scanmesh.present.panels import render_compare
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.reconstruction import reconstruct
-from scanmesh.scan.planar import planar_scan
+from scanmesh.scan.planar import PlanarScan, planar_scan
+from scanmesh.stages.grid import is_gridded
 
-#: Methods ``scanmesh compare`` runs by default: all but the exact one (small inputs only).
-COMPARE_METHODS = ("delaunay", "lookahead", "shortest-path", "lop", "anneal")
+#: Methods ``scanmesh compare`` runs by default: all but the exact one (small inputs only);
+#: "grid" on gridded scans only (:func:`default_methods`).
+COMPARE_METHODS = ("delaunay", "grid", "lookahead", "shortest-path", "lop", "anneal")
+
+
+def default_methods(scan: PlanarScan) -> list[str]:
+    """COMPARE_METHODS, without "grid" unless ``scan`` has a range grid to triangulate."""
+    return [m for m in COMPARE_METHODS if m != "grid" or is_gridded(scan)]
 
 
 #: Share of the points ``scanmesh compare`` withholds without ``--truth`` (the holdout
@@ -58,6 +65,8 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     scan = planar_scan(
         source, plane=args.plane, progress=con.progress, read_options=_read_options(args)
     )
+    if not args.methods:
+        methods = default_methods(scan)
 
     rows, surfaces, failed = [], [], {}
     # One trimmed Delaunay triangulation: a row of its own and the start of LOP and annealing.

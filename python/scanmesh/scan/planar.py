@@ -103,6 +103,15 @@ class PlanarScan:
         default_factory=dict, init=False, repr=False, compare=False
     )
 
+    @property
+    def sight(self) -> np.ndarray:
+        """(3,) float64 unit line of sight: the recorded ``up``, else the normal of the
+        projection plane (what the grid triangulation, the curtain report and the curtain
+        rule of LOP and annealing judge faces against)."""
+        if self.up is not None:
+            return np.asarray(self.up, dtype=np.float64)
+        return np.asarray(self.frame.normal, dtype=np.float64)
+
     def once(self, key: Hashable, compute: Callable[[], _T]) -> _T:
         """``compute()``, computed on the first request for ``key`` and kept with the scan:
         the scan never changes, so neither does anything derived from it alone. A

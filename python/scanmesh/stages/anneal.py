@@ -16,10 +16,12 @@ from scanmesh._progress import Progress, Stage, accepts, anneal_progress
 from scanmesh.scan.noise import noise_tolerance
 from scanmesh.stages.options import (
     CORE_ANNEAL_DEFAULTS,
+    CURTAIN_ANGLE_OPTION,
     P_OPTION,
     SEED_OPTION,
     SLIVER_GUARD_OPTION,
     TIE_TOLERANCE_OPTION,
+    curtain_sight,
     planar_start,
 )
 from scanmesh.surface import Surface
@@ -159,6 +161,7 @@ OPTIONS: tuple[Option, ...] = (
         high=60.0,
         high_open=True,
     ),
+    CURTAIN_ANGLE_OPTION,
     Option(
         "calibration_samples",
         "int",
@@ -320,7 +323,12 @@ def anneal_surface(
         ``patience``, ``sliver_guard`` (True), ``tie_tolerance`` (1e-10, exact ties; None:
         from the scan's noise estimate), ``descend`` (True: the walk starts from the local
         optimum LOP reaches from ``initial``), ``sliver_angle`` (5 degrees: flips that make
-        a smaller smallest 3-D angle than this and than before are refused), ``planar_ties``
+        a smaller smallest 3-D angle than this and than before are refused),
+        ``curtain_angle`` (the core's CURTAIN_ANGLE_DEG, 10 degrees: flips that bring a
+        face's plane within this angle of the line of sight and nearer it than before are
+        refused, in the walk, the descent and the polish: no new curtain; only where the
+        scan knows its line of sight, ``stages.options.curtain_sight``),
+        ``planar_ties``
         (False; True: a flip whose four corners have a tac within twice the tie tolerance,
         flat up to the noise, is judged by the smallest planar angle alone, Delaunay's
         criterion, instead of by tac and 3-D angles, which there are the noise's: noisy
@@ -387,6 +395,7 @@ def anneal_surface(
                 scan.uv[keep],
                 local[start.faces],
                 _core.AnnealParams(seed=seed_value, **params),
+                curtain_sight(scan),
             ),
         )
     total = runner.chains * params["sweeps"]

@@ -89,11 +89,7 @@ def delaunay(
     with Stage(progress, "trim", len(faces), blocking=True):
         pass
     if len(faces) == 0:
-        raise DegenerateInputError(
-            f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse"
-            " for it, or fold onto themselves in the projection plane (try another plane=,"
-            " or a larger max_edge)"
-        )
+        raise DegenerateInputError(_why_nothing_kept(scan, limit))
     dropped = np.flatnonzero(duplicate_of >= 0)
     duplicates = np.column_stack([dropped, duplicate_of[dropped]]).astype(np.int64)
     if len(dropped):
@@ -113,4 +109,38 @@ def delaunay(
         duplicates=duplicates,
         timings={**scan.timings, "triangulate": triangulate, "trim": trim},
         line_ids=scan.line_ids,
+    )
+
+
+#: Points whose median nearest neighbour in the plane is closer than this share of the
+#: one in 3-D fold onto themselves there: the projection stacks distinct samples.
+FOLD_SHARE: float = 0.25
+
+
+def _why_nothing_kept(scan: PlanarScan, limit: float) -> str:
+    """The message of a trimming that left no triangle: a fold of the scan over its plane
+    when the projection brings its points far closer together than they are (the
+    least-squares plane of a scan with tall relief can stand across it: a block 10 high on
+    a 12 x 10 slope, sampled every 0.5, has its least variance along y, and over that plane
+    each column of samples lands within 0.02), else points too sparse for ``max_edge``."""
+    from scipy.spatial import cKDTree  # scipy loads only on this error's path
+
+    def spacing(coords: np.ndarray) -> float:
+        distance = cKDTree(coords).query(coords, k=2)[0][:, 1]
+        return float(np.median(distance[distance > 0])) if (distance > 0).any() else 0.0
+
+    in_3d, in_plane = spacing(scan.points), spacing(scan.uv)
+    if in_3d > 0 and in_plane < FOLD_SHARE * in_3d:
+        normal = np.array2string(np.asarray(scan.frame.normal), precision=3)
+        there = f"{in_plane:.3g} apart" if in_plane > 0 else "on top of each other"
+        return (
+            f"the scan folds onto itself over plane={scan.plane!r} (normal {normal}):"
+            f" points a median {in_3d:.3g} apart in 3-D lie {there} in the plane, so"
+            f" trimming at max_edge={limit:.6g} left no triangle; the surface is no height"
+            " field over this plane: plane=None chooses one over which it is, or give another"
+            " plane="
+        )
+    return (
+        f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse for"
+        " it (give a larger max_edge, or another plane=)"
     )

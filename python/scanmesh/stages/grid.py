@@ -11,8 +11,8 @@ sheet hanging across a depth jump stands edge-on to the rays) or an edge is long
 ``DEFAULT_GRID_TURN_DEG`` and ``DEFAULT_GRID_EDGE_FACTOR``, chosen by
 ``benches/curtains.py`` (docs/benchmarks/curtains.md).
 
-The line of sight is the scanner's recorded ``up`` (``PlanarScan.up``), else the normal of
-the scan's projection plane. The faces are counter-clockwise in the scan's plane, so LOP and
+The line of sight is ``PlanarScan.sight``: the scanner's recorded ``up``, else the normal
+of the scan's projection plane. The faces are counter-clockwise in the scan's plane, so LOP and
 annealing can start from them and flip inside their outline.
 """
 
@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
@@ -62,14 +61,6 @@ def is_gridded(scan: PlanarScan) -> bool:
     :func:`grid_surface` can triangulate it."""
     grid = scan.grid
     return grid is not None and grid.ndim == 2 and min(grid.shape) >= 2
-
-
-def sight_of(scan: PlanarScan) -> np.ndarray:
-    """(3,) float64 unit line of sight of ``scan``: its recorded ``up``, else the normal of
-    its projection plane."""
-    if scan.up is not None:
-        return np.asarray(scan.up, dtype=np.float64)
-    return np.asarray(scan.frame.normal, dtype=np.float64)
 
 
 def grid_surface(
@@ -132,7 +123,7 @@ def grid_surface(
             grid,
             scan.uv,
             scan.points,
-            sight_of(scan),
+            scan.sight,
             params["max_turn"],
             params["edge_factor"],
         )
@@ -164,4 +155,4 @@ def grid_surface(
     )
 
 
-__all__ = ["OPTIONS", "grid_surface", "is_gridded", "sight_of"]
+__all__ = ["OPTIONS", "grid_surface", "is_gridded"]

@@ -13,9 +13,11 @@ import time
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh.stages.options import (
+    CURTAIN_ANGLE_OPTION,
     P_OPTION,
     SLIVER_GUARD_OPTION,
     TIE_TOLERANCE_OPTION,
+    curtain_sight,
     planar_start,
 )
 from scanmesh.surface import Surface
@@ -32,6 +34,7 @@ OPTIONS: tuple[Option, ...] = (
     P_OPTION,
     SLIVER_GUARD_OPTION,
     TIE_TOLERANCE_OPTION,
+    CURTAIN_ANGLE_OPTION,
 )
 
 
@@ -42,11 +45,15 @@ def lop_surface(
     p: float = 1.0,
     sliver_guard: bool = True,
     tie_tolerance: float = TIE_TOLERANCE_OPTION.default,
+    curtain_angle: float = CURTAIN_ANGLE_OPTION.default,
 ) -> Surface:
     """Lawson's LOP from ``initial``: flip while a flip improves ``criterion``.
 
     ``criterion="tac"`` minimizes sum tac^p (annealing at T = 0; energy ties go to the larger
-    smallest angle when ``sliver_guard``); ``"max-min"`` maximizes the smallest angle in the
+    smallest angle when ``sliver_guard``; no flip brings a face within ``curtain_angle``
+    degrees of the line of sight and nearer it than before, where the scan knows it:
+    ``stages.options.curtain_sight``);
+    ``"max-min"`` maximizes the smallest angle in the
     projection plane and so converges to the Delaunay triangulation. Flips are judged in
     ``initial.scan``'s planar coordinates. O(flips x log m) after an O(m) start; the flip
     budget is finite (ARCHITECTURE.md, "Why").
@@ -64,6 +71,7 @@ def lop_surface(
             "p": p,
             "sliver_guard": sliver_guard,
             "tie_tolerance": tie_tolerance,
+            "curtain_angle": curtain_angle,
         },
         "LOP",
     )
@@ -78,6 +86,8 @@ def lop_surface(
         params["p"],
         params["sliver_guard"],
         params["tie_tolerance"],
+        curtain_sight(scan),
+        params["curtain_angle"],
     )
     return Surface(
         vertices=scan.points,

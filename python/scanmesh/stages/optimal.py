@@ -86,7 +86,8 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import Option, as_faces, check_options
-from scanmesh._interrupt import UNBOUNDED, interruptible
+from scanmesh._interrupt import interruptible
+from scanmesh._killable import call_killable
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.formats import ScanPoints
 from scanmesh.scan.planar import PlanarScan
@@ -112,6 +113,11 @@ MIP_REL_GAP: float = 1e-6
 #: Share of ``time_limit`` the root column generation over fans may use (it stops earlier
 #: when it converges); HiGHS gets the rest.
 FAN_SHARE: float = 0.5
+
+#: Seconds HiGHS may run past the time it was given before its child process is killed
+#: (its presolve checks the limit only between passes): the whole call then ends within
+#: about this much of ``time_limit``.
+KILL_AFTER_SECONDS: float = 0.25
 
 
 #: Most (distinct) points :func:`optimal_surface` accepts: the empty-triangle search is
@@ -213,7 +219,7 @@ def optimal_surface(
     """
     started = time.perf_counter()  # time_limit counts from here: every stage spends it
     # scipy's optimize is imported here, not at module load: `import scanmesh` stays light.
-    from scipy.optimize import Bounds, LinearConstraint, milp
+    from scipy.optimize import Bounds, LinearConstraint, OptimizeResult, milp
 
     params = check_options(
         OPTIONS,
@@ -253,18 +259,34 @@ def optimal_surface(
         # what is left of the limit after the triangulations, the enumeration, the cuts and
         # the assembly (at least a twentieth of it, for HiGHS to return what it finds)
         options["time_limit"] = max(limit - (t2 - started), 0.05 * limit)
-    # HiGHS releases the GIL but can run for minutes (past its time limit at the root):
-    # in a worker, so that Ctrl-C is not kept waiting
-    res = interruptible(
-        UNBOUNDED,
-        lambda: milp(
-            model.c,
-            integrality=model.integrality,
-            bounds=Bounds(0.0, model.upper),
-            constraints=LinearConstraint(model.a, model.lower_rows, model.upper_rows),
-            options=options,
-        ),
+    # HiGHS can run for minutes past its time limit (one presolve pass took 26 s under
+    # time_limit=8): in a child process, killed KILL_AFTER_SECONDS after its own limit or
+    # on Ctrl-C
+    deadline = None
+    if math.isfinite(limit):
+        deadline = time.monotonic() + float(options["time_limit"]) + KILL_AFTER_SECONDS
+    res = call_killable(
+        milp,
+        (model.c,),
+        {
+            "integrality": model.integrality,
+            "bounds": Bounds(0.0, model.upper),
+            "constraints": LinearConstraint(model.a, model.lower_rows, model.upper_rows),
+            "options": options,
+        },
+        deadline=deadline,
     )
+    if res is None:
+        # killed: as a run stopped at its time limit with nothing found
+        res = OptimizeResult(
+            status=1,
+            x=None,
+            fun=None,
+            mip_dual_bound=None,
+            mip_node_count=None,
+            message=f"HiGHS overran its time limit and was stopped {KILL_AFTER_SECONDS:g} s"
+            " after it",
+        )
     t3 = time.perf_counter()
     proven_by_cutoff = known is not None and res.status == 2
     if res.status not in (0, 1) and not proven_by_cutoff:

@@ -1,12 +1,16 @@
 """What the stages share: the Option records of keywords several methods take (``p``,
-``sliver_guard``, ``tie_tolerance``, ``seed``, ``max_edge``), the trimming constants read
-from the core, and the check that an optimizer starts from a planar triangulation."""
+``sliver_guard``, ``tie_tolerance``, ``curtain_angle``, ``seed``, ``max_edge``), the
+trimming constants read from the core, the line of sight of the curtain rule, and the check
+that an optimizer starts from a planar triangulation."""
 
 from __future__ import annotations
+
+import numpy as np
 
 from scanmesh import _core
 from scanmesh._checks import Option
 from scanmesh.errors import ParameterError
+from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.spacing import MAX_EDGE_FACTOR as MAX_EDGE_FACTOR  # defined with the spacings
 from scanmesh.surface import Surface
 
@@ -67,10 +71,36 @@ TIE_TOLERANCE_OPTION = Option(
     low=0.0,
 )
 
+#: No flip brings a face nearer the line of sight than this (LOP and annealing; the core's
+#: ``CURTAIN_ANGLE_DEG``, 90 degrees less the grid triangulation's largest turn), where the
+#: scan knows its line of sight (:func:`curtain_sight`).
+CURTAIN_ANGLE_OPTION = Option(
+    "curtain_angle",
+    "float",
+    CORE_ANNEAL_DEFAULTS["curtain_angle"],
+    "refuse flips that bring a face's plane within this angle (degrees) of the line of sight"
+    " and nearer it than before (0: off)",
+    low=0.0,
+    high=90.0,
+    high_open=True,
+)
+
 #: ``seed``, the shared keyword of the random methods: None means 0.
 SEED_OPTION = Option(
     "seed", "int", None, "seed of every random choice (default 0)", low=0, high=2**64 - 1
 )
+
+
+def curtain_sight(scan: PlanarScan) -> np.ndarray | None:
+    """(3,) float64 line of sight LOP and annealing refuse curtains along, or None (no such
+    rule): ``scan.sight`` where the scan knows where its rays came from, a recorded ``up``
+    or a range grid (whose triangulation judged its faces by the same sight). Elsewhere the
+    projection normal is no line of sight: faces steep over it are real surface seen at a
+    grazing angle, and holding flips off them raised fran_cut's holdout error
+    (docs/benchmarks/curtains.md)."""
+    if scan.up is None and scan.grid is None:
+        return None
+    return scan.sight
 
 
 def planar_start(initial: Surface, stage: str) -> Surface:

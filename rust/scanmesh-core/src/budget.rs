@@ -165,6 +165,22 @@ pub fn try_vec<T>(what: &str, len: usize) -> Result<Vec<T>> {
     Ok(v)
 }
 
+/// `len` copies of `value` in a vector whose allocation may fail (an
+/// [`Error::OutOfMemory`] naming `what`) instead of aborting the process. O(len).
+pub fn try_filled<T: Clone>(what: &str, value: T, len: usize) -> Result<Vec<T>> {
+    let mut v = try_vec(what, len)?;
+    v.resize(len, value);
+    Ok(v)
+}
+
+/// The items of `items` in a vector allocated once for all of them, an allocation that may
+/// fail (an [`Error::OutOfMemory`] naming `what`) instead of aborting the process. O(len).
+pub fn try_collect<T>(what: &str, items: impl ExactSizeIterator<Item = T>) -> Result<Vec<T>> {
+    let mut v = try_vec(what, items.len())?;
+    v.extend(items);
+    Ok(v)
+}
+
 /// The value of a `Name:   123 kB` line, in bytes.
 fn kib_field(text: &str, name: &str) -> Option<u64> {
     let line = text.lines().find(|l| l.starts_with(name))?;
@@ -214,6 +230,25 @@ pub fn allocation_failed(name: &'static str, value: impl ToString, bytes: u64) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn allocations_too_large_to_give_are_errors_not_aborts() {
+        // Half the address space of u64s: no allocator gives it (capacity overflow or
+        // refusal), and either way the answer is an error naming the buffer.
+        for len in [usize::MAX / 16, isize::MAX as usize / 8 + 1] {
+            match try_filled("test buffer", 0u64, len) {
+                Err(Error::OutOfMemory { what, .. }) => assert!(what.contains("test buffer")),
+                other => panic!("{len}: {:?}", other.map(|v| v.len())),
+            }
+        }
+        let huge = (0..usize::MAX / 16).map(|_| 0u64);
+        assert!(matches!(
+            try_collect("test items", huge),
+            Err(Error::OutOfMemory { .. })
+        ));
+        assert_eq!(try_filled("small", 7u8, 3).unwrap(), vec![7, 7, 7]);
+        assert_eq!(try_collect("small", 0..4).unwrap(), vec![0, 1, 2, 3]);
+    }
 
     #[test]
     fn proc_fields_parse() {

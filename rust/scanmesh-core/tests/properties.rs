@@ -221,7 +221,7 @@ proptest! {
         let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
         let (mut state, _) = TacState::from_input(&pts, &uv, trimmed.clone(), 1.0).unwrap();
         let vertices = used(uv.len(), &state.mesh().triangles());
-        let order = TacOrder { tie_tolerance: 1e-10, sliver_guard: true, planar_ties: false, sliver_angle: 0.0 };
+        let order = TacOrder { tie_tolerance: 1e-10, sliver_guard: true, planar_ties: false, sliver_angle: 0.0, min_facing: 0.0 };
         tac_lop(&mut state, order);
         state.mesh().validate(&state.uv()).unwrap();
         let full = state.energy_from_scratch();

@@ -20,6 +20,15 @@ pub(crate) fn shape_error(name: &str, expected: &str, shape: &[usize]) -> PyErr 
     ScanmeshError::new_err(format!("{name} must have shape {expected}, got {shape:?}"))
 }
 
+/// The (3,) vector `a` as a `DVec3`; a shape error naming `name` otherwise.
+pub(crate) fn vector3(name: &str, a: &PyReadonlyArray1<'_, f64>) -> PyResult<DVec3> {
+    let s = a.as_array();
+    if s.len() != 3 {
+        return Err(shape_error(name, "(3,)", s.shape()));
+    }
+    Ok(DVec3::new(s[0], s[1], s[2]))
+}
+
 pub(crate) fn points3(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
     let v = a.as_array();
     if v.ncols() != 3 {

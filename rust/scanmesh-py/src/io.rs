@@ -67,6 +67,13 @@ pub(crate) fn parse_text_table<'py>(
             let kind = match e.kind {
                 TextErrorKind::NotANumber => "number",
                 TextErrorKind::WrongCount => "count",
+                TextErrorKind::OutOfMemory => {
+                    return Err(to_py(scanmesh_core::Error::OutOfMemory {
+                        what: format!("the numbers of {} bytes of text", chunk.len()),
+                        needs: (chunk.len() as u64 / 4).saturating_mul(8),
+                        limit: "what the allocator could give".into(),
+                    }))
+                }
             };
             (Table::default(), Some((e.line, e.offset, kind)))
         }

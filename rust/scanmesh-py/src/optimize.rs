@@ -1,14 +1,14 @@
 //! Flips toward lower tac: Lawson's LOP and simulated annealing, with annealing's
 //! parameters exposed as the core declares them (`scanmesh_core` optimize/).
 
-use crate::convert::{faces, faces_out, points2_view, points3_view, trace_out, Ints2};
+use crate::convert::{faces, faces_out, points2_view, points3_view, trace_out, vector3, Ints2};
 use crate::results::AnnealOutcome;
 use crate::{to_py, ParameterError, ScanmeshError};
-use numpy::PyReadonlyArray2;
+use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use scanmesh_core::{run_lop, Ensemble, LopCriterion, Relabel, TacOrder, TacState};
+use scanmesh_core::{curtain_facing, run_lop, Ensemble, LopCriterion, Relabel, TacOrder, TacState};
 
 /// Lists `scanmesh_core::AnnealParams`'s fields once, for reading them from keywords and
 /// writing them to a dict. The destructuring in `fields_dict` names every field with no
@@ -54,6 +54,7 @@ anneal_fields!(
     polish,
     descend,
     sliver_angle,
+    curtain_angle,
     calibration_samples,
     chains,
     tiles,
@@ -120,30 +121,37 @@ impl AnnealParams {
 }
 
 /// The incremental tac state of `faces` over 3-D `points` with planar `uv`, both normalized
-/// (scale-free), checked to be a valid planar triangulation.
+/// (scale-free), checked to be a valid planar triangulation, with the (3,) line of sight
+/// `sight` when given.
 pub(crate) fn tac_state(
     points: &PyReadonlyArray2<'_, f64>,
     uv: &PyReadonlyArray2<'_, f64>,
     faces_: &PyReadonlyArray2<'_, i64>,
     p: f64,
+    sight: Option<PyReadonlyArray1<'_, f64>>,
 ) -> PyResult<(TacState, Relabel)> {
+    let sight = sight.map(|s| vector3("sight", &s)).transpose()?;
     // Borrowed from numpy where it lays them out as rows: no copy at the boundary.
     let xyz = points3_view(points)?;
     let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
-    TacState::from_input(&xyz, &plane, t, p).map_err(to_py)
+    let (state, relabel) = TacState::from_input(&xyz, &plane, t, p).map_err(to_py)?;
+    Ok((state.with_sight(sight).map_err(to_py)?, relabel))
 }
 
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
-/// larger smallest angle when `sliver_guard`) or "max-min" (smallest angle in the plane;
-/// converges to Delaunay); `p`, `sliver_guard` and `tie_tolerance` default to annealing's.
-/// Returns (faces, flips).
+/// larger smallest angle when `sliver_guard`, no flip bringing a face within
+/// `curtain_angle` degrees of the (3,) line of sight `sight` when one is given) or
+/// "max-min" (smallest angle in the plane; converges to Delaunay); `p`, `sliver_guard`,
+/// `tie_tolerance` and `curtain_angle` default to annealing's. Returns (faces, flips).
 #[pyfunction]
 #[pyo3(signature = (
     points, uv, faces_, criterion,
     p=scanmesh_core::AnnealParams::default().p,
     sliver_guard=scanmesh_core::AnnealParams::default().sliver_guard,
     tie_tolerance=scanmesh_core::AnnealParams::default().tie_tolerance,
+    sight=None,
+    curtain_angle=scanmesh_core::AnnealParams::default().curtain_angle,
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn lop<'py>(
@@ -155,9 +163,14 @@ pub(crate) fn lop<'py>(
     p: f64,
     sliver_guard: bool,
     tie_tolerance: f64,
+    sight: Option<PyReadonlyArray1<'py, f64>>,
+    curtain_angle: f64,
 ) -> PyResult<(Ints2<'py>, usize)> {
     let criterion = match criterion {
-        "tac" => LopCriterion::Tac(TacOrder::new(tie_tolerance, sliver_guard).map_err(to_py)?),
+        "tac" => LopCriterion::Tac(TacOrder {
+            min_facing: curtain_facing(curtain_angle).map_err(to_py)?,
+            ..TacOrder::new(tie_tolerance, sliver_guard).map_err(to_py)?
+        }),
         "max-min" => LopCriterion::PlanarMaxMin,
         other => {
             return Err(ParameterError::new_err(format!(
@@ -165,7 +178,7 @@ pub(crate) fn lop<'py>(
             )))
         }
     };
-    let (state, relabel) = tac_state(&points, &uv, &faces_, p)?;
+    let (state, relabel) = tac_state(&points, &uv, &faces_, p, sight)?;
     let (mesh, flips) = py.detach(|| run_lop(state, criterion));
     Ok((
         faces_out(py, &relabel.triangles_to_input(&mesh.triangles())),
@@ -194,17 +207,20 @@ impl Annealer {
 #[pymethods]
 impl Annealer {
     /// A run from `faces` over 3-D `points` with planar `uv`, with `params` (the core
-    /// checks them against this triangulation and refuses runs that would cost too much).
+    /// checks them against this triangulation and refuses runs that would cost too much)
+    /// and the (3,) line of sight `sight` its curtain rule judges by (None: no rule).
     #[new]
+    #[pyo3(signature = (points, uv, faces, params, sight=None))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
         uv: PyReadonlyArray2<'_, f64>,
         faces: PyReadonlyArray2<'_, i64>,
         params: PyRef<'_, AnnealParams>,
+        sight: Option<PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<Self> {
         let params = params.0.clone();
-        let (state, relabel) = tac_state(&points, &uv, &faces, params.p)?;
+        let (state, relabel) = tac_state(&points, &uv, &faces, params.p, sight)?;
         let inner = py.detach(|| Ensemble::new(state, params)).map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),

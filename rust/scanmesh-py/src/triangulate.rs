@@ -2,15 +2,14 @@
 //! triangulation along a range grid, and the check that faces form a valid triangulation (`scanmesh_core` triangulate/, projection).
 
 use crate::convert::{
-    duplicates_out, faces, faces_out, indices_out, points2, points2_view, points3_view,
-    shape_error, uv_into, Floats2, Ints1, Ints2,
+    duplicates_out, faces, faces_out, indices_out, points2, points2_view, points3_view, uv_into,
+    vector3, Floats2, Ints1, Ints2,
 };
 use crate::results::{GridTriangles, TrimmedDelaunay};
 use crate::{to_py, ParameterError};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
-use scanmesh_core::glam::DVec3;
 use scanmesh_core::{check_finite, HalfEdgeMesh, Plane};
 use std::borrow::Cow;
 
@@ -30,13 +29,7 @@ pub(crate) fn project<'py>(
         (Some("x"), None) => Plane::Axis(0),
         (Some("y"), None) => Plane::Axis(1),
         (Some("z"), None) => Plane::Axis(2),
-        (None, Some(n)) => {
-            let n = n.as_array();
-            if n.len() != 3 {
-                return Err(shape_error("normal", "(3,)", n.shape()));
-            }
-            Plane::Normal(DVec3::new(n[0], n[1], n[2]))
-        }
+        (None, Some(n)) => Plane::Normal(vector3("normal", &n)?),
         (p, _) => {
             return Err(ParameterError::new_err(format!(
                 "plane must be 'best-fit', 'x', 'y', 'z' or a normal vector, got {p:?}"
@@ -146,10 +139,7 @@ pub(crate) fn grid_triangulate<'py>(
         )));
     }
     check_finite(&xyz).map_err(to_py)?;
-    let s = sight.as_array();
-    if s.len() != 3 {
-        return Err(shape_error("sight", "(3,)", s.shape()));
-    }
+    let sight = vector3("sight", &sight)?;
     let g = grid.as_array();
     let (rows, cols) = (g.nrows(), g.ncols());
     // C-ordered grids (every scanmesh reader's) are read in place
@@ -158,7 +148,7 @@ pub(crate) fn grid_triangulate<'py>(
         None => Cow::Owned(g.iter().copied().collect()),
     };
     let params = scanmesh_core::GridParams {
-        sight: DVec3::new(s[0], s[1], s[2]),
+        sight,
         max_turn_deg,
         edge_factor,
     };

@@ -28,6 +28,9 @@ pub enum TextErrorKind {
     NotANumber,
     /// the line holds another number of values (or delimiters) than `ncols`
     WrongCount,
+    /// the values read so far and this line's could not be given memory (the allocation
+    /// failed: an error, never an abort)
+    OutOfMemory,
 }
 
 /// Why a chunk was refused: the first offending line (0-based within the chunk), the byte
@@ -120,6 +123,13 @@ pub fn parse_table(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Ta
         .map(|w| parse_piece(&buf[w[0]..w[1]], ncols, delimiter))
         .collect();
     let mut out = Table::default();
+    // The pieces' values copied into one vector: an allocation of the whole input's size.
+    let total: usize = pieces.iter().flatten().map(|p| p.values.len()).sum();
+    out.values.try_reserve_exact(total).map_err(|_| TextError {
+        line: 0,
+        offset: 0,
+        kind: TextErrorKind::OutOfMemory,
+    })?;
     for (piece, &offset) in pieces.into_iter().zip(&cuts) {
         let lines = out.n_lines as i64;
         let piece = piece.map_err(|e| TextError {
@@ -144,10 +154,16 @@ fn parse_piece(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Table,
     let seps = Separators { delimiter };
     // A value costs at least 2 bytes of text: reserve for a plausible density (about what
     // real scans hold) and let the vector grow, by what was read, past it if needed.
-    let mut table = Table {
-        values: Vec::with_capacity(buf.len() / 4),
-        ..Table::default()
+    let mut table = Table::default();
+    let out_of_memory = |line: usize, offset: usize| TextError {
+        line,
+        offset,
+        kind: TextErrorKind::OutOfMemory,
     };
+    table
+        .values
+        .try_reserve(buf.len() / 4)
+        .map_err(|_| out_of_memory(0, 0))?;
     let free = ncols == 0;
     let n = buf.len();
     let mut pos = 0usize;
@@ -182,6 +198,14 @@ fn parse_piece(buf: &[u8], ncols: usize, delimiter: Option<u8>) -> Result<Table,
             if !free && tokens > ncols {
                 table.values.truncate(row_start);
                 return Err(bad(start, TextErrorKind::WrongCount));
+            }
+            if table.values.len() == table.values.capacity() {
+                // Past the plausible density reserved above: grow, fallibly.
+                let more = table.values.len().max(1024);
+                table
+                    .values
+                    .try_reserve(more)
+                    .map_err(|_| out_of_memory(line, pos))?;
             }
             match fast_float2::parse_partial::<f64, _>(&buf[pos..]) {
                 Ok((value, used)) if pos + used == n || seps.kind(buf[pos + used]) != 0 => {

@@ -6,6 +6,7 @@
 //! half-edge, `NONE` on the boundary). A flip rewrites the six slots of its two triangles
 //! in place; nothing is allocated.
 
+use crate::budget::{try_collect, try_filled, try_vec};
 use crate::geometry::orient2d;
 use crate::mesh::locality::prefetch;
 use crate::{Error, Result};
@@ -128,14 +129,15 @@ impl HalfEdgeMesh {
         if let Some(e) = bad_face {
             return Err(e);
         }
-        let start = triangles.as_flattened().to_vec();
-        let out = Outgoing::new(n_vertices, &start);
+        // Input-sized buffers whose allocation may fail: an Error, never an abort.
+        let start = try_collect("half-edges", triangles.as_flattened().iter().copied())?;
+        let out = Outgoing::new(n_vertices, &start)?;
         if out.repeats_a_directed_edge() {
             // Rare (a bad input): the sort names the same edge and faces as always.
             return Err(Self::repeated_edge_by_sort(&start));
         }
         // Twins: the twin of a→b is the one half-edge b→a in b's list, if any.
-        let mut twin = vec![NONE; 3 * m];
+        let mut twin = try_filled("half-edge twins", NONE, 3 * m)?;
         twin.par_chunks_mut(BLOCK)
             .enumerate()
             .for_each(|(c, chunk)| {
@@ -152,8 +154,8 @@ impl HalfEdgeMesh {
         // half-edges overwrite would leave); it is on the boundary when a twin-less
         // half-edge leaves or enters it, and every half-edge entering v is prev(h) of a
         // half-edge h leaving v (the same triangle's corner).
-        let mut vertex_edge = vec![NONE; n_vertices];
-        let mut on_boundary = vec![false; n_vertices];
+        let mut vertex_edge = try_filled("vertex half-edges", NONE, n_vertices)?;
+        let mut on_boundary = try_filled("boundary flags", false, n_vertices)?;
         vertex_edge
             .par_chunks_mut(BLOCK)
             .zip(on_boundary.par_chunks_mut(BLOCK))
@@ -548,23 +550,24 @@ impl Outgoing {
     /// chunks of the half-edges counts its own starts, so the chunks scatter without
     /// atomic counters and every list comes out in increasing order whatever c is.
     /// O(m + c n) work for m half-edges, c = the rayon pool's thread count (at most one
-    /// chunk per 2^16 half-edges); c arrays of n counts.
-    fn new(n: usize, start: &[u32]) -> Self {
+    /// chunk per 2^16 half-edges); c arrays of n counts, allocations that may fail (an
+    /// [`Error::OutOfMemory`]).
+    fn new(n: usize, start: &[u32]) -> Result<Self> {
         let m = start.len();
         let chunks = rayon::current_num_threads().min(m >> 16).max(1);
         let len = m.div_ceil(chunks).max(1);
         let mut cursor: Vec<Vec<u32>> = start
             .par_chunks(len)
             .map(|s| {
-                let mut count = vec![0u32; n];
+                let mut count = try_filled("vertex counts", 0u32, n)?;
                 for &v in s {
                     count[v as usize] += 1;
                 }
-                count
+                Ok(count)
             })
-            .collect();
+            .collect::<Result<_>>()?;
         // Exclusive prefix sums in (vertex, chunk) order: chunk c's first slot for v.
-        let mut first = Vec::with_capacity(n + 1);
+        let mut first = try_vec("vertex offsets", n.saturating_add(1))?;
         let mut total = 0u32;
         for v in 0..n {
             first.push(total);
@@ -577,7 +580,7 @@ impl Outgoing {
         first.push(total);
         // The slots are disjoint across chunks but interleaved, so the scatter writes
         // through relaxed atomics (plain stores on x86): (end << 32) | half-edge.
-        let slots: Vec<AtomicU64> = (0..m).map(|_| AtomicU64::new(0)).collect();
+        let slots = try_collect("half-edge slots", (0..m).map(|_| AtomicU64::new(0)))?;
         start
             .par_chunks(len)
             .zip(cursor.par_iter_mut())
@@ -598,11 +601,11 @@ impl Outgoing {
                 ((p >> 32) as u32, p as u32)
             })
             .unzip();
-        Outgoing {
+        Ok(Outgoing {
             first,
             half_edge,
             end,
-        }
+        })
     }
 
     /// The slots of vertex `v`'s half-edges. O(1).

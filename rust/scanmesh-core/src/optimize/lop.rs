@@ -38,6 +38,34 @@ pub struct TacOrder {
     /// A move that makes the smallest 3-D angle of its two triangles fall below this
     /// (radians) and below what it was never improves (0: no such rule).
     pub sliver_angle: f64,
+    /// A move that makes one of its two triangles face the line of sight less squarely
+    /// than this ([`FlipMove::new_facing`]: the sine of the angle between the plane and
+    /// the sight) and less squarely than before never improves: no new curtain (0: no
+    /// such rule; measured only on a state with a sight, [`TacState::with_sight`]). Set it
+    /// from an angle with [`curtain_facing`].
+    pub min_facing: f64,
+}
+
+/// The [`TacOrder::min_facing`] that refuses moves bringing a triangle's plane within
+/// `degrees` of the line of sight (0: off); an error naming `curtain_angle` unless
+/// 0 ≤ degrees < 90. O(1).
+pub fn curtain_facing(degrees: f64) -> Result<f64> {
+    if !(0.0..90.0).contains(&degrees) {
+        return Err(Error::InvalidParameter {
+            name: "curtain_angle",
+            value: degrees.to_string(),
+            expected: "an angle in degrees from 0 (off) up to, not including, 90",
+        });
+    }
+    Ok(degrees.to_radians().sin())
+}
+
+/// The one rule behind both of [`TacOrder::refuses`]'s guards: a shape measure where
+/// larger is better (a smallest angle, a facing) falls below its `floor` with a move and
+/// below what it `was`. NaN (not measured) never falls. O(1).
+#[inline(always)]
+fn falls_below(now: f64, was: f64, floor: f64) -> bool {
+    now < floor && now < was
 }
 
 impl TacOrder {
@@ -56,15 +84,20 @@ impl TacOrder {
             sliver_guard,
             planar_ties: false,
             sliver_angle: 0.0,
+            min_facing: 0.0,
         })
     }
 
-    /// True when `mv` would make a sliver: its new smallest 3-D angle is below
-    /// `sliver_angle` and below the old one. Moves whose angles were not measured (NaN:
-    /// coplanar ties evaluated for their energy only) are not judged. O(1).
+    /// True when `mv` is refused whatever its energy: it would make a sliver (its new
+    /// smallest 3-D angle below `sliver_angle` and below the old one) or a curtain (a new
+    /// triangle facing the sight less than `min_facing` and less than the old ones did).
+    /// Moves whose shapes were not measured (NaN: coplanar ties evaluated for their energy
+    /// only, which change neither a plane nor, by the polish's order, an angle for the
+    /// worse; no sight) are not judged. O(1).
     #[inline]
-    pub fn makes_sliver(&self, mv: &FlipMove) -> bool {
-        mv.new_min_angle < self.sliver_angle && mv.new_min_angle < mv.old_min_angle
+    pub fn refuses(&self, mv: &FlipMove) -> bool {
+        falls_below(mv.new_min_angle, mv.old_min_angle, self.sliver_angle)
+            || falls_below(mv.new_facing, mv.old_facing, self.min_facing)
     }
 
     /// True when `mv` is a tie under this order. O(1).
@@ -79,7 +112,7 @@ impl TacOrder {
     /// `None`; asked for only with `planar_ties`. O(1).
     #[inline]
     pub fn improves(&self, mv: &FlipMove, flat: impl FnOnce(f64) -> Option<[[f64; 2]; 4]>) -> bool {
-        if self.makes_sliver(mv) {
+        if self.refuses(mv) {
             return false;
         }
         if let Some(quad) = self.planar_ties.then(|| flat(self.tie_tolerance)).flatten() {
@@ -448,6 +481,7 @@ mod tests {
                 sliver_guard: true,
                 planar_ties,
                 sliver_angle: 0.0,
+                min_facing: 0.0,
             };
             assert!(tac_lop(&mut st, order) > 0);
             st.mesh().validate(&uv).unwrap();
@@ -479,6 +513,7 @@ mod tests {
             sliver_guard: true,
             planar_ties: false,
             sliver_angle: 0.0,
+            min_facing: 0.0,
         };
         let flips = lop(
             &mut TacLop {

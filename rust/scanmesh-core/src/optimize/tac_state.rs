@@ -37,6 +37,13 @@ pub struct FlipMove {
     pub old_min_angle: f64,
     /// Smallest 3-D angle of the two triangles after the flip (radians; NaN if not computed).
     pub new_min_angle: f64,
+    /// How squarely the two triangles face the line of sight before the flip: the smaller
+    /// |cos| of the angle between a normal and the sight, the sine of the angle between the
+    /// plane and the sight (0: edge-on, a curtain; NaN without a sight, see
+    /// [`TacState::with_sight`], or if not computed).
+    pub old_facing: f64,
+    /// The same after the flip.
+    pub new_facing: f64,
     /// The four corners are coplanar: angle sums cannot change, the move is an exact tie.
     pub coplanar: bool,
 }
@@ -114,6 +121,9 @@ pub struct TacState {
     vert: Vec<VertexRecord>,
     p: f64,
     energy: f64,
+    // Unit line of sight in the positions' frame (normalizing scales and shifts, so it is
+    // the caller's direction); None: moves measure no facing.
+    sight: Option<DVec3>,
 }
 
 /// All a proposal reads about one vertex, in one 64-byte cache line: a random edge's four
@@ -155,6 +165,15 @@ pub fn is_coplanar(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> bool {
         v2 * diagonal.length_squared() >= e2 * n1.length_squared() * n2.length_squared()
     };
     !(bent(ab, ab.cross(ac), ab.cross(ad)) || bent(cd, ac.cross(ad), bc.cross(bd)))
+}
+
+/// How squarely triangle (a, b, c) faces the unit direction `sight`: |cos| of the angle
+/// between its normal and `sight` (1: face-on, 0: edge-on); NaN for a degenerate triangle,
+/// which no rule judges. O(1).
+#[inline]
+pub fn facing(sight: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let n = (b - a).cross(c - a);
+    n.dot(sight).abs() / n.length()
 }
 
 /// Energy contribution `|2π − S|^p` of an interior vertex with angle sum `s`. O(1).
@@ -219,6 +238,7 @@ impl TacState {
             mut stale,
             vert,
             p,
+            sight,
             ..
         } = self;
         drop(old);
@@ -227,6 +247,7 @@ impl TacState {
         stale.clear();
         stale.resize(mesh.n_triangles().div_ceil(64), 0);
         let mut state = TacState::assemble(mesh, vert, corner, stale, p);
+        state.sight = sight;
         state.measure_sums();
         Ok(state)
     }
@@ -262,6 +283,7 @@ impl TacState {
             mesh,
             p,
             energy: 0.0,
+            sight: None,
         };
         for t in 0..state.mesh.n_triangles() {
             let [a, b, c] = state.mesh.triangle(t).map(|v| state.vert[v as usize].xyz);
@@ -390,7 +412,30 @@ impl TacState {
             vert: try_copy(&self.vert)?,
             p: self.p,
             energy: self.energy,
+            sight: self.sight,
         })
+    }
+
+    /// The state with `sight`, the direction towards the scanner (any length, either sign),
+    /// so that every measured move also gives how squarely its triangles face it
+    /// ([`FlipMove::old_facing`], [`FlipMove::new_facing`]) for the curtain rule of
+    /// [`TacOrder`](crate::optimize::lop::TacOrder); None: no sight. A zero or non-finite
+    /// `sight` is an error naming it. O(1).
+    pub fn with_sight(mut self, sight: Option<DVec3>) -> Result<Self> {
+        self.sight = match sight {
+            None => None,
+            Some(s) => Some(s.try_normalize().ok_or_else(|| Error::InvalidParameter {
+                name: "sight",
+                value: format!("{s:?}"),
+                expected: "a finite, non-zero direction",
+            })?),
+        };
+        Ok(self)
+    }
+
+    /// The unit line of sight given by [`with_sight`](Self::with_sight), if any. O(1).
+    pub fn sight(&self) -> Option<DVec3> {
+        self.sight
     }
 
     /// Bytes its arrays take (for memory estimates). O(1).
@@ -604,6 +649,8 @@ impl TacState {
                 new_angles: [nan; 6],
                 old_min_angle: nan,
                 new_min_angle: nan,
+                old_facing: nan,
+                new_facing: nan,
                 coplanar,
             });
         }
@@ -688,6 +735,13 @@ impl TacState {
                 }
             }
         }
+        let [old_facing, new_facing] = match self.sight {
+            Some(s) => [
+                facing(s, pa, pb, pc).min(facing(s, pb, pa, pd)),
+                facing(s, pd, pc, pa).min(facing(s, pc, pd, pb)),
+            ],
+            None => [f64::NAN; 2],
+        };
         FlipMove {
             h,
             delta_energy,
@@ -695,6 +749,8 @@ impl TacState {
             new_angles,
             old_min_angle: min6(old),
             new_min_angle: min6(new_angles),
+            old_facing,
+            new_facing,
             coplanar,
         }
     }

@@ -43,6 +43,7 @@ pub struct TiledAnnealer {
     params: AnnealParams,
     uv: Vec<[f64; 2]>,
     xyz: Vec<DVec3>,
+    sight: Option<DVec3>,
     // Per vertex, fixed for the run: interior flag and rank along the stripe axis.
     interior: Vec<bool>,
     rank: Vec<u32>,
@@ -119,6 +120,7 @@ impl TiledAnnealer {
             interior_edges: state.count_interior_half_edges() / 2,
             uv,
             xyz: state.xyz(),
+            sight: state.sight(),
             interior,
             rank,
             best: triangles.clone(),
@@ -270,7 +272,8 @@ impl TiledAnnealer {
                         .map(|&v| self.interior[v as usize])
                         .collect::<Vec<_>>(),
                 )
-                .expect("positions and p were checked for the whole state");
+                .and_then(|s| s.with_sight(self.sight))
+                .expect("positions, p and the sight were checked for the whole state");
                 let params = AnnealParams {
                     sweeps,
                     patience: 0,
@@ -401,7 +404,7 @@ impl TiledAnnealer {
             self.end_phase();
         }
         let best = HalfEdgeMesh::from_triangles(self.uv.len(), &self.best)?;
-        let best = TacState::new(best, self.uv, self.xyz, self.params.p)?;
+        let best = TacState::new(best, self.uv, self.xyz, self.params.p)?.with_sight(self.sight)?;
         let (mesh, energy, polish_flips) = polish(best, &self.params);
         Ok(AnnealResult {
             mesh,

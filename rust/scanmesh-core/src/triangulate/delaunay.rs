@@ -1,6 +1,7 @@
 //! Planar Delaunay triangulation, with the map back to input indices: delaunator's sweep
 //! checked exactly, spade where the check fails.
 
+use crate::budget::{try_collect, try_filled};
 use crate::geometry::{check_planar, orient2d, unit_square};
 use crate::mesh::locality::sweep_order;
 use crate::mesh::NONE;
@@ -89,14 +90,17 @@ pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<
         let swept = {
             let unit = unit_square(uv);
             let order = sweep_order(&unit);
-            let local = order.iter().map(|&i| point(unit[i as usize])).collect();
+            let local = try_collect(
+                "Delaunay's points",
+                order.iter().map(|&i| point(unit[i as usize])),
+            )?;
             drop(unit);
             sweep_points(local).map(|d| (d, order))
         };
         if let Some((mut d, to_input)) = swept {
             // Copies of a point keep their input order in the sweep order, so the lowest
             // local label of a copy is the lowest input index.
-            let mut duplicate_of = vec![NONE; uv.len()];
+            let mut duplicate_of = try_filled("Delaunay's duplicates", NONE, uv.len())?;
             for (v, &k) in d.duplicate_of.iter().enumerate() {
                 if k != NONE {
                     duplicate_of[to_input[v] as usize] = to_input[k as usize];

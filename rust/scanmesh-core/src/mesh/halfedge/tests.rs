@@ -338,3 +338,13 @@ fn fans_go_counter_clockwise() {
         }
     }
 }
+
+#[test]
+fn a_vertex_count_no_memory_can_hold_is_an_error_not_an_abort() {
+    // One triangle over an absurd vertex count: its per-vertex arrays cannot be allocated,
+    // and from_triangles says so instead of aborting the process.
+    match HalfEdgeMesh::from_triangles(usize::MAX / 16, &[[0, 1, 2]]) {
+        Err(Error::OutOfMemory { what, .. }) => assert!(what.contains("vertex"), "{what}"),
+        other => panic!("{:?}", other.map(|m| m.n_vertices())),
+    }
+}

@@ -1,6 +1,7 @@
 use super::*;
 use crate::optimize::lop::{lop, TacLop};
 use crate::optimize::tac_state::tests::{bumpy_state, plateau_state};
+use glam::DVec3;
 
 /// One plain chain run to its end in one call.
 pub(crate) fn anneal(state: TacState, params: AnnealParams) -> Result<AnnealResult> {
@@ -275,6 +276,10 @@ fn invalid_parameters_are_refused() {
             sliver_angle: 60.0,
             ..Default::default()
         },
+        AnnealParams {
+            curtain_angle: 90.0,
+            ..Default::default()
+        },
     ] {
         assert!(Annealer::new(st.clone(), bad).is_err());
     }
@@ -304,4 +309,92 @@ fn the_automatic_schedule_shares_its_budget_among_the_chains() {
         ..Default::default()
     };
     assert_eq!(short.auto_sweeps(100, 250), 20);
+}
+
+/// The largest turn (degrees) of a face's normal away from the z axis, measured apart from
+/// the state's `facing` (by atan2 of the normal's horizontal and vertical parts).
+fn steepest_turn_deg(xyz: &[DVec3], mesh: &HalfEdgeMesh) -> f64 {
+    mesh.triangles()
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| xyz[v as usize]);
+            let n = (b - a).cross(c - a);
+            n.x.hypot(n.y).atan2(n.z.abs()).to_degrees()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// A tiled chain run to its end.
+fn tiled(state: TacState, params: AnnealParams) -> HalfEdgeMesh {
+    let mut run = crate::optimize::tiles::TiledAnnealer::new(state, params).unwrap();
+    while !run.is_done() {
+        run.advance_until(usize::MAX, None);
+    }
+    run.finish().unwrap().mesh
+}
+
+#[test]
+fn no_flip_brings_a_face_nearer_the_line_of_sight_than_the_curtain_angle() {
+    // Steep bumps seen from above (sight z): Delaunay's steepest face stands `start` off
+    // the sight, and tac's flips, free to, make steeper ones (a failing test's check).
+    // A grid jittered inside: random points' Delaunay has near-vertical slivers on its hull.
+    let uv: Vec<[f64; 2]> = crate::testing::random_points(400, 21)
+        .iter()
+        .enumerate()
+        .map(|(k, j)| {
+            let (i, r) = (k % 20, k / 20);
+            let inside = if i % 19 == 0 || r % 19 == 0 { 0.0 } else { 0.4 };
+            [
+                (i as f64 + inside * j[0]) / 20.0,
+                (r as f64 + inside * j[1]) / 20.0,
+            ]
+        })
+        .collect();
+    let xyz: Vec<DVec3> = uv
+        .iter()
+        .map(|&[x, y]| DVec3::new(x, y, 0.2 * (9.0 * x).sin() * (7.0 * y).cos()))
+        .collect();
+    let unit = crate::geometry::unit_square(&uv);
+    let d = crate::triangulate::delaunay::delaunay(&unit).unwrap();
+    let mesh = HalfEdgeMesh::from_triangles(uv.len(), &d.triangles).unwrap();
+    let st = TacState::new(mesh, unit, xyz.clone(), 1.0).unwrap();
+    let start = steepest_turn_deg(&xyz, st.mesh());
+    // A curtain angle that the start respects: no face within it of the sight.
+    let curtain_angle = 90.0 - start - 0.5;
+    assert!(curtain_angle > 2.0, "{start}");
+    let sighted = st
+        .clone()
+        .with_sight(Some(DVec3::new(0.0, 0.0, -3.0)))
+        .unwrap();
+    let params = |angle: f64, tiles: usize| AnnealParams {
+        curtain_angle: angle,
+        tiles,
+        ..quick(3)
+    };
+    let lop_mesh = |state: &TacState, angle: f64| {
+        let mut s = state.clone();
+        tac_lop(&mut s, params(angle, 1).order());
+        s.into_mesh()
+    };
+    let free = [
+        lop_mesh(&sighted, 0.0),
+        anneal(sighted.clone(), params(0.0, 1)).unwrap().mesh,
+    ];
+    for mesh in &free {
+        assert!(steepest_turn_deg(&xyz, mesh) > 90.0 - curtain_angle);
+    }
+    let guarded = [
+        lop_mesh(&sighted, curtain_angle),
+        anneal(sighted.clone(), params(curtain_angle, 1))
+            .unwrap()
+            .mesh,
+        tiled(sighted.clone(), params(curtain_angle, 2)),
+        // no sight, no rule
+        lop_mesh(&st, curtain_angle),
+    ];
+    for (k, mesh) in guarded.iter().enumerate() {
+        mesh.validate(&st.uv()).unwrap();
+        let steepest = steepest_turn_deg(&xyz, mesh);
+        assert_eq!(steepest <= 90.0 - curtain_angle, k < 3, "{k}: {steepest}");
+    }
 }
