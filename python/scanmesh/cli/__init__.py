@@ -105,6 +105,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
     p.add_argument("--preview", metavar="P.png", help="also write a shaded picture")
     p.add_argument(
+        "--truth",
+        metavar="PART",
+        help="the true part (a mesh file): a .ply OUT gets each vertex's distance to it"
+        " (property 'error'), the report its RMS and largest",
+    )
+    p.add_argument(
         "--view",
         type=_axis,
         help="--preview camera: direction from the part to the eye (default: three-quarter,"

@@ -82,11 +82,13 @@ class Format:
     normals: bool = False
     #: the writer stores per-vertex values (``point_data=``: colours, scalars)
     point_data: bool = False
+    #: the writer stores header comments (``comments=``: the georeference)
+    comments: bool = False
 
 
 #: Every format, in the order the content check tries them.
 FORMATS: tuple[Format, ...] = (
-    Format("ply", (".ply",), b"ply", read_ply, ("lines",), ply_chunks, True, True),
+    Format("ply", (".ply",), b"ply", read_ply, ("lines",), ply_chunks, True, True, True),
     Format("vtk", (".vtk",), b"# vtk DataFile", read_vtk, (), None),
     Format("npy", (".npy", ".npz"), b"\x93NUMPY", read_npy, (), None),
     Format("npz", (), b"PK\x03\x04", read_npy, (), None),
@@ -98,7 +100,7 @@ FORMATS: tuple[Format, ...] = (
     Format("pcd", (".pcd",), b"# .PCD", read_pcd, (), None),
     Format("e57", (".e57",), E57_MAGIC, read_e57, (), None),
     Format("stl", (".stl",), None, None, (), stl_chunks),
-    Format("obj", (".obj",), None, None, (), obj_chunks, True),
+    Format("obj", (".obj",), None, None, (), obj_chunks, True, comments=True),
     Format("off", (".off",), None, None, (), off_chunks, True),
 )
 

@@ -12,13 +12,14 @@ Other range grids are taken row by row, the PLY convention; ``lines="rows"`` or
 ``"columns"`` says so explicitly.
 
 Writing: binary little-endian PLY, double coordinates (exact), optional vertex normals,
+per-vertex values and header comments (a georeference, read back as ``ScanPoints.georef``),
 in blocks so that memory stays bounded and Ctrl-C is honoured between blocks.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,7 @@ from scanmesh.formats._source import (
     quote,
     read_bytes,
 )
+from scanmesh.formats.georef import from_comments
 from scanmesh.formats.points import ScanPoints
 from scanmesh.formats.table import parse_free, parse_rows, skip_lines, tokens_per_line
 from scanmesh.formats.xyz import parse_up
@@ -328,6 +330,7 @@ def read_ply(
         extra=extra,
         grid=cells,
         up=parse_up(path, head.comments),
+        georef=from_comments(head.comments),
         point_data={k: v for k, v in data_of.items() if k not in ("x", "y", "z")},
     )
 
@@ -442,11 +445,13 @@ def ply_header(
     n_faces: int,
     normals: bool = False,
     point_data: dict[str, np.ndarray] | None = None,
+    comments: Sequence[str] = (),
 ) -> bytes:
-    """The header of the binary PLY written here: double x, y, z (and nx, ny, nz) per
-    vertex, then each ``point_data`` column (already :func:`ply_column`), then triangles as
-    uchar-counted int lists."""
+    """The header of the binary PLY written here: ``comment`` lines (``comments``: one-line
+    ASCII texts), double x, y, z (and nx, ny, nz) per vertex, then each ``point_data``
+    column (already :func:`ply_column`), then triangles as uchar-counted int lists."""
     head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh"]
+    head += [f"comment {c}" for c in comments]
     head += [f"element vertex {n_vertices}"]
     head += [f"property double {c}" for c in ("x", "y", "z")]
     if normals:
@@ -463,12 +468,13 @@ def ply_chunks(
     normals: np.ndarray | None,
     stage: Stage,
     point_data: dict[str, np.ndarray] | None = None,
+    comments: Sequence[str] = (),
 ) -> Iterator[bytes | memoryview]:
-    """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals and
-    per-vertex ``point_data`` columns (each (N,), PLY types by :func:`ply_column`) when
-    given."""
+    """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals,
+    per-vertex ``point_data`` columns (each (N,), PLY types by :func:`ply_column`) and
+    header ``comments`` when given."""
     columns = {k: ply_column(np.asarray(v)) for k, v in (point_data or {}).items()}
-    yield ply_header(len(vertices), len(faces), normals is not None, columns)
+    yield ply_header(len(vertices), len(faces), normals is not None, columns, comments)
     coords = vertices if normals is None else np.hstack([vertices, normals])
     if not columns:
         yield memoryview(np.ascontiguousarray(coords, dtype="<f8")).cast("B")
