@@ -22,11 +22,19 @@ import pytest
 
 import scanmesh
 from scanmesh.errors import ParameterError, ScanmeshError
+from scanmesh.formats.write import save_mesh
 
 distributed = pytest.importorskip("distributed")
 da = pytest.importorskip("dask.array")
 
 from scanmesh.distributed import _median, _output, _tiles, reconstruct_distributed  # noqa: E402
+
+
+def save_plain(surface: scanmesh.Surface, path: Path) -> None:
+    """The mesh as the Dask path writes it: vertices, faces and the scan's per-point values
+    (no normals, tac or height: :meth:`Surface.save` adds them from every face of a vertex,
+    which no worker holds)."""
+    save_mesh(path, surface.vertices, surface.faces, point_data=surface.point_data)
 
 
 def wavy_scan(rows: int, cols: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +103,7 @@ def test_strips_are_the_single_process_file_byte_for_byte(
     points, ids = scan
     paths = write_files(tmp_path, points, ids, [0, 30, 93, 96, 200])
     single = scanmesh.reconstruct(points, method, lines=ids, plane="z")
-    single.save(tmp_path / f"single{ending}")
+    save_plain(single, tmp_path / f"single{ending}")
     out = tmp_path / f"dask{ending}"
     result = reconstruct_distributed(
         paths, method, client=client, output=out, partition_lines=partition_lines, plane="z"
@@ -134,7 +142,7 @@ def test_drops_at_jumps_and_crossings_near_borders_are_the_single_process_ones(c
     points, ids = stepped_scan()
     single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
     assert single.options["dropped_jumps"] > 50 and single.options["dropped_overlaps"] > 200
-    single.save(tmp_path / "single.ply")
+    save_plain(single, tmp_path / "single.ply")
     paths = write_files(tmp_path, points, ids, [0, 7, 11, 16, 24])
     for partition_lines in (None, *range(2, 9)):
         out = tmp_path / "dask.ply"
@@ -206,7 +214,7 @@ def test_each_text_file_is_parsed_once(client, scan, tmp_path, method, ending):
         assert result.quality["tac_1"] == pytest.approx(single.quality.tac_1, rel=1e-9)
     else:
         single = scanmesh.reconstruct(points, method, lines=ids, plane="z")
-        single.save(tmp_path / f"single{ending}")
+        save_plain(single, tmp_path / f"single{ending}")
         assert out.read_bytes() == (tmp_path / f"single{ending}").read_bytes()
     assert not leftovers(tmp_path)
 
@@ -223,7 +231,7 @@ def test_a_dask_array_source(client, scan, tmp_path):
     stacked = da.from_array(np.column_stack([points, ids]), chunks=(tuple(chunks), 4))
     reconstruct_distributed(stacked, client=client, output=out, plane="z")
     single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
-    single.save(tmp_path / "single.ply")
+    save_plain(single, tmp_path / "single.ply")
     assert out.read_bytes() == (tmp_path / "single.ply").read_bytes()
     assert not leftovers(tmp_path)
 
@@ -455,4 +463,48 @@ def test_ctrl_c_under_dask_is_one_line_and_prompt(tmp_path):
     assert code == 130
     assert err.splitlines() == ["scanmesh: interrupted"]
     assert took < 4.0  # typically 1-2 s: the workers are stopped and the cluster closed
+    assert not leftovers(tmp_path)
+
+
+def test_per_point_values_reach_the_ply_as_in_one_process(client, scan, tmp_path):
+    """Colours and intensities the files carry are the PLY's vertex properties, as one
+    process writes them for the whole scan; a value one file holds as uint16 and another
+    as float32 is written in the type that holds both."""
+    from test_complete_ply import parse_ply
+
+    points, ids = scan
+    rng = np.random.default_rng(5)
+    rgb = rng.integers(0, 256, (len(points), 3), dtype=np.uint8)
+    intensity = rng.integers(0, 4000, len(points)).astype(np.uint16)
+    paths = []
+    for i, (a, b) in enumerate([(0, 12), (12, 25), (25, 40)]):
+        m = (ids >= a) & (ids < b)
+        values = {"red": rgb[m, 0], "green": rgb[m, 1], "blue": rgb[m, 2]}
+        values["intensity"] = intensity[m].astype(np.float32 if i == 1 else np.uint16)
+        paths.append(tmp_path / f"part{i}.ply")
+        save_mesh(paths[-1], points[m], np.empty((0, 3), np.int64), point_data=values)
+    out = tmp_path / "m.ply"
+    result = reconstruct_distributed([str(p) for p in paths], "delaunay", client=client, output=out)
+    _, v, faces = parse_ply(out)
+    assert list(v.dtype.names) == ["x", "y", "z", "red", "green", "blue", "intensity"]
+    assert v["red"].dtype == np.uint8 and v["intensity"].dtype == np.float32
+    order = np.concatenate([np.flatnonzero((ids >= a) & (ids < b)) for a, b in
+                            [(0, 12), (12, 25), (25, 40)]])  # fmt: skip
+    np.testing.assert_array_equal(np.column_stack([v["x"], v["y"], v["z"]]), points[order])
+    # one process on the same points and values: the same vertex properties and faces
+    whole = scanmesh.ScanPoints(
+        points=points[order],
+        line_ids=None,
+        source=paths[0],
+        point_data={"red": rgb[order, 0], "green": rgb[order, 1], "blue": rgb[order, 2],
+                    "intensity": intensity[order].astype(np.float32)},
+    )  # fmt: skip
+    single = scanmesh.reconstruct(whole, "delaunay", plane=result.options["plane"])
+    single.save(tmp_path / "single.ply")
+    _, w, single_faces = parse_ply(tmp_path / "single.ply")
+    for name in ("red", "green", "blue", "intensity"):
+        np.testing.assert_array_equal(v[name], w[name])
+    assert set(map(tuple, np.sort(faces, axis=1).tolist())) == set(
+        map(tuple, np.sort(single_faces, axis=1).tolist())
+    )
     assert not leftovers(tmp_path)

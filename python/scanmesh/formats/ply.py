@@ -177,10 +177,7 @@ def _ply_binary_element(
             raise short(need, len(data) - pos)
         return np.frombuffer(data, dtype=dtype, count=el.count, offset=pos), pos + need
     if len(el.props) != 1:
-        raise FileFormatError(
-            f"{path}, line {el.line}: PLY element {el.name!r} mixes list and scalar properties;"
-            " only pure-list elements (faces, range_grid) are supported"
-        )
+        return _mixed_element(path, data, pos, el, order, short)
     _, ctype, itype = el.props[0]
     cdt, idt = np.dtype(order + ctype), np.dtype(order + itype)
     if el.count == 0:
@@ -205,6 +202,43 @@ def _ply_binary_element(
         items.append(np.frombuffer(data, dtype=idt, count=k, offset=pos))
         pos += k * idt.itemsize
     return items, pos
+
+
+def _mixed_element(
+    path: Path, data: bytes, pos: int, el: _PlyElement, order: str, short: Any
+) -> tuple[np.ndarray, int]:
+    """A binary element mixing lists and scalars (faces with a colour or trimesh's ``stl``
+    attribute): one structured array when every item's lists have the first item's
+    lengths (triangles), as is the rule in practice; FileFormatError otherwise."""
+    if el.count == 0:
+        return np.empty(0), pos
+    fields: list[tuple[Any, ...]] = []
+    lengths: dict[str, int] = {}  # count field -> the first item's list length
+    at = pos
+    for k, prop in enumerate(el.props):
+        if len(prop) == 2:
+            fields.append((prop[0], order + prop[1]))
+            at += np.dtype(prop[1]).itemsize
+            continue
+        cdt, idt = np.dtype(order + prop[1]), np.dtype(order + prop[2])
+        if len(data) - at < cdt.itemsize:
+            raise short(at - pos + cdt.itemsize, len(data) - pos)
+        n = int(np.frombuffer(data, dtype=cdt, count=1, offset=at)[0])
+        fields += [(f"_count_{k}", cdt), (prop[0], idt, (n,))]
+        lengths[f"_count_{k}"] = n
+        at += cdt.itemsize + n * idt.itemsize
+    record = np.dtype(fields)
+    need = record.itemsize * el.count
+    if len(data) - pos < need:
+        raise short(need, len(data) - pos)
+    items = np.frombuffer(data, dtype=record, count=el.count, offset=pos)
+    for name, length in lengths.items():
+        if not (items[name] == length).all():
+            raise FileFormatError(
+                f"{path}, line {el.line}: PLY element {el.name!r} mixes scalar properties"
+                " with lists of varying length; only lists of one length are supported there"
+            )
+    return items, pos + need
 
 
 def _ascii_lists(path: Path, data: bytes, a: int, b: int, el: _PlyElement) -> list[np.ndarray]:
@@ -414,7 +448,7 @@ PLY_FACE = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
 
 
 #: numpy kind and size -> the PLY type written for a point_data column.
-_PLY_NAMES = {
+PLY_TYPE_NAMES = {
     "u1": "uchar",
     "i1": "char",
     "u2": "ushort",
@@ -430,7 +464,7 @@ def ply_column(values: np.ndarray) -> np.ndarray:
     """``values`` in a type PLY has: 64-bit integers as int/uint when they fit, else double
     (PLY has no 64-bit integer); other types as they are, little-endian."""
     code = f"{values.dtype.kind}{values.dtype.itemsize}"
-    if code not in _PLY_NAMES:
+    if code not in PLY_TYPE_NAMES:
         small = "u4" if values.dtype.kind == "u" else "i4"
         info = np.iinfo(small)
         fits = values.dtype.kind in "iu" and (
@@ -457,9 +491,24 @@ def ply_header(
     if normals:
         head += [f"property double {c}" for c in ("nx", "ny", "nz")]
     for name, values in (point_data or {}).items():
-        head.append(f"property {_PLY_NAMES[f'{values.dtype.kind}{values.dtype.itemsize}']} {name}")
+        code = f"{values.dtype.kind}{values.dtype.itemsize}"
+        head.append(f"property {PLY_TYPE_NAMES[code]} {name}")
     head += [f"element face {n_faces}", "property list uchar int vertex_indices", "end_header"]
     return ("\n".join(head) + "\n").encode("ascii")
+
+
+def vertex_records(coords: np.ndarray, columns: dict[str, np.ndarray]) -> np.ndarray:
+    """The binary vertex records :func:`ply_header` declares for (n, 3) coordinates or (n,
+    6) coordinates and normals, and the (n,) ``columns`` (already :func:`ply_column`), as
+    one structured array. O(n)."""
+    names = ["x", "y", "z", "nx", "ny", "nz"][: coords.shape[1]]
+    record = np.dtype([(n, "<f8") for n in names] + [(k, v.dtype) for k, v in columns.items()])
+    out = np.empty(len(coords), dtype=record)
+    for k, name in enumerate(names):
+        out[name] = coords[:, k]
+    for name, values in columns.items():
+        out[name] = values
+    return out
 
 
 def ply_chunks(
@@ -479,16 +528,10 @@ def ply_chunks(
     if not columns:
         yield memoryview(np.ascontiguousarray(coords, dtype="<f8")).cast("B")
     else:
-        names = ["x", "y", "z"] + (["nx", "ny", "nz"] if normals is not None else [])
-        record = np.dtype([(n, "<f8") for n in names] + [(k, v.dtype) for k, v in columns.items()])
         for start in range(0, len(vertices), FACES_PER_BLOCK):
             stop = min(start + FACES_PER_BLOCK, len(vertices))
-            out = np.empty(stop - start, dtype=record)
-            for k, name in enumerate(names):
-                out[name] = coords[start:stop, k]
-            for name, values in columns.items():
-                out[name] = values[start:stop]
-            yield memoryview(out).cast("B")
+            part = {k: v[start:stop] for k, v in columns.items()}
+            yield memoryview(vertex_records(coords[start:stop], part)).cast("B")
     for start in range(0, len(faces), FACES_PER_BLOCK):
         block = faces[start : start + FACES_PER_BLOCK]
         out = np.empty(len(block), dtype=PLY_FACE)
