@@ -215,3 +215,19 @@ def test_reconstruct_truth_writes_the_error_and_reports_it(tmp_path):
         tmp_path / "part.stl",
     )
     assert refused.returncode == 2 and "--truth" in refused.stderr
+
+
+def test_info_names_the_values_and_crs_a_file_carries():
+    pytest.importorskip("laspy")
+    result = run("info", DATA / "lidar" / "autzen_trim.laz", "--json")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert data["point_data"] == {
+        "intensity": "uint16",
+        "classification": "uint8",
+        "red": "uint16",
+        "green": "uint16",
+        "blue": "uint16",
+    }
+    assert data["georef"]["crs"] == "NAD_1983_HARN_Lambert_Conformal_Conic"
+    assert data["georef"]["horizontal_units"] == "foot"

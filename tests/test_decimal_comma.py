@@ -27,8 +27,8 @@ def test_decimal_commas_read_as_the_decimal_points(tmp_path, ending, sep):
     commas = scanmesh.read(tmp_path / f"c{ending}", decimal=",")
     np.testing.assert_array_equal(commas.points, dots.points)
     np.testing.assert_allclose(commas.points, pts, atol=1e-12)
-    with pytest.raises(FileFormatError, match="line 1"):
-        scanmesh.read(tmp_path / f"c{ending}")  # without the option: refused, not misread
+    with pytest.raises(FileFormatError, match=r"line 1.*decimal=',' \(--decimal ,\)"):
+        scanmesh.read(tmp_path / f"c{ending}")  # without the option: refused, pointing to it
 
 
 def test_comma_separated_values_are_not_taken_for_decimal_commas(tmp_path):
