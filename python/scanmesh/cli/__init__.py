@@ -235,7 +235,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--view", type=_axis, help="direction from the part to the eye")
     p.add_argument("--up", type=_axis, help="model direction shown upwards")
     p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH", help="(800x600)")
-    p.add_argument("--wire", action="store_true", help="draw the triangle edges")
+    p.add_argument(
+        "--wire",
+        action="store_true",
+        help="draw the triangle edges (too small to tell apart: the middle of the mesh, zoomed)",
+    )
     _color_flags(p)
     p.add_argument(
         "--no-bar",
