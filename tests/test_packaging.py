@@ -72,7 +72,7 @@ def test_pip_show_gives_the_licence_and_no_invented_address():
     assert fields["License"] == "MIT"
     assert not fields.get("Home-page")
     meta = importlib.metadata.metadata("scanmesh")
-    assert meta.get_all("Project-URL") is None and meta["Home-page"] is None
+    assert meta.get_all("Project-URL") is None and meta.get("Home-page") is None
 
 
 def test_core_install_reconstructs_judges_and_draws_without_any_extra(tmp_path):
