@@ -508,3 +508,22 @@ def test_per_point_values_reach_the_ply_as_in_one_process(client, scan, tmp_path
         map(tuple, np.sort(single_faces, axis=1).tolist())
     )
     assert not leftovers(tmp_path)
+
+
+def test_values_some_files_lack_are_left_out_with_a_warning():
+    from scanmesh.distributed._source import PartSummary, common_point_data
+
+    def summary(count, *values):
+        return PartSummary(count, np.zeros(3), np.ones(3), 0, 1, True, np.zeros((1, 3)),
+                           point_data=tuple(values))  # fmt: skip
+
+    parts = [
+        summary(5, ("red", "|u1"), ("i", "<u2"), ("q", "<i4")),
+        summary(0),  # no points: no say
+        summary(5, ("red", "|u1"), ("i", "<f4"), ("q", "<u4")),
+        summary(5, ("q", "<i4"), ("i", "<i2")),
+    ]
+    with pytest.warns(UserWarning, match="c.ply has no per-point 'red' that a.ply has"):
+        got = common_point_data(["a.ply", "b.ply", "b2.ply", "c.ply"], parts)
+    # u2 with f4 and i2: f4 holds them all; i4 with u4: no PLY integer does, so double
+    assert got == {"i": "<f4", "q": "<f8"}

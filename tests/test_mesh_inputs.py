@@ -63,3 +63,27 @@ def test_bad_mesh_files_are_named(tmp_path):
     (tmp_path / "junk.obj").write_text("this is not\na mesh\n")
     with pytest.raises(FileFormatError, match="junk.obj"):
         scanmesh.read(tmp_path / "junk.obj")
+
+
+def test_ply_faces_with_scalar_properties_are_walked_and_checked(tmp_path):
+    """Faces that carry a scalar beside their corner list (a colour, trimesh's ``stl``)
+    are read past as one record per face; lists of varying length there are refused."""
+    head = (
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n"
+        "property float y\nproperty float z\nelement face {n}\n"
+        "property list uchar int vertex_indices\nproperty uchar red\nend_header\n"
+    )
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.5]], "<f4").tobytes()
+    face = np.dtype([("n", "u1"), ("v", "<i4", (3,)), ("red", "u1")])
+    faces = np.array([(3, (0, 1, 2), 9), (3, (0, 2, 3), 7)], face).tobytes()
+    (tmp_path / "t.ply").write_bytes(head.format(n=2).encode() + vertices + faces)
+    np.testing.assert_array_equal(
+        scanmesh.read(tmp_path / "t.ply").points, np.frombuffer(vertices, "<f4").reshape(4, 3)
+    )
+    (tmp_path / "cut.ply").write_bytes(head.format(n=2).encode() + vertices + faces[:-3])
+    with pytest.raises(FileFormatError, match="truncated PLY"):
+        scanmesh.read(tmp_path / "cut.ply")
+    quad = np.array([4, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0, 5], "u1").tobytes()
+    (tmp_path / "mixed.ply").write_bytes(head.format(n=2).encode() + vertices + faces[:14] + quad)
+    with pytest.raises(FileFormatError, match="varying length"):
+        scanmesh.read(tmp_path / "mixed.ply")
