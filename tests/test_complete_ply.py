@@ -231,3 +231,17 @@ def test_info_names_the_values_and_crs_a_file_carries():
     }
     assert data["georef"]["crs"] == "NAD_1983_HARN_Lambert_Conformal_Conic"
     assert data["georef"]["horizontal_units"] == "foot"
+
+
+def test_no_tac_asked_measures_nothing(tmp_path):
+    first = scanmesh.reconstruct(_bumps(), "delaunay")
+    first.save(tmp_path / "a.ply")  # holds a tac a re-mesh must not pass on as its own
+    again = scanmesh.reconstruct(scanmesh.read(tmp_path / "a.ply"), "delaunay")
+    again.save(tmp_path / "b.ply", tac=False)
+    assert "quality" not in again.__dict__  # the cached measurement never ran
+    _, v, _ = parse_ply(tmp_path / "b.ply")
+    assert list(v.dtype.names) == ["x", "y", "z", "nx", "ny", "nz", "height"]
+    result = run("reconstruct", tmp_path / "a.ply", "-o", tmp_path / "c.ply", "--no-quality")
+    assert result.returncode == 0, result.stderr
+    _, w, _ = parse_ply(tmp_path / "c.ply")
+    assert "tac" not in w.dtype.names and "height" in w.dtype.names

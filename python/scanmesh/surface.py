@@ -153,16 +153,17 @@ class Surface:
             mesh.vertex_colors = vectors.Vector3dVector(rgb)
         return mesh
 
-    def vertex_measures(self, *, truth: Any = None) -> dict[str, np.ndarray]:
+    def vertex_measures(self, *, truth: Any = None, tac: bool = True) -> dict[str, np.ndarray]:
         """What scanmesh measured at each vertex, each (N,) float64, as :meth:`save` writes
         them to PLY: ``tac`` (radians, :attr:`quality`'s; NaN on boundary and unused
         vertices, which have none), ``height`` (model units: the signed distance from the
         projection plane, along its normal, as in :attr:`frame`; only with a frame) and,
         given ``truth`` (the true part: a mesh path, ``trimesh.Trimesh`` or
         :class:`scanmesh.evaluate.truth.TrueSurface`), ``error`` (model units: each
-        vertex's unsigned closest-point distance to it). O(N + M) plus the truth's
+        vertex's unsigned closest-point distance to it). ``tac=False`` leaves tac out (its
+        measurement is the costly part: :attr:`quality`). O(N + M) plus the truth's
         distance queries."""
-        out = {"tac": self.quality.tac}
+        out = {"tac": self.quality.tac} if tac else {}
         if self.frame is not None:
             out["height"] = (self.vertices - self.frame.origin) @ self.frame.normal
         if truth is not None:
@@ -171,7 +172,12 @@ class Surface:
         return out
 
     def save(
-        self, path: str | os.PathLike, *, truth: Any = None, progress: Progress = False
+        self,
+        path: str | os.PathLike,
+        *,
+        truth: Any = None,
+        tac: bool = True,
+        progress: Progress = False,
     ) -> Path:
         """Write the mesh by file ending (.stl binary, .ply, .obj, .off; .html and .glb
         through :meth:`to_html` and :func:`scanmesh.present.view.save_glb`), atomically;
@@ -179,8 +185,9 @@ class Surface:
 
         A PLY holds everything known per vertex: the vertex normals ``nx``, ``ny``, ``nz``
         (:attr:`normals`), :meth:`vertex_measures` (``tac``, ``height``, and ``error``
-        against ``truth`` when given) and :attr:`point_data` (colours, intensity, ...; a
-        carried value named like a measure or a normal is replaced by the measure). The
+        against ``truth`` when given; ``tac=False``: no tac, so nothing is measured, as
+        ``reconstruct --no-quality`` asks) and :attr:`point_data` (colours, intensity, ...;
+        a carried value named like a measure or a normal is replaced by the measure). The
         scan's coordinate reference system and units (:attr:`georef`) go to PLY and OBJ
         header comments (STL, OFF and GLB have no place for them). ``truth`` is refused for
         the other endings.
@@ -202,11 +209,11 @@ class Surface:
         notes = self.georef.comments() if self.georef and fmt and fmt.comments else ()
         values: dict[str, Any] = {}
         if fmt is not None and fmt.point_data:
-            measured = self.vertex_measures(truth=truth)
+            measured = self.vertex_measures(truth=truth, tac=tac)
             carried = {
                 k: v
                 for k, v in self.point_data.items()
-                if k not in measured and k not in ("nx", "ny", "nz")
+                if k not in measured and k not in ("nx", "ny", "nz", "tac")
             }
             values = {"normals": self.normals, "point_data": {**measured, **carried}}
         return write.save_mesh(

@@ -122,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
         dest="quality",
         action="store_false",
         help="do not measure the mesh (tac norms, smallest angle, slivers: about 4 s of CPU"
-        " at 10M points); the report's quality is then null",
+        " at 10M points); the report's quality is then null, a PLY has no tac",
     )
     dask = p.add_argument_group("on a Dask cluster")
     dask.add_argument(

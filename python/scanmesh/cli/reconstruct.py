@@ -82,7 +82,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     # while the mesh is written: both release the GIL, so they overlap.
     measured = _background(lambda: _seconds(lambda: surface.quality)) if args.quality else None
     # a PLY holds the normals, tac, height (and error) and the file's per-point values
-    surface.save(out, progress=con.progress)
+    surface.save(out, tac=args.quality, progress=con.progress)  # --no-quality: no tac
     t_write = time.perf_counter() - t2
     if measured is not None:
         with Stage(con.progress, "quality", len(surface.faces), blocking=True):
