@@ -22,6 +22,7 @@ import pytest
 
 import scanmesh
 from scanmesh.errors import ParameterError, ScanmeshError
+from scanmesh.formats.georef import Georef, from_comments
 from scanmesh.formats.write import save_mesh
 
 distributed = pytest.importorskip("distributed")
@@ -473,6 +474,8 @@ def test_per_point_values_reach_the_ply_as_in_one_process(client, scan, tmp_path
     from test_complete_ply import parse_ply
 
     points, ids = scan
+    georef = Georef(crs="EPSG:26910", horizontal_units="metre", vertical_units="metre")
+    crs = georef.comments()  # each file records the same CRS: the mesh names it
     rng = np.random.default_rng(5)
     rgb = rng.integers(0, 256, (len(points), 3), dtype=np.uint8)
     intensity = rng.integers(0, 4000, len(points)).astype(np.uint16)
@@ -482,10 +485,13 @@ def test_per_point_values_reach_the_ply_as_in_one_process(client, scan, tmp_path
         values = {"red": rgb[m, 0], "green": rgb[m, 1], "blue": rgb[m, 2]}
         values["intensity"] = intensity[m].astype(np.float32 if i == 1 else np.uint16)
         paths.append(tmp_path / f"part{i}.ply")
-        save_mesh(paths[-1], points[m], np.empty((0, 3), np.int64), point_data=values)
+        save_mesh(
+            paths[-1], points[m], np.empty((0, 3), np.int64), point_data=values, comments=crs
+        )
     out = tmp_path / "m.ply"
     result = reconstruct_distributed([str(p) for p in paths], "delaunay", client=client, output=out)
-    _, v, faces = parse_ply(out)
+    comments, v, faces = parse_ply(out)
+    assert from_comments(comments) == georef
     assert list(v.dtype.names) == ["x", "y", "z", "red", "green", "blue", "intensity"]
     assert v["red"].dtype == np.uint8 and v["intensity"].dtype == np.float32
     order = np.concatenate([np.flatnonzero((ids >= a) & (ids < b)) for a, b in
@@ -527,3 +533,17 @@ def test_values_some_files_lack_are_left_out_with_a_warning():
         got = common_point_data(["a.ply", "b.ply", "b2.ply", "c.ply"], parts)
     # u2 with f4 and i2: f4 holds them all; i4 with u4: no PLY integer does, so double
     assert got == {"i": "<f4", "q": "<f8"}
+
+
+def test_a_crs_the_files_disagree_on_is_left_out_with_a_warning():
+    from scanmesh.distributed._source import PartSummary, common_georef
+
+    def summary(count, *georef):
+        return PartSummary(count, np.zeros(3), np.ones(3), 0, 1, True, np.zeros((1, 3)),
+                           georef=georef)  # fmt: skip
+
+    same = [summary(5, "crs EPSG:2992"), summary(0), summary(5, "crs EPSG:2992")]
+    assert common_georef(["a", "b", "c"], same) == ("crs EPSG:2992",)
+    with pytest.warns(UserWarning, match="c.las records another CRS or units than a.las"):
+        mixed = [summary(5, "crs EPSG:2992"), summary(0), summary(5, "crs EPSG:26910")]
+        assert common_georef(["a.las", "b.las", "c.las"], mixed) == ()

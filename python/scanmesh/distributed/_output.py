@@ -220,13 +220,16 @@ class StreamedMesh:
         output: str | os.PathLike,
         parts: list[Part],
         columns: dict[str, str] | None = None,
+        comments: tuple[str, ...] = (),
     ) -> None:
         """``columns``: the per-point values a PLY output carries, by name, each with its
-        PLY type as a numpy type string (:func:`._source.common_point_data`)."""
+        PLY type as a numpy type string (:func:`._source.common_point_data`); ``comments``:
+        its header comment lines (the CRS and units, :func:`._source.common_georef`)."""
         self.client = client
         self.target = check_output(output)
         self.kind = self.target.suffix.lower()
         self.columns = dict(columns or {}) if self.kind == ".ply" else {}
+        self.comments = comments
         self.folder = scratch_folder(self.target)
         self.temporary: Path | None = None  # created by finish (create_temporary)
         self.parts = parts
@@ -272,7 +275,9 @@ class StreamedMesh:
             header = STL_HEADER + struct.pack("<I", n_faces)
         else:
             typed = {k: np.empty(0, dtype=t) for k, t in self.columns.items()}
-            header = ply_header(sum(p.count for p in self.parts), n_faces, point_data=typed)
+            header = ply_header(
+                sum(p.count for p in self.parts), n_faces, point_data=typed, comments=self.comments
+            )
         total = len(header) + sum(w.size for w in vertices) + sum(w.size for w in written)
         fd, self.temporary = create_temporary(self.target)  # the replaced file's mode kept
         with os.fdopen(fd, "wb") as handle:

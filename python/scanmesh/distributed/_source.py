@@ -27,6 +27,7 @@ import numpy as np
 from scanmesh import _core, formats
 from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
 from scanmesh.formats.ply import PLY_TYPE_NAMES, ply_column
+from scanmesh.formats.points import ScanPoints
 from scanmesh.scan.plane_choice import choose_plane
 from scanmesh.scan.projection import PlaneSpec, plane_args
 
@@ -88,26 +89,26 @@ def load_point_data(part: Part) -> dict[str, np.ndarray]:
             return {}
         with np.load(path, allow_pickle=False) as stored:
             return {name: stored[name] for name in stored.files}
-    return _read(part.path, part.index)[3]
+    return _read(part.path, part.index)[3].point_data
 
 
-def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray, bool, dict[str, np.ndarray]]:
+def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray, bool, ScanPoints]:
     """A file's points and line ids, as :func:`load_part` describes them, whether reading
     them again costs more than mapping a copy (anything but a .npy/.npz file that holds
-    its line ids), and its per-point values."""
+    its line ids), and what reading it gave (its per-point values, its georeference)."""
     scan = formats.read(path)  # looked up at call time: a worker may wrap it
-    points, values = scan.points, scan.point_data
+    points = scan.points
     binary = Path(path).suffix.lower() in (".npy", ".npz")
     if scan.line_ids is not None:
         if scan.extra.get("line_ids_from") == "blank lines":  # numbered from 0 in each file
-            return points, scan.line_ids + index * LINE_STRIDE, not binary, values
-        return points, scan.line_ids, not binary, values
+            return points, scan.line_ids + index * LINE_STRIDE, not binary, scan
+        return points, scan.line_ids, not binary, scan
     if len(points) < 3:
         ids = np.full(len(points), index * LINE_STRIDE, dtype=np.int64)
-        return points, ids, not binary, values
+        return points, ids, not binary, scan
     uv, _ = _core.project(points, "best-fit", None)
     ids = _core.detect_lines(uv, _core.DEFAULT_GAP_FACTOR) + index * LINE_STRIDE
-    return points, ids, True, values
+    return points, ids, True, scan
 
 
 @dataclass(frozen=True)
@@ -130,13 +131,16 @@ class PartSummary:
     #: its per-point values' names and the PLY number type each is written in (numpy
     #: type strings, :func:`scanmesh.formats.ply.ply_column`), in the file's order
     point_data: tuple[tuple[str, str], ...] = ()
+    #: its CRS and units as header comment lines (:meth:`Georef.comments`), or ()
+    georef: tuple[str, ...] = ()
 
 
 def summarize(path: str, index: int, sample: int, cache: str | None = None) -> PartSummary:
     """Read one file on a worker and summarize it (at most ``sample`` points kept). With a
     ``cache`` folder (shared with every worker), a file that is costly to read again is
     copied there as .npy files under ``part_<index>``. O(n)."""
-    points, ids, costly, values = _read(path, index)
+    points, ids, costly, scan = _read(path, index)
+    values = scan.point_data
     n = len(points)
     copy = None
     if cache is not None and costly:
@@ -158,6 +162,7 @@ def summarize(path: str, index: int, sample: int, cache: str | None = None) -> P
         sample=points[::step].copy(),
         cache=copy,
         point_data=tuple((k, ply_column(v).dtype.str) for k, v in values.items()),
+        georef=tuple(scan.georef.comments()) if scan.georef is not None else (),
     )
 
 
@@ -246,6 +251,23 @@ def common_point_data(paths: list[str], summaries: list[PartSummary]) -> dict[st
         held = f"{common.kind}{common.itemsize}" in PLY_TYPE_NAMES
         out[name] = common.newbyteorder("<").str if held else "<f8"
     return out
+
+
+def common_georef(paths: list[str], summaries: list[PartSummary]) -> tuple[str, ...]:
+    """The CRS and units (header comment lines) the files with points record, when they all
+    record the same; else none, with a warning naming the first file that differs."""
+    filled = [(p, s.georef) for p, s in zip(paths, summaries, strict=True) if s.count]
+    if not filled:
+        return ()
+    first = filled[0]
+    for path, georef in filled[1:]:
+        if georef != first[1]:
+            warnings.warn(
+                f"{path} records another CRS or units than {first[0]}: the mesh names none",
+                stacklevel=3,
+            )
+            return ()
+    return first[1]
 
 
 def scan_bounds(summaries: list[PartSummary]) -> tuple[np.ndarray, np.ndarray]:
