@@ -22,11 +22,20 @@ import pytest
 
 import scanmesh
 from scanmesh.errors import ParameterError, ScanmeshError
+from scanmesh.formats.georef import Georef, from_comments
+from scanmesh.formats.write import save_mesh
 
 distributed = pytest.importorskip("distributed")
 da = pytest.importorskip("dask.array")
 
 from scanmesh.distributed import _median, _output, _tiles, reconstruct_distributed  # noqa: E402
+
+
+def save_plain(surface: scanmesh.Surface, path: Path) -> None:
+    """The mesh as the Dask path writes it: vertices, faces and the scan's per-point values
+    (no normals, tac or height: :meth:`Surface.save` adds them from every face of a vertex,
+    which no worker holds)."""
+    save_mesh(path, surface.vertices, surface.faces, point_data=surface.point_data)
 
 
 def wavy_scan(rows: int, cols: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +104,7 @@ def test_strips_are_the_single_process_file_byte_for_byte(
     points, ids = scan
     paths = write_files(tmp_path, points, ids, [0, 30, 93, 96, 200])
     single = scanmesh.reconstruct(points, method, lines=ids, plane="z")
-    single.save(tmp_path / f"single{ending}")
+    save_plain(single, tmp_path / f"single{ending}")
     out = tmp_path / f"dask{ending}"
     result = reconstruct_distributed(
         paths, method, client=client, output=out, partition_lines=partition_lines, plane="z"
@@ -134,7 +143,7 @@ def test_drops_at_jumps_and_crossings_near_borders_are_the_single_process_ones(c
     points, ids = stepped_scan()
     single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
     assert single.options["dropped_jumps"] > 50 and single.options["dropped_overlaps"] > 200
-    single.save(tmp_path / "single.ply")
+    save_plain(single, tmp_path / "single.ply")
     paths = write_files(tmp_path, points, ids, [0, 7, 11, 16, 24])
     for partition_lines in (None, *range(2, 9)):
         out = tmp_path / "dask.ply"
@@ -206,7 +215,7 @@ def test_each_text_file_is_parsed_once(client, scan, tmp_path, method, ending):
         assert result.quality["tac_1"] == pytest.approx(single.quality.tac_1, rel=1e-9)
     else:
         single = scanmesh.reconstruct(points, method, lines=ids, plane="z")
-        single.save(tmp_path / f"single{ending}")
+        save_plain(single, tmp_path / f"single{ending}")
         assert out.read_bytes() == (tmp_path / f"single{ending}").read_bytes()
     assert not leftovers(tmp_path)
 
@@ -223,7 +232,7 @@ def test_a_dask_array_source(client, scan, tmp_path):
     stacked = da.from_array(np.column_stack([points, ids]), chunks=(tuple(chunks), 4))
     reconstruct_distributed(stacked, client=client, output=out, plane="z")
     single = scanmesh.reconstruct(points, "shortest-path", lines=ids, plane="z")
-    single.save(tmp_path / "single.ply")
+    save_plain(single, tmp_path / "single.ply")
     assert out.read_bytes() == (tmp_path / "single.ply").read_bytes()
     assert not leftovers(tmp_path)
 
@@ -456,3 +465,85 @@ def test_ctrl_c_under_dask_is_one_line_and_prompt(tmp_path):
     assert err.splitlines() == ["scanmesh: interrupted"]
     assert took < 4.0  # typically 1-2 s: the workers are stopped and the cluster closed
     assert not leftovers(tmp_path)
+
+
+def test_per_point_values_reach_the_ply_as_in_one_process(client, scan, tmp_path):
+    """Colours and intensities the files carry are the PLY's vertex properties, as one
+    process writes them for the whole scan; a value one file holds as uint16 and another
+    as float32 is written in the type that holds both."""
+    from test_complete_ply import parse_ply
+
+    points, ids = scan
+    georef = Georef(crs="EPSG:26910", horizontal_units="metre", vertical_units="metre")
+    crs = georef.comments()  # each file records the same CRS: the mesh names it
+    rng = np.random.default_rng(5)
+    rgb = rng.integers(0, 256, (len(points), 3), dtype=np.uint8)
+    intensity = rng.integers(0, 4000, len(points)).astype(np.uint16)
+    paths = []
+    for i, (a, b) in enumerate([(0, 12), (12, 25), (25, 40)]):
+        m = (ids >= a) & (ids < b)
+        values = {"red": rgb[m, 0], "green": rgb[m, 1], "blue": rgb[m, 2]}
+        values["intensity"] = intensity[m].astype(np.float32 if i == 1 else np.uint16)
+        paths.append(tmp_path / f"part{i}.ply")
+        save_mesh(
+            paths[-1], points[m], np.empty((0, 3), np.int64), point_data=values, comments=crs
+        )
+    out = tmp_path / "m.ply"
+    result = reconstruct_distributed([str(p) for p in paths], "delaunay", client=client, output=out)
+    comments, v, faces = parse_ply(out)
+    assert from_comments(comments) == georef
+    assert list(v.dtype.names) == ["x", "y", "z", "red", "green", "blue", "intensity"]
+    assert v["red"].dtype == np.uint8 and v["intensity"].dtype == np.float32
+    order = np.concatenate([np.flatnonzero((ids >= a) & (ids < b)) for a, b in
+                            [(0, 12), (12, 25), (25, 40)]])  # fmt: skip
+    np.testing.assert_array_equal(np.column_stack([v["x"], v["y"], v["z"]]), points[order])
+    # one process on the same points and values: the same vertex properties and faces
+    whole = scanmesh.ScanPoints(
+        points=points[order],
+        line_ids=None,
+        source=paths[0],
+        point_data={"red": rgb[order, 0], "green": rgb[order, 1], "blue": rgb[order, 2],
+                    "intensity": intensity[order].astype(np.float32)},
+    )  # fmt: skip
+    single = scanmesh.reconstruct(whole, "delaunay", plane=result.options["plane"])
+    single.save(tmp_path / "single.ply")
+    _, w, single_faces = parse_ply(tmp_path / "single.ply")
+    for name in ("red", "green", "blue", "intensity"):
+        np.testing.assert_array_equal(v[name], w[name])
+    assert set(map(tuple, np.sort(faces, axis=1).tolist())) == set(
+        map(tuple, np.sort(single_faces, axis=1).tolist())
+    )
+    assert not leftovers(tmp_path)
+
+
+def test_values_some_files_lack_are_left_out_with_a_warning():
+    from scanmesh.distributed._source import PartSummary, common_point_data
+
+    def summary(count, *values):
+        return PartSummary(count, np.zeros(3), np.ones(3), 0, 1, True, np.zeros((1, 3)),
+                           point_data=tuple(values))  # fmt: skip
+
+    parts = [
+        summary(5, ("red", "|u1"), ("i", "<u2"), ("q", "<i4")),
+        summary(0),  # no points: no say
+        summary(5, ("red", "|u1"), ("i", "<f4"), ("q", "<u4")),
+        summary(5, ("q", "<i4"), ("i", "<i2")),
+    ]
+    with pytest.warns(UserWarning, match="c.ply has no per-point 'red' that a.ply has"):
+        got = common_point_data(["a.ply", "b.ply", "b2.ply", "c.ply"], parts)
+    # u2 with f4 and i2: f4 holds them all; i4 with u4: no PLY integer does, so double
+    assert got == {"i": "<f4", "q": "<f8"}
+
+
+def test_a_crs_the_files_disagree_on_is_left_out_with_a_warning():
+    from scanmesh.distributed._source import PartSummary, common_georef
+
+    def summary(count, *georef):
+        return PartSummary(count, np.zeros(3), np.ones(3), 0, 1, True, np.zeros((1, 3)),
+                           georef=georef)  # fmt: skip
+
+    same = [summary(5, "crs EPSG:2992"), summary(0), summary(5, "crs EPSG:2992")]
+    assert common_georef(["a", "b", "c"], same) == ("crs EPSG:2992",)
+    with pytest.warns(UserWarning, match="c.las records another CRS or units than a.las"):
+        mixed = [summary(5, "crs EPSG:2992"), summary(0), summary(5, "crs EPSG:26910")]
+        assert common_georef(["a.las", "b.las", "c.las"], mixed) == ()

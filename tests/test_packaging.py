@@ -3,6 +3,7 @@ naming the extra a feature needs, and a stripped native module."""
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import re
 import struct
@@ -54,6 +55,24 @@ def test_version_is_the_one_in_cargo_toml():
     pyproject = (ROOT / "pyproject.toml").read_text()
     assert 'dynamic = ["version"]' in pyproject
     assert not re.search(r"^version\s*=", pyproject, re.M)
+
+
+def test_pip_show_gives_the_licence_and_no_invented_address():
+    """``pip show scanmesh`` reads the ``License`` field (pip before 24 ignores PEP 639's
+    ``License-Expression``): it must say MIT. The project has no public address, so the
+    metadata names none."""
+    shown = subprocess.run(
+        [sys.executable, "-m", "pip", "show", "scanmesh"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert shown.returncode == 0, shown.stderr
+    fields = dict(line.split(": ", 1) for line in shown.stdout.splitlines() if ": " in line)
+    assert fields["License"] == "MIT"
+    assert not fields.get("Home-page")
+    meta = importlib.metadata.metadata("scanmesh")
+    assert meta.get_all("Project-URL") is None and meta.get("Home-page") is None
 
 
 def test_core_install_reconstructs_judges_and_draws_without_any_extra(tmp_path):

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import trimesh
 from PIL import Image
 
-from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.errors import InvalidMeshError, ParameterError, WireZoomWarning
 from scanmesh.present.panels import render_compare
 from scanmesh.present.render import (
     NO_VALUE,
@@ -337,3 +339,35 @@ def test_render_by_height_shows_the_scale(tmp_path):
     left = image[:, cols[:5]][drawn[:, cols[:5]]]
     right = image[:, cols[-5:]][drawn[:, cols[-5:]]]
     assert np.all(left[:, 2] > left[:, 1]) and np.all(right[:, 1] > right[:, 2])
+
+
+def _grid_mesh(n: int) -> tuple[np.ndarray, np.ndarray]:
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    v = np.column_stack([x.ravel(), y.ravel(), 0.1 * np.sin(6 * x.ravel())])
+    i = np.arange(n * n).reshape(n, n)
+    a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel()
+    return v, np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
+
+
+def test_a_wireframe_of_many_triangles_zooms_until_they_are_readable():
+    mesh = _grid_mesh(300)  # 178,802 triangles: 1.7 pixels each in 800 x 600
+    edge = np.asarray(WIRE) * 255
+
+    def dark_share(image: np.ndarray) -> float:  # of the pixels the mesh covers
+        drawn = np.abs(image.astype(int) - 255).sum(axis=2) > 30
+        return float((np.abs(image - edge).sum(axis=2) < 60)[drawn].mean())
+
+    lo, hi = np.array([-0.1, -0.1]), np.array([1.1, 1.1])  # the whole mesh: no zoom
+    whole = shade_mesh(mesh, wire=True, view="z", up="y", bounds=(lo, hi))
+    assert dark_share(whole) > 0.6  # edges everywhere: one dark area
+    with pytest.warns(
+        WireZoomWarning,
+        match=r"178,802 triangles would cover 1.7 pixels each.*times closer, where they cover 60",
+    ):
+        zoomed = shade_mesh(mesh, wire=True, view="z", up="y")
+    assert 0.03 < dark_share(zoomed) < 0.3  # edges apart, faces between them
+    # a mesh whose triangles are large enough is drawn whole, without a warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        small = shade_mesh(_grid_mesh(12), wire=True, view="z", up="y")
+    assert (np.abs(small.astype(int) - 255).sum(axis=2) > 30).mean() > 0.3

@@ -105,3 +105,21 @@ def test_without_colours_nothing_is_invented():
     assert isinstance(plain.to_trimesh(), trimesh.Trimesh)
     o3d = pytest.importorskip("open3d")
     assert not plain.to_open3d().has_vertex_colors() and isinstance(o3d.__name__, str)
+
+
+def test_open3d_reads_the_saved_ply_when_installed(surface, tmp_path):
+    o3d = pytest.importorskip("open3d")
+    surface.save(tmp_path / "m.ply")
+    mesh = o3d.io.read_triangle_mesh(str(tmp_path / "m.ply"))
+    assert np.array_equal(np.asarray(mesh.triangles), surface.faces)
+    assert np.allclose(np.asarray(mesh.vertex_normals), surface.normals)
+    assert np.allclose(np.asarray(mesh.vertex_colors) * 255, surface.colors)
+
+
+def test_pyvista_reads_the_saved_ply_when_installed(surface, tmp_path):
+    pyvista = pytest.importorskip("pyvista")
+    surface.save(tmp_path / "m.ply")
+    mesh = pyvista.read(tmp_path / "m.ply")
+    assert np.allclose(mesh.points, surface.vertices)
+    assert np.array_equal(mesh.faces.reshape(-1, 4)[:, 1:], surface.faces)
+    assert np.allclose(mesh.point_data["Normals"], surface.normals, atol=1e-6)

@@ -33,6 +33,7 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshError,
     ScanmeshWarning,
+    WireZoomWarning,
 )
 from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
 from scanmesh.formats import ScanPoints, read
@@ -84,4 +85,5 @@ __all__ = [
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",
     "CurtainsWarning",
+    "WireZoomWarning",
 ]

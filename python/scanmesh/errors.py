@@ -50,6 +50,11 @@ class CurtainsWarning(ScanmeshWarning):
     the scanner's rays pass along, hung across depth jumps, not surface it saw."""
 
 
+class WireZoomWarning(ScanmeshWarning):
+    """A wireframe picture shows the middle of the mesh, zoomed so that its triangles'
+    edges stay apart (``present.render.WIRE_PIXELS``); the message says by how much."""
+
+
 # Raised and shown as scanmesh.ScanmeshError, ...: the public names, not the modules that
 # define them (the core's classes would otherwise read _core.ScanmeshError in tracebacks).
 for _cls in (
@@ -65,6 +70,7 @@ for _cls in (
     CoincidentPointsWarning,
     NotAHeightFieldWarning,
     CurtainsWarning,
+    WireZoomWarning,
 ):
     _cls.__module__ = "scanmesh"
 del _cls

@@ -15,7 +15,9 @@ from scanmesh._extras import require
 from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError, ScanmeshError
+from scanmesh.evaluate.truth import TrueSurface
 from scanmesh.formats import write
+from scanmesh.formats.georef import Georef
 from scanmesh.formats.points import checked_point_data, colors_of
 from scanmesh.measures import Quality, quality
 from scanmesh.present import view
@@ -87,6 +89,12 @@ class Surface:
         ``blue``, ``alpha``; 16-bit and 0..1 float channels scaled), or None without them."""
         return colors_of(self.point_data)
 
+    @property
+    def georef(self) -> Georef | None:
+        """The coordinate reference system and units of the scan file, when it records
+        them (:class:`scanmesh.formats.georef.Georef`; LAS/LAZ, USGS DEM), else None."""
+        return None if self.scan is None else self.scan.georef
+
     @cached_property
     def quality(self) -> Quality:
         """tac norms, smallest angle and sliver share of this mesh (computed once)."""
@@ -145,25 +153,77 @@ class Surface:
             mesh.vertex_colors = vectors.Vector3dVector(rgb)
         return mesh
 
-    def save(self, path: str | os.PathLike, *, progress: Progress = False) -> Path:
-        """Write the mesh by file ending (.stl binary, .ply with :attr:`point_data`, .obj,
-        .off; .html and .glb through :meth:`to_html` and
-        :func:`scanmesh.present.view.save_glb`), atomically;
+    def vertex_measures(self, *, truth: Any = None, tac: bool = True) -> dict[str, np.ndarray]:
+        """What scanmesh measured at each vertex, each (N,) float64, as :meth:`save` writes
+        them to PLY: ``tac`` (radians, :attr:`quality`'s; NaN on boundary and unused
+        vertices, which have none), ``height`` (model units: the signed distance from the
+        projection plane, along its normal, as in :attr:`frame`; only with a frame) and,
+        given ``truth`` (the true part: a mesh path, ``trimesh.Trimesh`` or
+        :class:`scanmesh.evaluate.truth.TrueSurface`), ``error`` (model units: each
+        vertex's unsigned closest-point distance to it). ``tac=False`` leaves tac out (its
+        measurement is the costly part: :attr:`quality`). O(N + M) plus the truth's
+        distance queries."""
+        out = {"tac": self.quality.tac} if tac else {}
+        if self.frame is not None:
+            out["height"] = (self.vertices - self.frame.origin) @ self.frame.normal
+        if truth is not None:
+            part = truth if isinstance(truth, TrueSurface) else TrueSurface(truth)
+            out["error"] = part.distance(self.vertices)
+        return out
+
+    def save(
+        self,
+        path: str | os.PathLike,
+        *,
+        truth: Any = None,
+        tac: bool = True,
+        progress: Progress = False,
+    ) -> Path:
+        """Write the mesh by file ending (.stl binary, .ply, .obj, .off; .html and .glb
+        through :meth:`to_html` and :func:`scanmesh.present.view.save_glb`), atomically;
         ``progress`` as in :func:`scanmesh.formats.write.save_mesh` (stage "write").
+
+        A PLY holds everything known per vertex: the vertex normals ``nx``, ``ny``, ``nz``
+        (:attr:`normals`), :meth:`vertex_measures` (``tac``, ``height``, and ``error``
+        against ``truth`` when given; ``tac=False``: no tac, so nothing is measured, as
+        ``reconstruct --no-quality`` asks) and :attr:`point_data` (colours, intensity, ...;
+        a carried value named like a measure or a normal is replaced by the measure). The
+        scan's coordinate reference system and units (:attr:`georef`) go to PLY and OBJ
+        header comments (STL, OFF and GLB have no place for them). ``truth`` is refused for
+        the other endings.
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
         reconstructed from."""
         inputs = write.inputs_of(self)  # recorded when read: a later os.chdir cannot fool it
         write.check_not_input(path, inputs)
         suffix = Path(path).suffix.lower()
+        if truth is not None and suffix != ".ply":
+            raise ParameterError(
+                f"truth= adds each vertex's error to a PLY file; {Path(path).name} is not one"
+            )
         if suffix in (".html", ".htm"):
             return self.to_html(path)
         if suffix == ".glb":
             return view.save_glb(self, path)
         fmt = write.FORMATS.get(suffix)
-        keep = self.point_data if fmt is not None and fmt.point_data else None
+        notes = self.georef.comments() if self.georef and fmt and fmt.comments else ()
+        values: dict[str, Any] = {}
+        if fmt is not None and fmt.point_data:
+            measured = self.vertex_measures(truth=truth, tac=tac)
+            carried = {
+                k: v
+                for k, v in self.point_data.items()
+                if k not in measured and k not in ("nx", "ny", "nz", "tac")
+            }
+            values = {"normals": self.normals, "point_data": {**measured, **carried}}
         return write.save_mesh(
-            path, self.vertices, self.faces, point_data=keep, protect=inputs, progress=progress
+            path,
+            self.vertices,
+            self.faces,
+            comments=notes,
+            protect=inputs,
+            progress=progress,
+            **values,
         )
 
     def to_html(self, path: str | os.PathLike, **options: Any) -> Path:

@@ -105,6 +105,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
     p.add_argument("--preview", metavar="P.png", help="also write a shaded picture")
     p.add_argument(
+        "--truth",
+        metavar="PART",
+        help="the true part (a mesh file): a .ply OUT gets each vertex's distance to it"
+        " (property 'error'), the report its RMS and largest",
+    )
+    p.add_argument(
         "--view",
         type=_axis,
         help="--preview camera: direction from the part to the eye (default: three-quarter,"
@@ -116,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
         dest="quality",
         action="store_false",
         help="do not measure the mesh (tac norms, smallest angle, slivers: about 4 s of CPU"
-        " at 10M points); the report's quality is then null",
+        " at 10M points); the report's quality is then null, a PLY has no tac",
     )
     dask = p.add_argument_group("on a Dask cluster")
     dask.add_argument(
@@ -230,7 +236,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--view", type=_axis, help="direction from the part to the eye")
     p.add_argument("--up", type=_axis, help="model direction shown upwards")
     p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH", help="(800x600)")
-    p.add_argument("--wire", action="store_true", help="draw the triangle edges")
+    p.add_argument(
+        "--wire",
+        action="store_true",
+        help="draw the triangle edges (too small to tell apart: the middle of the mesh, zoomed)",
+    )
     _color_flags(p)
     p.add_argument(
         "--no-bar",

@@ -120,6 +120,12 @@ def _add_read_flags(p: argparse.ArgumentParser) -> None:
         " order, e.g. x,y,z,intensity,line, or their indices, e.g. 0,1,2,4",
     )
     p.add_argument(
+        "--decimal",
+        choices=(".", ","),
+        help="XYZ/CSV: the decimal mark; ',' reads 1,5 as 1.5 (values then separated by"
+        " semicolons, tabs or spaces)",
+    )
+    p.add_argument(
         "--returns",
         metavar="WHICH",
         help="LAS/LAZ: first (default), last, all or return numbers, e.g. 1,2",
@@ -134,9 +140,9 @@ def _add_read_flags(p: argparse.ArgumentParser) -> None:
 
 
 def _read_options(args: argparse.Namespace | None) -> dict[str, Any]:
-    """The reader flags given (--columns, --returns, --classes, --grid, --cell), as keywords
-    of read()."""
-    flags = ("columns", "returns", "classes", "grid", "cell")
+    """The reader flags given (--columns, --decimal, --returns, --classes, --grid, --cell),
+    as keywords of read()."""
+    flags = ("columns", "decimal", "returns", "classes", "grid", "cell")
     return {k: getattr(args, k) for k in flags if getattr(args, k, None) not in (None, False)}
 
 

@@ -59,6 +59,8 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
         "coincident_points": int(len(surface.duplicates)),
         "steep_share": steep,
         "steep_deg": STEEP_ANGLE_DEG,
+        "point_data": {k: str(v.dtype) for k, v in scan.point_data.items()},
+        "georef": None if scan.georef is None else scan.georef.as_dict(),
     }
     if con.json:
         print(_dumps(data))
@@ -80,6 +82,15 @@ def cmd_info(args: argparse.Namespace, con: _Console) -> int:
         f"  steep share       {100 * steep:.2f} % of {len(surface.faces):,} Delaunay triangles"
         f" tilt more than {STEEP_ANGLE_DEG:g} deg from the plane normal"
     )
+    if scan.point_data:
+        con.out(f"  per point         {', '.join(scan.point_data)}")
+    if scan.georef is not None:
+        g = scan.georef
+        con.out(f"  crs               {g.crs or 'not recorded'}")
+        con.out(
+            f"  units             x, y: {g.horizontal_units or 'not recorded'};"
+            f" z: {g.vertical_units or 'not recorded'}"
+        )
     return 0
 
 

@@ -33,7 +33,10 @@ from scanmesh.cli._common import (
 )
 from scanmesh.distributed import reconstruct_distributed
 from scanmesh.distributed._source import source_paths
+from scanmesh.evaluate.truth import TrueSurface
+from scanmesh.formats import MESH_FORMATS as FORMATS
 from scanmesh.formats import count_lines
+from scanmesh.formats.georef import Georef
 from scanmesh.formats.write import TermGuard
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.present.render import render_mesh
@@ -54,7 +57,10 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     _refuse_stray_flags(args, [args.method])
     options = _method_options(args, args.method)
     shared = _shared(args, args.method, options)
-    _check_outputs([source], [out, report, preview])
+    truth_path = Path(args.truth) if args.truth else None
+    _check_outputs([source, *([truth_path] if truth_path else [])], [out, report, preview])
+    if truth_path is not None and out.suffix.lower() != ".ply":
+        args._parser.error(f"--truth adds each vertex's error to a .ply output, not to {out}")
     con.report = "--report" if report is not None else "--json output" if con.json else ""
     _check_mesh_ending(out)
     _check_png(preview)
@@ -62,22 +68,33 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
         flag = "--view" if args.view is not None else "--up"
         args._parser.error(f"{flag} sets the --preview camera: give --preview P.png too")
 
+    truth = None if truth_path is None else TrueSurface(truth_path)  # a bad part: before work
     scan = planar_scan(
         source, plane=args.plane, progress=con.progress, read_options=_read_options(args)
     )
     t1 = time.perf_counter()
     surface = reconstruct(scan, args.method, progress=con.progress, **shared, **options)
     elapsed = time.perf_counter() - t1
+    if truth is not None:  # measured once, for the PLY and the report
+        surface.point_data["error"] = truth.distance(surface.vertices)
     t2 = time.perf_counter()
     # The quality report (tac over every vertex: 4 s of CPU at 10M points) is measured
     # while the mesh is written: both release the GIL, so they overlap.
     measured = _background(lambda: _seconds(lambda: surface.quality)) if args.quality else None
-    surface.save(out, progress=con.progress)  # a PLY keeps the file's per-point values
+    # a PLY holds the normals, tac, height (and error) and the file's per-point values
+    surface.save(out, tac=args.quality, progress=con.progress)  # --no-quality: no tac
     t_write = time.perf_counter() - t2
     if measured is not None:
         with Stage(con.progress, "quality", len(surface.faces), blocking=True):
             t_quality = measured()
     data = _report(source, out, scan, surface, con, elapsed, args.quality)
+    if truth is not None:
+        error = surface.point_data["error"][np.unique(surface.faces)]
+        data["vertex_error"] = {
+            "truth": str(truth_path),
+            "rms": float(np.sqrt(np.mean(error**2))),
+            "max": float(error.max()),
+        }
     data["timings"]["write"] = t_write
     if measured is not None:
         data["timings"]["quality"] = t_quality  # beside the write, not after it
@@ -161,6 +178,7 @@ def _reconstruct_on_dask(args: argparse.Namespace, con: _Console) -> int:
         ("--view", args.view is not None),
         ("--up", args.up is not None),
         ("--no-quality", not args.quality),
+        ("--truth", args.truth),
     )
     for flag, given in (*given_flags, *((f, True) for f in _read_flags(args))):
         if given:
@@ -237,6 +255,13 @@ def _n_lines(line_ids: np.ndarray | None) -> int | None:
     return None if line_ids is None else int(count_lines(line_ids))
 
 
+def _georef(georef: Georef, out: Path) -> dict[str, Any]:
+    """The scan's georeference for the report, and whether ``out`` holds it (PLY and OBJ
+    header comments do; STL, OFF, GLB and HTML have no place for it)."""
+    fmt = FORMATS.get(out.suffix.lower())
+    return {**georef.as_dict(), "in_output": bool(fmt is not None and fmt.comments)}
+
+
 def _report(
     source, out, scan, surface, con: _Console, elapsed: float, quality: bool
 ) -> dict[str, Any]:
@@ -256,6 +281,7 @@ def _report(
             "choice": scan.choice.as_dict(scan.frame.normal) if scan.choice else None,
         },
         "noise": surface.options.get("noise"),
+        "georef": None if scan.georef is None else _georef(scan.georef, out),
         "warnings": con.warnings,
         "time_s": elapsed,
         "timings": {**scan.timings, **surface.timings},

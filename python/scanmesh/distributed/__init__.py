@@ -28,7 +28,15 @@ from scanmesh.scan.projection import PlaneSpec
 
 from ._output import StreamedMesh, Written, check_output, scratch_folder
 from ._report import combine, report
-from ._source import list_parts, resolve_plane, scan_bounds, source_paths, store_chunks
+from ._source import (
+    common_georef,
+    common_point_data,
+    list_parts,
+    resolve_plane,
+    scan_bounds,
+    source_paths,
+    store_chunks,
+)
 from ._strips import strip_blocks
 from ._tiles import tile_blocks
 
@@ -89,9 +97,11 @@ def reconstruct_distributed(
         each) for this call and closes it after.
     output : str or path
         ``.stl`` (binary) or ``.ply`` (binary; vertices are every scan point in scan order,
-        faces over those indices). Its folder must be visible to every worker at the same
-        path (a shared filesystem); written atomically: a hidden temporary renamed at the
-        end, nothing left behind on failure or Ctrl-C.
+        with the per-point values every file carries (colours, intensity, ...) and the CRS
+        and units they record, faces over those indices; no normals, tac or height, which
+        :meth:`scanmesh.Surface.save` adds). Its folder must be visible to every worker at
+        the same path (a shared filesystem); written atomically: a hidden temporary renamed
+        at the end, nothing left behind on failure or Ctrl-C.
     partition_lines : int, optional
         Scan lines per strip partition (each partition starts on the next line that has
         strips on both sides and no lone point); None: one partition per file.
@@ -152,7 +162,8 @@ def reconstruct_distributed(
             lo, hi = scan_bounds(summaries)
             plane = resolve_plane(plane, summaries)
             t1 = time.perf_counter()
-            mesh = StreamedMesh(client, target, parts)
+            columns = common_point_data(paths, summaries)
+            mesh = StreamedMesh(client, target, parts, columns, common_georef(paths, summaries))
             seams: list[Any] = []
             try:
                 if method in STRIP_METHODS:

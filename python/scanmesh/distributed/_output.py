@@ -5,12 +5,14 @@ vertices and their global point indices, additive quality sums). Each block is w
 the worker that holds it into its own file in a hidden folder beside the output; once all
 are written and their sizes known, workers copy them into a hidden temporary at their
 offsets (binary STL: the 84-byte header with the total count, then 50-byte records block
-after block; PLY: the header, the vertices part by part, then the faces block after block,
-over global indices; the same bytes as :meth:`scanmesh.Surface.save` writes for the same
-faces; copied in the kernel where it can, ``os.copy_file_range``) and the temporary is
-renamed onto the output. Nothing is ever assembled in one process, and
-a failure or Ctrl-C anywhere removes the folder and the temporary: the output is either the
-whole new mesh or untouched.
+after block; PLY: the header, the vertices part by part with the scan's per-point values,
+then the faces block after block, over global indices; the same bytes as
+:func:`scanmesh.formats.write.save_mesh` writes for the same vertices, faces and
+``point_data``, but without the normals and measures :meth:`scanmesh.Surface.save` adds,
+which need every face of a vertex together; copied in the kernel where it can,
+``os.copy_file_range``) and the temporary is renamed onto the output. Nothing is ever
+assembled in one process, and a failure or Ctrl-C anywhere removes the folder and the
+temporary: the output is either the whole new mesh or untouched.
 
 The output must be on a filesystem every worker mounts at the same path (NFS, Lustre,
 CephFS, a local disk for a LocalCluster). Object stores reached through fsspec (``s3://``,
@@ -40,11 +42,11 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh.errors import ParameterError
-from scanmesh.formats.ply import PLY_FACE, ply_header
+from scanmesh.formats.ply import PLY_FACE, ply_header, vertex_records
 from scanmesh.formats.stl import STL_HEADER
 from scanmesh.formats.write import create_temporary, remove_stale_temporaries
 
-from ._source import Part, load_part
+from ._source import Part, load_part, load_point_data
 
 #: Output formats by ending.
 FORMATS: tuple[str, ...] = (".stl", ".ply")
@@ -140,10 +142,17 @@ def write_block(block: FaceBlock, path: str, kind: str) -> Written:
     return Written(path, len(data), dict(block.sums), block.turn_key)
 
 
-def write_vertices(part: Part, path: str) -> Written:
-    """Write one part's points as PLY vertex records (x, y, z little-endian float64)."""
+def write_vertices(part: Part, path: str, columns: dict[str, str]) -> Written:
+    """Write one part's points as PLY vertex records: x, y, z little-endian float64, then
+    its per-point values named in ``columns``, each in the PLY type given there (numpy
+    type strings, the same for every part)."""
     points, _ = load_part(part)
-    data = memoryview(np.ascontiguousarray(points, dtype="<f8")).cast("B")
+    if columns:
+        values = load_point_data(part)
+        typed = {k: np.asarray(values[k]).astype(t) for k, t in columns.items()}
+        data = memoryview(vertex_records(points, typed)).cast("B")
+    else:
+        data = memoryview(np.ascontiguousarray(points, dtype="<f8")).cast("B")
     with open(path, "wb") as handle:
         handle.write(data)
     return Written(path, len(data), {}, None)
@@ -205,10 +214,22 @@ class StreamedMesh:
     """One mesh file written by the workers: blocks as they come, placed and renamed at the
     end (:meth:`finish`); :meth:`discard` (on any failure) removes every trace."""
 
-    def __init__(self, client: Any, output: str | os.PathLike, parts: list[Part]) -> None:
+    def __init__(
+        self,
+        client: Any,
+        output: str | os.PathLike,
+        parts: list[Part],
+        columns: dict[str, str] | None = None,
+        comments: tuple[str, ...] = (),
+    ) -> None:
+        """``columns``: the per-point values a PLY output carries, by name, each with its
+        PLY type as a numpy type string (:func:`._source.common_point_data`); ``comments``:
+        its header comment lines (the CRS and units, :func:`._source.common_georef`)."""
         self.client = client
         self.target = check_output(output)
         self.kind = self.target.suffix.lower()
+        self.columns = dict(columns or {}) if self.kind == ".ply" else {}
+        self.comments = comments
         self.folder = scratch_folder(self.target)
         self.temporary: Path | None = None  # created by finish (create_temporary)
         self.parts = parts
@@ -220,6 +241,7 @@ class StreamedMesh:
                     write_vertices,
                     part,
                     str(self.folder / f"vertices_{part.index:06d}.bin"),
+                    self.columns,
                     key=f"scanmesh-vertices-{part.index}-{uuid.uuid4().hex}",
                 )
                 for part in parts
@@ -252,7 +274,10 @@ class StreamedMesh:
         if self.kind == ".stl":
             header = STL_HEADER + struct.pack("<I", n_faces)
         else:
-            header = ply_header(sum(p.count for p in self.parts), n_faces)
+            typed = {k: np.empty(0, dtype=t) for k, t in self.columns.items()}
+            header = ply_header(
+                sum(p.count for p in self.parts), n_faces, point_data=typed, comments=self.comments
+            )
         total = len(header) + sum(w.size for w in vertices) + sum(w.size for w in written)
         fd, self.temporary = create_temporary(self.target)  # the replaced file's mode kept
         with os.fdopen(fd, "wb") as handle:

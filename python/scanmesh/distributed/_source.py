@@ -16,6 +16,7 @@ from __future__ import annotations
 import glob
 import os
 import uuid
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +26,8 @@ import numpy as np
 
 from scanmesh import _core, formats
 from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
+from scanmesh.formats.ply import PLY_TYPE_NAMES, ply_column
+from scanmesh.formats.points import ScanPoints
 from scanmesh.scan.plane_choice import choose_plane
 from scanmesh.scan.projection import PlaneSpec, plane_args
 
@@ -67,7 +70,7 @@ def load_part(part: Part) -> tuple[np.ndarray, np.ndarray]:
     if part.cache is not None:
         folder = Path(part.cache)
         return np.load(folder / "points.npy"), np.load(folder / "line_ids.npy")
-    points, ids, _ = _read(part.path, part.index)
+    points, ids, _, _ = _read(part.path, part.index)
     if len(points) != part.count:
         raise FileFormatError(
             f"{part.path}: has {len(points)} points, {part.count} when the scan was listed"
@@ -75,22 +78,37 @@ def load_part(part: Part) -> tuple[np.ndarray, np.ndarray]:
     return points, ids
 
 
-def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray, bool]:
-    """A file's points and line ids, as :func:`load_part` describes them, and whether
-    reading them again costs more than mapping a copy (anything but a .npy/.npz file that
-    holds its line ids)."""
+def load_point_data(part: Part) -> dict[str, np.ndarray]:
+    """A part's per-point values (``ScanPoints.point_data``: colours, intensity, ...) on a
+    worker: from its cached copy, else from its file. O(n)."""
+    if part.path is None:
+        return {}
+    if part.cache is not None:
+        path = Path(part.cache) / "point_data.npz"
+        if not path.exists():
+            return {}
+        with np.load(path, allow_pickle=False) as stored:
+            return {name: stored[name] for name in stored.files}
+    return _read(part.path, part.index)[3].point_data
+
+
+def _read(path: str, index: int) -> tuple[np.ndarray, np.ndarray, bool, ScanPoints]:
+    """A file's points and line ids, as :func:`load_part` describes them, whether reading
+    them again costs more than mapping a copy (anything but a .npy/.npz file that holds
+    its line ids), and what reading it gave (its per-point values, its georeference)."""
     scan = formats.read(path)  # looked up at call time: a worker may wrap it
     points = scan.points
     binary = Path(path).suffix.lower() in (".npy", ".npz")
     if scan.line_ids is not None:
         if scan.extra.get("line_ids_from") == "blank lines":  # numbered from 0 in each file
-            return points, scan.line_ids + index * LINE_STRIDE, not binary
-        return points, scan.line_ids, not binary
+            return points, scan.line_ids + index * LINE_STRIDE, not binary, scan
+        return points, scan.line_ids, not binary, scan
     if len(points) < 3:
-        return points, np.full(len(points), index * LINE_STRIDE, dtype=np.int64), not binary
+        ids = np.full(len(points), index * LINE_STRIDE, dtype=np.int64)
+        return points, ids, not binary, scan
     uv, _ = _core.project(points, "best-fit", None)
     ids = _core.detect_lines(uv, _core.DEFAULT_GAP_FACTOR) + index * LINE_STRIDE
-    return points, ids, True
+    return points, ids, True, scan
 
 
 @dataclass(frozen=True)
@@ -110,13 +128,19 @@ class PartSummary:
     sample: np.ndarray
     #: the folder its points and line ids were copied to (:attr:`Part.cache`), or None
     cache: str | None = None
+    #: its per-point values' names and the PLY number type each is written in (numpy
+    #: type strings, :func:`scanmesh.formats.ply.ply_column`), in the file's order
+    point_data: tuple[tuple[str, str], ...] = ()
+    #: its CRS and units as header comment lines (:meth:`Georef.comments`), or ()
+    georef: tuple[str, ...] = ()
 
 
 def summarize(path: str, index: int, sample: int, cache: str | None = None) -> PartSummary:
     """Read one file on a worker and summarize it (at most ``sample`` points kept). With a
     ``cache`` folder (shared with every worker), a file that is costly to read again is
     copied there as .npy files under ``part_<index>``. O(n)."""
-    points, ids, costly = _read(path, index)
+    points, ids, costly, scan = _read(path, index)
+    values = scan.point_data
     n = len(points)
     copy = None
     if cache is not None and costly:
@@ -124,6 +148,8 @@ def summarize(path: str, index: int, sample: int, cache: str | None = None) -> P
         folder.mkdir(exist_ok=True)  # a retried task writes the same bytes again
         np.save(folder / "points.npy", np.ascontiguousarray(points, dtype=np.float64))
         np.save(folder / "line_ids.npy", np.ascontiguousarray(ids, dtype=np.int64))
+        if values:
+            np.savez(folder / "point_data.npz", **values)
         copy = str(folder)
     step = max(1, -(-n // sample)) if sample > 0 else max(n, 1)
     return PartSummary(
@@ -135,6 +161,8 @@ def summarize(path: str, index: int, sample: int, cache: str | None = None) -> P
         ordered=bool(n < 2 or (np.diff(ids) >= 0).all()),
         sample=points[::step].copy(),
         cache=copy,
+        point_data=tuple((k, ply_column(v).dtype.str) for k, v in values.items()),
+        georef=tuple(scan.georef.comments()) if scan.georef is not None else (),
     )
 
 
@@ -198,6 +226,48 @@ def list_parts(
     if offset < 3:
         raise ScanmeshError(f"the scan has {offset} point(s); at least 3 are needed")
     return parts, summaries
+
+
+def common_point_data(paths: list[str], summaries: list[PartSummary]) -> dict[str, str]:
+    """The per-point values every part with points carries, each with the one PLY type
+    that holds it in every part (numpy type strings; mixed integer types widen, to double
+    when no PLY integer holds them all), in the first part's order. Values only some
+    parts carry are left out with a warning naming the first file without them."""
+    filled = [(p, s) for p, s in zip(paths, summaries, strict=True) if s.count]
+    if not filled:
+        return {}
+    out: dict[str, str] = {}
+    for name, _ in filled[0][1].point_data:
+        types = [dict(s.point_data).get(name) for _, s in filled]
+        if None in types:
+            lacking = filled[types.index(None)][0]
+            warnings.warn(
+                f"{lacking} has no per-point {name!r} that {filled[0][0]} has: it is left out"
+                " of the mesh",
+                stacklevel=3,
+            )
+            continue
+        common = np.result_type(*[np.dtype(t) for t in types])
+        held = f"{common.kind}{common.itemsize}" in PLY_TYPE_NAMES
+        out[name] = common.newbyteorder("<").str if held else "<f8"
+    return out
+
+
+def common_georef(paths: list[str], summaries: list[PartSummary]) -> tuple[str, ...]:
+    """The CRS and units (header comment lines) the files with points record, when they all
+    record the same; else none, with a warning naming the first file that differs."""
+    filled = [(p, s.georef) for p, s in zip(paths, summaries, strict=True) if s.count]
+    if not filled:
+        return ()
+    first = filled[0]
+    for path, georef in filled[1:]:
+        if georef != first[1]:
+            warnings.warn(
+                f"{path} records another CRS or units than {first[0]}: the mesh names none",
+                stacklevel=3,
+            )
+            return ()
+    return first[1]
 
 
 def scan_bounds(summaries: list[PartSummary]) -> tuple[np.ndarray, np.ndarray]:

@@ -15,6 +15,8 @@ Readers (each returns :class:`ScanPoints`):
   scan lines;
 - ``.las``, ``.laz`` - :mod:`.las`: LiDAR through laspy (``pip install scanmesh[las]``);
 - ``.e57`` - :mod:`.e57`: laser scans through pye57 (``pip install scanmesh[e57]``);
+- ``.stl``, ``.obj``, ``.off`` - :mod:`.mesh_points`: a mesh's distinct vertices, its faces
+  ignored (a PLY mesh's vertices are read by :mod:`.ply`);
 - any text or ``.npy`` matrix of heights with ``grid=True`` (:mod:`.grid`).
 
 Text, PLY, VTK, DEM, PTS and PCD files may be gzip-compressed (``scan.ply.gz``): they are
@@ -49,6 +51,7 @@ from scanmesh.formats.dem import read_dem
 from scanmesh.formats.e57 import E57_MAGIC, read_e57
 from scanmesh.formats.grid import Cell, height_grid, is_esri_ascii, read_esri_ascii, read_matrix
 from scanmesh.formats.las import read_las
+from scanmesh.formats.mesh_points import read_mesh_points
 from scanmesh.formats.npy import read_npy
 from scanmesh.formats.obj import obj_chunks
 from scanmesh.formats.off import off_chunks
@@ -82,24 +85,26 @@ class Format:
     normals: bool = False
     #: the writer stores per-vertex values (``point_data=``: colours, scalars)
     point_data: bool = False
+    #: the writer stores header comments (``comments=``: the georeference)
+    comments: bool = False
 
 
 #: Every format, in the order the content check tries them.
 FORMATS: tuple[Format, ...] = (
-    Format("ply", (".ply",), b"ply", read_ply, ("lines",), ply_chunks, True, True),
+    Format("ply", (".ply",), b"ply", read_ply, ("lines",), ply_chunks, True, True, True),
     Format("vtk", (".vtk",), b"# vtk DataFile", read_vtk, (), None),
     Format("npy", (".npy", ".npz"), b"\x93NUMPY", read_npy, (), None),
     Format("npz", (), b"PK\x03\x04", read_npy, (), None),
     Format("las", (".las", ".laz"), b"LASF", read_las, ("returns", "classes"), None),
-    Format("xyz", (".xyz", ".txt", ".asc"), None, read_xyz, ("columns",), None),
-    Format("csv", (".csv",), None, read_csv, ("columns",), None),
+    Format("xyz", (".xyz", ".txt", ".asc"), None, read_xyz, ("columns", "decimal"), None),
+    Format("csv", (".csv",), None, read_csv, ("columns", "decimal"), None),
     Format("dem", (".dem",), None, read_dem, (), None),
     Format("pts", (".pts",), None, read_pts, (), None),
     Format("pcd", (".pcd",), b"# .PCD", read_pcd, (), None),
     Format("e57", (".e57",), E57_MAGIC, read_e57, (), None),
-    Format("stl", (".stl",), None, None, (), stl_chunks),
-    Format("obj", (".obj",), None, None, (), obj_chunks, True),
-    Format("off", (".off",), None, None, (), off_chunks, True),
+    Format("stl", (".stl",), None, read_mesh_points, (), stl_chunks),
+    Format("obj", (".obj",), None, read_mesh_points, (), obj_chunks, True, comments=True),
+    Format("off", (".off",), None, read_mesh_points, (), off_chunks, True),
 )
 
 _ESRI = Format("esri ascii grid", (), None, read_esri_ascii, ("cell",), None)
@@ -199,8 +204,9 @@ def read(
         Cell size of a height grid (default 1, or an ESRI grid's ``cellsize``).
     **options
         The format's own options: ``columns=`` for text point files (e.g. ``"x,y,z,line"``
-        or ``(0, 1, 2, 5)``), ``returns=`` / ``classes=`` for LAS, ``lines=`` for a PLY
-        range grid. An option the format does not take is refused.
+        or ``(0, 1, 2, 5)``) and ``decimal=","`` for their decimal commas, ``returns=`` /
+        ``classes=`` for LAS, ``lines=`` for a PLY range grid. An option the format does
+        not take is refused.
 
     Returns
     -------
@@ -256,6 +262,7 @@ __all__ = [
     "read_pts",
     "read_pcd",
     "read_e57",
+    "read_mesh_points",
     "read_matrix",
     "Columns",
     "Format",

@@ -9,6 +9,7 @@ import numpy as np
 
 from scanmesh.errors import FileFormatError
 from scanmesh.formats._source import check_declared, check_text, quote, read_bytes
+from scanmesh.formats.georef import Georef
 from scanmesh.formats.points import ScanPoints
 
 #: Elevation that marks a void (no data) in USGS DEM profiles.
@@ -30,6 +31,41 @@ _DEM_A = {
     "rows_columns": (852, 864),
 }
 _DEM_UNITS = {0: "radians", 1: "feet", 2: "metres", 3: "arc-seconds"}
+
+#: The A record's horizontal datum code (bytes 891-892, newer DEMs only) -> its name and
+#: the EPSG code prefix of its UTM zones (None: no EPSG UTM series).
+_DEM_DATUMS = {
+    1: ("NAD27", 267),
+    2: ("WGS72", 322),
+    3: ("WGS84", 326),
+    4: ("NAD83", 269),
+    5: ("Old Hawaiian", None),
+    6: ("Puerto Rico", None),
+}
+
+#: Unit names as :mod:`scanmesh.formats.georef` writes them, by DEM unit code.
+_GEOREF_UNITS = {0: "radian", 1: "foot", 2: "metre", 3: "arc-second"}
+
+
+def _georef(a: bytes, refsys: int, zone: int, plan_units: int, elev_units: int) -> Georef:
+    """The DEM's reference system, datum (when recorded) and units as a Georef."""
+    code = a[890:892].strip()
+    datum = _DEM_DATUMS.get(int(code)) if code.isdigit() else None
+    if refsys == 1:
+        crs = f"UTM zone {zone}"
+        if datum is not None and datum[1] is not None and 1 <= zone <= 60:
+            crs = f"EPSG:{datum[1] * 100 + zone}"
+    else:
+        crs = {0: "geographic", 2: f"State Plane zone {zone}"}.get(refsys, f"system {refsys}")
+    if datum is None:
+        crs += ", datum not recorded"
+    elif not crs.startswith("EPSG"):
+        crs += f", {datum[0]}"
+    return Georef(
+        crs=crs,
+        horizontal_units=_GEOREF_UNITS.get(plan_units),
+        vertical_units=_GEOREF_UNITS.get(elev_units) if elev_units in (1, 2) else None,
+    )
 
 
 def _fortran_floats(path: Path, raw: bytes, width: int, what: str, offset: int) -> list[float]:
@@ -73,7 +109,9 @@ def read_dem(path: str | os.PathLike) -> ScanPoints:
     -------
     ScanPoints
         ``points`` (N, 3) float64 in ground units (x, y) and elevation units (z);
-        ``line_ids`` (N,) int64, the profile index (0 = first, westmost, profile).
+        ``line_ids`` (N,) int64, the profile index (0 = first, westmost, profile);
+        ``georef``: the reference system (UTM zone, as an EPSG code when the datum is
+        recorded), the ground and elevation units.
     """
     path = Path(path)
     data = read_bytes(path)
@@ -181,4 +219,10 @@ def read_dem(path: str | os.PathLike) -> ScanPoints:
         "profiles": n_profiles,
         "line_ids_from": "profiles (B records)",
     }
-    return ScanPoints(points=points, line_ids=np.concatenate(ids), source=path, extra=extra)
+    return ScanPoints(
+        points=points,
+        line_ids=np.concatenate(ids),
+        source=path,
+        extra=extra,
+        georef=_georef(a, refsys, zone, plan_units, elev_units),
+    )

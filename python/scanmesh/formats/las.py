@@ -12,12 +12,14 @@ import os
 import struct
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from scanmesh._extras import require
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import check_declared, check_finite, check_regular
+from scanmesh.formats.georef import EPSG_UNITS, Georef, wkt_name, wkt_unit
 from scanmesh.formats.points import ScanPoints
 
 #: How many times its compressed size a LAZ point block may declare.
@@ -25,6 +27,59 @@ LAZ_RATIO: int = 256
 
 #: ``returns=`` names: which returns of each pulse to keep.
 RETURNS = ("first", "last", "all")
+
+#: Per-point LAS dimensions kept as ``point_data`` (when the point format has them).
+KEPT_DIMENSIONS: tuple[str, ...] = ("intensity", "classification", "red", "green", "blue")
+
+# GeoTIFF keys of a LAS GeoKeyDirectory (GeoTIFF 1.0, section 6.2)
+_GEOGRAPHIC, _GEOG_UNITS, _PROJECTED, _CITATION, _PCS_CITATION = 2048, 2054, 3072, 1026, 3073
+_LINEAR_UNITS, _VERTICAL_UNITS = 3076, 4099
+_USER_DEFINED = 32767
+
+
+def _georef(header: Any) -> Georef | None:
+    """The coordinate reference system and units a LAS header records: EPSG code, unit
+    codes and citation from its GeoKeyDirectory, name and unit from its OGC WKT; None when
+    it records neither."""
+    keys: dict[int, Any] = {}
+    text, wkt = "", None
+    for vlr in [*header.vlrs, *(header.evlrs or [])]:
+        if hasattr(vlr, "geo_keys"):
+            keys = {int(k.id): k for k in vlr.geo_keys}
+        elif hasattr(vlr, "strings"):
+            text = "\0".join(vlr.strings)  # GeoAsciiParams: keys index into the raw text
+        elif hasattr(vlr, "string") and wkt is None:
+            wkt = str(vlr.string).strip("\0 ") or None
+    if not keys and wkt is None:
+        return None
+
+    def code(key: int) -> int | None:
+        entry = keys.get(key)
+        if entry is None or entry.tiff_tag_location != 0:
+            return None
+        value = int(entry.value_offset)
+        return value if 0 < value < _USER_DEFINED else None
+
+    def citation(key: int) -> str | None:
+        entry = keys.get(key)
+        if entry is None or entry.tiff_tag_location != 34737:
+            return None
+        start = int(entry.value_offset)
+        return text[start : start + int(entry.count)].strip("|\0 ") or None
+
+    epsg = code(_PROJECTED) or code(_GEOGRAPHIC)
+    crs = f"EPSG:{epsg}" if epsg else None
+    crs = crs or (wkt_name(wkt) if wkt else None)
+    crs = crs or citation(_PCS_CITATION) or citation(_CITATION)
+    linear = code(_LINEAR_UNITS) if _PROJECTED in keys else code(_GEOG_UNITS)
+    horizontal = EPSG_UNITS.get(linear) if linear else None
+    vertical = code(_VERTICAL_UNITS)
+    return Georef(
+        crs=crs,
+        wkt=wkt,
+        horizontal_units=horizontal or (wkt_unit(wkt) if wkt else None),
+        vertical_units=EPSG_UNITS.get(vertical) if vertical else None,
+    )
 
 
 def _check_header(path: Path, size: int) -> None:
@@ -103,7 +158,10 @@ def read_las(
     Returns
     -------
     ScanPoints
-        ``points`` (N, 3) float64 scaled coordinates; ``line_ids`` (N,) int64 sweep index.
+        ``points`` (N, 3) float64 scaled coordinates; ``line_ids`` (N,) int64 sweep index;
+        ``point_data``: ``intensity``, ``classification`` and, in point formats with
+        colours, ``red``, ``green``, ``blue`` (uint16, as stored); ``georef``: the EPSG
+        code (or WKT name, or GeoTIFF citation) and the units the header records.
     """
     path = Path(path)
     named = isinstance(returns, str) and returns in RETURNS
@@ -124,6 +182,9 @@ def read_las(
         klass = np.asarray(las.classification)
         header = las.header
         declared = int(header.point_count)
+        names = set(las.point_format.dimension_names)
+        kept = {d: np.asarray(las[d]) for d in KEPT_DIMENSIONS if d in names}
+        georef = _georef(header)
     except Exception as exc:  # laspy, lazrs and numpy all raise their own kinds
         hint = ""
         if "LazBackend" in type(exc).__name__ or "laz" in str(exc).lower():
@@ -169,4 +230,6 @@ def read_las(
         line_ids=sweeps[keep] if has_sweeps else None,
         source=path,
         extra=extra,
+        point_data={d: values[keep] for d, values in kept.items()},
+        georef=georef,
     )

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
@@ -21,10 +21,15 @@ def text_rows(values: np.ndarray, row: str) -> Iterator[bytes]:
 
 
 def obj_chunks(
-    vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None, stage: Stage
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray | None,
+    stage: Stage,
+    comments: Sequence[str] = (),
 ) -> Iterator[bytes]:
-    """OBJ text: coordinates with 17 significant digits (read back exactly)."""
-    yield b"# written by scanmesh\n"
+    """OBJ text: ``#`` comment lines (``comments``: one-line ASCII texts), then
+    coordinates with 17 significant digits (read back exactly)."""
+    yield "".join(f"# {c}\n" for c in ("written by scanmesh", *comments)).encode("ascii")
     yield from text_rows(vertices, "v %.17g %.17g %.17g\n")
     if normals is not None:
         yield from text_rows(normals, "vn %.17g %.17g %.17g\n")

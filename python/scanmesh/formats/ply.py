@@ -12,13 +12,14 @@ Other range grids are taken row by row, the PLY convention; ``lines="rows"`` or
 ``"columns"`` says so explicitly.
 
 Writing: binary little-endian PLY, double coordinates (exact), optional vertex normals,
+per-vertex values and header comments (a georeference, read back as ``ScanPoints.georef``),
 in blocks so that memory stays bounded and Ctrl-C is honoured between blocks.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,7 @@ from scanmesh.formats._source import (
     quote,
     read_bytes,
 )
+from scanmesh.formats.georef import from_comments
 from scanmesh.formats.points import ScanPoints
 from scanmesh.formats.table import parse_free, parse_rows, skip_lines, tokens_per_line
 from scanmesh.formats.xyz import parse_up
@@ -175,10 +177,7 @@ def _ply_binary_element(
             raise short(need, len(data) - pos)
         return np.frombuffer(data, dtype=dtype, count=el.count, offset=pos), pos + need
     if len(el.props) != 1:
-        raise FileFormatError(
-            f"{path}, line {el.line}: PLY element {el.name!r} mixes list and scalar properties;"
-            " only pure-list elements (faces, range_grid) are supported"
-        )
+        return _mixed_element(path, data, pos, el, order, short)
     _, ctype, itype = el.props[0]
     cdt, idt = np.dtype(order + ctype), np.dtype(order + itype)
     if el.count == 0:
@@ -203,6 +202,43 @@ def _ply_binary_element(
         items.append(np.frombuffer(data, dtype=idt, count=k, offset=pos))
         pos += k * idt.itemsize
     return items, pos
+
+
+def _mixed_element(
+    path: Path, data: bytes, pos: int, el: _PlyElement, order: str, short: Any
+) -> tuple[np.ndarray, int]:
+    """A binary element mixing lists and scalars (faces with a colour or trimesh's ``stl``
+    attribute): one structured array when every item's lists have the first item's
+    lengths (triangles), as is the rule in practice; FileFormatError otherwise."""
+    if el.count == 0:
+        return np.empty(0), pos
+    fields: list[tuple[Any, ...]] = []
+    lengths: dict[str, int] = {}  # count field -> the first item's list length
+    at = pos
+    for k, prop in enumerate(el.props):
+        if len(prop) == 2:
+            fields.append((prop[0], order + prop[1]))
+            at += np.dtype(prop[1]).itemsize
+            continue
+        cdt, idt = np.dtype(order + prop[1]), np.dtype(order + prop[2])
+        if len(data) - at < cdt.itemsize:
+            raise short(at - pos + cdt.itemsize, len(data) - pos)
+        n = int(np.frombuffer(data, dtype=cdt, count=1, offset=at)[0])
+        fields += [(f"_count_{k}", cdt), (prop[0], idt, (n,))]
+        lengths[f"_count_{k}"] = n
+        at += cdt.itemsize + n * idt.itemsize
+    record = np.dtype(fields)
+    need = record.itemsize * el.count
+    if len(data) - pos < need:
+        raise short(need, len(data) - pos)
+    items = np.frombuffer(data, dtype=record, count=el.count, offset=pos)
+    for name, length in lengths.items():
+        if not (items[name] == length).all():
+            raise FileFormatError(
+                f"{path}, line {el.line}: PLY element {el.name!r} mixes scalar properties"
+                " with lists of varying length; only lists of one length are supported there"
+            )
+    return items, pos + need
 
 
 def _ascii_lists(path: Path, data: bytes, a: int, b: int, el: _PlyElement) -> list[np.ndarray]:
@@ -328,6 +364,7 @@ def read_ply(
         extra=extra,
         grid=cells,
         up=parse_up(path, head.comments),
+        georef=from_comments(head.comments),
         point_data={k: v for k, v in data_of.items() if k not in ("x", "y", "z")},
     )
 
@@ -411,7 +448,7 @@ PLY_FACE = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
 
 
 #: numpy kind and size -> the PLY type written for a point_data column.
-_PLY_NAMES = {
+PLY_TYPE_NAMES = {
     "u1": "uchar",
     "i1": "char",
     "u2": "ushort",
@@ -427,7 +464,7 @@ def ply_column(values: np.ndarray) -> np.ndarray:
     """``values`` in a type PLY has: 64-bit integers as int/uint when they fit, else double
     (PLY has no 64-bit integer); other types as they are, little-endian."""
     code = f"{values.dtype.kind}{values.dtype.itemsize}"
-    if code not in _PLY_NAMES:
+    if code not in PLY_TYPE_NAMES:
         small = "u4" if values.dtype.kind == "u" else "i4"
         info = np.iinfo(small)
         fits = values.dtype.kind in "iu" and (
@@ -442,19 +479,36 @@ def ply_header(
     n_faces: int,
     normals: bool = False,
     point_data: dict[str, np.ndarray] | None = None,
+    comments: Sequence[str] = (),
 ) -> bytes:
-    """The header of the binary PLY written here: double x, y, z (and nx, ny, nz) per
-    vertex, then each ``point_data`` column (already :func:`ply_column`), then triangles as
-    uchar-counted int lists."""
+    """The header of the binary PLY written here: ``comment`` lines (``comments``: one-line
+    ASCII texts), double x, y, z (and nx, ny, nz) per vertex, then each ``point_data``
+    column (already :func:`ply_column`), then triangles as uchar-counted int lists."""
     head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh"]
+    head += [f"comment {c}" for c in comments]
     head += [f"element vertex {n_vertices}"]
     head += [f"property double {c}" for c in ("x", "y", "z")]
     if normals:
         head += [f"property double {c}" for c in ("nx", "ny", "nz")]
     for name, values in (point_data or {}).items():
-        head.append(f"property {_PLY_NAMES[f'{values.dtype.kind}{values.dtype.itemsize}']} {name}")
+        code = f"{values.dtype.kind}{values.dtype.itemsize}"
+        head.append(f"property {PLY_TYPE_NAMES[code]} {name}")
     head += [f"element face {n_faces}", "property list uchar int vertex_indices", "end_header"]
     return ("\n".join(head) + "\n").encode("ascii")
+
+
+def vertex_records(coords: np.ndarray, columns: dict[str, np.ndarray]) -> np.ndarray:
+    """The binary vertex records :func:`ply_header` declares for (n, 3) coordinates or (n,
+    6) coordinates and normals, and the (n,) ``columns`` (already :func:`ply_column`), as
+    one structured array. O(n)."""
+    names = ["x", "y", "z", "nx", "ny", "nz"][: coords.shape[1]]
+    record = np.dtype([(n, "<f8") for n in names] + [(k, v.dtype) for k, v in columns.items()])
+    out = np.empty(len(coords), dtype=record)
+    for k, name in enumerate(names):
+        out[name] = coords[:, k]
+    for name, values in columns.items():
+        out[name] = values
+    return out
 
 
 def ply_chunks(
@@ -463,26 +517,21 @@ def ply_chunks(
     normals: np.ndarray | None,
     stage: Stage,
     point_data: dict[str, np.ndarray] | None = None,
+    comments: Sequence[str] = (),
 ) -> Iterator[bytes | memoryview]:
-    """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals and
-    per-vertex ``point_data`` columns (each (N,), PLY types by :func:`ply_column`) when
-    given."""
+    """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals,
+    per-vertex ``point_data`` columns (each (N,), PLY types by :func:`ply_column`) and
+    header ``comments`` when given."""
     columns = {k: ply_column(np.asarray(v)) for k, v in (point_data or {}).items()}
-    yield ply_header(len(vertices), len(faces), normals is not None, columns)
+    yield ply_header(len(vertices), len(faces), normals is not None, columns, comments)
     coords = vertices if normals is None else np.hstack([vertices, normals])
     if not columns:
         yield memoryview(np.ascontiguousarray(coords, dtype="<f8")).cast("B")
     else:
-        names = ["x", "y", "z"] + (["nx", "ny", "nz"] if normals is not None else [])
-        record = np.dtype([(n, "<f8") for n in names] + [(k, v.dtype) for k, v in columns.items()])
         for start in range(0, len(vertices), FACES_PER_BLOCK):
             stop = min(start + FACES_PER_BLOCK, len(vertices))
-            out = np.empty(stop - start, dtype=record)
-            for k, name in enumerate(names):
-                out[name] = coords[start:stop, k]
-            for name, values in columns.items():
-                out[name] = values[start:stop]
-            yield memoryview(out).cast("B")
+            part = {k: v[start:stop] for k, v in columns.items()}
+            yield memoryview(vertex_records(coords[start:stop], part)).cast("B")
     for start in range(0, len(faces), FACES_PER_BLOCK):
         block = faces[start : start + FACES_PER_BLOCK]
         out = np.empty(len(block), dtype=PLY_FACE)

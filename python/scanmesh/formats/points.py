@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh.errors import ScanmeshError
+from scanmesh.formats.georef import Georef
 
 
 def count_lines(ids: np.ndarray) -> int:
@@ -88,6 +89,9 @@ class ScanPoints:
     #: file's number type: colours as ``red``, ``green``, ``blue`` (``alpha``) uint8,
     #: scalars such as ``intensity`` or ``quality``; written to PLY with the mesh
     point_data: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the coordinate reference system and units the file records (LAS/LAZ, USGS DEM,
+    #: PLY written by scanmesh), else None
+    georef: Georef | None = None
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.points)

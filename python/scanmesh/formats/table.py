@@ -41,6 +41,16 @@ def tokens(text: bytes, delimiter: str | None) -> list[bytes]:
     return text.split()
 
 
+def _decimal_hint(text: bytes) -> str:
+    """A pointer to ``decimal=","`` for a row that looks written with decimal commas
+    (``1,5;2,25`` or ``1,5 2,25``: digits either side of a comma, and a semicolon, tab or
+    space between values), else ""."""
+    row = text.strip()
+    if re.search(rb"\d,\d", row) and re.search(rb"\d[;\t ]+[-+]?\d", row):
+        return "; if the file uses decimal commas, read it with decimal=',' (--decimal ,)"
+    return ""
+
+
 def raise_problem(
     path: Path,
     data: bytes,
@@ -60,7 +70,7 @@ def raise_problem(
             end += 1
         raise FileFormatError(
             f"{path}, line {line}: {quote(data[start + offset : end])} is not a number"
-            f"{context}: {quote(text)}"
+            f"{context}: {quote(text)}{_decimal_hint(text)}"
         )
     sep = {None: "", ",": "comma-separated ", ";": "semicolon-separated "}.get(
         delimiter, f"{delimiter!r}-separated "
@@ -68,7 +78,7 @@ def raise_problem(
     raise FileFormatError(
         f"{path}, line {line}: expected {expected.format(sep=sep)}, found"
         f" {len(tokens(text, delimiter))}{' (or empty fields)' if delimiter else ''}:"
-        f" {quote(text)}"
+        f" {quote(text)}{_decimal_hint(text)}"
     )
 
 

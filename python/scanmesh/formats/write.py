@@ -20,13 +20,14 @@ import signal
 import stat
 import threading
 import time
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from scanmesh import shape
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.formats import MESH_FORMATS
@@ -335,20 +336,6 @@ def write_atomic(
     return target
 
 
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(N, 3) unit vertex normals: the area-weighted sum of the adjacent faces' normals
-    (faces counter-clockwise seen from the side they face); zero for an unused vertex.
-    O(N + M)."""
-    tri = vertices[faces]
-    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length: twice the area
-    out = np.zeros_like(vertices)
-    for k in range(3):
-        np.add.at(out, faces[:, k], face_n)
-    length = np.linalg.norm(out, axis=1, keepdims=True)
-    np.divide(out, length, out=out, where=length > 0)
-    return out
-
-
 def save_mesh(
     path: PathSpec,
     vertices: np.ndarray,
@@ -356,6 +343,7 @@ def save_mesh(
     *,
     normals: bool | ArrayLike = False,
     point_data: Mapping[str, ArrayLike] | None = None,
+    comments: Sequence[str] = (),
     protect: PathSpec | InputFile | Iterable[PathSpec | InputFile] | None = None,
     progress: Progress = False,
 ) -> Path:
@@ -373,11 +361,14 @@ def save_mesh(
         Triangles as vertex indices; vertex order and indices are kept.
     normals : bool or (N, 3) float
         Vertex normals to store (PLY, OBJ, OFF): True computes them
-        (:func:`vertex_normals`), an array gives them.
+        (:func:`scanmesh.shape.vertex_normals`, area-weighted), an array gives them.
     point_data : dict of name -> (N,) numbers, optional
         Per-vertex values to store as PLY vertex properties in their own number type
         (colours as uint8 ``red``, ``green``, ``blue``; scalars such as ``intensity``);
         PLY only.
+    comments : sequence of str
+        One-line ASCII header comments (PLY ``comment`` lines, OBJ ``#`` lines; such as
+        :meth:`scanmesh.formats.georef.Georef.comments`); PLY and OBJ only.
     protect : path or iterable of paths, optional
         Files that must not be overwritten (the input): writing to one of them raises
         ``ParameterError`` before anything is written.
@@ -412,7 +403,7 @@ def save_mesh(
                 f"cannot store vertex normals in {target.suffix} files; use .ply, .obj or .off"
             )
         vn = (
-            vertex_normals(verts, tris.astype(np.int64))
+            shape.vertex_normals(verts, tris)
             if normals is True
             else np.asarray(normals, dtype=np.float64)
         )
@@ -437,6 +428,15 @@ def save_mesh(
                 " or normals; rename them"
             )
         extra["point_data"] = columns
+    if comments:
+        if not fmt.comments:
+            raise ParameterError(
+                f"cannot store header comments in {target.suffix} files; use .ply or .obj"
+            )
+        bad = [c for c in comments if not c.isascii() or "\n" in c or "\r" in c]
+        if bad:
+            raise ParameterError(f"comments must be one-line ASCII texts, got {bad[0]!r}")
+        extra["comments"] = list(comments)
     assert fmt.writer is not None
     with Stage(progress, "write", len(tris)) as stage:
         return write_atomic(target, fmt.writer(verts, tris, vn, stage, **extra))

@@ -205,14 +205,20 @@ def read_points_table(
     fmt: str,
     *,
     columns: Columns = None,
+    decimal: str = ".",
     progress: Progress = False,
 ) -> ScanPoints:
-    """Read a text file of points (``fmt`` "xyz" or "csv"; see the module doc for columns).
+    """Read a text file of points (``fmt`` "xyz" or "csv"; see the module doc for columns;
+    ``decimal``: the decimal mark, "." or ",").
 
     The columns are chosen from the head (``columns=``, a header naming them, or the first
     three) before the rows are parsed, so x, y, z go straight into the (N, 3) points."""
+    if decimal not in (".", ","):
+        raise ParameterError(f"decimal must be '.' or ',' (--decimal), got {decimal!r}")
     path = Path(path)
     data = read_bytes(path)
+    if decimal == ",":
+        data = _decimal_commas(path, data)
     what = "x y z rows" if fmt == "xyz" else "comma-separated x,y,z rows"
     head = read_head(path, data, what)
     ncols = head.ncols
@@ -256,15 +262,43 @@ def read_points_table(
     return _points(path, data, table, chosen, extra, line_ids)
 
 
+def _decimal_commas(path: Path, data: bytes) -> bytes:
+    """``data`` with its decimal commas as points; refused (FileFormatError naming the
+    line) when commas also separate the values: the first row of numbers holding a comma
+    must also have a semicolon, tab or space between numbers (``x,y,z`` rows are comma-separated,
+    not decimal commas). O(size)."""
+    pos, no = 0, 1
+    while pos < len(data):
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end
+        line = data[pos:end]
+        text = line.strip()
+        if b"," in text and text[:1] in b"+-.0123456789":  # a row of numbers
+            if not re.search(rb"\d[;\t ]+[-+.,\d]", text):
+                raise FileFormatError(
+                    f"{path}, line {no}: {quote(line)} has commas but no other separator:"
+                    " with decimal=',' (--decimal ,) values must be separated by semicolons,"
+                    " tabs or spaces"
+                )
+            break  # the first such line decides; the parser checks every row
+        pos, no = end + 1, no + 1
+    return data.replace(b",", b".")
+
+
 def read_xyz(
-    path: str | os.PathLike, *, columns: Columns = None, progress: Progress = False
+    path: str | os.PathLike,
+    *,
+    columns: Columns = None,
+    decimal: str = ".",
+    progress: Progress = False,
 ) -> ScanPoints:
     """Read an XYZ text file (also ``.txt``, ``.asc`` without a grid header).
 
     One point per line, separated by whitespace, commas or semicolons; columns as in the
-    module doc. Non-numeric lines at the top are a header; ``#`` lines are comments
-    anywhere. Numbers are parsed natively in chunks, so Ctrl-C is honoured between chunks;
-    ``progress`` as in :func:`scanmesh.read`.
+    module doc; ``decimal=","`` reads decimal commas (``1,5`` is 1.5; the values then
+    separated by semicolons, tabs or spaces). Non-numeric lines at the top are a header;
+    ``#`` lines are comments anywhere. Numbers are parsed natively in chunks, so Ctrl-C is
+    honoured between chunks; ``progress`` as in :func:`scanmesh.read`.
 
     Returns
     -------
@@ -272,7 +306,7 @@ def read_xyz(
         ``points`` (N, 3) float64; ``line_ids`` (N,) int64 from a line-id column or from
         the blank-line blocks (0, 1, ...), or None when neither is present.
     """
-    return read_points_table(path, "xyz", columns=columns, progress=progress)
+    return read_points_table(path, "xyz", columns=columns, decimal=decimal, progress=progress)
 
 
 def xyz_rows(

@@ -18,6 +18,7 @@ import io
 import math
 import os
 import struct
+import warnings
 import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -27,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scanmesh._extras import require
-from scanmesh.errors import InvalidMeshError, ParameterError
+from scanmesh.errors import InvalidMeshError, ParameterError, WireZoomWarning
 from scanmesh.evaluate.digitizer import cast_grid
 from scanmesh.evaluate.truth import TrueSurface
 from scanmesh.formats.write import inputs_of, write_atomic
@@ -44,6 +45,11 @@ AMBIENT = 0.25
 COLOR = (0.64, 0.74, 0.88)
 #: Wire (triangle edge) colour.
 WIRE = (0.12, 0.16, 0.24)
+
+#: With ``wire``, a picture whose triangles would cover fewer output pixels than this on
+#: average (their edges would merge into one dark area) is zoomed on the mesh's middle
+#: until they cover this many, and says so (a ``WireZoomWarning``).
+WIRE_PIXELS: float = 60.0
 #: Empty border around the part, as a share of the picture.
 MARGIN = 0.04
 
@@ -301,6 +307,30 @@ def _fit(
     return pixel, x0, y0
 
 
+def _wire_window(
+    tri: np.ndarray, used: np.ndarray, lo: np.ndarray, hi: np.ndarray, width: int, height: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The screen box a wireframe shows: the whole mesh (``lo``, ``hi``) when its triangles
+    cover ``WIRE_PIXELS`` output pixels on average, else a box around the median vertex
+    ``zoom`` times smaller, so that they do (with a WireZoomWarning). O(M)."""
+    pixel = _fit(lo, hi, width, height)[0]
+    e1, e2 = tri[:, 1, :2] - tri[:, 0, :2], tri[:, 2, :2] - tri[:, 0, :2]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).mean() / pixel**2
+    if not len(tri) or area >= WIRE_PIXELS:
+        return lo, hi
+    zoom = math.sqrt(WIRE_PIXELS / max(area, 1e-12))
+    middle = np.median(used[:, :2], axis=0)
+    half = 0.5 * (hi - lo) / zoom
+    warnings.warn(
+        f"the wireframe's {len(tri):,} triangles would cover {area:.2g} pixels each: the"
+        f" picture shows the middle of the mesh, {zoom:.3g} times closer, where they cover"
+        f" {WIRE_PIXELS:g}",
+        WireZoomWarning,
+        stacklevel=4,
+    )
+    return middle - half, middle + half
+
+
 def shade_mesh(
     mesh: Any,
     *,
@@ -324,7 +354,10 @@ def shade_mesh(
     view, up : axis name or (3,) float
         Direction from the part to the eye, and the model direction shown upwards.
     wire : bool
-        Draw the visible triangle edges (best when triangles span many pixels).
+        Draw the visible triangle edges. When the triangles would cover fewer than
+        ``WIRE_PIXELS`` output pixels on average, the picture shows the middle of the mesh
+        (around the median vertex) at the scale where they cover that many: the real
+        triangles, readable, not a decimation; a ``WireZoomWarning`` says by how much.
     color : (3,) or (M, 3) float
         RGB in 0..1: one colour for the whole mesh, or one per face (:func:`face_colors`).
     supersample : int
@@ -354,6 +387,8 @@ def shade_mesh(
     if bounds is None:
         used = local[_used(faces, len(local))]
         lo, hi = used[:, :2].min(axis=0), used[:, :2].max(axis=0)
+        if wire:
+            lo, hi = _wire_window(tri, used, lo, hi, width, height)
     else:
         lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
     w, h = width * ss, height * ss

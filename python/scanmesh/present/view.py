@@ -288,7 +288,8 @@ def save_glb(
     the facets flat-shaded as scanmesh's pictures do; ``color_by`` ("tac", "error" with
     ``truth``, "height" along ``up``, by default the coordinate axis nearest the surface's
     normal as in :func:`scanmesh.present.render.height_axis`) stores the face colours as
-    vertex colours.
+    vertex colours; without ``color_by``, a mesh whose scan carried colours (its
+    ``colors``: LAS, PLY, PTS, PCD, E57 RGB) keeps them, each corner its point's colour.
     """
     trimesh = import_interruptibly("trimesh")
 
@@ -298,11 +299,15 @@ def save_glb(
     vertices, faces = _mesh_arrays(mesh)
     if up is None:
         up = height_axis(auto_view(vertices, faces, getattr(mesh, "frame", None))["up"])
-    rgb = face_colors((vertices, faces), color_by, truth=truth, up=up)[0]
     corners = vertices[faces].reshape(-1, 3)
     flat = trimesh.Trimesh(corners, np.arange(len(corners)).reshape(-1, 3), process=False)
     rgba = np.full((len(corners), 4), 255, dtype=np.uint8)
-    rgba[:, :3] = np.repeat(np.clip(np.rint(np.asarray(rgb) * 255), 0, 255), 3, axis=0)
+    carried = getattr(mesh, "colors", None) if color_by is None and truth is None else None
+    if carried is not None:
+        rgba[:, : carried.shape[1]] = carried[faces.ravel()]
+    else:
+        rgb = face_colors((vertices, faces), color_by, truth=truth, up=up)[0]
+        rgba[:, :3] = np.repeat(np.clip(np.rint(np.asarray(rgb) * 255), 0, 255), 3, axis=0)
     flat.visual.vertex_colors = rgba
     data = trimesh.exchange.gltf.export_glb(flat, include_normals=True)
     return write_atomic(target, [data], protect=inputs_of(mesh))

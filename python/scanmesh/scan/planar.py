@@ -28,6 +28,7 @@ from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.formats import ScanPoints, read
 from scanmesh.formats._source import InputFile, input_file
+from scanmesh.formats.georef import Georef
 from scanmesh.scan.plane_choice import PlaneChoice, choose_plane
 from scanmesh.scan.projection import Frame, PlaneSpec, check_span, plane_args, project_checked
 
@@ -98,6 +99,8 @@ class PlanarScan:
     grid: np.ndarray | None = None
     #: (3,) float64 unit direction towards the scanner when recorded (``ScanPoints.up``)
     up: np.ndarray | None = None
+    #: the coordinate reference system and units the file records (``ScanPoints.georef``)
+    georef: Georef | None = None
     #: values derived from the scan, by key (:meth:`once`); not part of the scan's identity
     _derived: dict[Hashable, Any] = field(
         default_factory=dict, init=False, repr=False, compare=False
@@ -215,6 +218,7 @@ def planar_scan(
             point_data=scan.point_data,
             grid=scan.grid,
             up=made.up,
+            georef=scan.georef,
         )
     if read_options:
         raise ParameterError(

@@ -19,10 +19,10 @@ def scan_of(
     lines: ArrayLike | None = None,
 ) -> PlanarScan:
     """``source`` checked and projected (:func:`scanmesh.scan.planar.as_scan`); a
-    :class:`ScanPoints` gives its points, its line ids (unless ``lines`` is given) and its
-    recorded ``up`` and range grid as reading its file would, its file as the scan's source
-    (recorded now, by absolute path and inode, so that no writer replaces it) and its
-    ``point_data``."""
+    :class:`ScanPoints` gives its points, its line ids (unless ``lines`` is given), its
+    recorded ``up``, range grid and georeference as reading its file would, its file as
+    the scan's source (recorded now, by absolute path and inode, so that no writer replaces
+    it) and its ``point_data``."""
     if isinstance(source, ScanPoints):
         ids = source.line_ids if lines is None else lines
         made = as_scan(source.points, plane=plane, lines=ids, up=source.up)
@@ -32,5 +32,6 @@ def scan_of(
             source_file=input_file(source.source),
             point_data=source.point_data,
             grid=source.grid,
+            georef=source.georef,
         )
     return as_scan(source, plane=plane, lines=lines)
