@@ -37,6 +37,8 @@ __all__ = [
     "detect_lines",
     "scan_segments",
     "strip_mesh",
+    "set_strip_filter",
+    "strip_filter_counts",
     "empty_triangles",
     "triangulations",
     "cheapest_fans",
