@@ -338,7 +338,7 @@ def markdown(results: dict, peers: list[str], args: argparse.Namespace, loads: l
 
 
 def fallback_rate(runs: list[dict]) -> str:
-    """"f / d (r %)" of a peer's first run's filter counters, or "–"."""
+    """Fallbacks / decisions (and the rate) of a peer's first run, or "–"."""
     counts = runs[0].get("filter") if runs else None
     if not counts or not counts[0]:
         return "–"
