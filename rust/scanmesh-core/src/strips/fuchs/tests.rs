@@ -338,17 +338,25 @@ fn fuzz_weight(rng: &mut Lcg) -> Weight {
     }
 }
 
-#[test]
-fn banded_is_exact_on_a_fuzz_corpus_of_100_000_strips() {
+/// The fuzz corpus: `count` strips (see [`fuzz_strip`]), each with its weight (every third
+/// one of [`WEIGHTS`], the others random), numbered.
+fn fuzz_corpus(count: usize) -> impl Iterator<Item = (usize, Vec<DVec3>, Vec<DVec3>, Weight)> {
     let mut rng = Lcg(53);
-    let tol = |x: f64| 1e-9 * x.abs().max(1.0);
-    for k in 0..100_000 {
+    (0..count).map(move |k| {
         let (a, b) = fuzz_strip(&mut rng, k);
         let w = if k % 3 == 0 {
             WEIGHTS[k / 3 % WEIGHTS.len()]
         } else {
             fuzz_weight(&mut rng)
         };
+        (k, a, b, w)
+    })
+}
+
+#[test]
+fn banded_is_exact_on_a_fuzz_corpus_of_100_000_strips() {
+    let tol = |x: f64| 1e-9 * x.abs().max(1.0);
+    for (k, a, b, w) in fuzz_corpus(100_000) {
         let dp = shortest_path_dp(&a, &b, w).unwrap();
         let band = shortest_path_banded(&a, &b, w, 1 + k % 4).unwrap();
         let context = || format!("strip {k}: n={} m={} {w:?}", a.len(), b.len());
@@ -661,15 +669,8 @@ fn check_atan2_cheap(count: usize) {
 
 #[test]
 fn filtered_greedy_is_the_exact_walk_bit_for_bit_on_the_fuzz_corpus() {
-    let mut rng = Lcg(53);
     let mut counts = filter::FilterCounts::default();
-    for k in 0..100_000 {
-        let (a, b) = fuzz_strip(&mut rng, k);
-        let w = if k % 3 == 0 {
-            WEIGHTS[k / 3 % WEIGHTS.len()]
-        } else {
-            fuzz_weight(&mut rng)
-        };
+    for (k, a, b, w) in fuzz_corpus(100_000) {
         let t = Terms::new(&a, &b, w).unwrap();
         let (exact, filtered) = (greedy(&t), greedy_filtered(&t, &mut counts));
         assert_eq!(exact.path, filtered.path, "strip {k}: {w:?}");
