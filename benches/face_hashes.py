@@ -27,10 +27,12 @@ import scanmesh
 
 ROOT = Path(__file__).resolve().parent.parent
 
-#: Per method: keywords that keep the run deterministic and short on every scan.
+#: Per method (its name, and after a space a label for the options): keywords that keep the
+#: run deterministic and short on every scan.
 METHOD_OPTIONS: dict[str, dict] = {
     "delaunay": {},
     "lookahead": {},
+    "lookahead α=1": {"alpha": 1},
     "shortest-path": {},
     "lop": {},
     "anneal": {"sweeps": 30, "seed": 0},
@@ -74,14 +76,15 @@ def main(argv: list[str] | None = None) -> int:
     for name, source in _scans(args.data):
         for method in args.methods:
             kwargs = dict(METHOD_OPTIONS[method])
+            name_only = method.split()[0]
             try:
                 if isinstance(source, tuple):
                     pts, ids = source
-                    if method in LINE_METHODS:
+                    if name_only in LINE_METHODS:
                         kwargs["lines"] = ids
-                    surface = scanmesh.reconstruct(pts, method, **kwargs)
+                    surface = scanmesh.reconstruct(pts, name_only, **kwargs)
                 else:
-                    surface = scanmesh.reconstruct(source, method, **kwargs)
+                    surface = scanmesh.reconstruct(source, name_only, **kwargs)
             except scanmesh.ScanmeshError as exc:
                 print(f"{name} | {method} | error {type(exc).__name__}: {exc}")
                 continue

@@ -27,6 +27,10 @@ Peers:
 - scanmesh delaunay: ``scanmesh.reconstruct(points, "delaunay")`` (plane choice, projection,
   Delaunay, long-edge and depth-jump trimming, the steep check);
 - scanmesh shortest-path / lookahead α=1: ``reconstruct(points, method, lines=ids)``;
+  "lookahead α=1, exact walk" the same with the strips' filtered decisions turned off
+  (``_core.set_strip_filter(False)``): before and after the filter in one run. Each scanmesh
+  row also reports the face hash and the filter's fallbacks / decisions
+  (``_core.strip_filter_counts``);
 - Triangle: ``triangle.triangulate({"vertices": xy}, "Q")`` (Shewchuk's, plain Delaunay);
 - VTK ``vtkRuledSurfaceFilter`` in PointWalk mode (the greedy walk between consecutive
   polylines), from numpy arrays through ``vtk.util.numpy_support``;
@@ -39,6 +43,7 @@ Peers:
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import platform
@@ -85,12 +90,25 @@ def scan_files(n: int) -> tuple[Path, Path]:
     return points, ids
 
 
-def run_scanmesh(method: str, **options: object) -> Callable[[np.ndarray, np.ndarray], int]:
+#: The faces of the last scanmesh call, hashed after the timed call.
+LAST_FACES: list[np.ndarray] = []
+
+
+def run_scanmesh(
+    method: str, filtered: bool = True, **options: object
+) -> Callable[[np.ndarray, np.ndarray], int]:
+    """scanmesh's ``reconstruct``; ``filtered=False`` turns the strips' filtered decisions
+    off (``_core.set_strip_filter``), the walk as before the filter, for before/after rows."""
     import scanmesh
+    from scanmesh import _core
+
+    _core.set_strip_filter(filtered)
 
     def run(points: np.ndarray, ids: np.ndarray) -> int:
         lines = None if method == "delaunay" else ids
-        return len(scanmesh.reconstruct(points, method, lines=lines, **options).faces)
+        faces = scanmesh.reconstruct(points, method, lines=lines, **options).faces
+        LAST_FACES[:] = [faces]
+        return len(faces)
 
     return run
 
@@ -148,6 +166,7 @@ PEERS: dict[str, Callable[[], Callable[[np.ndarray, np.ndarray], int]]] = {
     BASE: lambda: run_scanmesh("delaunay"),
     "scanmesh shortest-path": lambda: run_scanmesh("shortest-path"),
     "scanmesh lookahead α=1": lambda: run_scanmesh("lookahead", alpha=1),
+    "scanmesh lookahead α=1, exact walk": lambda: run_scanmesh("lookahead", False, alpha=1),
     "Triangle (`triangle`)": lambda: run_triangle,
     "VTK `vtkRuledSurfaceFilter` (PointWalk)": lambda: run_vtk_ruled,
     "numpy grid of the lines": lambda: run_numpy_grid,
@@ -167,10 +186,21 @@ def child(peer: str, n: int) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         run(*synthetic_scan(3000, seed=1))  # warm-up: lazy imports are not timed
+        filter_counts(reset=True)
         cpu, t = cpu_seconds(), time.perf_counter()
         faces = run(points, ids)
         seconds, cpu = time.perf_counter() - t, cpu_seconds() - cpu
-    print(json.dumps({"seconds": seconds, "cpu": cpu, "faces": faces}))
+    out = {"seconds": seconds, "cpu": cpu, "faces": faces, "filter": filter_counts()}
+    if LAST_FACES:
+        out["sha1"] = hashlib.sha1(np.ascontiguousarray(LAST_FACES[0], np.int64)).hexdigest()[:12]
+    print(json.dumps(out))
+
+
+def filter_counts(reset: bool = False) -> list[int] | None:
+    """(decisions, fallbacks) of the strips' filtered walk in this process, when scanmesh
+    is loaded (``_core.strip_filter_counts``)."""
+    core = sys.modules.get("scanmesh._core")
+    return None if core is None else list(core.strip_filter_counts(reset))
 
 
 def cpu_seconds() -> float:
@@ -284,10 +314,36 @@ def markdown(results: dict, peers: list[str], args: argparse.Namespace, loads: l
         "",
         "Faces per size: " + "; ".join(f"{p}: {f}" for p, f in faces.items()) + ".",
         "",
+        "Face hashes (sha1 of the int64 faces, first run) per size: "
+        + "; ".join(
+            f"{p}: " + "/".join(str(results[n][p][0].get("sha1", "–")) for n in sizes)
+            for p in peers
+            if p.startswith("scanmesh")
+        )
+        + ".",
+        "",
+        "Filtered decisions of the strips (fallbacks / decisions, the exact evaluation's"
+        " share; first run): "
+        + "; ".join(
+            f"{p}: " + "/".join(fallback_rate(results[n][p]) for n in sizes)
+            for p in peers
+            if p.startswith("scanmesh") and p != BASE
+        )
+        + ".",
+        "",
         "Machine load (1/5/15 min) at the start and after each size: " + "; ".join(loads) + ".",
         "",
     ]
     return "\n".join(lines)
+
+
+def fallback_rate(runs: list[dict]) -> str:
+    """Fallbacks / decisions (and the rate) of a peer's first run, or "–"."""
+    counts = runs[0].get("filter") if runs else None
+    if not counts or not counts[0]:
+        return "–"
+    d, f = counts
+    return f"{f:,} / {d:,} ({100 * f / d:.2f} %)"
 
 
 if __name__ == "__main__":

@@ -419,3 +419,25 @@ def test_strips_do_not_depend_on_the_thread_count():
     assert runs[0] == runs[1]
     # The scan exercises the depth-jump rule (triangles dropped at the walls).
     assert all(dropped > 0 for _, dropped, _ in runs[0].values())
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.3])
+def test_filtered_walk_gives_the_exact_walks_faces_and_cost(jitter):
+    """Look-ahead with alpha = 1 takes its decisions from cheap bounds (the core's
+    ``filter``); turned off, every step is evaluated exactly: the same faces and cost."""
+    pts, ids = line_scan(30, 40, jitter=jitter, seed=3)
+    try:
+        _core.set_strip_filter(False)
+        _core.strip_filter_counts(reset=True)
+        exact = scanmesh.reconstruct(pts, "lookahead", lines=ids, alpha=1)
+        assert _core.strip_filter_counts() == (0, 0)
+        _core.set_strip_filter(True)
+        filtered = scanmesh.reconstruct(pts, "lookahead", lines=ids, alpha=1)
+        decisions, fallbacks = _core.strip_filter_counts(reset=True)
+    finally:
+        _core.set_strip_filter(True)
+    np.testing.assert_array_equal(filtered.faces, exact.faces)
+    assert filtered.options["cost"] == exact.options["cost"]
+    # One decision per step off the last row and column of each of the 29 strips.
+    assert 29 * 30 <= decisions <= 29 * 78
+    assert fallbacks <= decisions

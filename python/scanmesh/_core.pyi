@@ -37,6 +37,8 @@ __all__ = [
     "detect_lines",
     "scan_segments",
     "strip_mesh",
+    "set_strip_filter",
+    "strip_filter_counts",
     "empty_triangles",
     "triangulations",
     "cheapest_fans",
@@ -195,6 +197,8 @@ def detect_lines(uv: npt.NDArray[np.float64], gap_factor: float) -> npt.NDArray[
 def scan_segments(
     uv: npt.NDArray[np.float64], line_ids: npt.NDArray[np.int64], gap_factor: float
 ) -> tuple[list[list[npt.NDArray[np.int64]]], float, float, npt.NDArray[np.int64]]: ...
+def set_strip_filter(on: bool) -> None: ...
+def strip_filter_counts(reset: bool = False) -> tuple[int, int]: ...
 def strip_mesh(
     points: npt.NDArray[np.float64],
     uv: npt.NDArray[np.float64],

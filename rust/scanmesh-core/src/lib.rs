@@ -66,6 +66,7 @@ pub use strips::fuchs::{
     lookahead, path_cost, shortest_path_banded, shortest_path_dijkstra, shortest_path_dp, Solution,
     Solver, Step, Weight, DEFAULT_BAND,
 };
+pub use strips::fuchs::{set_strip_filter, strip_filter_counts, FilterCounts};
 pub use strips::lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
 pub use strips::stitch::{stitch, stitch_part};
 pub use strips::{Method, ScanContext, StripMesh, StripParams};

@@ -142,6 +142,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(strips::detect_lines, m)?)?;
     m.add_function(wrap_pyfunction!(strips::scan_segments, m)?)?;
     m.add_function(wrap_pyfunction!(strips::strip_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(strips::set_strip_filter, m)?)?;
+    m.add_function(wrap_pyfunction!(strips::strip_filter_counts, m)?)?;
     m.add_function(wrap_pyfunction!(exact::empty_triangles, m)?)?;
     m.add_function(wrap_pyfunction!(exact::triangulations, m)?)?;
     m.add_function(wrap_pyfunction!(exact::cheapest_fans, m)?)?;

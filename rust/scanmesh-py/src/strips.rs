@@ -206,3 +206,19 @@ pub(crate) fn run_strips<'py>(
     let faces = faces_out(py, &std::mem::take(&mut mesh.triangles));
     Ok((faces, unused, pairs_out(py, &duplicates), mesh))
 }
+
+/// Turns the strips' filtered decisions on (the default) or off, process-wide
+/// (`scanmesh_core::set_strip_filter`); the faces are the same either way. For benchmarks.
+#[pyfunction]
+pub(crate) fn set_strip_filter(on: bool) {
+    scanmesh_core::set_strip_filter(on);
+}
+
+/// The filtered decisions' counters since the last reset, as (decisions, fallbacks)
+/// (`scanmesh_core::strip_filter_counts`); `reset` sets them to zero. For benchmarks.
+#[pyfunction]
+#[pyo3(signature = (reset=false))]
+pub(crate) fn strip_filter_counts(reset: bool) -> (u64, u64) {
+    let c = scanmesh_core::strip_filter_counts(reset);
+    (c.decisions, c.fallbacks)
+}

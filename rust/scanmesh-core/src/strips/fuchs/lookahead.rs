@@ -2,6 +2,7 @@
 //! beyond it.
 
 use super::dp::{best_from, full_dp, Cell, UNREACHED};
+use super::filter::{self, FilterCounts};
 use super::weights::{Terms, Tri, Weight};
 use super::{Solution, Step, MAX_LOOKAHEAD_CELLS};
 use crate::{Error, Result};
@@ -78,7 +79,8 @@ impl Window {
 /// Each decision runs a small DP over the window of nodes within α steps, so the time is
 /// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α; at α = 1 the window is the
 /// two steps themselves, compared without a DP (the same path bit for bit, about two step
-/// evaluations per triangle). From α = n + m − 2 on, every
+/// evaluations per triangle), each decision first from cheap bounds with exact fallback
+/// (`filter`: the same path and cost bit for bit; [`set_strip_filter`] turns it off). From α = n + m − 2 on, every
 /// window reaches the end, the walk follows an optimal path, and a larger α changes
 /// nothing: that path is found by one DP instead ([`shortest_path_dp`]: the same cost; among
 /// tied optima, the DP's), in O(nm). Memory O(min(α, n) · min(α, m)). Errors: α = 0, a
@@ -100,6 +102,13 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
         return full_dp(&t, &ask);
     }
     if alpha == 1 {
+        // Only the angle term has an atan2 to filter (turns are taken exactly).
+        if filter::enabled() && w.angle != 0.0 {
+            let mut counts = FilterCounts::default();
+            let solution = greedy_filtered(&t, &mut counts);
+            filter::record(counts);
+            return Ok(solution);
+        }
         return Ok(greedy(&t));
     }
     let (rows, cols) = (alpha.min(n - 1) + 1, alpha.min(m - 1) + 1);
@@ -140,31 +149,49 @@ pub(super) fn windowed(t: &Terms, mut window: Window, alpha: usize) -> Solution 
 /// tested against the windowed walk. O(n + m) time, O(n + m) memory for the path.
 pub(super) fn greedy(t: &Terms) -> Solution {
     walk(t, |i, j, entered| {
-        let (step_a, step_b) = (t.step(i, j, Step::A), t.step(i, j, Step::B));
-        // Turns are ≥ 0 (and adding one never rounds a sum down), so when the cheaper
-        // step with its turn still beats the other before any turn, the other's turn
-        // (an atan2) cannot change the choice; ties go to A as in the windows.
-        let (via_a, via_b) = if step_a.cost <= step_b.cost {
-            let via_a = with_turn(t, step_a, entered);
-            if via_a <= step_b.cost {
-                (via_a, f64::INFINITY)
-            } else {
-                (via_a, with_turn(t, step_b, entered))
-            }
-        } else {
-            let via_b = with_turn(t, step_b, entered);
-            if via_b < step_a.cost {
-                (f64::INFINITY, via_b)
-            } else {
-                (with_turn(t, step_a, entered), via_b)
-            }
-        };
-        if via_a <= via_b {
-            (Step::A, step_a, via_a)
-        } else {
-            (Step::B, step_b, via_b)
-        }
+        exact_choice(t, t.step(i, j, Step::A), t.step(i, j, Step::B), entered)
     })
+}
+
+/// [`greedy`] with each decision taken from cheap bounds where they settle it
+/// (`filter::certified_step`), else from the exact steps: the same path and cost bit for
+/// bit (tested on the fuzz corpus); the decisions and fallbacks are added to `counts`.
+/// O(n + m).
+pub(super) fn greedy_filtered(t: &Terms, counts: &mut FilterCounts) -> Solution {
+    walk(t, |i, j, entered| {
+        filter::filtered_choice(t, i, j, entered, counts, |a, b| {
+            exact_choice(t, a, b, entered)
+        })
+    })
+}
+
+/// The greedy decision between the exact steps `step_a` and `step_b` after `entered`:
+/// the step, its [`Tri`] and the cost it adds. O(1).
+#[inline(always)]
+fn exact_choice(t: &Terms, step_a: Tri, step_b: Tri, entered: &Option<Tri>) -> (Step, Tri, f64) {
+    // Turns are ≥ 0 (and adding one never rounds a sum down), so when the cheaper
+    // step with its turn still beats the other before any turn, the other's turn
+    // (an atan2) cannot change the choice; ties go to A as in the windows.
+    let (via_a, via_b) = if step_a.cost <= step_b.cost {
+        let via_a = with_turn(t, step_a, entered);
+        if via_a <= step_b.cost {
+            (via_a, f64::INFINITY)
+        } else {
+            (via_a, with_turn(t, step_b, entered))
+        }
+    } else {
+        let via_b = with_turn(t, step_b, entered);
+        if via_b < step_a.cost {
+            (f64::INFINITY, via_b)
+        } else {
+            (with_turn(t, step_a, entered), via_b)
+        }
+    };
+    if via_a <= via_b {
+        (Step::A, step_a, via_a)
+    } else {
+        (Step::B, step_b, via_b)
+    }
 }
 
 /// The cost `step` adds after the triangle `entered` (none at the start): its own cost

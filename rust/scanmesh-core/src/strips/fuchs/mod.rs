@@ -19,6 +19,7 @@
 mod banded;
 mod dijkstra;
 mod dp;
+mod filter;
 mod lookahead;
 mod outside;
 mod weights;
@@ -26,6 +27,7 @@ mod weights;
 pub use banded::shortest_path_banded;
 pub use dijkstra::shortest_path_dijkstra;
 pub use dp::shortest_path_dp;
+pub use filter::{set_strip_filter, strip_filter_counts, FilterCounts};
 pub use lookahead::lookahead;
 pub use weights::Weight;
 

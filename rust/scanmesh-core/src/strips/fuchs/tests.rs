@@ -338,17 +338,25 @@ fn fuzz_weight(rng: &mut Lcg) -> Weight {
     }
 }
 
-#[test]
-fn banded_is_exact_on_a_fuzz_corpus_of_100_000_strips() {
+/// The fuzz corpus: `count` strips (see [`fuzz_strip`]), each with its weight (every third
+/// one of [`WEIGHTS`], the others random), numbered.
+fn fuzz_corpus(count: usize) -> impl Iterator<Item = (usize, Vec<DVec3>, Vec<DVec3>, Weight)> {
     let mut rng = Lcg(53);
-    let tol = |x: f64| 1e-9 * x.abs().max(1.0);
-    for k in 0..100_000 {
+    (0..count).map(move |k| {
         let (a, b) = fuzz_strip(&mut rng, k);
         let w = if k % 3 == 0 {
             WEIGHTS[k / 3 % WEIGHTS.len()]
         } else {
             fuzz_weight(&mut rng)
         };
+        (k, a, b, w)
+    })
+}
+
+#[test]
+fn banded_is_exact_on_a_fuzz_corpus_of_100_000_strips() {
+    let tol = |x: f64| 1e-9 * x.abs().max(1.0);
+    for (k, a, b, w) in fuzz_corpus(100_000) {
         let dp = shortest_path_dp(&a, &b, w).unwrap();
         let band = shortest_path_banded(&a, &b, w, 1 + k % 4).unwrap();
         let context = || format!("strip {k}: n={} m={} {w:?}", a.len(), b.len());
@@ -586,4 +594,161 @@ fn single_points_make_fans() {
     let one = shortest_path_dp(&a[..1], &b, Weight::LENGTH).unwrap();
     assert!(one.path.is_empty());
     assert!(close(one.cost, (a[0] - b[0]).length()));
+}
+
+/// Inputs of atan2 as the strips produce them and worse: random magnitudes in every
+/// decade from 1e-300 to 1e300, and the near-degenerate cases (y far below |x|, x near 0,
+/// y = |x|, zeros of either sign, sliver triangles' area and dot products).
+fn atan2_inputs(rng: &mut Lcg, k: usize) -> (f64, f64) {
+    let magnitude = |r: &mut Lcg| 10f64.powf(600.0 * r.next() - 300.0);
+    let sign = |r: &mut Lcg| if r.next() < 0.5 { -1.0 } else { 1.0 };
+    match k % 8 {
+        0 => (rng.next(), 2.0 * rng.next() - 1.0),
+        1 => (magnitude(rng), sign(rng) * magnitude(rng)),
+        2 => {
+            let x = sign(rng) * magnitude(rng);
+            (x.abs() * 10f64.powf(-16.0 * rng.next()), x)
+        }
+        3 => {
+            let y = magnitude(rng);
+            (y, sign(rng) * y * 10f64.powf(-16.0 * rng.next()))
+        }
+        4 => {
+            let y = magnitude(rng);
+            (y, sign(rng) * y * (1.0 + 1e-12 * (rng.next() - 0.5)))
+        }
+        5 => [
+            (0.0, 0.0),
+            (0.0, -0.0),
+            (0.0, 1.0),
+            (0.0, -1.0),
+            (1.0, 0.0),
+            (1.0, -0.0),
+        ][k / 8 % 6],
+        _ => {
+            // A sliver: p, q and r nearly on a line, at a random scale.
+            let s = magnitude(rng).min(1e100);
+            let p = DVec3::new(rng.next(), rng.next(), rng.next()) * s;
+            let d = DVec3::new(rng.next(), rng.next(), rng.next()) * s;
+            let off = DVec3::new(rng.next(), rng.next(), rng.next()) * s * 1e-9 * rng.next();
+            let (q, r) = (p + d, p + d * (2.0 * rng.next() - 0.5) + off);
+            ((q - p).cross(r - p).length(), (q - p).dot(r - p))
+        }
+    }
+}
+
+#[test]
+fn atan2_cheap_is_within_its_bound() {
+    // 2 million inputs (about 1 s in a debug build); `--ignored` runs 50 million.
+    check_atan2_cheap(2_000_000);
+}
+
+#[test]
+#[ignore]
+fn atan2_cheap_is_within_its_bound_50_million() {
+    check_atan2_cheap(50_000_000);
+}
+
+fn check_atan2_cheap(count: usize) {
+    let mut rng = Lcg(34);
+    let mut worst = 0.0f64;
+    for k in 0..count {
+        let (y, x) = atan2_inputs(&mut rng, k);
+        let (cheap, exact) = (filter::atan2_cheap(y, x), geometry::atan2_upper(y, x));
+        let error = (cheap - exact).abs();
+        assert!(
+            error <= filter::ATAN_ERROR,
+            "atan2({y:e}, {x:e}): cheap {cheap} exact {exact}, error {error:e}"
+        );
+        worst = worst.max(error);
+    }
+    // The bound is not vacuous: the polynomial's own error shows.
+    assert!(worst > 1e-9, "largest error {worst:e}");
+    println!("{count} inputs, largest error {worst:e}");
+}
+
+#[test]
+fn filtered_greedy_is_the_exact_walk_bit_for_bit_on_the_fuzz_corpus() {
+    let mut counts = filter::FilterCounts::default();
+    for (k, a, b, w) in fuzz_corpus(100_000) {
+        let t = Terms::new(&a, &b, w).unwrap();
+        let (exact, filtered) = (greedy(&t), greedy_filtered(&t, &mut counts));
+        assert_eq!(exact.path, filtered.path, "strip {k}: {w:?}");
+        assert_eq!(exact.cost.to_bits(), filtered.cost.to_bits(), "strip {k}");
+    }
+    // The corpus has ties (integer coordinates, mirrored strips) and random strips where
+    // turns decide: about a fifth fall back, which exercises the exact path.
+    assert!(
+        counts.fallbacks > 0 && counts.fallbacks < counts.decisions / 2,
+        "{counts:?}"
+    );
+}
+
+#[test]
+fn filtered_greedy_is_the_exact_walk_on_long_scan_strips() {
+    // The strips' default weight (the one the filter is used for) and the others; strips
+    // with lines far apart (slivers) and with lines as far apart as their points.
+    let default = Weight {
+        length: 0.0,
+        area: 0.0,
+        angle: 1.0,
+        dihedral: 0.3,
+    };
+    let mut rng = Lcg(7);
+    let mut even = filter::FilterCounts::default();
+    for k in 0..40 {
+        let (a, b) = if k % 2 == 0 {
+            scan_pair(&mut rng, 300 + 7 * k, 320 - 5 * k)
+        } else {
+            // The benches' height scan: spacing 1 along and across, jittered by ±0.15.
+            let mut line = |y: f64, count: usize| -> Vec<DVec3> {
+                (0..count)
+                    .map(|c| {
+                        let x = c as f64 + 0.3 * (rng.next() - 0.5);
+                        let y = y + 0.3 * (rng.next() - 0.5);
+                        DVec3::new(x, y, 5.0 * (0.05 * x).sin() * (0.04 * y).cos())
+                    })
+                    .collect()
+            };
+            (line(k as f64, 300 + k), line(k as f64 + 1.0, 310 - k))
+        };
+        for w in std::iter::once(default).chain(WEIGHTS) {
+            let t = Terms::new(&a, &b, w).unwrap();
+            let mut counts = filter::FilterCounts::default();
+            let (exact, filtered) = (greedy(&t), greedy_filtered(&t, &mut counts));
+            assert_eq!(exact.path, filtered.path, "strip {k}: {w:?}");
+            assert_eq!(exact.cost.to_bits(), filtered.cost.to_bits(), "strip {k}");
+            if k % 2 == 1 && w == default {
+                even.decisions += counts.decisions;
+                even.fallbacks += counts.fallbacks;
+            }
+        }
+    }
+    // On a smooth scan with lines as far apart as their points, the bounds settle almost
+    // every decision under the default weight (on rough or sliver strips the turn decides
+    // more often, and then both steps are needed).
+    assert!(
+        even.decisions > 5_000 && even.fallbacks < even.decisions / 20,
+        "{even:?}"
+    );
+}
+
+#[test]
+fn a_tie_falls_back_and_goes_to_a() {
+    // A unit square: both first triangles are right isosceles, so their costs tie exactly
+    // and no bound can separate them; the exact rule sends ties to A.
+    let a = [DVec3::ZERO, DVec3::X];
+    let b = [DVec3::Y, DVec3::X + DVec3::Y];
+    let t = Terms::new(&a, &b, Weight::ANGLE).unwrap();
+    let mut counts = filter::FilterCounts::default();
+    let filtered = greedy_filtered(&t, &mut counts);
+    assert_eq!(
+        counts,
+        filter::FilterCounts {
+            decisions: 1,
+            fallbacks: 1
+        }
+    );
+    assert_eq!(filtered.path, vec![Step::A, Step::B]);
+    assert_eq!(filtered, greedy(&t));
 }

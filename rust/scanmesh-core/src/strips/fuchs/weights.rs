@@ -155,6 +155,12 @@ impl<'a> Terms<'a> {
     /// and what the turn to the next step needs. O(1).
     #[inline]
     pub(super) fn step(&self, i: usize, j: usize, s: Step) -> Tri {
+        self.triangle_of(&self.parts(i, j, s))
+    }
+
+    /// The vectors of the step `s` leaving (i, j), before any square root or atan2. O(1).
+    #[inline]
+    pub(super) fn parts(&self, i: usize, j: usize, s: Step) -> Parts {
         // The entered node (ti, tj) is the edge shared with the next triangle; the apex is
         // this triangle's third corner, taken relative to a_ti.
         let (p, q, r, ti, tj, apex) = match s {
@@ -162,19 +168,44 @@ impl<'a> Terms<'a> {
             Step::B => (self.a[i], self.b[j + 1], self.b[j], i, j + 1, self.b[j]),
         };
         let e = self.b[tj] - self.a[ti];
-        let sides = [
-            (q - p).length_squared(),
-            (r - q).length_squared(),
-            (p - r).length_squared(),
-        ];
-        let dots = [(p - r).dot(q - r), (q - p).dot(r - p), (r - q).dot(p - q)];
-        self.triangle(
-            e.length(),
-            (q - p).cross(r - p),
-            sides,
-            dots,
-            apex - self.a[ti],
-        )
+        Parts {
+            len: e.length(),
+            cross: (q - p).cross(r - p),
+            sides: [
+                (q - p).length_squared(),
+                (r - q).length_squared(),
+                (p - r).length_squared(),
+            ],
+            dots: [(p - r).dot(q - r), (q - p).dot(r - p), (r - q).dot(p - q)],
+            apex: apex - self.a[ti],
+        }
+    }
+
+    /// [`Terms::triangle`] of `parts`. O(1).
+    #[inline(always)]
+    pub(super) fn triangle_of(&self, parts: &Parts) -> Tri {
+        self.triangle(parts.len, parts.cross, parts.sides, parts.dots, parts.apex)
+    }
+
+    /// [`Terms::triangle_of`] given its doubled area |cross| (a triangle criterion on). O(1).
+    #[inline(always)]
+    pub(super) fn triangle_with_area(&self, parts: &Parts, twice_area: f64) -> Tri {
+        let angle = if self.w.angle != 0.0 {
+            atan2_upper(twice_area, smallest_angle_dot(parts.sides, parts.dots))
+        } else {
+            0.0
+        };
+        Tri {
+            cost: self.cost_at(parts.len, twice_area, angle),
+            // The dihedral angle is scale-free: the cross product serves as the normal.
+            normal: if self.w.dihedral != 0.0 {
+                parts.cross
+            } else {
+                DVec3::ZERO
+            },
+            apex: parts.apex,
+            len: parts.len,
+        }
     }
 
     /// Whether any triangle criterion (area, angle, dihedral) is on. O(1).
@@ -200,47 +231,44 @@ impl<'a> Terms<'a> {
         dots: [f64; 3],
         apex: DVec3,
     ) -> Tri {
-        let mut cost = if self.w.length == 0.0 {
-            0.0
-        } else {
-            self.w.length * len
-        };
         if !self.needs_triangles() {
             // The length weight alone needs no triangle (the hot path of `Weight::LENGTH`).
             return Tri {
-                cost,
+                cost: self.cost_at(len, 0.0, 0.0),
                 normal: DVec3::ZERO,
                 apex: DVec3::ZERO,
                 len,
             };
         }
-        let twice_area = cross.length();
+        let parts = Parts {
+            len,
+            cross,
+            sides,
+            dots,
+            apex,
+        };
+        self.triangle_with_area(&parts, cross.length())
+    }
+
+    /// A step's cost from the entered node's length `len`, its triangle's doubled area
+    /// and its smallest angle `angle` (radians; read only when the angle weight is on):
+    /// the length, area and angle terms added in that order. Non-increasing in `angle`
+    /// (every operation is monotone and rounding to nearest is too), which the filtered
+    /// walk (`filter`) uses to bound the cost from a bound on the angle. O(1).
+    #[inline(always)]
+    pub(super) fn cost_at(&self, len: f64, twice_area: f64, angle: f64) -> f64 {
+        let mut cost = if self.w.length == 0.0 {
+            0.0
+        } else {
+            self.w.length * len
+        };
         if self.w.area != 0.0 {
             cost += self.w.area * 0.5 * twice_area;
         }
         if self.w.angle != 0.0 {
-            // The smallest angle is at the corner opposite the shortest side (law of sines).
-            let [pq, qr, rp] = sides;
-            let k = usize::from(pq > qr || pq > rp) * (1 + usize::from(qr > rp));
-            // That angle is at most π/3, so its cosine is positive; only a degenerate
-            // triangle (coincident corners) gives a dot product of 0 or below, and a
-            // -0.0 (the row cache negates differences) would make atan2 return π and the
-            // penalty negative. Its smallest angle is 0.
-            let dot = if dots[k] > 0.0 { dots[k] } else { 0.0 };
-            cost += self.w.angle * (FRAC_PI_3 - atan2_upper(twice_area, dot));
+            cost += self.w.angle * (FRAC_PI_3 - angle);
         }
-        // The dihedral angle is scale-free: the cross product serves as the normal unscaled.
-        let normal = if self.w.dihedral != 0.0 {
-            cross
-        } else {
-            DVec3::ZERO
-        };
-        Tri {
-            cost,
-            normal,
-            apex,
-            len,
-        }
+        cost
     }
 
     /// Cost of the turn from triangle `from` to the next one, with normal `n2`. O(1).
@@ -258,6 +286,35 @@ impl<'a> Terms<'a> {
     pub(super) fn turn_from(&self, from: &Tri, n2: DVec3) -> f64 {
         self.turn(from.normal, from.apex, from.len, n2)
     }
+}
+
+/// The dot product of the two sides at a triangle's smallest angle, from its squared sides
+/// [|pq|², |qr|², |rp|²] and its corner products [at r, at p, at q] (see
+/// [`Terms::triangle`]); 0 for a degenerate triangle. O(1).
+#[inline(always)]
+pub(super) fn smallest_angle_dot(sides: [f64; 3], dots: [f64; 3]) -> f64 {
+    // The smallest angle is at the corner opposite the shortest side (law of sines).
+    let [pq, qr, rp] = sides;
+    let k = usize::from(pq > qr || pq > rp) * (1 + usize::from(qr > rp));
+    // That angle is at most π/3, so its cosine is positive; only a degenerate triangle
+    // (coincident corners) gives a dot product of 0 or below, and a -0.0 (the row cache
+    // negates differences) would make atan2 return π and the penalty negative. Its
+    // smallest angle is 0.
+    if dots[k] > 0.0 {
+        dots[k]
+    } else {
+        0.0
+    }
+}
+
+/// The vectors of one step (see [`Terms::triangle`] for their meaning).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Parts {
+    pub(super) len: f64,
+    pub(super) cross: DVec3,
+    pub(super) sides: [f64; 3],
+    pub(super) dots: [f64; 3],
+    pub(super) apex: DVec3,
 }
 
 /// A step as the searches need it.
