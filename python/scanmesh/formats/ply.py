@@ -442,10 +442,11 @@ def ply_header(
     n_faces: int,
     normals: bool = False,
     point_data: dict[str, np.ndarray] | None = None,
+    face_data: dict[str, np.ndarray] | None = None,
 ) -> bytes:
     """The header of the binary PLY written here: double x, y, z (and nx, ny, nz) per
     vertex, then each ``point_data`` column (already :func:`ply_column`), then triangles as
-    uchar-counted int lists."""
+    uchar-counted int lists followed by each ``face_data`` column (the same way)."""
     head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh"]
     head += [f"element vertex {n_vertices}"]
     head += [f"property double {c}" for c in ("x", "y", "z")]
@@ -453,7 +454,10 @@ def ply_header(
         head += [f"property double {c}" for c in ("nx", "ny", "nz")]
     for name, values in (point_data or {}).items():
         head.append(f"property {_PLY_NAMES[f'{values.dtype.kind}{values.dtype.itemsize}']} {name}")
-    head += [f"element face {n_faces}", "property list uchar int vertex_indices", "end_header"]
+    head += [f"element face {n_faces}", "property list uchar int vertex_indices"]
+    for name, values in (face_data or {}).items():
+        head.append(f"property {_PLY_NAMES[f'{values.dtype.kind}{values.dtype.itemsize}']} {name}")
+    head.append("end_header")
     return ("\n".join(head) + "\n").encode("ascii")
 
 
@@ -463,12 +467,14 @@ def ply_chunks(
     normals: np.ndarray | None,
     stage: Stage,
     point_data: dict[str, np.ndarray] | None = None,
+    face_data: dict[str, np.ndarray] | None = None,
 ) -> Iterator[bytes | memoryview]:
-    """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals and
-    per-vertex ``point_data`` columns (each (N,), PLY types by :func:`ply_column`) when
-    given."""
+    """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals,
+    per-vertex ``point_data`` columns (each (N,)) and per-face ``face_data`` columns (each
+    (M,)) when given, in PLY types by :func:`ply_column`."""
     columns = {k: ply_column(np.asarray(v)) for k, v in (point_data or {}).items()}
-    yield ply_header(len(vertices), len(faces), normals is not None, columns)
+    face_columns = {k: ply_column(np.asarray(v)) for k, v in (face_data or {}).items()}
+    yield ply_header(len(vertices), len(faces), normals is not None, columns, face_columns)
     coords = vertices if normals is None else np.hstack([vertices, normals])
     if not columns:
         yield memoryview(np.ascontiguousarray(coords, dtype="<f8")).cast("B")
@@ -483,10 +489,13 @@ def ply_chunks(
             for name, values in columns.items():
                 out[name] = values[start:stop]
             yield memoryview(out).cast("B")
+    face_record = np.dtype(PLY_FACE.descr + [(k, v.dtype) for k, v in face_columns.items()])
     for start in range(0, len(faces), FACES_PER_BLOCK):
         block = faces[start : start + FACES_PER_BLOCK]
-        out = np.empty(len(block), dtype=PLY_FACE)
+        out = np.empty(len(block), dtype=face_record)
         out["n"] = 3
         out["v"] = block
+        for name, values in face_columns.items():
+            out[name] = values[start : start + len(block)]
         yield memoryview(out).cast("B")
         stage.update(start + len(block))
