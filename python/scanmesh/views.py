@@ -57,7 +57,7 @@ def check_pose(pose: Any, where: str) -> np.ndarray:
         raise ParameterError(f"{where}: a pose must be a 4 x 4 matrix, got shape {m.shape}")
     if not np.isfinite(m).all():
         row, col = np.argwhere(~np.isfinite(m))[0]
-        raise ParameterError(f"{where}: pose entry [{row}, {col}] is {m[row, col]!r}")
+        raise ParameterError(f"{where}: pose entry [{row}, {col}] is {float(m[row, col])}")
     if not np.allclose(m[3], [0.0, 0.0, 0.0, 1.0], rtol=0.0, atol=RIGID_TOL):
         raise ParameterError(f"{where}: a pose's last row must be 0 0 0 1, got {m[3].tolist()}")
     r = m[:3, :3]
