@@ -213,7 +213,10 @@ def test_posed_arrays_give_the_same_mesh_as_world_scans(merged_box):
     moved = scanmesh.merge([(p, motion @ pose) for p, pose in posed])
     assert shape.is_watertight(moved.faces) and shape.euler_characteristic(moved.faces) == 2
     _, dist, _ = trimesh.proximity.closest_point(box.copy().apply_transform(motion), moved.vertices)
-    assert np.sqrt(np.mean(dist**2)) < 0.1 * moved.options["voxel"]
+    voxel = moved.options["voxel"]
+    # the faces as close as in the grid's axes; the corners, now across cells, less so
+    assert np.median(dist) < 0.05 * voxel and np.percentile(dist, 90) < 0.1 * voxel
+    assert np.sqrt(np.mean(dist**2)) < 0.2 * voxel
 
 
 def test_toward_turns_the_scanner_direction():

@@ -5,9 +5,12 @@
 //! the distance along the ray `q.z − d` (positive towards the scanner) times the cosine
 //! between ray and surface is the distance to the surface's tangent plane. Within the
 //! truncation it is averaged (weight: that cosine); beyond it in front of the surface the
-//! node is empty; behind it, unseen. A ray without a return proves every node along it
-//! empty, unless it crossed surface another view measured (then the return was lost, at a
-//! grazing angle, say, and the ray proves nothing): `carve` marks those nodes.
+//! node is empty; behind it, unseen. A ray without a return travelled through empty space
+//! up to the truncation band of the first surface another view measured on its way (where
+//! its return was lost, at a grazing angle, say), or through the whole grid when it met
+//! none: `carve` marks those nodes. (Stopping at the band, not behind the surface: a node
+//! behind a surface may average to a positive distance where views disagree, and a ray
+//! let through there would carve the part's inside.)
 
 use super::depth::{DepthView, Lookup};
 use crate::budget;
@@ -191,11 +194,11 @@ impl Volume {
             });
     }
 
-    /// Marks empty the nodes on this view's rays without a return, except rays that crossed
-    /// a measured surface (a node behind a surface some view measured: negative distance).
-    /// Run after every view is integrated. O(rays · nodes along a ray + nodes).
+    /// Marks empty the nodes on this view's rays without a return, from the scanner to the
+    /// first node some view measured, or all along the ray when there is none. Run after every view is integrated.
+    /// O(rays · nodes along a ray + nodes).
     pub fn carve(&mut self, view: &DepthView) {
-        let open = self.open_rays(view);
+        let stop = self.ray_stops(view);
         let (nx, ny) = (self.dims[0], self.dims[1]);
         let (origin, voxel) = (self.origin, self.voxel);
         self.flags
@@ -207,7 +210,7 @@ impl Volume {
                         let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
                         let q = view.to_scanner(p);
                         if let Lookup::Miss(pixel) = view.lookup(q.x, q.y) {
-                            if open[pixel] {
+                            if q.z > stop[pixel] {
                                 flags[j * nx + i] |= EMPTY;
                             }
                         }
@@ -216,8 +219,9 @@ impl Volume {
             });
     }
 
-    /// Per pixel of `view`: true for a ray without return that crossed no measured surface.
-    fn open_rays(&self, view: &DepthView) -> Vec<bool> {
+    /// Per pixel of `view`: the scanner z where a ray without return met the first measured
+    /// node, coming from the scanner (−∞: none; +∞: the ray returned).
+    fn ray_stops(&self, view: &DepthView) -> Vec<f64> {
         let (w, h) = view.size();
         // the ray's stretch through the grid: scanner z over the grid's 8 corners
         let hi = self.node(self.dims[0] - 1, self.dims[1] - 1, self.dims[2] - 1);
@@ -238,15 +242,17 @@ impl Volume {
             .into_par_iter()
             .map(|pixel| {
                 if !view.is_miss(pixel) {
-                    return false;
+                    return f64::INFINITY;
                 }
                 let [x, y] = view.ray_xy(pixel);
-                (0..steps).all(|s| {
-                    let p = view.to_world(DVec3::new(x, y, z_lo + s as f64 * dz));
-                    self.nearest(p).is_none_or(|n| {
-                        self.evidence(n) != Evidence::Measured || self.sum[n] >= 0.0
+                (0..steps)
+                    .map(|s| z_hi - s as f64 * dz)
+                    .find(|&z| {
+                        let p = view.to_world(DVec3::new(x, y, z));
+                        self.nearest(p)
+                            .is_some_and(|n| self.evidence(n) == Evidence::Measured)
                     })
-                })
+                    .unwrap_or(f64::NEG_INFINITY)
             })
             .collect()
     }
@@ -283,7 +289,7 @@ mod tests {
     }
 
     #[test]
-    fn rays_without_return_carve_unless_they_cross_a_measured_surface() {
+    fn rays_without_return_carve_down_to_the_first_measured_surface() {
         // view 1 (from above) sees a plane at z = 4 over x < 3, nothing beyond
         let depth: Vec<f64> = (0..25)
             .map(|k| if k % 5 < 3 { 4.0 } else { f64::NAN })
@@ -296,10 +302,14 @@ mod tests {
         assert_eq!(vol.evidence(vol.index(4, 2, 0)), Evidence::Empty);
         // under the plane: unseen (solid)
         assert_eq!(vol.evidence(vol.index(1, 2, 0)), Evidence::Unseen);
-        // a second view whose lost returns would cut through the measured plane: blocked
+        // a view whose returns were all lost stops at the measured plane: it carves nothing
+        // below it
+        let mut lower = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        let plane = looking_down(vec![4.0; 25], 5, 5, 1.0);
+        lower.integrate(&plane);
         let lost = looking_down(vec![f64::NAN; 25], 5, 5, 1.0);
-        vol.carve(&lost);
-        assert_eq!(vol.evidence(vol.index(1, 2, 0)), Evidence::Unseen);
+        lower.carve(&lost);
+        assert_eq!(lower.evidence(lower.index(1, 2, 0)), Evidence::Unseen);
     }
 
     #[test]
