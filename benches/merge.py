@@ -97,7 +97,9 @@ def o3d_poisson(cloud, depth: int, spacing: float):
 def pml_poisson(cloud, depth: int, spacing: float):
     ms = pymeshlab.MeshSet()
     ms.add_mesh(
-        pymeshlab.Mesh(vertex_matrix=np.asarray(cloud.points), v_normals_matrix=np.asarray(cloud.normals))
+        pymeshlab.Mesh(
+            vertex_matrix=np.asarray(cloud.points), v_normals_matrix=np.asarray(cloud.normals)
+        )
     )
     ms.generate_surface_reconstruction_screened_poisson(depth=depth)
     m = ms.current_mesh()
@@ -113,7 +115,9 @@ def o3d_bpa(cloud, depth: int, spacing: float):
 def pml_bpa(cloud, depth: int, spacing: float):
     ms = pymeshlab.MeshSet()
     ms.add_mesh(
-        pymeshlab.Mesh(vertex_matrix=np.asarray(cloud.points), v_normals_matrix=np.asarray(cloud.normals))
+        pymeshlab.Mesh(
+            vertex_matrix=np.asarray(cloud.points), v_normals_matrix=np.asarray(cloud.normals)
+        )
     )
     ms.generate_surface_reconstruction_ball_pivoting()
     m = ms.current_mesh()
@@ -167,7 +171,11 @@ class Judge:
             return row
         mesh = trimesh.Trimesh(vertices, faces, process=False)
         row["closed"] = shape.is_watertight(faces)
-        row["pieces"] = int(len(trimesh.graph.connected_components(mesh.face_adjacency, nodes=np.arange(len(faces)))))
+        row["pieces"] = int(
+            len(
+                trimesh.graph.connected_components(mesh.face_adjacency, nodes=np.arange(len(faces)))
+            )
+        )
         row["euler"] = shape.euler_characteristic(faces)
         row["genus"] = (2 * row["pieces"] - row["euler"]) / 2 if row["closed"] else None
         pts, face = trimesh.sample.sample_surface(mesh, N_SAMPLES, seed=SEED)
@@ -184,11 +192,17 @@ class Judge:
         row["rms"] = rms(sampled)
         row["rms crease"] = rms(sampled & crease)
         row["rms away"] = rms(sampled & ~crease)
-        row["normal crease"] = float(angle[sampled & crease].mean()) if (sampled & crease).any() else None
-        row["normal away"] = float(angle[sampled & ~crease].mean()) if (sampled & ~crease).any() else None
+        row["normal crease"] = (
+            float(angle[sampled & crease].mean()) if (sampled & crease).any() else None
+        )
+        row["normal away"] = (
+            float(angle[sampled & ~crease].mean()) if (sampled & ~crease).any() else None
+        )
         if len(self.unsampled):
             back, _ = closest(scene_of(vertices, faces), self.unsampled)
-            row["unsampled rms"] = float(np.sqrt(np.mean(np.sum((back - self.unsampled) ** 2, axis=1))))
+            row["unsampled rms"] = float(
+                np.sqrt(np.mean(np.sum((back - self.unsampled) ** 2, axis=1)))
+            )
         centre = mesh.triangles_center
         off = np.linalg.norm(closest(self.scene, centre)[0] - centre, axis=1) > 2 * s
         unlabelled = np.ones(len(faces), bool) if labels is None else labels != 2
@@ -243,10 +257,18 @@ def fmt(v, spec=".3g") -> str:
 
 def table(rows: list[dict]) -> str:
     cols = [
-        ("method", None), ("closed", None), ("pieces", "d"), ("genus", "g"),
-        ("rms", ".3g"), ("rms crease", ".3g"), ("rms away", ".3g"),
-        ("normal crease", ".1f"), ("normal away", ".1f"), ("unsampled rms", ".3g"),
-        ("far unlabelled", ".2%"), ("seconds", ".1f"),
+        ("method", None),
+        ("closed", None),
+        ("pieces", "d"),
+        ("genus", "g"),
+        ("rms", ".3g"),
+        ("rms crease", ".3g"),
+        ("rms away", ".3g"),
+        ("normal crease", ".1f"),
+        ("normal away", ".1f"),
+        ("unsampled rms", ".3g"),
+        ("far unlabelled", ".2%"),
+        ("seconds", ".1f"),
     ]
     out = []
     for part in dict.fromkeys(r["part"] for r in rows):
@@ -259,9 +281,16 @@ def table(rows: list[dict]) -> str:
         out.append("| " + " | ".join(c for c, _ in cols) + " |")
         out.append("|" + "---|" * len(cols))
         for r in mine:
-            out.append("| " + " | ".join(
-                str(r.get(c, "-")) if spec is None and not isinstance(r.get(c), bool)
-                else fmt(r.get(c), spec or "") for c, spec in cols) + " |")
+            out.append(
+                "| "
+                + " | ".join(
+                    str(r.get(c, "-"))
+                    if spec is None and not isinstance(r.get(c), bool)
+                    else fmt(r.get(c), spec or "")
+                    for c, spec in cols
+                )
+                + " |"
+            )
     return "\n".join(out)
 
 

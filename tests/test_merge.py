@@ -122,7 +122,7 @@ def test_read_conf_gives_the_poses_it_was_written_with(tmp_path):
     (tmp_path / "part.conf").write_text("\n".join(lines) + "\n")
     views = scanmesh.read_conf(tmp_path / "part.conf")
     assert len(views) == 3
-    for view, pose in zip(views, poses):
+    for view, pose in zip(views, poses, strict=True):
         np.testing.assert_allclose(view.pose, pose, atol=1e-12)
         np.testing.assert_allclose(view.world, truth, atol=1e-9)
     inverse = scanmesh.read_conf(tmp_path / "part.conf", inverse_rotation=True)

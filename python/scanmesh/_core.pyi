@@ -163,9 +163,7 @@ class FusionVolume:
     def evidence(self) -> npt.NDArray[np.uint8]: ...
     def extract(
         self, samples: npt.NDArray[np.float64], normals: npt.NDArray[np.float64]
-    ) -> tuple[
-        npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int
-    ]: ...
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int]: ...
 
 @final
 class AnnealParams:

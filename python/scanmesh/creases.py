@@ -17,7 +17,9 @@ from scanmesh import shape
 CREASE_ANGLE_DEG: float = 30.0
 
 
-def crease_edges(vertices: np.ndarray, faces: np.ndarray, angle: float = CREASE_ANGLE_DEG) -> np.ndarray:
+def crease_edges(
+    vertices: np.ndarray, faces: np.ndarray, angle: float = CREASE_ANGLE_DEG
+) -> np.ndarray:
     """(K, 2) int64 vertex pairs (smaller first) of the edges between two faces whose
     normals differ by more than ``angle`` degrees."""
     faces = np.asarray(faces, dtype=np.int64)
@@ -67,6 +69,8 @@ def chain(edges: np.ndarray) -> list[np.ndarray]:
     return lines
 
 
-def creases(vertices: np.ndarray, faces: np.ndarray, angle: float = CREASE_ANGLE_DEG) -> list[np.ndarray]:
+def creases(
+    vertices: np.ndarray, faces: np.ndarray, angle: float = CREASE_ANGLE_DEG
+) -> list[np.ndarray]:
     """The crease polylines of a mesh (see the module comment)."""
     return chain(crease_edges(vertices, faces, angle))

@@ -127,18 +127,16 @@ def merge(
                 f" max_voxels={max_voxels:,}; use voxel of about {need:.3g} or more"
             )
     volume = _core.FusionVolume(tuple(origin), size, tuple(int(d) for d in dims), trunc * size)
-    corners = origin + np.array(
-        [[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
-    ) * ((dims - 1) * size)
+    corners = origin + np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]) * (
+        (dims - 1) * size
+    )
     native, samples, normals = [], [], []
-    for view, spacing in zip(checked, spacings):
+    for view, spacing in zip(checked, spacings, strict=True):
         rot, shift = view.pose[:3, :3], view.pose[:3, 3]
         in_view = (corners - shift) @ rot  # the grid's corners in scanner coordinates
         window = np.array([in_view[:, :2].min(axis=0), in_view[:, :2].max(axis=0)])
         image = depth_image(view.points, max(spacing, 0.5 * size), window)
-        native.append(
-            _core.DepthView(view.pose, image.origin, image.step, image.depth, image.cos)
-        )
+        native.append(_core.DepthView(view.pose, image.origin, image.step, image.depth, image.cos))
         samples.append(view.points[image.kept] @ rot.T + shift)
         normals.append(image.normals @ rot.T)
     timings["depth images"] = time.perf_counter() - start
@@ -173,4 +171,3 @@ def merge(
         timings=timings,
         face_labels=labels,
     )
-

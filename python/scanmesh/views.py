@@ -145,7 +145,6 @@ def as_views(
     return out
 
 
-
 def read_conf(path: str | os.PathLike, *, inverse_rotation: bool = False) -> list[View]:
     """The range scans a Stanford ``.conf`` file lists, read and posed (see
     :mod:`scanmesh.formats.conf` for the format and the rotation convention), ready for

@@ -226,7 +226,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--toward", type=_axis, default="z", help="where the scanner sits in a scan's own axes (z)"
     )
-    p.add_argument("--voxel", type=_positive, metavar="V", help="grid spacing (default: the scans')")
+    p.add_argument(
+        "--voxel", type=_positive, metavar="V", help="grid spacing (default: the scans')"
+    )
     p.add_argument(
         "--truncation",
         type=_positive,
