@@ -215,7 +215,10 @@ def run_part(name: str, path: Path, divisor: float, grazing: float) -> list[dict
     spacing = float(truth.extents.max()) / divisor
     views = scan(truth, spacing, grazing)
     judge = Judge(truth, views, spacing)
-    truth_genus = (2 - truth.euler_number) / 2
+    # the genus of the solid: the conrod is three touching closed bodies (two rings and the
+    # beam), 2 genus in all, as one piece would have
+    bodies = len(truth.split(only_watertight=False))
+    truth_genus = (2 * bodies - truth.euler_number) / 2
     head = {
         "part": name,
         "spacing": spacing,
