@@ -38,6 +38,7 @@ STAGES: dict[str, str] = {
     "write": "faces",
     "quality": "faces",
     "preview": "faces",
+    "refine": "views",
     "integrate": "views",
     "carve": "views",
     "extract": "nodes",

@@ -27,6 +27,7 @@ from scanmesh import _core
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import ParameterError
+from scanmesh.register import refine_poses
 from scanmesh.scan.axes import AxisSpec
 from scanmesh.scan.depth import depth_image, view_spacing
 from scanmesh.surface import Surface
@@ -37,6 +38,9 @@ MAX_VOXELS = 64_000_000
 
 #: The default truncation of the signed distance, in voxels.
 TRUNCATION_VOXELS = 3.0
+
+#: How far apart two views' samples may be to be paired by ``refine``, in spacings.
+REFINE_REACH = 3.0
 
 
 def _positive(value: Any, name: str) -> float:
@@ -57,6 +61,7 @@ def merge(
     voxel: float | None = None,
     truncation: float = TRUNCATION_VOXELS,
     max_voxels: int = MAX_VOXELS,
+    refine: bool = False,
     progress: Progress = False,
 ) -> Surface:
     """One closed mesh from aligned range views, with a label per face.
@@ -79,9 +84,13 @@ def merge(
         How far from a sample its distance counts, in voxels (>= 1).
     max_voxels : int
         Largest grid accepted (nodes): a ``voxel`` that needs more is refused.
+    refine : bool
+        First refine the poses by point-to-plane ICP between overlapping views
+        (:func:`scanmesh.register.refine_poses`; the first view fixes the world); the
+        residual before and after is ``Surface.options["refine_residual"]``.
     progress : bool or callable
-        As in :func:`scanmesh.reconstruct`: stages "integrate", "carve" (views) and
-        "extract".
+        As in :func:`scanmesh.reconstruct`: stages "refine", "integrate", "carve" (views)
+        and "extract".
 
     Returns
     -------
@@ -97,7 +106,25 @@ def merge(
         raise ParameterError(f"truncation must be at least 1 voxel, got {truncation!r}")
     if isinstance(max_voxels, bool) or not isinstance(max_voxels, (int, np.integer)):
         raise ParameterError(f"max_voxels must be an integer, got {max_voxels!r}")
+    if not isinstance(refine, bool):
+        raise ParameterError(f"refine must be True or False, got {refine!r}")
     spacings = [view_spacing(v.points[:, :2]) for v in checked]
+    residual = None
+    if refine:
+        t0 = time.perf_counter()
+        with Stage(progress, "refine", len(checked), blocking=True):
+            own = [
+                depth_image(v.points, s, np.array([v.points[:, :2].min(0), v.points[:, :2].max(0)]))
+                for v, s in zip(checked, spacings, strict=True)
+            ]
+            checked, before, after = refine_poses(
+                checked,
+                [image.normals for image in own],
+                [image.kept for image in own],
+                reach=REFINE_REACH * float(np.median(spacings)),
+            )
+        residual = {"before": before, "after": after}
+        timings["refine"] = time.perf_counter() - t0
     world = [v.world for v in checked]
     lo = np.min([w.min(axis=0) for w in world], axis=0)
     hi = np.max([w.max(axis=0) for w in world], axis=0)
@@ -167,6 +194,8 @@ def merge(
             "truncation": trunc,
             "grid": tuple(int(d) for d in dims),
             "repaired_nodes": int(repaired),
+            "refine_residual": residual,
+            "poses": [v.pose for v in checked],
         },
         timings=timings,
         face_labels=labels,

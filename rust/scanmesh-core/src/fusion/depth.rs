@@ -108,7 +108,7 @@ impl DepthView {
         if !(origin[0].is_finite() && origin[1].is_finite()) {
             return Err(bad("origin", format!("{origin:?}"), "finite coordinates"));
         }
-        let n = width.checked_mul(height).unwrap_or(usize::MAX);
+        let n = width.saturating_mul(height);
         if depth.len() != n || cos.len() != n {
             return Err(bad(
                 "depth",

@@ -441,6 +441,6 @@ mod tests {
         let fused = extract(&vol, &[], &[]).unwrap();
         assert!(fused.repaired > 0);
         assert_eq!(euler(&fused), 2);
-        assert!(fused.labels.iter().any(|&l| l == FILLED));
+        assert!(fused.labels.contains(&FILLED));
     }
 }
