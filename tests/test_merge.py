@@ -295,6 +295,7 @@ def test_the_command_merges_scans_with_a_poses_file(tmp_path, capsys):
     assert main(args) == 0
     row = json.loads(capsys.readouterr().out)
     assert row["closed"] and row["genus"] == 0 and row["views"] == 6
+    assert row["refine_residual"] is None
     assert row["area"]["measured"] == pytest.approx(2 * (2 + 1.2 + 0.6), rel=0.02)
     assert out.exists()
     # the flags are named in the errors
@@ -305,6 +306,12 @@ def test_the_command_merges_scans_with_a_poses_file(tmp_path, capsys):
     assert main(["merge", *names, "-o", str(out), "--voxel", "0.001", "--max-voxels", "1000"]) == 1
     err = capsys.readouterr().err
     assert "--voxel" in err and "--max-voxels" in err
+    assert main(["merge", *names, "-o", str(out), "--inverse-rotation"]) == 1
+    assert "--inverse-rotation is for a .conf" in capsys.readouterr().err
+    args = ["merge", *names, "--poses", str(tmp_path / "poses.json"), "-o", str(out), "--refine"]
+    assert main(args) == 0  # the box's faces are each seen by one view only: no pairs
+    said = capsys.readouterr()
+    assert "share no surface" in said.err and "residual nan -> nan" in said.out
 
 
 # pose refinement

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -26,7 +27,7 @@ import numpy as np
 from scanmesh import _core
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import ParameterError
+from scanmesh.errors import ParameterError, ScanmeshWarning
 from scanmesh.register import refine_poses
 from scanmesh.scan.axes import AxisSpec
 from scanmesh.scan.depth import depth_image, view_spacing
@@ -124,6 +125,13 @@ def merge(
                 reach=REFINE_REACH * float(np.median(spacings)),
             )
         residual = {"before": before, "after": after}
+        if math.isnan(before):
+            warnings.warn(
+                "refine: the views share no surface (no samples of two views within"
+                f" {REFINE_REACH:g} spacings with agreeing normals); poses left as given",
+                ScanmeshWarning,
+                stacklevel=2,
+            )
         timings["refine"] = time.perf_counter() - t0
     world = [v.world for v in checked]
     lo = np.min([w.min(axis=0) for w in world], axis=0)

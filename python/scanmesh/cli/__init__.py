@@ -244,6 +244,12 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"largest grid, in nodes ({MAX_VOXELS:,}; 9 bytes each)",
     )
     p.add_argument(
+        "--refine",
+        action="store_true",
+        help="first refine the poses by point-to-plane ICP (the first scan fixed); the report"
+        " gives the residual before and after",
+    )
+    p.add_argument(
         "--inverse-rotation",
         action="store_true",
         help="read a .conf file's quaternions as the inverse rotation (world = R(q)^T p + t)",

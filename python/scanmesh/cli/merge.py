@@ -95,6 +95,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
             voxel=args.voxel,
             truncation=args.truncation,
             max_voxels=args.max_voxels,
+            refine=args.refine,
             progress=con.progress,
         )
     except ScanmeshError as exc:
@@ -116,6 +117,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         "genus": (2 - euler) / 2 if closed else None,
         "area": areas,
         "creases": len(surface.creases),
+        "refine_residual": surface.options["refine_residual"],
         "time_s": elapsed,
     }
     if con.json:
@@ -124,6 +126,9 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
     total = sum(areas.values()) or 1.0
     share = ", ".join(f"{k} {v:.6g} ({100 * v / total:.1f} %)" for k, v in areas.items())
     shape_text = f"closed, genus {row['genus']:g}" if closed else "not closed"
+    if row["refine_residual"]:
+        res = row["refine_residual"]
+        con.summary(f"poses refined: residual {res['before']:.4g} -> {res['after']:.4g}")
     con.summary(
         f"wrote {out}: {len(surface.faces):,} faces from {row['views']} views"
         f" (voxel {row['voxel']:.4g}), {shape_text}; area {share};"
