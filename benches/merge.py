@@ -3,6 +3,7 @@
     nice python benches/merge.py                         # every CAD part, Markdown table
     nice python benches/merge.py --parts fandisk --json out.jsonl
     python benches/merge.py --spacing-divisor 150        # coarser scans
+    nice python benches/merge.py --memory 10 1000000     # peak memory, 10 views of 1M points
 
 Each CAD part in ``../shared/data/cad`` is scanned by the virtual range scanner
 (:func:`scanmesh.simulate_range_scan`) from the six axis directions, at a spacing s of its
@@ -297,6 +298,38 @@ def table(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+def memory_run(n_views: int, n_points: int) -> dict:
+    """Peak memory and time of ``merge`` on ``n_views`` range scans of about ``n_points``
+    each (a sphere seen from directions spread over it, default voxel and grid cap)."""
+    import resource
+
+    sphere = trimesh.creation.icosphere(subdivisions=5)
+    rng = np.random.default_rng(SEED)
+    views = []
+    for k in range(n_views):
+        up = rng.normal(size=3)
+        scan = scanmesh.simulate_range_scan(
+            sphere, up=up / np.linalg.norm(up), n_points=n_points, noise=0.0, seed=k
+        )
+        views.append(scan)
+    points = sum(len(v.points) for v in views)
+    start = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.perf_counter()
+    surface = scanmesh.merge(views)
+    seconds = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    return {
+        "views": n_views,
+        "points": points,
+        "grid": surface.options["grid"],
+        "voxel": surface.options["voxel"],
+        "faces": len(surface.faces),
+        "seconds": seconds,
+        "peak RSS GiB (process)": peak / 2**20,
+        "peak RSS GiB before merge": start / 2**20,
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--parts", nargs="*", choices=list(PARTS), help="subset of the parts")
@@ -304,7 +337,17 @@ def main() -> None:
     ap.add_argument("--spacing-divisor", type=float, default=200.0)
     ap.add_argument("--grazing", type=float, default=75.0)
     ap.add_argument("--json", type=Path, help="also write the rows here (JSON lines)")
+    ap.add_argument(
+        "--memory",
+        nargs=2,
+        type=int,
+        metavar=("VIEWS", "POINTS"),
+        help="instead: peak memory of merge on VIEWS scans of a sphere, POINTS each",
+    )
     args = ap.parse_args()
+    if args.memory:
+        print(json.dumps(memory_run(*args.memory)))
+        return
     rows = []
     for name, file in PARTS.items():
         if args.parts and name not in args.parts:
