@@ -2,6 +2,7 @@
 
     nice python benches/merge.py                         # every CAD part, Markdown table
     nice python benches/merge.py --parts fandisk --json out.jsonl
+    python benches/merge.py --peers "open3d poisson d8" "open3d ball pivoting"   # fewer peers
     python benches/merge.py --spacing-divisor 150        # coarser scans
     nice python benches/merge.py --memory 10 1000000     # peak memory, 10 views of 1M points
 
@@ -211,7 +212,9 @@ class Judge:
         return row
 
 
-def run_part(name: str, path: Path, divisor: float, grazing: float) -> list[dict]:
+def run_part(
+    name: str, path: Path, divisor: float, grazing: float, peers: list[str] | None = None
+) -> list[dict]:
     truth = trimesh.load(path, force="mesh", process=True)
     spacing = float(truth.extents.max()) / divisor
     views = scan(truth, spacing, grazing)
@@ -238,6 +241,8 @@ def run_part(name: str, path: Path, divisor: float, grazing: float) -> list[dict
     print(json.dumps(row), flush=True)
     cloud = oriented_cloud(views)
     for method, (fn, depth) in PEERS.items():
+        if peers is not None and method not in peers:
+            continue
         t0 = time.perf_counter()
         try:
             v, f = fn(cloud, depth, spacing)
@@ -336,6 +341,7 @@ def main() -> None:
     ap.add_argument("--cad", type=Path, default=CAD, help=f"CAD folder (default {CAD})")
     ap.add_argument("--spacing-divisor", type=float, default=200.0)
     ap.add_argument("--grazing", type=float, default=75.0)
+    ap.add_argument("--peers", nargs="*", choices=list(PEERS), help="subset of the peers")
     ap.add_argument("--json", type=Path, help="also write the rows here (JSON lines)")
     ap.add_argument(
         "--memory",
@@ -352,7 +358,7 @@ def main() -> None:
     for name, file in PARTS.items():
         if args.parts and name not in args.parts:
             continue
-        rows += run_part(name, args.cad / file, args.spacing_divisor, args.grazing)
+        rows += run_part(name, args.cad / file, args.spacing_divisor, args.grazing, args.peers)
     if args.json:
         args.json.write_text("".join(json.dumps(r) + "\n" for r in rows))
     print(table(rows))
