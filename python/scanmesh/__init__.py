@@ -11,6 +11,8 @@ The public API:
 - :func:`optimal_surface`, :func:`brute_force_surface` - the certified tac optimum (small inputs);
 - :func:`simulate_scan` - a virtual line digitizer (rays from above onto a mesh);
   :func:`simulate_range_scan` the same with its grid of rays and line of sight;
+- :func:`merge` - one closed, labelled mesh from aligned range views (:func:`read_conf`
+  reads a Stanford ``.conf``; :class:`View` is one view);
 - :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
 - :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
 - :class:`Surface`, :class:`Quality`, :class:`Frame`, :class:`PlanarScan` - the results;
@@ -37,6 +39,7 @@ from scanmesh.errors import (
 )
 from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
 from scanmesh.formats import ScanPoints, read
+from scanmesh.fusion import merge
 from scanmesh.measures import Quality, quality
 from scanmesh.methods import METHODS
 from scanmesh.reconstruction import reconstruct
@@ -48,6 +51,7 @@ from scanmesh.stages.brute_force import brute_force_surface
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.optimal import optimal_surface
 from scanmesh.surface import Surface
+from scanmesh.views import View, read_conf
 
 #: The one version, written in Cargo.toml ([workspace.package]) and read back from the
 #: installed package metadata.
@@ -69,6 +73,9 @@ __all__ = [
     "brute_force_surface",
     "read",
     "ScanPoints",
+    "merge",
+    "read_conf",
+    "View",
     "project",
     "Surface",
     "Quality",

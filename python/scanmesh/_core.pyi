@@ -53,6 +53,9 @@ __all__ = [
     "GridTriangles",
     "CheapestFans",
     "TextTable",
+    "JUMP_STEPS",
+    "DepthView",
+    "FusionVolume",
 ]
 
 class ScanmeshError(ValueError): ...
@@ -68,6 +71,7 @@ DEFAULT_JUMP_FACTOR: float
 DEFAULT_GRID_TURN_DEG: float
 DEFAULT_GRID_EDGE_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
+JUMP_STEPS: float
 
 def project(
     points: npt.NDArray[np.float64],
@@ -133,6 +137,37 @@ def lop(
     sight: npt.NDArray[np.float64] | None = None,
     curtain_angle: float = ...,
 ) -> tuple[npt.NDArray[np.int64], int]: ...
+
+@final
+class DepthView:
+    """One range view: a depth image along the scanner's -z and its scanner-to-world pose."""
+
+    def __new__(
+        cls,
+        pose: npt.NDArray[np.float64],
+        origin: tuple[float, float],
+        step: float,
+        depth: npt.NDArray[np.float64],
+        cos: npt.NDArray[np.float64],
+    ) -> DepthView: ...
+
+@final
+class FusionVolume:
+    """The voxel grid range views are integrated and carved into."""
+
+    def __new__(
+        cls,
+        origin: tuple[float, float, float],
+        voxel: float,
+        dims: tuple[int, int, int],
+        truncation: float,
+    ) -> FusionVolume: ...
+    def integrate(self, view: DepthView) -> None: ...
+    def carve(self, view: DepthView) -> None: ...
+    def evidence(self) -> npt.NDArray[np.uint8]: ...
+    def extract(
+        self, samples: npt.NDArray[np.float64], normals: npt.NDArray[np.float64]
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int]: ...
 
 @final
 class AnnealParams:

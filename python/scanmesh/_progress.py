@@ -38,6 +38,10 @@ STAGES: dict[str, str] = {
     "write": "faces",
     "quality": "faces",
     "preview": "faces",
+    "refine": "views",
+    "integrate": "views",
+    "carve": "views",
+    "extract": "nodes",
 }
 
 #: A bar appears only for a stage still running after this many seconds (short steps stay

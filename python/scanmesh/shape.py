@@ -72,3 +72,11 @@ def is_watertight(faces: np.ndarray) -> bool:
     edges = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     _, counts = np.unique(edges, axis=0, return_counts=True)
     return bool((counts == 2).all())
+
+
+def euler_characteristic(faces: np.ndarray) -> int:
+    """V - E + F over the vertices the faces use (2 - 2 genus for one closed orientable
+    piece, summed over pieces). O(M log M)."""
+    f = np.asarray(faces, dtype=np.int64)
+    edges = np.unique(np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    return int(len(np.unique(f)) - len(edges) + len(f))

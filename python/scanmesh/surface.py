@@ -14,6 +14,7 @@ from scanmesh import shape
 from scanmesh._extras import require
 from scanmesh._interrupt import import_interruptibly
 from scanmesh._progress import Progress
+from scanmesh.creases import creases as crease_lines
 from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.evaluate.truth import TrueSurface
 from scanmesh.formats import write
@@ -37,6 +38,8 @@ class Surface:
 
     ``faces`` index the caller's own array, so per-point data lines up without remapping.
     Points that no face uses (coincident duplicates, trimmed outliers) stay in ``vertices``.
+    A surface fused from several views (:func:`scanmesh.merge`) has new vertices instead,
+    and :attr:`face_labels`.
     """
 
     #: (N, 3) float64 the input points
@@ -70,6 +73,14 @@ class Surface:
     #: ``red``, ``green``, ``blue``; ``intensity``, ...; the scan's ``point_data`` when not
     #: given); :meth:`save` writes them to PLY
     point_data: dict[str, np.ndarray] = field(default_factory=dict)
+    #: merged surfaces (:func:`scanmesh.merge`): (M,) uint8 per face, an index into
+    #: :attr:`LABELS`; written to PLY as the face property ``label``; None otherwise
+    face_labels: np.ndarray | None = None
+
+    #: What each code of :attr:`face_labels` means: ``measured`` (within the truncation of
+    #: a sample), ``inferred`` (between space seen empty and space no ray entered),
+    #: ``filled`` (closed with no evidence).
+    LABELS = ("measured", "inferred", "filled")
 
     def __post_init__(self) -> None:
         if self.scan is not None:
@@ -82,6 +93,16 @@ class Surface:
             self.point_data = checked_point_data(self.point_data, len(self.vertices))
         except ScanmeshError as exc:
             raise ParameterError(str(exc)) from None
+        if self.face_labels is not None:
+            labels = np.asarray(self.face_labels)
+            if labels.shape != (len(self.faces),) or (
+                len(labels) and (labels.dtype.kind not in "iu" or labels.max() >= len(self.LABELS))
+            ):
+                raise ParameterError(
+                    f"face_labels must be ({len(self.faces)},) codes below {len(self.LABELS)},"
+                    f" got {labels.dtype} {labels.shape}"
+                )
+            self.face_labels = labels.astype(np.uint8)
 
     @property
     def colors(self) -> np.ndarray | None:
@@ -216,6 +237,8 @@ class Surface:
                 if k not in measured and k not in ("nx", "ny", "nz", "tac")
             }
             values = {"normals": self.normals, "point_data": {**measured, **carried}}
+            if self.face_labels is not None:
+                values["face_data"] = {"label": self.face_labels}
         return write.save_mesh(
             path,
             self.vertices,
@@ -257,6 +280,25 @@ class Surface:
     def area(self) -> float:
         """Total area of the faces (model units squared)."""
         return shape.area(self.vertices, self.faces)
+
+    @cached_property
+    def label_areas(self) -> dict[str, float] | None:
+        """Area (model units squared) of the faces of each label of :attr:`LABELS`, or None
+        for a surface without :attr:`face_labels`."""
+        if self.face_labels is None:
+            return None
+        tri = self.vertices[self.faces]
+        each = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        sums = np.bincount(self.face_labels, weights=each, minlength=len(self.LABELS))
+        return {name: float(sums[k]) for k, name in enumerate(self.LABELS)}
+
+    @cached_property
+    def creases(self) -> list[np.ndarray]:
+        """The crease polylines (vertex index arrays; a closed one ends on its first vertex):
+        chains of edges whose two faces' normals differ by more than
+        ``creases.CREASE_ANGLE_DEG`` degrees (:func:`scanmesh.creases.creases` takes
+        another angle). O(M log M)."""
+        return crease_lines(self.vertices, self.faces)
 
     def boundary_loops(self) -> list[np.ndarray]:
         """The outline and every hole as a closed loop of point indices (see

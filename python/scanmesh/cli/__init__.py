@@ -1,4 +1,4 @@
-"""The ``scanmesh`` command: reconstruct, compare, simulate, info, render, view and demo.
+"""The ``scanmesh`` command: reconstruct, compare, simulate, merge, info, render, view and demo.
 
 Exit status: 0 on success, 2 for a usage error (argparse), 1 for bad input (a scanmesh
 error or a file that cannot be read or written) with one line on stderr, 130 on Ctrl-C.
@@ -35,11 +35,13 @@ from scanmesh.cli._parser import Parser
 from scanmesh.cli.compare import COMPARE_METHODS, HOLDOUT_FRACTION, cmd_compare
 from scanmesh.cli.demo import DEMO_MESH, DEMO_PREVIEW, DEMO_TAC, cmd_demo
 from scanmesh.cli.info import cmd_info
+from scanmesh.cli.merge import cmd_merge
 from scanmesh.cli.reconstruct import cmd_reconstruct
 from scanmesh.cli.render import cmd_render
 from scanmesh.cli.simulate import cmd_simulate
 from scanmesh.cli.view import cmd_view
 from scanmesh.errors import ScanmeshError
+from scanmesh.fusion import MAX_VOXELS, TRUNCATION_VOXELS
 from scanmesh.methods import METHODS
 from scanmesh.scan.steep import STEEP_ANGLE_DEG
 
@@ -206,6 +208,62 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate, _parser=p)
 
     p = sub.add_parser(
+        "merge",
+        parents=[common, with_json],
+        help="one closed mesh from aligned range scans taken from several sides",
+        description="Fuse range scans of one part, each in its scanner's coordinates (the"
+        " scanner towards +z) with its pose, into one closed mesh: signed distances along"
+        " each scan's rays averaged in a voxel grid, the space the rays crossed carved"
+        " out. Every face is labelled measured, inferred (closed by carving) or filled"
+        " (no evidence); a .ply output stores the label as a face property.",
+    )
+    p.add_argument(
+        "inputs",
+        nargs="+",
+        metavar="IN",
+        help="a Stanford .conf file (its scans and poses), or scan files with --poses",
+    )
+    p.add_argument("-o", "--output", required=True, metavar="MESH", help="mesh to write")
+    p.add_argument(
+        "--poses",
+        metavar="POSES.json",
+        help="scanner-to-world 4x4 matrices: a list, one per scan, or {file name: matrix}"
+        " (default: the identity, or the direction a simulated scan records)",
+    )
+    p.add_argument(
+        "--toward", type=_axis, default="z", help="where the scanner sits in a scan's own axes (z)"
+    )
+    p.add_argument(
+        "--voxel", type=_positive, metavar="V", help="grid spacing (default: the scans')"
+    )
+    p.add_argument(
+        "--truncation",
+        type=_positive,
+        default=TRUNCATION_VOXELS,
+        metavar="T",
+        help=f"how far a sample's distance counts, in voxels ({TRUNCATION_VOXELS:g})",
+    )
+    p.add_argument(
+        "--max-voxels",
+        type=_positive_count,
+        default=MAX_VOXELS,
+        metavar="N",
+        help=f"largest grid, in nodes ({MAX_VOXELS:,}; 9 bytes each)",
+    )
+    p.add_argument(
+        "--refine",
+        action="store_true",
+        help="first refine the poses by point-to-plane ICP (the first scan fixed); the report"
+        " gives the residual before and after",
+    )
+    p.add_argument(
+        "--inverse-rotation",
+        action="store_true",
+        help="read a .conf file's quaternions as the inverse rotation (world = R(q)^T p + t)",
+    )
+    p.set_defaults(func=cmd_merge, _parser=p)
+
+    p = sub.add_parser(
         "info",
         parents=[common, with_json],
         help="describe a scan file, or judge a mesh file",
@@ -293,7 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Flags whose value may start with a minus sign (a vector like -1,-1,1).
-VECTOR_FLAGS = ("--plane", "--up", "--along", "--view")
+VECTOR_FLAGS = ("--plane", "--up", "--along", "--view", "--toward")
 
 
 def _join_vectors(argv: Sequence[str]) -> list[str]:

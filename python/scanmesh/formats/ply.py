@@ -480,10 +480,12 @@ def ply_header(
     normals: bool = False,
     point_data: dict[str, np.ndarray] | None = None,
     comments: Sequence[str] = (),
+    face_data: dict[str, np.ndarray] | None = None,
 ) -> bytes:
     """The header of the binary PLY written here: ``comment`` lines (``comments``: one-line
     ASCII texts), double x, y, z (and nx, ny, nz) per vertex, then each ``point_data``
-    column (already :func:`ply_column`), then triangles as uchar-counted int lists."""
+    column (already :func:`ply_column`), then triangles as uchar-counted int lists followed
+    by each ``face_data`` column (the same way)."""
     head = ["ply", "format binary_little_endian 1.0", "comment written by scanmesh"]
     head += [f"comment {c}" for c in comments]
     head += [f"element vertex {n_vertices}"]
@@ -493,7 +495,11 @@ def ply_header(
     for name, values in (point_data or {}).items():
         code = f"{values.dtype.kind}{values.dtype.itemsize}"
         head.append(f"property {PLY_TYPE_NAMES[code]} {name}")
-    head += [f"element face {n_faces}", "property list uchar int vertex_indices", "end_header"]
+    head += [f"element face {n_faces}", "property list uchar int vertex_indices"]
+    for name, values in (face_data or {}).items():
+        code = f"{values.dtype.kind}{values.dtype.itemsize}"
+        head.append(f"property {PLY_TYPE_NAMES[code]} {name}")
+    head.append("end_header")
     return ("\n".join(head) + "\n").encode("ascii")
 
 
@@ -518,12 +524,16 @@ def ply_chunks(
     stage: Stage,
     point_data: dict[str, np.ndarray] | None = None,
     comments: Sequence[str] = (),
+    face_data: dict[str, np.ndarray] | None = None,
 ) -> Iterator[bytes | memoryview]:
     """Binary little-endian PLY of a triangle mesh, block by block, with vertex normals,
-    per-vertex ``point_data`` columns (each (N,), PLY types by :func:`ply_column`) and
-    header ``comments`` when given."""
+    per-vertex ``point_data`` columns (each (N,)), per-face ``face_data`` columns (each
+    (M,)), in PLY types by :func:`ply_column`, and header ``comments`` when given."""
     columns = {k: ply_column(np.asarray(v)) for k, v in (point_data or {}).items()}
-    yield ply_header(len(vertices), len(faces), normals is not None, columns, comments)
+    face_columns = {k: ply_column(np.asarray(v)) for k, v in (face_data or {}).items()}
+    yield ply_header(
+        len(vertices), len(faces), normals is not None, columns, comments, face_columns
+    )
     coords = vertices if normals is None else np.hstack([vertices, normals])
     if not columns:
         yield memoryview(np.ascontiguousarray(coords, dtype="<f8")).cast("B")
@@ -532,10 +542,13 @@ def ply_chunks(
             stop = min(start + FACES_PER_BLOCK, len(vertices))
             part = {k: v[start:stop] for k, v in columns.items()}
             yield memoryview(vertex_records(coords[start:stop], part)).cast("B")
+    face_record = np.dtype(PLY_FACE.descr + [(k, v.dtype) for k, v in face_columns.items()])
     for start in range(0, len(faces), FACES_PER_BLOCK):
         block = faces[start : start + FACES_PER_BLOCK]
-        out = np.empty(len(block), dtype=PLY_FACE)
+        out = np.empty(len(block), dtype=face_record)
         out["n"] = 3
         out["v"] = block
+        for name, values in face_columns.items():
+            out[name] = values[start : start + len(block)]
         yield memoryview(out).cast("B")
         stage.update(start + len(block))

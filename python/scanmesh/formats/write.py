@@ -344,6 +344,7 @@ def save_mesh(
     normals: bool | ArrayLike = False,
     point_data: Mapping[str, ArrayLike] | None = None,
     comments: Sequence[str] = (),
+    face_data: Mapping[str, ArrayLike] | None = None,
     protect: PathSpec | InputFile | Iterable[PathSpec | InputFile] | None = None,
     progress: Progress = False,
 ) -> Path:
@@ -369,6 +370,9 @@ def save_mesh(
     comments : sequence of str
         One-line ASCII header comments (PLY ``comment`` lines, OBJ ``#`` lines; such as
         :meth:`scanmesh.formats.georef.Georef.comments`); PLY and OBJ only.
+    face_data : dict of name -> (M,) numbers, optional
+        Per-face values to store as PLY face properties after ``vertex_indices`` (a
+        surface's ``label``, say); PLY only.
     protect : path or iterable of paths, optional
         Files that must not be overwritten (the input): writing to one of them raises
         ``ParameterError`` before anything is written.
@@ -437,6 +441,18 @@ def save_mesh(
         if bad:
             raise ParameterError(f"comments must be one-line ASCII texts, got {bad[0]!r}")
         extra["comments"] = list(comments)
+    if face_data:
+        if not fmt.point_data:
+            raise ParameterError(f"cannot store per-face values in {target.suffix} files; use .ply")
+        try:
+            face_columns = checked_point_data(face_data, len(tris))
+        except ScanmeshError as exc:
+            raise ParameterError(
+                str(exc).replace("point_data", "face_data").replace("per point", "per face")
+            ) from None
+        if "vertex_indices" in face_columns:
+            raise ParameterError("face_data may not be named 'vertex_indices' (the faces)")
+        extra["face_data"] = face_columns
     assert fmt.writer is not None
     with Stage(progress, "write", len(tris)) as stage:
         return write_atomic(target, fmt.writer(verts, tris, vn, stage, **extra))

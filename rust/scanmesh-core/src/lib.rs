@@ -24,6 +24,9 @@
 //!   live edges annealing draws from (`active`), Lawson's greedy flipping (`lop`),
 //!   simulated annealing (`anneal`), one chain on several cores (`tiles`), independent
 //!   chains side by side (`ensemble`);
+//! - `fusion/`: aligned range views fused into one closed mesh: a view's depth image and
+//!   pose (`depth`), the truncated signed distance and the space carved by the rays in a
+//!   voxel grid (`tsdf`), the zero set as a labelled closed 2-manifold (`extract`);
 //! - `exact/`: empty triangles and every triangulation of a small point set (`enumerate`);
 //! - `io/`: numeric text tables (XYZ, CSV rows) parsed from bytes (`text`), binary STL
 //!   records (`stl`).
@@ -35,6 +38,7 @@ mod budget;
 mod criteria;
 mod error;
 mod exact;
+mod fusion;
 mod geometry;
 mod io;
 mod mesh;
@@ -48,6 +52,9 @@ mod triangulate;
 pub use criteria::{steep_count, tac_and_min_angles, Norm, SLIVER_ANGLE_DEG};
 pub use error::{Error, Result};
 pub use exact::enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
+pub use fusion::depth::{DepthView, Lookup, JUMP_STEPS, MIN_COS, RIGID_TOL};
+pub use fusion::extract::{extract, Fused, FILLED, INFERRED, MEASURED};
+pub use fusion::tsdf::{Evidence, Volume};
 pub use geometry::unit_square;
 pub use geometry::{check_finite, normalize_plane, triangle_angles};
 pub use glam;

@@ -1,7 +1,7 @@
 //! Thin PyO3 bindings of `scanmesh-core`: check shapes, convert numpy, release the GIL for
 //! the work, map `scanmesh_core::Error` to the exception classes declared here. One file
-//! per topic of the core (`triangulate`, `criteria`, `strips`, `optimize`, `exact`, `io`),
-//! numpy conversions in `convert`, the result classes in `results`.
+//! per topic of the core (`triangulate`, `criteria`, `strips`, `optimize`, `exact`, `io`,
+//! `fusion`), numpy conversions in `convert`, the result classes in `results`.
 
 use numpy::PyArray1;
 use pyo3::create_exception;
@@ -14,6 +14,7 @@ use scanmesh_core::Error;
 mod convert;
 mod criteria;
 mod exact;
+mod fusion;
 mod io;
 mod optimize;
 mod results;
@@ -127,6 +128,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "DEFAULT_GRID_EDGE_FACTOR",
         scanmesh_core::DEFAULT_GRID_EDGE_FACTOR,
     )?;
+    m.add("JUMP_STEPS", scanmesh_core::JUMP_STEPS)?;
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::median_spacing, m)?)?;
@@ -152,6 +154,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(io::stl_records, m)?)?;
     m.add_class::<optimize::AnnealParams>()?;
     m.add_class::<optimize::Annealer>()?;
+    m.add_class::<fusion::DepthView>()?;
+    m.add_class::<fusion::FusionVolume>()?;
     m.add_class::<results::StripResult>()?;
     m.add_class::<results::AnnealOutcome>()?;
     m.add_class::<results::TrimmedDelaunay>()?;

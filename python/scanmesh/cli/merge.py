@@ -1,0 +1,137 @@
+"""``scanmesh merge``: aligned range views (a Stanford ``.conf``, or scans with a poses file)
+fused into one closed mesh with a label per face."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from scanmesh import shape
+from scanmesh.cli._common import _check_mesh_ending, _check_outputs, _Console, _dumps
+from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
+from scanmesh.formats.conf import conf_poses
+from scanmesh.fusion import merge
+from scanmesh.views import read_conf
+
+#: Library keywords in messages and the flags that set them.
+_FLAGS = {
+    "max_voxels": "--max-voxels",
+    "voxel": "--voxel",
+    "truncation": "--truncation",
+    "toward": "--toward",
+}
+
+
+def _in_flags(text: str) -> str:
+    """A library message in the command's words (``max_voxels=`` as ``--max-voxels``)."""
+    for word, flag in _FLAGS.items():
+        text = re.sub(rf"\b{word}=", f"{flag} ", text)
+        text = re.sub(rf"^{word}\b", flag, text)
+    return text
+
+
+def read_poses(path: Path, scans: list[Path]) -> list[np.ndarray]:
+    """The poses of a ``--poses`` JSON file: a list of 4 x 4 matrices, one per scan in the
+    order given, or an object from scan file name to its matrix."""
+    try:
+        data: Any = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise FileFormatError(f"--poses {path}: no such file") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise FileFormatError(f"--poses {path}: not a JSON file of poses ({exc})") from None
+    if isinstance(data, dict):
+        missing = [s.name for s in scans if s.name not in data and str(s) not in data]
+        if missing:
+            raise FileFormatError(f"--poses {path}: no pose for {', '.join(missing)}")
+        data = [data.get(str(s), data.get(s.name)) for s in scans]
+    if not isinstance(data, list) or len(data) != len(scans):
+        count = len(data) if isinstance(data, list) else "no list of"
+        raise FileFormatError(
+            f"--poses {path}: expected one 4 x 4 pose per scan ({len(scans)}), got {count} poses"
+        )
+    return [np.asarray(m, dtype=np.float64) if _numeric(m) else m for m in data]
+
+
+def _numeric(m: Any) -> bool:
+    try:
+        np.asarray(m, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
+    """Fuse the views, write the mesh, report its labels, genus and creases."""
+    inputs = [Path(p) for p in args.inputs]
+    out = Path(args.output)
+    _check_mesh_ending(out)
+    confs = [p for p in inputs if p.suffix.lower() == ".conf"]
+    if confs and len(inputs) > 1:
+        raise ParameterError("give one .conf file, or scan files with --poses, not both")
+    if confs and args.poses is not None:
+        raise ParameterError("--poses is for scan files; a .conf file holds its own poses")
+    if args.inverse_rotation and not confs:
+        raise ParameterError("--inverse-rotation is for a .conf file's quaternions")
+    scans = [s for s, _ in conf_poses(confs[0])] if confs else inputs
+    _check_outputs([*inputs, *scans], [out])
+    t0 = time.perf_counter()
+    try:
+        if confs:
+            views: list[Any] = read_conf(confs[0], inverse_rotation=args.inverse_rotation)
+            poses = None
+        else:
+            views = [str(p) for p in inputs]
+            poses = read_poses(Path(args.poses), inputs) if args.poses else None
+        surface = merge(
+            views,
+            poses=poses,
+            toward=args.toward,
+            voxel=args.voxel,
+            truncation=args.truncation,
+            max_voxels=args.max_voxels,
+            refine=args.refine,
+            progress=con.progress,
+        )
+    except ScanmeshError as exc:
+        raise type(exc)(_in_flags(str(exc))) from None
+    surface.save(out, progress=con.progress)
+    elapsed = time.perf_counter() - t0
+    closed = shape.is_watertight(surface.faces)
+    euler = shape.euler_characteristic(surface.faces)
+    areas = surface.label_areas or {}
+    row = {
+        "inputs": [str(p) for p in inputs],
+        "output": str(out),
+        "views": surface.options["views"],
+        "voxel": surface.options["voxel"],
+        "vertices": len(surface.vertices),
+        "faces": len(surface.faces),
+        "closed": closed,
+        "euler_characteristic": euler,
+        "genus": (2 - euler) / 2 if closed else None,
+        "area": areas,
+        "creases": len(surface.creases),
+        "refine_residual": surface.options["refine_residual"],
+        "time_s": elapsed,
+    }
+    if con.json:
+        print(_dumps(row))
+        return 0
+    total = sum(areas.values()) or 1.0
+    share = ", ".join(f"{k} {v:.6g} ({100 * v / total:.1f} %)" for k, v in areas.items())
+    shape_text = f"closed, genus {row['genus']:g}" if closed else "not closed"
+    if row["refine_residual"]:
+        res = row["refine_residual"]
+        con.summary(f"poses refined: residual {res['before']:.4g} -> {res['after']:.4g}")
+    con.summary(
+        f"wrote {out}: {len(surface.faces):,} faces from {row['views']} views"
+        f" (voxel {row['voxel']:.4g}), {shape_text}; area {share};"
+        f" {row['creases']} crease lines ({elapsed:.2f} s)"
+    )
+    return 0

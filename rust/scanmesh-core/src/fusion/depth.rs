@@ -1,0 +1,287 @@
+//! One range view as a depth image: the scanner looks down its own -z from above (the
+//! scanner sits towards +z), pixel (i, j) is the ray through scanner coordinates
+//! `origin + (i, j) * step`, and its depth is the z of the nearest return (NaN: no return).
+
+use crate::error::{Error, Result};
+use glam::{DMat3, DVec3};
+
+/// How far a pose's rotation may be from orthonormal (largest entry of `RᵀR − I`).
+pub const RIGID_TOL: f64 = 1e-6;
+
+/// Neighbouring depths further apart than this many pixel steps are a depth jump: the
+/// lookup does not interpolate across it.
+pub const JUMP_STEPS: f64 = 4.0;
+
+/// Smallest ray-to-normal cosine a sample is weighted with (grazing returns count little).
+pub const MIN_COS: f64 = 0.05;
+
+/// A depth image with its pose (scanner to world: `world = rotation * scanner + translation`).
+#[derive(Debug, Clone)]
+pub struct DepthView {
+    rotation: DMat3,
+    translation: DVec3,
+    origin: [f64; 2],
+    step: f64,
+    width: usize,
+    height: usize,
+    /// (height * width) row-major by j, z of the return in scanner coordinates, NaN: none.
+    depth: Vec<f64>,
+    /// (height * width) |cos| between the ray and the surface normal at each return.
+    cos: Vec<f64>,
+}
+
+/// What a ray through a point of the image plane saw.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Lookup {
+    /// A return at this depth (scanner z) on a surface at this ray-to-normal cosine.
+    Hit {
+        /// Scanner z of the surface on this ray.
+        depth: f64,
+        /// |cos| of the angle between the ray and the surface normal, at least [`MIN_COS`].
+        cos: f64,
+    },
+    /// The nearest ray (pixel index) had no return.
+    Miss(usize),
+    /// The point is outside the image.
+    Outside,
+}
+
+impl DepthView {
+    /// Checks and stores one view. `pose` is a row-major 4 × 4 scanner-to-world matrix (a
+    /// rotation and a translation, last row 0 0 0 1); `depth` and `cos` hold
+    /// `width * height` values row by row. O(width · height).
+    ///
+    /// Errors: `InvalidParameter` for a pose that is not finite or not rigid (a reflection,
+    /// a scale, a shear), a step that is not positive, or lengths that do not match.
+    pub fn new(
+        pose: [f64; 16],
+        origin: [f64; 2],
+        step: f64,
+        width: usize,
+        height: usize,
+        depth: Vec<f64>,
+        cos: Vec<f64>,
+    ) -> Result<Self> {
+        let bad =
+            |name: &'static str, value: String, expected: &'static str| Error::InvalidParameter {
+                name,
+                value,
+                expected,
+            };
+        if let Some(v) = pose.iter().find(|v| !v.is_finite()) {
+            return Err(bad("pose", v.to_string(), "finite entries"));
+        }
+        if pose[12..] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(bad(
+                "pose",
+                format!("{:?}", &pose[12..]),
+                "a last row 0 0 0 1",
+            ));
+        }
+        let rotation = DMat3::from_cols(
+            DVec3::new(pose[0], pose[4], pose[8]),
+            DVec3::new(pose[1], pose[5], pose[9]),
+            DVec3::new(pose[2], pose[6], pose[10]),
+        );
+        let gram = rotation.transpose() * rotation - DMat3::IDENTITY;
+        let off = gram
+            .to_cols_array()
+            .iter()
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        if off > RIGID_TOL || rotation.determinant() <= 0.0 {
+            return Err(bad(
+                "pose",
+                format!(
+                    "rotation with |RᵀR − I| = {off:.3e}, det {:.6}",
+                    rotation.determinant()
+                ),
+                "a rigid motion (orthonormal rotation, determinant +1)",
+            ));
+        }
+        if !(step.is_finite() && step > 0.0) {
+            return Err(bad(
+                "step",
+                step.to_string(),
+                "a positive finite pixel step",
+            ));
+        }
+        if !(origin[0].is_finite() && origin[1].is_finite()) {
+            return Err(bad("origin", format!("{origin:?}"), "finite coordinates"));
+        }
+        let n = width.saturating_mul(height);
+        if depth.len() != n || cos.len() != n {
+            return Err(bad(
+                "depth",
+                format!(
+                    "{} depths and {} cosines for {width} × {height} pixels",
+                    depth.len(),
+                    cos.len()
+                ),
+                "one depth and one cosine per pixel",
+            ));
+        }
+        let cos = cos
+            .into_iter()
+            .map(|c| {
+                if c.is_finite() {
+                    c.abs().clamp(MIN_COS, 1.0)
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        Ok(Self {
+            rotation,
+            translation: DVec3::new(pose[3], pose[7], pose[11]),
+            origin,
+            step,
+            width,
+            height,
+            depth,
+            cos,
+        })
+    }
+
+    /// Pixels across and down.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// The ray direction towards the scanner (the view's +z), in world coordinates.
+    pub fn toward_scanner(&self) -> DVec3 {
+        self.rotation.z_axis
+    }
+
+    /// A world point in scanner coordinates.
+    pub fn to_scanner(&self, p: DVec3) -> DVec3 {
+        self.rotation.transpose() * (p - self.translation)
+    }
+
+    /// A scanner point in world coordinates.
+    pub fn to_world(&self, q: DVec3) -> DVec3 {
+        self.rotation * q + self.translation
+    }
+
+    /// Scanner (x, y) of pixel `index`'s ray.
+    pub fn ray_xy(&self, index: usize) -> [f64; 2] {
+        let (i, j) = (index % self.width, index / self.width);
+        [
+            self.origin[0] + i as f64 * self.step,
+            self.origin[1] + j as f64 * self.step,
+        ]
+    }
+
+    /// True when pixel `index` has no return.
+    pub fn is_miss(&self, index: usize) -> bool {
+        self.depth[index].is_nan()
+    }
+
+    /// What the ray through scanner (x, y) saw: the depth interpolated bilinearly between
+    /// the four surrounding returns when none is missing and no depth jump separates them,
+    /// else the nearest pixel's. O(1).
+    pub fn lookup(&self, x: f64, y: f64) -> Lookup {
+        let u = (x - self.origin[0]) / self.step;
+        let v = (y - self.origin[1]) / self.step;
+        let (w, h) = (self.width as f64, self.height as f64);
+        if !(u > -0.5 && v > -0.5 && u < w - 0.5 && v < h - 0.5) {
+            return Lookup::Outside;
+        }
+        let nearest = (v.round() as usize) * self.width + u.round() as usize;
+        let d = self.depth[nearest];
+        if d.is_nan() {
+            return Lookup::Miss(nearest);
+        }
+        let (i0, j0) = (u.floor(), v.floor());
+        if i0 >= 0.0 && j0 >= 0.0 && i0 + 1.0 < w && j0 + 1.0 < h {
+            let base = j0 as usize * self.width + i0 as usize;
+            let corners = [base, base + 1, base + self.width, base + self.width + 1];
+            let z = corners.map(|c| self.depth[c]);
+            let lo = z.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            // NaN fails both comparisons, so a missing corner keeps `lo`/`hi` finite only
+            // when it is absent from the fold's result: check it explicitly.
+            if z.iter().all(|v| !v.is_nan()) && hi - lo <= JUMP_STEPS * self.step {
+                let (fu, fv) = (u - i0, v - j0);
+                let c = corners.map(|c| self.cos[c]);
+                let mix = |a: [f64; 4]| {
+                    (a[0] * (1.0 - fu) + a[1] * fu) * (1.0 - fv)
+                        + (a[2] * (1.0 - fu) + a[3] * fu) * fv
+                };
+                return Lookup::Hit {
+                    depth: mix(z),
+                    cos: mix(c),
+                };
+            }
+        }
+        Lookup::Hit {
+            depth: d,
+            cos: self.cos[nearest],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn identity() -> [f64; 16] {
+        let mut m = [0.0; 16];
+        for k in 0..4 {
+            m[k * 5] = 1.0;
+        }
+        m
+    }
+
+    #[test]
+    fn interpolates_a_plane_and_stops_at_misses() {
+        // z = 0.5 x on a 4 × 3 grid, one pixel without a return
+        let mut depth: Vec<f64> = (0..12).map(|k| 0.5 * (k % 4) as f64).collect();
+        depth[11] = f64::NAN;
+        let view = DepthView::new(identity(), [0.0, 0.0], 1.0, 4, 3, depth, vec![1.0; 12]).unwrap();
+        match view.lookup(1.25, 0.5) {
+            Lookup::Hit { depth, .. } => assert!((depth - 0.625).abs() < 1e-12),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(view.lookup(3.0, 2.0), Lookup::Miss(11));
+        assert_eq!(view.lookup(-0.6, 0.0), Lookup::Outside);
+        // next to the miss: the nearest pixel's depth, not an interpolation with NaN
+        match view.lookup(2.4, 1.6) {
+            Lookup::Hit { depth, .. } => assert_eq!(depth, 1.0),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn refuses_poses_that_are_not_rigid() {
+        let mut scaled = identity();
+        scaled[0] = 2.0;
+        let mut mirrored = identity();
+        mirrored[0] = -1.0;
+        let mut nan = identity();
+        nan[3] = f64::NAN;
+        for pose in [scaled, mirrored, nan] {
+            let err = DepthView::new(pose, [0.0; 2], 1.0, 1, 1, vec![0.0], vec![1.0]);
+            assert!(matches!(
+                err,
+                Err(Error::InvalidParameter { name: "pose", .. })
+            ));
+        }
+    }
+
+    #[test]
+    fn poses_map_both_ways() {
+        // a quarter turn about x, then a shift
+        let pose = [
+            1.0, 0.0, 0.0, 1.0, //
+            0.0, 0.0, -1.0, 2.0, //
+            0.0, 1.0, 0.0, 3.0, //
+            0.0, 0.0, 0.0, 1.0,
+        ];
+        let view = DepthView::new(pose, [0.0; 2], 1.0, 1, 1, vec![0.0], vec![1.0]).unwrap();
+        let q = DVec3::new(0.3, -0.7, 1.1);
+        let p = view.to_world(q);
+        assert!((p - DVec3::new(1.3, 2.0 - 1.1, 3.0 - 0.7)).length() < 1e-12);
+        assert!((view.to_scanner(p) - q).length() < 1e-12);
+        assert!((view.toward_scanner() - DVec3::new(0.0, -1.0, 0.0)).length() < 1e-12);
+    }
+}

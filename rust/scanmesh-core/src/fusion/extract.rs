@@ -1,0 +1,446 @@
+//! The zero set of the fused distance as a closed 2-manifold with a label per face.
+//!
+//! The inside (negative) nodes are first made *well-composed* (Latecki): no 2 × 2 square
+//! of nodes holds a checkerboard and no 2 × 2 × 2 cube holds exactly two opposite corners
+//! on one side, the configurations where the boundary of a union of voxels pinches. Each is
+//! removed by moving one outside node inside (the one nearest the surface), which only
+//! grows the inside, so the repair ends. Then dual contouring: one vertex per cell whose
+//! corners differ, one quad (two triangles) per grid edge whose ends differ, so the faces
+//! are the boundary of the voxel union: closed, and a 2-manifold because it is
+//! well-composed. A vertex is placed by a quadratic error function on the samples near its
+//! cell (their tangent planes meet at a crease or corner, so creases stay sharp), pulled
+//! slightly towards the mean of the cell's edge crossings (which alone places it where no
+//! sample is near).
+
+use super::tsdf::{Evidence, Volume};
+use crate::error::{Error, Result};
+use glam::{DMat3, DVec3};
+use std::collections::HashMap;
+
+/// Face label: within the truncation of a measured surface.
+pub const MEASURED: u8 = 0;
+/// Face label: between space seen empty and space no ray entered (closed by carving).
+pub const INFERRED: u8 = 1;
+/// Face label: closed with no evidence (against the grid's border, or where the manifold
+/// repair moved a node).
+pub const FILLED: u8 = 2;
+
+/// Pull of a vertex towards its cell's mass point, relative to the samples' tangent planes:
+/// small, so it only picks the point along the directions the planes leave free.
+const REGULARIZE: f64 = 0.05;
+
+/// The extracted mesh.
+#[derive(Debug, Clone, Default)]
+pub struct Fused {
+    /// Vertices, world units.
+    pub vertices: Vec<DVec3>,
+    /// Triangles, counter-clockwise seen from outside.
+    pub faces: Vec<[u32; 3]>,
+    /// Per face: [`MEASURED`], [`INFERRED`] or [`FILLED`].
+    pub labels: Vec<u8>,
+    /// Nodes the manifold repair moved inside.
+    pub repaired: usize,
+}
+
+const INSIDE: u8 = 1;
+const MOVED: u8 = 2;
+
+/// Corners of a cell's six faces in cyclic order (corner bit 1: +x, 2: +y, 4: +z).
+const CELL_FACES: [[usize; 4]; 6] = [
+    [0, 2, 6, 4],
+    [1, 3, 7, 5],
+    [0, 1, 5, 4],
+    [2, 3, 7, 6],
+    [0, 1, 3, 2],
+    [4, 5, 7, 6],
+];
+
+/// The closed mesh of `volume`'s zero set, vertices placed on `samples` (world points) with
+/// their outward unit `normals`. O(nodes · repair passes + samples log samples).
+///
+/// Errors: `InvalidParameter` when `samples` and `normals` differ in length.
+pub fn extract(volume: &Volume, samples: &[DVec3], normals: &[DVec3]) -> Result<Fused> {
+    if samples.len() != normals.len() {
+        return Err(Error::InvalidParameter {
+            name: "normals",
+            value: format!("{} normals for {} samples", normals.len(), samples.len()),
+            expected: "one normal per sample",
+        });
+    }
+    let grid = Grid::new(volume);
+    let mut side = grid.sides();
+    let repaired = grid.repair(&mut side);
+    let near = SampleIndex::new(volume, samples);
+    let mut out = Fused {
+        repaired,
+        ..Fused::default()
+    };
+    let mut cell_vertex: HashMap<usize, u32> = HashMap::new();
+    let [nx, ny, nz] = grid.dims;
+    let steps = [1, nx, nx * ny];
+    for axis in 0..3 {
+        // the two axes across the edge, in right-handed order
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let at = [i, j, k];
+                    if at[axis] + 1 >= grid.dims[axis] {
+                        continue;
+                    }
+                    let a = grid.volume.index(i, j, k);
+                    let b = a + steps[axis];
+                    let a_in = side[a] & INSIDE != 0;
+                    if a_in == (side[b] & INSIDE != 0) {
+                        continue;
+                    }
+                    // the four cells around the edge, counter-clockwise about +axis
+                    let cell = |du: usize, dv: usize| {
+                        let mut c = at;
+                        c[u] = c[u] + du - 1;
+                        c[v] = c[v] + dv - 1;
+                        grid.volume.index(c[0], c[1], c[2])
+                    };
+                    let mut quad = [cell(0, 0), cell(1, 0), cell(1, 1), cell(0, 1)];
+                    if !a_in {
+                        quad.reverse();
+                    }
+                    let ids = quad.map(|c| {
+                        *cell_vertex.entry(c).or_insert_with(|| {
+                            out.vertices
+                                .push(grid.place(c, &side, &near, samples, normals));
+                            (out.vertices.len() - 1) as u32
+                        })
+                    });
+                    let label = grid.label(a, b, &side);
+                    for t in split(&out.vertices, ids) {
+                        out.faces.push(t);
+                        out.labels.push(label);
+                    }
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A quad as two triangles, split along the diagonal that leaves them flatter.
+fn split(vertices: &[DVec3], q: [u32; 4]) -> [[u32; 3]; 2] {
+    let p = q.map(|i| vertices[i as usize]);
+    let normal =
+        |a: usize, b: usize, c: usize| (p[b] - p[a]).cross(p[c] - p[a]).normalize_or_zero();
+    let along_02 = normal(0, 1, 2).dot(normal(0, 2, 3));
+    let along_13 = normal(0, 1, 3).dot(normal(1, 2, 3));
+    if along_02 >= along_13 {
+        [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+    } else {
+        [[q[0], q[1], q[3]], [q[1], q[2], q[3]]]
+    }
+}
+
+/// The volume with its border: border nodes are outside whatever the evidence says.
+struct Grid<'a> {
+    volume: &'a Volume,
+    dims: [usize; 3],
+}
+
+impl<'a> Grid<'a> {
+    fn new(volume: &'a Volume) -> Self {
+        Self {
+            volume,
+            dims: volume.dims(),
+        }
+    }
+
+    fn coords(&self, n: usize) -> [usize; 3] {
+        let [nx, ny, _] = self.dims;
+        [n % nx, (n / nx) % ny, n / (nx * ny)]
+    }
+
+    fn on_border(&self, n: usize) -> bool {
+        let c = self.coords(n);
+        (0..3).any(|a| c[a] == 0 || c[a] + 1 == self.dims[a])
+    }
+
+    /// INSIDE per node: negative fused distance, never on the border.
+    fn sides(&self) -> Vec<u8> {
+        (0..self.dims.iter().product::<usize>())
+            .map(|n| u8::from(!self.on_border(n) && self.volume.value(n) < 0.0))
+            .collect()
+    }
+
+    /// The signed distance used for crossings: a moved node sits just inside.
+    fn value(&self, n: usize, side: &[u8]) -> f64 {
+        if side[n] & MOVED != 0 {
+            -1e-3 * self.volume.voxel()
+        } else {
+            self.volume.value(n)
+        }
+    }
+
+    /// The flat indices of the 8 corners of the cell whose lowest corner is node `n`.
+    fn corners(&self, n: usize) -> [usize; 8] {
+        let [nx, ny, _] = self.dims;
+        std::array::from_fn(|c| n + (c & 1) + ((c >> 1) & 1) * nx + ((c >> 2) & 1) * nx * ny)
+    }
+
+    /// Makes the inside well-composed (see the module comment); returns the nodes moved.
+    fn repair(&self, side: &mut [u8]) -> usize {
+        let [nx, ny, nz] = self.dims;
+        let mut moved = 0;
+        loop {
+            let before = moved;
+            for k in 0..nz - 1 {
+                for j in 0..ny - 1 {
+                    for i in 0..nx - 1 {
+                        let c = self.corners(self.volume.index(i, j, k));
+                        while let Some(n) = self.critical(&c, side) {
+                            side[n] |= INSIDE | MOVED;
+                            moved += 1;
+                        }
+                    }
+                }
+            }
+            if moved == before {
+                return moved;
+            }
+        }
+    }
+
+    /// An outside node whose move inside removes a critical configuration of cell `c`.
+    fn critical(&self, c: &[usize; 8], side: &[u8]) -> Option<usize> {
+        let inside = |k: usize| side[c[k]] & INSIDE != 0;
+        let mask: u8 = (0..8).map(|k| u8::from(inside(k)) << k).sum();
+        let candidates: Vec<usize> = if let Some(f) = CELL_FACES.iter().find(|f| {
+            inside(f[0]) == inside(f[2])
+                && inside(f[1]) == inside(f[3])
+                && inside(f[0]) != inside(f[1])
+        }) {
+            f.iter().copied().filter(|&k| !inside(k)).collect()
+        } else {
+            let opposite = |m: u8| (0..4).any(|k| m == (1 << k) | (1 << (7 - k)));
+            if opposite(mask) || opposite(!mask) {
+                (0..8).filter(|&k| !inside(k)).collect()
+            } else {
+                return None;
+            }
+        };
+        candidates
+            .into_iter()
+            .map(|k| c[k])
+            .filter(|&n| !self.on_border(n))
+            .min_by(|&a, &b| self.volume.value(a).total_cmp(&self.volume.value(b)))
+    }
+
+    /// The label of the quad across edge (a, b).
+    fn label(&self, a: usize, b: usize, side: &[u8]) -> u8 {
+        let ends = [a, b];
+        if ends
+            .iter()
+            .any(|&n| self.volume.evidence(n) == Evidence::Measured)
+        {
+            MEASURED
+        } else if ends.iter().any(|&n| {
+            side[n] & MOVED != 0
+                || (self.on_border(n) && self.volume.evidence(n) == Evidence::Unseen)
+        }) {
+            FILLED
+        } else {
+            INFERRED
+        }
+    }
+
+    /// The vertex of cell `cell` (its lowest node's index).
+    fn place(
+        &self,
+        cell: usize,
+        side: &[u8],
+        near: &SampleIndex,
+        samples: &[DVec3],
+        normals: &[DVec3],
+    ) -> DVec3 {
+        let c = self.corners(cell);
+        let f = c.map(|n| self.value(n, side));
+        let [i, j, k] = self.coords(cell);
+        let lo = self.volume.node(i, j, k);
+        let voxel = self.volume.voxel();
+        let hi = lo + DVec3::splat(voxel);
+        // the cell's distance gradient: which way is out, to drop samples of another sheet
+        let gradient = DVec3::new(
+            (0..8).map(|q| if q & 1 != 0 { f[q] } else { -f[q] }).sum(),
+            (0..8).map(|q| if q & 2 != 0 { f[q] } else { -f[q] }).sum(),
+            (0..8).map(|q| if q & 4 != 0 { f[q] } else { -f[q] }).sum(),
+        );
+        // the mass point: the mean of the crossings on the cell's 12 edges
+        let (mut sum, mut crossings) = (DVec3::ZERO, 0.0);
+        let corner = |m: usize| {
+            lo + DVec3::new((m & 1) as f64, ((m >> 1) & 1) as f64, ((m >> 2) & 1) as f64) * voxel
+        };
+        for q in 0..8 {
+            for bit in [1, 2, 4] {
+                let r = q | bit;
+                if r == q || (side[c[q]] & INSIDE) == (side[c[r]] & INSIDE) {
+                    continue;
+                }
+                let t = (f[q] / (f[q] - f[r])).clamp(0.0, 1.0);
+                sum += corner(q).lerp(corner(r), t);
+                crossings += 1.0;
+            }
+        }
+        let mass = sum / crossings;
+        // the samples' tangent planes fix the vertex across the surface (and at creases
+        // along it); the mass point fixes it where they leave it free, as in dual contouring
+        let margin = DVec3::splat(0.5 * voxel);
+        let (mut a, mut rhs, mut count) = (DMat3::ZERO, DVec3::ZERO, 0.0);
+        for s in near.around(self.coords(cell)) {
+            let (p, n) = (samples[s], normals[s]);
+            if p.cmplt(lo - margin).any() || p.cmpgt(hi + margin).any() || n.dot(gradient) <= 0.0 {
+                continue;
+            }
+            a += DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+            rhs += n * n.dot(p);
+            count += 1.0;
+        }
+        if count == 0.0 {
+            return mass;
+        }
+        let reg = REGULARIZE * count;
+        let x = (a + DMat3::from_diagonal(DVec3::splat(reg))).inverse() * (rhs + reg * mass);
+        if x.is_finite() {
+            // as far out as the samples used: a surface on a layer of nodes (a CAD face on
+            // the grid) wanders between the cells on either side
+            x.clamp(lo - margin, hi + margin)
+        } else {
+            mass
+        }
+    }
+}
+
+/// Samples sorted by the cell they fall in, for the samples around a cell.
+struct SampleIndex {
+    dims: [usize; 3],
+    /// (cell key, sample) sorted by key.
+    keys: Vec<(usize, usize)>,
+}
+
+impl SampleIndex {
+    fn new(volume: &Volume, samples: &[DVec3]) -> Self {
+        let dims = volume.dims();
+        let origin = volume.node(0, 0, 0);
+        let mut keys: Vec<(usize, usize)> = samples
+            .iter()
+            .enumerate()
+            .filter_map(|(s, p)| {
+                let g = ((*p - origin) / volume.voxel()).floor();
+                let ok = (0..3).all(|a| g[a] >= 0.0 && g[a] < dims[a] as f64);
+                ok.then(|| (volume.index(g.x as usize, g.y as usize, g.z as usize), s))
+            })
+            .collect();
+        keys.sort_unstable();
+        Self { dims, keys }
+    }
+
+    /// Samples in the 27 cells around cell `c` (grid coordinates).
+    fn around(&self, c: [usize; 3]) -> impl Iterator<Item = usize> + '_ {
+        let [nx, ny, nz] = self.dims;
+        let range = |v: usize, n: usize| v.saturating_sub(1)..(v + 2).min(n);
+        range(c[2], nz).flat_map(move |k| {
+            range(c[1], ny).flat_map(move |j| {
+                let first = (k * ny + j) * nx + c[0].saturating_sub(1);
+                let last = (k * ny + j) * nx + (c[0] + 1).min(nx - 1);
+                let lo = self.keys.partition_point(|&(key, _)| key < first);
+                let hi = self.keys.partition_point(|&(key, _)| key <= last);
+                self.keys[lo..hi].iter().map(|&(_, s)| s)
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::depth::DepthView;
+    use super::*;
+    use std::collections::HashMap as Map;
+
+    /// Every edge in exactly two faces, in opposite directions; V − E + F.
+    fn euler(f: &Fused) -> i64 {
+        let mut edges: Map<(u32, u32), i32> = Map::new();
+        for t in &f.faces {
+            for e in 0..3 {
+                *edges.entry((t[e], t[(e + 1) % 3])).or_default() += 1;
+            }
+        }
+        for (&(a, b), &n) in &edges {
+            assert_eq!(n, 1, "edge {a}-{b} used {n} times in one direction");
+            assert_eq!(edges.get(&(b, a)), Some(&1), "edge {a}-{b} has no twin");
+        }
+        f.vertices.len() as i64 - (edges.len() / 2) as i64 + f.faces.len() as i64
+    }
+
+    /// A box seen from above only: carving closes it against unseen space below.
+    #[test]
+    fn a_plateau_seen_from_above_closes_into_one_sphere() {
+        let (w, h) = (12, 12);
+        let depth: Vec<f64> = (0..w * h)
+            .map(|p| {
+                let (i, j) = (p % w, p / w);
+                if (3..9).contains(&i) && (3..9).contains(&j) {
+                    5.0
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let mut pose = [0.0; 16];
+        for k in 0..4 {
+            pose[k * 5] = 1.0;
+        }
+        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
+        let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
+        vol.integrate(&view);
+        vol.carve(&view);
+        let samples: Vec<DVec3> = (3..9)
+            .flat_map(|i| (3..9).map(move |j| DVec3::new(i as f64, j as f64, 5.0)))
+            .collect();
+        let normals = vec![DVec3::Z; samples.len()];
+        let fused = extract(&vol, &samples, &normals).unwrap();
+        assert_eq!(euler(&fused), 2);
+        // the top is measured and lies on the samples' plane
+        let top: Vec<_> = fused
+            .faces
+            .iter()
+            .zip(&fused.labels)
+            .filter(|(_, &l)| l == MEASURED)
+            .collect();
+        assert!(!top.is_empty());
+        assert!(
+            fused.labels.contains(&FILLED),
+            "the bottom closes against the border"
+        );
+        for v in &fused.vertices {
+            assert!(v.z <= 5.0 + 1e-9);
+        }
+    }
+
+    #[test]
+    fn two_columns_touching_along_an_edge_are_repaired_into_one_manifold() {
+        // rays through pixels (2, 2) and (3, 3) meet a surface above the grid (so the grid
+        // is behind it: unseen); every other ray has no return and carves
+        let mut pose = [0.0; 16];
+        for k in 0..4 {
+            pose[k * 5] = 1.0;
+        }
+        let depth: Vec<f64> = (0..36)
+            .map(|p| if p == 14 || p == 21 { 100.0 } else { f64::NAN })
+            .collect();
+        let view = DepthView::new(pose, [0.0; 2], 1.0, 6, 6, depth, vec![1.0; 36]).unwrap();
+        let mut vol = Volume::new([0.0; 3], 1.0, [6, 6, 6], 1.0).unwrap();
+        vol.carve(&view);
+        assert_eq!(vol.evidence(vol.index(2, 2, 3)), Evidence::Unseen);
+        assert_eq!(vol.evidence(vol.index(2, 3, 3)), Evidence::Empty);
+        let fused = extract(&vol, &[], &[]).unwrap();
+        assert!(fused.repaired > 0);
+        assert_eq!(euler(&fused), 2);
+        assert!(fused.labels.contains(&FILLED));
+    }
+}

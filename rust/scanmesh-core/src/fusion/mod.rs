@@ -1,0 +1,9 @@
+//! Volumetric fusion of aligned range views into one closed mesh (Curless & Levoy 1996,
+//! with space carving): each view is a depth image seen along its own +z (`depth`), the
+//! truncated signed distance along its rays is averaged in a voxel grid and the space its
+//! rays crossed is marked empty (`tsdf`), and the zero set is extracted as a closed
+//! 2-manifold with vertices placed on the samples (`extract`).
+
+pub(crate) mod depth;
+pub(crate) mod extract;
+pub(crate) mod tsdf;

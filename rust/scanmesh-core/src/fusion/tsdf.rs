@@ -1,0 +1,322 @@
+//! The voxel grid of the fusion: per node the weighted sum of the truncated signed distances
+//! the views measured there, their weight, and whether a ray showed the node empty.
+//!
+//! A view's evidence at a node (world point p, scanner point q, the depth d its ray met):
+//! the distance along the ray `q.z − d` (positive towards the scanner) times the cosine
+//! between ray and surface is the distance to the surface's tangent plane. Within the
+//! truncation it is averaged (weight: that cosine); beyond it in front of the surface the
+//! node is empty; behind it, unseen. A ray without a return travelled through empty space
+//! up to the truncation band of the first surface another view measured on its way (where
+//! its return was lost, at a grazing angle, say), or through the whole grid when it met
+//! none: `carve` marks those nodes. (Stopping at the band, not behind the surface: a node
+//! behind a surface may average to a positive distance where views disagree, and a ray
+//! let through there would carve the part's inside.)
+
+use super::depth::{DepthView, Lookup};
+use crate::budget;
+use crate::error::{Error, Result};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Node state bit: a ray showed this node empty (in front of a surface, or on a ray
+/// without return).
+pub const EMPTY: u8 = 1;
+
+/// Bytes per node: the distance sum, the weight, the flags.
+pub const NODE_BYTES: u64 = 9;
+
+/// Nodes along each axis, on a regular grid `origin + (i, j, k) * voxel`.
+#[derive(Debug, Clone)]
+pub struct Volume {
+    origin: DVec3,
+    voxel: f64,
+    dims: [usize; 3],
+    truncation: f64,
+    sum: Vec<f32>,
+    weight: Vec<f32>,
+    flags: Vec<u8>,
+}
+
+/// What the fusion knows of a node.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Evidence {
+    /// Within the truncation of a measured surface: the averaged signed distance is known.
+    Measured,
+    /// Seen empty by some ray.
+    Empty,
+    /// No ray reached it (inside the part, or hidden).
+    Unseen,
+}
+
+impl Volume {
+    /// An empty grid of `dims` nodes spaced `voxel` apart from `origin` (world units), the
+    /// signed distance truncated at `truncation` (world units, at least one voxel).
+    ///
+    /// Errors: `InvalidParameter` for a non-positive voxel or truncation, fewer than 2 nodes
+    /// along an axis; `OutOfMemory` when 9 bytes per node do not fit.
+    pub fn new(origin: [f64; 3], voxel: f64, dims: [usize; 3], truncation: f64) -> Result<Self> {
+        let bad =
+            |name: &'static str, value: String, expected: &'static str| Error::InvalidParameter {
+                name,
+                value,
+                expected,
+            };
+        if !(voxel.is_finite() && voxel > 0.0) {
+            return Err(bad("voxel", voxel.to_string(), "a positive finite size"));
+        }
+        if !(truncation.is_finite() && truncation >= voxel) {
+            return Err(bad(
+                "truncation",
+                truncation.to_string(),
+                "at least one voxel",
+            ));
+        }
+        if origin.iter().any(|v| !v.is_finite()) {
+            return Err(bad("origin", format!("{origin:?}"), "finite coordinates"));
+        }
+        if dims.iter().any(|&d| d < 2) {
+            return Err(bad(
+                "dims",
+                format!("{dims:?}"),
+                "at least 2 nodes along each axis",
+            ));
+        }
+        let n = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
+        let n = n.ok_or_else(|| bad("dims", format!("{dims:?}"), "a grid that can be counted"))?;
+        budget::check_stage(
+            || {
+                format!(
+                    "a fusion grid of {} × {} × {} nodes",
+                    dims[0], dims[1], dims[2]
+                )
+            },
+            n as u64 * NODE_BYTES,
+        )?;
+        Ok(Self {
+            origin: DVec3::from_array(origin),
+            voxel,
+            dims,
+            truncation,
+            sum: budget::try_vec("the fusion grid", n)?,
+            weight: budget::try_vec("the fusion grid", n)?,
+            flags: budget::try_vec("the fusion grid", n)?,
+        })
+        .map(|mut v: Self| {
+            v.sum.resize(n, 0.0);
+            v.weight.resize(n, 0.0);
+            v.flags.resize(n, 0);
+            v
+        })
+    }
+
+    /// Nodes along x, y, z.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// Node spacing (world units).
+    pub fn voxel(&self) -> f64 {
+        self.voxel
+    }
+
+    /// The truncation distance (world units).
+    pub fn truncation(&self) -> f64 {
+        self.truncation
+    }
+
+    /// World position of node (i, j, k).
+    pub fn node(&self, i: usize, j: usize, k: usize) -> DVec3 {
+        self.origin + DVec3::new(i as f64, j as f64, k as f64) * self.voxel
+    }
+
+    /// Flat index of node (i, j, k): x fastest.
+    pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        (k * self.dims[1] + j) * self.dims[0] + i
+    }
+
+    /// The node nearest to world point `p`, if inside the grid.
+    pub fn nearest(&self, p: DVec3) -> Option<usize> {
+        let g = ((p - self.origin) / self.voxel).round();
+        let inside = (0..3).all(|a| g[a] >= 0.0 && g[a] < self.dims[a] as f64);
+        inside.then(|| self.index(g.x as usize, g.y as usize, g.z as usize))
+    }
+
+    /// What is known of node `n`.
+    pub fn evidence(&self, n: usize) -> Evidence {
+        if self.weight[n] > 0.0 {
+            Evidence::Measured
+        } else if self.flags[n] & EMPTY != 0 {
+            Evidence::Empty
+        } else {
+            Evidence::Unseen
+        }
+    }
+
+    /// The fused signed distance at node `n` (world units, positive outside): the weighted
+    /// mean where measured, `+truncation` where seen empty, `−truncation` where unseen
+    /// (unseen space counts as solid, so what no ray entered closes the surface).
+    pub fn value(&self, n: usize) -> f64 {
+        match self.evidence(n) {
+            Evidence::Measured => f64::from(self.sum[n] / self.weight[n]),
+            Evidence::Empty => self.truncation,
+            Evidence::Unseen => -self.truncation,
+        }
+    }
+
+    /// Adds one view's returns: the truncated distance near its surfaces, empty in front of
+    /// them. O(nodes), in parallel over z slices.
+    pub fn integrate(&mut self, view: &DepthView) {
+        let trunc = self.truncation;
+        let (nx, ny) = (self.dims[0], self.dims[1]);
+        let (origin, voxel) = (self.origin, self.voxel);
+        self.sum
+            .par_chunks_mut(nx * ny)
+            .zip(self.weight.par_chunks_mut(nx * ny))
+            .zip(self.flags.par_chunks_mut(nx * ny))
+            .enumerate()
+            .for_each(|(k, ((sum, weight), flags))| {
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
+                        let q = view.to_scanner(p);
+                        if let Lookup::Hit { depth, cos } = view.lookup(q.x, q.y) {
+                            let d = (q.z - depth) * cos;
+                            let n = j * nx + i;
+                            if d > trunc {
+                                flags[n] |= EMPTY;
+                            } else if d >= -trunc {
+                                sum[n] += (cos * d) as f32;
+                                weight[n] += cos as f32;
+                            }
+                        }
+                    }
+                }
+            });
+    }
+
+    /// Marks empty the nodes on this view's rays without a return, from the scanner to the
+    /// first node some view measured, or all along the ray when there is none. Run after every view is integrated.
+    /// O(rays · nodes along a ray + nodes).
+    pub fn carve(&mut self, view: &DepthView) {
+        let stop = self.ray_stops(view);
+        let (nx, ny) = (self.dims[0], self.dims[1]);
+        let (origin, voxel) = (self.origin, self.voxel);
+        self.flags
+            .par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, flags)| {
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
+                        let q = view.to_scanner(p);
+                        if let Lookup::Miss(pixel) = view.lookup(q.x, q.y) {
+                            if q.z > stop[pixel] {
+                                flags[j * nx + i] |= EMPTY;
+                            }
+                        }
+                    }
+                }
+            });
+    }
+
+    /// Per pixel of `view`: the scanner z where a ray without return met the first measured
+    /// node, coming from the scanner (−∞: none; +∞: the ray returned).
+    fn ray_stops(&self, view: &DepthView) -> Vec<f64> {
+        let (w, h) = view.size();
+        // the ray's stretch through the grid: scanner z over the grid's 8 corners
+        let hi = self.node(self.dims[0] - 1, self.dims[1] - 1, self.dims[2] - 1);
+        let (mut z_lo, mut z_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for c in 0..8 {
+            let corner = DVec3::new(
+                if c & 1 == 0 { self.origin.x } else { hi.x },
+                if c & 2 == 0 { self.origin.y } else { hi.y },
+                if c & 4 == 0 { self.origin.z } else { hi.z },
+            );
+            let z = view.to_scanner(corner).z;
+            z_lo = z_lo.min(z);
+            z_hi = z_hi.max(z);
+        }
+        let dz = 0.5 * self.voxel;
+        let steps = ((z_hi - z_lo) / dz).ceil() as usize + 1;
+        (0..w * h)
+            .into_par_iter()
+            .map(|pixel| {
+                if !view.is_miss(pixel) {
+                    return f64::INFINITY;
+                }
+                let [x, y] = view.ray_xy(pixel);
+                (0..steps)
+                    .map(|s| z_hi - s as f64 * dz)
+                    .find(|&z| {
+                        let p = view.to_world(DVec3::new(x, y, z));
+                        self.nearest(p)
+                            .is_some_and(|n| self.evidence(n) == Evidence::Measured)
+                    })
+                    .unwrap_or(f64::NEG_INFINITY)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn looking_down(depth: Vec<f64>, width: usize, height: usize, step: f64) -> DepthView {
+        let mut pose = [0.0; 16];
+        for k in 0..4 {
+            pose[k * 5] = 1.0;
+        }
+        let cos = vec![1.0; depth.len()];
+        DepthView::new(pose, [0.0, 0.0], step, width, height, depth, cos).unwrap()
+    }
+
+    #[test]
+    fn a_plane_gives_its_distance_and_empty_space_above() {
+        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        vol.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
+        for k in 0..9 {
+            let n = vol.index(2, 2, k);
+            let d = k as f64 - 4.0;
+            match vol.evidence(n) {
+                Evidence::Measured => assert!((vol.value(n) - d).abs() < 1e-6, "{k}"),
+                Evidence::Empty => assert!(d > 2.0, "{k}"),
+                Evidence::Unseen => assert!(d < -2.0, "{k}"),
+            }
+        }
+        assert_eq!(vol.evidence(vol.index(2, 2, 8)), Evidence::Empty);
+        assert_eq!(vol.evidence(vol.index(2, 2, 0)), Evidence::Unseen);
+    }
+
+    #[test]
+    fn rays_without_return_carve_down_to_the_first_measured_surface() {
+        // view 1 (from above) sees a plane at z = 4 over x < 3, nothing beyond
+        let depth: Vec<f64> = (0..25)
+            .map(|k| if k % 5 < 3 { 4.0 } else { f64::NAN })
+            .collect();
+        let top = looking_down(depth, 5, 5, 1.0);
+        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        vol.integrate(&top);
+        vol.carve(&top);
+        // under the missed rays: empty all the way down
+        assert_eq!(vol.evidence(vol.index(4, 2, 0)), Evidence::Empty);
+        // under the plane: unseen (solid)
+        assert_eq!(vol.evidence(vol.index(1, 2, 0)), Evidence::Unseen);
+        // a view whose returns were all lost stops at the measured plane: it carves nothing
+        // below it
+        let mut lower = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        let plane = looking_down(vec![4.0; 25], 5, 5, 1.0);
+        lower.integrate(&plane);
+        let lost = looking_down(vec![f64::NAN; 25], 5, 5, 1.0);
+        lower.carve(&lost);
+        assert_eq!(lower.evidence(lower.index(1, 2, 0)), Evidence::Unseen);
+    }
+
+    #[test]
+    fn refuses_bad_grids() {
+        assert!(Volume::new([0.0; 3], 0.0, [4, 4, 4], 1.0).is_err());
+        assert!(Volume::new([0.0; 3], 1.0, [4, 1, 4], 1.0).is_err());
+        assert!(Volume::new([0.0; 3], 1.0, [4, 4, 4], 0.5).is_err());
+        assert!(Volume::new([0.0; 3], 1.0, [usize::MAX, 4, 4], 1.0).is_err());
+    }
+}

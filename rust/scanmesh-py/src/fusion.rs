@@ -1,0 +1,137 @@
+//! Fusion of aligned range views (`scanmesh_core` fusion/): a view's depth image, the voxel
+//! grid that views are integrated and carved into, the labelled closed mesh it gives.
+
+use crate::convert::{faces_out, points3_view, shape_error, Floats2, Ints2};
+use crate::to_py;
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+
+/// One range view: a depth image seen along the scanner's -z, with its scanner-to-world
+/// pose. `pose` (4, 4) rigid; `depth` and `cos` (H, W) float64, row j and column i being
+/// the ray through scanner (x, y) = `origin + (i, j) * step`; depth NaN where the ray had
+/// no return; `cos` the |cosine| between ray and surface normal. Raises ParameterError for
+/// a pose that is not rigid and finite, a bad step or mismatched shapes. O(H · W).
+#[pyclass(frozen, module = "scanmesh._core")]
+pub(crate) struct DepthView {
+    inner: scanmesh_core::DepthView,
+}
+
+#[pymethods]
+impl DepthView {
+    #[new]
+    fn new(
+        pose: PyReadonlyArray2<'_, f64>,
+        origin: (f64, f64),
+        step: f64,
+        depth: PyReadonlyArray2<'_, f64>,
+        cos: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<Self> {
+        let pose = pose.as_array();
+        if pose.shape() != [4, 4] {
+            return Err(shape_error("pose", "(4, 4)", pose.shape()));
+        }
+        let (d, c) = (depth.as_array(), cos.as_array());
+        if d.shape() != c.shape() {
+            return Err(shape_error("cos", "the depth image's shape", c.shape()));
+        }
+        let (height, width) = d.dim();
+        let flat: [f64; 16] = std::array::from_fn(|k| pose[[k / 4, k % 4]]);
+        let inner = scanmesh_core::DepthView::new(
+            flat,
+            [origin.0, origin.1],
+            step,
+            width,
+            height,
+            d.iter().copied().collect(),
+            c.iter().copied().collect(),
+        )
+        .map_err(to_py)?;
+        Ok(Self { inner })
+    }
+}
+
+/// The voxel grid: `dims` (nx, ny, nz) nodes `voxel` apart from `origin` (world units),
+/// signed distances truncated at `truncation`. Raises ParameterError for bad sizes and
+/// MemoryLimitError when its 9 bytes per node do not fit.
+#[pyclass(module = "scanmesh._core")]
+pub(crate) struct FusionVolume {
+    inner: scanmesh_core::Volume,
+}
+
+#[pymethods]
+impl FusionVolume {
+    #[new]
+    fn new(
+        origin: (f64, f64, f64),
+        voxel: f64,
+        dims: (usize, usize, usize),
+        truncation: f64,
+    ) -> PyResult<Self> {
+        let inner = scanmesh_core::Volume::new(
+            [origin.0, origin.1, origin.2],
+            voxel,
+            [dims.0, dims.1, dims.2],
+            truncation,
+        )
+        .map_err(to_py)?;
+        Ok(Self { inner })
+    }
+
+    /// Adds a view's returns (distance near its surfaces, empty space in front of them).
+    /// O(nodes), GIL released.
+    fn integrate(&mut self, py: Python<'_>, view: &DepthView) {
+        py.detach(|| self.inner.integrate(&view.inner));
+    }
+
+    /// Marks empty the space along the view's rays without return that crossed no measured
+    /// surface; call after every `integrate`. O(rays · nodes per ray + nodes), GIL released.
+    fn carve(&mut self, py: Python<'_>, view: &DepthView) {
+        py.detach(|| self.inner.carve(&view.inner));
+    }
+
+    /// (nx, ny, nz) uint8 per node: 0 measured, 1 seen empty, 2 unseen.
+    fn evidence<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray3<u8>> {
+        let [nx, ny, nz] = self.inner.dims();
+        let codes: Vec<u8> = (0..nx * ny * nz)
+            .map(|n| match self.inner.evidence(n) {
+                scanmesh_core::Evidence::Measured => 0,
+                scanmesh_core::Evidence::Empty => 1,
+                scanmesh_core::Evidence::Unseen => 2,
+            })
+            .collect();
+        // stored x fastest: (nz, ny, nx) in C order, transposed to (nx, ny, nz)
+        numpy::ndarray::Array3::from_shape_vec((nz, ny, nx), codes)
+            .expect("one per node")
+            .reversed_axes()
+            .into_pyarray(py)
+    }
+
+    /// The closed mesh of the zero set: (vertices (V, 3) float64, faces (M, 3) int64
+    /// counter-clockwise from outside, labels (M,) uint8 (0 measured, 1 inferred, 2
+    /// filled), nodes moved by the manifold repair). Vertices are placed on `samples`
+    /// (S, 3) with outward unit `normals` (S, 3). O(nodes + S log S), GIL released.
+    #[allow(clippy::type_complexity)]
+    fn extract<'py>(
+        &self,
+        py: Python<'py>,
+        samples: PyReadonlyArray2<'py, f64>,
+        normals: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<(Floats2<'py>, Ints2<'py>, Bound<'py, PyArray1<u8>>, usize)> {
+        let s = points3_view(&samples)?;
+        let n = points3_view(&normals)?;
+        let fused = py
+            .detach(|| scanmesh_core::extract(&self.inner, &s, &n))
+            .map_err(to_py)?;
+        let flat: Vec<f64> = fused.vertices.iter().flat_map(|v| v.to_array()).collect();
+        let vertices = Array2::from_shape_vec((fused.vertices.len(), 3), flat)
+            .expect("3 per vertex")
+            .into_pyarray(py);
+        Ok((
+            vertices,
+            faces_out(py, &fused.faces),
+            Array1::from_vec(fused.labels).into_pyarray(py),
+            fused.repaired,
+        ))
+    }
+}

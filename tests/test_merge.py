@@ -1,0 +1,358 @@
+"""scanmesh.merge: one closed mesh from aligned range views (errors first)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial.transform import Rotation
+
+import scanmesh
+from scanmesh import shape
+from scanmesh.cli import main
+from scanmesh.creases import chain, crease_edges
+from scanmesh.formats.conf import quaternion_matrix
+from scanmesh.views import toward_frame
+
+AXES = ["x", "-x", "y", "-y", "z", "-z"]
+
+
+def six_views(mesh: trimesh.Trimesh, spacing: float, grazing: float = 80.0, seed: int = 1):
+    """The part scanned from the six axis directions, sigma = spacing / 30."""
+    return [
+        scanmesh.simulate_range_scan(
+            mesh,
+            up=up,
+            along="y" if up.strip("-") == "x" else "x",
+            spacing=spacing,
+            noise=spacing / 30,
+            seed=seed + k,
+            grazing=grazing,
+        )
+        for k, up in enumerate(AXES)
+    ]
+
+
+def random_pose(rng: np.random.Generator) -> np.ndarray:
+    q = rng.normal(size=4)
+    pose = np.eye(4)
+    pose[:3, :3] = quaternion_matrix(q / np.linalg.norm(q))
+    pose[:3, 3] = rng.normal(size=3)
+    return pose
+
+
+# errors
+
+
+@pytest.mark.parametrize(
+    ("pose", "words"),
+    [
+        (np.eye(3), "4 x 4"),
+        (np.diag([2.0, 1.0, 1.0, 1.0]), "rigid"),
+        (np.diag([-1.0, 1.0, 1.0, 1.0]), "determinant -1"),
+        (np.where(np.eye(4) > 0, np.nan, 0.0), "pose entry [0, 0] is nan"),
+        (np.vstack([np.eye(4)[:3], [0, 0, 1, 1]]), "last row"),
+    ],
+)
+def test_bad_poses_are_refused_by_name(pose, words):
+    points = np.random.default_rng(0).normal(size=(50, 3))
+    with pytest.raises(scanmesh.ParameterError, match="view 0") as info:
+        scanmesh.merge([(points, pose)])
+    assert words in str(info.value)
+
+
+def test_bad_views_and_options_are_refused():
+    pts = np.random.default_rng(0).normal(size=(50, 3))
+    with pytest.raises(scanmesh.ParameterError, match="at least one view"):
+        scanmesh.merge([])
+    with pytest.raises(scanmesh.ParameterError, match="list of views"):
+        scanmesh.merge(scanmesh.ScanPoints(pts, None, source="x"))  # type: ignore[arg-type]
+    with pytest.raises(scanmesh.ParameterError, match="view 1: points must be an"):
+        scanmesh.merge([(pts, np.eye(4)), (pts[:, :2], np.eye(4))])
+    with pytest.raises(scanmesh.ParameterError, match="2 poses given for 1 views"):
+        scanmesh.merge([scanmesh.ScanPoints(pts, None, source="x")], poses=[np.eye(4)] * 2)
+    with pytest.raises(scanmesh.ParameterError, match="toward"):
+        scanmesh.merge([(pts, np.eye(4))], toward="w")
+    with pytest.raises(scanmesh.ParameterError, match="truncation"):
+        scanmesh.merge([(pts, np.eye(4))], truncation=0.5)
+    with pytest.raises(scanmesh.ParameterError, match="over max_voxels=1,000"):
+        scanmesh.merge([(pts, np.eye(4))], voxel=0.01, max_voxels=1000)
+
+
+def test_conf_errors_name_file_line_and_value(tmp_path):
+    conf = tmp_path / "part.conf"
+    conf.write_text("camera 0 0 0 0 0 0 1\nbmesh a.xyz 0 0 0 0 0 0 2\n")
+    with pytest.raises(scanmesh.FileFormatError, match=r"part.conf, line 2: .*length 2"):
+        scanmesh.read_conf(conf)
+    conf.write_text("bmesh a.xyz 0 0 zero 0 0 0 1\n")
+    with pytest.raises(scanmesh.FileFormatError, match=r"line 1: 'zero' is not a number"):
+        scanmesh.read_conf(conf)
+    conf.write_text("mesh a.xyz 0 0 0 0 0 0 1\n")
+    with pytest.raises(scanmesh.FileFormatError, match="expected 'camera' or 'bmesh'"):
+        scanmesh.read_conf(conf)
+    conf.write_text("camera 0 0 0 0 0 0 1\n")
+    with pytest.raises(scanmesh.FileFormatError, match="no 'bmesh' line"):
+        scanmesh.read_conf(conf)
+
+
+# read_conf
+
+
+def test_read_conf_gives_the_poses_it_was_written_with(tmp_path):
+    """Stanford's convention, world = R(q) p + t, against matrices made independently (from
+    scipy's rotation, whose quaternions are also (x, y, z, w))."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(3)
+    truth = rng.normal(size=(40, 3))
+    lines = ["camera 0 0 -1 0 0 0 1"]
+    poses = []
+    for k in range(3):
+        rot = Rotation.random(random_state=k)
+        pose = np.eye(4)
+        pose[:3, :3] = rot.as_matrix()
+        pose[:3, 3] = rng.normal(size=3)
+        poses.append(pose)
+        local = (truth - pose[:3, 3]) @ pose[:3, :3]  # the points as scan k saw them
+        np.savetxt(tmp_path / f"scan{k}.xyz", local)
+        q = rot.as_quat()
+        values = " ".join(repr(float(v)) for v in [*pose[:3, 3], *q])
+        lines.append(f"bmesh scan{k}.xyz {values}")
+    (tmp_path / "part.conf").write_text("\n".join(lines) + "\n")
+    views = scanmesh.read_conf(tmp_path / "part.conf")
+    assert len(views) == 3
+    for view, pose in zip(views, poses, strict=True):
+        np.testing.assert_allclose(view.pose, pose, atol=1e-12)
+        np.testing.assert_allclose(view.world, truth, atol=1e-9)
+    inverse = scanmesh.read_conf(tmp_path / "part.conf", inverse_rotation=True)
+    np.testing.assert_allclose(inverse[1].pose[:3, :3], poses[1][:3, :3].T, atol=1e-12)
+
+
+# the fused mesh
+
+
+@pytest.fixture(scope="module")
+def merged_box():
+    box = trimesh.creation.box((2.0, 1.0, 0.6))
+    return box, scanmesh.merge(six_views(box, 0.04))
+
+
+def test_a_box_from_six_views_is_one_closed_sphere_on_the_box(merged_box):
+    box, surface = merged_box
+    mesh = trimesh.Trimesh(surface.vertices, surface.faces, process=False)
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert shape.euler_characteristic(surface.faces) == 2
+    assert len(mesh.split(only_watertight=False)) == 1
+    assert mesh.volume > 0  # counter-clockwise seen from outside
+    _, dist, _ = trimesh.proximity.closest_point(box, surface.vertices)
+    voxel = surface.options["voxel"]
+    assert np.sqrt(np.mean(dist**2)) < 0.05 * voxel
+    assert dist.max() < 0.5 * voxel
+    assert abs(mesh.volume / box.volume - 1) < 0.01
+    # faces away from the edges lie in the box's faces
+    centre = surface.vertices[surface.faces].mean(axis=1)
+    away = np.sort(np.abs([1.0, 0.5, 0.3] - np.abs(centre)), axis=1)[:, 1] > 2 * voxel
+    _, _, tri = trimesh.proximity.closest_point(box, centre[away])
+    cos = np.einsum("ij,ij->i", surface.face_normals[away], box.face_normals[tri])
+    assert np.degrees(np.arccos(np.clip(cos, -1, 1))).mean() < 3.0
+
+
+def test_every_face_of_a_fully_seen_box_is_measured(merged_box):
+    _, surface = merged_box
+    assert surface.face_labels is not None and (surface.face_labels == 0).all()
+    assert surface.label_areas["measured"] == pytest.approx(surface.area)
+
+
+def test_a_bore_seen_through_stays_open():
+    """A thick ring: the rays along its axis pass through the bore, so the fused mesh keeps
+    genus 1 though no view samples the bore's wall at more than a grazing angle."""
+    ring = trimesh.creation.annulus(r_min=0.5, r_max=1.0, height=0.6, sections=64)
+    surface = scanmesh.merge(six_views(ring, 0.04))
+    assert shape.is_watertight(surface.faces)
+    assert shape.euler_characteristic(surface.faces) == 0
+    _, dist, _ = trimesh.proximity.closest_point(ring, surface.vertices)
+    assert np.sqrt(np.mean(dist**2)) < 0.25 * surface.options["voxel"]
+
+
+def test_one_view_labels_what_it_measured_carved_and_filled():
+    """A box seen from above only: the top is measured, the sides are closed by carving
+    (the rays beside the box show that space empty) and the bottom, at the grid's border
+    (nothing says how deep the part goes), has no evidence."""
+    box = trimesh.creation.box((2.0, 1.0, 0.6))
+    top = scanmesh.simulate_range_scan(box, up="z", spacing=0.04, noise=0.04 / 30, seed=0)
+    surface = scanmesh.merge([top])
+    assert shape.is_watertight(surface.faces)
+    assert shape.euler_characteristic(surface.faces) == 2
+    voxel, trunc = surface.options["voxel"], surface.options["truncation"]
+    areas = surface.label_areas
+    band = 2 * (2.0 + 1.0) * trunc * voxel  # the sides as far down as the truncation
+    assert areas["measured"] == pytest.approx(2.0 + band, rel=0.05)
+    assert areas["filled"] == pytest.approx(2.0, rel=0.1)
+    assert areas["inferred"] > 0.5 * 2 * (2.0 + 1.0) * voxel
+    centre = surface.vertices[surface.faces].mean(axis=1)
+    z = {k: centre[surface.face_labels == k, 2] for k in range(3)}
+    assert z[0].min() > 0.3 - (trunc + 1) * voxel
+    assert z[2].max() < z[1].min() + voxel and z[1].max() < z[0].min() + voxel
+
+
+def test_posed_arrays_give_the_same_mesh_as_world_scans(merged_box):
+    """Each view in its own scanner frame with its pose: the same mesh as the scans in
+    world coordinates; with the world moved rigidly, the moved box."""
+    box, surface = merged_box
+    posed = []
+    for scan in six_views(box, 0.04):
+        turn = toward_frame(scan.up)  # scanner coordinates: the ray direction is +z
+        pose = np.eye(4)
+        pose[:3, :3] = turn.T
+        posed.append((scan.points @ turn.T, pose))
+    again = scanmesh.merge(posed)
+    np.testing.assert_allclose(again.vertices, surface.vertices, atol=1e-9)
+    np.testing.assert_array_equal(again.faces, surface.faces)
+    motion = random_pose(np.random.default_rng(7))
+    moved = scanmesh.merge([(p, motion @ pose) for p, pose in posed])
+    assert shape.is_watertight(moved.faces) and shape.euler_characteristic(moved.faces) == 2
+    _, dist, _ = trimesh.proximity.closest_point(box.copy().apply_transform(motion), moved.vertices)
+    voxel = moved.options["voxel"]
+    # the faces as close as in the grid's axes; the corners, now across cells, less so
+    assert np.median(dist) < 0.05 * voxel and np.percentile(dist, 90) < 0.1 * voxel
+    assert np.sqrt(np.mean(dist**2)) < 0.2 * voxel
+
+
+def test_toward_turns_the_scanner_direction():
+    """The same scan written in a frame whose scanner is towards -x, with its pose: the
+    same mesh when ``toward="-x"`` says so; without it the scan is seen edge-on."""
+    box = trimesh.creation.box((2.0, 1.0, 0.6))
+    top = scanmesh.simulate_range_scan(box, up="z", spacing=0.05, seed=0)
+    x, y, z = top.points.T
+    as_minus_x = np.column_stack([-z, x, -y])  # the scanner (+z of the scan) is at -x here
+    pose = np.array([[0, 1, 0, 0], [0, 0, -1, 0], [-1, 0, 0, 0], [0, 0, 0, 1.0]])
+    np.testing.assert_allclose(as_minus_x @ pose[:3, :3].T, top.points)
+    a = scanmesh.merge([(top.points, np.eye(4))])
+    b = scanmesh.merge([(as_minus_x, pose)], toward="-x")
+    np.testing.assert_array_equal(a.faces, b.faces)
+    np.testing.assert_allclose(a.vertices, b.vertices, atol=1e-12)
+    with pytest.raises(scanmesh.DegenerateInputError, match="one ray"):
+        scanmesh.merge([(as_minus_x, pose)])  # seen along its z, the top is edge-on
+
+
+# creases
+
+
+def test_creases_of_a_box_and_a_cylinder():
+    box = trimesh.creation.box((2.0, 1.0, 0.6))
+    edges = crease_edges(box.vertices, box.faces)
+    assert len(edges) == 12  # the diagonals of the sides are flat
+    assert sorted(len(line) for line in chain(edges)) == [2] * 12
+    cyl = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=16)
+    loops = chain(crease_edges(cyl.vertices, cyl.faces))
+    assert sorted(len(line) for line in loops) == [17, 17]  # two closed rims
+    assert all(line[0] == line[-1] for line in loops)
+
+
+def test_the_merged_box_keeps_its_twelve_edges_as_creases(merged_box):
+    box, surface = merged_box
+    voxel = surface.options["voxel"]
+    edges = crease_edges(surface.vertices, surface.faces)
+    mid = surface.vertices[edges].mean(axis=1)
+    # crease edges lie on the box's edges: two coordinates at the box's faces
+    off = np.sort(np.abs([1.0, 0.5, 0.3] - np.abs(mid)), axis=1)[:, 1]
+    assert np.median(off) < 0.5 * voxel
+    # every box edge has crease edges along most of its length
+    for axis, length in enumerate([2.0, 1.0, 0.6]):
+        along = np.abs(np.delete(np.abs(mid) - [1.0, 0.5, 0.3], axis, 1)).max(1) < voxel
+        covered = np.abs(np.diff(surface.vertices[edges[along]][:, :, axis], axis=1)).sum()
+        assert covered > 0.7 * 4 * length, (axis, covered)
+
+
+# files and the command
+
+
+def test_ply_output_carries_the_face_labels(tmp_path, merged_box):
+    _, surface = merged_box
+    out = surface.save(tmp_path / "part.ply")
+    loaded = trimesh.load(out, process=False)
+    raw = loaded.metadata["_ply_raw"]["face"]["data"]
+    np.testing.assert_array_equal(raw["label"].ravel(), surface.face_labels)
+    np.testing.assert_array_equal(loaded.faces, surface.faces)
+
+
+def test_the_command_merges_scans_with_a_poses_file(tmp_path, capsys):
+    box = trimesh.creation.box((2.0, 1.0, 0.6))
+    views = six_views(box, 0.05)
+    names, poses = [], []
+    for k, scan in enumerate(views):
+        turn = toward_frame(scan.up)
+        np.savetxt(tmp_path / f"v{k}.xyz", scan.points @ turn.T)
+        pose = np.eye(4)
+        pose[:3, :3] = turn.T
+        names.append(str(tmp_path / f"v{k}.xyz"))
+        poses.append(pose.tolist())
+    (tmp_path / "poses.json").write_text(json.dumps(poses))
+    out = tmp_path / "part.ply"
+    args = ["merge", *names, "--poses", str(tmp_path / "poses.json"), "-o", str(out), "--json"]
+    assert main(args) == 0
+    row = json.loads(capsys.readouterr().out)
+    assert row["closed"] and row["genus"] == 0 and row["views"] == 6
+    assert row["refine_residual"] is None
+    assert row["area"]["measured"] == pytest.approx(2 * (2 + 1.2 + 0.6), rel=0.02)
+    assert out.exists()
+    # the flags are named in the errors
+    (tmp_path / "short.json").write_text(json.dumps(poses[:2]))
+    bad = ["merge", *names, "--poses", str(tmp_path / "short.json"), "-o", str(out)]
+    assert main(bad) == 1
+    assert "--poses" in capsys.readouterr().err
+    assert main(["merge", *names, "-o", str(out), "--voxel", "0.001", "--max-voxels", "1000"]) == 1
+    err = capsys.readouterr().err
+    assert "--voxel" in err and "--max-voxels" in err
+    assert main(["merge", *names, "-o", str(out), "--inverse-rotation"]) == 1
+    assert "--inverse-rotation is for a .conf" in capsys.readouterr().err
+    args = ["merge", *names, "--poses", str(tmp_path / "poses.json"), "-o", str(out), "--refine"]
+    assert main(args) == 0  # the box's faces are each seen by one view only: no pairs
+    said = capsys.readouterr()
+    assert "share no surface" in said.err and "residual nan -> nan" in said.out
+
+
+# pose refinement
+
+
+def blob() -> trimesh.Trimesh:
+    """A smooth, bumpy, asymmetric closed surface: every view overlaps its neighbours."""
+    mesh = trimesh.creation.icosphere(subdivisions=4)
+    v = mesh.vertices
+    bumps = 1 + 0.25 * np.sin(3 * v[:, [0]] + 1) * np.cos(2 * v[:, [1]]) + 0.15 * v[:, [2]] ** 2
+    mesh.vertices = v * bumps * [1.0, 0.8, 0.6]
+    return mesh
+
+
+def test_refine_brings_the_residual_down_to_that_of_the_true_poses():
+    """Views knocked off by 1 degree and a third of a spacing: the point-to-plane residual
+    falls to about its value at the true poses, the first view stays where it is. (The
+    rotations do not come back: on this smooth surface they stay about 1 degree off, a
+    slide along the surface that point-to-plane pairs barely see.)"""
+    rng = np.random.default_rng(5)
+    posed, truth = [], []
+    for k, scan in enumerate(six_views(blob(), 0.04)):
+        turn = toward_frame(scan.up)
+        pose = np.eye(4)
+        pose[:3, :3] = turn.T
+        truth.append((scan.points @ turn.T, pose))
+        knock = np.eye(4)
+        if k:
+            axis = rng.normal(size=3)
+            rotvec = np.radians(1.0) * axis / np.linalg.norm(axis)
+            knock[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
+            knock[:3, 3] = rng.uniform(-1, 1, 3) * 0.04 / 3
+        posed.append((scan.points @ turn.T, knock @ pose))
+    plain = scanmesh.merge(posed)
+    fixed = scanmesh.merge(posed, refine=True)
+    exact = scanmesh.merge(truth, refine=True)
+    assert plain.options["refine_residual"] is None
+    before = fixed.options["refine_residual"]["before"]
+    after = fixed.options["refine_residual"]["after"]
+    floor = exact.options["refine_residual"]["before"]
+    assert before > 3 * floor and after < 1.3 * floor
+    np.testing.assert_array_equal(fixed.options["poses"][0], truth[0][1])
+    with pytest.raises(scanmesh.ParameterError, match="refine"):
+        scanmesh.merge(posed, refine="yes")  # type: ignore[arg-type]
