@@ -96,7 +96,8 @@ def reconstruct(
         the best state so far; ``options["stopped"]`` says what ended the run), ...;
         ``lop``: ``initial``, ``criterion`` ("tac" or "max-min"), ``p``, ``sliver_guard``,
         ``tie_tolerance``, ``curtain_angle`` (as annealing's: no flip makes a curtain where
-        the scan knows its line of sight, a recorded ``up`` or a range grid); ``lookahead``: ``weight``, ``alpha``, ``gap_factor``, ``check``;
+        the scan knows its line of sight, a recorded ``up`` or a range grid);
+        ``lookahead``: ``weight``, ``alpha``, ``gap_factor``, ``check``;
         ``shortest-path``: ``weight``, ``solver``, ``band``, ``gap_factor``, ``check``;
         ``optimal``: ``p``, ``time_limit``, ``strengthen``, ``incumbent``.
 
