@@ -51,6 +51,7 @@ from scipy.spatial import cKDTree
 import scanmesh
 from scanmesh import shape
 from scanmesh.creases import crease_edges
+from scanmesh.evaluate.digitizer import axis_views
 
 PARTS = {
     "conrod": "conrod_slevin48_onshape.stl",
@@ -58,24 +59,12 @@ PARTS = {
     "octagonal_pocket": "octagonal_pocket.ply",
     "turbineblade": "turbineblade.ply",
 }
-AXES = ["x", "-x", "y", "-y", "z", "-z"]
 N_SAMPLES = 200_000
 SEED = 0
 
 
 def scan(mesh: trimesh.Trimesh, spacing: float, grazing: float) -> list[scanmesh.ScanPoints]:
-    return [
-        scanmesh.simulate_range_scan(
-            mesh,
-            up=up,
-            along="y" if up.strip("-") == "x" else "x",
-            spacing=spacing,
-            noise=spacing / 30,
-            seed=SEED + k,
-            grazing=grazing,
-        )
-        for k, up in enumerate(AXES)
-    ]
+    return axis_views(mesh, spacing, noise=spacing / 30, grazing=grazing, seed=SEED)
 
 
 def oriented_cloud(views: list[scanmesh.ScanPoints]) -> o3d.geometry.PointCloud:

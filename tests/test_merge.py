@@ -13,26 +13,14 @@ import scanmesh
 from scanmesh import shape
 from scanmesh.cli import main
 from scanmesh.creases import chain, crease_edges
+from scanmesh.evaluate.digitizer import axis_views
 from scanmesh.formats.conf import quaternion_matrix
 from scanmesh.views import toward_frame
-
-AXES = ["x", "-x", "y", "-y", "z", "-z"]
 
 
 def six_views(mesh: trimesh.Trimesh, spacing: float, grazing: float = 80.0, seed: int = 1):
     """The part scanned from the six axis directions, sigma = spacing / 30."""
-    return [
-        scanmesh.simulate_range_scan(
-            mesh,
-            up=up,
-            along="y" if up.strip("-") == "x" else "x",
-            spacing=spacing,
-            noise=spacing / 30,
-            seed=seed + k,
-            grazing=grazing,
-        )
-        for k, up in enumerate(AXES)
-    ]
+    return axis_views(mesh, spacing, noise=spacing / 30, grazing=grazing, seed=seed)
 
 
 def random_pose(rng: np.random.Generator) -> np.ndarray:

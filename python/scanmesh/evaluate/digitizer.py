@@ -400,6 +400,35 @@ def simulate_range_scan(
     )
 
 
+#: The six axis directions a part is scanned from for :func:`axis_views`.
+AXIS_DIRECTIONS = ("x", "-x", "y", "-y", "z", "-z")
+
+
+def axis_views(
+    mesh: trimesh.Trimesh,
+    spacing: float,
+    *,
+    noise: float = 0.0,
+    grazing: float = 90.0,
+    seed: int = 0,
+) -> list[ScanPoints]:
+    """The part seen from the six axis directions (:data:`AXIS_DIRECTIONS`), one
+    :func:`simulate_range_scan` each, lines along x (along y when looking along x), view k
+    seeded ``seed + k``: the input of :func:`scanmesh.merge` in its tests and benchmark."""
+    return [
+        simulate_range_scan(
+            mesh,
+            up=up,
+            along="y" if up.strip("-") == "x" else "x",
+            spacing=spacing,
+            noise=noise,
+            seed=seed + k,
+            grazing=grazing,
+        )
+        for k, up in enumerate(AXIS_DIRECTIONS)
+    ]
+
+
 def _search_spacing(
     scanner: _Scanner, n_points: int, line_spacing: float | None, table: bool
 ) -> tuple[float, np.ndarray, tuple]:
