@@ -15,7 +15,8 @@ from conftest import DATA
 from test_cli import run
 from test_complete_ply import parse_ply
 
-#: the small copies of ../shared/data (tests/data/ATTRIBUTION.md), and what each must carry
+#: the small copies in tests/data of the benchmark data files (tests/data/ATTRIBUTION.md), and
+#: what each must carry
 FILES = {
     "cad/conrod_slevin48_onshape.stl": (),
     "cad/fandisk.obj": (),
