@@ -10,6 +10,7 @@ use crate::{to_py, ParameterError};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
+use scanmesh_core::glam::DVec3;
 use scanmesh_core::{check_finite, HalfEdgeMesh, Plane};
 use std::borrow::Cow;
 
@@ -89,15 +90,7 @@ pub(crate) fn delaunay_trimmed<'py>(
 ) -> PyResult<TrimmedDelaunay> {
     check_trim_lengths(max_edge.unwrap_or(1.0), jump_factor)?;
     let pts = points2_view(&uv)?;
-    let xyz = points3_view(&points)?;
-    if xyz.len() != pts.len() {
-        return Err(ParameterError::new_err(format!(
-            "{} points for {} planar points",
-            xyz.len(),
-            pts.len()
-        )));
-    }
-    check_finite(&xyz).map_err(to_py)?;
+    let xyz = matching_points(&points, pts.len())?;
     let t = py
         .detach(|| scanmesh_core::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor))
         .map_err(to_py)?;
@@ -130,15 +123,7 @@ pub(crate) fn grid_triangulate<'py>(
     edge_factor: f64,
 ) -> PyResult<GridTriangles> {
     let pts = points2_view(&uv)?;
-    let xyz = points3_view(&points)?;
-    if xyz.len() != pts.len() {
-        return Err(ParameterError::new_err(format!(
-            "{} points for {} planar points",
-            xyz.len(),
-            pts.len()
-        )));
-    }
-    check_finite(&xyz).map_err(to_py)?;
+    let xyz = matching_points(&points, pts.len())?;
     let sight = vector3("sight", &sight)?;
     let g = grid.as_array();
     let (rows, cols) = (g.nrows(), g.ncols());
@@ -196,17 +181,10 @@ pub(crate) fn trim_long_edges<'py>(
     check_trim_lengths(max_edge, jump_factor)?;
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    let xyz = points.as_ref().map(points3_view).transpose()?;
-    if let Some(p) = &xyz {
-        if p.len() != pts.len() {
-            return Err(ParameterError::new_err(format!(
-                "{} points for {} planar points",
-                p.len(),
-                pts.len()
-            )));
-        }
-        check_finite(p).map_err(to_py)?;
-    }
+    let xyz = points
+        .as_ref()
+        .map(|p| matching_points(p, pts.len()))
+        .transpose()?;
     let jumps = xyz.as_deref().map(|p| scanmesh_core::DepthJumps {
         points: p,
         factor: jump_factor,
@@ -230,4 +208,21 @@ pub(crate) fn validate(
     let t = faces(&faces_, pts.len())?;
     py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts)))
         .map_err(to_py)
+}
+
+/// (N, 3) `points` borrowed as `DVec3`s, checked to be as many as the `planar` points a
+/// triangulation is built on and finite: the 3-D positions it is measured on. O(N).
+fn matching_points<'a>(
+    points: &'a PyReadonlyArray2<'_, f64>,
+    planar: usize,
+) -> PyResult<Cow<'a, [DVec3]>> {
+    let xyz = points3_view(points)?;
+    if xyz.len() != planar {
+        return Err(ParameterError::new_err(format!(
+            "{} points for {planar} planar points",
+            xyz.len()
+        )));
+    }
+    check_finite(&xyz).map_err(to_py)?;
+    Ok(xyz)
 }
