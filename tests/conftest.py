@@ -55,3 +55,31 @@ def seconds_to_interrupt(script: str, wait: float) -> float:
         proc.kill()
     assert line and line[0] == "interrupted", line
     return float(line[1]) - sent
+
+
+def cyberware_range_grid(
+    rows: int,
+    cols: int,
+    step: float,
+    vertices: list[str],
+    cells: list[str],
+    comment: str | None = None,
+) -> str:
+    """The text of an ASCII Cyberware range-grid PLY: ``vertices`` ("x y z" lines), the
+    ``rows * cols`` range_grid ``cells`` ("0": no sample, "1 i": vertex i), frames
+    ``step`` (``echo_lgincr``) apart, and an optional header ``comment``."""
+    head = ["ply", "format ascii 1.0"] + ([f"comment {comment}"] if comment else [])
+    head += [
+        "obj_info is_cyberware_data 1",
+        f"obj_info num_cols {cols}",
+        f"obj_info num_rows {rows}",
+        f"obj_info echo_lgincr {step}",
+        f"element vertex {len(vertices)}",
+        "property float x",
+        "property float y",
+        "property float z",
+        f"element range_grid {rows * cols}",
+        "property list uchar int vertex_indices",
+        "end_header",
+    ]
+    return "\n".join(head + vertices + cells) + "\n"

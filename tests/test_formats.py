@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import scanmesh
+from conftest import cyberware_range_grid
 from scanmesh import FileFormatError, ParameterError
 from scanmesh.formats import format_of, read
 from scanmesh.formats.write import write_points
@@ -444,23 +445,8 @@ def test_cyberware_range_grid_lines_are_its_columns(tmp_path):
                 continue
             cells.append(f"1 {len(pts)}")
             pts.append((c * step, r * 0.25, np.sin(c + r)))
-    head = [
-        "ply",
-        "format ascii 1.0",
-        "obj_info is_cyberware_data 1",
-        f"obj_info num_cols {cols}",
-        f"obj_info num_rows {rows}",
-        f"obj_info echo_lgincr {step}",
-        f"element vertex {len(pts)}",
-        "property float x",
-        "property float y",
-        "property float z",
-        f"element range_grid {rows * cols}",
-        "property list uchar int vertex_indices",
-        "end_header",
-    ]
-    body = [f"{x} {y} {z:.6f}" for x, y, z in pts] + cells
-    path = write(tmp_path / "cyber.ply", "\n".join(head + body) + "\n")
+    vertices = [f"{x} {y} {z:.6f}" for x, y, z in pts]
+    path = write(tmp_path / "cyber.ply", cyberware_range_grid(rows, cols, step, vertices, cells))
     sp = read(path)
     x = np.array(pts)[:, 0]
     np.testing.assert_array_equal(sp.line_ids, np.round(x / step).astype(int))

@@ -13,7 +13,7 @@ import pytest
 import trimesh
 
 import scanmesh
-from conftest import DATA
+from conftest import DATA, cyberware_range_grid
 from scanmesh import _core
 from scanmesh.cli import main
 from scanmesh.errors import CurtainsWarning, ParameterError
@@ -42,24 +42,9 @@ def steps_range_grid() -> str:
             z = 10.0 if 8 <= c <= 15 and 5 <= r <= 14 else 0.02 * x
             cells.append(f"1 {len(pts)}")
             pts.append((x, y, z))
-    head = [
-        "ply",
-        "format ascii 1.0",
-        "comment synthetic range grid: a block on a slope, seen along z",
-        "obj_info is_cyberware_data 1",
-        f"obj_info num_cols {cols}",
-        f"obj_info num_rows {rows}",
-        f"obj_info echo_lgincr {step}",
-        f"element vertex {len(pts)}",
-        "property float x",
-        "property float y",
-        "property float z",
-        f"element range_grid {rows * cols}",
-        "property list uchar int vertex_indices",
-        "end_header",
-    ]
-    body = [f"{x:g} {y:g} {z:g}" for x, y, z in pts] + cells
-    return "\n".join(head + body) + "\n"
+    vertices = [f"{x:g} {y:g} {z:g}" for x, y, z in pts]
+    comment = "synthetic range grid: a block on a slope, seen along z"
+    return cyberware_range_grid(rows, cols, step, vertices, cells, comment)
 
 
 def test_the_test_file_is_what_its_generator_writes():
