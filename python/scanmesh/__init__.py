@@ -23,6 +23,7 @@ from importlib import metadata as _metadata
 
 from scanmesh.demo import load_demo
 from scanmesh.errors import (
+    ClosedPartWarning,
     CoincidentPointsWarning,
     CurtainsWarning,
     DegenerateInputError,
@@ -92,5 +93,6 @@ __all__ = [
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",
     "CurtainsWarning",
+    "ClosedPartWarning",
     "WireZoomWarning",
 ]

@@ -50,6 +50,12 @@ class CurtainsWarning(ScanmeshWarning):
     the scanner's rays pass along, hung across depth jumps, not surface it saw."""
 
 
+class ClosedPartWarning(ScanmeshWarning):
+    """A closed mesh (a solid's surface, such as a CAD export) was given as scan points: its
+    vertices are not one height field's samples, so it was scanned by the virtual digitizer
+    (``scan.closed_part``) and that scan meshed; the message says how."""
+
+
 class WireZoomWarning(ScanmeshWarning):
     """A wireframe picture shows the middle of the mesh, zoomed so that its triangles'
     edges stay apart (``present.render.WIRE_PIXELS``); the message says by how much."""

@@ -1,6 +1,7 @@
-"""The vertices of a mesh file (STL, OBJ, OFF) read as scan points, its faces ignored.
+"""The vertices of a mesh file (STL, OBJ, OFF) read as scan points, its faces ignored
+(a closed mesh given to ``reconstruct`` is scanned instead: ``scan.closed_part``).
 
-A mesh someone already has (a previous reconstruction, a CAD export) is a cloud of points
+A mesh someone already has (a previous reconstruction, a patch of a surface) is a cloud of points
 to mesh again. Read through trimesh as the file stores them; STL repeats each vertex in
 every triangle that uses it, so exact repeats are dropped, the first kept, file order
 otherwise unchanged. PLY meshes are read by :mod:`.ply` (vertex properties kept).

@@ -288,7 +288,8 @@ def read_ply(
     ScanPoints
         ``points`` (N, 3) float64 from the vertex ``x``, ``y``, ``z`` properties;
         ``line_ids`` (N,) int64 frame index and ``grid`` (frames, positions) for a range
-        grid, else None; ``up`` from a ``comment scanmesh up x y z`` header line.
+        grid, else None; ``up`` from a ``comment scanmesh up x y z`` header line;
+        ``extra["faces_ignored"]`` the file's face count (faces are not read here).
     """
     if lines not in ("auto", "rows", "columns"):
         raise ParameterError(f"lines must be 'auto', 'rows' or 'columns', got {lines!r}")
@@ -347,7 +348,13 @@ def read_ply(
         points = np.column_stack([vertices[c].astype(np.float64) for c in "xyz"])
         data_of = {p[0]: vertices[p[0]].astype(p[1]) for p in vertex_el.props}
     check_finite(path, points, "vertex")
-    extra: dict[str, Any] = {"format": "ply", "encoding": head.fmt, "obj_info": head.info}
+    faces = sum(el.count for el in head.elements if el.name == "face")
+    extra: dict[str, Any] = {
+        "format": "ply",
+        "encoding": head.fmt,
+        "obj_info": head.info,
+        "faces_ignored": faces,
+    }
     line_ids, cells = None, None
     if grid is not None:
         by_columns = lines == "columns" or (lines == "auto" and _is_cyberware(head.info))

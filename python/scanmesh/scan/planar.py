@@ -29,6 +29,7 @@ from scanmesh.errors import ParameterError
 from scanmesh.formats import ScanPoints, read
 from scanmesh.formats._source import InputFile, input_file
 from scanmesh.formats.georef import Georef
+from scanmesh.scan.closed_part import scan_closed_part
 from scanmesh.scan.plane_choice import PlaneChoice, choose_plane
 from scanmesh.scan.projection import Frame, PlaneSpec, check_span, plane_args, project_checked
 
@@ -202,6 +203,8 @@ def planar_scan(
         path = Path(source)
         recorded = input_file(path)
         scan = read_scan_file(path, progress, read_options or {})
+        if lines is None:  # a closed mesh's vertices are no scan: scan the part instead
+            scan = scan_closed_part(scan, plane) or scan
         seconds = time.perf_counter() - t0
         ids = scan.line_ids if lines is None else lines
         made = as_scan(scan.points, plane=plane, lines=ids, up=scan.up)

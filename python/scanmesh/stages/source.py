@@ -8,6 +8,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh.formats import ScanPoints
 from scanmesh.formats._source import input_file
+from scanmesh.scan.closed_part import scan_closed_part
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.scan.projection import PlaneSpec
 
@@ -24,6 +25,8 @@ def scan_of(
     the scan's source (recorded now, by absolute path and inode, so that no writer replaces
     it) and its ``point_data``."""
     if isinstance(source, ScanPoints):
+        if lines is None:  # a closed mesh's vertices are no scan: scan the part instead
+            source = scan_closed_part(source, plane) or source
         ids = source.line_ids if lines is None else lines
         made = as_scan(source.points, plane=plane, lines=ids, up=source.up)
         return dataclasses.replace(
