@@ -120,7 +120,7 @@ def _along(up: np.ndarray) -> str:
 
 
 def _axis_name(direction: np.ndarray) -> str:
-    """"+z"-style name of an axis direction, else the vector's components."""
+    """The name of an axis direction ("-y"), else the vector's components."""
     for name in SCAN_DIRECTIONS:
         if np.array_equal(parse_axis(name, "up"), direction):
             return name
