@@ -32,9 +32,12 @@ import panel
 import scanmesh
 from scanmesh.evaluate.holdout import holdout_error
 from scanmesh.scan.locate import heights_at, locate
+from scanmesh.stages.choice import folds, window
 
 CANDIDATES = ("anneal", "lop", "delaunay", "shortest-path")
 BASELINES = ("delaunay", "lop", "lookahead", "shortest-path")
+#: Methods whose true error is measured.
+MEASURED_METHODS = ("anneal", *BASELINES)
 
 
 class _Box:
@@ -55,29 +58,6 @@ def _kw(method: str, plane, lines, seed: int) -> dict:
     if method == "anneal":
         kw["seed"] = seed
     return kw
-
-
-def window(pts: np.ndarray, lines: np.ndarray | None, size: int) -> np.ndarray:
-    """Indices of at most ``size`` points: consecutive lines around the middle line (all
-    points when there are at most ``size``)."""
-    if len(pts) <= size or lines is None:
-        return np.arange(len(pts))
-    ids, counts = np.unique(lines, return_counts=True)
-    lo = hi = len(ids) // 2
-    total = counts[lo]
-    while True:
-        grew = False
-        if hi + 1 < len(ids) and total + counts[hi + 1] <= size:
-            hi += 1
-            total += counts[hi]
-            grew = True
-        if lo > 0 and total + counts[lo - 1] <= size:
-            lo -= 1
-            total += counts[lo]
-            grew = True
-        if not grew:
-            break
-    return np.flatnonzero(np.isin(lines, ids[lo : hi + 1]))
 
 
 def distances(pts: np.ndarray, kept: np.ndarray, out: np.ndarray, surface) -> np.ndarray:
@@ -102,17 +82,9 @@ def distances(pts: np.ndarray, kept: np.ndarray, out: np.ndarray, surface) -> np
     return got
 
 
-def folds(n_units: int, seed: int, measured: int) -> list[np.ndarray]:
-    """Up to 10 disjoint tenths of ``range(n_units)`` (seeded), as many as it takes to
-    withhold about ``measured`` units."""
-    perm = np.random.default_rng(seed).permutation(n_units)
-    k = int(min(10, max(1, np.ceil(measured / max(1, n_units // 10)))))
-    return [np.sort(perm[f::10]) for f in range(k)]
-
-
 def judge(pts, lines, plane, seed: int, size: int, measured: int, modes) -> dict:
     """Per (by, method): per fold the (2, withheld) distances of the withheld window points."""
-    win = window(pts, lines, size)
+    win = np.arange(len(pts)) if lines is None else window(lines, size)
     wp = pts[win]
     wl = None if lines is None else lines[win]
     got: dict = {"window": len(win)}
@@ -146,17 +118,17 @@ def measure(scan: dict, folder: Path, size: int, measured: int, modes) -> dict:
     out: dict = {"name": scan["name"], "kind": scan["kind"], "n": len(pts)}
     if scan["kind"] == "sim":
         out["truth"] = {}
-        for m in CANDIDATES:
+        for m in MEASURED_METHODS:
             box = _Box()
             panel.child("sim", info, m, box)
             out["truth"][m] = box.got["h_rms"]
         out["judges"] = [judge(pts, lines, plane, 0, size, measured, modes)]
     else:
-        out["truth"] = {m: [] for m in CANDIDATES}
+        out["truth"] = {m: [] for m in MEASURED_METHODS}
         out["judges"] = []
         for s in panel.HOLDOUT_SEEDS:
             kept = None
-            for m in CANDIDATES:
+            for m in MEASURED_METHODS:
                 kw = _kw(m, plane, lines, s)
                 kw.pop("seed", None)
                 r = holdout_error(pts, m, fraction=panel.HOLDOUT_FRACTION, seed=s, **kw)
