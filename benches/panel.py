@@ -45,7 +45,7 @@ import numpy as np
 #: ../shared/data beside the repository (as the other benches find the shared data)
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 
-METHODS = ("delaunay", "lop", "lookahead", "shortest-path", "anneal")
+METHODS = ("delaunay", "lop", "lookahead", "shortest-path", "anneal", "auto")
 
 #: Per CAD part: the axis its scanned side is a height field along (see the data README).
 PARTS = {
@@ -202,9 +202,9 @@ def child(kind: str, info: dict, method: str, out: mp.Queue) -> None:
     lines = data["lines"] if len(data["lines"]) else None
     plane = info.get("plane")
     kw = {"plane": plane} if plane is not None else {}
-    if method in ("lookahead", "shortest-path", "anneal") and lines is not None:
+    if method in ("lookahead", "shortest-path", "anneal", "auto") and lines is not None:
         kw["lines"] = lines
-    if method == "anneal":
+    if method in ("anneal", "auto"):
         kw["seed"] = 0
     t0 = time.perf_counter()
     surface = scanmesh.reconstruct(pts, method, **kw)

@@ -26,6 +26,7 @@ Progress = bool | Callable[..., None] | None
 #: Stage names, in pipeline order, with the unit of their ``done`` / ``total``.
 STAGES: dict[str, str] = {
     "read": "bytes",
+    "choose": "builds",
     "lines": "points",
     "strips": "points",
     "delaunay": "points",

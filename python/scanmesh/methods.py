@@ -16,7 +16,7 @@ from scanmesh._checks import Option, check_options
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.scan.planar import PlanarScan
-from scanmesh.stages import anneal, grid, lop, optimal, strips
+from scanmesh.stages import anneal, choice, grid, lop, optimal, strips
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.options import MAX_EDGE_OPTION
 from scanmesh.surface import Surface
@@ -182,11 +182,28 @@ def _run_anneal(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surfa
     return anneal.anneal_surface(start, seed=kw.seed, progress=kw.progress, **rest)
 
 
+def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
+    """The candidate a holdout on a window of the scan prefers (``stages.choice``), built on
+    all points with the call's keywords; ``options["method_choice"]`` says what each
+    candidate measured."""
+    quiet = Keywords(max_edge=kw.max_edge, seed=kw.seed)
+
+    def build(name: str, part: PlanarScan) -> Surface:
+        spec = TABLE[name]
+        return spec.run(part, spec.check({}, {}), quiet)
+
+    made = choice.choose(scan, build, seed=kw.seed or 0, progress=kw.progress)
+    spec = TABLE[made.chosen]
+    surface = spec.run(scan, spec.check({}, {}), kw)
+    surface.options = {**surface.options, "method_choice": made.as_dict()}
+    return surface
+
+
 def _run_optimal(scan: PlanarScan, params: dict[str, Any], _kw: Keywords) -> Surface:
     return optimal.optimal_surface(scan, **params)
 
 
-#: Every method, fast to slow.
+#: Every method, fast to slow (``auto`` builds several).
 TABLE: dict[str, Method] = {
     m.name: m
     for m in (
@@ -235,6 +252,14 @@ TABLE: dict[str, Method] = {
             uses=_anneal_uses,
         ),
         Method(
+            "auto",
+            _run_auto,
+            frozenset({"lines", "max_edge", "seed"}),
+            (),
+            "the default: the method a holdout on a window of the scan prefers (anneal, lop,"
+            " delaunay, shortest-path)",
+        ),
+        Method(
             "optimal",
             _run_optimal,
             frozenset(),
@@ -243,6 +268,9 @@ TABLE: dict[str, Method] = {
         ),
     )
 }
+
+#: The method of :func:`scanmesh.reconstruct` and the command when none is named.
+DEFAULT_METHOD = "auto"
 
 #: Method names, fast to slow.
 METHODS: tuple[str, ...] = tuple(TABLE)
@@ -270,6 +298,7 @@ __all__ = [
     "Keywords",
     "TABLE",
     "METHODS",
+    "DEFAULT_METHOD",
     "SHARED",
     "method",
     "initial_surface",

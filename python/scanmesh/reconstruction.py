@@ -12,7 +12,7 @@ from scanmesh._progress import Progress, Stage
 from scanmesh.errors import CurtainsWarning, NotAHeightFieldWarning, ScanmeshError
 from scanmesh.formats import ScanPoints
 from scanmesh.measures import CURTAIN_ANGLE_DEG, CURTAIN_WARN_FRACTION, curtains
-from scanmesh.methods import METHODS, Keywords
+from scanmesh.methods import DEFAULT_METHOD, METHODS, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
@@ -27,7 +27,7 @@ __all__ = ["reconstruct", "METHODS"]
 
 def reconstruct(
     source: ArrayLike | str | os.PathLike | PlanarScan | ScanPoints,
-    method: str = "anneal",
+    method: str = DEFAULT_METHOD,
     *,
     lines: ArrayLike | None = None,
     plane: PlaneSpec = None,
@@ -47,8 +47,13 @@ def reconstruct(
         :func:`scanmesh.planar_scan` made once and reused across methods (``plane`` and
         ``lines`` then belong to it).
     method : str
-        ``"delaunay"`` (max-min angle optimum in the plane), ``"lookahead"`` and
-        ``"shortest-path"`` (Fuchs-matrix strips between consecutive scan lines), ``"lop"``
+        ``"auto"`` (default: the method a holdout on a window of the scan prefers among
+        annealing, LOP, Delaunay and shortest-path, see ``scanmesh.stages.choice``; the
+        window's points withheld a tenth at a time, seeded by ``seed``; the Surface is the
+        chosen method's, and ``options["method_choice"]`` gives ``"chosen"`` and every
+        candidate's ``"holdout"`` RMS), ``"delaunay"`` (max-min angle optimum in the
+        plane), ``"lookahead"`` and ``"shortest-path"`` (Fuchs-matrix strips between
+        consecutive scan lines), ``"lop"``
         (greedy tac flips), ``"anneal"`` (simulated annealing on tac), ``"optimal"``
         (certified tac optimum, small inputs only).
     lines : (N,) int, optional
@@ -64,7 +69,8 @@ def reconstruct(
         Trimming length of the Delaunay triangulation (methods "delaunay", and "lop" and
         "anneal" from it; default 5 x median spacing; ``math.inf`` keeps the convex hull).
     seed : int, optional
-        Seed for annealing (default 0). The same seed gives the same faces.
+        Seed for annealing and for the holdout of ``"auto"`` (default 0). The same seed
+        gives the same faces.
 
     A keyword the chosen method does not use is refused (``scanmesh.methods.TABLE`` says
     which method uses which).
@@ -73,9 +79,10 @@ def reconstruct(
         A callable is called as ``progress(done, total, value)``. If it accepts a keyword
         argument ``stage`` (or ``**kwargs``) it is called for every stage, as
         ``progress(done, total, value, stage=name)`` with ``name`` in ``"read"`` (bytes;
-        text files report every chunk), ``"lines"`` and ``"strips"`` (points), ``"delaunay"``
-        (points), ``"trim"`` (faces), for annealing ``"noise"`` (points: the noise estimate
-        behind the tie tolerance), ``"calibrate"`` (faces: the annealer's mesh and T0),
+        text files report every chunk), ``"choose"`` (builds: the candidates of ``"auto"``
+        on the window), ``"lines"`` and ``"strips"`` (points), ``"delaunay"`` (points),
+        ``"trim"`` (faces), for annealing ``"noise"`` (points: the noise estimate behind
+        the tie tolerance), ``"calibrate"`` (faces: the annealer's mesh and T0),
         ``"anneal"`` (sweeps; ``value`` is the energy; every ~20 ms; a callable that takes
         ``seconds_left`` gets the estimated time left) and ``"polish"`` (faces: the best
         state, polished), ``"steep"`` (faces: the height-field check below) and, from

@@ -42,7 +42,7 @@ from scanmesh.cli.simulate import cmd_simulate
 from scanmesh.cli.view import cmd_view
 from scanmesh.errors import ScanmeshError
 from scanmesh.fusion import MAX_VOXELS, TRUNCATION_VOXELS
-from scanmesh.methods import METHODS
+from scanmesh.methods import DEFAULT_METHOD, METHODS
 from scanmesh.scan.steep import STEEP_ANGLE_DEG
 
 
@@ -80,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
         " inf keeps the convex hull)",
     )
     shape.add_argument(
-        "--seed", type=_count, default=None, metavar="S", help="random seed (anneal; 0)"
+        "--seed", type=_count, default=None, metavar="S", help="random seed (anneal, auto; 0)"
     )
 
     parser = Parser(
@@ -103,7 +103,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", metavar="IN", help="scan file")
     _add_read_flags(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="mesh file to write")
-    p.add_argument("--method", choices=METHODS, default="anneal", help="method (anneal)")
+    p.add_argument(
+        "--method",
+        choices=METHODS,
+        default=None,
+        help=f"method ({DEFAULT_METHOD}: the one a holdout on the scan prefers; anneal when"
+        " only annealing's flags are given, or with --dask)",
+    )
     p.add_argument("--report", metavar="R.json", help="also write a JSON report")
     p.add_argument("--preview", metavar="P.png", help="also write a shaded picture")
     p.add_argument(

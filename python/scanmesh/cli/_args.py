@@ -8,7 +8,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from scanmesh.methods import INITIALS, SHARED, TABLE, used_keywords
+from scanmesh.methods import DEFAULT_METHOD, INITIALS, SHARED, TABLE, used_keywords
 from scanmesh.present.render import COLOR_BY
 
 
@@ -231,6 +231,19 @@ def _given_flags(args: argparse.Namespace) -> dict[str, Any]:
         for name in _method_flags()
         if getattr(args, name, None) is not None
     }
+
+
+def chosen_method(args: argparse.Namespace, dask: bool = False) -> str:
+    """``--method`` as given; without it annealing when only annealing's flags are given
+    (they meant annealing when it was the default) or on Dask (which has no "auto"), else
+    the default method."""
+    if args.method is not None:
+        return str(args.method)
+    flags = _method_flags()
+    given = _given_flags(args)
+    if dask or (given and all("anneal" in flags[name][1] for name in given)):
+        return "anneal"
+    return DEFAULT_METHOD
 
 
 def _refuse_stray_flags(

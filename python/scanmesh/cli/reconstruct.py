@@ -18,7 +18,13 @@ import numpy as np
 from scanmesh import __version__
 from scanmesh._extras import require
 from scanmesh._progress import Stage
-from scanmesh.cli._args import _method_options, _read_options, _refuse_stray_flags, _shared
+from scanmesh.cli._args import (
+    _method_options,
+    _read_options,
+    _refuse_stray_flags,
+    _shared,
+    chosen_method,
+)
 from scanmesh.cli._common import (
     _background,
     _check_mesh_ending,
@@ -46,6 +52,7 @@ from scanmesh.scan.planar import planar_scan
 
 def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     """Read scan points, triangulate them, write the mesh (and a report and a preview)."""
+    args.method = chosen_method(args, dask=args.dask is not None)
     if args.dask is not None:
         return _reconstruct_on_dask(args, con)
     if args.workers is not None or args.partition_lines is not None:

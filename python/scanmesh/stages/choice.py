@@ -1,0 +1,227 @@
+"""The method chosen by the data (``method="auto"``, the default): a holdout among candidates.
+
+No one method is best on every scan: annealing wins on creased parts and fran_cut, LOP on
+SainteHelens, Delaunay on the Autzen ground and a noisy conrod (docs/benchmarks/panel.md).
+So the default judges them on the scan itself, as ``scan.plane_choice`` judges planes: in
+a window of at most ``WINDOW`` points (whole scan lines around the middle one), a seeded
+tenth of the points is withheld, every candidate is built on the rest, and each withheld
+point's distance to each mesh along the projection normal is measured (the measure of
+:func:`scanmesh.evaluate.holdout.holdout_error`), on the points that every candidate's mesh
+covers. Disjoint tenths are withheld in turn until at least ``MEASURED`` points are measured
+(at most ten: every point once). The lowest RMS wins (on exact ties the earlier candidate)
+among the candidates whose meshes have at most ``SLIVERS`` slivers.
+The winner is then built on all points.
+
+The judge sees what a holdout sees: on real scans it agrees with the panel's holdout; on
+the stepped pocket it ranks the strips last while they are closest to the part (a withheld
+point beside a step is where strips bridge it), so there annealing stays.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from scanmesh._progress import Progress, Stage
+from scanmesh.errors import ScanmeshError
+from scanmesh.scan.lines import GAP_FACTOR
+from scanmesh.scan.locate import heights_at, locate
+from scanmesh.scan.planar import PlanarScan, as_scan
+from scanmesh.surface import Surface
+
+#: Candidates, in order of preference (the earlier wins an exact tie). Look-ahead is left
+#: out: it never beat shortest-path by more than 0.1 % on the panel, and its defect on the
+#: fandisk (40 x the height error) does not show in a holdout.
+CANDIDATES: tuple[str, ...] = ("anneal", "lop", "delaunay", "shortest-path")
+
+#: Points of the window the candidates are judged on, at most (whole lines).
+WINDOW: int = 20_000
+
+#: Withheld points measured, at least (tenths withheld in turn, at most ten).
+MEASURED: int = 3_000
+
+#: A candidate whose meshes of the window have a larger share of slivers (mean over the
+#: tenths; ``measures.SLIVER_ANGLE_DEG``) is chosen only if every candidate has: the
+#: default keeps slivers under 5 % (LOP makes 5.7 % on fran_cut, 7.3 % on the Autzen ground).
+SLIVERS: float = 0.05
+
+#: A candidate leaving more withheld points outside its mesh than the fewest by this share
+#: of them is not judged (strips on points without scan lines): its figure is None.
+OUTSIDE: float = 0.10
+
+#: A window of fewer points is not judged: annealing, the first candidate, is taken.
+MIN_POINTS: int = 30
+
+#: What the holdout figures measure, for reports.
+MEASURE = (
+    "RMS distance along the projection normal from withheld window points to each"
+    " candidate's mesh of the other window points, on the points every mesh covers"
+)
+
+
+@dataclass(frozen=True)
+class MethodChoice:
+    """The method ``method="auto"`` chose, and what every candidate measured."""
+
+    #: the chosen method's name
+    chosen: str
+    #: candidate -> holdout RMS (model units) on the points every judged candidate covers
+    #: (nan: not judged, see OUTSIDE)
+    holdout: dict[str, float]
+    #: candidate -> withheld points its mesh left outside (beyond its outline, in holes)
+    outside: dict[str, int]
+    #: candidate -> share of slivers of its meshes (mean over the tenths; inf: its build
+    #: failed on a part)
+    slivers: dict[str, float]
+    #: points of the window, withheld points measured (covered by every mesh), tenths used
+    window: int
+    measured: int
+    folds: int
+    #: candidate -> seconds building it on the folds
+    seconds: dict[str, float]
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary for ``Surface.options["method_choice"]`` and the report."""
+        return {
+            "chosen": self.chosen,
+            "holdout": {k: None if math.isnan(v) else v for k, v in self.holdout.items()},
+            "outside": dict(self.outside),
+            "slivers": {k: None if math.isinf(v) else v for k, v in self.slivers.items()},
+            "window": self.window,
+            "measured": self.measured,
+            "folds": self.folds,
+            "seconds": dict(self.seconds),
+            "measure": MEASURE,
+        }
+
+
+def window(line_ids: np.ndarray, size: int = WINDOW) -> np.ndarray:
+    """(W,) int64 sorted indices of whole lines around the middle line id, at most ``size``
+    points (all when there are at most ``size``; the middle line alone if it is longer).
+    ``line_ids`` (N,) int. O(N log N)."""
+    if len(line_ids) <= size:
+        return np.arange(len(line_ids))
+    ids, counts = np.unique(line_ids, return_counts=True)
+    lo = hi = len(ids) // 2
+    total = int(counts[lo])
+    grew = True
+    while grew:
+        grew = False
+        if hi + 1 < len(ids) and total + counts[hi + 1] <= size:
+            hi += 1
+            total += int(counts[hi])
+            grew = True
+        if lo > 0 and total + counts[lo - 1] <= size:
+            lo -= 1
+            total += int(counts[lo])
+            grew = True
+    return np.flatnonzero(np.isin(line_ids, ids[lo : hi + 1]))
+
+
+def folds(n: int, seed: int, measured: int = MEASURED) -> list[np.ndarray]:
+    """Disjoint seeded tenths of ``range(n)`` (each (about n/10,) int64, sorted), as many
+    as withhold at least ``measured`` points, at most ten. O(n)."""
+    perm = np.random.default_rng(seed).permutation(n)
+    k = min(10, n, max(1, math.ceil(measured / max(1, n // 10))))
+    return [np.sort(perm[f::10]) for f in range(k)]
+
+
+def distances(
+    points: np.ndarray, kept: np.ndarray, out: np.ndarray, surface: Surface
+) -> np.ndarray:
+    """(len(out),) float64 distance along ``surface``'s projection normal from each withheld
+    point ``points[out]`` to ``surface`` (built on ``points[kept]``); nan outside its
+    outline or in its holes. ``points`` (W, 3) float64. O((F + len(out)) log F)."""
+    frame = surface.frame
+    axes = np.column_stack([frame.u, frame.v])
+    tri = surface.vertices[surface.faces]  # (F, 3, 3): the points[kept] it was built on
+    tri_uv = tri @ axes  # (F, 3, 2)
+    uv = points[out] @ axes
+    face = locate(uv, tri_uv)
+    inside = face >= 0
+    got = np.full(len(out), np.nan)
+    heights = heights_at(uv[inside], tri_uv, tri @ frame.normal, face[inside])
+    got[inside] = np.abs(points[out[inside]] @ frame.normal - heights)
+    return got
+
+
+def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
+    """The points ``index`` of ``scan`` as a scan of their own, projected along the same
+    normal (not chosen again), with their line ids."""
+    plane = tuple(float(c) for c in scan.frame.normal)
+    return as_scan(scan.points[index], plane=plane, lines=lines[index], up=scan.up)
+
+
+def choose(
+    scan: PlanarScan,
+    build: Callable[[str, PlanarScan], Surface],
+    seed: int = 0,
+    candidates: tuple[str, ...] = CANDIDATES,
+    progress: Progress = False,
+) -> MethodChoice:
+    """The candidate whose meshes lie closest to withheld points of ``scan``.
+
+    ``build(name, part)`` builds candidate ``name`` on a part of the scan. The window is
+    :func:`window` of the scan's line ids (given, else detected), the withheld tenths
+    :func:`folds` of it, seeded by ``seed``; reports the stage "choose" (builds). A
+    candidate whose build fails on a part is not judged; a window under ``MIN_POINTS``
+    points is not judged at all (the first candidate). O(folds x candidates x a build of
+    WINDOW points)."""
+    lines = scan.line_ids_for(GAP_FACTOR)
+    win = window(lines)
+    parts = folds(len(win), seed, MEASURED) if len(win) >= MIN_POINTS else []
+    dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
+    slivers = dict.fromkeys(candidates, 0.0)
+    seconds = dict.fromkeys(candidates, 0.0)
+    with Stage(progress, "choose", len(parts) * len(candidates)) as stage:
+        for out in parts:
+            kept = np.setdiff1d(np.arange(len(win)), out)
+            part = _part(scan, lines, win[kept])
+            for name in candidates:
+                t0 = time.perf_counter()
+                try:
+                    with warnings.catch_warnings():  # the parts' warnings are not the scan's
+                        warnings.simplefilter("ignore")
+                        surface = build(name, part)
+                except ScanmeshError:  # a method that fails on a part is not judged
+                    dist[name].append(np.full(len(out), np.nan))
+                    slivers[name] = math.inf
+                else:
+                    dist[name].append(distances(scan.points[win], kept, out, surface))
+                    slivers[name] += surface.quality.sliver_fraction / len(parts)
+                seconds[name] += time.perf_counter() - t0
+                stage.update(stage.done + 1)
+    joined = {name: np.concatenate(d) if d else np.empty(0) for name, d in dist.items()}
+    outside = {name: int(np.isnan(d).sum()) for name, d in joined.items()}
+    n_out = sum(len(p) for p in parts)
+    # a candidate leaving many more points outside its outline than the fewest is not judged
+    fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
+    covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
+    holdout = {
+        name: float(np.sqrt(np.mean(d[covered] ** 2)))
+        if name in fair and covered.any()
+        else math.nan
+        for name, d in joined.items()
+    }
+    measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
+    few = {k: v for k, v in measured.items() if slivers[k] <= SLIVERS} or measured
+    chosen = min(few, key=few.__getitem__) if few else candidates[0]
+    return MethodChoice(
+        chosen=chosen,
+        holdout=holdout,
+        outside=outside,
+        slivers=slivers,
+        window=len(win),
+        measured=int(covered.sum()),
+        folds=len(parts),
+        seconds=seconds,
+    )
+
+
+__all__ = ["MethodChoice", "choose", "window", "folds", "distances", "CANDIDATES", "WINDOW"]

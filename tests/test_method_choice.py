@@ -1,0 +1,112 @@
+"""The default method (``"auto"``): a holdout among annealing, LOP, Delaunay and shortest-path
+on a window of the scan chooses the method, seeded; what each candidate measured is kept."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import trimesh
+
+import scanmesh
+from conftest import DATA, bumpy_patch
+from scanmesh.methods import DEFAULT_METHOD
+from scanmesh.scan.planar import as_scan
+from scanmesh.stages import choice
+
+
+def _turned_scan(name: str, up: str, noise: float):
+    """The panel's oblique scan of a part in tests/data: turned 30 degrees about ``up``,
+    scanned at 1/150 of its extent with noise ``noise`` x the spacing (seed 0)."""
+    part = trimesh.load(DATA / "cad" / name, force="mesh")
+    axis = np.eye(3)["xyz".index(up)]
+    turn = trimesh.transformations.rotation_matrix(np.radians(30.0), axis, part.centroid)
+    part.apply_transform(turn)
+    across = [k for k in range(3) if "xyz"[k] != up]
+    spacing = float(np.ptp(part.bounds[:, across], axis=0).max()) / 150
+    return scanmesh.simulate_scan(
+        part, up=up, along="x", spacing=spacing, noise=noise * spacing, seed=0
+    )
+
+
+def test_the_default_is_auto_and_anneal_still_anneals(monkeypatch):
+    monkeypatch.setattr(choice, "MEASURED", 1)  # one tenth withheld: quick
+    pts = bumpy_patch(400, 3)
+    assert DEFAULT_METHOD == "auto"
+    default = scanmesh.reconstruct(pts, plane="z")
+    made = default.options["method_choice"]
+    assert made["chosen"] == default.method
+    assert set(made["holdout"]) == set(choice.CANDIDATES)
+    assert made["measured"] > 0 and made["folds"] == 1
+    annealed = scanmesh.reconstruct(pts, "anneal", plane="z")
+    assert annealed.method == "anneal" and "method_choice" not in annealed.options
+
+
+def test_the_same_seed_makes_the_same_choice_and_faces(monkeypatch):
+    monkeypatch.setattr(choice, "MEASURED", 1)
+    pts = bumpy_patch(600, 5)
+    a = scanmesh.reconstruct(pts, plane="z", seed=3)
+    b = scanmesh.reconstruct(pts, plane="z", seed=3)
+    assert a.options["method_choice"]["holdout"] == b.options["method_choice"]["holdout"]
+    assert np.array_equal(a.faces, b.faces)
+    other = scanmesh.reconstruct(pts, plane="z", seed=4)
+    # another seed withholds other points: other figures
+    assert other.options["method_choice"]["holdout"] != a.options["method_choice"]["holdout"]
+
+
+def test_the_lowest_holdout_wins_and_the_earlier_candidate_an_exact_tie():
+    scan = as_scan(bumpy_patch(300, 1), plane="z")
+    built = {}
+
+    def build(name, part):
+        built[name] = built.get(name, 0) + 1
+        surface = scanmesh.reconstruct(part, "delaunay")
+        if name == "bad":  # the same faces half a unit higher
+            return dataclasses.replace(surface, vertices=surface.vertices + [0.0, 0.0, 0.5])
+        return surface
+
+    made = choice.choose(scan, build, candidates=("bad", "good", "same"))
+    assert made.chosen == "good"  # "same" ties with it exactly: the earlier wins
+    assert made.holdout["good"] == made.holdout["same"] < made.holdout["bad"]
+    assert built == {name: made.folds for name in ("bad", "good", "same")}
+
+
+def test_the_window_is_whole_lines_around_the_middle_and_the_folds_disjoint():
+    lines = np.repeat(np.arange(100), 300)  # 30,000 points, 300 a line
+    win = choice.window(lines, size=20_000)
+    kept = np.unique(lines[win])
+    assert len(win) <= 20_000 and len(win) == 300 * len(kept)
+    assert np.all(np.diff(kept) == 1) and kept[0] <= 50 <= kept[-1]
+    parts = choice.folds(2_000, seed=1, measured=500)
+    assert len(parts) == 3  # tenths of 200 until 500 are withheld
+    joined = np.concatenate(parts)
+    assert len(np.unique(joined)) == len(joined)
+    assert [p.tolist() for p in choice.folds(2_000, seed=1, measured=500)] == [
+        p.tolist() for p in parts
+    ]
+    assert len(choice.folds(2_000, seed=1, measured=10**6)) == 10  # each point once
+
+
+def test_on_the_noisy_oblique_conrod_the_default_takes_delaunay():
+    """The conrod turned 30 degrees at noise s/30 (the panel's scan): Delaunay is 12 % closer
+    to the part than annealing; the holdout ranks it first too."""
+    pts, lines = _turned_scan("conrod_slevin48_onshape.stl", "y", 1 / 30)
+    default = scanmesh.reconstruct(pts, plane="y", lines=lines, seed=0)
+    assert default.method == "delaunay"
+    made = default.options["method_choice"]
+    assert made["holdout"]["delaunay"] < made["holdout"]["anneal"]
+
+
+def test_on_the_oblique_pocket_the_default_still_anneals():
+    """The pocket of test_anneal_start's oblique crease test: annealing (from LOP's free
+    optimum) is closest to the part, and the holdout keeps it."""
+    pts, lines = _turned_scan("octagonal_pocket.ply", "z", 0.0)
+    default = scanmesh.reconstruct(pts, plane="z", lines=lines, seed=0)
+    assert default.method == "anneal"
+
+
+def test_a_scan_too_small_to_judge_is_annealed():
+    pts = bumpy_patch(12, 2)
+    surface = scanmesh.reconstruct(pts, plane="z")
+    made = surface.options["method_choice"]
+    assert surface.method == "anneal" and made["folds"] == 0 and made["measured"] == 0
