@@ -174,7 +174,7 @@ pub fn trim_long_edges(
     }
     let twins = twins_of(uv.len(), triangles)?;
     let jumps = UnitJumps::when_finite(jumps);
-    Ok(trim(uv, triangles, &twins, max_edge, jumps.as_ref(), None))
+    Ok(trim(uv, triangles, &twins, max_edge, jumps, None))
 }
 
 /// Refuses a planar trimming length that is NaN or not positive (`∞` keeps every length);
@@ -261,10 +261,10 @@ pub fn delaunay_trimmed(
         &d.triangles,
         &d.twins,
         limit,
-        jumps.as_ref(),
+        jumps,
         order.as_deref(),
     );
-    drop((gathered, jumps));
+    drop(gathered);
     let mut vertex = vec![false; uv.len()];
     d.triangles
         .as_flattened()
@@ -294,20 +294,26 @@ pub fn delaunay_trimmed(
 /// The rules of [`trim_long_edges`] as keep flags over `triangles` (with their `twins`):
 /// the length and jump tests in parallel, then the boundary rounds (slivers, pinches) on
 /// the flags, each round a scan of the boundary of what is kept. `to_input` (when the
-/// labels are not the caller's) maps them back for the pinch tie-break. O(m) per round.
+/// labels are not the caller's) maps them back for the pinch tie-break. `jumps` is taken
+/// by value and dropped once the jump and gap rounds are done: its unit-box copy of the
+/// 3-D points (24 bytes a point) is not held through the hole rule and the peeling, where
+/// the call peaks. O(m) per round.
 fn trim(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     twins: &[u32],
     max_edge: f64,
-    jumps: Option<&UnitJumps>,
+    jumps: Option<UnitJumps>,
     to_input: Option<&[u32]>,
 ) -> Vec<[u32; 3]> {
     let short = ShortEnough::new(max_edge);
     let longest_within =
         |t: &[u32; 3]| (0..3).all(|k| short.test(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]));
-    let mut bridges = jumps.map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
-    if jumps.is_some_and(|j| j.gaps && j.factor.is_finite()) {
+    let mut bridges = jumps
+        .as_ref()
+        .map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
+    let holes_too = jumps.is_some_and(|j| j.gaps && j.factor.is_finite());
+    if holes_too {
         let holes = covering_holes(uv, triangles, DEFAULT_HOLE_FACTOR);
         bridges.iter_mut().zip(holes).for_each(|(b, h)| *b |= h);
     }
