@@ -186,16 +186,16 @@ def curtains(vertices: ArrayLike, faces: ArrayLike, sight: ArrayLike) -> Curtain
     # in a box of side about 1 (a power of two: exact), so that coordinates from 1e-300 to
     # 1e300 neither overflow nor underflow in the cross products
     down, up = unit_factors(float(np.abs(pts).max()) if len(pts) else 0.0)
-    unit = pts * down[0] * down[1]
     limit = math.sin(math.radians(CURTAIN_ANGLE_DEG))
     # (M,) twice each face's area in the box, and whether its plane is within
     # CURTAIN_ANGLE_DEG of the sight line; computed in blocks of faces, so the corners and
-    # normals never exist for the whole mesh at once (9 floats per face each)
+    # normals never exist for the whole mesh at once (9 floats per face each), nor a
+    # scaled copy of the points
     twice = np.empty(len(tri))
     graze = np.empty(len(tri), dtype=bool)
     for lo in range(0, len(tri), _CURTAIN_BLOCK):
         hi = min(lo + _CURTAIN_BLOCK, len(tri))
-        corner = unit[tri[lo:hi]]
+        corner = pts[tri[lo:hi]] * down[0] * down[1]
         normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
         twice[lo:hi] = np.linalg.norm(normal, axis=1)
         # |cos| of the angle between normal and sight below sin(5 deg): the plane is
