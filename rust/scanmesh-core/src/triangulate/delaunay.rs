@@ -1,7 +1,7 @@
 //! Planar Delaunay triangulation, with the map back to input indices: delaunator's sweep
 //! checked exactly, spade where the check fails.
 
-use crate::budget::{try_collect, try_filled};
+use crate::budget::{try_collect, try_filled, try_vec};
 use crate::geometry::{check_planar, orient2d, unit_square};
 use crate::mesh::locality::sweep_order;
 use crate::mesh::NONE;
@@ -95,7 +95,7 @@ pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<
                 order.iter().map(|&i| point(unit[i as usize])),
             )?;
             drop(unit);
-            sweep_points(local).map(|d| (d, order))
+            sweep_points(local)?.map(|d| (d, order))
         };
         if let Some((mut d, to_input)) = swept {
             // Copies of a point keep their input order in the sweep order, so the lowest
@@ -125,7 +125,7 @@ pub(crate) fn relabel(triangles: &mut [[u32; 3]], to_input: &[u32]) {
 /// O(n log n).
 #[cfg(test)]
 fn sweep(unit: &[[f64; 2]]) -> Option<Delaunay> {
-    sweep_points(unit.iter().map(|&p| point(p)).collect())
+    sweep_points(unit.iter().map(|&p| point(p)).collect()).unwrap()
 }
 
 /// delaunator's point type. O(1).
@@ -134,19 +134,21 @@ fn point(p: [f64; 2]) -> delaunator::Point {
 }
 
 /// [`sweep`] on the points already in delaunator's type: the only copy of the coordinates
-/// while it runs (its peak is the call's). O(n log n).
-fn sweep_points(points: Vec<delaunator::Point>) -> Option<Delaunay> {
+/// while it runs (its peak is the call's). Ok(None) when the result is not proven; the
+/// input-sized buffers after delaunator's own may fail to allocate (an
+/// [`Error::OutOfMemory`]). O(n log n).
+fn sweep_points(points: Vec<delaunator::Point>) -> Result<Option<Delaunay>> {
     let delaunator::Triangulation {
         triangles: corners,
         halfedges,
         ..
     } = delaunator::triangulate(&points);
-    let unit: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+    let unit = try_collect("Delaunay's unit points", points.iter().map(|p| [p.x, p.y]))?;
     drop(points);
     let unit = unit.as_slice();
     let m = corners.len() / 3;
     if m == 0 {
-        return None;
+        return Ok(None);
     }
     // delaunator's triangles turn one way (clockwise for y up); ours turn the other. Reversing
     // corners 1 and 2 maps half-edge k of a triangle to half-edge 2 - k. Each usize array is
@@ -154,41 +156,46 @@ fn sweep_points(points: Vec<delaunator::Point>) -> Option<Delaunay> {
     // The flip is its own inverse and keeps a half-edge in its triangle, so each triangle's
     // three twins are read from delaunator's three, in parallel.
     let flip = |h: usize| 3 * (h / 3) + 2 - h % 3;
-    let mut triangles: Vec<[u32; 3]> = corners
-        .par_chunks_exact(3)
-        .with_min_len(1 << 14)
-        .map(|t| [t[0] as u32, t[2] as u32, t[1] as u32])
-        .collect();
+    // Reserved fallibly, then filled in parallel (an indexed iterator writes in place).
+    let mut triangles: Vec<[u32; 3]> = try_vec("Delaunay's triangles", m)?;
+    triangles.par_extend(
+        corners
+            .par_chunks_exact(3)
+            .with_min_len(1 << 14)
+            .map(|t| [t[0] as u32, t[2] as u32, t[1] as u32]),
+    );
     drop(corners);
-    let twins: Vec<u32> = (0..3 * m)
-        .into_par_iter()
-        .with_min_len(1 << 16)
-        .map(|h| match halfedges[flip(h)] {
+    let mut twins: Vec<u32> = try_vec("Delaunay's twins", 3 * m)?;
+    twins.par_extend((0..3 * m).into_par_iter().with_min_len(1 << 16).map(|h| {
+        match halfedges[flip(h)] {
             delaunator::EMPTY => NONE,
             g => flip(g) as u32,
-        })
-        .collect();
+        }
+    }));
     drop(halfedges);
-    let duplicate_of = stand_ins(unit, &mut triangles)?;
-    let exact = proven(unit, &triangles, &twins);
-    exact.then_some(Delaunay {
+    let Some(duplicate_of) = stand_ins(unit, &mut triangles)? else {
+        return Ok(None);
+    };
+    let exact = proven(unit, &triangles, &twins)?;
+    Ok(exact.then_some(Delaunay {
         triangles,
         twins,
         duplicate_of,
-    })
+    }))
 }
 
 /// For points no triangle uses, the lowest index with the same coordinates, which becomes
-/// the vertex (relabelled in `triangles`); None when an unused point has no used twin (a
-/// distinct point delaunator skipped). O(n + m).
-fn stand_ins(unit: &[[f64; 2]], triangles: &mut [[u32; 3]]) -> Option<Vec<u32>> {
-    let mut used = vec![false; unit.len()];
+/// the vertex (relabelled in `triangles`); Ok(None) when an unused point has no used twin
+/// (a distinct point delaunator skipped). Errors: a per-point buffer that cannot be
+/// allocated. O(n + m).
+fn stand_ins(unit: &[[f64; 2]], triangles: &mut [[u32; 3]]) -> Result<Option<Vec<u32>>> {
+    let mut used = try_filled("Delaunay's used points", false, unit.len())?;
     for &v in triangles.as_flattened() {
         used[v as usize] = true;
     }
-    let mut duplicate_of = vec![NONE; unit.len()];
+    let mut duplicate_of = try_filled("Delaunay's duplicates", NONE, unit.len())?;
     if used.iter().all(|&u| u) {
-        return Some(duplicate_of);
+        return Ok(Some(duplicate_of));
     }
     // -0.0 + 0.0 is 0.0: both zeros give one key, as == compares them.
     let key = |p: [f64; 2]| ((p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits());
@@ -209,7 +216,9 @@ fn stand_ins(unit: &[[f64; 2]], triangles: &mut [[u32; 3]]) -> Option<Vec<u32>> 
     }
     let mut relabel: HashMap<u32, u32> = HashMap::new();
     for (k, &low) in &lowest {
-        let &vertex = kept.get(k)?;
+        let Some(&vertex) = kept.get(k) else {
+            return Ok(None);
+        };
         relabel.insert(vertex, low);
     }
     for (i, &p) in unit.iter().enumerate() {
@@ -223,7 +232,7 @@ fn stand_ins(unit: &[[f64; 2]], triangles: &mut [[u32; 3]]) -> Option<Vec<u32>> 
             *v = low;
         }
     }
-    Some(duplicate_of)
+    Ok(Some(duplicate_of))
 }
 
 /// True when `triangles` with `twins` is, by exact predicates, the Delaunay triangulation of
@@ -234,8 +243,8 @@ fn stand_ins(unit: &[[f64; 2]], triangles: &mut [[u32; 3]]) -> Option<Vec<u32>> 
 /// so this is a triangulation of the convex hull; strictly locally Delaunay everywhere means
 /// it is the one Delaunay triangulation. Four cocircular points (exact grids) are refused,
 /// so that where the Delaunay triangulation is not unique spade decides, as it always did.
-/// O(m).
-fn proven(unit: &[[f64; 2]], triangles: &[[u32; 3]], twins: &[u32]) -> bool {
+/// Errors: its per-point buffers cannot be allocated. O(m).
+fn proven(unit: &[[f64; 2]], triangles: &[[u32; 3]], twins: &[u32]) -> Result<bool> {
     let start = |h: u32| triangles[(h / 3) as usize][(h % 3) as usize];
     let at = |v: u32| unit[v as usize];
     let faces_ok = (0..triangles.len())
@@ -266,33 +275,33 @@ fn proven(unit: &[[f64; 2]], triangles: &[[u32; 3]], twins: &[u32]) -> bool {
             })
         });
     if !faces_ok {
-        return false;
+        return Ok(false);
     }
-    let mut boundary_out = vec![NONE; unit.len()];
+    let mut boundary_out = try_filled("the exact check's boundary", NONE, unit.len())?;
     let mut n_boundary = 0u32;
     for (h, &g) in twins.iter().enumerate() {
         if g == NONE {
             let slot = &mut boundary_out[start(h as u32) as usize];
             if *slot != NONE {
-                return false;
+                return Ok(false);
             }
             *slot = h as u32;
             n_boundary += 1;
         }
     }
     let Some(first) = twins.iter().position(|&g| g == NONE) else {
-        return false;
+        return Ok(false);
     };
     let (mut h, mut steps, mut lowest) = (first as u32, 0u32, 0u32);
     let below = |p: [f64; 2], q: [f64; 2]| (p[1], p[0]) < (q[1], q[0]);
     loop {
         let following = boundary_out[start(next(h)) as usize];
         if following == NONE || steps > n_boundary {
-            return false;
+            return Ok(false);
         }
         let (a, b, c) = (at(start(h)), at(start(next(h))), at(start(next(following))));
         if orient2d(a, b, c) < 0.0 {
-            return false;
+            return Ok(false);
         }
         if below(b, a) && below(b, c) {
             lowest += 1;
@@ -303,16 +312,16 @@ fn proven(unit: &[[f64; 2]], triangles: &[[u32; 3]], twins: &[u32]) -> bool {
             break;
         }
     }
-    let used = boundary_out.len() - {
-        let mut seen = vec![false; unit.len()];
-        triangles
-            .as_flattened()
-            .iter()
-            .for_each(|&v| seen[v as usize] = true);
-        seen.iter().filter(|&&s| !s).count()
-    };
+    // The boundary slots are no longer needed: they become the vertices' seen flags.
+    let mut seen = boundary_out;
+    seen.fill(0);
+    triangles
+        .as_flattened()
+        .iter()
+        .for_each(|&v| seen[v as usize] = 1);
+    let used = seen.iter().filter(|&&s| s != 0).count();
     // A disc: F = 2V − B − 2.
-    steps == n_boundary && lowest == 1 && triangles.len() + n_boundary as usize + 2 == 2 * used
+    Ok(steps == n_boundary && lowest == 1 && triangles.len() + n_boundary as usize + 2 == 2 * used)
 }
 
 fn coord(p: [f64; 2]) -> robust::Coord<f64> {
@@ -321,7 +330,7 @@ fn coord(p: [f64; 2]) -> robust::Coord<f64> {
 
 /// spade's bulk load of the distinct points, exact throughout. O(n log n).
 pub(crate) fn spade_delaunay(unit: &[[f64; 2]]) -> Result<Delaunay> {
-    let duplicate_of = find_duplicates(unit);
+    let duplicate_of = find_duplicates(unit)?;
     let distinct: Vec<u32> = (0..unit.len() as u32)
         .filter(|&i| duplicate_of[i as usize] == NONE)
         .collect();
@@ -383,9 +392,9 @@ pub(crate) fn spade_delaunay(unit: &[[f64; 2]]) -> Result<Delaunay> {
 }
 
 /// For each point, the lowest index of an earlier point with identical coordinates, or NONE.
-/// O(n log n) by sorting.
-fn find_duplicates(uv: &[[f64; 2]]) -> Vec<u32> {
-    let mut order: Vec<u32> = (0..uv.len() as u32).collect();
+/// Errors: its per-point buffers cannot be allocated. O(n log n) by sorting.
+fn find_duplicates(uv: &[[f64; 2]]) -> Result<Vec<u32>> {
+    let mut order = try_collect("Delaunay's point order", 0..uv.len() as u32)?;
     let key = |i: &u32| uv[*i as usize];
     order.sort_by(|a, b| {
         let (p, q) = (key(a), key(b));
@@ -393,7 +402,7 @@ fn find_duplicates(uv: &[[f64; 2]]) -> Vec<u32> {
             .then(p[1].total_cmp(&q[1]))
             .then(a.cmp(b))
     });
-    let mut duplicate_of = vec![NONE; uv.len()];
+    let mut duplicate_of = try_filled("Delaunay's duplicates", NONE, uv.len())?;
     let mut run_start = 0;
     for k in 1..order.len() {
         let (first, this) = (order[run_start], order[k]);
@@ -404,7 +413,7 @@ fn find_duplicates(uv: &[[f64; 2]]) -> Vec<u32> {
             run_start = k;
         }
     }
-    duplicate_of
+    Ok(duplicate_of)
 }
 
 /// True when all listed points lie on one line (exact predicate). O(n).
@@ -616,7 +625,7 @@ mod tests {
         let uv = random_points(300, 9);
         let unit = unit_square(&uv);
         let d = sweep(&unit).unwrap();
-        assert!(proven(&unit, &d.triangles, &d.twins));
+        assert!(proven(&unit, &d.triangles, &d.twins).unwrap());
         // Flip one interior edge: still a triangulation, no longer Delaunay.
         let h = (0..d.twins.len()).find(|&h| d.twins[h] != NONE).unwrap() as u32;
         let mut mesh = HalfEdgeMesh::from_triangles(uv.len(), &d.triangles).unwrap();
@@ -629,7 +638,7 @@ mod tests {
             .map(|h| mesh.twin(h))
             .collect();
         mesh.validate(&unit).unwrap();
-        assert!(!proven(&unit, &flipped, &twins));
+        assert!(!proven(&unit, &flipped, &twins).unwrap());
         // A missing triangle (a hole) or a clockwise one is refused too.
         let mut holed = d.clone();
         let t = (d.twins.iter().position(|&g| g != NONE).unwrap() / 3) as u32;
@@ -641,10 +650,10 @@ mod tests {
             holed.twins[(3 * t + k) as usize] = NONE;
         }
         holed.triangles[t as usize] = holed.triangles[0];
-        assert!(!proven(&unit, &holed.triangles, &holed.twins));
+        assert!(!proven(&unit, &holed.triangles, &holed.twins).unwrap());
         let mut turned = d.clone();
         turned.triangles[5].swap(1, 2);
-        assert!(!proven(&unit, &turned.triangles, &turned.twins));
+        assert!(!proven(&unit, &turned.triangles, &turned.twins).unwrap());
     }
 
     #[test]
@@ -667,7 +676,7 @@ mod tests {
         let mut extra = random_points(100, 4);
         let mut t = sweep(&unit_square(&extra)).unwrap().triangles;
         extra.push([0.5, 0.500001]);
-        assert!(stand_ins(&extra, &mut t).is_none());
+        assert!(stand_ins(&extra, &mut t).unwrap().is_none());
     }
 
     #[test]

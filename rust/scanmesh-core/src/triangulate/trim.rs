@@ -59,21 +59,67 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
                 )
             },
         );
+    nearest_median(uv, triangles, None, (lo, hi))
+}
+
+/// [`median_spacing`] of a triangulation of every point of `uv` (each point a vertex or
+/// an exact copy of one, as [`delaunay_ordered`](crate::triangulate::delaunay) returns
+/// them) with its half-edge `twins`: the bounding box of the points themselves (the
+/// vertices' box: a copy adds no coordinate), read in order rather than through the
+/// triangles' corners, and each edge measured once, from its lower half-edge, not from both
+/// of its triangles. Minima do not depend on the order or the number of times they are
+/// taken: the same value bit for bit, with half the square roots. O(n + m), in parallel.
+fn triangulation_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]], twins: &[u32]) -> f64 {
+    let empty = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let widen = |(lo, hi): ([f64; 2], [f64; 2]), p: [f64; 2]| {
+        (
+            [lo[0].min(p[0]), lo[1].min(p[1])],
+            [hi[0].max(p[0]), hi[1].max(p[1])],
+        )
+    };
+    let bounds = uv
+        .par_iter()
+        .with_min_len(BLOCK)
+        .fold(|| empty, |b, &p| widen(b, p))
+        .reduce(|| empty, |b, (lo, hi)| widen(widen(b, lo), hi));
+    nearest_median(uv, triangles, Some(twins), bounds)
+}
+
+/// The median of the nearest-neighbour distances along the edges of `triangles` (each
+/// edge once when `twins` are given, else from every triangle holding it), near-duplicates
+/// judged against the box `(lo, hi)` of the vertices. O(m + n), in parallel.
+fn nearest_median(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    twins: Option<&[u32]>,
+    (lo, hi): ([f64; 2], [f64; 2]),
+) -> f64 {
     let extent = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
     let negligible = NEAR_DUPLICATE_RELATIVE * extent;
     let nearest = infinities(uv.len());
-    triangles.par_iter().with_min_len(BLOCK).for_each(|t| {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            let d = planar_distance(uv[a as usize], uv[b as usize]);
-            if d <= negligible {
-                continue;
+    triangles
+        .par_iter()
+        .enumerate()
+        .with_min_len(BLOCK)
+        .for_each(|(i, t)| {
+            for k in 0..3 {
+                // The twin's triangle measures this edge when its half-edge is the lower.
+                if let Some(twins) = twins {
+                    let g = twins[3 * i + k];
+                    if g != NONE && (g as usize) < 3 * i + k {
+                        continue;
+                    }
+                }
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let d = planar_distance(uv[a as usize], uv[b as usize]);
+                if d <= negligible {
+                    continue;
+                }
+                for v in [a, b] {
+                    lower(&nearest[v as usize], d);
+                }
             }
-            for v in [a, b] {
-                lower(&nearest[v as usize], d);
-            }
-        }
-    });
+        });
     let mut finite: Vec<f64> = nearest
         .into_par_iter()
         .with_min_len(BLOCK)
@@ -128,7 +174,7 @@ pub fn trim_long_edges(
     }
     let twins = twins_of(uv.len(), triangles)?;
     let jumps = UnitJumps::when_finite(jumps);
-    Ok(trim(uv, triangles, &twins, max_edge, jumps.as_ref(), None))
+    Ok(trim(uv, triangles, &twins, max_edge, jumps, None))
 }
 
 /// Refuses a planar trimming length that is NaN or not positive (`∞` keeps every length);
@@ -199,8 +245,9 @@ pub fn delaunay_trimmed(
             .collect()
     });
     let local_uv = gathered.as_deref().unwrap_or(uv);
-    let limit = max_edge
-        .unwrap_or_else(|| DEFAULT_MAX_EDGE_FACTOR * median_spacing(local_uv, &d.triangles));
+    let limit = max_edge.unwrap_or_else(|| {
+        DEFAULT_MAX_EDGE_FACTOR * triangulation_spacing(local_uv, &d.triangles, &d.twins)
+    });
     let jumps = (limit.is_finite() && jump_factor.is_finite()).then(|| {
         let jumps = DepthJumps {
             points,
@@ -214,10 +261,10 @@ pub fn delaunay_trimmed(
         &d.triangles,
         &d.twins,
         limit,
-        jumps.as_ref(),
+        jumps,
         order.as_deref(),
     );
-    drop((gathered, jumps));
+    drop(gathered);
     let mut vertex = vec![false; uv.len()];
     d.triangles
         .as_flattened()
@@ -247,20 +294,26 @@ pub fn delaunay_trimmed(
 /// The rules of [`trim_long_edges`] as keep flags over `triangles` (with their `twins`):
 /// the length and jump tests in parallel, then the boundary rounds (slivers, pinches) on
 /// the flags, each round a scan of the boundary of what is kept. `to_input` (when the
-/// labels are not the caller's) maps them back for the pinch tie-break. O(m) per round.
+/// labels are not the caller's) maps them back for the pinch tie-break. `jumps` is taken
+/// by value and dropped once the jump and gap rounds are done: its unit-box copy of the
+/// 3-D points (24 bytes a point) is not held through the hole rule and the peeling, where
+/// the call peaks. O(m) per round.
 fn trim(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     twins: &[u32],
     max_edge: f64,
-    jumps: Option<&UnitJumps>,
+    jumps: Option<UnitJumps>,
     to_input: Option<&[u32]>,
 ) -> Vec<[u32; 3]> {
     let short = ShortEnough::new(max_edge);
     let longest_within =
         |t: &[u32; 3]| (0..3).all(|k| short.test(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]));
-    let mut bridges = jumps.map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
-    if jumps.is_some_and(|j| j.gaps && j.factor.is_finite()) {
+    let mut bridges = jumps
+        .as_ref()
+        .map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
+    let holes_too = jumps.is_some_and(|j| j.gaps && j.factor.is_finite());
+    if holes_too {
         let holes = covering_holes(uv, triangles, DEFAULT_HOLE_FACTOR);
         bridges.iter_mut().zip(holes).for_each(|(b, h)| *b |= h);
     }

@@ -228,6 +228,36 @@ fn one_call_trims_as_the_two_steps_do() {
 }
 
 #[test]
+fn the_spacing_of_a_triangulation_is_median_spacing_bit_for_bit() {
+    // Each edge once and the points' own box give median_spacing's value: a jittered
+    // terrain, the same with exact copies and near-duplicates (the near-duplicate rule
+    // reads the box), an exact grid (spade answers, input labels), at extreme scales.
+    let base = planar(&terrain(30, 20, 1.3, |x, y| x * y));
+    let mut copies = base.clone();
+    copies.extend([base[3], base[40], base[3]]);
+    copies.push([base[7][0] + 1e-12, base[7][1]]);
+    let grid: Vec<[f64; 2]> = (0..225)
+        .map(|k| [(k % 15) as f64, (k / 15) as f64 * 0.7])
+        .collect();
+    for uv in [base, copies, grid] {
+        for scale in [1.0, 1e-300, 1e300] {
+            let uv: Vec<[f64; 2]> = uv.iter().map(|p| [p[0] * scale, p[1] * scale]).collect();
+            let (d, order) = crate::triangulate::delaunay::delaunay_ordered(&uv).unwrap();
+            let local: Vec<[f64; 2]> = match &order {
+                Some(to_input) => to_input.iter().map(|&i| uv[i as usize]).collect(),
+                None => uv.clone(),
+            };
+            let fused = triangulation_spacing(&local, &d.triangles, &d.twins);
+            assert_eq!(
+                fused.to_bits(),
+                median_spacing(&local, &d.triangles).to_bits()
+            );
+            assert!(fused > 0.0, "scale {scale}");
+        }
+    }
+}
+
+#[test]
 fn the_sweep_ordered_trimming_is_that_of_input_labels_on_any_thread_count() {
     // A step and a bore; trimming in the sweep's labels (delaunay_trimmed) keeps the
     // triangles that trimming spade's triangulation in input labels keeps.
