@@ -193,7 +193,9 @@ fn tiles(c: &mut Criterion) {
                 let mut ran = 0;
                 let mut step = |a: &mut TiledAnnealer| {
                     while ran < target {
-                        ran += a.advance_until((target - ran).div_ceil(tiles), None);
+                        ran += a
+                            .advance_until((target - ran).div_ceil(tiles), None)
+                            .expect("the bench's tiles fit in memory");
                     }
                 };
                 if serial {

@@ -9,6 +9,7 @@
 //! the option.
 
 use crate::{Error, Result};
+use rayon::prelude::*;
 use std::collections::TryReserveError;
 
 /// Most flip proposals (calibration included, all chains together) one annealing run may
@@ -131,7 +132,11 @@ fn cgroup_memory() -> Option<(u64, u64)> {
 /// Refuses a stage whose peak memory, estimated from its input as `bytes`, this process
 /// cannot have: `what` names the stage and its input ("Delaunay of 2000000 points"). Beyond
 /// the limits read by [`memory_room`], the estimate is reserved once (address space only:
-/// nothing is touched) and freed, so a limit `/proc` does not show refuses too. O(1).
+/// nothing is touched) and freed, so a limit `/proc` does not show refuses too.
+///
+/// What the core allocates itself and sizes from the input is fallible besides
+/// ([`try_vec`] and the helpers below); `spade` and `delaunator` allocate inside and cannot
+/// be made so: their peak is guarded by this estimate, checked before the call. O(1).
 pub fn check_stage(what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
     let refuse = |limit: String| Error::OutOfMemory {
         what: what(),
@@ -157,12 +162,28 @@ pub fn check_stage(what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
 /// [`Error::OutOfMemory`] naming `what`) instead of aborting the process. O(1).
 pub fn try_vec<T>(what: &str, len: usize) -> Result<Vec<T>> {
     let mut v = Vec::new();
-    v.try_reserve_exact(len).map_err(|_| Error::OutOfMemory {
+    v.try_reserve_exact(len)
+        .map_err(|_| not_allocated::<T>(what, len))?;
+    Ok(v)
+}
+
+/// Room in `v` for `additional` more items of `T`, grown as a push would grow it
+/// (amortized doubling) but by an allocation that may fail (an [`Error::OutOfMemory`]
+/// naming `what`) instead of aborting the process: for buffers that grow with the input
+/// while a stage runs (LOP's edge stack). O(len) when it grows, else O(1).
+pub fn try_grow<T>(what: &str, v: &mut Vec<T>, additional: usize) -> Result<()> {
+    v.try_reserve(additional)
+        .map_err(|_| not_allocated::<T>(what, v.len().saturating_add(additional)))
+}
+
+/// The error of a failed allocation of `len` items of `T` for `what`: for containers the
+/// helpers above do not build (a heap's `try_reserve`). O(1).
+pub fn not_allocated<T>(what: &str, len: usize) -> Error {
+    Error::OutOfMemory {
         what: format!("{what} ({len} items)"),
         needs: (len as u64).saturating_mul(std::mem::size_of::<T>() as u64),
         limit: "what the allocator could give".into(),
-    })?;
-    Ok(v)
+    }
 }
 
 /// `len` copies of `value` in a vector whose allocation may fail (an
@@ -178,6 +199,19 @@ pub fn try_filled<T: Clone>(what: &str, value: T, len: usize) -> Result<Vec<T>> 
 pub fn try_collect<T>(what: &str, items: impl ExactSizeIterator<Item = T>) -> Result<Vec<T>> {
     let mut v = try_vec(what, items.len())?;
     v.extend(items);
+    Ok(v)
+}
+
+/// The items of the indexed parallel iterator `items`, in order, in a vector allocated once
+/// for all of them, an allocation that may fail (an [`Error::OutOfMemory`] naming `what`)
+/// instead of aborting the process: [`try_collect`] on every core. O(len).
+pub fn try_par_collect<T: Send>(
+    what: &str,
+    items: impl IndexedParallelIterator<Item = T>,
+) -> Result<Vec<T>> {
+    let mut v = try_vec(what, items.len())?;
+    // An indexed extend writes into the room reserved, without growing it.
+    v.par_extend(items);
     Ok(v)
 }
 
@@ -248,6 +282,16 @@ mod tests {
         ));
         assert_eq!(try_filled("small", 7u8, 3).unwrap(), vec![7, 7, 7]);
         assert_eq!(try_collect("small", 0..4).unwrap(), vec![0, 1, 2, 3]);
+        let huge = (0..usize::MAX / 16).into_par_iter().map(|_| 0u64);
+        assert!(matches!(
+            try_par_collect("test items", huge),
+            Err(Error::OutOfMemory { .. })
+        ));
+        let squares = try_par_collect("small", (0..1000u32).into_par_iter().map(|k| k * k));
+        assert_eq!(
+            squares.unwrap(),
+            (0..1000u32).map(|k| k * k).collect::<Vec<_>>()
+        );
     }
 
     #[test]
@@ -291,6 +335,11 @@ mod tests {
         let e = try_vec::<u64>("edges", usize::MAX / 16).unwrap_err();
         assert!(matches!(e, Error::OutOfMemory { .. }), "{e}");
         assert!(try_vec::<u64>("edges", 10).unwrap().capacity() >= 10);
+        let mut v = vec![1u64];
+        let e = try_grow("a stack", &mut v, usize::MAX / 16).unwrap_err();
+        assert!(e.to_string().starts_with("a stack ("), "{e}");
+        try_grow("a stack", &mut v, 100).unwrap();
+        assert!(v.capacity() >= 101 && v == [1]);
     }
 
     #[test]

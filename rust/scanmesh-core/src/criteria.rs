@@ -3,6 +3,7 @@
 //! Both are measured in 3-D on any triangle list (not only planar triangulations), so that
 //! every method, and meshes from elsewhere, are judged by the same code.
 
+use crate::budget::try_par_collect;
 use crate::geometry::{triangle_angles, Normalizer};
 use crate::mesh::Fans;
 use crate::{Error, Result};
@@ -151,15 +152,16 @@ fn corner_angles(
     points: &[DVec3],
     faces: &[[u32; 3]],
     map: impl Fn(DVec3) -> DVec3 + Sync,
-) -> Vec<[f64; 3]> {
-    faces
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| map(points[v as usize]));
-            triangle_angles(a, b, c)
-        })
-        .collect()
+) -> Result<Vec<[f64; 3]>> {
+    let angles = faces.par_iter().map(|t| {
+        let [a, b, c] = t.map(|v| map(points[v as usize]));
+        triangle_angles(a, b, c)
+    });
+    try_par_collect(ANGLES, angles)
 }
+
+/// What the measures' failed allocations name.
+const ANGLES: &str = "the corner angles";
 
 /// Sum of the corner angles at `v` over the faces `fan` around it, added in the fan's
 /// (increasing face) order, so exactly as a serial pass over the faces would add them. O(d).
@@ -177,14 +179,14 @@ fn fan_angle_sum(faces: &[[u32; 3]], angles: &[[f64; 3]], v: u32, fan: &[u32]) -
 
 /// Per-vertex sum of incident 3-D corner angles (radians); 0 for unused vertices. Faces
 /// must be in range. O(n + m), in parallel; each sum adds its corners in face order, so the
-/// result does not depend on the thread count.
-pub fn angle_sums(points: &[DVec3], faces: &[[u32; 3]]) -> Vec<f64> {
-    let angles = corner_angles(points, faces, |p| p);
-    let fans = Fans::new(points.len(), faces);
-    (0..points.len())
+/// result does not depend on the thread count. Errors: an [`Error::OutOfMemory`].
+pub fn angle_sums(points: &[DVec3], faces: &[[u32; 3]]) -> Result<Vec<f64>> {
+    let angles = corner_angles(points, faces, |p| p)?;
+    let fans = Fans::new(points.len(), faces)?;
+    let sums = (0..points.len())
         .into_par_iter()
-        .map(|v| fan_angle_sum(faces, &angles, v as u32, fans.of(v)))
-        .collect()
+        .map(|v| fan_angle_sum(faces, &angles, v as u32, fans.of(v)));
+    try_par_collect(ANGLES, sums)
 }
 
 /// Sum of the corner angles at `v` over the faces `fan` around it, added in ascending
@@ -215,22 +217,20 @@ fn canonical_angle_sum(
 /// tac per vertex from the corner angles of every face (interior check and angle sum
 /// from one fan table); each sum adds its angles in ascending order, so the same faces in
 /// any order give the same tac, bit for bit. O(n + m), in parallel over the vertices.
-fn tac_from_angles(n_vertices: usize, faces: &[[u32; 3]], angles: &[[f64; 3]]) -> Vec<f64> {
-    let fans = Fans::new(n_vertices, faces);
-    (0..n_vertices)
-        .into_par_iter()
-        .map_init(
-            || (Vec::new(), Vec::new(), Vec::new()),
-            |(link, ends, scratch), v| {
-                let fan = fans.of(v);
-                if is_interior(v as u32, fan, faces, link, ends) {
-                    (TAU - canonical_angle_sum(faces, angles, v as u32, fan, scratch)).abs()
-                } else {
-                    f64::NAN
-                }
-            },
-        )
-        .collect()
+fn tac_from_angles(n_vertices: usize, faces: &[[u32; 3]], angles: &[[f64; 3]]) -> Result<Vec<f64>> {
+    let fans = Fans::new(n_vertices, faces)?;
+    let tac = (0..n_vertices).into_par_iter().map_init(
+        || (Vec::new(), Vec::new(), Vec::new()),
+        |(link, ends, scratch), v| {
+            let fan = fans.of(v);
+            if is_interior(v as u32, fan, faces, link, ends) {
+                (TAU - canonical_angle_sum(faces, angles, v as u32, fan, scratch)).abs()
+            } else {
+                f64::NAN
+            }
+        },
+    );
+    try_par_collect(ANGLES, tac)
 }
 
 /// tac of every vertex (`|2π − Σ angles|` on interior vertices, NaN elsewhere, angles
@@ -241,12 +241,9 @@ fn tac_from_angles(n_vertices: usize, faces: &[[u32; 3]], angles: &[[f64; 3]]) -
 pub fn tac_and_min_angles(points: &[DVec3], faces: &[[u32; 3]]) -> Result<(Vec<f64>, Vec<f64>)> {
     check_faces(points.len(), faces)?;
     let normalizer = Normalizer::fit(points);
-    let angles = corner_angles(points, faces, |p| normalizer.apply(p));
-    let tac = tac_from_angles(points.len(), faces, &angles);
-    let min_angle = angles
-        .par_iter()
-        .map(|a| a[0].min(a[1]).min(a[2]))
-        .collect();
+    let angles = corner_angles(points, faces, |p| normalizer.apply(p))?;
+    let tac = tac_from_angles(points.len(), faces, &angles)?;
+    let min_angle = try_par_collect(ANGLES, angles.par_iter().map(|a| a[0].min(a[1]).min(a[2])))?;
     Ok((tac, min_angle))
 }
 

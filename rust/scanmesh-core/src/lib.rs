@@ -49,6 +49,7 @@ mod strips;
 mod testing;
 mod triangulate;
 
+pub use budget::{try_filled, try_vec};
 pub use criteria::{steep_count, tac_and_min_angles, Norm, SLIVER_ANGLE_DEG};
 pub use error::{Error, Result};
 pub use exact::enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};

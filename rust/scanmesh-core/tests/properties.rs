@@ -222,7 +222,7 @@ proptest! {
         let (mut state, _) = TacState::from_input(&pts, &uv, trimmed.clone(), 1.0).unwrap();
         let vertices = used(uv.len(), &state.mesh().triangles());
         let order = TacOrder { tie_tolerance: 1e-10, sliver_guard: true, planar_ties: false, sliver_angle: 0.0, min_facing: 0.0 };
-        tac_lop(&mut state, order);
+        tac_lop(&mut state, order).unwrap();
         state.mesh().validate(&state.uv()).unwrap();
         let full = state.energy_from_scratch();
         prop_assert!((state.energy() - full).abs() <= 1e-9 * full.max(1.0));

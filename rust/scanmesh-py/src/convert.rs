@@ -1,13 +1,13 @@
 //! numpy in and out: shape checks, zero-copy row views of C-contiguous arrays, and the
 //! output arrays (faces widened to int64 on every core without the GIL).
 
-use crate::{InvalidMeshError, ScanmeshError};
+use crate::{to_py, InvalidMeshError, ScanmeshError};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{SweepRecord, NONE};
+use scanmesh_core::{try_filled, try_vec, SweepRecord, NONE};
 use std::borrow::Cow;
 
 /// numpy arrays handed to Python: (rows, cols) float64, (n,) float64, (rows, cols) int64, (n,) int64.
@@ -121,7 +121,7 @@ pub(crate) fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResul
     if v.ncols() != 3 {
         return Err(shape_error("faces", "(M, 3)", v.shape()));
     }
-    let mut out = Vec::with_capacity(v.nrows());
+    let mut out = try_vec("the faces", v.nrows()).map_err(to_py)?;
     for (f, r) in v.rows().into_iter().enumerate() {
         let mut t = [0u32; 3];
         for k in 0..3 {
@@ -139,10 +139,11 @@ pub(crate) fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResul
 }
 
 /// (M, 3) int64 faces for numpy, widened on every core without the GIL: 20M faces are
-/// 480 MB to write, a third of a second on one core.
-pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> Ints2<'py> {
+/// 480 MB to write, a third of a second on one core. Allocated fallibly: memory refused
+/// is a `MemoryLimitError`, not an abort.
+pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Ints2<'py>> {
     let flat = py.detach(|| {
-        let mut flat = vec![0i64; 3 * t.len()];
+        let mut flat = try_filled("the faces for numpy", 0i64, 3 * t.len())?;
         flat.par_chunks_mut(3 * 4096)
             .zip(t.par_chunks(4096))
             .for_each(|(out, faces)| {
@@ -150,11 +151,11 @@ pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> Ints2<'py> {
                     o.copy_from_slice(&f.map(i64::from));
                 }
             });
-        flat
+        Ok(flat)
     });
-    Array2::from_shape_vec((t.len(), 3), flat)
+    Ok(Array2::from_shape_vec((t.len(), 3), flat.map_err(to_py)?)
         .expect("3 per face")
-        .into_pyarray(py)
+        .into_pyarray(py))
 }
 
 /// (N, 2) float64 planar points for numpy, taking over `uv`'s buffer (no copy).

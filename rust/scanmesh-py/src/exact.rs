@@ -19,7 +19,7 @@ pub(crate) fn empty_triangles<'py>(
     let t = py
         .detach(|| scanmesh_core::empty_triangles(&pts))
         .map_err(to_py)?;
-    Ok(faces_out(py, &t))
+    faces_out(py, &t)
 }
 
 /// Every triangulation of the convex hull of (N, 2) distinct points, by flips from `faces_`

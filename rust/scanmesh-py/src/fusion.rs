@@ -129,7 +129,7 @@ impl FusionVolume {
             .into_pyarray(py);
         Ok((
             vertices,
-            faces_out(py, &fused.faces),
+            faces_out(py, &fused.faces)?,
             Array1::from_vec(fused.labels).into_pyarray(py),
             fused.repaired,
         ))

@@ -179,9 +179,9 @@ pub(crate) fn lop<'py>(
         }
     };
     let (state, relabel) = tac_state(&points, &uv, &faces_, p, sight)?;
-    let (mesh, flips) = py.detach(|| run_lop(state, criterion));
+    let (mesh, flips) = py.detach(|| run_lop(state, criterion)).map_err(to_py)?;
     Ok((
-        faces_out(py, &relabel.triangles_to_input(&mesh.triangles())),
+        faces_out(py, &relabel.triangles_to_input(&mesh.triangles()))?,
         flips,
     ))
 }
@@ -243,7 +243,8 @@ impl Annealer {
         let budget = std::time::Duration::try_from_secs_f64(max_seconds.max(0.0))
             .unwrap_or(std::time::Duration::MAX);
         let deadline = std::time::Instant::now().checked_add(budget);
-        Ok(py.detach(|| inner.advance_until(max_proposals, deadline)))
+        py.detach(|| inner.advance_until(max_proposals, deadline))
+            .map_err(to_py)
     }
 
     /// True when every chain ran all its sweeps or froze and stopped early.
@@ -286,7 +287,7 @@ impl Annealer {
         let (r, chains) = py.detach(|| inner.finish()).map_err(to_py)?;
         let faces = self.relabel.triangles_to_input(&r.mesh.triangles());
         Ok(AnnealOutcome {
-            faces: faces_out(py, &faces).unbind(),
+            faces: faces_out(py, &faces)?.unbind(),
             trace: trace_out(py, &r.trace).unbind(),
             initial_energy: r.initial_energy,
             energy: r.energy,

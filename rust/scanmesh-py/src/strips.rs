@@ -203,7 +203,7 @@ pub(crate) fn run_strips<'py>(
         .detach(|| stitch_part(&pts, &plane, &ids, gap_factor, params, context))
         .map_err(to_py)?;
     let unused = indices_out(py, &mesh.unused);
-    let faces = faces_out(py, &std::mem::take(&mut mesh.triangles));
+    let faces = faces_out(py, &std::mem::take(&mut mesh.triangles))?;
     Ok((faces, unused, pairs_out(py, &duplicates), mesh))
 }
 

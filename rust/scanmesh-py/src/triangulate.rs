@@ -63,7 +63,7 @@ pub(crate) fn delaunay<'py>(
     let pts = points2(&uv)?;
     let d = py.detach(|| scanmesh_core::delaunay(&pts)).map_err(to_py)?;
     Ok((
-        faces_out(py, &d.triangles),
+        faces_out(py, &d.triangles)?,
         duplicates_out(py, &d.duplicate_of),
     ))
 }
@@ -95,7 +95,7 @@ pub(crate) fn delaunay_trimmed<'py>(
         .detach(|| scanmesh_core::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor))
         .map_err(to_py)?;
     Ok(TrimmedDelaunay {
-        faces: faces_out(py, &t.triangles).unbind(),
+        faces: faces_out(py, &t.triangles)?.unbind(),
         duplicate_of: duplicates_out(py, &t.duplicate_of).unbind(),
         trimmed: indices_out(py, &t.trimmed).unbind(),
         max_edge: t.max_edge,
@@ -141,7 +141,7 @@ pub(crate) fn grid_triangulate<'py>(
         .detach(|| scanmesh_core::grid_triangulate(&cells, rows, cols, &pts, &xyz, params))
         .map_err(to_py)?;
     Ok(GridTriangles {
-        faces: faces_out(py, &t.triangles).unbind(),
+        faces: faces_out(py, &t.triangles)?.unbind(),
         candidates: t.candidates,
         turned: t.turned,
         long: t.long,
@@ -193,7 +193,7 @@ pub(crate) fn trim_long_edges<'py>(
     let kept = py
         .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge, jumps))
         .map_err(to_py)?;
-    Ok(faces_out(py, &kept))
+    faces_out(py, &kept)
 }
 
 /// Checks that `faces` form a valid planar triangulation of (N, 2) points; raises

@@ -1,5 +1,8 @@
 //! The faces around every vertex of a face list, as compressed rows.
 
+use crate::budget::{try_collect, try_filled};
+use crate::Result;
+
 /// The faces around every vertex as compressed rows: the faces of vertex `v` are
 /// `faces[offsets[v]..offsets[v + 1]]`, in increasing face order (so that sums over a fan
 /// add in the same order as a pass over the faces would). O(n + m) time and memory.
@@ -9,9 +12,11 @@ pub(crate) struct Fans {
 }
 
 impl Fans {
-    /// Counting sort of the 3m corners by vertex; `faces` must be checked already.
-    pub(crate) fn new(n_vertices: usize, faces: &[[u32; 3]]) -> Fans {
-        let mut offsets = vec![0usize; n_vertices + 1];
+    /// Counting sort of the 3m corners by vertex; `faces` must be checked already. Its
+    /// arrays are allocated fallibly (an [`crate::Error::OutOfMemory`]).
+    pub(crate) fn new(n_vertices: usize, faces: &[[u32; 3]]) -> Result<Fans> {
+        const WHAT: &str = "the faces around each vertex";
+        let mut offsets = try_filled(WHAT, 0usize, n_vertices + 1)?;
         for t in faces {
             for &v in t {
                 offsets[v as usize + 1] += 1;
@@ -20,18 +25,18 @@ impl Fans {
         for v in 0..n_vertices {
             offsets[v + 1] += offsets[v];
         }
-        let mut fill = offsets[..n_vertices].to_vec();
-        let mut around = vec![0u32; offsets[n_vertices]];
+        let mut fill = try_collect(WHAT, offsets[..n_vertices].iter().copied())?;
+        let mut around = try_filled(WHAT, 0u32, offsets[n_vertices])?;
         for (f, t) in faces.iter().enumerate() {
             for &v in t {
                 around[fill[v as usize]] = f as u32;
                 fill[v as usize] += 1;
             }
         }
-        Fans {
+        Ok(Fans {
             offsets,
             faces: around,
-        }
+        })
     }
 
     /// The faces around vertex `v`, in increasing order.

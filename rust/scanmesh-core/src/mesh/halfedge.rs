@@ -297,12 +297,16 @@ impl HalfEdgeMesh {
 
     /// One half-edge per interior edge (both sides have a triangle). O(m).
     pub fn interior_edges(&self) -> Vec<u32> {
-        (0..self.start.len() as u32)
-            .filter(|&h| {
-                let t = self.twin[h as usize];
-                t != NONE && h < t
-            })
-            .collect()
+        self.interior_edge_slots().collect()
+    }
+
+    /// The slots of [`interior_edges`](Self::interior_edges), in increasing order, without
+    /// a vector: for callers that allocate it themselves (fallibly). O(m) to walk.
+    pub fn interior_edge_slots(&self) -> impl DoubleEndedIterator<Item = u32> + '_ {
+        (0..self.start.len() as u32).filter(|&h| {
+            let t = self.twin[h as usize];
+            t != NONE && h < t
+        })
     }
 
     /// True when `v` is used and no boundary edge touches it: its triangles form a closed fan.

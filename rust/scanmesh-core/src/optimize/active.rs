@@ -19,9 +19,11 @@
 //! proposal finds so. So every live edge is listed exactly once (tested), each step is
 //! O(1) amortized, and the draws depend on the seed and the flips alone.
 
+use crate::budget::{try_filled, try_vec};
 use crate::mesh::NONE;
 use crate::mesh::{next, prev};
 use crate::optimize::tac_state::{PrefetchHints, TacState};
+use crate::Result;
 use rand_core::RngCore;
 use rand_pcg::Pcg64Mcg;
 
@@ -67,8 +69,9 @@ pub(crate) struct LiveEdges {
 
 impl LiveEdges {
     /// Lists the live edges of `state` for a run with `tie_tolerance`, drawing with `rng`.
-    /// O(m).
-    pub(crate) fn new(state: &TacState, tie_tolerance: f64, mut rng: Pcg64Mcg) -> Self {
+    /// The list has room for every slot once (it never holds more), allocated fallibly with
+    /// its bits: an [`crate::Error::OutOfMemory`] instead of an abort. O(m).
+    pub(crate) fn new(state: &TacState, tie_tolerance: f64, mut rng: Pcg64Mcg) -> Result<Self> {
         let n = state.mesh().n_half_edges();
         let floor = (tie_tolerance / 4.0).powf(1.0 / state.p());
         let mut ring = [0; RING];
@@ -76,8 +79,8 @@ impl LiveEdges {
             *r = rng.next_u64();
         }
         let mut live = LiveEdges {
-            list: Vec::new(),
-            listed: vec![0; n.div_ceil(64)],
+            list: try_vec("the live edge list", n)?,
+            listed: try_filled("the live edge list", 0, n.div_ceil(64))?,
             floor,
             rng,
             ring,
@@ -93,7 +96,7 @@ impl LiveEdges {
                 live.push(h);
             }
         }
-        live
+        Ok(live)
     }
 
     /// The defect floor (radians of tac): corners at or below it cannot make a flip
@@ -245,8 +248,8 @@ impl LiveEdges {
     }
 
     /// Bytes per half-edge the list and its bits take at most (for memory estimates): a
-    /// u32 per edge, a bit per slot.
-    pub(crate) const BYTES_PER_HALF_EDGE: u64 = 3;
+    /// u32 per slot (the room reserved: a slot is listed at most once), a bit per slot.
+    pub(crate) const BYTES_PER_HALF_EDGE: u64 = 5;
 }
 
 #[cfg(test)]
@@ -289,7 +292,7 @@ mod tests {
             (bumpy_state(300, 6, 1.5), 1e-3),
         ] {
             let mut st = state;
-            let mut live = LiveEdges::new(&st, tol, Pcg64Mcg::seed_from_u64(1));
+            let mut live = LiveEdges::new(&st, tol, Pcg64Mcg::seed_from_u64(1)).unwrap();
             let mut rng = Pcg64Mcg::seed_from_u64(2);
             let mut flips = 0;
             for step in 0..3000 {
@@ -323,7 +326,7 @@ mod tests {
 
     /// (live edges listed, flippable edges) of `state` with exact ties.
     fn live_and_flippable(state: &TacState) -> (usize, usize) {
-        let live = LiveEdges::new(state, 1e-10, Pcg64Mcg::seed_from_u64(0));
+        let live = LiveEdges::new(state, 1e-10, Pcg64Mcg::seed_from_u64(0)).unwrap();
         let uv = state.uv();
         let flippable = state
             .mesh()

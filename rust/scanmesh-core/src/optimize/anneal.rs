@@ -459,7 +459,7 @@ impl Annealer {
     /// O(calibration_samples + m).
     pub fn new(mut state: TacState, params: AnnealParams) -> Result<Self> {
         params.check_for(&state)?;
-        let (mut edges, uniforms) = streams(&state, &params);
+        let (mut edges, uniforms) = streams(&state, &params)?;
         let initial_temperature = calibrate(&mut state, &params, &mut edges);
         let cooling = cooling(params.final_temperature_ratio, params.sweeps);
         Ok(Self::with_schedule(
@@ -513,15 +513,22 @@ impl Annealer {
 
     /// A tile's run for one phase of [`crate::optimize::tiles`]: `params.sweeps` sweeps on
     /// `params.seed`'s streams, from `temperature` (the shared schedule's, not calibrated
-    /// on the tile), cooled by `cooling` per sweep. O(m).
+    /// on the tile), cooled by `cooling` per sweep. Errors: an [`Error::OutOfMemory`] for
+    /// its live edges. O(m).
     pub(crate) fn for_phase(
         state: TacState,
         params: AnnealParams,
         temperature: f64,
         cooling: f64,
-    ) -> Self {
-        let streams = streams(&state, &params);
-        Self::with_schedule(state, params, streams, temperature, cooling)
+    ) -> Result<Self> {
+        let streams = streams(&state, &params)?;
+        Ok(Self::with_schedule(
+            state,
+            params,
+            streams,
+            temperature,
+            cooling,
+        ))
     }
 
     /// Ends a phase of [`crate::optimize::tiles`]: the best state seen and its energy, the current
@@ -763,7 +770,7 @@ impl Annealer {
             ..
         } = self;
         let stopped = Stop::of(trace.len(), params.sweeps, stopped_early, sweep_len == 0);
-        let (mesh, energy, polish_flips) = polish(state.with_mesh(best)?, &params);
+        let (mesh, energy, polish_flips) = polish(state.with_mesh(best)?, &params)?;
         Ok(AnnealResult {
             mesh,
             initial_energy,
@@ -778,14 +785,14 @@ impl Annealer {
 
 /// The live edges and the Metropolis uniforms of a run with `params`: edges are drawn from
 /// the seed's own stream, the uniforms from a second generator seeded by that stream's
-/// first two outputs. O(m).
-fn streams(state: &TacState, params: &AnnealParams) -> (LiveEdges, Pcg64Mcg) {
+/// first two outputs. Errors: an [`Error::OutOfMemory`] for the live edges. O(m).
+fn streams(state: &TacState, params: &AnnealParams) -> Result<(LiveEdges, Pcg64Mcg)> {
     let edge_rng = Pcg64Mcg::seed_from_u64(params.seed);
     let uniforms = Pcg64Mcg::from_rng(&mut edge_rng.clone());
-    (
-        LiveEdges::new(state, params.tie_tolerance, edge_rng),
+    Ok((
+        LiveEdges::new(state, params.tie_tolerance, edge_rng)?,
         uniforms,
-    )
+    ))
 }
 
 /// T0 at which the median uphill energy change of `params.calibration_samples` proposals
@@ -814,8 +821,8 @@ fn calibrate(state: &mut TacState, params: &AnnealParams, edges: &mut LiveEdges)
 
 /// The T0 a run from `state` with `params` calibrates (see [`Annealer::new`]), for
 /// schedules shared by several runs. O(calibration_samples + m).
-pub(crate) fn initial_temperature(state: &mut TacState, params: &AnnealParams) -> f64 {
-    calibrate(state, params, &mut streams(state, params).0)
+pub(crate) fn initial_temperature(state: &mut TacState, params: &AnnealParams) -> Result<f64> {
+    Ok(calibrate(state, params, &mut streams(state, params)?.0))
 }
 
 /// Geometric cooling per sweep that takes T0 to `final_ratio` × T0 in `sweeps` sweeps.
@@ -826,15 +833,19 @@ pub(crate) fn cooling(final_ratio: f64, sweeps: usize) -> f64 {
 
 /// The end of every run: the state of the best mesh, polished by LOP under the
 /// tac-then-angle order when `params.polish`; returns the mesh, its energy (recomputed
-/// from the sums) and the polish's flips. O(m + polish flips).
-pub(crate) fn polish(mut best: TacState, params: &AnnealParams) -> (HalfEdgeMesh, f64, usize) {
+/// from the sums) and the polish's flips; an [`Error::OutOfMemory`] when LOP's stack cannot
+/// be had. O(m + polish flips).
+pub(crate) fn polish(
+    mut best: TacState,
+    params: &AnnealParams,
+) -> Result<(HalfEdgeMesh, f64, usize)> {
     let polish_flips = if params.polish {
-        tac_lop(&mut best, params.order())
+        tac_lop(&mut best, params.order())?
     } else {
         0
     };
     let energy = best.resync_energy();
-    (best.into_mesh(), energy, polish_flips)
+    Ok((best.into_mesh(), energy, polish_flips))
 }
 
 /// Corner lines are hinted in a sweep when at least one in this many proposals of the

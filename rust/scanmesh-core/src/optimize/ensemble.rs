@@ -73,9 +73,9 @@ impl Chain {
         }
     }
 
-    fn advance_until(&mut self, max_proposals: usize, deadline: Option<Instant>) -> usize {
+    fn advance_until(&mut self, max_proposals: usize, deadline: Option<Instant>) -> Result<usize> {
         match self {
-            Chain::Plain(a) => a.advance_until(max_proposals, deadline),
+            Chain::Plain(a) => Ok(a.advance_until(max_proposals, deadline)),
             Chain::Tiled(a) => a.advance_until(max_proposals, deadline),
         }
     }
@@ -109,7 +109,7 @@ impl Ensemble {
         let count = params.check_cost(&state)?;
         let start = state.mesh().clone();
         let start_energy = state.resync_energy();
-        descend(&mut state, &params);
+        descend(&mut state, &params)?;
         let out_of_memory =
             || budget::allocation_failed("chains", count, count as u64 * state.heap_bytes());
         let mut chains = Vec::new();
@@ -165,19 +165,24 @@ impl Ensemble {
 
     /// Advances every unfinished chain by at most `max_proposals` proposals, in parallel,
     /// each returning soon after `deadline` (see [`Annealer::advance_until`]). Returns the
-    /// proposals run in all. Where chunks end never changes a chain's result.
-    pub fn advance_until(&mut self, max_proposals: usize, deadline: Option<Instant>) -> usize {
+    /// proposals run in all. Where chunks end never changes a chain's result. Errors: an
+    /// [`Error::OutOfMemory`] when a tiled chain cannot allocate a phase's tiles.
+    pub fn advance_until(
+        &mut self,
+        max_proposals: usize,
+        deadline: Option<Instant>,
+    ) -> Result<usize> {
         self.chains
             .par_iter_mut()
             .filter(|c| !c.is_done())
             .map(|c| c.advance_until(max_proposals, deadline))
-            .sum()
+            .try_reduce(|| 0, |a, b| Ok(a + b))
     }
 
     /// Runs every chain to its end. O(chains × sweeps × m) work, in parallel.
     pub fn run(mut self) -> Result<(AnnealResult, EnsembleSummary)> {
         while !self.is_done() {
-            self.advance_until(usize::MAX, None);
+            self.advance_until(usize::MAX, None)?;
         }
         self.finish()
     }
@@ -234,16 +239,17 @@ pub(crate) const SLIVER_BUDGET: f64 = 0.01;
 /// therefore also run without the rule, on a copy, and its optimum is the start when it
 /// is below [`SLIVER_COST`] × the other's energy with at most [`SLIVER_BUDGET`] slivers;
 /// the walk still refuses new slivers from there. The copy is skipped when memory for it
-/// cannot be had. O(flips + m), twice.
-pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) {
+/// cannot be had; LOP's own stack may fail too (an [`Error::OutOfMemory`]). O(flips + m),
+/// twice.
+pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) -> Result<()> {
     if !params.descend {
-        return;
+        return Ok(());
     }
     let order = params.order();
     let free = (order.sliver_angle > 0.0)
         .then(|| state.try_clone().ok())
         .flatten();
-    tac_lop(state, order);
+    tac_lop(state, order)?;
     let ruled = state.resync_energy();
     if let Some(mut free) = free {
         tac_lop(
@@ -252,7 +258,7 @@ pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) {
                 sliver_angle: 0.0,
                 ..order
             },
-        );
+        )?;
         let budget = SLIVER_BUDGET * free.mesh().n_triangles() as f64;
         if free.resync_energy() < SLIVER_COST * ruled
             && free.count_slivers(order.sliver_angle) as f64 <= budget
@@ -260,6 +266,7 @@ pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) {
             *state = free;
         }
     }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -279,7 +286,7 @@ mod tests {
     /// One plain chain from `state`, descended first as the ensemble does.
     fn single(state: &TacState, params: AnnealParams) -> AnnealResult {
         let mut start = state.clone();
-        descend(&mut start, &params);
+        descend(&mut start, &params).unwrap();
         let mut one = Annealer::new(start, params).unwrap();
         while !one.is_done() {
             one.advance(usize::MAX);
@@ -325,7 +332,7 @@ mod tests {
         assert_eq!(chunked.len(), 3);
         let mut total = 0;
         while !chunked.is_done() {
-            total += chunked.advance_until(37, Some(Instant::now()));
+            total += chunked.advance_until(37, Some(Instant::now())).unwrap();
             assert!(chunked.energy().is_finite());
         }
         assert!(total >= 3 * chunked.sweep_len());

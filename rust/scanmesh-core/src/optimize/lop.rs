@@ -3,6 +3,7 @@
 //! The deterministic baseline of the paper's annealing (annealing at T = 0). One queue
 //! loop serves every criterion; a criterion only says whether flipping an edge improves.
 
+use crate::budget::{try_filled, try_grow, try_vec};
 use crate::geometry::planar_smallest_angle;
 use crate::mesh::NONE;
 use crate::mesh::{next, prev, HalfEdgeMesh};
@@ -177,12 +178,14 @@ pub enum LopCriterion {
 }
 
 /// LOP from `state`'s triangulation under `criterion`, within the flip budget
-/// [`max_flips`]: the final triangulation and the flips made. O(flips + m).
-pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> (HalfEdgeMesh, usize) {
+/// [`max_flips`]: the final triangulation and the flips made. Errors: an
+/// [`Error::OutOfMemory`] when the edge stack cannot be allocated (see [`lop`]).
+/// O(flips + m).
+pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> Result<(HalfEdgeMesh, usize)> {
     match criterion {
         LopCriterion::Tac(order) => {
-            let flips = tac_lop(&mut state, order);
-            (state.into_mesh(), flips)
+            let flips = tac_lop(&mut state, order)?;
+            Ok((state.into_mesh(), flips))
         }
         LopCriterion::PlanarMaxMin => {
             let uv = state.uv();
@@ -194,15 +197,15 @@ pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> (HalfEdgeMesh, u
                     uv: &uv,
                 },
                 budget,
-            );
-            (mesh, flips)
+            )?;
+            Ok((mesh, flips))
         }
     }
 }
 
 /// LOP of `state`'s tac energy under `order` within the flip budget [`max_flips`];
-/// returns the flips made. O(flips + m).
-pub fn tac_lop(state: &mut TacState, order: TacOrder) -> usize {
+/// returns the flips made, or an [`Error::OutOfMemory`] (see [`lop`]). O(flips + m).
+pub fn tac_lop(state: &mut TacState, order: TacOrder) -> Result<usize> {
     let budget = max_flips(state.mesh().n_half_edges());
     lop(&mut TacLop { state, order }, budget)
 }
@@ -219,11 +222,16 @@ pub fn tac_lop(state: &mut TacState, order: TacOrder) -> usize {
 /// The stack holds at most about 4m entries: when it grows past that, each edge keeps only
 /// its topmost entry, which changes no flip (the entries below would be examined after an
 /// examination of the same edge with nothing in between that `push_affected` did not
-/// push again above them). O(flips + m) time, O(m) memory.
-pub fn lop<S: FlipSearch>(search: &mut S, max_flips: usize) -> usize {
-    let mut stack: Vec<u32> = search.mesh().interior_edges();
-    stack.reverse();
+/// push again above them). The stack and the compaction's buffers grow with the input and
+/// are allocated fallibly: an allocation refused is an [`Error::OutOfMemory`], not an
+/// abort. O(flips + m) time, O(m) memory.
+pub fn lop<S: FlipSearch>(search: &mut S, max_flips: usize) -> Result<usize> {
     let n_half_edges = search.mesh().n_half_edges();
+    let mut stack: Vec<u32> = try_vec(EDGE_STACK, n_half_edges / 2)?;
+    stack.extend(search.mesh().interior_edge_slots().rev());
+    // What a flip pushes (the edges around a few vertices), moved onto the stack once its
+    // room is reserved fallibly.
+    let mut affected: Vec<u32> = Vec::new();
     let compact_above = 4 * n_half_edges + 1024;
     let check_every = n_half_edges.max(1);
     let mut next_check = check_every;
@@ -247,18 +255,25 @@ pub fn lop<S: FlipSearch>(search: &mut S, max_flips: usize) -> usize {
             continue;
         }
         flips += 1;
-        search.push_affected(h, t, &mut stack);
+        affected.clear();
+        search.push_affected(h, t, &mut affected);
+        try_grow(EDGE_STACK, &mut stack, affected.len())?;
+        stack.extend_from_slice(&affected);
         if stack.len() > compact_above {
-            keep_topmost(&mut stack, n_half_edges);
+            keep_topmost(&mut stack, n_half_edges)?;
         }
     }
-    flips
+    Ok(flips)
 }
 
-/// Removes every entry of `stack` that has a copy nearer the top, keeping order. O(len + m).
-fn keep_topmost(stack: &mut Vec<u32>, n_half_edges: usize) {
-    let mut seen = vec![false; n_half_edges];
-    let mut kept: Vec<u32> = Vec::with_capacity(n_half_edges);
+/// What [`lop`]'s failed allocations name.
+const EDGE_STACK: &str = "LOP's edge stack";
+
+/// Removes every entry of `stack` that has a copy nearer the top, keeping order; an
+/// [`Error::OutOfMemory`] when its buffers cannot be allocated. O(len + m).
+fn keep_topmost(stack: &mut Vec<u32>, n_half_edges: usize) -> Result<()> {
+    let mut seen = try_filled(EDGE_STACK, false, n_half_edges)?;
+    let mut kept: Vec<u32> = try_vec(EDGE_STACK, n_half_edges)?;
     for &e in stack.iter().rev() {
         if !std::mem::replace(&mut seen[e as usize], true) {
             kept.push(e);
@@ -266,6 +281,7 @@ fn keep_topmost(stack: &mut Vec<u32>, n_half_edges: usize) {
     }
     kept.reverse();
     *stack = kept;
+    Ok(())
 }
 
 /// LOP for the tac energy of a [`TacState`] under a [`TacOrder`].
@@ -389,7 +405,7 @@ mod tests {
             uv: uv.clone(),
             primary: None,
         };
-        assert_eq!(lop(&mut blind, 20 * m), 20 * m);
+        assert_eq!(lop(&mut blind, 20 * m).unwrap(), 20 * m);
         blind.mesh.validate(&uv).unwrap();
         // A primary value that never drops: stopped after m flips, long before the budget.
         let mut flat = Restless {
@@ -397,13 +413,27 @@ mod tests {
             uv: uv.clone(),
             primary: Some((1.0, 1e-10)),
         };
-        assert_eq!(lop(&mut flat, max_flips(m)), m);
+        assert_eq!(lop(&mut flat, max_flips(m)).unwrap(), m);
+    }
+
+    #[test]
+    fn a_stack_beyond_memory_is_an_error_not_an_abort() {
+        // Compacting for more half-edges than any allocator gives, and growing past them.
+        for e in [
+            keep_topmost(&mut vec![0], usize::MAX / 2).unwrap_err(),
+            try_grow(EDGE_STACK, &mut vec![0u32], usize::MAX / 4).unwrap_err(),
+        ] {
+            assert!(
+                matches!(&e, Error::OutOfMemory { what, .. } if what.starts_with(EDGE_STACK)),
+                "{e}"
+            );
+        }
     }
 
     #[test]
     fn compaction_keeps_each_entrys_topmost_copy_in_order() {
         let mut stack = vec![1, 2, 1, 3, 2, 0];
-        keep_topmost(&mut stack, 4);
+        keep_topmost(&mut stack, 4).unwrap();
         assert_eq!(stack, vec![1, 3, 2, 0]);
     }
 
@@ -430,7 +460,8 @@ mod tests {
                 uv: &uv,
             },
             usize::MAX,
-        );
+        )
+        .unwrap();
         assert!(flips > 0);
         mesh.validate(&uv).unwrap();
         assert_eq!(canonical(mesh.triangles()), dt);
@@ -483,7 +514,7 @@ mod tests {
                 sliver_angle: 0.0,
                 min_facing: 0.0,
             };
-            assert!(tac_lop(&mut st, order) > 0);
+            assert!(tac_lop(&mut st, order).unwrap() > 0);
             st.mesh().validate(&uv).unwrap();
             assert_eq!(canonical(st.mesh().triangles()) == dt, planar_ties);
         }
@@ -500,7 +531,8 @@ mod tests {
                 uv: &uv,
             },
             usize::MAX,
-        );
+        )
+        .unwrap();
         assert_eq!(flips, 0, "Delaunay is already max-min optimal");
     }
 
@@ -521,7 +553,8 @@ mod tests {
                 order,
             },
             usize::MAX,
-        );
+        )
+        .unwrap();
         assert!(flips > 0 && st.energy() < e0);
         st.mesh().validate(&st.uv()).unwrap();
         let scratch = st.energy_from_scratch();

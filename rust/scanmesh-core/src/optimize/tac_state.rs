@@ -9,6 +9,7 @@
 //! marked stale (one bit each) and their corners recomputed only when a later evaluation
 //! reads them. Both annealing and LOP use this one state.
 
+use crate::budget::{try_collect, try_filled, try_grow};
 use crate::geometry::triangle_angles;
 use crate::geometry::unit_square;
 use crate::geometry::Normalizer;
@@ -93,6 +94,9 @@ pub const NOISE_TAC: f64 = 2.0;
 /// a point more address space (bisected on 200,000 and 800,000 points,
 /// docs/benchmarks/memory.md), plus room.
 const STATE_PEAK_BYTES_PER_POINT: u64 = 500;
+
+/// What the state's failed allocations name.
+const STATE: &str = "the flip state";
 
 /// Optional lines for [`TacState::prefetch`]: each helps on some inputs and crowds the
 /// useful hints (a core tracks only so many misses) on others.
@@ -243,8 +247,10 @@ impl TacState {
         } = self;
         drop(old);
         corner.clear();
+        try_grow(STATE, &mut corner, mesh.n_half_edges())?;
         corner.resize(mesh.n_half_edges(), 0.0);
         stale.clear();
+        try_grow(STATE, &mut stale, mesh.n_triangles().div_ceil(64))?;
         stale.resize(mesh.n_triangles().div_ceil(64), 0);
         let mut state = TacState::assemble(mesh, vert, corner, stale, p);
         state.sight = sight;
@@ -321,20 +327,19 @@ impl TacState {
                 expected: "one of each per vertex",
             });
         }
-        let vert = uv
-            .iter()
-            .zip(&xyz)
-            .map(|(&uv, &xyz)| VertexRecord {
+        let vert = try_collect(
+            STATE,
+            uv.iter().zip(&xyz).map(|(&uv, &xyz)| VertexRecord {
                 uv,
                 xyz,
                 sum: 0.0,
                 interior: false,
-            })
-            .collect();
+            }),
+        )?;
         // The positions live on in the records only.
         drop((uv, xyz));
-        let corner = vec![0.0; mesh.n_half_edges()];
-        let stale = vec![0; mesh.n_triangles().div_ceil(64)];
+        let corner = try_filled(STATE, 0.0, mesh.n_half_edges())?;
+        let stale = try_filled(STATE, 0, mesh.n_triangles().div_ceil(64))?;
         Ok(TacState::assemble(mesh, vert, corner, stale, p))
     }
 
@@ -508,9 +513,11 @@ impl TacState {
     }
 
     /// Energy computed from scratch from positions and connectivity, sharing no cache: the
-    /// reference the incremental value is tested against. O(m).
+    /// reference the incremental value is tested against (it panics when its copies do not
+    /// fit in memory). O(m).
     pub fn energy_from_scratch(&self) -> f64 {
-        let sums = crate::criteria::angle_sums(&self.xyz(), &self.mesh.triangles());
+        let sums = crate::criteria::angle_sums(&self.xyz(), &self.mesh.triangles())
+            .expect("the reference's copies fit in memory");
         sums.iter()
             .zip(&self.vert)
             .filter(|(_, r)| r.interior)

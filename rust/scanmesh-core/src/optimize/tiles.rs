@@ -21,6 +21,7 @@
 //! (seed, j, i), so the result depends on (seed, tiles) and not on the thread count or the
 //! chunking.
 
+use crate::budget::{try_collect, try_filled, try_grow, try_vec};
 use crate::mesh::HalfEdgeMesh;
 use crate::optimize::anneal::SweepRecord;
 use crate::optimize::anneal::{
@@ -37,6 +38,14 @@ use std::time::Instant;
 /// borders more often. Rod, 3,000 sweeps in 8 tiles: 4.04-4.08 s with 100, 4.25-4.63 s with
 /// 50, the same energy.
 pub const PHASE_SWEEPS: usize = 100;
+
+/// What the tiled run's failed allocations name.
+const TILES: &str = "the annealing tiles";
+
+/// `values` of `vertices`, in a vector whose allocation may fail. O(len).
+fn gather<T: Copy>(values: &[T], vertices: &[u32]) -> Result<Vec<T>> {
+    try_collect(TILES, vertices.iter().map(|&v| values[v as usize]))
+}
 
 /// A resumable annealing chain run in [`AnnealParams::tiles`] stripes at once.
 pub struct TiledAnnealer {
@@ -87,11 +96,12 @@ impl TiledAnnealer {
     /// as [`Annealer::new`] does. O(calibration_samples + m + n log n).
     pub fn new(mut state: TacState, params: AnnealParams) -> Result<Self> {
         params.check_for(&state)?;
-        let initial_temperature = initial_temperature(&mut state, &params);
+        let initial_temperature = initial_temperature(&mut state, &params)?;
         let n = state.mesh().n_vertices();
-        let interior: Vec<bool> = (0..n as u32).map(|v| state.mesh().is_interior(v)).collect();
+        let interior = try_collect(TILES, (0..n as u32).map(|v| state.mesh().is_interior(v)))?;
         // Stripes across the longer side of the used vertices' box: shorter borders.
-        let used: Vec<u32> = (0..n as u32).filter(|&v| state.mesh().is_used(v)).collect();
+        let mut used: Vec<u32> = try_vec(TILES, n)?;
+        used.extend((0..n as u32).filter(|&v| state.mesh().is_used(v)));
         let uv = state.uv();
         let spread = |k: usize| {
             let (lo, hi) = used
@@ -103,27 +113,27 @@ impl TiledAnnealer {
             hi - lo
         };
         let axis = usize::from(spread(1) > spread(0));
-        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut order: Vec<u32> = try_collect(TILES, 0..n as u32)?;
         order.sort_by(|&a, &b| {
             uv[a as usize][axis]
                 .total_cmp(&uv[b as usize][axis])
                 .then(a.cmp(&b))
         });
-        let mut rank = vec![0; n];
+        let mut rank = try_filled(TILES, 0, n)?;
         for (r, &v) in order.iter().enumerate() {
             rank[v as usize] = r as u32;
         }
         let energy = state.energy();
         let triangles = state.mesh().triangles();
         Ok(TiledAnnealer {
-            sums: (0..n as u32).map(|v| state.angle_sum(v)).collect(),
+            sums: try_collect(TILES, (0..n as u32).map(|v| state.angle_sum(v)))?,
             interior_edges: state.count_interior_half_edges() / 2,
             uv,
             xyz: state.xyz(),
             sight: state.sight(),
             interior,
             rank,
-            best: triangles.clone(),
+            best: try_collect(TILES, triangles.iter().copied())?,
             triangles,
             energy,
             running: None,
@@ -181,11 +191,16 @@ impl TiledAnnealer {
     /// Runs the tiles of the current phase (starting one if needed) in parallel, each for
     /// at most `max_proposals` proposals, returning soon after `deadline` and at the end of
     /// the phase. Returns the proposals run. Where calls end never changes the result.
-    pub fn advance_until(&mut self, max_proposals: usize, deadline: Option<Instant>) -> usize {
+    /// Errors: an [`Error::OutOfMemory`] when a phase's tiles cannot be allocated.
+    pub fn advance_until(
+        &mut self,
+        max_proposals: usize,
+        deadline: Option<Instant>,
+    ) -> Result<usize> {
         let mut ran = 0;
         while !self.is_done() {
             if self.running.is_none() {
-                self.start_phase();
+                self.start_phase()?;
             }
             let phase = self.running.as_mut().expect("a phase was started");
             ran += phase
@@ -203,11 +218,12 @@ impl TiledAnnealer {
                 break;
             }
         }
-        ran
+        Ok(ran)
     }
 
-    /// Cuts the current triangulation into this phase's tiles. O(m).
-    fn start_phase(&mut self) {
+    /// Cuts the current triangulation into this phase's tiles; the copies that grow with
+    /// the input are allocated fallibly (an [`Error::OutOfMemory`]). O(m).
+    fn start_phase(&mut self) -> Result<()> {
         let n = self.uv.len();
         let k = self.params.tiles;
         // Even phases: k stripes of equal vertex counts; odd phases: the borders in the
@@ -223,20 +239,23 @@ impl TiledAnnealer {
         let mut frozen = Vec::new();
         for &tri in &self.triangles {
             let t = tile_of(tri[0]);
-            if tile_of(tri[1]) == t && tile_of(tri[2]) == t {
-                pieces[t].push(tri);
+            let to = if tile_of(tri[1]) == t && tile_of(tri[2]) == t {
+                &mut pieces[t]
             } else {
-                frozen.push(tri);
-            }
+                &mut frozen
+            };
+            try_grow(TILES, to, 1)?;
+            to.push(tri);
         }
         // Local indices: each vertex belongs to one tile, so one array serves all tiles.
         const UNSET: u32 = u32::MAX;
-        let mut local = vec![UNSET; n];
+        let mut local = try_filled(TILES, UNSET, n)?;
         let mut vertices: Vec<Vec<u32>> = vec![Vec::new(); k];
         for (t, piece) in pieces.iter().enumerate() {
             for &v in piece.iter().flatten() {
                 if local[v as usize] == UNSET {
                     local[v as usize] = vertices[t].len() as u32;
+                    try_grow(TILES, &mut vertices[t], 1)?;
                     vertices[t].push(v);
                 }
             }
@@ -252,46 +271,41 @@ impl TiledAnnealer {
             .zip(vertices)
             .enumerate()
             .map(|(t, (piece, vertices))| {
-                let local_tris: Vec<[u32; 3]> = piece
-                    .iter()
-                    .map(|tri| tri.map(|v| local[v as usize]))
-                    .collect();
-                let mesh = HalfEdgeMesh::from_triangles(vertices.len(), &local_tris)
-                    .expect("a tile's triangles are a subset of a valid triangulation");
+                let local_tris = try_collect(
+                    TILES,
+                    piece.iter().map(|tri| tri.map(|v| local[v as usize])),
+                )?;
+                // A subset of a valid triangulation: only its allocations can fail.
+                let mesh = HalfEdgeMesh::from_triangles(vertices.len(), &local_tris)?;
+                // Positions, p and the sight were checked for the whole state: as above.
                 let state = TacState::with_vertex_sums(
                     mesh,
-                    vertices.iter().map(|&v| self.uv[v as usize]).collect(),
-                    vertices.iter().map(|&v| self.xyz[v as usize]).collect(),
+                    gather(&self.uv, &vertices)?,
+                    gather(&self.xyz, &vertices)?,
                     self.params.p,
-                    &vertices
-                        .iter()
-                        .map(|&v| self.sums[v as usize])
-                        .collect::<Vec<_>>(),
-                    &vertices
-                        .iter()
-                        .map(|&v| self.interior[v as usize])
-                        .collect::<Vec<_>>(),
-                )
-                .and_then(|s| s.with_sight(self.sight))
-                .expect("positions, p and the sight were checked for the whole state");
+                    &gather(&self.sums, &vertices)?,
+                    &gather(&self.interior, &vertices)?,
+                )?
+                .with_sight(self.sight)?;
                 let params = AnnealParams {
                     sweeps,
                     patience: 0,
                     seed: tile_seed(self.params.seed, phase, t),
                     ..self.params.clone()
                 };
-                Tile {
+                Ok(Tile {
                     vertices,
-                    run: Annealer::for_phase(state, params, self.temperature, self.cooling),
-                }
+                    run: Annealer::for_phase(state, params, self.temperature, self.cooling)?,
+                })
             })
-            .collect();
+            .collect::<Result<Vec<_>>>()?;
         self.running = Some(Phase {
             frozen,
             constant,
             sweeps,
             tiles,
         });
+        Ok(())
     }
 
     /// Puts the tiles back together: the current triangulation and sums, the sweep records
@@ -405,7 +419,7 @@ impl TiledAnnealer {
         }
         let best = HalfEdgeMesh::from_triangles(self.uv.len(), &self.best)?;
         let best = TacState::new(best, self.uv, self.xyz, self.params.p)?.with_sight(self.sight)?;
-        let (mesh, energy, polish_flips) = polish(best, &self.params);
+        let (mesh, energy, polish_flips) = polish(best, &self.params)?;
         Ok(AnnealResult {
             mesh,
             initial_energy: self.initial_energy,
@@ -474,7 +488,7 @@ mod tests {
     fn run(st: &TacState, p: AnnealParams) -> AnnealResult {
         let mut a = TiledAnnealer::new(st.clone(), p).unwrap();
         while !a.is_done() {
-            a.advance_until(usize::MAX, None);
+            a.advance_until(usize::MAX, None).unwrap();
         }
         a.finish().unwrap()
     }
@@ -498,7 +512,7 @@ mod tests {
             let mut a = TiledAnnealer::new(st.clone(), p).unwrap();
             let mut checked = 0;
             while !a.is_done() {
-                a.advance_until(1_000, None);
+                a.advance_until(1_000, None).unwrap();
                 if a.running.is_some() {
                     continue;
                 }
@@ -538,7 +552,8 @@ mod tests {
                 order: AnnealParams::default().order(),
             },
             usize::MAX,
-        );
+        )
+        .unwrap();
         let plain = anneal(st.clone(), params(1, 200, 5)).unwrap();
         let tiled = run(&st, params(3, 200, 5));
         tiled.mesh.validate(&st.uv()).unwrap();
@@ -575,7 +590,7 @@ mod tests {
         }
         let mut chunked = TiledAnnealer::new(st.clone(), p.clone()).unwrap();
         while !chunked.is_done() {
-            chunked.advance_until(37, Some(Instant::now()));
+            chunked.advance_until(37, Some(Instant::now())).unwrap();
         }
         let r = chunked.finish().unwrap();
         assert_eq!(r.mesh.triangles(), one.mesh.triangles());
@@ -600,7 +615,7 @@ mod tests {
         assert_eq!(r.trace.len() % PHASE_SWEEPS, 0);
         // Interrupted in the middle of a phase: finish still returns a valid best.
         let mut a = TiledAnnealer::new(st.clone(), params(2, 1_000, 3)).unwrap();
-        a.advance_until(500, None);
+        a.advance_until(500, None).unwrap();
         assert!(a.running.is_some());
         let r = a.finish().unwrap();
         r.mesh.validate(&st.uv()).unwrap();

@@ -29,6 +29,7 @@
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
 use super::{check, jumps, repair, Method, ScanContext, StripMesh, StripParams};
+use crate::budget::{try_filled, try_vec};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
@@ -672,7 +673,8 @@ struct Strips {
 
 /// Every strip solved in parallel, each writing its own range of the one triangle list (a
 /// triangle per path step): the list, the range of each task (to find the strips around a
-/// lone point) and each strip's result. Time: each strip as its method; errors: a strip's.
+/// lone point) and each strip's result. Time: each strip as its method; errors: a strip's,
+/// and an [`Error::OutOfMemory`] for the list.
 fn solve_strips(
     points: &[DVec3],
     unit: &UnitFrame,
@@ -680,15 +682,16 @@ fn solve_strips(
     params: &StripParams,
     plan: Option<&check::Plan>,
 ) -> Result<Strips> {
-    let mut ranges = Vec::with_capacity(tasks.len());
+    const WHAT: &str = "the strips' triangles";
+    let mut ranges = try_vec(WHAT, tasks.len())?;
     let mut total = 0;
     for task in tasks {
         let count = triangles_of(task);
         ranges.push(total..total + count);
         total += count;
     }
-    let mut triangles = vec![[0u32; 3]; total];
-    let mut parts = Vec::with_capacity(tasks.len());
+    let mut triangles = try_filled(WHAT, [0u32; 3], total)?;
+    let mut parts = try_vec(WHAT, tasks.len())?;
     let mut rest = &mut triangles[..];
     for range in &ranges {
         let (part, tail) = rest.split_at_mut(range.len());

@@ -9,6 +9,7 @@
 //!   row r+1  d ── e        3 corners: their one triangle; fewer: nothing
 //! ```
 
+use crate::budget::{try_filled, try_grow, try_par_collect, try_vec};
 use crate::mesh::NONE;
 use crate::triangulate::trim::peel_flags;
 use crate::{Error, Result};
@@ -245,17 +246,18 @@ fn across_edge(x: u8, y: u8) -> (isize, isize, u8, u8) {
 /// Half-edge twins of triangles given by cell and corner codes, cells ascending (half-edge
 /// 3t + k runs from corner k of triangle t; NONE on the boundary), from the grid itself:
 /// the twin lies in the same cell or the one across the edge, found through each cell's
-/// first triangle, in parallel. O(m + cells).
-fn grid_twins(cells: &[u32], codes: &[Codes], cols: usize, rows: usize) -> Vec<u32> {
+/// first triangle, in parallel; an [`Error::OutOfMemory`] when its arrays cannot be
+/// allocated. O(m + cells).
+fn grid_twins(cells: &[u32], codes: &[Codes], cols: usize, rows: usize) -> Result<Vec<u32>> {
     let n_cells = (rows - 1) * (cols - 1);
-    let mut first = vec![0u32; n_cells + 1];
+    let mut first = try_filled(GRID, 0u32, n_cells + 1)?;
     for &cell in cells {
         first[cell as usize + 1] += 1;
     }
     for k in 0..n_cells {
         first[k + 1] += first[k];
     }
-    (0..3 * codes.len())
+    let twins = (0..3 * codes.len())
         .into_par_iter()
         .with_min_len(1 << 14)
         .map(|h| {
@@ -281,13 +283,15 @@ fn grid_twins(cells: &[u32], codes: &[Codes], cols: usize, rows: usize) -> Vec<u
                         .map(|j| 3 * u + j as u32)
                 })
                 .unwrap_or(NONE)
-        })
-        .collect()
+        });
+    try_par_collect(GRID, twins)
 }
+
+/// What the grid's failed allocations name.
+const GRID: &str = "the grid's triangles";
 
 /// The candidates of a block of rows: those kept (in the grid's winding) with the signs of
 /// their planar areas, and the counts of each verdict.
-#[derive(Default)]
 struct Block {
     kept: Vec<[u32; 3]>,
     codes: Vec<Codes>,
@@ -296,6 +300,22 @@ struct Block {
     candidates: usize,
     turned: usize,
     long: usize,
+}
+
+impl Block {
+    /// An empty block with room for `candidates` triangles in each list, allocated
+    /// fallibly (an [`Error::OutOfMemory`]): the lists then never grow. O(1).
+    fn with_room(candidates: usize) -> Result<Self> {
+        Ok(Block {
+            kept: try_vec(GRID, candidates)?,
+            codes: try_vec(GRID, candidates)?,
+            cells: try_vec(GRID, candidates)?,
+            signs: try_vec(GRID, candidates)?,
+            candidates: 0,
+            turned: 0,
+            long: 0,
+        })
+    }
 }
 
 /// What becomes of a candidate: kept, or dropped by which rule.
@@ -401,7 +421,8 @@ pub fn grid_triangulate(
         .collect::<Vec<_>>()
         .par_chunks(ROWS_PER_TASK)
         .map(|block| {
-            let mut out = Block::default();
+            // At most two triangles a cell.
+            let mut out = Block::with_room(2 * block.len() * cols.saturating_sub(1))?;
             let mut cell = Vec::with_capacity(2);
             for &r in block {
                 for c in 0..cols.saturating_sub(1) {
@@ -427,9 +448,9 @@ pub fn grid_triangulate(
                     }
                 }
             }
-            out
+            Ok(out)
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let total: i64 = blocks
         .iter()
         .flat_map(|b| b.signs.iter())
@@ -441,11 +462,8 @@ pub fn grid_triangulate(
         ..GridTriangles::default()
     };
     let total_kept = blocks.iter().map(|b| b.kept.len()).sum();
-    out.triangles.reserve(total_kept);
-    let (mut codes, mut cells) = (
-        Vec::with_capacity(total_kept),
-        Vec::with_capacity(total_kept),
-    );
+    try_grow(GRID, &mut out.triangles, total_kept)?;
+    let (mut codes, mut cells) = (try_vec(GRID, total_kept)?, try_vec(GRID, total_kept)?);
     for block in blocks {
         out.candidates += block.candidates;
         out.turned += block.turned;
@@ -476,27 +494,43 @@ pub fn grid_triangulate(
     // annealing need a manifold start, as trimming gives them. The twins come from the
     // grid's edges, so no half-edge search is needed.
     if !out.triangles.is_empty() {
-        let twins = grid_twins(&cells, &codes, cols, rows);
+        let twins = grid_twins(&cells, &codes, cols, rows)?;
         let kept = out.triangles.len();
-        let keep = vec![true; kept];
+        let keep = try_filled(GRID, true, kept)?;
         out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None);
         out.peeled = kept - out.triangles.len();
     }
-    let mut used = vec![false; points.len()];
+    let mut used = try_filled(GRID, false, points.len())?;
     for t in &out.triangles {
         for &v in t {
             used[v as usize] = true;
         }
     }
-    out.unused = (0..points.len() as u32)
-        .filter(|&v| !used[v as usize])
-        .collect();
+    out.unused = try_vec(GRID, used.iter().filter(|&&u| !u).count())?;
+    out.unused
+        .extend((0..points.len() as u32).filter(|&v| !used[v as usize]));
     Ok(out)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn buffers_beyond_memory_are_errors_not_aborts() {
+        // Cells and candidates no allocator gives: an error naming the grid.
+        let side = 1usize << 31;
+        for e in [
+            grid_twins(&[], &[], side, side).unwrap_err(),
+            Block::with_room(usize::MAX / 8).err().unwrap(),
+        ] {
+            assert!(
+                matches!(&e, Error::OutOfMemory { what, .. } if what.starts_with(GRID)),
+                "{e}"
+            );
+        }
+        assert!(grid_twins(&[], &[], 3, 3).unwrap().is_empty());
+    }
 
     fn rules(sight: DVec3, max_turn_deg: f64, edge_factor: f64) -> GridParams {
         GridParams {
@@ -621,7 +655,7 @@ mod tests {
         }
         let mesh = crate::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
         let expected: Vec<u32> = (0..3 * tris.len() as u32).map(|h| mesh.twin(h)).collect();
-        assert_eq!(grid_twins(&cells, &codes, cols, rows), expected);
+        assert_eq!(grid_twins(&cells, &codes, cols, rows).unwrap(), expected);
     }
 
     #[test]

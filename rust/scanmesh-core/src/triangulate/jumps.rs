@@ -296,7 +296,9 @@ pub(super) fn bridging_in_box(
     // the bridge rule runs again on what is kept while it drops something. The jump rule
     // runs once (again, it would eat into the walls' rims).
     if jumps.gaps && dropped.iter().any(|&d| d) {
-        let around = Fans::new(jumps.unit.len(), triangles);
+        // This function's callers (trimming) take no error yet: an allocation refused here
+        // panics (a PanicException in Python) instead of aborting the process.
+        let around = Fans::new(jumps.unit.len(), triangles).expect("memory for the fans");
         let mut last: Vec<u32> = (0..triangles.len() as u32)
             .filter(|&i| dropped[i as usize])
             .collect();

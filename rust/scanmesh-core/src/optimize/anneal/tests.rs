@@ -56,7 +56,8 @@ fn annealing_beats_lop_and_keeps_invariants() {
             order: AnnealParams::default().order(),
         },
         usize::MAX,
-    );
+    )
+    .unwrap();
     let r = anneal(st.clone(), quick(1)).unwrap();
     r.mesh.validate(&st.uv()).unwrap();
     assert!(r.energy <= e0);
@@ -328,7 +329,7 @@ fn steepest_turn_deg(xyz: &[DVec3], mesh: &HalfEdgeMesh) -> f64 {
 fn tiled(state: TacState, params: AnnealParams) -> HalfEdgeMesh {
     let mut run = crate::optimize::tiles::TiledAnnealer::new(state, params).unwrap();
     while !run.is_done() {
-        run.advance_until(usize::MAX, None);
+        run.advance_until(usize::MAX, None).unwrap();
     }
     run.finish().unwrap().mesh
 }
@@ -373,7 +374,7 @@ fn no_flip_brings_a_face_nearer_the_line_of_sight_than_the_curtain_angle() {
     };
     let lop_mesh = |state: &TacState, angle: f64| {
         let mut s = state.clone();
-        tac_lop(&mut s, params(angle, 1).order());
+        tac_lop(&mut s, params(angle, 1).order()).unwrap();
         s.into_mesh()
     };
     let free = [

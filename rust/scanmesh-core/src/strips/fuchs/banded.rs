@@ -3,7 +3,7 @@
 
 use super::dp::{check_band, dp_in_band, dp_in_band_with, RowCache};
 use super::weights::{Terms, Weight};
-use super::Solution;
+use super::{Ask, Solution};
 use crate::{Error, Result};
 use glam::DVec3;
 
@@ -41,32 +41,29 @@ pub fn shortest_path_banded(
         });
     }
     let (n, m) = (t.n(), t.m());
-    let center = diagonal(a, b);
+    let ask = t.ask("solver", "'banded'".into());
+    let center = diagonal(a, b, &ask)?;
     // Rows of the band of half width `w` around the diagonal, made passable.
-    let band = |w: usize| -> (Vec<usize>, Vec<usize>) {
-        let mut lo: Vec<usize> = center.iter().map(|&c| c.saturating_sub(w)).collect();
-        let mut hi: Vec<usize> = center
-            .iter()
-            .map(|&c| c.saturating_add(w).min(m - 1))
-            .collect();
+    let band = |w: usize| -> Result<(Vec<usize>, Vec<usize>)> {
+        let mut lo = ask.collect(center.iter().map(|&c| c.saturating_sub(w)))?;
+        let mut hi = ask.collect(center.iter().map(|&c| c.saturating_add(w).min(m - 1)))?;
         lo[0] = 0;
         hi[n - 1] = m - 1;
         // Consecutive rows must share a column for a path to step down.
         for i in (0..n - 1).rev() {
             hi[i] = hi[i].max(lo[i + 1]).min(hi[i + 1]);
         }
-        (lo, hi)
+        Ok((lo, hi))
     };
-    let ask = t.ask("solver", "'banded'".into());
     let mut width = half_width;
     loop {
-        let (lo, hi) = band(width);
+        let (lo, hi) = band(width)?;
         if lo.iter().all(|&x| x == 0) && hi.iter().all(|&x| x == m - 1) {
             return dp_in_band(&t, &lo, &hi, &ask);
         }
         let row_width = check_band(&t, &lo, &hi, &ask)?;
         let steps = RowCache::new(&t, row_width, &ask)?;
-        let mut bounds = super::outside::Bounds::new(&t, &lo, &hi);
+        let mut bounds = super::outside::Bounds::new(&t, &lo, &hi, &ask)?;
         if let Some(solution) = dp_in_band_with(&t, steps, &mut bounds, &lo, &hi, &ask)? {
             return Ok(solution);
         }
@@ -77,32 +74,30 @@ pub fn shortest_path_banded(
 /// For each i, the index j of the b point nearest a_i along the strip's direction: the
 /// projections onto d = (a_{n−1} − a_0) + (b_{m−1} − b_0) are matched by a merge walk. This
 /// follows lines of unequal extent, spacing and point count; when d vanishes (closed or
-/// coincident lines) normalized arc length stands in. O(n + m).
-pub(super) fn diagonal(a: &[DVec3], b: &[DVec3]) -> Vec<usize> {
+/// coincident lines) normalized arc length stands in. Allocations as `ask`'s. O(n + m).
+pub(super) fn diagonal(a: &[DVec3], b: &[DVec3], ask: &Ask) -> Result<Vec<usize>> {
     let d = (a[a.len() - 1] - a[0]) + (b[b.len() - 1] - b[0]);
-    let (ta, tb): (Vec<f64>, Vec<f64>) = if d.length_squared() > 0.0 {
+    let (ta, tb) = if d.length_squared() > 0.0 {
         (
-            a.iter().map(|p| p.dot(d)).collect(),
-            b.iter().map(|p| p.dot(d)).collect(),
+            ask.collect(a.iter().map(|p| p.dot(d)))?,
+            ask.collect(b.iter().map(|p| p.dot(d)))?,
         )
     } else {
-        (arc_length_fractions(a), arc_length_fractions(b))
+        (arc_length_fractions(a, ask)?, arc_length_fractions(b, ask)?)
     };
     let mut j = 0;
-    ta.iter()
-        .map(|&x| {
-            while j + 1 < tb.len() && (tb[j + 1] - x).abs() <= (tb[j] - x).abs() {
-                j += 1;
-            }
-            j
-        })
-        .collect()
+    ask.collect(ta.iter().map(|&x| {
+        while j + 1 < tb.len() && (tb[j + 1] - x).abs() <= (tb[j] - x).abs() {
+            j += 1;
+        }
+        j
+    }))
 }
 
 /// Cumulative 3-D arc length of a line divided by its total (index fractions when the
-/// points coincide). O(n).
-pub(super) fn arc_length_fractions(line: &[DVec3]) -> Vec<f64> {
-    let mut s = Vec::with_capacity(line.len());
+/// points coincide). Allocations as `ask`'s. O(n).
+pub(super) fn arc_length_fractions(line: &[DVec3], ask: &Ask) -> Result<Vec<f64>> {
+    let mut s = ask.vec(line.len())?;
     let mut total = 0.0;
     s.push(0.0);
     for k in 1..line.len() {
@@ -110,14 +105,11 @@ pub(super) fn arc_length_fractions(line: &[DVec3]) -> Vec<f64> {
         s.push(total);
     }
     let count = (line.len().max(2) - 1) as f64;
-    s.iter()
-        .enumerate()
-        .map(|(k, &x)| {
-            if total > 0.0 {
-                x / total
-            } else {
-                k as f64 / count
-            }
-        })
-        .collect()
+    ask.collect(s.iter().enumerate().map(|(k, &x)| {
+        if total > 0.0 {
+            x / total
+        } else {
+            k as f64 / count
+        }
+    }))
 }

@@ -3,6 +3,7 @@
 
 use super::weights::{Terms, Tri, Weight};
 use super::{Solution, Step};
+use crate::budget::not_allocated;
 use crate::Result;
 use glam::DVec3;
 use std::cmp::Ordering;
@@ -81,12 +82,8 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
             dist[to] = cost;
             pred[to] = from_dir;
             if heap.len() == heap.capacity() {
-                heap.try_reserve(heap.len().max(64)).map_err(|_| {
-                    ask.refusal(
-                        "could not grow the heap".into(),
-                        "a strip whose solver memory the system can provide",
-                    )
-                })?;
+                heap.try_reserve(heap.len().max(64))
+                    .map_err(|_| not_allocated::<Queued>(&ask.what(), 2 * heap.len()))?;
             }
             heap.push(Queued { cost, state: to });
         }
@@ -158,7 +155,7 @@ pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Sol
         goal + 1
     };
     let cost = dist[state];
-    let mut path = Vec::with_capacity(n + m - 2);
+    let mut path = ask.vec(n + m - 2)?;
     let (mut i, mut j) = (n - 1, m - 1);
     while i > 0 || j > 0 {
         let d = state % 2;

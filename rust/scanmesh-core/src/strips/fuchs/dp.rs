@@ -18,8 +18,8 @@ pub fn shortest_path_dp(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Solution>
 
 /// [`shortest_path_dp`] on checked terms; refusals name `ask`'s option.
 pub(super) fn full_dp(t: &Terms, ask: &Ask) -> Result<Solution> {
-    let lo = vec![0; t.n()];
-    let hi = vec![t.m() - 1; t.n()];
+    let lo = ask.filled(t.n(), 0)?;
+    let hi = ask.filled(t.n(), t.m() - 1)?;
     dp_in_band(t, &lo, &hi, ask)
 }
 
@@ -145,14 +145,13 @@ pub(super) struct RowCache<'t, 'a> {
 
 impl<'t, 'a> RowCache<'t, 'a> {
     pub(super) fn new(t: &'t Terms<'a>, width: usize, ask: &Ask) -> Result<Self> {
-        let steps =
-            |line: &[DVec3]| -> Vec<DVec3> { line.windows(2).map(|w| w[1] - w[0]).collect() };
-        let (da, db) = (steps(t.a), steps(t.b));
-        let squares = |v: &[DVec3]| v.iter().map(|d| d.length_squared()).collect();
+        let steps = |line: &[DVec3]| ask.collect(line.windows(2).map(|w| w[1] - w[0]));
+        let (da, db) = (steps(t.a)?, steps(t.b)?);
+        let squares = |v: &[DVec3]| ask.collect(v.iter().map(|d| d.length_squared()));
         Ok(RowCache {
             t,
-            da2: squares(&da),
-            db2: squares(&db),
+            da2: squares(&da)?,
+            db2: squares(&db)?,
             da,
             db,
             cur: ask.filled(width, Node::default())?,
@@ -283,7 +282,7 @@ pub(super) fn dp_in_band_with(
     }
     // Row offsets into the flat back-pointer array: bit 0 = direction at the predecessor
     // for entering by A, bit 1 = the same for entering by B.
-    let mut offset = Vec::with_capacity(n + 1);
+    let mut offset = ask.vec(n + 1)?;
     offset.push(0usize);
     for i in 0..n {
         offset.push(offset[i] + hi[i] + 1 - lo[i]);
@@ -348,7 +347,7 @@ pub(super) fn dp_in_band_with(
     let last = prev[m - 1 - lo[n - 1]];
     let mut dir = if last.cost[0] <= last.cost[1] { 0u8 } else { 1 };
     let cost = last.cost[dir as usize];
-    let mut path = Vec::with_capacity(n + m - 2);
+    let mut path = ask.vec(n + m - 2)?;
     let (mut i, mut j) = (n - 1, m - 1);
     while i > 0 || j > 0 {
         let bits = back[offset[i] + j - lo[i]];

@@ -107,9 +107,9 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
             let mut counts = FilterCounts::default();
             let solution = greedy_filtered(&t, &mut counts);
             filter::record(counts);
-            return Ok(solution);
+            return solution;
         }
-        return Ok(greedy(&t));
+        return greedy(&t);
     }
     let (rows, cols) = (alpha.min(n - 1) + 1, alpha.min(m - 1) + 1);
     ask.check_bytes(rows as u128 * cols as u128 * std::mem::size_of::<Cell>() as u128)?;
@@ -126,12 +126,12 @@ pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<So
     let window = Window {
         cells: ask.filled(rows * cols, UNREACHED)?,
     };
-    Ok(windowed(&t, window, alpha))
+    windowed(&t, window, alpha)
 }
 
 /// The α-look-ahead walk of [`lookahead()`] on checked terms, each decision by a window DP
 /// in `window` (sized for α). O((n + m) · min(α, n) · min(α, m)).
-pub(super) fn windowed(t: &Terms, mut window: Window, alpha: usize) -> Solution {
+pub(super) fn windowed(t: &Terms, mut window: Window, alpha: usize) -> Result<Solution> {
     walk(t, |i, j, entered| {
         let via_a = window.best(t, i, j, *entered, Step::A, alpha);
         let via_b = window.best(t, i, j, *entered, Step::B, alpha);
@@ -147,7 +147,7 @@ pub(super) fn windowed(t: &Terms, mut window: Window, alpha: usize) -> Solution 
 /// of VTK's ruled surface, under any weight). The same arithmetic as the windows (a cell
 /// reached by one step holds `step.cost + turn`), so the same path and cost bit for bit;
 /// tested against the windowed walk. O(n + m) time, O(n + m) memory for the path.
-pub(super) fn greedy(t: &Terms) -> Solution {
+pub(super) fn greedy(t: &Terms) -> Result<Solution> {
     walk(t, |i, j, entered| {
         exact_choice(t, t.step(i, j, Step::A), t.step(i, j, Step::B), entered)
     })
@@ -157,7 +157,7 @@ pub(super) fn greedy(t: &Terms) -> Solution {
 /// (`filter::certified_step`), else from the exact steps: the same path and cost bit for
 /// bit (tested on the fuzz corpus); the decisions and fallbacks are added to `counts`.
 /// O(n + m).
-pub(super) fn greedy_filtered(t: &Terms, counts: &mut FilterCounts) -> Solution {
+pub(super) fn greedy_filtered(t: &Terms, counts: &mut FilterCounts) -> Result<Solution> {
     walk(t, |i, j, entered| {
         filter::filtered_choice(t, i, j, entered, counts, |a, b| {
             exact_choice(t, a, b, entered)
@@ -207,9 +207,9 @@ pub(super) fn with_turn(t: &Terms, step: Tri, entered: &Option<Tri>) -> f64 {
 pub(super) fn walk(
     t: &Terms,
     mut choose: impl FnMut(usize, usize, &Option<Tri>) -> (Step, Tri, f64),
-) -> Solution {
+) -> Result<Solution> {
     let (n, m) = (t.n(), t.m());
-    let mut path = Vec::with_capacity(n + m - 2);
+    let mut path = t.ask("look-ahead", "walk".into()).vec(n + m - 2)?;
     let (mut i, mut j) = (0, 0);
     let mut entered: Option<Tri> = None;
     let mut cost = t.node(0, 0);
@@ -229,5 +229,5 @@ pub(super) fn walk(
             Step::B => j += 1,
         }
     }
-    Solution { path, cost }
+    Ok(Solution { path, cost })
 }

@@ -129,19 +129,30 @@ impl Ask {
         }
     }
 
-    /// `len` copies of `fill`, allocated fallibly: memory the system refuses is this
-    /// strip's error, not an abort. O(len).
+    /// What this strip's failed allocations name ("the solver 'dp' on a strip of 3 × 4
+    /// points"). O(1).
+    fn what(&self) -> String {
+        format!(
+            "the {} {} on a strip of {} × {} points",
+            self.option, self.value, self.n, self.m
+        )
+    }
+
+    /// `len` copies of `fill`, allocated fallibly: memory the system refuses is an
+    /// [`Error::OutOfMemory`] naming this strip, not an abort. O(len).
     fn filled<T: Clone>(&self, len: usize, fill: T) -> Result<Vec<T>> {
-        let mut v = Vec::new();
-        v.try_reserve_exact(len).map_err(|_| {
-            let bytes = len as u128 * std::mem::size_of::<T>() as u128;
-            self.refusal(
-                format!("could not allocate {}", human_bytes(bytes)),
-                "a strip whose solver memory the system can provide",
-            )
-        })?;
-        v.resize(len, fill);
-        Ok(v)
+        crate::budget::try_filled(&self.what(), fill, len)
+    }
+
+    /// An empty vector with room for `len` items, allocated as [`filled`](Self::filled).
+    /// O(1).
+    fn vec<T>(&self, len: usize) -> Result<Vec<T>> {
+        crate::budget::try_vec(&self.what(), len)
+    }
+
+    /// The items of `items`, allocated as [`filled`](Self::filled). O(len).
+    fn collect<T>(&self, items: impl ExactSizeIterator<Item = T>) -> Result<Vec<T>> {
+        crate::budget::try_collect(&self.what(), items)
     }
 }
 

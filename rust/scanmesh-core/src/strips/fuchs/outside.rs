@@ -41,7 +41,8 @@
 
 use super::dp::{Cell, Outside};
 use super::weights::{Terms, Tri};
-use super::Step;
+use super::{Ask, Step};
+use crate::Result;
 use glam::DVec3;
 use std::f64::consts::FRAC_PI_3;
 
@@ -105,16 +106,17 @@ fn step_bound(t: &Terms, p: DVec3, q: DVec3, far: &Aabb) -> f64 {
     cost * SHRINK
 }
 
-/// Prefix sums of `bounds`: entry k is the sum of the first k. O(len).
-fn prefix_sums(bounds: impl Iterator<Item = f64>, len: usize) -> Vec<f64> {
-    let mut sums = Vec::with_capacity(len + 1);
+/// Prefix sums of `bounds` (`len` at most): entry k is the sum of the first k. Allocated
+/// as `ask`'s. O(len).
+fn prefix_sums(bounds: impl Iterator<Item = f64>, len: usize, ask: &Ask) -> Result<Vec<f64>> {
+    let mut sums = ask.vec(len + 1)?;
     let mut total = 0.0;
     sums.push(total);
     for x in bounds {
         total += x;
         sums.push(total);
     }
-    sums
+    Ok(sums)
 }
 
 /// The relaxed ways around one band (see the module docs).
@@ -133,13 +135,18 @@ pub(super) struct Bounds<'t, 'a> {
 }
 
 impl<'t, 'a> Bounds<'t, 'a> {
-    /// The bounds around band `lo..=hi` of `t`. O(n + m).
-    pub(super) fn new(t: &'t Terms<'a>, lo: &'t [usize], hi: &'t [usize]) -> Self {
+    /// The bounds around band `lo..=hi` of `t`, allocated as `ask`'s. O(n + m).
+    pub(super) fn new(
+        t: &'t Terms<'a>,
+        lo: &'t [usize],
+        hi: &'t [usize],
+        ask: &Ask,
+    ) -> Result<Self> {
         let (a, b) = (t.a, t.b);
         let (n, m) = (a.len(), b.len());
         // A-steps of row r above the band: columns hi[r] + 1..m, a suffix of b growing as r
         // falls; below: columns 0..lo[r], a prefix growing with r.
-        let mut up = vec![0.0; n.saturating_sub(1)];
+        let mut up = ask.filled(n.saturating_sub(1), 0.0)?;
         let mut far = Aabb::EMPTY;
         let mut next = m;
         for r in (0..n.saturating_sub(1)).rev() {
@@ -158,7 +165,7 @@ impl<'t, 'a> Bounds<'t, 'a> {
             }
             step_bound(t, a[r], a[r + 1], &far)
         });
-        let a_below = prefix_sums(down, n);
+        let a_below = prefix_sums(down, n, ask)?;
         // B-steps of column j above the band: rows with hi[r] < j, a prefix of a growing
         // with j; below: rows with lo[r] > j + 1, a suffix growing as j falls.
         let mut far = Aabb::EMPTY;
@@ -170,8 +177,8 @@ impl<'t, 'a> Bounds<'t, 'a> {
             }
             step_bound(t, b[j], b[j + 1], &far)
         });
-        let b_above = prefix_sums(up_b, m);
-        let mut down_b = vec![0.0; m.saturating_sub(1)];
+        let b_above = prefix_sums(up_b, m, ask)?;
+        let mut down_b = ask.filled(m.saturating_sub(1), 0.0)?;
         let mut far = Aabb::EMPTY;
         let mut next = n;
         for j in (0..m.saturating_sub(1)).rev() {
@@ -181,16 +188,16 @@ impl<'t, 'a> Bounds<'t, 'a> {
             }
             down_b[j] = step_bound(t, b[j], b[j + 1], &far);
         }
-        Bounds {
+        Ok(Bounds {
             t,
             lo,
-            a_above: prefix_sums(up.into_iter(), n),
+            a_above: prefix_sums(up.into_iter(), n, ask)?,
             a_below,
             b_above,
-            b_below: prefix_sums(down_b.into_iter(), m),
+            b_below: prefix_sums(down_b.into_iter(), m, ask)?,
             best_above: f64::INFINITY,
             best_below: f64::INFINITY,
-        }
+        })
     }
 }
 
