@@ -16,13 +16,18 @@
 
 use crate::geometry::{Normalizer, PAR_BLOCK};
 use crate::triangulate::jumps::{bridging_triangles, infinities, lower, DepthJumps};
+use crate::Result;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// [`bridging_triangles`]`(uv, triangles, jumps)`, bit for bit, computed on the candidates
 /// only (see the module docs). O(n + m) in parallel, plus that of [`bridging_triangles`]
-/// on the candidates' neighbourhoods.
-pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
+/// on the candidates' neighbourhoods. Errors as [`bridging_triangles`].
+pub(super) fn bridging(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    jumps: DepthJumps,
+) -> Result<Vec<bool>> {
     // The shortcut holds for the jump rule alone: the gap rule drops at any slope.
     debug_assert!(
         !jumps.gaps,
@@ -30,7 +35,7 @@ pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJump
     );
     let none = || vec![false; triangles.len()];
     if !jumps.factor.is_finite() || triangles.is_empty() {
-        return none();
+        return Ok(none());
     }
     // Squared lengths in the unit box (where `bridging_triangles` measures, so no square
     // overflows), each point mapped as its edge is read: no mapped copy of the points.
@@ -82,7 +87,7 @@ pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJump
         .with_min_len(PAR_BLOCK)
         .any(is_candidate)
     {
-        return none();
+        return Ok(none());
     }
     let candidate: Vec<bool> = triangles
         .par_iter()
@@ -111,13 +116,13 @@ pub(super) fn bridging(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJump
         })
         .collect();
     let near: Vec<[u32; 3]> = around.iter().map(|&f| triangles[f]).collect();
-    let verdicts = bridging_triangles(uv, &near, jumps);
+    let verdicts = bridging_triangles(uv, &near, jumps)?;
     let mut bridges = none();
     for (&f, bridge) in around.iter().zip(verdicts) {
         // Others around them may see partial spacings; they are not candidates anyway.
         bridges[f] = bridge && candidate[f];
     }
-    bridges
+    Ok(bridges)
 }
 
 #[cfg(test)]
@@ -195,10 +200,10 @@ mod tests {
                     factor,
                     gaps: false,
                 };
-                let fast = bridging(&uv, &tris, jumps);
+                let fast = bridging(&uv, &tris, jumps).unwrap();
                 assert_eq!(
                     fast,
-                    bridging_triangles(&uv, &tris, jumps),
+                    bridging_triangles(&uv, &tris, jumps).unwrap(),
                     "shape {seed}, scale {scale}, factor {factor}"
                 );
                 dropped += fast.iter().filter(|&&b| b).count();

@@ -428,7 +428,7 @@ fn stitch_with(
     // triangles are dropped is trimmed, not unused.
     let used_by_strips = used_points(points.len(), &triangles);
     let own_before = own.count(&triangles);
-    let dropped_jumps = drop_jumps(points, caller_uv, uv, params.jump_factor, &mut triangles);
+    let dropped_jumps = drop_jumps(points, caller_uv, uv, params.jump_factor, &mut triangles)?;
     let own_after_jumps = own.count(&triangles);
     // Lone points' triangles and dropped triangles are not strips: then only the global
     // check knows.
@@ -770,25 +770,26 @@ fn insert_lone_points(
 /// gap rule: it would drop lookahead's long fans on clean grids), and so are the smaller
 /// fans of the pinches that leaves (else the planar check would refuse them as a
 /// crossing). `caller_uv` for the rule, the unit-square `uv` for the peeling. Returns how
-/// many triangles were dropped; none with an infinite `factor`. O(m log m).
+/// many triangles were dropped; none with an infinite `factor`. O(m log m). Errors as
+/// [`jumps::bridging`].
 fn drop_jumps(
     points: &[DVec3],
     caller_uv: &[[f64; 2]],
     uv: &[[f64; 2]],
     factor: f64,
     triangles: &mut Vec<[u32; 3]>,
-) -> usize {
+) -> Result<usize> {
     if !factor.is_finite() || triangles.is_empty() {
-        return 0;
+        return Ok(0);
     }
     let jumps = DepthJumps {
         points,
         factor,
         gaps: false,
     };
-    let bridges = jumps::bridging(caller_uv, triangles, jumps);
+    let bridges = jumps::bridging(caller_uv, triangles, jumps)?;
     if !bridges.iter().any(|&b| b) {
-        return 0;
+        return Ok(0);
     }
     let before = triangles.len();
     let kept: Vec<[u32; 3]> = std::mem::take(triangles)
@@ -799,7 +800,7 @@ fn drop_jumps(
         .collect();
     // Crossing lines (no half-edge mesh) are the repair's business afterwards.
     *triangles = crate::triangulate::trim::peel(uv, kept.clone()).unwrap_or(kept);
-    before - triangles.len()
+    Ok(before - triangles.len())
 }
 
 /// The points no triangle uses (ascending), and, when triangles were `dropped`, those of

@@ -198,7 +198,7 @@ mod tests {
             planar_only.iter().any(over),
             "the fixture must cover the bore"
         );
-        let bridges = bridging_triangles(&uv, &d.triangles, jumps);
+        let bridges = bridging_triangles(&uv, &d.triangles, jumps).unwrap();
         let flags = covering_holes(&uv, &d.triangles, DEFAULT_HOLE_FACTOR);
         let near =
             |v: u32| (uv[v as usize][0] - centre[0]).hypot(uv[v as usize][1] - centre[1]) < 3.5;

@@ -213,11 +213,16 @@ pub(super) fn is_steep(length3: f64, flat: f64) -> bool {
 /// across lines ([`Spacing::across`]) of its corners (both computed over `triangles`; the
 /// bridge rule again over what is kept, while it drops something). `uv` must be the orthogonal
 /// projection of `jumps.points`, in the same
-/// units; all `false` when `jumps.factor` is infinite. O(m log m).
-pub fn bridging_triangles(uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: DepthJumps) -> Vec<bool> {
+/// units; all `false` when `jumps.factor` is infinite. O(m log m). Errors: memory the
+/// system refuses for the gap rule's fans ([`Error::OutOfMemory`]).
+pub fn bridging_triangles(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    jumps: DepthJumps,
+) -> Result<Vec<bool>> {
     match UnitJumps::when_finite(Some(jumps)) {
         Some(unit) => bridging_in_box(uv, triangles, &unit),
-        None => vec![false; triangles.len()],
+        None => Ok(vec![false; triangles.len()]),
     }
 }
 
@@ -286,7 +291,7 @@ pub(super) fn bridging_in_box(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     jumps: &UnitJumps,
-) -> Vec<bool> {
+) -> Result<Vec<bool>> {
     let (shape, shortest_at) = shapes(uv, triangles, jumps);
     let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
         f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
@@ -296,9 +301,7 @@ pub(super) fn bridging_in_box(
     // the bridge rule runs again on what is kept while it drops something. The jump rule
     // runs once (again, it would eat into the walls' rims).
     if jumps.gaps && dropped.iter().any(|&d| d) {
-        // This function's callers (trimming) take no error yet: an allocation refused here
-        // panics (a PanicException in Python) instead of aborting the process.
-        let around = Fans::new(jumps.unit.len(), triangles).expect("memory for the fans");
+        let around = Fans::new(jumps.unit.len(), triangles)?;
         let mut last: Vec<u32> = (0..triangles.len() as u32)
             .filter(|&i| dropped[i as usize])
             .collect();
@@ -309,7 +312,7 @@ pub(super) fn bridging_in_box(
             }
         }
     }
-    dropped
+    Ok(dropped)
 }
 
 /// Each triangle's longest 3-D edge, negative when steep, and the shortest 3-D edge of any

@@ -174,7 +174,7 @@ pub fn trim_long_edges(
     }
     let twins = twins_of(uv.len(), triangles)?;
     let jumps = UnitJumps::when_finite(jumps);
-    Ok(trim(uv, triangles, &twins, max_edge, jumps, None))
+    trim(uv, triangles, &twins, max_edge, jumps, None)
 }
 
 /// Refuses a planar trimming length that is NaN or not positive (`∞` keeps every length);
@@ -263,7 +263,7 @@ pub fn delaunay_trimmed(
         limit,
         jumps,
         order.as_deref(),
-    );
+    )?;
     drop(gathered);
     let mut vertex = vec![false; uv.len()];
     d.triangles
@@ -305,13 +305,13 @@ fn trim(
     max_edge: f64,
     jumps: Option<UnitJumps>,
     to_input: Option<&[u32]>,
-) -> Vec<[u32; 3]> {
+) -> Result<Vec<[u32; 3]>> {
     let short = ShortEnough::new(max_edge);
     let longest_within =
         |t: &[u32; 3]| (0..3).all(|k| short.test(uv[t[k] as usize], uv[t[(k + 1) % 3] as usize]));
     let mut bridges = jumps
         .as_ref()
-        .map_or_else(Vec::new, |j| bridging_in_box(uv, triangles, j));
+        .map_or_else(|| Ok(Vec::new()), |j| bridging_in_box(uv, triangles, j))?;
     let holes_too = jumps.is_some_and(|j| j.gaps && j.factor.is_finite());
     if holes_too {
         let holes = covering_holes(uv, triangles, DEFAULT_HOLE_FACTOR);
@@ -324,7 +324,7 @@ fn trim(
         .map(|(k, t)| longest_within(t) && !bridges.get(k).copied().unwrap_or(false))
         .collect();
     drop(bridges);
-    peel_flags(uv, triangles, twins, keep, to_input)
+    Ok(peel_flags(uv, triangles, twins, keep, to_input))
 }
 
 /// `planar_distance(a, b) <= max_edge`, decided from the squared length where that is

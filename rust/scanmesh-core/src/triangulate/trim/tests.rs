@@ -194,6 +194,7 @@ fn a_gap_between_lines_is_left_open_at_any_slope_and_sparse_lines_are_kept() {
         gaps: true,
     };
     assert!(!bridging_triangles(&uv, &d.triangles, jumps)
+        .unwrap()
         .into_iter()
         .any(|b| b));
 }
@@ -415,7 +416,7 @@ fn later_bridge_rounds_on_the_neighbourhood_are_full_rounds() {
         );
         let (expected, rounds) = full(&uv, &d.triangles, &jumps);
         assert_eq!(
-            bridging_in_box(&uv, &d.triangles, &jumps),
+            bridging_in_box(&uv, &d.triangles, &jumps).unwrap(),
             expected,
             "seed {seed}"
         );
