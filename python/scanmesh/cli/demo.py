@@ -38,8 +38,8 @@ ROWS = (
 
 
 def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
-    """Scan the fandisk, reconstruct it by Delaunay and by annealing (what the default picks there), compare
-    both with the part; write demo_part.stl, demo_part.png and demo_tac.png."""
+    """Scan the fandisk, reconstruct it by Delaunay and by annealing (what the default picks
+    there), compare both with the part; write demo_part.stl, demo_part.png and demo_tac.png."""
     folder = Path(args.output_dir)
     parent = folder.parent if str(folder.parent) else Path(".")
     if not parent.is_dir():
