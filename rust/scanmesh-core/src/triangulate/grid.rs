@@ -8,16 +8,12 @@
 //!            │ ╲  │        (a-e here: triangles a b e and a e d);
 //!   row r+1  d ── e        3 corners: their one triangle; fewer: nothing
 //! ```
-//!
-//! Where an outline crosses the grid at a slant, the cells leave a staircase of notches
-//! along it; notches no ray of the grid passes through are filled (see [`fill_notches`]).
 
 use crate::mesh::NONE;
 use crate::triangulate::trim::peel_flags;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
-use std::collections::{HashMap, HashSet, VecDeque};
 
 /// Default largest turn (degrees) of a kept triangle's normal away from the line of sight.
 /// Chosen by benches/curtains.py (figures in docs/benchmarks/curtains.md): over nine
@@ -37,13 +33,6 @@ pub const DEFAULT_GRID_TURN_DEG: f64 = 80.0;
 /// more than 2 spacings off (8 keeps none either but an RMS distance of 0.070 spacings, ∞
 /// keeps all 88 of them).
 pub const DEFAULT_GRID_EDGE_FACTOR: f64 = 6.0;
-
-/// Largest turn (degrees) of a notch-filling ear from the line of sight ([`fill_notches`]),
-/// below θ: an ear is a guess between samples of the outline, not a cell whose rays
-/// bracket it. On benches/curtains.py's panel the ears turned more (8 on the conrod along
-/// z, 77°-79°, 0.66 spacings off the part) raised its height RMS 11 % for 0.04 points of
-/// missed area (docs/benchmarks/curtains.md).
-pub const EAR_TURN_DEG: f64 = 60.0;
 
 /// Rows of the grid per rayon task.
 const ROWS_PER_TASK: usize = 64;
@@ -86,8 +75,6 @@ pub struct GridTriangles {
     /// Triangles dropped afterwards so that the rest is a valid planar triangulation:
     /// the smaller fans at a pinched vertex, collinear slivers on the boundary.
     pub peeled: usize,
-    /// Triangles added afterwards in the notches of the outline ([`fill_notches`]).
-    pub filled: usize,
     /// Median grid spacing across the line of sight (input units; 0 when there is none).
     pub spacing: f64,
     /// The points in no kept triangle (in the grid or not), ascending.
@@ -319,120 +306,6 @@ enum Verdict {
     Long,
 }
 
-/// The grid, for the samples of a block of rows and columns.
-struct GridAt<'a> {
-    grid: &'a [i64],
-    rows: usize,
-    cols: usize,
-}
-
-impl GridAt<'_> {
-    /// The points in rows `r0..=r1` and columns `c0..=c1` (clipped to the grid).
-    fn block(&self, [r0, r1]: [usize; 2], [c0, c1]: [usize; 2]) -> impl Iterator<Item = u32> + '_ {
-        let (r1, c1) = (r1.min(self.rows - 1), c1.min(self.cols - 1));
-        (r0..=r1)
-            .flat_map(move |r| (c0..=c1).map(move |c| self.grid[r * self.cols + c]))
-            .filter(|&g| g >= 0)
-            .map(|g| g as u32)
-    }
-}
-
-/// Triangles that fill the notches of the outline of `kept` (counter-clockwise in `uv`),
-/// where an outline crossing the grid at a slant leaves a staircase. At each boundary
-/// vertex v whose outline turns away from the mesh (u → v → w, the mesh on the left, a
-/// right turn), the ear (u, w, v) outside it is added when
-///
-/// - it is **unimodular in the grid**: its corners' (row, column) span a parallelogram of
-///   area 1, so no ray of the scanner's grid passes inside it, and no sample missing
-///   there (a bore, a gap, a dropout) can lie under it;
-/// - no sample lies inside or on it in the plane, and u-w is not an edge yet, so the
-///   result stays a valid planar triangulation;
-/// - `keep(ear, [row, column])` accepts it (the grid's edge rule at the cell of the ear's
-///   lowest row and column, and a turn within [`EAR_TURN_DEG`]).
-///
-/// Repeated (first in, first out from the boundary vertices in ascending order) until no
-/// ear is added, so a notch several cells long fills ear by ear; deterministic. `cands`
-/// are the candidates before peeling with their `twins` (half-edge 3t + k from corner k),
-/// cell and corner `codes`; `flags` marks those in `kept`. O(m + boundary x block), a
-/// block of (edge / spacing + 3)² samples.
-fn fill_notches(
-    grid: &GridAt,
-    uv: &[[f64; 2]],
-    kept: &[[u32; 3]],
-    cands: &[[u32; 3]],
-    (twins, cells, codes): (&[u32], &[u32], &[Codes]),
-    flags: &[bool],
-    keep: impl Fn(&[u32; 3], [usize; 2]) -> bool,
-) -> Vec<[u32; 3]> {
-    // boundary half-edges (twin missing or peeled), a -> b with the mesh on the left, and
-    // the (row, column) of their vertices
-    let (mut next, mut prev, mut at) = (HashMap::new(), HashMap::new(), HashMap::new());
-    for (h, &twin) in twins.iter().enumerate() {
-        let (t, k) = (h / 3, h % 3);
-        if flags[t] && (twin == NONE || !flags[twin as usize / 3]) {
-            let (a, b) = (cands[t][k], cands[t][(k + 1) % 3]);
-            next.insert(a, b);
-            prev.insert(b, a);
-            let cell = cells[t] as usize;
-            let code = codes[t][k] as usize;
-            let r = cell / (grid.cols - 1) + (code >> 1);
-            at.insert(a, [r as i64, (cell % (grid.cols - 1) + (code & 1)) as i64]);
-        }
-    }
-    let key = |a: u32, b: u32| (a.min(b), a.max(b));
-    let mut edges: HashSet<(u32, u32)> = (kept.iter())
-        .filter(|t| t.iter().any(|v| next.contains_key(v)))
-        .flat_map(|t| [key(t[0], t[1]), key(t[1], t[2]), key(t[2], t[0])])
-        .collect();
-    let mut queue: Vec<u32> = next.keys().copied().collect();
-    queue.sort_unstable();
-    let mut queue = VecDeque::from(queue);
-    let mut out = Vec::new();
-    while let Some(v) = queue.pop_front() {
-        let (Some(&w), Some(&u)) = (next.get(&v), prev.get(&v)) else {
-            continue;
-        };
-        let ear = [u, w, v];
-        let turns_away = area_sign(uv, u as usize, w as usize, v as usize) == 1;
-        if u == w || !turns_away || edges.contains(&key(u, w)) {
-            continue;
-        }
-        let [pu, pw, pv] = ear.map(|k| at[&k]);
-        let det = (pw[0] - pu[0]) * (pv[1] - pu[1]) - (pw[1] - pu[1]) * (pv[0] - pu[0]);
-        if det.abs() != 1 {
-            continue;
-        }
-        let lo = |i: usize| pu[i].min(pw[i]).min(pv[i]) as usize;
-        let hi = |i: usize| pu[i].max(pw[i]).max(pv[i]) as usize + 1;
-        let covers = |x: u32| {
-            !ear.contains(&x)
-                && (0..3).all(|k| {
-                    area_sign(uv, ear[k] as usize, ear[(k + 1) % 3] as usize, x as usize) >= 0
-                })
-        };
-        let block = [[lo(0).max(1) - 1, hi(0)], [lo(1).max(1) - 1, hi(1)]];
-        if grid.block(block[0], block[1]).any(covers) || !keep(&ear, [lo(0), lo(1)]) {
-            continue;
-        }
-        out.push(ear);
-        edges.insert(key(u, w));
-        if next.get(&w) == Some(&u) {
-            // a boundary of three closes
-            for x in ear {
-                next.remove(&x);
-                prev.remove(&x);
-            }
-        } else {
-            next.remove(&v);
-            prev.remove(&v);
-            next.insert(u, w);
-            prev.insert(w, u);
-            queue.extend([u, w]);
-        }
-    }
-    out
-}
-
 /// Triangulates a range grid: the candidate triangles of every grid cell (a 2 x 2 block of
 /// neighbouring samples; four present corners split along the shorter 3-D diagonal, three
 /// give one triangle), less those the scanner cannot have seen:
@@ -504,7 +377,7 @@ pub fn grid_triangulate(
         .filter(|x| x.is_finite())
         .fold(f64::NAN, f64::max)
     };
-    let judge = |t: &[u32; 3], h: f64, cos_turn: f64| -> Verdict {
+    let judge = |t: &[u32; 3], h: f64| -> Verdict {
         let [a, b, c] = t.map(|k| points[k as usize]);
         // edges scaled to about 1: no overflow or underflow from 1e-300 to 1e300
         let m = (b - a).abs().max_element().max((c - a).abs().max_element());
@@ -540,7 +413,7 @@ pub fn grid_triangulate(
                     for code in &cell {
                         out.candidates += 1;
                         let t = code.map(|k| corners[k as usize] as u32);
-                        match judge(&t, h, cos_turn) {
+                        match judge(&t, h) {
                             Verdict::Keep => {
                                 out.kept.push(t);
                                 out.codes.push(*code);
@@ -605,28 +478,9 @@ pub fn grid_triangulate(
     if !out.triangles.is_empty() {
         let twins = grid_twins(&cells, &codes, cols, rows);
         let kept = out.triangles.len();
-        let peeled = peel_flags(uv, &out.triangles, &twins, vec![true; kept], None);
-        out.peeled = kept - peeled.len();
-        // peeling keeps the order: which triangles it kept, by walking both lists
-        let mut next = peeled.iter().peekable();
-        let keep: Vec<bool> = (out.triangles.iter())
-            .map(|t| next.next_if(|&p| p == t).is_some())
-            .collect();
-        let grid_at = GridAt { grid, rows, cols };
-        let (cands, candidates) = (&out.triangles, (&twins[..], &cells[..], &codes[..]));
-        let cos_ear = cos_turn.max(EAR_TURN_DEG.to_radians().cos());
-        let ears = fill_notches(
-            &grid_at,
-            uv,
-            &peeled,
-            cands,
-            candidates,
-            &keep,
-            |t, [r, c]| judge(t, local(r.min(rows - 2), c.min(cols - 2)), cos_ear) == Verdict::Keep,
-        );
-        out.filled = ears.len();
-        out.triangles = peeled;
-        out.triangles.extend(ears);
+        let keep = vec![true; kept];
+        out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None);
+        out.peeled = kept - out.triangles.len();
     }
     let mut used = vec![false; points.len()];
     for t in &out.triangles {
@@ -737,81 +591,6 @@ mod tests {
         assert_eq!((t.peeled, t.triangles.len()), (1, 1));
         let (g, uv, p) = terrain(6, 6, |r, c| if r >= 3 && c >= 3 { 9.0 } else { 0.0 });
         let t = grid_triangulate(&g, 6, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
-        mesh.validate(&unit).unwrap();
-    }
-
-    /// Twice the planar area of triangles over `uv`.
-    fn twice_area(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
-        (triangles.iter())
-            .map(|t| {
-                let [a, b, c] = t.map(|k| uv[k as usize]);
-                (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-            })
-            .sum()
-    }
-
-    #[test]
-    fn notches_of_a_slanted_outline_fill_to_the_samples_hull() {
-        // samples on and below the line row = col / 3: the cells leave a staircase (and
-        // (0, 0), (0, 1) in no cell), the ears fill it to the hull of the samples in cells,
-        // (row, col) = (0, 2), (0, 12), (4, 12), (1, 3): 23 cells
-        let (mut g, uv, p) = terrain(5, 13, |_, _| 0.0);
-        for r in 0..5 {
-            for c in 0..13 {
-                if 3 * r > c {
-                    g[r * 13 + c] = -1;
-                }
-            }
-        }
-        let t = grid_triangulate(&g, 5, 13, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
-        assert!(t.filled > 0);
-        assert!((twice_area(&uv, &t.triangles) - 46.0).abs() < 1e-9);
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
-        mesh.validate(&unit).unwrap();
-        // a notch across a step is no ear: the same outline with the upper level 10 higher
-        let (g2, uv2, p2) = (g.clone(), uv.clone(), {
-            let mut q = p.clone();
-            for (k, x) in q.iter_mut().enumerate() {
-                if (k % 13) >= 3 * (k / 13) + 2 {
-                    x.z = 10.0;
-                }
-            }
-            q
-        });
-        let t2 = grid_triangulate(&g2, 5, 13, &uv2, &p2, rules(DVec3::Z, 80.0, 6.0)).unwrap();
-        for f in &t2.triangles[t2.triangles.len() - t2.filled..] {
-            let z = f.map(|k| p2[k as usize].z);
-            assert!(
-                z.iter().all(|&h| h == z[0]),
-                "an ear across the step: {f:?}"
-            );
-        }
-    }
-
-    #[test]
-    fn no_ear_covers_a_missing_sample() {
-        // a disc of samples with a bore: every lattice point without a sample stays
-        // outside every triangle, ears or not
-        let (n, r_out, r_in) = (21usize, 9.3f64, 3.6f64);
-        let (mut g, uv, p) = terrain(n, n, |_, _| 0.0);
-        let d = |k: usize| ((k / n) as f64 - 10.0).hypot((k % n) as f64 - 10.0);
-        for (k, cell) in g.iter_mut().enumerate() {
-            if d(k) > r_out || d(k) < r_in {
-                *cell = -1;
-            }
-        }
-        let t = grid_triangulate(&g, n, n, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
-        assert!(t.filled > 0);
-        for k in (0..n * n).filter(|&k| g[k] < 0) {
-            for f in &t.triangles {
-                let inside =
-                    (0..3).all(|j| area_sign(&uv, f[j] as usize, f[(j + 1) % 3] as usize, k) >= 0);
-                assert!(!inside, "missing sample {k} under {f:?}");
-            }
-        }
         let unit = crate::unit_square(&uv);
         let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();
