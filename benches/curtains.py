@@ -25,11 +25,16 @@ meshed by:
 Per mesh: height RMS against the CAD part (closest-point distance at ``N_SAMPLES`` random
 points on the mesh), the faces whose centroid lies farther than 2 s from the part, the
 missed share of the part's shadow along the ray (%), the longest edge over s, the curtain
-count (faces within 5 degrees of the line of sight, ``scanmesh.measures.curtains``) and the
-wall time. The sweep measures the grid rule's θ and k on the same panel (turn angles and
-edge lengths of the faces of the plain range grid that lie on the part and of those that
-do not). The timing compares the grid triangulation of a 1000 x 1000 range grid with the
-numpy range-grid triangulation in the same run (best of ``REPEATS``, interleaved).
+count (faces within 5 degrees of the line of sight, ``scanmesh.measures.curtains``), the
+issue's long curtains (those with a longest edge over ``LONG_CURTAIN`` s) and the missed
+share when they do not count (likewise the long sheets within ``SHEET_ANGLE``), the air
+share (covered where the part casts no shadow) and the wall time. Per scan, the gap to the
+best peer with and without its long curtains, and the missed share by the turn from the
+ray of the true face seen (``TURN_CLASSES``). The sweep measures the grid rule's θ and k
+on the same panel (turn angles and edge lengths of the faces of the plain range grid that
+lie on the part and of those that do not). The timing compares the grid triangulation of a
+1000 x 1000 range grid with the numpy range-grid triangulation in the same run (best of
+``REPEATS``, interleaved).
 """
 
 from __future__ import annotations
