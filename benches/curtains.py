@@ -25,11 +25,16 @@ meshed by:
 Per mesh: height RMS against the CAD part (closest-point distance at ``N_SAMPLES`` random
 points on the mesh), the faces whose centroid lies farther than 2 s from the part, the
 missed share of the part's shadow along the ray (%), the longest edge over s, the curtain
-count (faces within 5 degrees of the line of sight, ``scanmesh.measures.curtains``) and the
-wall time. The sweep measures the grid rule's θ and k on the same panel (turn angles and
-edge lengths of the faces of the plain range grid that lie on the part and of those that
-do not). The timing compares the grid triangulation of a 1000 x 1000 range grid with the
-numpy range-grid triangulation in the same run (best of ``REPEATS``, interleaved).
+count (faces within 5 degrees of the line of sight, ``scanmesh.measures.curtains``), the
+issue's long curtains (those with a longest edge over ``LONG_CURTAIN`` s) and the missed
+share when they do not count (likewise the long sheets within ``SHEET_ANGLE``), the air
+share (covered where the part casts no shadow) and the wall time. Per scan, the gap to the
+best peer with and without its long curtains, and the missed share by the turn from the
+ray of the true face seen (``TURN_CLASSES``). The sweep measures the grid rule's θ and k
+on the same panel (turn angles and edge lengths of the faces of the plain range grid that
+lie on the part and of those that do not). The timing compares the grid triangulation of a
+1000 x 1000 range grid with the numpy range-grid triangulation in the same run (best of
+``REPEATS``, interleaved).
 """
 
 from __future__ import annotations
@@ -47,7 +52,7 @@ from quality import CAD, machine
 
 import scanmesh
 from scanmesh import _core
-from scanmesh.evaluate.digitizer import simulate_range_scan
+from scanmesh.evaluate.digitizer import cast_grid, simulate_range_scan
 from scanmesh.evaluate.holdout import holdout_error
 from scanmesh.evaluate.truth import TrueSurface, domain_error, height_error
 from scanmesh.formats.grid import height_grid
@@ -70,6 +75,13 @@ TURNS = (70.0, 75.0, 80.0, 85.0, 88.0, 90.0)
 FACTORS = (3.0, 4.0, 5.0, 6.0, 8.0, math.inf)
 # annealing's (and LOP's) curtain rule at other angles than the default (0: off)
 OTHER_CURTAIN_ANGLES = (0.0, 5.0)
+# the issue's long curtain: within 5 deg of the sight (``curtains``) and a longest edge over
+# this many local grid spacings (on a simulated scan the local spacing is s everywhere)
+LONG_CURTAIN = 4.0
+# the sheets the grid drops for their turn: within 90 - 80 deg of the sight, as long
+SHEET_ANGLE = 10.0
+# classes of the true surface by its turn from the ray (degrees): < 60, 60-80, 80-88, > 88
+TURN_CLASSES = (60.0, 80.0, 88.0)
 
 
 def panel(cad: Path) -> list[tuple[str, object, str, str]]:
@@ -166,12 +178,23 @@ def measure(
     )
     truth = TrueSurface(cad)
     _, frame = project(sp.points, up)
+    rays = RayGrid(truth, frame, sp.up)
     rows = []
     for method, faces, seconds in meshes(sp, up, s):
         surface = scanmesh.Surface(vertices=sp.points, faces=faces, frame=frame)
         centroids = sp.points[faces].mean(axis=1)
         off = truth.distance(centroids)
         edges = np.linalg.norm(sp.points[faces] - sp.points[np.roll(faces, 1, axis=1)], axis=2)
+        hanging = long_curtains(sp.points, faces, sp.up, s)
+        domain = domain_error(surface, truth, n_rays=N_RAYS)
+        missed = 100 * domain["missed_share"]
+        sheets = long_curtains(sp.points, faces, sp.up, s, SHEET_ANGLE)
+        bare, sheetless = missed, missed
+        for drop, key in ((hanging, "bare"), (sheets, "sheetless")):
+            if drop.any():
+                rest = scanmesh.Surface(vertices=sp.points, faces=faces[~drop], frame=frame)
+                share = 100 * domain_error(rest, truth, n_rays=N_RAYS)["missed_share"]
+                bare, sheetless = (share, sheetless) if key == "bare" else (bare, share)
         rows.append(
             {
                 "scan": name,
@@ -180,14 +203,79 @@ def measure(
                 "faces": len(faces),
                 "h_rms": height_error(surface, truth, n_samples=N_SAMPLES, seed=SEED)["h_rms"],
                 "far": int((off > 2 * s).sum()),
-                "missed": 100 * domain_error(surface, truth, n_rays=N_RAYS)["missed_share"],
+                "missed": missed,
+                "air": 100 * domain["air_share"],
                 "edge": float(edges.max() / s),
                 "curtains": curtains(sp.points, faces, sp.up).count,
+                "long curtains": int(hanging.sum()),
+                # missed % when the long curtains do not count as covering the part
+                "missed bare": bare,
+                # ... and when the long faces within SHEET_ANGLE of the sight do not count
+                "long sheets": int(sheets.sum()),
+                "missed sheetless": sheetless,
+                # missed % of the part's shadow per class of TURN_CLASSES (own ray grid),
+                # with every face and with the long curtains not counted
+                "by turn": rays.missed_by_turn(sp.points, faces),
+                "by turn bare": rays.missed_by_turn(sp.points, faces[~hanging]),
+                "shadow by turn": rays.shadow_by_turn(),
                 "seconds": seconds,
             }
         )
     print(f"  {name}: {len(sp.points):,} points, s = {s:.3g}", flush=True)
     return rows, sweep_figures(sp, truth, s)
+
+
+def long_curtains(
+    points: np.ndarray, faces: np.ndarray, sight: np.ndarray, s: float, within: float = 5.0
+) -> np.ndarray:
+    """(M,) bool: the faces that are curtains by the issue's definition: within ``within``
+    degrees of the line of sight (5: ``curtains``'s angle) and a longest edge over
+    LONG_CURTAIN x the local grid spacing ``s``."""
+    tri = points[faces]
+    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    twice = np.linalg.norm(normal, axis=1)
+    unit = np.asarray(sight, dtype=np.float64) / np.linalg.norm(sight)
+    graze = (np.abs(normal @ unit) <= math.sin(math.radians(within)) * twice) & (twice > 0)
+    return graze & (longest > LONG_CURTAIN * s)
+
+
+class RayGrid:
+    """Parallel rays along the line of sight over the part's shadow (about N_RAYS), each
+    with the turn from the ray (degrees) of the true face the scanner sees there (the
+    highest hit towards the scanner; NaN where the part casts no shadow)."""
+
+    def __init__(self, truth: TrueSurface, frame, sight: np.ndarray) -> None:
+        self.axes = np.column_stack([frame.u, frame.v])  # (3, 2): 3-D -> planar
+        tri = truth.triangles
+        uv = tri @ self.axes
+        lo, hi = uv.reshape(-1, 2).min(axis=0), uv.reshape(-1, 2).max(axis=0)
+        self.step = math.sqrt(float(np.prod(hi - lo)) / N_RAYS)
+        self.shape = (int((hi - lo)[0] / self.step) + 1, int((hi - lo)[1] / self.step) + 1)
+        self.origin = (float(lo[0]) + self.step / 2, float(lo[1]) + self.step / 2)
+        s = np.asarray(sight, dtype=np.float64) / np.linalg.norm(sight)
+        _, face = cast_grid(uv, tri @ s, self.origin, (self.step,) * 2, self.shape)
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        cos = np.abs(normal @ s) / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
+        turn = np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))
+        #: (rays,) float64 turn of the seen true face, NaN outside the shadow
+        self.turn = np.where(face >= 0, turn[np.maximum(face, 0)], np.nan)
+
+    def missed_by_turn(self, points: np.ndarray, faces: np.ndarray) -> list[float]:
+        """Missed % of the part's shadow per turn class (len(TURN_CLASSES) + 1 values)."""
+        tri = points[faces] @ self.axes
+        _, face = cast_grid(tri, np.zeros(tri.shape[:2]), self.origin, (self.step,) * 2, self.shape)
+        inside = ~np.isnan(self.turn)
+        missed = inside & (face < 0)
+        which = np.digitize(self.turn[missed], TURN_CLASSES)
+        counts = np.bincount(which, minlength=len(TURN_CLASSES) + 1)
+        return list(100 * counts / inside.sum())
+
+    def shadow_by_turn(self) -> list[float]:
+        """% of the part's shadow per turn class."""
+        turn = self.turn[~np.isnan(self.turn)]
+        counts = np.bincount(np.digitize(turn, TURN_CLASSES), minlength=len(TURN_CLASSES) + 1)
+        return list(100 * counts / len(turn))
 
 
 def sweep_figures(sp, truth: TrueSurface, s: float) -> dict:
@@ -256,16 +344,64 @@ def sweep(raw: list[dict]) -> str:
 def table(rows: list[dict]) -> str:
     out = [
         "| scan | method | faces | height RMS / s | faces > 2 s off | missed % |"
-        " longest edge / s | curtains | seconds |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+        " air % | longest edge / s | curtains | long curtains | missed % without them |"
+        " seconds |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         out.append(
             f"| {r['scan']} | {r['method']} | {r['faces']:,} | {r['h_rms'] / r['s']:.3g} |"
-            f" {r['far']:,} | {r['missed']:.2f} | {r['edge']:.1f} | {r['curtains']:,} |"
+            f" {r['far']:,} | {r['missed']:.2f} | {r['air']:.2f} | {r['edge']:.1f} |"
+            f" {r['curtains']:,} | {r['long curtains']:,} | {r['missed bare']:.2f} |"
             f" {r['seconds']:.2f} |"
         )
     return "\n".join(out)
+
+
+def best_peer(rows: list[dict], scan: str, key: str = "missed") -> dict | None:
+    """The peer's row (not scanmesh, not the plain range grid) with the least ``key`` on
+    ``scan``."""
+    peers = [
+        r for r in rows if r["scan"] == scan and not r["method"].startswith(("scanmesh", "numpy"))
+    ]
+    return min(peers, key=lambda r: r[key]) if peers else None
+
+
+def gaps(rows: list[dict], ours: str = "scanmesh grid") -> str:
+    """Per scan: our missed % against the best peer's, with and without its long curtains
+    (LONG_CURTAIN), and where the missed area lies by the true surface's turn from the
+    ray (TURN_CLASSES; % of the part's shadow, on RayGrid's rays)."""
+    edges = (0.0, *TURN_CLASSES, 90.0)
+    names = [f"{a:g}-{b:g}°" for a, b in zip(edges, edges[1:], strict=False)]
+    out = [
+        "| scan | ours missed % | best peer | its missed % | its long curtains (5°) | its missed %"
+        " without them | best peer without long curtains: missed % | gap (pp): with / without |"
+        " its long sheets (10°) | its missed % without them |",
+        "|---|---:|---|---:|---:|---:|---:|---|---:|---:|",
+    ]
+    where = [
+        "| scan | turn of the true face | share of the shadow % | missed by ours | by the best"
+        " peer | by the best peer without its long curtains |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for scan in dict.fromkeys(r["scan"] for r in rows):
+        mine = next((r for r in rows if r["scan"] == scan and r["method"] == ours), None)
+        best, bare = best_peer(rows, scan), best_peer(rows, scan, "missed bare")
+        if mine is None or best is None or bare is None:
+            continue
+        gap = (mine["missed"] - best["missed"], mine["missed"] - bare["missed bare"])
+        out.append(
+            f"| {scan} | {mine['missed']:.2f} | {best['method']} | {best['missed']:.2f} |"
+            f" {best['long curtains']:,} | {best['missed bare']:.2f} |"
+            f" {bare['missed bare']:.2f} ({bare['method']}) | {gap[0]:+.2f} / {gap[1]:+.2f} |"
+            f" {best['long sheets']:,} | {best['missed sheetless']:.2f} |"
+        )
+        for k, name in enumerate(names):
+            where.append(
+                f"| {scan} | {name} | {mine['shadow by turn'][k]:.2f} | {mine['by turn'][k]:.2f} |"
+                f" {best['by turn'][k]:.2f} | {best['by turn bare'][k]:.2f} |"
+            )
+    return "\n".join(out + [""] + where)
 
 
 def summary(rows: list[dict]) -> str:
@@ -455,6 +591,7 @@ def main() -> None:
             rows += got
             raw.append(figures)
         print(summary(rows), "\n")
+        print(gaps(rows), "\n")
         print(sweep(raw), "\n")
         print(table(rows), "\n")
     if args.only != "panel":

@@ -149,6 +149,30 @@ def test_grid_faces_lie_on_the_part_where_delaunay_bridges_its_walls():
     assert off(hull.faces).max() > 2 * spacing  # the check can fail
 
 
+def test_grid_faces_stay_in_their_cells_so_none_cuts_across_a_bore_rim():
+    # a plate with a round outline and a bore: ears across the staircase of the cells would
+    # cover more of the plate, but at the bore they cut across the rim (air); the grid keeps
+    # every face in one cell (docs/benchmarks/curtains.md, "Notch ears")
+    i, j = np.indices((41, 41), dtype=float)
+    r = np.hypot(i - 20, j - 20)
+    z = np.where((r <= 18.7) & (r >= 6.3), 0.01 * i, np.nan)
+    s = scanmesh.reconstruct(height_grid(z), "grid")
+    _core.validate(s.scan.uv, s.faces)
+    cells = np.argwhere(~np.isnan(z))  # (N, 2) row, column of each point
+    assert np.ptp(cells[s.faces], axis=1).max() == 1
+    # no position without a sample lies inside a face (x = column, y = row)
+    holes = np.argwhere(np.isnan(z))[:, ::-1].astype(float)  # (H, 2) x, y
+    corners = s.scan.points[s.faces][:, :, :2]  # (M, 3, 2)
+    inside = np.ones((len(corners), len(holes)), dtype=bool)
+    for k in range(3):
+        a, b = corners[:, k], corners[:, (k + 1) % 3]
+        side = (b[:, None, 0] - a[:, None, 0]) * (holes[None, :, 1] - a[:, None, 1]) - (
+            b[:, None, 1] - a[:, None, 1]
+        ) * (holes[None, :, 0] - a[:, None, 0])
+        inside &= side >= 0
+    assert not inside.any()
+
+
 def test_lop_and_annealing_start_from_the_grid_of_a_gridded_scan():
     sp = simulate_range_scan(POCKET, up="z", n_points=3000)
     scan = planar_scan(sp.points, plane="z")
