@@ -31,6 +31,7 @@ def _turned_scan(name: str, up: str, noise: float):
 
 def test_the_default_is_auto_and_anneal_still_anneals(monkeypatch):
     monkeypatch.setattr(choice, "MEASURED", 1)  # one tenth withheld: quick
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
     pts = bumpy_patch(400, 3)
     assert DEFAULT_METHOD == "auto"
     default = scanmesh.reconstruct(pts, plane="z")
@@ -44,6 +45,7 @@ def test_the_default_is_auto_and_anneal_still_anneals(monkeypatch):
 
 def test_the_same_seed_makes_the_same_choice_and_faces(monkeypatch):
     monkeypatch.setattr(choice, "MEASURED", 1)
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
     pts = bumpy_patch(600, 5)
     a = scanmesh.reconstruct(pts, plane="z", seed=3)
     b = scanmesh.reconstruct(pts, plane="z", seed=3)
@@ -54,7 +56,8 @@ def test_the_same_seed_makes_the_same_choice_and_faces(monkeypatch):
     assert other.options["method_choice"]["holdout"] != a.options["method_choice"]["holdout"]
 
 
-def test_the_lowest_holdout_wins_and_the_earlier_candidate_an_exact_tie():
+def test_the_lowest_holdout_wins_and_the_earlier_candidate_an_exact_tie(monkeypatch):
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
     scan = as_scan(bumpy_patch(300, 1), plane="z")
     built = {}
 
@@ -106,7 +109,7 @@ def test_on_the_oblique_pocket_the_default_still_anneals():
 
 
 def test_a_scan_too_small_to_judge_is_annealed():
-    pts = bumpy_patch(12, 2)
+    pts = bumpy_patch(choice.MIN_POINTS - 1, 2)
     surface = scanmesh.reconstruct(pts, plane="z")
     made = surface.options["method_choice"]
     assert surface.method == "anneal" and made["folds"] == 0 and made["measured"] == 0
