@@ -402,7 +402,7 @@ def surface_fault(surface: Any, method: str, n_points: int) -> str | None:
     """What is wrong with a Surface returned by ``reconstruct(method=method)``, or None."""
     faces = surface.faces
     # "auto" returns the chosen method's Surface and says so
-    expected = surface.options["method_choice"]["chosen"] if method == "auto" else method
+    expected = surface.options["method_choice"]["built"] if method == "auto" else method
     if surface.method != expected:
         return f"surface.method {surface.method!r}"
     if faces.dtype != np.int64 or faces.ndim != 2 or faces.shape[1] != 3:

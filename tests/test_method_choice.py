@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 import trimesh
 
 import scanmesh
@@ -113,3 +114,26 @@ def test_a_scan_too_small_to_judge_is_annealed():
     surface = scanmesh.reconstruct(pts, plane="z")
     made = surface.options["method_choice"]
     assert surface.method == "anneal" and made["folds"] == 0 and made["measured"] == 0
+
+
+def test_on_a_gridded_scan_delaunay_chosen_builds_the_grid(monkeypatch):
+    """The judge's parts have no range grid, so Delaunay stands in for the grid there; on
+    a range scan the grid is what gets built (no curtains), as LOP and annealing start
+    from it."""
+    scan = scanmesh.simulate_range_scan(
+        DATA / "cad" / "fandisk.obj", up="x", along="y", n_points=1_500
+    )
+    real = choice.choose
+
+    def delaunay_wins(*args, **kwargs):
+        return dataclasses.replace(real(*args, **kwargs), chosen="delaunay")
+
+    monkeypatch.setattr(choice, "choose", delaunay_wins)
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    with pytest.warns(scanmesh.CurtainsWarning):  # what Delaunay alone keeps here
+        alone = scanmesh.reconstruct(scan, "delaunay")
+    assert alone.options["curtains"]["count"] > 0
+    surface = scanmesh.reconstruct(scan)
+    assert surface.options["method_choice"]["chosen"] == "delaunay"
+    assert surface.method == surface.options["method_choice"]["built"] == "grid"
+    assert surface.options["curtains"]["count"] == 0

@@ -193,9 +193,14 @@ def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surfac
         return spec.run(part, spec.check({}, {}), quiet)
 
     made = choice.choose(scan, build, seed=kw.seed or 0, progress=kw.progress)
-    spec = TABLE[made.chosen]
+    # The parts have no range grid, so Delaunay stands in for the grid triangulation in the
+    # judge; on a gridded scan the grid is built, as LOP and annealing start from it there
+    # (Delaunay keeps the curtains the grid drops).
+    planar = "grid" if default_initial(scan, kw.max_edge) == "grid" else "delaunay"
+    built = planar if made.chosen == "delaunay" else made.chosen
+    spec = TABLE[built]
     surface = spec.run(scan, spec.check({}, {}), kw)
-    surface.options = {**surface.options, "method_choice": made.as_dict()}
+    surface.options = {**surface.options, "method_choice": {**made.as_dict(), "built": built}}
     return surface
 
 

@@ -10,7 +10,8 @@ point's distance to each mesh along the projection normal is measured (the measu
 covers. Disjoint tenths are withheld in turn until at least ``MEASURED`` points are measured
 (at most ten: every point once). The lowest RMS wins (on exact ties the earlier candidate)
 among the candidates whose meshes have at most ``SLIVERS`` slivers.
-The winner is then built on all points.
+The winner is then built on all points (``methods``: on a gridded scan the grid
+triangulation where Delaunay wins, since the parts carry no grid).
 
 The judge sees what a holdout sees: on real scans it agrees with the panel's holdout; on
 the stepped pocket it ranks the strips last while they are closest to the part (a withheld
