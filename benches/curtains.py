@@ -57,6 +57,7 @@ from scanmesh.evaluate.holdout import holdout_error
 from scanmesh.evaluate.truth import TrueSurface, domain_error, height_error
 from scanmesh.formats.grid import height_grid
 from scanmesh.measures import curtains
+from scanmesh.methods import DEFAULT_METHOD
 from scanmesh.scan.projection import project
 from scanmesh.stages.grid import grid_surface
 from scanmesh.stages.hidden import hiding_faces
@@ -139,10 +140,10 @@ def meshes(sp, axis: str, s: float) -> list[tuple[str, np.ndarray, float]]:
     out = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for method in ("grid", "delaunay", "anneal"):
+        for method in ("grid", "delaunay", "anneal", DEFAULT_METHOD):
             t0 = time.perf_counter()
             surface = scanmesh.reconstruct(sp, method)
-            name = "anneal (default)" if method == "anneal" else method
+            name = f"{method} (default)" if method == DEFAULT_METHOD else method
             out.append((f"scanmesh {name}", surface.faces, time.perf_counter() - t0))
         for angle in OTHER_CURTAIN_ANGLES:
             t0 = time.perf_counter()
