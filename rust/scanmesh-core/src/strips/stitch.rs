@@ -356,7 +356,7 @@ pub fn stitch_part(
     let mut scan = crate::strips::lines::segment_lines_at(uv, line_ids, gap_factor, median)?;
     check_jump_factor(params.jump_factor)?;
     if points.len() == uv.len() {
-        crate::strips::lines::split_at_jumps(&mut scan, points, uv, params.jump_factor);
+        crate::strips::lines::split_at_jumps(&mut scan, points, uv, params.jump_factor)?;
     }
     let (mesh, _, _) = stitch_with(points, uv, &scan, params, true, context)?;
     Ok((mesh, scan.duplicates))

@@ -302,7 +302,7 @@ fn no_triangle_bridges_a_wall_across_or_along_the_lines() {
                 .triangles
                 .iter()
                 .any(bridges));
-            crate::strips::lines::split_at_jumps(&mut scan, &pts, &uv, params.jump_factor);
+            crate::strips::lines::split_at_jumps(&mut scan, &pts, &uv, params.jump_factor).unwrap();
             let mesh = stitch(&pts, &uv, &scan, &params).unwrap();
             assert!(!mesh.triangles.iter().any(bridges), "{params:?}");
             assert!(mesh.planar_error.is_none(), "{:?}", mesh.planar_error);
