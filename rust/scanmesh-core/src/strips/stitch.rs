@@ -398,7 +398,7 @@ fn stitch_with(
         })
         .collect();
     let plan = if params.check && local {
-        check::plan(&tasks, &oriented, points.len())
+        check::plan(&tasks, &oriented, points.len())?
     } else {
         None
     };

@@ -609,7 +609,7 @@ fn windows_meeting_in_one_point_are_a_pinch_for_both_checks() {
         vec![vec![3, 4, 5]],
         vec![vec![6, 7, 8]],
     ];
-    assert!(check::plan(&tasks, &lines, 9).is_none());
+    assert!(check::plan(&tasks, &lines, 9).unwrap().is_none());
     let error = global_check(9, &triangles, &uv).expect("a pinch");
     assert!(error.to_string().contains("pinch"), "{error}");
 }
