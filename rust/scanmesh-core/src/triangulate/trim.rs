@@ -174,7 +174,7 @@ pub fn trim_long_edges(
         }
     }
     let twins = twins_of(uv.len(), triangles)?;
-    let jumps = UnitJumps::when_finite(jumps);
+    let jumps = UnitJumps::when_finite(jumps)?;
     trim(uv, triangles, &twins, max_edge, jumps, None)
 }
 
@@ -257,6 +257,7 @@ pub fn delaunay_trimmed(
         };
         UnitJumps::gathered(jumps, order.as_deref())
     });
+    let jumps = jumps.transpose()?;
     let mut triangles = trim(
         local_uv,
         &d.triangles,
