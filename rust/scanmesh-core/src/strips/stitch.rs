@@ -618,6 +618,9 @@ impl UnitFrame {
     }
 }
 
+/// A scan line: its segments, each its point indices.
+type Line = Vec<Vec<u32>>;
+
 /// The lines with a segment of at least two points (ascending), and every line oriented
 /// alike (a zig-zag scan's every other line turned round; lines not kept left empty), so a
 /// line's edges run one way in the strip before it and the other way in the strip after
@@ -628,7 +631,7 @@ fn orient_lines(
     uv: &[[f64; 2]],
     scan: &ScanLines,
     context: Option<&ScanContext>,
-) -> Result<(Vec<usize>, Vec<Vec<Vec<u32>>>)> {
+) -> Result<(Vec<usize>, Vec<Line>)> {
     let kept: Vec<usize> = (0..scan.lines.len())
         .filter(|&l| scan.lines[l].iter().any(|s| s.len() >= 2))
         .collect();
