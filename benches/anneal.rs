@@ -77,8 +77,8 @@ fn proposals<M: Measurement>(c: &mut Criterion<M>, prefix: &str) {
             let finished = warmup.finish().unwrap();
             let s = TacState::new(
                 finished.mesh,
-                state.uv().to_vec(),
-                state.xyz().to_vec(),
+                state.uv().unwrap(),
+                state.xyz().unwrap(),
                 1.0,
             )
             .unwrap();
@@ -98,8 +98,8 @@ fn proposals<M: Measurement>(c: &mut Criterion<M>, prefix: &str) {
 fn six_corner_angles<M: Measurement>(c: &mut Criterion<M>, prefix: &str) {
     let state = rod_state();
     let mesh = state.mesh();
-    let xyz = state.xyz();
-    let edges = mesh.interior_edges();
+    let xyz = state.xyz().unwrap();
+    let edges = mesh.interior_edges().unwrap();
     let mut s = 1u64;
     let picks: Vec<u32> = (0..CHUNK)
         .map(|_| {

@@ -284,6 +284,33 @@ def test_reconstruct_without_quality_writes_the_same_mesh(scan, tmp_path):
     assert "quality not measured" in text.stdout and "tac_1" not in text.stdout
 
 
+def test_reconstruct_whose_quality_runs_out_of_memory_warns_and_succeeds(
+    scan, tmp_path, monkeypatch, capsys
+):
+    """The quality is measured beside the write; when it runs out of memory the mesh is
+    written and whole, so the command warns, reports ``"quality": null`` and exits 0 (it
+    exited 1 after writing the mesh)."""
+    from scanmesh import surface as surface_module
+    from scanmesh.cli import main
+
+    def no_room(*args, **kwargs):
+        raise scanmesh.MemoryLimitError("tac of 300 points needs about 9 GiB")
+
+    monkeypatch.setattr(surface_module, "quality", no_room)
+    out, report = tmp_path / "cap.stl", tmp_path / "cap.json"
+    argv = ["reconstruct", str(scan), "-o", str(out), "--report", str(report)]
+    assert main([*argv, "--method", "delaunay"]) == 0
+    captured = capsys.readouterr()
+    assert "quality not measured (out of memory)" in captured.out
+    assert "warning: the quality was not measured (out of memory: tac of 300" in captured.err
+    data = json.loads(report.read_text())
+    assert data["quality"] is None and "quality" not in data["timings"]
+    assert any("quality was not measured" in w for w in data["warnings"])
+    mesh = load_mesh(out)
+    assert len(mesh.faces) == data["counts"]["faces"] > 0
+    assert no_partial_files(tmp_path)
+
+
 @pytest.mark.parametrize("ending", [".ply", ".obj", ".off"])
 def test_reconstruct_writes_each_mesh_format(scan, tmp_path, ending):
     out = tmp_path / f"cap{ending}"

@@ -23,7 +23,7 @@ fuzz_target!(|data: &[u8]| {
             state.apply(&mv);
         }
     }
-    state.mesh().validate(state.uv()).unwrap();
+    state.mesh().validate(&state.uv().unwrap()).unwrap();
     let (inc, full) = (state.energy(), state.energy_from_scratch());
     assert!(
         (inc - full).abs() <= 1e-9 * full.max(1.0),

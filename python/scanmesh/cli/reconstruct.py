@@ -9,7 +9,8 @@ import logging
 import signal
 import threading
 import time
-from collections.abc import Iterator
+import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,7 @@ from scanmesh.cli._common import (
 )
 from scanmesh.distributed import reconstruct_distributed
 from scanmesh.distributed._source import source_paths
+from scanmesh.errors import ScanmeshWarning
 from scanmesh.evaluate.truth import TrueSurface
 from scanmesh.formats import MESH_FORMATS as FORMATS
 from scanmesh.formats import count_lines
@@ -91,10 +93,8 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     # a PLY holds the normals, tac, height (and error) and the file's per-point values
     surface.save(out, tac=args.quality, progress=con.progress)  # --no-quality: no tac
     t_write = time.perf_counter() - t2
-    if measured is not None:
-        with Stage(con.progress, "quality", len(surface.faces), blocking=True):
-            t_quality = measured()
-    data = _report(source, out, scan, surface, con, elapsed, args.quality)
+    t_quality = _wait_quality(measured, con, out, len(surface.faces))
+    data = _report(source, out, scan, surface, con, elapsed, t_quality is not None)
     if truth is not None:
         error = surface.point_data["error"][np.unique(surface.faces)]
         data["vertex_error"] = {
@@ -103,7 +103,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
             "max": float(error.max()),
         }
     data["timings"]["write"] = t_write
-    if measured is not None:
+    if t_quality is not None:
         data["timings"]["quality"] = t_quality  # beside the write, not after it
     if report is not None:
         _write_text(report, _dumps(data) + "\n")
@@ -124,7 +124,8 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     con.summary(f"{source}: {_plural(counts['points'], 'point')}{lines}")
     con.summary(f"{surface.method}: {_plural(counts['faces'], 'face')} in {elapsed:.2f} s")
     if q is None:
-        con.summary("  quality not measured (--no-quality)")
+        why = "--no-quality" if not args.quality else "out of memory"
+        con.summary(f"  quality not measured ({why})")
     else:
         con.summary(
             f"  tac_1 {q['tac_1']:.4g}  tac_2 {q['tac_2']:.4g}  tac_inf {q['tac_inf']:.4g}"
@@ -134,6 +135,27 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     written = [str(out)] + [str(p) for p in (report, preview) if p is not None]
     con.summary(f"wrote {', '.join(written)}")
     return 0
+
+
+def _wait_quality(
+    measured: Callable[[], float] | None, con: _Console, out: Path, faces: int
+) -> float | None:
+    """Seconds the background quality measure took; None when not measured (--no-quality)
+    or, with a warning, when it ran out of memory: the mesh is written and whole by then,
+    so the run succeeds and the report says ``"quality": null``."""
+    if measured is None:
+        return None
+    with Stage(con.progress, "quality", faces, blocking=True):
+        try:
+            return measured()
+        except MemoryError as exc:  # MemoryLimitError too
+            what = " ".join(str(exc).split()) or "an allocation failed"
+            warnings.warn(
+                f"the quality was not measured (out of memory: {what}); {out} is written",
+                ScanmeshWarning,
+                stacklevel=2,
+            )
+            return None
 
 
 @contextlib.contextmanager

@@ -167,7 +167,7 @@ proptest! {
         let uv = planar(&pts);
         let Some(d) = triangulate(&uv) else { return Ok(()) };
         let (mut state, _) = TacState::from_input(&pts, &uv, d.triangles.clone(), p).unwrap();
-        let before = used(state.mesh().n_vertices(), &state.mesh().triangles());
+        let before = used(state.mesh().n_vertices(), &state.mesh().triangles().unwrap());
         let mut r = Lcg(seed ^ 0x5eed);
         let edges = state.mesh().n_half_edges();
         for _ in 0..flips {
@@ -176,10 +176,10 @@ proptest! {
                 state.apply(&mv);
             }
         }
-        state.mesh().validate(&state.uv()).unwrap();
+        state.mesh().validate(&state.uv().unwrap()).unwrap();
         let (inc, full) = (state.energy(), state.energy_from_scratch());
         prop_assert!((inc - full).abs() <= 1e-9 * full.max(1.0), "incremental {inc} vs {full}");
-        prop_assert_eq!(before, used(state.mesh().n_vertices(), &state.mesh().triangles()));
+        prop_assert_eq!(before, used(state.mesh().n_vertices(), &state.mesh().triangles().unwrap()));
     }
 
     #[test]
@@ -190,7 +190,7 @@ proptest! {
         let unit = unit_square(&uv);
         let mut mesh = HalfEdgeMesh::from_triangles(uv.len(), &d.triangles).unwrap();
         let canon = |m: &HalfEdgeMesh| {
-            let mut t: Vec<[u32; 3]> = m.triangles().into_iter().map(|mut t| {
+            let mut t: Vec<[u32; 3]> = m.triangles().unwrap().into_iter().map(|mut t| {
                 let k = (0..3).min_by_key(|&k| t[k]).unwrap();
                 t.rotate_left(k);
                 t
@@ -199,7 +199,7 @@ proptest! {
             t
         };
         let original = canon(&mesh);
-        for h in mesh.interior_edges() {
+        for h in mesh.interior_edges().unwrap() {
             if mesh.can_flip(h, &unit) {
                 mesh.flip(h);
                 mesh.validate(&unit).unwrap();
@@ -220,13 +220,13 @@ proptest! {
         let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
         let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
         let (mut state, _) = TacState::from_input(&pts, &uv, trimmed.clone(), 1.0).unwrap();
-        let vertices = used(uv.len(), &state.mesh().triangles());
+        let vertices = used(uv.len(), &state.mesh().triangles().unwrap());
         let order = TacOrder { tie_tolerance: 1e-10, sliver_guard: true, planar_ties: false, sliver_angle: 0.0, min_facing: 0.0 };
         tac_lop(&mut state, order).unwrap();
-        state.mesh().validate(&state.uv()).unwrap();
+        state.mesh().validate(&state.uv().unwrap()).unwrap();
         let full = state.energy_from_scratch();
         prop_assert!((state.energy() - full).abs() <= 1e-9 * full.max(1.0));
-        let plane = state.uv();
+        let plane = state.uv().unwrap();
         let params = AnnealParams { sweeps: 4, seed, calibration_samples: 64, ..AnnealParams::default() };
         let mut annealer = Annealer::new(state, params).unwrap();
         while !annealer.is_done() {
@@ -235,7 +235,7 @@ proptest! {
         let result = annealer.finish().unwrap();
         result.mesh.validate(&plane).unwrap();
         prop_assert!(result.energy <= result.initial_energy + 1e-9 * result.initial_energy.max(1.0));
-        prop_assert_eq!(vertices, used(uv.len(), &result.mesh.triangles()));
+        prop_assert_eq!(vertices, used(uv.len(), &result.mesh.triangles().unwrap()));
     }
 
     #[test]

@@ -34,10 +34,10 @@ pub(crate) fn points3(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
     if v.ncols() != 3 {
         return Err(shape_error("points", "(N, 3)", v.shape()));
     }
-    Ok(v.rows()
-        .into_iter()
-        .map(|r| DVec3::new(r[0], r[1], r[2]))
-        .collect())
+    // A copy whose allocation may fail: a MemoryLimitError, not an abort.
+    let mut out = try_vec("the points", v.nrows()).map_err(to_py)?;
+    out.extend(v.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])));
+    Ok(out)
 }
 
 pub(crate) fn points2(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> {
@@ -45,7 +45,9 @@ pub(crate) fn points2(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64; 2]>> 
     if v.ncols() != 2 {
         return Err(shape_error("uv", "(N, 2)", v.shape()));
     }
-    Ok(v.rows().into_iter().map(|r| [r[0], r[1]]).collect())
+    let mut out = try_vec("the planar points", v.nrows()).map_err(to_py)?;
+    out.extend(v.rows().into_iter().map(|r| [r[0], r[1]]));
+    Ok(out)
 }
 
 /// `flat`, C-order rows of `size_of::<R>() / size_of::<T>()` values each, as a slice of

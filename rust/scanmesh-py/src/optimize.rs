@@ -179,11 +179,13 @@ pub(crate) fn lop<'py>(
         }
     };
     let (state, relabel) = tac_state(&points, &uv, &faces_, p, sight)?;
-    let (mesh, flips) = py.detach(|| run_lop(state, criterion)).map_err(to_py)?;
-    Ok((
-        faces_out(py, &relabel.triangles_to_input(&mesh.triangles()))?,
-        flips,
-    ))
+    let (faces, flips) = py
+        .detach(|| {
+            let (mesh, flips) = run_lop(state, criterion)?;
+            Ok((relabel.triangles_to_input(&mesh.triangles()?)?, flips))
+        })
+        .map_err(to_py)?;
+    Ok((faces_out(py, &faces)?, flips))
 }
 
 /// A resumable simulated-annealing run: the chains of `scanmesh_core` optimize::ensemble::Ensemble
@@ -284,8 +286,14 @@ impl Annealer {
             .inner
             .take()
             .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
-        let (r, chains) = py.detach(|| inner.finish()).map_err(to_py)?;
-        let faces = self.relabel.triangles_to_input(&r.mesh.triangles());
+        let relabel = &self.relabel;
+        let (r, chains, faces) = py
+            .detach(|| {
+                let (r, chains) = inner.finish()?;
+                let faces = relabel.triangles_to_input(&r.mesh.triangles()?)?;
+                Ok((r, chains, faces))
+            })
+            .map_err(to_py)?;
         Ok(AnnealOutcome {
             faces: faces_out(py, &faces)?.unbind(),
             trace: trace_out(py, &r.trace).unbind(),

@@ -188,18 +188,18 @@ pub fn triangulations(
     if max_count == 0 {
         return Err(too_many(0));
     }
-    let first = canonical(&mesh.triangles());
+    let first = canonical(&mesh.triangles()?);
     let mut seen: HashSet<Vec<[u32; 3]>> = HashSet::from([first.clone()]);
     let mut found = vec![first];
     let mut queue = VecDeque::from([mesh]);
     while let Some(current) = queue.pop_front() {
-        for h in current.interior_edges() {
+        for h in current.interior_edges()? {
             if !current.can_flip(h, uv) {
                 continue;
             }
             let mut flipped = current.clone();
             flipped.flip(h);
-            let key = canonical(&flipped.triangles());
+            let key = canonical(&flipped.triangles()?);
             if seen.contains(&key) {
                 continue;
             }

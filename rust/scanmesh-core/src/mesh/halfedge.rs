@@ -281,9 +281,11 @@ impl HalfEdgeMesh {
         ]
     }
 
-    /// All triangles, counter-clockwise. O(m).
-    pub fn triangles(&self) -> Vec<[u32; 3]> {
-        (0..self.n_triangles()).map(|t| self.triangle(t)).collect()
+    /// All triangles, counter-clockwise. Errors: an [`Error::OutOfMemory`] for the list.
+    /// O(m).
+    pub fn triangles(&self) -> Result<Vec<[u32; 3]>> {
+        let all = (0..self.n_triangles()).map(|t| self.triangle(t));
+        try_collect("the mesh's triangles", all)
     }
 
     /// One half-edge per undirected edge (the lower of a twin pair; every boundary half-edge).
@@ -295,9 +297,12 @@ impl HalfEdgeMesh {
         })
     }
 
-    /// One half-edge per interior edge (both sides have a triangle). O(m).
-    pub fn interior_edges(&self) -> Vec<u32> {
-        self.interior_edge_slots().collect()
+    /// One half-edge per interior edge (both sides have a triangle). Errors: an
+    /// [`Error::OutOfMemory`] for the list. O(m).
+    pub fn interior_edges(&self) -> Result<Vec<u32>> {
+        let mut edges = try_vec("the interior edges", self.interior_edge_slots().count())?;
+        edges.extend(self.interior_edge_slots());
+        Ok(edges)
     }
 
     /// The slots of [`interior_edges`](Self::interior_edges), in increasing order, without

@@ -7,6 +7,8 @@
 //! matters once the arrays outgrow the caches (a 1M-point scan holds about 250 MB of state).
 //! Delaunay's sweep wants another order, outwards from the centre ([`sweep_order`]).
 
+use crate::budget::{try_collect, try_filled, try_par_collect};
+use crate::Result;
 use rayon::prelude::*;
 
 /// Hints the CPU to bring the cache line holding `slice[i]` into L1 (`prefetcht0`). No
@@ -41,8 +43,9 @@ pub fn prefetch<T>(slice: &[T], i: usize) {
 /// accesses, and those of every later pass over its triangles, walk memory forwards
 /// instead of jumping across the scan, which at 10M points (hundreds of MB per array)
 /// costs more than the arithmetic. Exact copies of a point stay in input order. O(n log n),
-/// sorted on the rayon pool (the order does not depend on the thread count).
-pub fn sweep_order(uv: &[[f64; 2]]) -> Vec<u32> {
+/// sorted on the rayon pool (the order does not depend on the thread count). Errors: an
+/// [`crate::Error::OutOfMemory`] for the keys or the order.
+pub fn sweep_order(uv: &[[f64; 2]]) -> Result<Vec<u32>> {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for p in uv {
         for k in 0..2 {
@@ -58,14 +61,15 @@ pub fn sweep_order(uv: &[[f64; 2]]) -> Vec<u32> {
         // In [0, 1]: the bounding box's corners are at 2, one half scales that to 1.
         ((x * x + y * y) * 0.5).min(1.0)
     };
-    let mut keyed: Vec<u64> = uv
+    const WHAT: &str = "the sweep order";
+    let keys = uv
         .par_iter()
         .with_min_len(1 << 14)
         .enumerate()
-        .map(|(i, p)| (((distance(p) * u32::MAX as f64) as u64) << 32) | i as u64)
-        .collect();
+        .map(|(i, p)| (((distance(p) * u32::MAX as f64) as u64) << 32) | i as u64);
+    let mut keyed = try_par_collect(WHAT, keys)?;
     keyed.par_sort_unstable();
-    keyed.into_iter().map(|k| k as u32).collect()
+    try_collect(WHAT, keyed.into_iter().map(|k| k as u32))
 }
 
 /// A permutation of vertex indices and the inverse, plus helpers to move data across it.
@@ -90,46 +94,53 @@ fn spread(x: u64) -> u64 {
 
 impl Relabel {
     /// Orders vertices by the Morton code of their planar position (ties by input index,
-    /// so the result is deterministic). O(n log n).
-    pub fn morton(uv: &[[f64; 2]]) -> Relabel {
+    /// so the result is deterministic). Errors: an [`crate::Error::OutOfMemory`] for the
+    /// keys or the permutation. O(n log n).
+    pub fn morton(uv: &[[f64; 2]]) -> Result<Relabel> {
+        const WHAT: &str = "the Z-order relabelling";
         let (unit, _) = crate::geometry::normalize_plane(uv);
         let cell = |x: f64| (((x + 1.0) * 0.5).clamp(0.0, 1.0) * u32::MAX as f64) as u64;
-        let mut keyed: Vec<(u64, u32)> = unit
+        let keys = unit
             .iter()
             .enumerate()
-            .map(|(i, p)| (spread(cell(p[0])) | (spread(cell(p[1])) << 1), i as u32))
-            .collect();
+            .map(|(i, p)| (spread(cell(p[0])) | (spread(cell(p[1])) << 1), i as u32));
+        let mut keyed = try_collect(WHAT, keys)?;
+        drop(unit);
         keyed.sort_unstable();
-        let to_input: Vec<u32> = keyed.into_iter().map(|(_, i)| i).collect();
-        let mut to_local = vec![0u32; to_input.len()];
+        let to_input = try_collect(WHAT, keyed.into_iter().map(|(_, i)| i))?;
+        let mut to_local = try_filled(WHAT, 0u32, to_input.len())?;
         for (local, &input) in to_input.iter().enumerate() {
             to_local[input as usize] = local as u32;
         }
-        Relabel { to_local, to_input }
+        Ok(Relabel { to_local, to_input })
     }
 
-    /// Per-vertex data in local order. O(n).
-    pub fn vertices<T: Copy>(&self, input: &[T]) -> Vec<T> {
-        self.to_input.iter().map(|&i| input[i as usize]).collect()
+    /// Per-vertex data in local order. Errors: an [`crate::Error::OutOfMemory`] for the
+    /// copy. O(n).
+    pub fn vertices<T: Copy>(&self, input: &[T]) -> Result<Vec<T>> {
+        let local = self.to_input.iter().map(|&i| input[i as usize]);
+        try_collect("the vertices in local order", local)
     }
 
     /// Triangles in local indices, sorted by their smallest local vertex so that triangles
-    /// (and with them half-edge slots) follow the curve too. Orientation is kept. O(m log m).
-    pub fn triangles_to_local(&self, triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
-        let mut local: Vec<[u32; 3]> = triangles
+    /// (and with them half-edge slots) follow the curve too. Orientation is kept. Errors:
+    /// an [`crate::Error::OutOfMemory`] for the copy. O(m log m).
+    pub fn triangles_to_local(&self, triangles: &[[u32; 3]]) -> Result<Vec<[u32; 3]>> {
+        let local = triangles
             .iter()
-            .map(|t| t.map(|v| self.to_local[v as usize]))
-            .collect();
+            .map(|t| t.map(|v| self.to_local[v as usize]));
+        let mut local = try_collect("the triangles in local indices", local)?;
         local.sort_unstable_by_key(|t| (*t.iter().min().expect("3 corners"), t[0], t[1], t[2]));
-        local
+        Ok(local)
     }
 
-    /// Triangles back in input indices. O(m).
-    pub fn triangles_to_input(&self, triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
-        triangles
+    /// Triangles back in input indices. Errors: an [`crate::Error::OutOfMemory`] for the
+    /// copy. O(m).
+    pub fn triangles_to_input(&self, triangles: &[[u32; 3]]) -> Result<Vec<[u32; 3]>> {
+        let input = triangles
             .iter()
-            .map(|t| t.map(|v| self.to_input[v as usize]))
-            .collect()
+            .map(|t| t.map(|v| self.to_input[v as usize]));
+        try_collect("the triangles in input indices", input)
     }
 }
 
@@ -142,16 +153,17 @@ mod tests {
         let uv: Vec<[f64; 2]> = (0..64 * 64)
             .map(|k| [(k % 64) as f64, (k / 64) as f64])
             .collect();
-        let r = Relabel::morton(&uv);
+        let r = Relabel::morton(&uv).unwrap();
         let back: Vec<u32> = r.to_input.iter().map(|&i| r.to_local[i as usize]).collect();
         assert_eq!(back, (0..uv.len() as u32).collect::<Vec<_>>());
         let tris = vec![[0u32, 1, 64], [1, 65, 64]];
-        assert_eq!(r.triangles_to_input(&r.triangles_to_local(&tris)).len(), 2);
-        let mut restored = r.triangles_to_input(&r.triangles_to_local(&tris));
+        let local = r.triangles_to_local(&tris).unwrap();
+        assert_eq!(r.triangles_to_input(&local).unwrap().len(), 2);
+        let mut restored = r.triangles_to_input(&local).unwrap();
         restored.sort();
         assert_eq!(restored, vec![[0, 1, 64], [1, 65, 64]]);
         // On a grid, consecutive local labels are on average much closer than in row order.
-        let local_uv = r.vertices(&uv);
+        let local_uv = r.vertices(&uv).unwrap();
         let mean_step = |pts: &[[f64; 2]]| {
             pts.windows(2)
                 .map(|w| (w[0][0] - w[1][0]).hypot(w[0][1] - w[1][1]))

@@ -2,6 +2,7 @@
 //! folds, and Euler's characteristic per component.
 
 use super::halfedge::BLOCK;
+use crate::budget::{try_filled, try_par_collect, try_vec};
 use crate::geometry::orient2d;
 use crate::mesh::{prev, HalfEdgeMesh, NONE};
 use crate::{Error, Result};
@@ -103,8 +104,8 @@ impl HalfEdgeMesh {
         let v_used = if walks == Some(u64::from(n_he)) {
             self.vertex_edge.par_iter().filter(|&&e| e != NONE).count()
         } else {
-            let mut degree = vec![0u32; n];
-            let mut boundary_out = vec![0u32; n];
+            let mut degree = try_filled(CHECK, 0u32, n)?;
+            let mut boundary_out = try_filled(CHECK, 0u32, n)?;
             for h in 0..n_he {
                 degree[self.start(h) as usize] += 1;
                 if self.twin(h) == NONE {
@@ -124,7 +125,7 @@ impl HalfEdgeMesh {
             }
             degree.iter().filter(|&&d| d > 0).count()
         };
-        let (components, loops) = self.count_components_and_loops();
+        let (components, loops) = self.count_components_and_loops()?;
         let v_used = v_used as i64;
         let e = (0..n_he)
             .into_par_iter()
@@ -282,10 +283,10 @@ impl HalfEdgeMesh {
     /// (compare-and-swap links, the higher root under the lower, path halving); the count
     /// of roots does not depend on the order of the unions. Loops: the cycles of
     /// h → vertex_edge[end(h)] on the boundary half-edges, walked serially over the
-    /// (usually few) boundary half-edges. O(m α(m)) work.
-    fn count_components_and_loops(&self) -> (i64, i64) {
+    /// (usually few) boundary half-edges. Errors: an [`Error::OutOfMemory`]. O(m α(m)) work.
+    fn count_components_and_loops(&self) -> Result<(i64, i64)> {
         let m = self.n_triangles();
-        let parent: Vec<AtomicU32> = (0..m as u32).into_par_iter().map(AtomicU32::new).collect();
+        let parent = try_par_collect(CHECK, (0..m as u32).into_par_iter().map(AtomicU32::new))?;
         fn find(p: &[AtomicU32], mut x: u32) -> u32 {
             loop {
                 let up = p[x as usize].load(Ordering::Relaxed);
@@ -335,10 +336,13 @@ impl HalfEdgeMesh {
             .into_par_iter()
             .filter(|&x| parent[x].load(Ordering::Relaxed) == x as u32)
             .count() as i64;
-        let boundary: Vec<u32> = (0..self.start.len() as u32)
-            .into_par_iter()
-            .filter(|&h| self.twin(h) == NONE)
-            .collect();
+        let on_boundary = |&h: &u32| self.twin(h) == NONE;
+        let all = 0..self.start.len() as u32;
+        let mut boundary = try_vec(
+            CHECK,
+            all.clone().into_par_iter().filter(on_boundary).count(),
+        )?;
+        boundary.extend(all.filter(on_boundary));
         // The boundary half-edge leaving end(h) is that vertex's vertex_edge (one fan each);
         // validate has checked that it is a boundary half-edge, so this is a permutation.
         let loops = count_cycles(boundary.len(), |k| {
@@ -346,9 +350,12 @@ impl HalfEdgeMesh {
             boundary.binary_search(&h).ok()
         })
         .expect("boundary vertex_edge checked");
-        (components, loops as i64)
+        Ok((components, loops as i64))
     }
 }
+
+/// What the check's buffers are called in memory errors.
+const CHECK: &str = "the mesh check";
 
 /// Number of cycles of the map `successor` on `0..n`, or `None` when it is not a
 /// permutation (`successor` returns `None`, or a walk joins a cycle part-way). Counts

@@ -279,6 +279,7 @@ mod tests {
         state
             .mesh()
             .interior_edges()
+            .unwrap()
             .into_iter()
             .filter(|&h| state.is_live(h, floor))
             .collect()
@@ -327,10 +328,11 @@ mod tests {
     /// (live edges listed, flippable edges) of `state` with exact ties.
     fn live_and_flippable(state: &TacState) -> (usize, usize) {
         let live = LiveEdges::new(state, 1e-10, Pcg64Mcg::seed_from_u64(0)).unwrap();
-        let uv = state.uv();
+        let uv = state.uv().unwrap();
         let flippable = state
             .mesh()
             .interior_edges()
+            .unwrap()
             .into_iter()
             .filter(|&h| state.mesh().can_flip(h, &uv))
             .count();

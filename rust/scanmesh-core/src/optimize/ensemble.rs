@@ -317,7 +317,10 @@ mod tests {
                 .unwrap();
             assert_eq!(summary.energies, energies);
             assert_eq!(summary.best_chain, winner);
-            assert_eq!(r.mesh.triangles(), singles[winner].mesh.triangles());
+            assert_eq!(
+                r.mesh.triangles().unwrap(),
+                singles[winner].mesh.triangles().unwrap()
+            );
         }
     }
 
@@ -338,7 +341,7 @@ mod tests {
         assert!(total >= 3 * chunked.sweep_len());
         assert!(chunked.sweeps_done() <= 3 * 20);
         let (r, _) = chunked.finish().unwrap();
-        assert_eq!(r.mesh.triangles(), one.mesh.triangles());
+        assert_eq!(r.mesh.triangles().unwrap(), one.mesh.triangles().unwrap());
     }
 
     #[test]
@@ -350,8 +353,8 @@ mod tests {
             .unwrap();
         assert_eq!(summary.best_chain, 0);
         assert_eq!(
-            r.mesh.triangles(),
-            single(&st, params(1, 8)).mesh.triangles()
+            r.mesh.triangles().unwrap(),
+            single(&st, params(1, 8)).mesh.triangles().unwrap()
         );
     }
 

@@ -371,15 +371,15 @@ impl TacState {
             || format!("the flip state of {} points", points.len()),
             STATE_PEAK_BYTES_PER_POINT.saturating_mul(points.len() as u64),
         )?;
-        let relabel = Relabel::morton(uv);
+        let relabel = Relabel::morton(uv)?;
         // One copy of the triangles at a time, none once the mesh holds them.
-        let local = relabel.triangles_to_local(&triangles);
+        let local = relabel.triangles_to_local(&triangles)?;
         drop(triangles);
         let mesh = HalfEdgeMesh::from_triangles(points.len(), &local)?;
         drop(local);
-        let unit_uv = relabel.vertices(&unit_square(uv));
+        let unit_uv = relabel.vertices(&unit_square(uv))?;
         mesh.validate(&unit_uv)?;
-        let unit_xyz = relabel.vertices(&Normalizer::fit(points).apply_all(points));
+        let unit_xyz = relabel.vertices(&Normalizer::fit(points).apply_all(points))?;
         Ok((TacState::new(mesh, unit_uv, unit_xyz, p)?, relabel))
     }
 
@@ -463,14 +463,16 @@ impl TacState {
         self.mesh.reanchor();
     }
 
-    /// Planar positions, copied out of the vertex records. O(n).
-    pub fn uv(&self) -> Vec<[f64; 2]> {
-        self.vert.iter().map(|r| r.uv).collect()
+    /// Planar positions, copied out of the vertex records. Errors: an
+    /// [`Error::OutOfMemory`] for the copy. O(n).
+    pub fn uv(&self) -> Result<Vec<[f64; 2]>> {
+        try_collect("the planar positions", self.vert.iter().map(|r| r.uv))
     }
 
-    /// 3-D positions, copied out of the vertex records. O(n).
-    pub fn xyz(&self) -> Vec<DVec3> {
-        self.vert.iter().map(|r| r.xyz).collect()
+    /// 3-D positions, copied out of the vertex records. Errors: an [`Error::OutOfMemory`]
+    /// for the copy. O(n).
+    pub fn xyz(&self) -> Result<Vec<DVec3>> {
+        try_collect("the 3-D positions", self.vert.iter().map(|r| r.xyz))
     }
 
     /// Planar positions of the quadrilateral (a, b, c, d) of [`HalfEdgeMesh::quad`] of the
@@ -516,8 +518,12 @@ impl TacState {
     /// reference the incremental value is tested against (it panics when its copies do not
     /// fit in memory). O(m).
     pub fn energy_from_scratch(&self) -> f64 {
-        let sums = crate::criteria::angle_sums(&self.xyz(), &self.mesh.triangles())
-            .expect("the reference's copies fit in memory");
+        let copies = "the reference's copies fit in memory";
+        let (xyz, triangles) = (
+            self.xyz().expect(copies),
+            self.mesh.triangles().expect(copies),
+        );
+        let sums = crate::criteria::angle_sums(&xyz, &triangles).expect(copies);
         sums.iter()
             .zip(&self.vert)
             .filter(|(_, r)| r.interior)

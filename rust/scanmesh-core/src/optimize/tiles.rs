@@ -102,7 +102,7 @@ impl TiledAnnealer {
         // Stripes across the longer side of the used vertices' box: shorter borders.
         let mut used: Vec<u32> = try_vec(TILES, n)?;
         used.extend((0..n as u32).filter(|&v| state.mesh().is_used(v)));
-        let uv = state.uv();
+        let uv = state.uv()?;
         let spread = |k: usize| {
             let (lo, hi) = used
                 .iter()
@@ -124,12 +124,12 @@ impl TiledAnnealer {
             rank[v as usize] = r as u32;
         }
         let energy = state.energy();
-        let triangles = state.mesh().triangles();
+        let triangles = state.mesh().triangles()?;
         Ok(TiledAnnealer {
             sums: try_collect(TILES, (0..n as u32).map(|v| state.angle_sum(v)))?,
             interior_edges: state.count_interior_half_edges() / 2,
             uv,
-            xyz: state.xyz(),
+            xyz: state.xyz()?,
             sight: state.sight(),
             interior,
             rank,
@@ -191,7 +191,8 @@ impl TiledAnnealer {
     /// Runs the tiles of the current phase (starting one if needed) in parallel, each for
     /// at most `max_proposals` proposals, returning soon after `deadline` and at the end of
     /// the phase. Returns the proposals run. Where calls end never changes the result.
-    /// Errors: an [`Error::OutOfMemory`] when a phase's tiles cannot be allocated.
+    /// Errors: an [`Error::OutOfMemory`] when a phase's tiles, or the triangulation they
+    /// are put back into, cannot be allocated.
     pub fn advance_until(
         &mut self,
         max_proposals: usize,
@@ -211,7 +212,7 @@ impl TiledAnnealer {
                 .sum::<usize>();
             // Returning at a phase's end lets a caller see every whole triangulation.
             if phase.tiles.iter().all(|t| t.run.is_done()) {
-                self.end_phase();
+                self.end_phase()?;
                 break;
             }
             if ran >= max_proposals || deadline.is_some_and(|d| Instant::now() >= d) {
@@ -309,8 +310,9 @@ impl TiledAnnealer {
     }
 
     /// Puts the tiles back together: the current triangulation and sums, the sweep records
-    /// of the phase, and the phase's best when it beats the best so far. O(m).
-    fn end_phase(&mut self) {
+    /// of the phase, and the phase's best when it beats the best so far. Errors: an
+    /// [`Error::OutOfMemory`] for the triangulations (before anything changes). O(m).
+    fn end_phase(&mut self) -> Result<()> {
         let phase = self.running.take().expect("a phase is running");
         let ends: Vec<TileEnd> = phase
             .tiles
@@ -328,6 +330,16 @@ impl TiledAnnealer {
                 }
             })
             .collect();
+        // The triangulations put back together, allocated before anything changes.
+        let phase_best = ends
+            .iter()
+            .fold(phase.constant, |sum, e| sum + e.best_energy);
+        let mut triangles = try_vec(TILES, phase.frozen.len() + count(&ends, |e| e.state.mesh()))?;
+        let beats = phase_best < self.best_energy;
+        let mut best = phase.frozen;
+        if beats {
+            try_grow(TILES, &mut best, count(&ends, |e| &e.best))?;
+        }
         // Sweeps every tile finished (all of the phase's, unless the run was interrupted);
         // a tile without live edges (from the start or from some sweep on) runs no more
         // sweeps and keeps its energy. When no tile has a live edge (flat pieces, or
@@ -386,22 +398,19 @@ impl TiledAnnealer {
             .flat_map(|e| &e.trace)
             .map(|r| r.proposals as u64)
             .sum::<u64>();
-        let phase_best = ends
-            .iter()
-            .fold(phase.constant, |sum, e| sum + e.best_energy);
-        let mut triangles = phase.frozen.clone();
+        triangles.extend_from_slice(&best);
         for e in &ends {
             triangles.extend(globalize(&e.vertices, e.state.mesh()));
             for (l, &v) in e.vertices.iter().enumerate() {
                 self.sums[v as usize] = e.state.angle_sum(l as u32);
             }
         }
-        if phase_best < self.best_energy {
+        if beats {
             self.best_energy = phase_best;
-            self.best = phase.frozen;
             for e in &ends {
-                self.best.extend(globalize(&e.vertices, &e.best));
+                best.extend(globalize(&e.vertices, &e.best));
             }
+            self.best = best;
         }
         self.triangles = triangles;
         self.energy = (0..self.sums.len())
@@ -409,13 +418,14 @@ impl TiledAnnealer {
             .map(|v| vertex_energy(self.sums[v], self.params.p))
             .sum();
         self.phases_done += 1;
+        Ok(())
     }
 
     /// Ends the run: the best state, polished as [`Annealer::finish`] polishes. A phase
     /// still running (an interrupted run) is ended first. O(m + polish flips).
     pub fn finish(mut self) -> Result<AnnealResult> {
         if self.running.is_some() {
-            self.end_phase();
+            self.end_phase()?;
         }
         let best = HalfEdgeMesh::from_triangles(self.uv.len(), &self.best)?;
         let best = TacState::new(best, self.uv, self.xyz, self.params.p)?.with_sight(self.sight)?;
@@ -448,12 +458,18 @@ struct TileEnd {
     exhausted: bool,
 }
 
-/// A piece's triangles in global vertex indices (`vertices`: local → global). O(m).
-fn globalize(vertices: &[u32], mesh: &HalfEdgeMesh) -> Vec<[u32; 3]> {
-    mesh.triangles()
-        .into_iter()
-        .map(|tri| tri.map(|v| vertices[v as usize]))
-        .collect()
+/// A piece's triangles in global vertex indices (`vertices`: local → global), in the
+/// order of [`HalfEdgeMesh::triangles`]. O(1), then O(1) per triangle.
+fn globalize<'a>(
+    vertices: &'a [u32],
+    mesh: &'a HalfEdgeMesh,
+) -> impl Iterator<Item = [u32; 3]> + 'a {
+    (0..mesh.n_triangles()).map(|t| mesh.triangle(t).map(|v| vertices[v as usize]))
+}
+
+/// The triangles of the meshes `mesh` picks from the tiles' ends. O(tiles).
+fn count(ends: &[TileEnd], mesh: impl Fn(&TileEnd) -> &HalfEdgeMesh) -> usize {
+    ends.iter().map(|e| mesh(e).n_triangles()).sum()
 }
 
 /// Seed of tile `tile` in phase `phase`: [`AnnealParams::for_chain`]'s mixing of the pair.
@@ -495,8 +511,8 @@ mod tests {
 
     /// The state of `triangles` over `st`'s positions, measured from scratch.
     fn measured(st: &TacState, triangles: &[[u32; 3]]) -> TacState {
-        let mesh = HalfEdgeMesh::from_triangles(st.uv().len(), triangles).unwrap();
-        TacState::new(mesh, st.uv(), st.xyz(), st.p()).unwrap()
+        let mesh = HalfEdgeMesh::from_triangles(st.uv().unwrap().len(), triangles).unwrap();
+        TacState::new(mesh, st.uv().unwrap(), st.xyz().unwrap(), st.p()).unwrap()
     }
 
     #[test]
@@ -520,7 +536,7 @@ mod tests {
                 // Between phases: the triangulation is valid, and its angle sums and energy
                 // measured from scratch equal the ones the tiles maintained.
                 let now = measured(&st, &a.triangles);
-                now.mesh().validate(&st.uv()).unwrap();
+                now.mesh().validate(&st.uv().unwrap()).unwrap();
                 for v in 0..st.mesh().n_vertices() as u32 {
                     assert!((now.angle_sum(v) - a.sums[v as usize]).abs() < 1e-9);
                 }
@@ -532,7 +548,7 @@ mod tests {
                 );
                 // The best kept is a valid triangulation with the recorded energy.
                 let best = measured(&st, &a.best);
-                best.mesh().validate(&st.uv()).unwrap();
+                best.mesh().validate(&st.uv().unwrap()).unwrap();
                 let e = best.energy_from_scratch();
                 assert!((a.best_energy - e).abs() <= 1e-9 * e.max(1.0));
                 assert_eq!(a.trace().last().unwrap().best, a.best_energy);
@@ -556,7 +572,7 @@ mod tests {
         .unwrap();
         let plain = anneal(st.clone(), params(1, 200, 5)).unwrap();
         let tiled = run(&st, params(3, 200, 5));
-        tiled.mesh.validate(&st.uv()).unwrap();
+        tiled.mesh.validate(&st.uv().unwrap()).unwrap();
         assert_eq!(tiled.mesh.n_triangles(), st.mesh().n_triangles());
         assert!(tiled.energy < lop_state.energy());
         assert!(
@@ -585,7 +601,7 @@ mod tests {
                 .build()
                 .unwrap();
             let r = pool.install(|| run(&st, p.clone()));
-            assert_eq!(r.mesh.triangles(), one.mesh.triangles());
+            assert_eq!(r.mesh.triangles().unwrap(), one.mesh.triangles().unwrap());
             assert_eq!(r.trace, one.trace);
         }
         let mut chunked = TiledAnnealer::new(st.clone(), p.clone()).unwrap();
@@ -593,10 +609,13 @@ mod tests {
             chunked.advance_until(37, Some(Instant::now())).unwrap();
         }
         let r = chunked.finish().unwrap();
-        assert_eq!(r.mesh.triangles(), one.mesh.triangles());
+        assert_eq!(r.mesh.triangles().unwrap(), one.mesh.triangles().unwrap());
         assert_eq!(r.trace, one.trace);
         let other = run(&st, params(4, 120, 10));
-        assert_ne!(other.mesh.triangles(), one.mesh.triangles());
+        assert_ne!(
+            other.mesh.triangles().unwrap(),
+            one.mesh.triangles().unwrap()
+        );
     }
 
     #[test]
@@ -618,7 +637,7 @@ mod tests {
         a.advance_until(500, None).unwrap();
         assert!(a.running.is_some());
         let r = a.finish().unwrap();
-        r.mesh.validate(&st.uv()).unwrap();
+        r.mesh.validate(&st.uv().unwrap()).unwrap();
         assert!(r.energy <= r.initial_energy);
     }
 
@@ -630,7 +649,7 @@ mod tests {
             let st = bumpy_state(n, 37, 1.0);
             let r = run(&st, params(tiles, 250, 2));
             assert_eq!(r.trace.len(), 250, "{n} points in {tiles} tiles");
-            r.mesh.validate(&st.uv()).unwrap();
+            r.mesh.validate(&st.uv().unwrap()).unwrap();
             assert!(r.energy <= r.initial_energy + 1e-12);
         }
     }

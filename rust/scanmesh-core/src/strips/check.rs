@@ -59,9 +59,11 @@
 //! [`HalfEdgeMesh::from_triangles`]: crate::mesh::HalfEdgeMesh::from_triangles
 
 use super::stitch::{Task, BLOCK};
+use crate::budget::{try_collect, try_filled, try_par_collect, try_vec};
 use crate::geometry::orient2d;
 use crate::mesh::count_cycles;
 use crate::strips::fuchs::Step;
+use crate::Result;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::ops::Range;
@@ -100,23 +102,30 @@ struct Span {
 /// The mesh's topology from the strips' windows, or `None` when the module's conditions
 /// (i)-(iii) fail or the Euler characteristic does not match (then only the global check
 /// can name the fault). `lines` are the scan's lines (for condition (i)), `n_points` the
-/// number of points. O(n) for (i) (parallel), O(s log s) for s strips otherwise.
-pub(super) fn plan(tasks: &[Task], lines: &[Vec<Vec<u32>>], n_points: usize) -> Option<Plan> {
-    let seen: Vec<AtomicBool> = (0..n_points)
+/// number of points. Errors: an [`crate::Error::OutOfMemory`] for its buffers. O(n) for
+/// (i) (parallel), O(s log s) for s strips otherwise.
+pub(super) fn plan(
+    tasks: &[Task],
+    lines: &[Vec<Vec<u32>>],
+    n_points: usize,
+) -> Result<Option<Plan>> {
+    const WHAT: &str = "the strips' planar check";
+    let seen = (0..n_points)
         .into_par_iter()
         .with_min_len(BLOCK)
-        .map(|_| AtomicBool::new(false))
-        .collect();
+        .map(|_| AtomicBool::new(false));
+    let seen = try_par_collect(WHAT, seen)?;
     let distinct = lines.par_iter().all(|line| {
         line.iter()
             .flatten()
             .all(|&k| !seen[k as usize].swap(true, Ordering::Relaxed))
     });
     if !distinct {
-        return None;
+        return Ok(None);
     }
+    drop(seen);
     // Windows by segment: side 0 = above (tasks' a), side 1 = below (tasks' b).
-    let mut sides: [Vec<Span>; 2] = [Vec::new(), Vec::new()];
+    let mut sides: [Vec<Span>; 2] = [try_vec(WHAT, tasks.len())?, try_vec(WHAT, tasks.len())?];
     for (k, t) in tasks.iter().enumerate() {
         for (side, (w, len)) in [(t.a_at, t.a.len()), (t.b_at, t.b.len())]
             .into_iter()
@@ -137,12 +146,12 @@ pub(super) fn plan(tasks: &[Task], lines: &[Vec<Vec<u32>>], n_points: usize) -> 
             .windows(2)
             .any(|w| w[0].key == w[1].key && w[0].hi >= w[1].lo)
         {
-            return None;
+            return Ok(None);
         }
     }
     // Intersections of above and below windows: a merge of the two sorted lists.
-    let mut shared: Vec<[Vec<(u32, u32)>; 2]> = vec![[Vec::new(), Vec::new()]; tasks.len()];
-    let mut parent: Vec<usize> = (0..tasks.len()).collect();
+    let mut shared: Vec<[Vec<(u32, u32)>; 2]> = try_filled(WHAT, Default::default(), tasks.len())?;
+    let mut parent = try_collect(WHAT, 0..tasks.len())?;
     fn root(parent: &mut [usize], mut x: usize) -> usize {
         while parent[x] != x {
             parent[x] = parent[parent[x]];
@@ -167,7 +176,7 @@ pub(super) fn plan(tasks: &[Task], lines: &[Vec<Vec<u32>>], n_points: usize) -> 
         // Same segment, overlapping.
         let (lo, hi) = (x.lo.max(y.lo), x.hi.min(y.hi));
         if lo == hi {
-            return None; // (iii): a pinch, refused by the global check
+            return Ok(None); // (iii): a pinch, refused by the global check
         }
         intersections += 1;
         interior_count += u64::from(hi - lo - 1);
@@ -184,18 +193,20 @@ pub(super) fn plan(tasks: &[Task], lines: &[Vec<Vec<u32>>], n_points: usize) -> 
     let components = (0..tasks.len())
         .filter(|&k| root(&mut parent, k) == k)
         .count() as i64;
-    let loops = boundary_loops(tasks, &shared)?;
+    let Some(loops) = boundary_loops(tasks, &shared) else {
+        return Ok(None);
+    };
     if tasks.len() as i64 - intersections != 2 * components - loops {
-        return None;
+        return Ok(None);
     }
     let interior = shared
         .into_iter()
-        .map(|s| s.map(|v| v.into_iter().map(|(lo, hi)| lo + 1..hi).collect()))
-        .collect();
-    Some(Plan {
+        .map(|s| s.map(|v| v.into_iter().map(|(lo, hi)| lo + 1..hi).collect()));
+    let interior = try_collect(WHAT, interior)?;
+    Ok(Some(Plan {
         interior,
         interior_count,
-    })
+    }))
 }
 
 /// Boundary loops of the mesh: the cycles of the map "run of a strip's boundary cycle

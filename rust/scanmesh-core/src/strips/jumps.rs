@@ -14,6 +14,7 @@
 //! their corners: that holds every edge at a candidate's corner, so their local spacings,
 //! and the verdicts, are those over the whole mesh.
 
+use crate::budget::{try_collect, try_filled, try_par_collect, try_vec};
 use crate::geometry::{Normalizer, PAR_BLOCK};
 use crate::triangulate::jumps::{bridging_triangles, infinities, lower, DepthJumps};
 use crate::Result;
@@ -33,9 +34,10 @@ pub(super) fn bridging(
         !jumps.gaps,
         "strips::jumps::bridging takes the jump rule only"
     );
-    let none = || vec![false; triangles.len()];
+    const WHAT: &str = "the strips' jump check";
+    let none = || try_filled(WHAT, false, triangles.len());
     if !jumps.factor.is_finite() || triangles.is_empty() {
-        return Ok(none());
+        return none();
     }
     // Squared lengths in the unit box (where `bridging_triangles` measures, so no square
     // overflows), each point mapped as its edge is read: no mapped copy of the points.
@@ -87,37 +89,40 @@ pub(super) fn bridging(
         .with_min_len(PAR_BLOCK)
         .any(is_candidate)
     {
-        return Ok(none());
+        return none();
     }
-    let candidate: Vec<bool> = triangles
+    let candidate = triangles
         .par_iter()
         .with_min_len(PAR_BLOCK)
-        .map(is_candidate)
-        .collect();
+        .map(is_candidate);
+    let candidate = try_par_collect(WHAT, candidate)?;
     // Every triangle at a candidate's corner, so that their spacings are whole.
-    let corner: Vec<AtomicBool> = (0..jumps.points.len())
+    let corner = (0..jumps.points.len())
         .into_par_iter()
         .with_min_len(PAR_BLOCK)
-        .map(|_| AtomicBool::new(false))
-        .collect();
+        .map(|_| AtomicBool::new(false));
+    let corner = try_par_collect(WHAT, corner)?;
     triangles.par_iter().zip(&candidate).for_each(|(t, &c)| {
         if c {
             t.iter()
                 .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
         }
     });
-    let around: Vec<usize> = (0..triangles.len())
+    let is_around = |&f: &usize| {
+        triangles[f]
+            .iter()
+            .any(|&v| corner[v as usize].load(Ordering::Relaxed))
+    };
+    let n_around = (0..triangles.len())
         .into_par_iter()
         .with_min_len(PAR_BLOCK)
-        .filter(|&f| {
-            triangles[f]
-                .iter()
-                .any(|&v| corner[v as usize].load(Ordering::Relaxed))
-        })
-        .collect();
-    let near: Vec<[u32; 3]> = around.iter().map(|&f| triangles[f]).collect();
+        .filter(is_around)
+        .count();
+    let mut around = try_vec(WHAT, n_around)?;
+    around.extend((0..triangles.len()).filter(is_around));
+    let near = try_collect(WHAT, around.iter().map(|&f| triangles[f]))?;
     let verdicts = bridging_triangles(uv, &near, jumps)?;
-    let mut bridges = none();
+    let mut bridges = none()?;
     for (&f, bridge) in around.iter().zip(verdicts) {
         // Others around them may see partial spacings; they are not candidates anyway.
         bridges[f] = bridge && candidate[f];

@@ -24,6 +24,7 @@
 //! Explicit line ids (points with the same id form a line, in input order; lines in
 //! ascending id) skip detection but are split at gaps the same way.
 
+use crate::budget::{try_collect, try_filled, try_grow, try_par_collect, try_vec};
 use crate::geometry::{planar_distance, Normalizer};
 use crate::{Error, Result};
 use glam::DVec3;
@@ -118,18 +119,19 @@ fn main_axis(uv: &[[f64; 2]], short: f64, long: f64) -> [f64; 2] {
 
 /// A line id per point (0..L−1 in scan order), detected from the point order by the rules
 /// in the module documentation, with `gap_factor` as k. Errors: a non-finite coordinate, a
-/// gap factor that is not positive. O(n).
+/// gap factor that is not positive, an [`Error::OutOfMemory`] for the ids. O(n).
 pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
     crate::geometry::check_planar(uv)?;
     check_gap_factor(gap_factor)?;
     // The rules compare ratios of lengths; in the unit box their products stay finite.
     let (unit, _) = crate::geometry::normalize_plane(uv);
     let uv = &unit[..];
-    let mut ids = Vec::with_capacity(uv.len());
+    let mut ids = try_vec("the line ids", uv.len())?;
     if uv.is_empty() {
         return Ok(ids);
     }
-    let h = median_nonzero(uv.windows(2).map(|w| planar_distance(w[1], w[0])).collect());
+    let steps = uv.windows(2).map(|w| planar_distance(w[1], w[0]));
+    let h = median_nonzero(try_collect("the steps", steps)?);
     let (short, long) = (0.5 * h, gap_factor * h);
     let axis = main_axis(uv, short, long);
     let cos_turn = TURN_ANGLE_DEG.to_radians().cos();
@@ -170,7 +172,7 @@ pub fn detect_lines(uv: &[[f64; 2]], gap_factor: f64) -> Result<Vec<u32>> {
 /// splits each line into segments at steps longer than `gap_factor` × the median step.
 ///
 /// Errors: `line_ids` of another length than `uv`, a non-finite coordinate, a gap factor
-/// that is not positive. O(n log n) for the grouping (O(n) when ids never decrease).
+/// that is not positive, an [`Error::OutOfMemory`] for the lines. O(n log n) for the grouping (O(n) when ids never decrease).
 pub fn segment_lines(uv: &[[f64; 2]], line_ids: &[i64], gap_factor: f64) -> Result<ScanLines> {
     segment_lines_at(uv, line_ids, gap_factor, None)
 }
@@ -210,10 +212,11 @@ pub fn segment_lines_at(
         .par_windows(2)
         .with_min_len(BLOCK)
         .all(|w| w[0] <= w[1]);
+    const WHAT: &str = "the scan lines";
     let order: Vec<u32> = if sorted {
         Vec::new()
     } else {
-        let mut order: Vec<u32> = (0..uv.len() as u32).collect();
+        let mut order = try_collect(WHAT, 0..uv.len() as u32)?;
         order.par_sort_by_key(|&k| line_ids[k as usize]); // stable
         order
     };
@@ -222,45 +225,53 @@ pub fn segment_lines_at(
     // points with coincident repeats dropped (each against the last point kept, as a
     // serial pass would), those repeats, and its step lengths (the median and the gaps
     // both need them). The same lines, repeats and steps as one serial pass.
-    let starts: Vec<usize> = (0..uv.len())
+    // Counted in parallel, then listed into a buffer that may fail to allocate.
+    let starts_line =
+        |&pos: &usize| pos == 0 || line_ids[at(pos) as usize] != line_ids[at(pos - 1) as usize];
+    let n_lines = (0..uv.len())
         .into_par_iter()
         .with_min_len(BLOCK)
-        .filter(|&pos| pos == 0 || line_ids[at(pos) as usize] != line_ids[at(pos - 1) as usize])
-        .collect();
+        .filter(starts_line)
+        .count();
+    let mut starts = try_vec(WHAT, n_lines)?;
+    starts.extend((0..uv.len()).filter(starts_line));
     type Grouped = (Vec<u32>, Vec<(u32, u32)>, Vec<f64>);
-    let grouped: Vec<Grouped> = (0..starts.len())
-        .into_par_iter()
-        .map(|l| {
+    let mut grouped: Vec<Grouped> = try_filled(WHAT, Default::default(), starts.len())?;
+    grouped.par_iter_mut().enumerate().try_for_each(
+        |(l, (line, repeats, steps))| -> Result<()> {
             let end = starts.get(l + 1).copied().unwrap_or(uv.len());
-            let mut line = vec![at(starts[l])];
-            let mut repeats = Vec::new();
-            let mut steps = Vec::new();
+            *line = try_vec(WHAT, end - starts[l])?;
+            *steps = try_vec(WHAT, end - starts[l] - 1)?;
+            line.push(at(starts[l]));
             for pos in starts[l] + 1..end {
                 let (k, last) = (at(pos), *line.last().expect("lines are never empty"));
                 let (p, q) = (uv[k as usize], uv[last as usize]);
                 if p == q {
+                    try_grow(WHAT, repeats, 1)?;
                     repeats.push((k, last));
                 } else {
                     line.push(k);
                     steps.push(planar_distance(p, q));
                 }
             }
-            (line, repeats, steps)
-        })
-        .collect();
-    let duplicates = grouped.iter().flat_map(|g| g.1.iter().copied()).collect();
-    let median_step = median_step.unwrap_or_else(|| {
-        median_nonzero(
-            grouped
-                .par_iter()
-                .flat_map_iter(|g| g.2.iter().copied().filter(|&x| x > 0.0))
-                .collect(),
-        )
-    });
+            Ok(())
+        },
+    )?;
+    let count = |part: fn(&Grouped) -> usize| grouped.iter().map(part).sum::<usize>();
+    let mut duplicates = try_vec(WHAT, count(|g| g.1.len()))?;
+    duplicates.extend(grouped.iter().flat_map(|g| g.1.iter().copied()));
+    let median_step = match median_step {
+        Some(step) => step,
+        None => {
+            let mut steps = try_vec("the steps", count(|g| g.2.len()))?;
+            steps.extend(grouped.iter().flat_map(|g| g.2.iter().copied()));
+            median_nonzero(steps)
+        }
+    };
     let gap = gap_factor * median_step;
-    let lines = grouped
-        .into_par_iter()
-        .map(|(line, _, steps)| {
+    let lines = try_par_collect(
+        WHAT,
+        grouped.into_par_iter().map(|(line, _, steps)| {
             let mut segments = vec![vec![line[0]]];
             for (&k, &step) in line[1..].iter().zip(&steps) {
                 if step > gap {
@@ -269,8 +280,8 @@ pub fn segment_lines_at(
                 segments.last_mut().expect("one segment at least").push(k);
             }
             segments
-        })
-        .collect();
+        }),
+    )?;
     Ok(ScanLines {
         lines,
         median_step,
@@ -293,10 +304,16 @@ pub const JUMP_WINDOW: usize = 2;
 /// units (as for [`crate::triangulate::jumps::DepthJumps`]); an infinite `factor` changes nothing.
 /// Pieces
 /// stay in scan order; strips then pair each piece with the overlapping pieces of the
-/// neighbouring lines only. O(n).
-pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], factor: f64) {
+/// neighbouring lines only. Errors: an [`Error::OutOfMemory`] for a line's steps or
+/// pieces. O(n).
+pub fn split_at_jumps(
+    scan: &mut ScanLines,
+    points: &[DVec3],
+    uv: &[[f64; 2]],
+    factor: f64,
+) -> Result<()> {
     if !factor.is_finite() {
-        return;
+        return Ok(());
     }
     // Lengths in the unit box: no overflow at 1e300 or underflow at 1e-300.
     let norm = Normalizer::fit(points);
@@ -306,12 +323,16 @@ pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], f
         1.0
     };
     let unit = |k: u32| norm.apply(points[k as usize]);
-    let split = |segment: Vec<u32>| -> Vec<Vec<u32>> {
-        let steps: Vec<f64> = segment
+    const WHAT: &str = "the scan lines cut at depth jumps";
+    // Appends the pieces of `segment` to `pieces`.
+    let split = |segment: &[u32], pieces: &mut Vec<Vec<u32>>| -> Result<()> {
+        let steps = segment
             .windows(2)
-            .map(|w| (unit(w[1]) - unit(w[0])).length())
-            .collect();
-        let mut pieces = vec![vec![segment[0]]];
+            .map(|w| (unit(w[1]) - unit(w[0])).length());
+        let steps = try_collect(WHAT, steps)?;
+
+        try_grow(WHAT, pieces, 1)?;
+        pieces.push(vec![segment[0]]);
         let mut window = Vec::with_capacity(2 * JUMP_WINDOW + 1);
         for (i, &length3) in steps.iter().enumerate() {
             let lo = i.saturating_sub(JUMP_WINDOW);
@@ -328,20 +349,25 @@ pub fn split_at_jumps(scan: &mut ScanLines, points: &[DVec3], uv: &[[f64; 2]], f
                 let w = [segment[i], segment[i + 1]];
                 let flat = planar_distance(uv[w[0] as usize], uv[w[1] as usize]) * to_unit;
                 if crate::triangulate::jumps::is_depth_jump(length3, flat, spacing, factor) {
+                    try_grow(WHAT, pieces, 1)?;
                     pieces.push(Vec::new());
                 }
             }
-            pieces
-                .last_mut()
-                .expect("one piece at least")
-                .push(segment[i + 1]);
+            let piece = pieces.last_mut().expect("one piece at least");
+            try_grow(WHAT, piece, 1)?;
+            piece.push(segment[i + 1]);
         }
-        pieces
+        Ok(())
     };
-    scan.lines.par_iter_mut().for_each(|line| {
+    scan.lines.par_iter_mut().try_for_each(|line| {
         let segments = std::mem::take(line);
-        *line = segments.into_iter().flat_map(split).collect();
-    });
+        let mut pieces = try_vec(WHAT, segments.len())?;
+        for segment in &segments {
+            split(segment, &mut pieces)?;
+        }
+        *line = pieces;
+        Ok(())
+    })
 }
 
 #[cfg(test)]
@@ -501,7 +527,7 @@ mod tests {
             };
             step + bore + 0.1 * x.sin()
         });
-        split_at_jumps(&mut scan, &pts, &uv, factor);
+        split_at_jumps(&mut scan, &pts, &uv, factor).unwrap();
         let cuts: Vec<u32> = scan.lines[0].iter().skip(1).map(|s| s[0]).collect();
         assert_eq!(cuts, vec![10, 13, 16]);
         assert_eq!(scan.lines[0].concat(), (0..20).collect::<Vec<u32>>());
@@ -510,14 +536,14 @@ mod tests {
         for z in [|x: f64| 1.7 * x, |x: f64| if x >= 10.0 { 2.0 } else { 0.0 }] {
             let (pts, uv, mut scan) = profile(z);
             let before = scan.clone();
-            split_at_jumps(&mut scan, &pts, &uv, factor);
+            split_at_jumps(&mut scan, &pts, &uv, factor).unwrap();
             assert_eq!(scan, before);
         }
         let (pts, uv, mut scan) = profile(|x| if x >= 10.0 { 50.0 } else { 0.0 });
         let before = scan.clone();
-        split_at_jumps(&mut scan, &pts, &uv, f64::INFINITY);
+        split_at_jumps(&mut scan, &pts, &uv, f64::INFINITY).unwrap();
         assert_eq!(scan, before);
-        split_at_jumps(&mut scan, &pts, &uv, factor);
+        split_at_jumps(&mut scan, &pts, &uv, factor).unwrap();
         assert_eq!(scan.lines[0].len(), 2);
     }
 

@@ -15,7 +15,9 @@
 //! side, so the half-edge mesh exists, and once pinches are gone it passes
 //! [`crate::mesh::HalfEdgeMesh::validate`] (tested on crossing and folded scans).
 
+use crate::budget::{try_collect, try_filled, try_grow, try_vec};
 use crate::geometry::orient2d;
+use crate::Result;
 
 /// Whether the interiors of two strictly counter-clockwise triangles overlap in the plane:
 /// no edge of either has all corners of the other on or right of its line (two convex
@@ -34,19 +36,17 @@ fn overlap(uv: &[[f64; 2]], s: [u32; 3], t: [u32; 3]) -> bool {
 /// of about m cells over their bounding box: each pair is tested once, in the cell of the
 /// lower-left corner of the intersection of its bounding boxes. O(m + Σ cells covered +
 /// Σ occupancy² per cell).
-fn overlapping_pairs(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> Vec<(u32, u32)> {
-    let boxes: Vec<[f64; 4]> = triangles
-        .iter()
-        .map(|t| {
-            let p = t.map(|k| uv[k as usize]);
-            [
-                p[0][0].min(p[1][0]).min(p[2][0]),
-                p[0][1].min(p[1][1]).min(p[2][1]),
-                p[0][0].max(p[1][0]).max(p[2][0]),
-                p[0][1].max(p[1][1]).max(p[2][1]),
-            ]
-        })
-        .collect();
+fn overlapping_pairs(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> Result<Vec<(u32, u32)>> {
+    let boxes = triangles.iter().map(|t| {
+        let p = t.map(|k| uv[k as usize]);
+        [
+            p[0][0].min(p[1][0]).min(p[2][0]),
+            p[0][1].min(p[1][1]).min(p[2][1]),
+            p[0][0].max(p[1][0]).max(p[2][0]),
+            p[0][1].max(p[1][1]).max(p[2][1]),
+        ]
+    });
+    let boxes = try_collect(WHAT, boxes)?;
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for b in &boxes {
         lo = [lo[0].min(b[0]), lo[1].min(b[1])];
@@ -65,6 +65,7 @@ fn overlapping_pairs(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> Vec<(u32, u32)>
     for (i, b) in boxes.iter().enumerate() {
         for cy in cell(b[1], 1)..=cell(b[3], 1) {
             for cx in cell(b[0], 0)..=cell(b[2], 0) {
+                try_grow(WHAT, &mut entries, 1)?;
                 entries.push((cy * side + cx, i as u32));
             }
         }
@@ -81,52 +82,54 @@ fn overlapping_pairs(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> Vec<(u32, u32)>
                     continue;
                 }
                 if overlap(uv, triangles[i as usize], triangles[j as usize]) {
+                    try_grow(WHAT, &mut pairs, 1)?;
                     pairs.push((i.min(j), i.max(j)));
                 }
             }
         }
     }
-    pairs
+    Ok(pairs)
 }
+
+/// What the repair's buffers are called in memory errors.
+const WHAT: &str = "the overlap repair";
 
 /// `triangles` (over the planar positions `uv`) with the triangles dropped that keep them
 /// from being a valid planar triangulation, by the rule of the module documentation. The
-/// caller counts the difference. O(m log m) plus the overlap search.
-pub(super) fn repair(uv: &[[f64; 2]], triangles: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
-    let ccw: Vec<[u32; 3]> = triangles
-        .into_iter()
-        .filter(|t| {
-            let [a, b, c] = t.map(|k| uv[k as usize]);
-            orient2d(a, b, c) > 0.0
-        })
-        .collect();
-    let pairs = overlapping_pairs(uv, &ccw);
-    let mut conflicts: Vec<Vec<u32>> = vec![Vec::new(); ccw.len()];
+/// caller counts the difference. Errors: an [`crate::Error::OutOfMemory`]. O(m log m)
+/// plus the overlap search.
+pub(super) fn repair(uv: &[[f64; 2]], mut triangles: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
+    // In place: the counter-clockwise triangles, in order.
+    triangles.retain(|t| {
+        let [a, b, c] = t.map(|k| uv[k as usize]);
+        orient2d(a, b, c) > 0.0
+    });
+    let ccw = triangles;
+    let pairs = overlapping_pairs(uv, &ccw)?;
+    let mut conflicts: Vec<Vec<u32>> = try_filled(WHAT, Vec::new(), ccw.len())?;
     for &(i, j) in &pairs {
         conflicts[i as usize].push(j);
         conflicts[j as usize].push(i);
     }
-    let mut order: Vec<u32> = (0..ccw.len() as u32)
-        .filter(|&i| !conflicts[i as usize].is_empty())
-        .collect();
+    let in_conflict = |&i: &u32| !conflicts[i as usize].is_empty();
+    let n_in_conflict = (0..ccw.len() as u32).filter(in_conflict).count();
+    let mut order = try_vec(WHAT, n_in_conflict)?;
+    order.extend((0..ccw.len() as u32).filter(in_conflict));
     order.sort_by_key(|&i| (conflicts[i as usize].len(), i));
-    let mut keep = vec![true; ccw.len()];
-    let mut decided = vec![false; ccw.len()];
+    let mut keep = try_filled(WHAT, true, ccw.len())?;
+    let mut decided = try_filled(WHAT, false, ccw.len())?;
     for &i in &order {
         keep[i as usize] = !conflicts[i as usize]
             .iter()
             .any(|&j| decided[j as usize] && keep[j as usize]);
         decided[i as usize] = true;
     }
-    let kept: Vec<[u32; 3]> = ccw
-        .into_iter()
-        .zip(keep)
-        .filter(|(_, k)| *k)
-        .map(|(t, _)| t)
-        .collect();
+    let mut kept = ccw;
+    let mut flags = keep.iter();
+    kept.retain(|_| *flags.next().expect("a flag per triangle"));
     // Without overlaps the half-edge mesh exists; should it not, the caller's check names
     // why, on the triangles as they are.
-    crate::triangulate::trim::peel(uv, kept.clone()).unwrap_or(kept)
+    crate::triangulate::trim::peel_or_keep(uv, kept)
 }
 
 #[cfg(test)]
@@ -163,7 +166,7 @@ mod tests {
                     orient2d(a, b, c) > 0.0
                 })
                 .collect();
-            let mut grid = overlapping_pairs(&uv, &tris);
+            let mut grid = overlapping_pairs(&uv, &tris).unwrap();
             grid.sort_unstable();
             assert!(round < 5 || !grid.is_empty());
             assert_eq!(grid, all_pairs(&uv, &tris), "round {round}");

@@ -29,7 +29,7 @@
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
 use super::{check, jumps, repair, Method, ScanContext, StripMesh, StripParams};
-use crate::budget::{try_filled, try_vec};
+use crate::budget::{try_filled, try_par_collect, try_vec};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
@@ -356,7 +356,7 @@ pub fn stitch_part(
     let mut scan = crate::strips::lines::segment_lines_at(uv, line_ids, gap_factor, median)?;
     check_jump_factor(params.jump_factor)?;
     if points.len() == uv.len() {
-        crate::strips::lines::split_at_jumps(&mut scan, points, uv, params.jump_factor);
+        crate::strips::lines::split_at_jumps(&mut scan, points, uv, params.jump_factor)?;
     }
     let (mesh, _, _) = stitch_with(points, uv, &scan, params, true, context)?;
     Ok((mesh, scan.duplicates))
@@ -388,7 +388,7 @@ fn stitch_with(
     let caller_uv = uv;
     let unit = UnitFrame::new(points, uv, scan, params, context);
     let uv = &unit.uv[..];
-    let (kept, oriented) = orient_lines(uv, scan, context);
+    let (kept, oriented) = orient_lines(uv, scan, context)?;
     let tasks: Vec<Task> = kept
         .par_windows(2)
         .flat_map_iter(|pair| {
@@ -398,7 +398,7 @@ fn stitch_with(
         })
         .collect();
     let plan = if params.check && local {
-        check::plan(&tasks, &oriented, points.len())
+        check::plan(&tasks, &oriented, points.len())?
     } else {
         None
     };
@@ -426,7 +426,7 @@ fn stitch_with(
     let inserted = insert_lone_points(uv, scan, &kept, &tasks, &ranges, &mut triangles);
     // Which points the strips use, before anything is dropped: a point all of whose
     // triangles are dropped is trimmed, not unused.
-    let used_by_strips = used_points(points.len(), &triangles);
+    let used_by_strips = used_points(points.len(), &triangles)?;
     let own_before = own.count(&triangles);
     let dropped_jumps = drop_jumps(points, caller_uv, uv, params.jump_factor, &mut triangles)?;
     let own_after_jumps = own.count(&triangles);
@@ -443,7 +443,7 @@ fn stitch_with(
     let mut dropped_overlaps = 0;
     let planar_error = if first_error.is_some() {
         let before = triangles.len();
-        triangles = repair::repair(uv, triangles);
+        triangles = repair::repair(uv, triangles)?;
         dropped_overlaps = before - triangles.len();
         global_check(points.len(), &triangles, uv)
     } else {
@@ -454,7 +454,7 @@ fn stitch_with(
         &triangles,
         &used_by_strips,
         dropped_jumps + dropped_overlaps > 0,
-    );
+    )?;
     if let Own(Some((lo, hi))) = own {
         let inside = |k: &u32| (lo..hi).contains(&(*k as usize));
         triangles.retain(|t| t.iter().all(inside));
@@ -618,16 +618,20 @@ impl UnitFrame {
     }
 }
 
+/// A scan line: its segments, each its point indices.
+type Line = Vec<Vec<u32>>;
+
 /// The lines with a segment of at least two points (ascending), and every line oriented
 /// alike (a zig-zag scan's every other line turned round; lines not kept left empty), so a
 /// line's edges run one way in the strip before it and the other way in the strip after
 /// it: the strips then fit together with one consistent orientation, whatever the plane.
-/// Which lines turn round is a serial walk over the chords; the copies are parallel. O(n).
+/// Which lines turn round is a serial walk over the chords; the copies are parallel. Errors:
+/// an [`Error::OutOfMemory`] for the oriented lines. O(n).
 fn orient_lines(
     uv: &[[f64; 2]],
     scan: &ScanLines,
     context: Option<&ScanContext>,
-) -> (Vec<usize>, Vec<Vec<Vec<u32>>>) {
+) -> Result<(Vec<usize>, Vec<Line>)> {
     let kept: Vec<usize> = (0..scan.lines.len())
         .filter(|&l| scan.lines[l].iter().any(|s| s.len() >= 2))
         .collect();
@@ -646,21 +650,19 @@ fn orient_lines(
         }
         previous = Some(c);
     }
-    let oriented: Vec<Vec<Vec<u32>>> = (0..scan.lines.len())
-        .into_par_iter()
-        .map(|l| {
-            if kept.binary_search(&l).is_err() {
-                return Vec::new();
-            }
-            let mut line = scan.lines[l].clone();
-            if turned[l] {
-                line.reverse();
-                line.iter_mut().for_each(|s| s.reverse());
-            }
-            line
-        })
-        .collect();
-    (kept, oriented)
+    let oriented = (0..scan.lines.len()).into_par_iter().map(|l| {
+        if kept.binary_search(&l).is_err() {
+            return Vec::new();
+        }
+        let mut line = scan.lines[l].clone();
+        if turned[l] {
+            line.reverse();
+            line.iter_mut().for_each(|s| s.reverse());
+        }
+        line
+    });
+    let oriented = try_par_collect("the oriented lines", oriented)?;
+    Ok((kept, oriented))
 }
 
 /// The strips' triangles in one list, the range of each task in it, and each strip's
@@ -792,59 +794,67 @@ fn drop_jumps(
         return Ok(0);
     }
     let before = triangles.len();
-    let kept: Vec<[u32; 3]> = std::mem::take(triangles)
-        .into_iter()
-        .zip(bridges)
-        .filter(|(_, b)| !b)
-        .map(|(t, _)| t)
-        .collect();
+    let mut kept = std::mem::take(triangles);
+    let mut bridge = bridges.iter();
+    kept.retain(|_| !*bridge.next().expect("a flag per triangle"));
     // Crossing lines (no half-edge mesh) are the repair's business afterwards.
-    *triangles = crate::triangulate::trim::peel(uv, kept.clone()).unwrap_or(kept);
+    *triangles = crate::triangulate::trim::peel_or_keep(uv, kept)?;
     Ok(before - triangles.len())
 }
 
 /// The points no triangle uses (ascending), and, when triangles were `dropped`, those of
-/// them that the strips used (`used_by_strips`): trimmed, not unused. O(n + m) in parallel.
+/// them that the strips used (`used_by_strips`): trimmed, not unused. Errors: an
+/// [`Error::OutOfMemory`]. O(n + m) in parallel.
 fn unused_and_trimmed(
     n: usize,
     triangles: &[[u32; 3]],
     used_by_strips: &[AtomicBool],
     dropped: bool,
-) -> (Vec<u32>, Vec<u32>) {
-    let after = dropped.then(|| used_points(n, triangles));
+) -> Result<(Vec<u32>, Vec<u32>)> {
+    let after = dropped.then(|| used_points(n, triangles)).transpose()?;
     let used = after.as_deref().unwrap_or(used_by_strips);
-    rayon::join(
+    let (unused, trimmed) = rayon::join(
         || not_in(used, |_| true),
         || match after {
             Some(_) => not_in(used, |k| used_by_strips[k].load(Ordering::Relaxed)),
-            None => Vec::new(),
+            None => Ok(Vec::new()),
         },
-    )
+    );
+    Ok((unused?, trimmed?))
 }
 
+/// What the per-point flags and lists are called in memory errors.
+const POINTS: &str = "the points the strips use";
+
 /// Which of `n` points the triangles use. O(n + m) in parallel; relaxed stores of `true`
-/// in any order leave the same flags, so parallel is exact.
-fn used_points(n: usize, triangles: &[[u32; 3]]) -> Vec<AtomicBool> {
-    let used: Vec<AtomicBool> = (0..n)
+/// in any order leave the same flags, so parallel is exact. Errors: an
+/// [`Error::OutOfMemory`] for the flags.
+fn used_points(n: usize, triangles: &[[u32; 3]]) -> Result<Vec<AtomicBool>> {
+    let used = (0..n)
         .into_par_iter()
         .with_min_len(BLOCK)
-        .map(|_| AtomicBool::new(false))
-        .collect();
+        .map(|_| AtomicBool::new(false));
+    let used = try_par_collect(POINTS, used)?;
     triangles.par_iter().with_min_len(BLOCK).for_each(|t| {
         for &k in t {
             used[k as usize].store(true, Ordering::Relaxed);
         }
     });
-    used
+    Ok(used)
 }
 
-/// The points not `used` for which `also` holds, ascending. O(n) in parallel.
-fn not_in(used: &[AtomicBool], also: impl Fn(usize) -> bool + Sync) -> Vec<u32> {
-    (0..used.len() as u32)
+/// The points not `used` for which `also` holds, ascending: counted in parallel, listed
+/// into a buffer that may fail to allocate (an [`Error::OutOfMemory`]). O(n).
+fn not_in(used: &[AtomicBool], also: impl Fn(usize) -> bool + Sync) -> Result<Vec<u32>> {
+    let listed = |&k: &u32| !used[k as usize].load(Ordering::Relaxed) && also(k as usize);
+    let count = (0..used.len() as u32)
         .into_par_iter()
         .with_min_len(BLOCK)
-        .filter(|&k| !used[k as usize].load(Ordering::Relaxed) && also(k as usize))
-        .collect()
+        .filter(listed)
+        .count();
+    let mut out = try_vec(POINTS, count)?;
+    out.extend((0..used.len() as u32).filter(listed));
+    Ok(out)
 }
 
 #[cfg(test)]

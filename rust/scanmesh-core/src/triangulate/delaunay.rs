@@ -89,7 +89,7 @@ pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<
     if uv.len() < (NONE / 8) as usize {
         let swept = {
             let unit = unit_square(uv);
-            let order = sweep_order(&unit);
+            let order = sweep_order(&unit)?;
             let local = try_collect(
                 "Delaunay's points",
                 order.iter().map(|&i| point(unit[i as usize])),
@@ -633,7 +633,7 @@ mod tests {
             .find(|&h| mesh.twin(h) != NONE && mesh.can_flip(h, &unit))
             .unwrap();
         mesh.flip(flippable);
-        let flipped = mesh.triangles();
+        let flipped = mesh.triangles().unwrap();
         let twins: Vec<u32> = (0..mesh.n_half_edges() as u32)
             .map(|h| mesh.twin(h))
             .collect();

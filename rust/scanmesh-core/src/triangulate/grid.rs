@@ -497,7 +497,7 @@ pub fn grid_triangulate(
         let twins = grid_twins(&cells, &codes, cols, rows)?;
         let kept = out.triangles.len();
         let keep = try_filled(GRID, true, kept)?;
-        out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None);
+        out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None)?;
         out.peeled = kept - out.triangles.len();
     }
     let mut used = try_filled(GRID, false, points.len())?;

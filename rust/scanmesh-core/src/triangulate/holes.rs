@@ -3,9 +3,11 @@
 //! drilled hole or a slot hit nothing), even when its edges are short enough for the
 //! planar rule and its corners lie at one height (so no depth jump or 3-D gap shows).
 
+use crate::budget::{try_filled, try_grow, try_par_collect, try_vec};
 use crate::geometry::unit_square;
 use crate::geometry::PAR_BLOCK;
 use crate::mesh::well_formed;
+use crate::Result;
 use rayon::prelude::*;
 
 /// Default hole factor (a ratio of planar lengths): in trimming, a triangle spans missing
@@ -52,11 +54,12 @@ fn median3([a, b, c]: [f32; 3]) -> f32 {
 /// Scale-free (on [`unit_square`] coordinates). O(m) plus a sort of the triangles at the
 /// corners of candidates: the smallest edge and area at each vertex bound its lower medians
 /// from below, so a triangle within the factors of those bounds is no hole, and a regularly
-/// sampled scan sorts nothing.
-pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> Vec<bool> {
-    let mut flags = vec![false; triangles.len()];
+/// sampled scan sorts nothing. Errors: an [`crate::Error::OutOfMemory`] for its buffers.
+pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> Result<Vec<bool>> {
+    const WHAT: &str = "the hole rule's measures";
+    let mut flags = try_filled(WHAT, false, triangles.len())?;
     if !factor.is_finite() || triangles.is_empty() {
-        return flags;
+        return Ok(flags);
     }
     let unit = unit_square(uv);
     // Squared edge lengths (edge k from corner k) and area of a triangle; None when it is
@@ -72,16 +75,13 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
     // Per triangle its squared edges and area (single precision: thresholds, not
     // geometry; NaN when degenerate), then the smallest area and squared edge at each
     // vertex in one sequential pass (the labels are the sweep's, so it reads in order).
-    let records: Vec<[f32; 4]> = triangles
-        .par_iter()
-        .with_min_len(PAR_BLOCK)
-        .map(|t| {
-            measure(t).map_or([f32::NAN; 4], |(e, area)| {
-                [e[0] as f32, e[1] as f32, e[2] as f32, area as f32]
-            })
+    let records = triangles.par_iter().with_min_len(PAR_BLOCK).map(|t| {
+        measure(t).map_or([f32::NAN; 4], |(e, area)| {
+            [e[0] as f32, e[1] as f32, e[2] as f32, area as f32]
         })
-        .collect();
-    let mut smallest = vec![[f32::INFINITY; 2]; uv.len()];
+    });
+    let records: Vec<[f32; 4]> = try_par_collect(WHAT, records)?;
+    let mut smallest = try_filled(WHAT, [f32::INFINITY; 2], uv.len())?;
     for (t, r) in triangles.iter().zip(&records) {
         if !r[3].is_nan() {
             for k in 0..3 {
@@ -100,16 +100,18 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
         e0.max(e1).max(e2) > (factor * factor) as f32 * median3(local.map(|l| l[1]))
             && area > HOLE_AREA_FACTOR as f32 * median3(local.map(|l| l[0]))
     };
-    let candidates: Vec<usize> = (0..triangles.len())
+    let n_candidates = (0..triangles.len())
         .into_par_iter()
         .with_min_len(PAR_BLOCK)
         .filter(|&i| exceeds(i, &smallest))
-        .collect();
-    if candidates.is_empty() {
-        return flags;
+        .count();
+    if n_candidates == 0 {
+        return Ok(flags);
     }
+    let mut candidates = try_vec(WHAT, n_candidates)?;
+    candidates.extend((0..triangles.len()).filter(|&i| exceeds(i, &smallest)));
     // Lower medians at the candidates' corners only.
-    let mut wanted = vec![false; uv.len()];
+    let mut wanted = try_filled(WHAT, false, uv.len())?;
     for &i in &candidates {
         triangles[i].iter().for_each(|&v| wanted[v as usize] = true);
     }
@@ -121,6 +123,8 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
         if let Some((e, area)) = measure(t) {
             let (e, area) = (e.map(|x| x as f32), area as f32);
             for k in (0..3).filter(|&k| wanted[t[k] as usize]) {
+                try_grow(WHAT, &mut areas, 1)?;
+                try_grow(WHAT, &mut edges, 2)?;
                 areas.push((t[k], area));
                 edges.extend([(t[k], e[k]), (t[k], e[(k + 2) % 3])]);
             }
@@ -137,7 +141,7 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> V
     for i in candidates {
         flags[i] = exceeds(i, &local);
     }
-    flags
+    Ok(flags)
 }
 
 #[cfg(test)]
@@ -199,7 +203,7 @@ mod tests {
             "the fixture must cover the bore"
         );
         let bridges = bridging_triangles(&uv, &d.triangles, jumps).unwrap();
-        let flags = covering_holes(&uv, &d.triangles, DEFAULT_HOLE_FACTOR);
+        let flags = covering_holes(&uv, &d.triangles, DEFAULT_HOLE_FACTOR).unwrap();
         let near =
             |v: u32| (uv[v as usize][0] - centre[0]).hypot(uv[v as usize][1] - centre[1]) < 3.5;
         for ((t, &b), &h) in d.triangles.iter().zip(&bridges).zip(&flags) {
@@ -221,12 +225,13 @@ mod tests {
         assert!(planar_only.len() - kept.len() < 30);
         // Off at an infinite factor; the same flags at any scale.
         assert!(!covering_holes(&uv, &d.triangles, f64::INFINITY)
+            .unwrap()
             .into_iter()
             .any(|f| f));
         for s in [1e-300, 1e300] {
             let scaled: Vec<[f64; 2]> = uv.iter().map(|q| [q[0] * s, q[1] * s]).collect();
             assert_eq!(
-                covering_holes(&scaled, &d.triangles, DEFAULT_HOLE_FACTOR),
+                covering_holes(&scaled, &d.triangles, DEFAULT_HOLE_FACTOR).unwrap(),
                 flags
             );
         }
@@ -238,7 +243,7 @@ mod tests {
         let p = plate(n, 0.3, [-100.0, -100.0], 0.0);
         let uv = planar(&p);
         let d = delaunay(&uv).unwrap();
-        let flags = covering_holes(&uv, &d.triangles, DEFAULT_HOLE_FACTOR);
+        let flags = covering_holes(&uv, &d.triangles, DEFAULT_HOLE_FACTOR).unwrap();
         let inner = |v: u32| {
             let q = uv[v as usize];
             (1.0..(n - 2) as f64).contains(&q[0]) && (1.0..(n - 2) as f64).contains(&q[1])

@@ -2,6 +2,7 @@
 //! local 3-D spacing (a wall, a step, the rim of a bore), or long at any slope against the
 //! spacing across lines, found in rounds until nothing more is dropped.
 
+use crate::budget::{try_filled, try_par_collect, try_vec};
 use crate::geometry::planar_distance;
 use crate::geometry::Normalizer;
 use crate::mesh::Fans;
@@ -100,19 +101,25 @@ pub(super) fn spacings(
     scale: f64,
     triangles: &[[u32; 3]],
     wanted: impl Fn(u32) -> bool + Sync,
-) -> Vec<Spacing> {
-    let mut edges: Vec<(u32, u32)> = triangles
+) -> Result<Vec<Spacing>> {
+    let edge = |t: &[u32; 3], k: usize| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
+    let wanted_edge = |&(a, b): &(u32, u32)| wanted(a) || wanted(b);
+    let count = triangles
         .par_iter()
         .with_min_len(BLOCK)
-        .flat_map_iter(|t| {
-            (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))
-        })
-        .filter(|&(a, b)| wanted(a) || wanted(b))
-        .collect();
+        .map(|t| (0..3).filter(|&k| wanted_edge(&edge(t, k))).count())
+        .sum();
+    let mut edges = try_vec(SPACINGS, count)?;
+    edges.extend(
+        triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| edge(t, k)))
+            .filter(wanted_edge),
+    );
     edges.par_sort_unstable();
     edges.dedup();
     let n = unit.len();
-    let mut start = vec![0u32; n + 1];
+    let mut start = try_filled(SPACINGS, 0u32, n + 1)?;
     for &(a, b) in &edges {
         start[a as usize + 1] += 1;
         start[b as usize + 1] += 1;
@@ -120,8 +127,8 @@ pub(super) fn spacings(
     for v in 0..n {
         start[v + 1] += start[v];
     }
-    let mut fill = start.clone();
-    let mut lengths = vec![0.0; start[n] as usize];
+    let mut fill = crate::budget::try_collect(SPACINGS, start.iter().copied())?;
+    let mut lengths = try_filled(SPACINGS, 0.0, start[n] as usize)?;
     for &(a, b) in &edges {
         // Lengths in the unit box: no overflow at 1e300 or underflow at 1e-300.
         let d = (unit[a as usize] - unit[b as usize]).length();
@@ -135,7 +142,7 @@ pub(super) fn spacings(
         median: f64::INFINITY,
         across: f64::INFINITY,
     };
-    let mut out = vec![none; n];
+    let mut out = try_filled(SPACINGS, none, n)?;
     let mut rest = lengths.as_mut_slice();
     // Each vertex's lengths are its own slice: split them off in order, then sort and
     // select in parallel.
@@ -168,8 +175,11 @@ pub(super) fn spacings(
     for (v, spacing) in found {
         out[v] = spacing;
     }
-    out
+    Ok(out)
 }
+
+/// What the spacings' buffers are called in memory errors.
+const SPACINGS: &str = "the local spacings";
 
 /// `n` atomic minima of lengths, all `∞` to start with. Lengths are ≥ +0, whose bit
 /// patterns order as the numbers do, so [`lower`] on the bits takes the minimum, in any
@@ -220,9 +230,9 @@ pub fn bridging_triangles(
     triangles: &[[u32; 3]],
     jumps: DepthJumps,
 ) -> Result<Vec<bool>> {
-    match UnitJumps::when_finite(Some(jumps)) {
+    match UnitJumps::when_finite(Some(jumps))? {
         Some(unit) => bridging_in_box(uv, triangles, &unit),
-        None => Ok(vec![false; triangles.len()]),
+        None => try_filled("the bridging flags", false, triangles.len()),
     }
 }
 
@@ -241,32 +251,33 @@ pub(super) struct UnitJumps {
 
 impl UnitJumps {
     /// `jumps` with its points mapped into their unit box, None without jumps or with an
-    /// infinite factor (the rules are off). O(n), in parallel.
-    pub(super) fn when_finite(jumps: Option<DepthJumps>) -> Option<Self> {
+    /// infinite factor (the rules are off). Errors: an [`Error::OutOfMemory`] for the
+    /// mapped points. O(n), in parallel.
+    pub(super) fn when_finite(jumps: Option<DepthJumps>) -> Result<Option<Self>> {
         jumps
             .filter(|j| j.factor.is_finite())
             .map(|j| Self::gathered(j, None))
+            .transpose()
     }
 
     /// The rules of `jumps` in the unit box (as [`UnitJumps::when_finite`]) on the points
     /// `jumps.points[i]` for `i` in `order` (all points when None), in that order: the box
-    /// is that of all points either way. O(n), in parallel.
-    pub(super) fn gathered(jumps: DepthJumps, order: Option<&[u32]>) -> Self {
+    /// is that of all points either way. Errors: an [`Error::OutOfMemory`] for the mapped
+    /// points. O(n), in parallel.
+    pub(super) fn gathered(jumps: DepthJumps, order: Option<&[u32]>) -> Result<Self> {
+        const WHAT: &str = "the points in their unit box";
         let norm = Normalizer::fit(jumps.points);
         let unit = match order {
-            Some(order) => order
-                .par_iter()
-                .with_min_len(BLOCK)
-                .map(|&i| norm.apply(jumps.points[i as usize]))
-                .collect(),
-            None => jumps
-                .points
-                .par_iter()
-                .with_min_len(BLOCK)
-                .map(|&p| norm.apply(p))
-                .collect(),
+            Some(order) => {
+                let unit = order.par_iter().with_min_len(BLOCK);
+                try_par_collect(WHAT, unit.map(|&i| norm.apply(jumps.points[i as usize])))?
+            }
+            None => {
+                let unit = jumps.points.par_iter().with_min_len(BLOCK);
+                try_par_collect(WHAT, unit.map(|&p| norm.apply(p)))?
+            }
         };
-        UnitJumps {
+        Ok(UnitJumps {
             unit,
             scale: if norm.half_extent > 0.0 {
                 norm.half_extent
@@ -275,7 +286,7 @@ impl UnitJumps {
             },
             factor: jumps.factor,
             gaps: jumps.gaps,
-        }
+        })
     }
 
     /// The three 3-D edge lengths of `t` in the unit box, edge k from corner k. O(1).
@@ -292,21 +303,23 @@ pub(super) fn bridging_in_box(
     triangles: &[[u32; 3]],
     jumps: &UnitJumps,
 ) -> Result<Vec<bool>> {
-    let (shape, shortest_at) = shapes(uv, triangles, jumps);
+    let (shape, shortest_at) = shapes(uv, triangles, jumps)?;
     let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
         f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
-    });
+    })?;
     drop(shortest_at);
     // A fan over a gap inflates the spacing at its apex until its longest rungs are gone:
     // the bridge rule runs again on what is kept while it drops something. The jump rule
     // runs once (again, it would eat into the walls' rims).
     if jumps.gaps && dropped.iter().any(|&d| d) {
         let around = Fans::new(jumps.unit.len(), triangles)?;
-        let mut last: Vec<u32> = (0..triangles.len() as u32)
-            .filter(|&i| dropped[i as usize])
-            .collect();
+        let mut last = try_vec(
+            "the triangles dropped",
+            dropped.iter().filter(|&&d| d).count(),
+        )?;
+        last.extend((0..triangles.len() as u32).filter(|&i| dropped[i as usize]));
         while !last.is_empty() {
-            last = next_round(triangles, &shape, jumps, &around, &dropped, &last);
+            last = next_round(triangles, &shape, jumps, &around, &dropped, &last)?;
             for &i in &last {
                 dropped[i as usize] = true;
             }
@@ -316,41 +329,39 @@ pub(super) fn bridging_in_box(
 }
 
 /// Each triangle's longest 3-D edge, negative when steep, and the shortest 3-D edge of any
-/// triangle at each vertex (see [`infinities`]). O(m), in parallel.
+/// triangle at each vertex (see [`infinities`]). Errors: an [`Error::OutOfMemory`] for
+/// the shapes. O(m), in parallel.
 pub(super) fn shapes(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     jumps: &UnitJumps,
-) -> (Vec<f64>, Vec<AtomicU64>) {
+) -> Result<(Vec<f64>, Vec<AtomicU64>)> {
     let to_unit = 1.0 / jumps.scale;
     let shortest_at = infinities(jumps.unit.len());
-    let shape: Vec<f64> = triangles
-        .par_iter()
-        .with_min_len(BLOCK)
-        .map(|t| {
-            let lengths = jumps.lengths(t);
-            let k = (0..3).fold(0, |a, b| if lengths[b] > lengths[a] { b } else { a });
-            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-            let flat = planar_distance(uv[a], uv[b]) * to_unit;
-            let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-            for &v in t {
-                lower(&shortest_at[v as usize], shortest);
-            }
-            if is_steep(lengths[k], flat) {
-                -lengths[k]
-            } else {
-                lengths[k]
-            }
-        })
-        .collect();
-    (shape, shortest_at)
+    let shape = triangles.par_iter().with_min_len(BLOCK).map(|t| {
+        let lengths = jumps.lengths(t);
+        let k = (0..3).fold(0, |a, b| if lengths[b] > lengths[a] { b } else { a });
+        let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+        let flat = planar_distance(uv[a], uv[b]) * to_unit;
+        let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+        for &v in t {
+            lower(&shortest_at[v as usize], shortest);
+        }
+        if is_steep(lengths[k], flat) {
+            -lengths[k]
+        } else {
+            lengths[k]
+        }
+    });
+    let shape = try_par_collect("the triangles' shapes", shape)?;
+    Ok((shape, shortest_at))
 }
 
 /// One round of the rules over `list` (corners indexing `unit`) with its `shape` (longest
 /// 3-D edge, negative when steep): which triangles they drop, the depth-jump rule only
 /// `with_jumps`; `shortest_at(v)` is the shortest 3-D edge of the listed triangles at
-/// corner v. O(m + k log k) for the k edges at corners of triangles the shortest edges
-/// do not clear.
+/// corner v. Errors: an [`Error::OutOfMemory`]. O(m + k log k) for the k edges at
+/// corners of triangles the shortest edges do not clear.
 pub(super) fn round(
     unit: &[DVec3],
     list: &[[u32; 3]],
@@ -358,17 +369,18 @@ pub(super) fn round(
     jumps: &UnitJumps,
     with_jumps: bool,
     shortest_at: impl Fn(u32) -> f64 + Sync,
-) -> Vec<bool> {
+) -> Result<Vec<bool>> {
+    const WHAT: &str = "a round of the jump and gap rules";
     let to_unit = 1.0 / jumps.scale;
     // The shortest 3-D edge at each vertex bounds its spacings from below, so a
     // triangle no longer than the bridge factor times that bound at every corner is no
     // bridge, and a flat one no jump: the spacings (a sort of edges) are needed only
     // at the corners of the others (few, or none on a smooth, evenly sampled scan).
-    let corner: Vec<AtomicBool> = (0..unit.len())
+    let corner = (0..unit.len())
         .into_par_iter()
         .with_min_len(BLOCK)
-        .map(|_| AtomicBool::new(false))
-        .collect();
+        .map(|_| AtomicBool::new(false));
+    let corner = try_par_collect(WHAT, corner)?;
     let any = list
         .par_iter()
         .zip(shape)
@@ -389,12 +401,13 @@ pub(super) fn round(
         })
         .reduce(|| false, |a, b| a || b);
     if !any {
-        return vec![false; list.len()];
+        return try_filled(WHAT, false, list.len());
     }
     let local = spacings(unit, jumps.scale, list, |v| {
         corner[v as usize].load(Ordering::Relaxed)
-    });
-    list.par_iter()
+    })?;
+    let verdicts = list
+        .par_iter()
         .zip(shape)
         .with_min_len(BLOCK)
         .map(|(t, &s)| {
@@ -407,8 +420,8 @@ pub(super) fn round(
             };
             (with_jumps && steep && longest3 > jumps.factor * nearest(|s| s.median))
                 || (jumps.gaps && longest3 > DEFAULT_BRIDGE_FACTOR * nearest(|s| s.across))
-        })
-        .collect()
+        });
+    try_par_collect(WHAT, verdicts)
 }
 
 /// A round of the bridge rule after the first, over the triangles not `dropped`, given the
@@ -432,7 +445,7 @@ pub(super) fn next_round(
     around: &Fans,
     dropped: &[bool],
     last: &[u32],
-) -> Vec<u32> {
+) -> Result<Vec<u32>> {
     let kept_at = |v: u32| {
         around
             .of(v as usize)
@@ -478,11 +491,12 @@ pub(super) fn next_round(
     let near_shape: Vec<f64> = near.iter().map(|&i| shape[i as usize]).collect();
     let verdicts = round(&unit, &list, &near_shape, jumps, false, |v| {
         shortest_at[v as usize]
-    });
+    })?;
     let in_r1 = |v: &u32| rings[1].binary_search(v).is_ok();
-    near.iter()
+    Ok(near
+        .iter()
         .zip(verdicts)
         .filter(|&(&i, drop)| drop && triangles[i as usize].iter().any(in_r1))
         .map(|(&i, _)| i)
-        .collect()
+        .collect())
 }

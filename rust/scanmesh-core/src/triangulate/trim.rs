@@ -1,6 +1,7 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
+use crate::budget::{try_filled, try_par_collect, try_vec};
 use crate::geometry::orient2d;
 use crate::geometry::planar_distance;
 use crate::geometry::unit_square;
@@ -173,7 +174,7 @@ pub fn trim_long_edges(
         }
     }
     let twins = twins_of(uv.len(), triangles)?;
-    let jumps = UnitJumps::when_finite(jumps);
+    let jumps = UnitJumps::when_finite(jumps)?;
     trim(uv, triangles, &twins, max_edge, jumps, None)
 }
 
@@ -256,6 +257,7 @@ pub fn delaunay_trimmed(
         };
         UnitJumps::gathered(jumps, order.as_deref())
     });
+    let jumps = jumps.transpose()?;
     let mut triangles = trim(
         local_uv,
         &d.triangles,
@@ -314,18 +316,21 @@ fn trim(
         .map_or_else(|| Ok(Vec::new()), |j| bridging_in_box(uv, triangles, j))?;
     let holes_too = jumps.is_some_and(|j| j.gaps && j.factor.is_finite());
     if holes_too {
-        let holes = covering_holes(uv, triangles, DEFAULT_HOLE_FACTOR);
+        let holes = covering_holes(uv, triangles, DEFAULT_HOLE_FACTOR)?;
         bridges.iter_mut().zip(holes).for_each(|(b, h)| *b |= h);
     }
-    let keep: Vec<bool> = triangles
+    let keep = triangles
         .par_iter()
         .enumerate()
         .with_min_len(BLOCK)
-        .map(|(k, t)| longest_within(t) && !bridges.get(k).copied().unwrap_or(false))
-        .collect();
+        .map(|(k, t)| longest_within(t) && !bridges.get(k).copied().unwrap_or(false));
+    let keep = try_par_collect(KEEP, keep)?;
     drop(bridges);
-    Ok(peel_flags(uv, triangles, twins, keep, to_input))
+    peel_flags(uv, triangles, twins, keep, to_input)
 }
+
+/// What the keep flags and the triangles kept are called in memory errors.
+const KEEP: &str = "the triangles trimming keeps";
 
 /// `planar_distance(a, b) <= max_edge`, decided from the squared length where that is
 /// far enough from the limit's square to leave no doubt (a relative margin of 1e-9
@@ -363,15 +368,15 @@ impl ShortEnough {
 
 /// The triangles of `triangles` (with their half-edge `twins`) flagged in `keep`, without
 /// the numerically degenerate triangles on the boundary of what is kept and with every
-/// pinch resolved, repeated until neither is left; `to_input` as in [`trim`]. O(m) per
-/// round.
+/// pinch resolved, repeated until neither is left; `to_input` as in [`trim`]. Errors: an
+/// [`Error::OutOfMemory`] for the triangles kept. O(m) per round.
 pub(crate) fn peel_flags(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     twins: &[u32],
     mut keep: Vec<bool>,
     to_input: Option<&[u32]>,
-) -> Vec<[u32; 3]> {
+) -> Result<Vec<[u32; 3]>> {
     // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
     let unit = unit_square(uv);
     loop {
@@ -390,23 +395,38 @@ pub(crate) fn peel_flags(
             keep[t as usize] = false;
         }
     }
-    triangles
-        .iter()
-        .zip(&keep)
-        .filter(|(_, &k)| k)
-        .map(|(t, _)| *t)
-        .collect()
+    let mut kept = try_vec(KEEP, keep.par_iter().filter(|&&k| k).count())?;
+    kept.extend(
+        triangles
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(t, _)| *t),
+    );
+    Ok(kept)
 }
 
 /// `kept` without the numerically degenerate triangles on its boundary and with every
 /// pinch resolved (the triangles of all fans but the largest dropped), repeated until
 /// neither is left: a valid [`HalfEdgeMesh`] when `kept` has no overlapping triangles in
 /// the plane. Errors: `kept` is not an oriented manifold (an edge in three triangles, a
-/// repeated directed edge). O(m) per round.
-pub fn peel(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
-    let twins = twins_of(uv.len(), &kept)?;
-    let keep = vec![true; kept.len()];
-    Ok(peel_flags(uv, &kept, &twins, keep, None))
+/// repeated directed edge: [`Error::InvalidFace`] or [`Error::Invariant`]), an
+/// [`Error::OutOfMemory`]. O(m) per round.
+pub fn peel(uv: &[[f64; 2]], kept: &[[u32; 3]]) -> Result<Vec<[u32; 3]>> {
+    let twins = twins_of(uv.len(), kept)?;
+    let keep = try_filled(KEEP, true, kept.len())?;
+    peel_flags(uv, kept, &twins, keep, None)
+}
+
+/// [`peel`] where it can, `kept` itself where it is no oriented manifold (the caller's
+/// planar check then names why, on the triangles as they are). Errors: an
+/// [`Error::OutOfMemory`]. O(m) per round.
+pub(crate) fn peel_or_keep(uv: &[[f64; 2]], kept: Vec<[u32; 3]>) -> Result<Vec<[u32; 3]>> {
+    match peel(uv, &kept) {
+        Err(e @ Error::OutOfMemory { .. }) => Err(e),
+        Err(_) => Ok(kept),
+        Ok(peeled) => Ok(peeled),
+    }
 }
 
 /// True when planar triangle (a, b, c) is not counter-clockwise, or is a numerically
@@ -439,9 +459,8 @@ fn collinear_sliver(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
 /// Errors: the triangles are not an oriented manifold. O(m).
 fn twins_of(n_points: usize, triangles: &[[u32; 3]]) -> Result<Vec<u32>> {
     let mesh = HalfEdgeMesh::from_triangles(n_points, triangles)?;
-    Ok((0..mesh.n_half_edges() as u32)
-        .map(|h| mesh.twin(h))
-        .collect())
+    let twins = (0..mesh.n_half_edges() as u32).map(|h| mesh.twin(h));
+    crate::budget::try_collect("the twins", twins)
 }
 
 /// The triangles still kept during trimming, seen as a mesh: a half-edge's twin counts only

@@ -59,7 +59,7 @@ fn annealing_beats_lop_and_keeps_invariants() {
     )
     .unwrap();
     let r = anneal(st.clone(), quick(1)).unwrap();
-    r.mesh.validate(&st.uv()).unwrap();
+    r.mesh.validate(&st.uv().unwrap()).unwrap();
     assert!(r.energy <= e0);
     assert!(
         r.energy < lop_state.energy(),
@@ -80,8 +80,8 @@ fn same_seed_same_faces_other_seed_other_faces() {
     let a = anneal(st.clone(), quick(7)).unwrap();
     let b = anneal(st.clone(), quick(7)).unwrap();
     let c = anneal(st, quick(8)).unwrap();
-    assert_eq!(a.mesh.triangles(), b.mesh.triangles());
-    assert_ne!(a.mesh.triangles(), c.mesh.triangles());
+    assert_eq!(a.mesh.triangles().unwrap(), b.mesh.triangles().unwrap());
+    assert_ne!(a.mesh.triangles().unwrap(), c.mesh.triangles().unwrap());
 }
 
 #[test]
@@ -133,7 +133,10 @@ fn chunked_run_equals_one_shot_run() {
     while !ann.is_done() {
         ann.advance(37);
     }
-    assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
+    assert_eq!(
+        ann.finish().unwrap().mesh.triangles().unwrap(),
+        one.mesh.triangles().unwrap()
+    );
 }
 
 #[test]
@@ -144,7 +147,10 @@ fn deadline_chunks_change_nothing() {
     while !ann.is_done() {
         ann.advance_until(usize::MAX, Some(Instant::now()));
     }
-    assert_eq!(ann.finish().unwrap().mesh.triangles(), one.mesh.triangles());
+    assert_eq!(
+        ann.finish().unwrap().mesh.triangles().unwrap(),
+        one.mesh.triangles().unwrap()
+    );
 }
 
 #[test]
@@ -160,7 +166,7 @@ fn best_state_survives_a_detached_log() {
         ..quick(9)
     };
     let r = anneal(st.clone(), params).unwrap();
-    let recomputed = TacState::new(r.mesh.clone(), st.uv(), st.xyz(), 1.0)
+    let recomputed = TacState::new(r.mesh.clone(), st.uv().unwrap(), st.xyz().unwrap(), 1.0)
         .unwrap()
         .energy_from_scratch();
     let best_seen = r.trace.iter().map(|s| s.best).fold(f64::INFINITY, f64::min);
@@ -168,7 +174,7 @@ fn best_state_survives_a_detached_log() {
         (recomputed - best_seen).abs() <= 1e-9 * best_seen,
         "{recomputed} vs {best_seen}"
     );
-    r.mesh.validate(&st.uv()).unwrap();
+    r.mesh.validate(&st.uv().unwrap()).unwrap();
 }
 
 #[test]
@@ -316,6 +322,7 @@ fn the_automatic_schedule_shares_its_budget_among_the_chains() {
 /// the state's `facing` (by atan2 of the normal's horizontal and vertical parts).
 fn steepest_turn_deg(xyz: &[DVec3], mesh: &HalfEdgeMesh) -> f64 {
     mesh.triangles()
+        .unwrap()
         .iter()
         .map(|t| {
             let [a, b, c] = t.map(|v| xyz[v as usize]);
@@ -394,7 +401,7 @@ fn no_flip_brings_a_face_nearer_the_line_of_sight_than_the_curtain_angle() {
         lop_mesh(&st, curtain_angle),
     ];
     for (k, mesh) in guarded.iter().enumerate() {
-        mesh.validate(&st.uv()).unwrap();
+        mesh.validate(&st.uv().unwrap()).unwrap();
         let steepest = steepest_turn_deg(&xyz, mesh);
         assert_eq!(steepest <= 90.0 - curtain_angle, k < 3, "{k}: {steepest}");
     }

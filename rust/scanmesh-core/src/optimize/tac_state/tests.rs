@@ -63,7 +63,7 @@ fn delta_energy_matches_recomputation() {
         let mut st = bumpy_state(300, 4, p);
         let e0 = st.energy_from_scratch();
         assert!((st.energy() - e0).abs() <= 1e-12 * e0.max(1.0));
-        let edges = st.mesh().interior_edges();
+        let edges = st.mesh().interior_edges().unwrap();
         let mut applied = 0;
         for &h in edges.iter().take(400) {
             if let Some(mv) = st.evaluate(h, Detail::Energy) {
@@ -84,14 +84,14 @@ fn delta_energy_matches_recomputation() {
             "{} vs {scratch}",
             st.energy()
         );
-        st.mesh().validate(&st.uv()).unwrap();
+        st.mesh().validate(&st.uv().unwrap()).unwrap();
     }
 }
 
 #[test]
 fn coplanar_moves_skip_angles_and_stale_corners_stay_exact() {
     let mut st = plateau_state(600, 6, 1.0);
-    let edges = st.mesh().interior_edges();
+    let edges = st.mesh().interior_edges().unwrap();
     let (mut flat, mut curved) = (0, 0);
     for round in 0..3 {
         for &h in &edges {
@@ -116,7 +116,7 @@ fn coplanar_moves_skip_angles_and_stale_corners_stay_exact() {
             "{} vs {scratch}",
             st.energy()
         );
-        st.mesh().validate(&st.uv()).unwrap();
+        st.mesh().validate(&st.uv().unwrap()).unwrap();
     }
     assert!(flat > 1000 && curved > 50, "flat {flat}, curved {curved}");
     // A shape evaluation of a coplanar move computes its angles and is still a tie.
@@ -130,7 +130,7 @@ fn coplanar_moves_skip_angles_and_stale_corners_stay_exact() {
 #[test]
 fn boundary_and_reflex_edges_are_not_moves() {
     let mut st = bumpy_state(100, 5, 1.0);
-    let uv = st.uv();
+    let uv = st.uv().unwrap();
     for h in 0..st.mesh().n_half_edges() as u32 {
         if st.mesh().twin(h) == NONE {
             assert!(st.evaluate(h, Detail::Energy).is_none());
@@ -148,7 +148,7 @@ fn incremental_sums_match_fan_sums_and_records_fill_one_line() {
     assert_eq!(std::mem::size_of::<VertexRecord>(), 64);
     assert_eq!(std::mem::align_of::<VertexRecord>(), 64);
     let mut st = bumpy_state(400, 8, 1.0);
-    let edges = st.mesh().interior_edges();
+    let edges = st.mesh().interior_edges().unwrap();
     let mut applied = 0;
     for round in 0..4 {
         for &h in edges.iter().skip(round) {
@@ -166,7 +166,7 @@ fn incremental_sums_match_fan_sums_and_records_fill_one_line() {
             (kept - walked).abs() <= 1e-12,
             "vertex {v}: {kept} vs {walked}"
         );
-        assert_eq!(st.vert[v as usize].uv, st.uv()[v as usize]);
+        assert_eq!(st.vert[v as usize].uv, st.uv().unwrap()[v as usize]);
     }
 }
 
@@ -174,7 +174,7 @@ fn incremental_sums_match_fan_sums_and_records_fill_one_line() {
 fn propose_matches_evaluate_then_apply() {
     let mut fused = plateau_state(500, 11, 1.0);
     let mut plain = fused.clone();
-    let edges = fused.mesh().interior_edges();
+    let edges = fused.mesh().interior_edges().unwrap();
     let (mut ties, mut moves) = (0, 0);
     for &h in edges.iter().chain(&edges) {
         let expected = plain.evaluate(h, Detail::Energy);
@@ -198,12 +198,15 @@ fn propose_matches_evaluate_then_apply() {
             }
         }
         // Same slots; only the vertex anchors differ (ties leave them stale).
-        assert_eq!(fused.mesh().triangles(), plain.mesh().triangles());
+        assert_eq!(
+            fused.mesh().triangles().unwrap(),
+            plain.mesh().triangles().unwrap()
+        );
     }
     assert!(ties > 500 && moves > 50, "ties {ties}, moves {moves}");
     assert!(!fused.mesh().is_anchored());
     let n = plain.mesh().n_vertices();
-    let fresh = HalfEdgeMesh::from_triangles(n, &plain.mesh().triangles()).unwrap();
+    let fresh = HalfEdgeMesh::from_triangles(n, &plain.mesh().triangles().unwrap()).unwrap();
     assert_eq!(fused.clone().into_mesh(), fresh);
     assert_eq!(fused.energy(), plain.energy());
     let scratch = fused.energy_from_scratch();
@@ -236,13 +239,22 @@ fn with_mesh_equals_a_fresh_state_of_that_mesh() {
     // onto the start's mesh: the same caches, sums and energy as a state built anew.
     let start = plateau_state(500, 12, 2.0);
     let mut st = start.clone();
-    for &h in &st.mesh().interior_edges() {
+    for &h in &st.mesh().interior_edges().unwrap() {
         if let Proposal::Move(mv) = st.propose(h) {
             st.apply(&mv);
         }
     }
-    assert_ne!(st.mesh().triangles(), start.mesh().triangles());
-    let fresh = TacState::new(start.mesh().clone(), start.uv(), start.xyz(), 2.0).unwrap();
+    assert_ne!(
+        st.mesh().triangles().unwrap(),
+        start.mesh().triangles().unwrap()
+    );
+    let fresh = TacState::new(
+        start.mesh().clone(),
+        start.uv().unwrap(),
+        start.xyz().unwrap(),
+        2.0,
+    )
+    .unwrap();
     let moved = st.with_mesh(start.mesh().clone()).unwrap();
     assert_eq!(moved.mesh(), fresh.mesh());
     assert_eq!(moved.corner, fresh.corner);
@@ -257,6 +269,6 @@ fn with_mesh_equals_a_fresh_state_of_that_mesh() {
 #[test]
 fn bad_p_is_refused() {
     let st = bumpy_state(20, 1, 1.0);
-    let (mesh, uv) = (st.mesh().clone(), st.uv());
-    assert!(TacState::new(mesh, uv, st.xyz(), 0.5).is_err());
+    let (mesh, uv) = (st.mesh().clone(), st.uv().unwrap());
+    assert!(TacState::new(mesh, uv, st.xyz().unwrap(), 0.5).is_err());
 }

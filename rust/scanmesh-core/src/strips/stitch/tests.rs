@@ -302,7 +302,7 @@ fn no_triangle_bridges_a_wall_across_or_along_the_lines() {
                 .triangles
                 .iter()
                 .any(bridges));
-            crate::strips::lines::split_at_jumps(&mut scan, &pts, &uv, params.jump_factor);
+            crate::strips::lines::split_at_jumps(&mut scan, &pts, &uv, params.jump_factor).unwrap();
             let mesh = stitch(&pts, &uv, &scan, &params).unwrap();
             assert!(!mesh.triangles.iter().any(bridges), "{params:?}");
             assert!(mesh.planar_error.is_none(), "{:?}", mesh.planar_error);
@@ -609,7 +609,7 @@ fn windows_meeting_in_one_point_are_a_pinch_for_both_checks() {
         vec![vec![3, 4, 5]],
         vec![vec![6, 7, 8]],
     ];
-    assert!(check::plan(&tasks, &lines, 9).is_none());
+    assert!(check::plan(&tasks, &lines, 9).unwrap().is_none());
     let error = global_check(9, &triangles, &uv).expect("a pinch");
     assert!(error.to_string().contains("pinch"), "{error}");
 }

@@ -66,8 +66,9 @@ fn local_spacing_is_the_median_edge_at_each_vertex() {
         factor: DEFAULT_JUMP_FACTOR,
         gaps: true,
     };
-    let unit = UnitJumps::gathered(jumps, None);
+    let unit = UnitJumps::gathered(jumps, None).unwrap();
     let local: Vec<f64> = spacings(&unit.unit, unit.scale, &d.triangles, |_| true)
+        .unwrap()
         .iter()
         .map(|s| s.median)
         .collect();
@@ -361,10 +362,11 @@ fn pinches_are_resolved() {
 fn later_bridge_rounds_on_the_neighbourhood_are_full_rounds() {
     // Reference: every round after the first over all kept triangles, as the rule reads.
     let full = |uv: &[[f64; 2]], triangles: &[[u32; 3]], jumps: &UnitJumps| {
-        let (shape, shortest_at) = shapes(uv, triangles, jumps);
+        let (shape, shortest_at) = shapes(uv, triangles, jumps).unwrap();
         let mut dropped = round(&jumps.unit, triangles, &shape, jumps, true, |v| {
             f64::from_bits(shortest_at[v as usize].load(Ordering::Relaxed))
-        });
+        })
+        .unwrap();
         let mut rounds = 1;
         loop {
             let live: Vec<usize> = (0..triangles.len()).filter(|&i| !dropped[i]).collect();
@@ -378,7 +380,8 @@ fn later_bridge_rounds_on_the_neighbourhood_are_full_rounds() {
             let live_shape: Vec<f64> = live.iter().map(|&i| shape[i]).collect();
             let more = round(&jumps.unit, &list, &live_shape, jumps, false, |v| {
                 at[v as usize]
-            });
+            })
+            .unwrap();
             if !more.contains(&true) {
                 return (dropped, rounds);
             }
@@ -413,7 +416,8 @@ fn later_bridge_rounds_on_the_neighbourhood_are_full_rounds() {
                 gaps: true,
             },
             None,
-        );
+        )
+        .unwrap();
         let (expected, rounds) = full(&uv, &d.triangles, &jumps);
         assert_eq!(
             bridging_in_box(&uv, &d.triangles, &jumps).unwrap(),
