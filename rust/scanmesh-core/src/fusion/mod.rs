@@ -2,8 +2,11 @@
 //! with space carving): each view is a depth image seen along its own +z (`depth`), the
 //! truncated signed distance along its rays is averaged in a voxel grid and the space its
 //! rays crossed is marked empty (`tsdf`), and the zero set is extracted as a closed
-//! 2-manifold with vertices placed on the samples (`extract`).
+//! 2-manifold with vertices placed on the samples (`extract`) whose edges are then flipped
+//! towards the samples (`flips`).
 
 pub(crate) mod depth;
 pub(crate) mod extract;
+pub(crate) mod flips;
+pub(crate) mod samples;
 pub(crate) mod tsdf;

@@ -11,6 +11,10 @@
 //! none: `carve` marks those nodes. (Stopping at the band, not behind the surface: a node
 //! behind a surface may average to a positive distance where views disagree, and a ray
 //! let through there would carve the part's inside.)
+//!
+//! A node averaging to a negative distance that a view saw more than the truncation in
+//! front of its surface is empty: it lies behind a thin wedge (an edge seen along the
+//! rays) in another view, outside the part (a view's vote, `EMPTY_VOTES`).
 
 use super::depth::{DepthView, Lookup};
 use crate::budget;
@@ -21,6 +25,16 @@ use rayon::prelude::*;
 /// Node state bit: a ray showed this node empty (in front of a surface, or on a ray
 /// without return).
 pub const EMPTY: u8 = 1;
+
+/// The node's other 7 bits count the views that saw it more than the truncation in front
+/// of their surface (saturating at 127).
+const VOTE: u8 = 2;
+
+/// Views that saw a node well in front of their surface that outvote a negative mean: the
+/// node is empty. A node just behind a thin wedge (a turned box's edge, a blade's trailing
+/// edge) is within the truncation behind the surface its view saw in front, though it lies
+/// outside the part; averaged, it would close a speck of solid 3-4 voxels off the part.
+pub const EMPTY_VOTES: u8 = 1;
 
 /// Bytes per node: the distance sum, the weight, the flags.
 pub const NODE_BYTES: u64 = 9;
@@ -141,9 +155,10 @@ impl Volume {
         inside.then(|| self.index(g.x as usize, g.y as usize, g.z as usize))
     }
 
-    /// What is known of node `n`.
+    /// What is known of node `n`: measured unless its mean is negative and
+    /// [`EMPTY_VOTES`] views saw it well in front of their surfaces (then empty).
     pub fn evidence(&self, n: usize) -> Evidence {
-        if self.weight[n] > 0.0 {
+        if self.weight[n] > 0.0 && (self.sum[n] >= 0.0 || self.flags[n] / VOTE < EMPTY_VOTES) {
             Evidence::Measured
         } else if self.flags[n] & EMPTY != 0 {
             Evidence::Empty
@@ -183,7 +198,7 @@ impl Volume {
                             let d = (q.z - depth) * cos;
                             let n = j * nx + i;
                             if d > trunc {
-                                flags[n] |= EMPTY;
+                                flags[n] = flags[n].saturating_add(VOTE) | EMPTY;
                             } else if d >= -trunc {
                                 sum[n] += (cos * d) as f32;
                                 weight[n] += cos as f32;
@@ -195,8 +210,8 @@ impl Volume {
     }
 
     /// Marks empty the nodes on this view's rays without a return, from the scanner to the
-    /// first node some view measured, or all along the ray when there is none. Run after every view is integrated.
-    /// O(rays · nodes along a ray + nodes).
+    /// first node some view measured, or all along the ray when there is none. Run after
+    /// every view is integrated. O(rays · nodes along a ray + nodes).
     pub fn carve(&mut self, view: &DepthView) {
         let stop = self.ray_stops(view);
         let (nx, ny) = (self.dims[0], self.dims[1]);
@@ -310,6 +325,23 @@ mod tests {
         let lost = looking_down(vec![f64::NAN; 25], 5, 5, 1.0);
         lower.carve(&lost);
         assert_eq!(lower.evidence(lower.index(1, 2, 0)), Evidence::Unseen);
+    }
+
+    #[test]
+    fn a_view_that_saw_a_node_in_front_outvotes_one_behind_a_surface() {
+        // one view sees a surface at z = 4 (node z = 3 lies 1 behind it, within the
+        // truncation), another a surface at z = 0 (node z = 3 lies 3 in front of it)
+        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        vol.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
+        let n = vol.index(2, 2, 3);
+        assert_eq!(vol.evidence(n), Evidence::Measured);
+        assert!(vol.value(n) < 0.0);
+        vol.integrate(&looking_down(vec![0.0; 25], 5, 5, 1.0));
+        assert_eq!(vol.evidence(n), Evidence::Empty);
+        // a positive mean stays measured: the node z = 5 is 1 in front of the first surface
+        let m = vol.index(2, 2, 5);
+        assert_eq!(vol.evidence(m), Evidence::Measured);
+        assert!((vol.value(m) - 1.0).abs() < 1e-6);
     }
 
     #[test]
