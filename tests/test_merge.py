@@ -302,7 +302,7 @@ def test_a_turned_box_is_one_piece(angles):
 @pytest.mark.xfail(
     strict=True,
     reason="specks remain where the only evidence against a node behind a wedge is rays"
-    " without return, whose carving stops at the first measured node (issue #33)",
+    " without return, whose carving stops at the first measured node",
 )
 def test_a_box_turned_about_two_axes_is_one_piece():
     box, _ = turned_box([0, 20, 30])
