@@ -141,8 +141,8 @@ def valid_value(option: Option, value: Any) -> bool | None:
     The rules of the Option docs, written out again so that the check is not its own judge."""
     if option.kind == "any":
         return None
-    if value is None and option.default is None:
-        return True  # None is "not given" (max_edge, seed)
+    if value is None and (option.default is None or option.automatic):
+        return True  # None is "not given" (max_edge, seed) or "from the data" (tie_tolerance)
     if option.kind == "bool":
         return isinstance(value, (bool, np.bool_))
     if option.kind == "choice":
