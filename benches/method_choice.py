@@ -31,7 +31,7 @@ import panel
 
 import scanmesh
 from scanmesh.evaluate.holdout import holdout_error
-from scanmesh.scan.locate import heights_at, locate
+from scanmesh.scan.locate import normal_distances
 from scanmesh.stages.choice import folds, window
 
 CANDIDATES = ("anneal", "lop", "delaunay", "shortest-path")
@@ -66,15 +66,11 @@ def distances(pts: np.ndarray, kept: np.ndarray, out: np.ndarray, surface) -> np
     frame = surface.frame
     axes = np.column_stack([frame.u, frame.v])
     tri = pts[kept][surface.faces]
-    tri_uv = tri @ axes
-    uv = pts[out] @ axes
-    face = locate(uv, tri_uv)
+    vertical, face = normal_distances(pts[out], tri, axes, frame.normal)
     inside = face >= 0
     got = np.full((2, len(out)), np.nan)
     held = face[inside]
-    along = np.abs(
-        pts[out[inside]] @ frame.normal - heights_at(uv[inside], tri_uv, tri @ frame.normal, held)
-    )
+    along = vertical[inside]
     cross = np.cross(tri[held, 1] - tri[held, 0], tri[held, 2] - tri[held, 0])
     cosine = np.abs(cross @ frame.normal) / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)
     got[0, inside] = along

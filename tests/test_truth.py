@@ -11,8 +11,9 @@ import trimesh
 
 import scanmesh
 from scanmesh.errors import ParameterError
-from scanmesh.evaluate.holdout import holdout_error, locate
+from scanmesh.evaluate.holdout import holdout_error
 from scanmesh.evaluate.truth import TrueSurface, domain_error, normal_error, point_triangle_distance
+from scanmesh.scan.locate import locate
 
 
 def grid_mesh(n: int, height) -> tuple[np.ndarray, np.ndarray]:

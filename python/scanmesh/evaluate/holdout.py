@@ -16,7 +16,7 @@ from scanmesh.formats import read
 from scanmesh.methods import used_keywords
 from scanmesh.reconstruction import reconstruct
 from scanmesh.scan.lines import GAP_FACTOR, as_line_ids
-from scanmesh.scan.locate import heights_at, locate
+from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.planar import as_scan
 
 #: What :func:`holdout_error` measures, for reports.
@@ -131,13 +131,9 @@ def holdout_error(
     frame = surface.frame
     axes = np.column_stack([frame.u, frame.v])
     tri = pts[kept][surface.faces]  # (F, 3, 3)
-    tri_uv, tri_h = tri @ axes, tri @ frame.normal
-    uv = pts[out] @ axes
-    face = locate(uv, tri_uv)
+    got, face = normal_distances(pts[out], tri, axes, frame.normal)
     inside = face >= 0
-    dist = np.abs(
-        pts[out[inside]] @ frame.normal - heights_at(uv[inside], tri_uv, tri_h, face[inside])
-    )
+    dist = got[inside]
     measured = len(dist) > 0
     return {
         "rms": float(np.sqrt(np.mean(dist * dist))) if measured else math.nan,

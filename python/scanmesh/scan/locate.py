@@ -110,3 +110,24 @@ def heights_at(
     w2 = (d1[:, 0] * dp[:, 1] - d1[:, 1] * dp[:, 0]) / det
     h = tri_h[face]
     return h[:, 0] + w1 * (h[:, 1] - h[:, 0]) + w2 * (h[:, 2] - h[:, 0])
+
+
+def normal_distances(
+    query: np.ndarray, tri: np.ndarray, axes: np.ndarray, normal: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distance along ``normal`` from each query point to the mesh over the plane spanned by
+    ``axes``: the height difference to the triangle holding the point's projection.
+
+    ``query`` (Q, 3), ``tri`` (F, 3, 3) the mesh's corners, ``axes`` (3, 2) and ``normal``
+    (3,) an orthonormal frame. Returns (Q,) float64 distances (nan where no triangle holds
+    the projection: beyond the outline or in a hole) and (Q,) int64 the holding triangle
+    (-1: none). O((F + Q) log F)."""
+    tri_uv = tri @ axes
+    uv = query @ axes
+    face = locate(uv, tri_uv)
+    inside = face >= 0
+    got = np.full(len(query), np.nan)
+    got[inside] = np.abs(
+        query[inside] @ normal - heights_at(uv[inside], tri_uv, tri @ normal, face[inside])
+    )
+    return got, face

@@ -34,7 +34,7 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh.errors import ScanmeshError
-from scanmesh.scan.locate import heights_at, locate
+from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.spacing import trim_length
 from scanmesh.scan.steep import steep_fraction
@@ -199,16 +199,12 @@ def holdout(points: np.ndarray, normal: np.ndarray) -> tuple[float, float] | Non
         return None
     axes = plane_axes(normal)
     tri = kept[faces]
-    tri_uv = tri @ axes
-    query = points[out]
-    face = locate(query @ axes, tri_uv)
+    got, face = normal_distances(points[out], tri, axes, normal)
     inside = face >= 0
     if not inside.any():
         return None
     held = face[inside]
-    along = np.abs(
-        query[inside] @ normal - heights_at(query[inside] @ axes, tri_uv, tri @ normal, held)
-    )
+    along = got[inside]
     cross = np.cross(tri[held, 1] - tri[held, 0], tri[held, 2] - tri[held, 0])
     cosine = np.abs(cross @ normal) / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)
     distance = along * cosine

@@ -32,7 +32,7 @@ import numpy as np
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import ScanmeshError
 from scanmesh.scan.lines import GAP_FACTOR
-from scanmesh.scan.locate import heights_at, locate
+from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.surface import Surface
 
@@ -146,14 +146,7 @@ def distances(
     frame = surface.frame
     axes = np.column_stack([frame.u, frame.v])
     tri = surface.vertices[surface.faces]  # (F, 3, 3): the points[kept] it was built on
-    tri_uv = tri @ axes  # (F, 3, 2)
-    uv = points[out] @ axes
-    face = locate(uv, tri_uv)
-    inside = face >= 0
-    got = np.full(len(out), np.nan)
-    heights = heights_at(uv[inside], tri_uv, tri @ frame.normal, face[inside])
-    got[inside] = np.abs(points[out[inside]] @ frame.normal - heights)
-    return got
+    return normal_distances(points[out], tri, axes, frame.normal)[0]
 
 
 def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
