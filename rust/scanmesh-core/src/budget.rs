@@ -11,6 +11,11 @@
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::TryReserveError;
+use std::ops::Range;
+
+/// Indices one task of [`try_indices`]' count takes at least: below this, splitting costs
+/// more than it saves.
+const COUNT_BLOCK: usize = 1 << 14;
 
 /// Most flip proposals (calibration included, all chains together) one annealing run may
 /// plan: about 18 hours on one core at [`PROPOSALS_PER_SECOND`]; 3,000 sweeps on a million
@@ -215,6 +220,27 @@ pub fn try_par_collect<T: Send>(
     Ok(v)
 }
 
+/// The indices in `all` for which `keep` holds, ascending, in a vector allocated once for
+/// exactly them, an allocation that may fail (an [`Error::OutOfMemory`] naming `what`)
+/// instead of aborting the process. They are counted on every core first, so the buffer
+/// is never grown; `keep` is asked twice per index and must answer the same. O(len).
+pub fn try_indices<I>(what: &str, all: Range<I>, keep: impl Fn(I) -> bool + Sync) -> Result<Vec<I>>
+where
+    I: Copy + Send,
+    Range<I>: Clone + Iterator<Item = I> + IntoParallelIterator<Item = I>,
+    <Range<I> as IntoParallelIterator>::Iter: IndexedParallelIterator,
+{
+    let count = all
+        .clone()
+        .into_par_iter()
+        .with_min_len(COUNT_BLOCK)
+        .filter(|&i| keep(i))
+        .count();
+    let mut v = try_vec(what, count)?;
+    v.extend(all.filter(|&i| keep(i)));
+    Ok(v)
+}
+
 /// The value of a `Name:   123 kB` line, in bytes.
 fn kib_field(text: &str, name: &str) -> Option<u64> {
     let line = text.lines().find(|l| l.starts_with(name))?;
@@ -340,6 +366,18 @@ mod tests {
         assert!(e.to_string().starts_with("a stack ("), "{e}");
         try_grow("a stack", &mut v, 100).unwrap();
         assert!(v.capacity() >= 101 && v == [1]);
+    }
+
+    #[test]
+    fn indices_are_listed_in_order_and_counted_exactly() {
+        let odd = try_indices("odd", 0..100_000u32, |i| i % 2 == 1).unwrap();
+        assert_eq!(
+            odd,
+            (0..100_000u32).filter(|i| i % 2 == 1).collect::<Vec<_>>()
+        );
+        assert!(try_indices("none", 0..10usize, |_| false)
+            .unwrap()
+            .is_empty());
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! folds, and Euler's characteristic per component.
 
 use super::halfedge::BLOCK;
-use crate::budget::{try_filled, try_par_collect, try_vec};
+use crate::budget::{try_filled, try_indices, try_par_collect};
 use crate::geometry::orient2d;
 use crate::mesh::{prev, HalfEdgeMesh, NONE};
 use crate::{Error, Result};
@@ -336,13 +336,7 @@ impl HalfEdgeMesh {
             .into_par_iter()
             .filter(|&x| parent[x].load(Ordering::Relaxed) == x as u32)
             .count() as i64;
-        let on_boundary = |&h: &u32| self.twin(h) == NONE;
-        let all = 0..self.start.len() as u32;
-        let mut boundary = try_vec(
-            CHECK,
-            all.clone().into_par_iter().filter(on_boundary).count(),
-        )?;
-        boundary.extend(all.filter(on_boundary));
+        let boundary = try_indices(CHECK, 0..self.start.len() as u32, |h| self.twin(h) == NONE)?;
         // The boundary half-edge leaving end(h) is that vertex's vertex_edge (one fan each);
         // validate has checked that it is a boundary half-edge, so this is a permutation.
         let loops = count_cycles(boundary.len(), |k| {

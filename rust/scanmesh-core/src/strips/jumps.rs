@@ -14,7 +14,7 @@
 //! their corners: that holds every edge at a candidate's corner, so their local spacings,
 //! and the verdicts, are those over the whole mesh.
 
-use crate::budget::{try_collect, try_filled, try_par_collect, try_vec};
+use crate::budget::{try_collect, try_filled, try_indices, try_par_collect};
 use crate::geometry::{Normalizer, PAR_BLOCK};
 use crate::triangulate::jumps::{bridging_triangles, infinities, lower, DepthJumps};
 use crate::Result;
@@ -108,18 +108,11 @@ pub(super) fn bridging(
                 .for_each(|&v| corner[v as usize].store(true, Ordering::Relaxed));
         }
     });
-    let is_around = |&f: &usize| {
+    let around = try_indices(WHAT, 0..triangles.len(), |f| {
         triangles[f]
             .iter()
             .any(|&v| corner[v as usize].load(Ordering::Relaxed))
-    };
-    let n_around = (0..triangles.len())
-        .into_par_iter()
-        .with_min_len(PAR_BLOCK)
-        .filter(is_around)
-        .count();
-    let mut around = try_vec(WHAT, n_around)?;
-    around.extend((0..triangles.len()).filter(is_around));
+    })?;
     let near = try_collect(WHAT, around.iter().map(|&f| triangles[f]))?;
     let verdicts = bridging_triangles(uv, &near, jumps)?;
     let mut bridges = none()?;

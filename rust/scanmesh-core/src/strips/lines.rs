@@ -24,7 +24,7 @@
 //! Explicit line ids (points with the same id form a line, in input order; lines in
 //! ascending id) skip detection but are split at gaps the same way.
 
-use crate::budget::{try_collect, try_filled, try_grow, try_par_collect, try_vec};
+use crate::budget::{try_collect, try_filled, try_grow, try_indices, try_par_collect, try_vec};
 use crate::geometry::{planar_distance, Normalizer};
 use crate::{Error, Result};
 use glam::DVec3;
@@ -225,16 +225,9 @@ pub fn segment_lines_at(
     // points with coincident repeats dropped (each against the last point kept, as a
     // serial pass would), those repeats, and its step lengths (the median and the gaps
     // both need them). The same lines, repeats and steps as one serial pass.
-    // Counted in parallel, then listed into a buffer that may fail to allocate.
-    let starts_line =
-        |&pos: &usize| pos == 0 || line_ids[at(pos) as usize] != line_ids[at(pos - 1) as usize];
-    let n_lines = (0..uv.len())
-        .into_par_iter()
-        .with_min_len(BLOCK)
-        .filter(starts_line)
-        .count();
-    let mut starts = try_vec(WHAT, n_lines)?;
-    starts.extend((0..uv.len()).filter(starts_line));
+    let starts = try_indices(WHAT, 0..uv.len(), |pos| {
+        pos == 0 || line_ids[at(pos) as usize] != line_ids[at(pos - 1) as usize]
+    })?;
     type Grouped = (Vec<u32>, Vec<(u32, u32)>, Vec<f64>);
     let mut grouped: Vec<Grouped> = try_filled(WHAT, Default::default(), starts.len())?;
     grouped.par_iter_mut().enumerate().try_for_each(

@@ -15,7 +15,7 @@
 //! side, so the half-edge mesh exists, and once pinches are gone it passes
 //! [`crate::mesh::HalfEdgeMesh::validate`] (tested on crossing and folded scans).
 
-use crate::budget::{try_collect, try_filled, try_grow, try_vec};
+use crate::budget::{try_collect, try_filled, try_grow, try_indices};
 use crate::geometry::orient2d;
 use crate::Result;
 
@@ -111,10 +111,9 @@ pub(super) fn repair(uv: &[[f64; 2]], mut triangles: Vec<[u32; 3]>) -> Result<Ve
         conflicts[i as usize].push(j);
         conflicts[j as usize].push(i);
     }
-    let in_conflict = |&i: &u32| !conflicts[i as usize].is_empty();
-    let n_in_conflict = (0..ccw.len() as u32).filter(in_conflict).count();
-    let mut order = try_vec(WHAT, n_in_conflict)?;
-    order.extend((0..ccw.len() as u32).filter(in_conflict));
+    let mut order = try_indices(WHAT, 0..ccw.len() as u32, |i| {
+        !conflicts[i as usize].is_empty()
+    })?;
     order.sort_by_key(|&i| (conflicts[i as usize].len(), i));
     let mut keep = try_filled(WHAT, true, ccw.len())?;
     let mut decided = try_filled(WHAT, false, ccw.len())?;

@@ -29,7 +29,7 @@
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
 use super::{check, jumps, repair, Method, ScanContext, StripMesh, StripParams};
-use crate::budget::{try_filled, try_par_collect, try_vec};
+use crate::budget::{try_filled, try_indices, try_par_collect, try_vec};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
@@ -843,18 +843,12 @@ fn used_points(n: usize, triangles: &[[u32; 3]]) -> Result<Vec<AtomicBool>> {
     Ok(used)
 }
 
-/// The points not `used` for which `also` holds, ascending: counted in parallel, listed
-/// into a buffer that may fail to allocate (an [`Error::OutOfMemory`]). O(n).
+/// The points not `used` for which `also` holds, ascending, in a buffer that may fail to
+/// allocate (an [`Error::OutOfMemory`]). O(n).
 fn not_in(used: &[AtomicBool], also: impl Fn(usize) -> bool + Sync) -> Result<Vec<u32>> {
-    let listed = |&k: &u32| !used[k as usize].load(Ordering::Relaxed) && also(k as usize);
-    let count = (0..used.len() as u32)
-        .into_par_iter()
-        .with_min_len(BLOCK)
-        .filter(listed)
-        .count();
-    let mut out = try_vec(POINTS, count)?;
-    out.extend((0..used.len() as u32).filter(listed));
-    Ok(out)
+    try_indices(POINTS, 0..used.len() as u32, |k| {
+        !used[k as usize].load(Ordering::Relaxed) && also(k as usize)
+    })
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@
 //!   row r+1  d ── e        3 corners: their one triangle; fewer: nothing
 //! ```
 
-use crate::budget::{try_filled, try_grow, try_par_collect, try_vec};
+use crate::budget::{try_filled, try_grow, try_indices, try_par_collect, try_vec};
 use crate::mesh::NONE;
 use crate::triangulate::trim::peel_flags;
 use crate::{Error, Result};
@@ -506,9 +506,7 @@ pub fn grid_triangulate(
             used[v as usize] = true;
         }
     }
-    out.unused = try_vec(GRID, used.iter().filter(|&&u| !u).count())?;
-    out.unused
-        .extend((0..points.len() as u32).filter(|&v| !used[v as usize]));
+    out.unused = try_indices(GRID, 0..points.len() as u32, |v| !used[v as usize])?;
     Ok(out)
 }
 

@@ -3,7 +3,7 @@
 //! drilled hole or a slot hit nothing), even when its edges are short enough for the
 //! planar rule and its corners lie at one height (so no depth jump or 3-D gap shows).
 
-use crate::budget::{try_filled, try_grow, try_par_collect, try_vec};
+use crate::budget::{try_filled, try_grow, try_indices, try_par_collect};
 use crate::geometry::unit_square;
 use crate::geometry::PAR_BLOCK;
 use crate::mesh::well_formed;
@@ -100,16 +100,10 @@ pub fn covering_holes(uv: &[[f64; 2]], triangles: &[[u32; 3]], factor: f64) -> R
         e0.max(e1).max(e2) > (factor * factor) as f32 * median3(local.map(|l| l[1]))
             && area > HOLE_AREA_FACTOR as f32 * median3(local.map(|l| l[0]))
     };
-    let n_candidates = (0..triangles.len())
-        .into_par_iter()
-        .with_min_len(PAR_BLOCK)
-        .filter(|&i| exceeds(i, &smallest))
-        .count();
-    if n_candidates == 0 {
+    let candidates = try_indices(WHAT, 0..triangles.len(), |i| exceeds(i, &smallest))?;
+    if candidates.is_empty() {
         return Ok(flags);
     }
-    let mut candidates = try_vec(WHAT, n_candidates)?;
-    candidates.extend((0..triangles.len()).filter(|&i| exceeds(i, &smallest)));
     // Lower medians at the candidates' corners only.
     let mut wanted = try_filled(WHAT, false, uv.len())?;
     for &i in &candidates {

@@ -2,7 +2,7 @@
 //! local 3-D spacing (a wall, a step, the rim of a bore), or long at any slope against the
 //! spacing across lines, found in rounds until nothing more is dropped.
 
-use crate::budget::{try_filled, try_par_collect, try_vec};
+use crate::budget::{try_filled, try_indices, try_par_collect, try_vec};
 use crate::geometry::planar_distance;
 use crate::geometry::Normalizer;
 use crate::mesh::Fans;
@@ -313,11 +313,9 @@ pub(super) fn bridging_in_box(
     // runs once (again, it would eat into the walls' rims).
     if jumps.gaps && dropped.iter().any(|&d| d) {
         let around = Fans::new(jumps.unit.len(), triangles)?;
-        let mut last = try_vec(
-            "the triangles dropped",
-            dropped.iter().filter(|&&d| d).count(),
-        )?;
-        last.extend((0..triangles.len() as u32).filter(|&i| dropped[i as usize]));
+        let mut last = try_indices("the triangles dropped", 0..triangles.len() as u32, |i| {
+            dropped[i as usize]
+        })?;
         while !last.is_empty() {
             last = next_round(triangles, &shape, jumps, &around, &dropped, &last)?;
             for &i in &last {
