@@ -43,7 +43,8 @@ fn rod_state() -> TacState {
 fn trimmed_state(points: &[DVec3]) -> TacState {
     let uv = project(points, Plane::Axis(1)).unwrap().uv;
     let d = delaunay(&uv).unwrap();
-    let max_edge = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
+    let max_edge = DEFAULT_MAX_EDGE_FACTOR
+        * median_spacing(&uv, &d.triangles).expect("the rod fits in memory");
     let triangles = trim_long_edges(&uv, &d.triangles, max_edge, None).unwrap();
     TacState::from_input(points, &uv, triangles, 1.0).unwrap().0
 }

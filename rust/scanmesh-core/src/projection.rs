@@ -1,5 +1,6 @@
 //! Projection of 3-D points onto a plane: the least-squares plane, a named axis, or a normal.
 
+use crate::budget::try_par_collect;
 use crate::geometry::{check_finite, Normalizer, PAR_BLOCK};
 use crate::{Error, Result};
 use glam::DVec3;
@@ -133,8 +134,8 @@ pub fn project(points: &[DVec3], plane: Plane) -> Result<Projection> {
     let uv = points
         .par_iter()
         .with_min_len(PAR_BLOCK)
-        .map(|&p| frame.to_plane(p))
-        .collect();
+        .map(|&p| frame.to_plane(p));
+    let uv = try_par_collect("the projected points", uv)?;
     Ok(Projection { uv, frame })
 }
 

@@ -152,7 +152,7 @@ proptest! {
                 prop_assert!(vertex[k as usize] && unit[i] == unit[k as usize]);
             }
         }
-        let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
+        let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles).unwrap();
         let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
         prop_assert!(trimmed.iter().all(|t| d.triangles.contains(t)));
         HalfEdgeMesh::from_triangles(uv.len(), &trimmed).unwrap().validate(&unit).unwrap();
@@ -217,7 +217,7 @@ proptest! {
         let pts = points(kind, n, seed, scale);
         let uv = planar(&pts);
         let Some(d) = triangulate(&uv) else { return Ok(()) };
-        let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
+        let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles).unwrap();
         let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
         let (mut state, _) = TacState::from_input(&pts, &uv, trimmed.clone(), 1.0).unwrap();
         let vertices = used(uv.len(), &state.mesh().triangles().unwrap());

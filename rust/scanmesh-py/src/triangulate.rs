@@ -161,7 +161,8 @@ pub(crate) fn median_spacing(
 ) -> PyResult<f64> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    Ok(py.detach(|| scanmesh_core::median_spacing(&pts, &t)))
+    py.detach(|| scanmesh_core::median_spacing(&pts, &t))
+        .map_err(to_py)
 }
 
 /// Drops faces whose longest planar edge exceeds `max_edge` and, given the (N, 3) `points`,

@@ -66,7 +66,7 @@ pub(super) fn bridging(
         ]
     };
     // The shortest edge at each vertex, squared (squares are lengths ≥ +0 too).
-    let shortest = infinities(jumps.points.len());
+    let shortest = infinities(WHAT, jumps.points.len())?;
     triangles.par_iter().with_min_len(PAR_BLOCK).for_each(|t| {
         let squares = edges(t);
         for (e, &l2) in squares.iter().enumerate() {

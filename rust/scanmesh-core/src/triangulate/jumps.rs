@@ -183,13 +183,13 @@ const SPACINGS: &str = "the local spacings";
 
 /// `n` atomic minima of lengths, all `∞` to start with. Lengths are ≥ +0, whose bit
 /// patterns order as the numbers do, so [`lower`] on the bits takes the minimum, in any
-/// order. O(n), in parallel.
-pub(crate) fn infinities(n: usize) -> Vec<AtomicU64> {
-    (0..n)
+/// order. Errors: an [`Error::OutOfMemory`] naming `what`. O(n), in parallel.
+pub(crate) fn infinities(what: &str, n: usize) -> Result<Vec<AtomicU64>> {
+    let all = (0..n)
         .into_par_iter()
         .with_min_len(BLOCK)
-        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()))
-        .collect()
+        .map(|_| AtomicU64::new(f64::INFINITY.to_bits()));
+    try_par_collect(what, all)
 }
 
 /// Lowers the length held in `at` to `length` (≥ +0) if that is smaller. A plain load
@@ -335,7 +335,7 @@ pub(super) fn shapes(
     jumps: &UnitJumps,
 ) -> Result<(Vec<f64>, Vec<AtomicU64>)> {
     let to_unit = 1.0 / jumps.scale;
-    let shortest_at = infinities(jumps.unit.len());
+    let shortest_at = infinities(SPACINGS, jumps.unit.len())?;
     let shape = triangles.par_iter().with_min_len(BLOCK).map(|t| {
         let lengths = jumps.lengths(t);
         let k = (0..3).fold(0, |a, b| if lengths[b] > lengths[a] { b } else { a });

@@ -1,7 +1,7 @@
 //! Trimming a convex-hull triangulation back to the scanned outline: long edges span gaps,
 //! and triangles far longer in 3-D than the spacing around them bridge depth jumps.
 
-use crate::budget::{try_filled, try_par_collect, try_vec};
+use crate::budget::{try_filled, try_indices, try_par_collect, try_vec};
 use crate::geometry::orient2d;
 use crate::geometry::planar_distance;
 use crate::geometry::unit_square;
@@ -33,8 +33,9 @@ pub const NEAR_DUPLICATE_RELATIVE: f64 = 1e-9;
 /// Median over used vertices of the planar distance to the nearest neighbour, taken along
 /// triangulation edges (the nearest-neighbour graph is a subgraph of Delaunay's), ignoring
 /// near-duplicates (see [`NEAR_DUPLICATE_RELATIVE`]). 0 when there are no triangles.
-/// O(m + n log n).
-pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
+/// Errors: an [`Error::OutOfMemory`](crate::Error::OutOfMemory) for its per-point
+/// buffer. O(m + n log n).
+pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> Result<f64> {
     // Minima and maxima do not depend on the order they are taken in: the parallel passes
     // give the serial result bit for bit.
     let bounds = |(lo, hi): ([f64; 2], [f64; 2]), t: &[u32; 3]| {
@@ -70,7 +71,7 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
 /// triangles' corners, and each edge measured once, from its lower half-edge, not from both
 /// of its triangles. Minima do not depend on the order or the number of times they are
 /// taken: the same value bit for bit, with half the square roots. O(n + m), in parallel.
-fn triangulation_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]], twins: &[u32]) -> f64 {
+fn triangulation_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]], twins: &[u32]) -> Result<f64> {
     let empty = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     let widen = |(lo, hi): ([f64; 2], [f64; 2]), p: [f64; 2]| {
         (
@@ -94,10 +95,10 @@ fn nearest_median(
     triangles: &[[u32; 3]],
     twins: Option<&[u32]>,
     (lo, hi): ([f64; 2], [f64; 2]),
-) -> f64 {
+) -> Result<f64> {
     let extent = (hi[0] * 0.5 - lo[0] * 0.5).max(hi[1] * 0.5 - lo[1] * 0.5);
     let negligible = NEAR_DUPLICATE_RELATIVE * extent;
-    let nearest = infinities(uv.len());
+    let nearest = infinities(SPACING, uv.len())?;
     triangles
         .par_iter()
         .enumerate()
@@ -121,17 +122,17 @@ fn nearest_median(
                 }
             }
         });
-    let mut finite: Vec<f64> = nearest
+    let lengths = nearest
         .into_par_iter()
         .with_min_len(BLOCK)
-        .map(|d| f64::from_bits(d.into_inner()))
-        .filter(|d| d.is_finite())
-        .collect();
+        .map(|d| f64::from_bits(d.into_inner()));
+    let mut finite = try_par_collect(SPACING, lengths)?;
+    finite.retain(|d| d.is_finite());
     if finite.is_empty() {
-        return 0.0;
+        return Ok(0.0);
     }
     let mid = finite.len() / 2;
-    *finite.select_nth_unstable_by(mid, f64::total_cmp).1
+    Ok(*finite.select_nth_unstable_by(mid, f64::total_cmp).1)
 }
 
 /// Drops triangles whose longest planar edge exceeds `max_edge`, and with `jumps` those
@@ -246,9 +247,10 @@ pub fn delaunay_trimmed(
             .collect()
     });
     let local_uv = gathered.as_deref().unwrap_or(uv);
-    let limit = max_edge.unwrap_or_else(|| {
-        DEFAULT_MAX_EDGE_FACTOR * triangulation_spacing(local_uv, &d.triangles, &d.twins)
-    });
+    let limit = match max_edge {
+        Some(limit) => limit,
+        None => DEFAULT_MAX_EDGE_FACTOR * triangulation_spacing(local_uv, &d.triangles, &d.twins)?,
+    };
     let jumps = (limit.is_finite() && jump_factor.is_finite()).then(|| {
         let jumps = DepthJumps {
             points,
@@ -267,7 +269,7 @@ pub fn delaunay_trimmed(
         order.as_deref(),
     )?;
     drop(gathered);
-    let mut vertex = vec![false; uv.len()];
+    let mut vertex = try_filled(TRIMMED, false, uv.len())?;
     d.triangles
         .as_flattened()
         .iter()
@@ -276,9 +278,7 @@ pub fn delaunay_trimmed(
         .as_flattened()
         .iter()
         .for_each(|&v| vertex[v as usize] = false);
-    let mut trimmed: Vec<u32> = (0..uv.len() as u32)
-        .filter(|&v| vertex[v as usize])
-        .collect();
+    let mut trimmed = try_indices(TRIMMED, 0..uv.len() as u32, |v| vertex[v as usize])?;
     if let Some(to_input) = &order {
         relabel(&mut triangles, to_input);
         trimmed.iter_mut().for_each(|v| *v = to_input[*v as usize]);
@@ -331,6 +331,12 @@ fn trim(
 
 /// What the keep flags and the triangles kept are called in memory errors.
 const KEEP: &str = "the triangles trimming keeps";
+
+/// What the nearest-neighbour lengths are called in memory errors.
+const SPACING: &str = "the nearest-neighbour spacings";
+
+/// What the points trimming leaves out are called in memory errors.
+const TRIMMED: &str = "the points trimming leaves out";
 
 /// `planar_distance(a, b) <= max_edge`, decided from the squared length where that is
 /// far enough from the limit's square to leave no doubt (a relative margin of 1e-9

@@ -23,7 +23,7 @@ fn grid_with_hole() -> Vec<[f64; 2]> {
 fn hole_stays_open_and_mesh_is_valid() {
     let uv = grid_with_hole();
     let d = delaunay(&uv).unwrap();
-    let s = median_spacing(&uv, &d.triangles);
+    let s = median_spacing(&uv, &d.triangles).unwrap();
     assert!((s - 1.0).abs() < 0.05, "{s}");
     let kept = trim_long_edges(&uv, &d.triangles, DEFAULT_MAX_EDGE_FACTOR * s * 0.5, None).unwrap();
     let mesh = HalfEdgeMesh::from_triangles(uv.len(), &kept).unwrap();
@@ -207,7 +207,7 @@ fn one_call_trims_as_the_two_steps_do() {
     p.retain(|q| (q.x - 8.0).powi(2) + (q.y - 18.0).powi(2) > 9.0);
     let uv = planar(&p);
     let d = delaunay(&uv).unwrap();
-    let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles);
+    let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &d.triangles).unwrap();
     let jumps = DepthJumps {
         points: &p,
         factor: DEFAULT_JUMP_FACTOR,
@@ -249,10 +249,10 @@ fn the_spacing_of_a_triangulation_is_median_spacing_bit_for_bit() {
                 Some(to_input) => to_input.iter().map(|&i| uv[i as usize]).collect(),
                 None => uv.clone(),
             };
-            let fused = triangulation_spacing(&local, &d.triangles, &d.twins);
+            let fused = triangulation_spacing(&local, &d.triangles, &d.twins).unwrap();
             assert_eq!(
                 fused.to_bits(),
-                median_spacing(&local, &d.triangles).to_bits()
+                median_spacing(&local, &d.triangles).unwrap().to_bits()
             );
             assert!(fused > 0.0, "scale {scale}");
         }
@@ -269,7 +269,7 @@ fn the_sweep_ordered_trimming_is_that_of_input_labels_on_any_thread_count() {
     let spade = crate::triangulate::delaunay::spade_delaunay(&unit_square(&uv))
         .unwrap()
         .triangles;
-    let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &spade);
+    let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &spade).unwrap();
     let jumps = DepthJumps {
         points: &p,
         factor: DEFAULT_JUMP_FACTOR,
