@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 import pytest
 import trimesh
+from scipy.spatial import ConvexHull
 
 import scanmesh
 from conftest import DATA, cyberware_range_grid
@@ -149,20 +150,30 @@ def test_grid_faces_lie_on_the_part_where_delaunay_bridges_its_walls():
     assert off(hull.faces).max() > 2 * spacing  # the check can fail
 
 
-def test_grid_faces_stay_in_their_cells_so_none_cuts_across_a_bore_rim():
-    # a plate with a round outline and a bore: ears across the staircase of the cells would
-    # cover more of the plate, but at the bore they cut across the rim (air); the grid keeps
-    # every face in one cell (docs/benchmarks/curtains.md, "Notch ears")
+def test_ears_fill_a_convex_outlines_notches_but_never_cut_across_a_bore_rim():
+    # a plate with a round outline and a bore: the cells leave a staircase along both
+    # circles; ears across the notches cover more of the plate along the outline (convex
+    # seen from the mesh), but along the bore's rim (concave) an ear's chord would leave
+    # the plate, so the rim keeps its staircase (docs/benchmarks/curtains.md, "Notch ears")
     i, j = np.indices((41, 41), dtype=float)
     r = np.hypot(i - 20, j - 20)
-    z = np.where((r <= 18.7) & (r >= 6.3), 0.01 * i, np.nan)
+    r_out, r_in = 18.7, 6.3
+    z = np.where((r <= r_out) & (r >= r_in), 0.01 * i, np.nan)
     s = scanmesh.reconstruct(height_grid(z), "grid")
     _core.validate(s.scan.uv, s.faces)
     cells = np.argwhere(~np.isnan(z))  # (N, 2) row, column of each point
-    assert np.ptp(cells[s.faces], axis=1).max() == 1
-    # no position without a sample lies inside a face (x = column, y = row)
+    span = np.ptp(cells[s.faces], axis=1).max(axis=1)
+    corners = s.scan.points[s.faces][:, :, :2]  # (M, 3, 2) x = column, y = row
+    ears = corners[span > 1]
+    radius = np.hypot(ears[..., 0] - 20, ears[..., 1] - 20)
+    assert len(ears) > 0 and (radius.min(axis=1) > 12).all()  # on the outer circle only
+    # against the truth: no point of a face lies in the bore (nor outside the plate)
+    w = np.array([[1, 1, 1], [2, 1, 1], [1, 2, 1], [1, 1, 2], [1, 1, 0], [0, 1, 1], [1, 0, 1]])
+    inner = np.einsum("kj,mjd->mkd", w / w.sum(axis=1, keepdims=True), corners)
+    rho = np.hypot(inner[..., 0] - 20, inner[..., 1] - 20)
+    assert rho.min() >= r_in - 1e-9 and rho.max() <= r_out + 1e-9
+    # no position without a sample lies inside a face
     holes = np.argwhere(np.isnan(z))[:, ::-1].astype(float)  # (H, 2) x, y
-    corners = s.scan.points[s.faces][:, :, :2]  # (M, 3, 2)
     inside = np.ones((len(corners), len(holes)), dtype=bool)
     for k in range(3):
         a, b = corners[:, k], corners[:, (k + 1) % 3]
@@ -171,6 +182,25 @@ def test_grid_faces_stay_in_their_cells_so_none_cuts_across_a_bore_rim():
         ) * (holes[None, :, 0] - a[:, None, 0])
         inside &= side >= 0
     assert not inside.any()
+
+
+def test_ears_straighten_a_slanted_straight_outline():
+    # samples on and below the line row = (column + 2) / 3 of a flat plate: the cells leave
+    # a staircase of notches (zero net turn), and the ears fill it to within a cell of the
+    # samples' hull (239 cells; the full and half cells alone cover 228)
+    z = np.zeros((13, 37))
+    i, j = np.indices(z.shape)
+    z[3 * i > j + 2] = np.nan
+    s = scanmesh.reconstruct(height_grid(z), "grid")
+    _core.validate(s.scan.uv, s.faces)
+    tri = s.scan.points[s.faces][:, :, :2]
+    e, f = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    area = 0.5 * np.abs(e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0])
+    cells = np.argwhere(~np.isnan(z))
+    in_cell = np.ptp(cells[s.faces], axis=1).max(axis=1) <= 1
+    hull = ConvexHull(s.scan.points[:, :2]).volume
+    assert hull == pytest.approx(239.0)
+    assert area[in_cell].sum() < hull - 10 and area.sum() >= hull - 2
 
 
 def test_lop_and_annealing_start_from_the_grid_of_a_gridded_scan():

@@ -8,9 +8,14 @@
 //!            │ ╲  │        (a-e here: triangles a b e and a e d);
 //!   row r+1  d ── e        3 corners: their one triangle; fewer: nothing
 //! ```
+//!
+//! Where an outline crosses the grid at a slant, the cells leave a staircase of notches
+//! along it; notches no ray of the grid passes through are filled where the outline is not
+//! concave (`notches`).
 
 use crate::budget::{try_filled, try_grow, try_indices, try_par_collect, try_vec};
 use crate::mesh::NONE;
+use crate::triangulate::notches::{area_sign, fill_notches, GridAt, EAR_TURN_DEG};
 use crate::triangulate::trim::peel_flags;
 use crate::{Error, Result};
 use glam::DVec3;
@@ -76,6 +81,8 @@ pub struct GridTriangles {
     /// Triangles dropped afterwards so that the rest is a valid planar triangulation:
     /// the smaller fans at a pinched vertex, collinear slivers on the boundary.
     pub peeled: usize,
+    /// Triangles added afterwards in the notches of the outline ([`fill_notches`]).
+    pub filled: usize,
     /// Median grid spacing across the line of sight (input units; 0 when there is none).
     pub spacing: f64,
     /// The points in no kept triangle (in the grid or not), ascending.
@@ -175,26 +182,6 @@ fn local_spacings(
         })
         .collect();
     (row_spacing, col_spacing)
-}
-
-/// The sign of the planar area of (a, b, c): 1, -1, or 0 when degenerate (computed on the
-/// edges scaled to about 1, so that no product overflows or underflows).
-fn area_sign(uv: &[[f64; 2]], a: usize, b: usize, c: usize) -> i8 {
-    let (p, q, r) = (uv[a], uv[b], uv[c]);
-    let e = [q[0] - p[0], q[1] - p[1], r[0] - p[0], r[1] - p[1]];
-    let m = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    if m == 0.0 {
-        return 0;
-    }
-    let [ux, uy, vx, vy] = e.map(|x| x / m);
-    let area = ux * vy - uy * vx;
-    if area > 0.0 {
-        1
-    } else if area < 0.0 {
-        -1
-    } else {
-        0
-    }
 }
 
 /// Corners of a grid cell by code: 0 = a (r, c), 1 = b (r, c + 1), 2 = d (r + 1, c),
@@ -397,7 +384,7 @@ pub fn grid_triangulate(
         .filter(|x| x.is_finite())
         .fold(f64::NAN, f64::max)
     };
-    let judge = |t: &[u32; 3], h: f64| -> Verdict {
+    let judge = |t: &[u32; 3], h: f64, cos_turn: f64| -> Verdict {
         let [a, b, c] = t.map(|k| points[k as usize]);
         // edges scaled to about 1: no overflow or underflow from 1e-300 to 1e300
         let m = (b - a).abs().max_element().max((c - a).abs().max_element());
@@ -434,7 +421,7 @@ pub fn grid_triangulate(
                     for code in &cell {
                         out.candidates += 1;
                         let t = code.map(|k| corners[k as usize] as u32);
-                        match judge(&t, h) {
+                        match judge(&t, h, cos_turn) {
                             Verdict::Keep => {
                                 out.kept.push(t);
                                 out.codes.push(*code);
@@ -497,8 +484,43 @@ pub fn grid_triangulate(
         let twins = grid_twins(&cells, &codes, cols, rows)?;
         let kept = out.triangles.len();
         let keep = try_filled(GRID, true, kept)?;
-        out.triangles = peel_flags(uv, &out.triangles, &twins, keep, None)?;
-        out.peeled = kept - out.triangles.len();
+        let peeled = peel_flags(uv, &out.triangles, &twins, keep, None)?;
+        out.peeled = kept - peeled.len();
+        // peeling keeps the order: which triangles it kept, by walking both lists
+        let mut next = peeled.iter().peekable();
+        let mut keep = try_vec(GRID, kept)?;
+        keep.extend(
+            out.triangles
+                .iter()
+                .map(|t| next.next_if(|&p| p == t).is_some()),
+        );
+        let grid_at = GridAt { grid, rows, cols };
+        let (cands, candidates) = (&out.triangles, (&twins[..], &cells[..], &codes[..]));
+        let cos_ear = cos_turn.max(EAR_TURN_DEG.to_radians().cos());
+        let ears = fill_notches(
+            &grid_at,
+            uv,
+            &peeled,
+            cands,
+            candidates,
+            &keep,
+            (
+                |t: &[u32; 3], [r, c]: [usize; 2]| {
+                    judge(t, local(r.min(rows - 2), c.min(cols - 2)), cos_ear) == Verdict::Keep
+                },
+                |[r, c]: [usize; 2]| {
+                    let h = local(r.min(rows - 2), c.min(cols - 2));
+                    if h.is_finite() {
+                        h
+                    } else {
+                        spacing
+                    }
+                },
+            ),
+        );
+        out.filled = ears.len();
+        out.triangles = peeled;
+        out.triangles.extend(ears);
     }
     let mut used = try_filled(GRID, false, points.len())?;
     for t in &out.triangles {
@@ -623,6 +645,92 @@ mod tests {
         assert_eq!((t.peeled, t.triangles.len()), (1, 1));
         let (g, uv, p) = terrain(6, 6, |r, c| if r >= 3 && c >= 3 { 9.0 } else { 0.0 });
         let t = grid_triangulate(&g, 6, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        let unit = crate::unit_square(&uv);
+        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        mesh.validate(&unit).unwrap();
+    }
+
+    /// Twice the planar area of triangles over `uv`.
+    fn twice_area(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> f64 {
+        (triangles.iter())
+            .map(|t| {
+                let [a, b, c] = t.map(|k| uv[k as usize]);
+                (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+            })
+            .sum()
+    }
+
+    #[test]
+    fn notches_of_a_slanted_outline_fill_to_the_samples_hull() {
+        // samples on and below the line row = (col + 2) / 3: the cells leave a staircase,
+        // the ears fill it to within 2 cells of the samples' hull, (row, col) = (0, 0),
+        // (0, 36), (12, 36), (12, 34), (1, 1): 239 cells; near the acute corner at
+        // (12, 34), whose turn over 90° reads as a spur's tip (`notches::sag`), they stop
+        let (rows, cols) = (13, 37);
+        let (mut g, uv, p) = terrain(rows, cols, |_, _| 0.0);
+        for r in 0..rows {
+            for c in 0..cols {
+                if 3 * r > c + 2 {
+                    g[r * cols + c] = -1;
+                }
+            }
+        }
+        let t = grid_triangulate(&g, rows, cols, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert!(t.filled > 0);
+        let area = twice_area(&uv, &t.triangles) / 2.0;
+        assert!((237.0..=239.0).contains(&area), "{area}");
+        let unit = crate::unit_square(&uv);
+        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        mesh.validate(&unit).unwrap();
+        // a notch across a step is no ear: the same outline with the upper level 10 higher
+        let (g2, uv2, p2) = (g.clone(), uv.clone(), {
+            let mut q = p.clone();
+            for (k, x) in q.iter_mut().enumerate() {
+                if (k % cols) >= 3 * (k / cols) {
+                    x.z = 10.0;
+                }
+            }
+            q
+        });
+        let t2 = grid_triangulate(&g2, rows, cols, &uv2, &p2, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        for f in &t2.triangles[t2.triangles.len() - t2.filled..] {
+            let z = f.map(|k| p2[k as usize].z);
+            assert!(
+                z.iter().all(|&h| h == z[0]),
+                "an ear across the step: {f:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn no_ear_covers_a_missing_sample() {
+        // a disc of samples with a bore: every lattice point without a sample stays
+        // outside every triangle, ears or not, and the bore's rim gets no ear
+        let (n, r_out, r_in) = (21usize, 9.3f64, 3.6f64);
+        let (mut g, uv, p) = terrain(n, n, |_, _| 0.0);
+        let d = |k: usize| ((k / n) as f64 - 10.0).hypot((k % n) as f64 - 10.0);
+        for (k, cell) in g.iter_mut().enumerate() {
+            if d(k) > r_out || d(k) < r_in {
+                *cell = -1;
+            }
+        }
+        let t = grid_triangulate(&g, n, n, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
+        assert!(t.filled > 0);
+        // the ears lie along the outer circle (convex seen from the mesh), none along the
+        // bore's rim (concave: there an ear's chord leaves the part)
+        for f in &t.triangles[t.triangles.len() - t.filled..] {
+            assert!(
+                f.iter().all(|&k| d(k as usize) > 6.0),
+                "an ear at the rim: {f:?}"
+            );
+        }
+        for k in (0..n * n).filter(|&k| g[k] < 0) {
+            for f in &t.triangles {
+                let inside =
+                    (0..3).all(|j| area_sign(&uv, f[j] as usize, f[(j + 1) % 3] as usize, k) >= 0);
+                assert!(!inside, "missing sample {k} under {f:?}");
+            }
+        }
         let unit = crate::unit_square(&uv);
         let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();

@@ -6,4 +6,5 @@ pub(crate) mod delaunay;
 pub(crate) mod grid;
 pub(crate) mod holes;
 pub(crate) mod jumps;
+pub(crate) mod notches;
 pub(crate) mod trim;
