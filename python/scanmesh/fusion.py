@@ -190,6 +190,7 @@ def merge(
             volume.extract,
             np.ascontiguousarray(np.concatenate(samples)),
             np.ascontiguousarray(np.concatenate(normals)),
+            native,
         )
     timings["extract"] = time.perf_counter() - t0
     return Surface(

@@ -14,6 +14,7 @@
 //! places it where no sample is near), and may leave its cell by a voxel. Last, edges are
 //! flipped where the samples lie closer to the other split (`flips`): they follow creases.
 
+use super::depth::DepthView;
 use super::flips::follow_samples;
 use super::samples::SampleIndex;
 use super::tsdf::{Evidence, Volume};
@@ -33,6 +34,17 @@ pub const FILLED: u8 = 2;
 /// small, so it only picks the point along the directions the planes leave free (0.05
 /// rounded creases of 30-40°, whose planes' smaller eigenvalue is about 3 % of the larger).
 const REGULARIZE: f64 = 0.005;
+
+/// A cell edge whose ends' fused distances differ by more than this many voxels does not
+/// hold a distance field sampled at its ends (a distance changes by at most the edge's
+/// length) but a jump: space a ray showed empty against space none entered, or two depths
+/// of one view across a depth jump. Its crossing is found on the rays themselves
+/// ([`Volume::value_at`], bisected), not by interpolating the ends' values, which would
+/// put it at the edge's middle whatever the rays said.
+const JUMP_VOXELS: f64 = 1.5;
+
+/// Bisection steps for such a crossing: 1/128 of a voxel.
+const BISECTIONS: usize = 7;
 
 /// The extracted mesh.
 #[derive(Debug, Clone, Default)]
@@ -61,10 +73,19 @@ const CELL_FACES: [[usize; 4]; 6] = [
 ];
 
 /// The closed mesh of `volume`'s zero set, vertices placed on `samples` (world points) with
-/// their outward unit `normals`. O(nodes · repair passes + samples log samples).
+/// their outward unit `normals`; `views` (those integrated and carved, in the order carved)
+/// place the crossings on edges across a jump of the evidence. O(nodes · repair passes +
+/// samples log samples + surface cells · views).
 ///
-/// Errors: `InvalidParameter` when `samples` and `normals` differ in length.
-pub fn extract(volume: &Volume, samples: &[DVec3], normals: &[DVec3]) -> Result<Fused> {
+/// Errors: `InvalidParameter` when `samples` and `normals` differ in length, or `views` are
+/// not as many as the views carved.
+pub fn extract(
+    volume: &Volume,
+    samples: &[DVec3],
+    normals: &[DVec3],
+    views: &[&DepthView],
+) -> Result<Fused> {
+    volume.check_views(views)?;
     if samples.len() != normals.len() {
         return Err(Error::InvalidParameter {
             name: "normals",
@@ -114,7 +135,7 @@ pub fn extract(volume: &Volume, samples: &[DVec3], normals: &[DVec3]) -> Result<
                     let ids = quad.map(|c| {
                         *cell_vertex.entry(c).or_insert_with(|| {
                             out.vertices
-                                .push(grid.place(c, &side, &near, samples, normals));
+                                .push(grid.place(c, &side, &near, samples, normals, views));
                             vertex_cells.push(grid.coords(c));
                             (out.vertices.len() - 1) as u32
                         })
@@ -266,6 +287,33 @@ impl<'a> Grid<'a> {
         }
     }
 
+    /// Where the surface crosses the edge from `a` (fused distance `fa`) to `b` (`fb`, of
+    /// the other sign), as a fraction of the edge: interpolated between the ends' values,
+    /// or, across a jump ([`JUMP_VOXELS`]), bisected on the views' own evidence between the
+    /// nodes (when a repaired node's move, not the evidence, makes the sign change, the
+    /// interpolation stays).
+    fn crossing(&self, a: DVec3, b: DVec3, fa: f64, fb: f64, views: &[&DepthView]) -> f64 {
+        let linear = (fa / (fa - fb)).clamp(0.0, 1.0);
+        if views.is_empty() || (fa - fb).abs() <= JUMP_VOXELS * self.volume.voxel() {
+            return linear;
+        }
+        let at = |t: f64| self.volume.value_between(a.lerp(b, t), views);
+        let (mut lo, mut hi, mut f_lo, mut f_hi) = (0.0, 1.0, at(0.0), at(1.0));
+        if (f_lo < 0.0) == (f_hi < 0.0) {
+            return linear;
+        }
+        for _ in 0..BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            let f = at(mid);
+            if (f < 0.0) == (f_lo < 0.0) {
+                (lo, f_lo) = (mid, f);
+            } else {
+                (hi, f_hi) = (mid, f);
+            }
+        }
+        lo + (hi - lo) * (f_lo / (f_lo - f_hi)).clamp(0.0, 1.0)
+    }
+
     /// The vertex of cell `cell` (its lowest node's index).
     fn place(
         &self,
@@ -274,6 +322,7 @@ impl<'a> Grid<'a> {
         near: &SampleIndex,
         samples: &[DVec3],
         normals: &[DVec3],
+        views: &[&DepthView],
     ) -> DVec3 {
         let c = self.corners(cell);
         let f = c.map(|n| self.value(n, side));
@@ -298,7 +347,7 @@ impl<'a> Grid<'a> {
                 if r == q || (side[c[q]] & INSIDE) == (side[c[r]] & INSIDE) {
                     continue;
                 }
-                let t = (f[q] / (f[q] - f[r])).clamp(0.0, 1.0);
+                let t = self.crossing(corner(q), corner(r), f[q], f[r], views);
                 sum += corner(q).lerp(corner(r), t);
                 crossings += 1.0;
             }
@@ -380,7 +429,7 @@ mod tests {
             .flat_map(|i| (3..9).map(move |j| DVec3::new(i as f64, j as f64, 5.0)))
             .collect();
         let normals = vec![DVec3::Z; samples.len()];
-        let fused = extract(&vol, &samples, &normals).unwrap();
+        let fused = extract(&vol, &samples, &normals, &[&view]).unwrap();
         assert_eq!(euler(&fused), 2);
         // the top is measured and lies on the samples' plane
         let top: Vec<_> = fused
@@ -399,6 +448,53 @@ mod tests {
         }
     }
 
+    /// A box seen from above, its sides never sampled: they close where the rays without a
+    /// return begin, halfway between the last ray on the box and the first beside it, not
+    /// on the nodes' midpoints.
+    #[test]
+    fn walls_no_sample_saw_close_where_the_rays_footprints_meet() {
+        let (w, h) = (12, 12);
+        // rays at x = 0.3 + i, y = 0.3 + j; returns for 3 <= i, j <= 8: the footprint's
+        // sides are at 2.8 and 8.8 (halfway to the rays without return)
+        let depth: Vec<f64> = (0..w * h)
+            .map(|p| {
+                let (i, j) = (p % w, p / w);
+                if (3..9).contains(&i) && (3..9).contains(&j) {
+                    5.0
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let mut pose = [0.0; 16];
+        for k in 0..4 {
+            pose[k * 5] = 1.0;
+        }
+        (pose[3], pose[7]) = (0.3, 0.3);
+        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
+        let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
+        vol.integrate(&view);
+        vol.carve(&view);
+        let fused = extract(&vol, &[], &[], &[&view]).unwrap();
+        assert_eq!(euler(&fused), 2);
+        // vertices on the sides, away from the top (z = 5), the bottom (the border) and the
+        // vertical edges (a corner cell's vertex is the mean of its crossings on both sides)
+        let mut sides = 0;
+        for v in fused.vertices.iter().filter(|v| v.z > 1.0 && v.z < 3.0) {
+            let (across_x, across_y) = (v.y > 3.5 && v.y < 8.0, v.x > 3.5 && v.x < 8.0);
+            let off = if across_x {
+                (v.x - 2.8).abs().min((v.x - 8.8).abs())
+            } else if across_y {
+                (v.y - 2.8).abs().min((v.y - 8.8).abs())
+            } else {
+                continue;
+            };
+            assert!(off < 0.02, "{v:?} is {off} off the footprint's side");
+            sides += 1;
+        }
+        assert!(sides > 20);
+    }
+
     #[test]
     fn two_columns_touching_along_an_edge_are_repaired_into_one_manifold() {
         // rays through pixels (2, 2) and (3, 3) meet a surface above the grid (so the grid
@@ -415,7 +511,7 @@ mod tests {
         vol.carve(&view);
         assert_eq!(vol.evidence(vol.index(2, 2, 3)), Evidence::Unseen);
         assert_eq!(vol.evidence(vol.index(2, 3, 3)), Evidence::Empty);
-        let fused = extract(&vol, &[], &[]).unwrap();
+        let fused = extract(&vol, &[], &[], &[&view]).unwrap();
         assert!(fused.repaired > 0);
         assert_eq!(euler(&fused), 2);
         assert!(fused.labels.contains(&FILLED));
