@@ -201,8 +201,9 @@ def test_a_bore_no_view_samples_closes_where_the_rays_passed():
     """A box with a through-bore from the six axis views: the rays along the bore pass
     through it and no view samples its wall (the side views are blocked by the box). The
     wall closes where the rays without a return give way to those on the box's faces, found
-    between the grid's nodes on the rays themselves; placed at the nodes' midpoints (the
-    crossing of +truncation and -truncation) it was 0.35-0.41 voxel RMS off."""
+    between the grid's nodes on the rays themselves (0.16 voxel RMS off); placed at the
+    nodes' midpoints (the crossing of +truncation and -truncation) it was 0.35 voxel RMS
+    and 0.8 at most off."""
     centre, radius, spacing = np.array([0.0123, 0.0371]), 0.3, 0.02
     part = bored_box(centre, radius)
     assert part.is_watertight and part.volume > 0
@@ -226,9 +227,9 @@ def test_a_bore_no_view_samples_closes_where_the_rays_passed():
     mesh = trimesh.Trimesh(surface.vertices, surface.faces, process=False)
     near, _, _ = trimesh.proximity.closest_point(mesh, wall)
     off = (radius - np.linalg.norm(near[:, :2] - centre, axis=1)) / surface.options["voxel"]
-    assert np.sqrt(np.mean(off**2)) < 0.3
+    assert np.sqrt(np.mean(off**2)) < 0.25
     assert abs(off.mean()) < 0.1
-    assert np.abs(off).max() < 0.7
+    assert np.abs(off).max() < 0.6
 
 
 def test_one_view_labels_what_it_measured_carved_and_filled():
