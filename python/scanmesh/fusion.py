@@ -9,9 +9,11 @@ a sample), ``inferred`` (between space a ray crossed and space no ray entered: c
 carving) or ``filled`` (closed with no evidence).
 
 Memory: 9 bytes per grid node while fusing (plus the extraction's per-surface-cell
-vertices) and one depth image per view (16 bytes per ray). Ten views of 1M points of a
-part 1,000 spacings across need a 1,000³ grid at the default voxel (9 GB): the default
-voxel grows so that the grid stays under ``max_voxels`` (64M nodes, 576 MB).
+vertices) and one depth image per view (16 bytes per ray, and 8 for where a ray without a
+return stopped carving: the extraction finds walls between the nodes on the rays). Ten
+views of 1M points of a part 1,000 spacings across need a 1,000³ grid at the default voxel
+(9 GB): the default voxel grows so that the grid stays under ``max_voxels`` (64M nodes,
+576 MB).
 """
 
 from __future__ import annotations
@@ -190,6 +192,7 @@ def merge(
             volume.extract,
             np.ascontiguousarray(np.concatenate(samples)),
             np.ascontiguousarray(np.concatenate(normals)),
+            native,
         )
     timings["extract"] = time.perf_counter() - t0
     return Surface(

@@ -110,18 +110,22 @@ impl FusionVolume {
     /// The closed mesh of the zero set: (vertices (V, 3) float64, faces (M, 3) int64
     /// counter-clockwise from outside, labels (M,) uint8 (0 measured, 1 inferred, 2
     /// filled), nodes moved by the manifold repair). Vertices are placed on `samples`
-    /// (S, 3) with outward unit `normals` (S, 3). O(nodes + S log S), GIL released.
+    /// (S, 3) with outward unit `normals` (S, 3); `views`, the list integrated and carved
+    /// in the order carved, place the surface between nodes where their rays' evidence
+    /// jumps. O(nodes + S log S), GIL released.
     #[allow(clippy::type_complexity)]
     fn extract<'py>(
         &self,
         py: Python<'py>,
         samples: PyReadonlyArray2<'py, f64>,
         normals: PyReadonlyArray2<'py, f64>,
+        views: Vec<PyRef<'py, DepthView>>,
     ) -> PyResult<(Floats2<'py>, Ints2<'py>, Bound<'py, PyArray1<u8>>, usize)> {
         let s = points3_view(&samples)?;
         let n = points3_view(&normals)?;
+        let inner: Vec<&scanmesh_core::DepthView> = views.iter().map(|v| &v.inner).collect();
         let fused = py
-            .detach(|| scanmesh_core::extract(&self.inner, &s, &n))
+            .detach(|| scanmesh_core::extract(&self.inner, &s, &n, &inner))
             .map_err(to_py)?;
         let flat: Vec<f64> = fused.vertices.iter().flat_map(|v| v.to_array()).collect();
         let vertices = Array2::from_shape_vec((fused.vertices.len(), 3), flat)

@@ -49,6 +49,9 @@ pub struct Volume {
     sum: Vec<f32>,
     weight: Vec<f32>,
     flags: Vec<u8>,
+    /// Per carved view, in the order carved: [`Volume::ray_stops`] (8 bytes per ray), for
+    /// the evidence between nodes ([`Volume::value_at`]).
+    stops: Vec<Vec<f64>>,
 }
 
 /// What the fusion knows of a node.
@@ -114,6 +117,7 @@ impl Volume {
             sum: budget::try_vec("the fusion grid", n)?,
             weight: budget::try_vec("the fusion grid", n)?,
             flags: budget::try_vec("the fusion grid", n)?,
+            stops: Vec::new(),
         })
         .map(|mut v: Self| {
             v.sum.resize(n, 0.0);
@@ -214,6 +218,11 @@ impl Volume {
     /// every view is integrated. O(rays · nodes along a ray + nodes).
     pub fn carve(&mut self, view: &DepthView) {
         let stop = self.ray_stops(view);
+        self.carve_along(view, &stop);
+        self.stops.push(stop);
+    }
+
+    fn carve_along(&mut self, view: &DepthView, stop: &[f64]) {
         let (nx, ny) = (self.dims[0], self.dims[1]);
         let (origin, voxel) = (self.origin, self.voxel);
         self.flags
@@ -232,6 +241,69 @@ impl Volume {
                     }
                 }
             });
+    }
+
+    /// Views carved so far.
+    pub fn carved(&self) -> usize {
+        self.stops.len()
+    }
+
+    /// The fused signed distance at any world point `p`, as [`Volume::value`] would give
+    /// it were a node there: every view's lookup at `p` integrated and carved by the same
+    /// rules, so it equals `value` at the nodes, and between them it places the boundary
+    /// between space a ray showed empty and space none entered (or a depth jump) where the
+    /// rays' footprints meet, not where the nodes happen to sit. `views`: those integrated
+    /// and carved, in the order carved. O(views).
+    ///
+    /// Errors: `InvalidParameter` when `views` are not as many as the views carved.
+    pub fn value_at(&self, p: DVec3, views: &[&DepthView]) -> Result<f64> {
+        self.check_views(views)?;
+        Ok(self.value_between(p, views))
+    }
+
+    /// `InvalidParameter` unless `views` are as many as the views carved.
+    pub fn check_views(&self, views: &[&DepthView]) -> Result<()> {
+        if views.len() != self.stops.len() {
+            return Err(Error::InvalidParameter {
+                name: "views",
+                value: format!("{} views for {} carved", views.len(), self.stops.len()),
+                expected: "the views integrated and carved, in that order",
+            });
+        }
+        Ok(())
+    }
+
+    /// [`Volume::value_at`] for views already checked.
+    pub(super) fn value_between(&self, p: DVec3, views: &[&DepthView]) -> f64 {
+        let trunc = self.truncation;
+        let (mut sum, mut weight, mut flags) = (0.0_f32, 0.0_f32, 0_u8);
+        for (view, stop) in views.iter().zip(&self.stops) {
+            let q = view.to_scanner(p);
+            match view.lookup(q.x, q.y) {
+                Lookup::Hit { depth, cos } => {
+                    let d = (q.z - depth) * cos;
+                    if d > trunc {
+                        flags = flags.saturating_add(VOTE) | EMPTY;
+                    } else if d >= -trunc {
+                        sum += (cos * d) as f32;
+                        weight += cos as f32;
+                    }
+                }
+                Lookup::Miss(pixel) => {
+                    if q.z > stop[pixel] {
+                        flags |= EMPTY;
+                    }
+                }
+                Lookup::Outside => {}
+            }
+        }
+        if weight > 0.0 && (sum >= 0.0 || flags / VOTE < EMPTY_VOTES) {
+            f64::from(sum / weight)
+        } else if flags & EMPTY != 0 {
+            trunc
+        } else {
+            -trunc
+        }
     }
 
     /// Per pixel of `view`: the scanner z where a ray without return met the first measured
@@ -342,6 +414,34 @@ mod tests {
         let m = vol.index(2, 2, 5);
         assert_eq!(vol.evidence(m), Evidence::Measured);
         assert!((vol.value(m) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn between_nodes_the_carving_ends_where_the_rays_footprints_meet() {
+        // rays at x = 0.3 + i: a plane at z = 4 for i < 3 (x <= 2.3), no return beyond
+        // (x >= 3.3): the carved space begins halfway, at x = 2.8, between nodes x = 2, 3
+        let depth: Vec<f64> = (0..25)
+            .map(|k| if k % 5 < 3 { 4.0 } else { f64::NAN })
+            .collect();
+        let mut pose = [0.0; 16];
+        for k in 0..4 {
+            pose[k * 5] = 1.0;
+        }
+        pose[3] = 0.3;
+        let view = DepthView::new(pose, [0.0, 0.0], 1.0, 5, 5, depth, vec![1.0; 25]).unwrap();
+        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        vol.integrate(&view);
+        vol.carve(&view);
+        assert!(vol.value_at(DVec3::ZERO, &[]).is_err());
+        for n in 0..5 * 5 * 9 {
+            let p = vol.node(n % 5, (n / 5) % 5, n / 25);
+            assert_eq!(vol.value_at(p, &[&view]).unwrap(), vol.value(n));
+        }
+        let at = |x: f64| vol.value_at(DVec3::new(x, 2.0, 0.0), &[&view]).unwrap();
+        assert_eq!(at(2.0), -2.0);
+        assert_eq!(at(2.75), -2.0);
+        assert_eq!(at(2.85), 2.0);
+        assert_eq!(at(3.0), 2.0);
     }
 
     #[test]
