@@ -4,6 +4,7 @@ analytic cases."""
 from __future__ import annotations
 
 import math
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -214,13 +215,7 @@ def test_holdout_refuses_bad_arguments():
             holdout_error(points, "delaunay", plane="z", **kwargs)
 
 
-def test_locate_matches_brute_force():
-    rng = np.random.default_rng(2)
-    v, faces = grid_mesh(12, lambda x, y: 0 * x)
-    v[:, :2] += rng.uniform(-0.02, 0.02, (len(v), 2))  # uneven, still a valid triangulation
-    tri_uv = v[faces][:, :, :2]
-    q = rng.uniform(-0.1, 1.1, (2000, 2))
-    found = locate(q, tri_uv)
+def _brute_force_locate(q, tri_uv):
     a, b, c = tri_uv[:, 0], tri_uv[:, 1], tri_uv[:, 2]
 
     def side(p0, p1):
@@ -230,6 +225,38 @@ def test_locate_matches_brute_force():
 
     s = np.stack([side(a, b), side(b, c), side(c, a)])
     inside = np.all(s >= 0, axis=0) | np.all(s <= 0, axis=0)  # (Q, F)
-    expected = np.where(inside.any(axis=1), inside.argmax(axis=1), -1)
-    assert np.array_equal(found, expected)
+    return np.where(inside.any(axis=1), inside.argmax(axis=1), -1)
+
+
+def test_locate_matches_brute_force():
+    rng = np.random.default_rng(2)
+    v, faces = grid_mesh(12, lambda x, y: 0 * x)
+    v[:, :2] += rng.uniform(-0.02, 0.02, (len(v), 2))  # uneven, still a valid triangulation
+    tri_uv = v[faces][:, :, :2]
+    q = rng.uniform(-0.1, 1.1, (2000, 2))
+    found = locate(q, tri_uv)
+    assert np.array_equal(found, _brute_force_locate(q, tri_uv))
     assert (found >= 0).sum() > 1000 and (found < 0).sum() > 100
+
+
+def test_locate_of_clusters_far_apart_stays_small():
+    # Two tight clusters joined by long triangles (the fuzz's "clusters" points): binned in
+    # cells of the small triangles' size, each long one covered 4096 x 4096 cells (55.7M
+    # entries, 425 MiB for 60 points, a MemoryError under a 2 GiB limit).
+    rng = np.random.default_rng(3)
+    small = rng.uniform(0, 1e-4, (40, 3, 2))
+    small[20:] += 1.0
+    long = np.array(
+        [[[0, 0], [1, 1], [0, 1]], [[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0.5, 0.6]]]
+    )
+    tri_uv = np.concatenate([small, long.astype(float)])
+    q = np.concatenate([rng.uniform(-0.1, 1.1, (300, 2)), small.mean(axis=1)])
+    tracemalloc.start()
+    try:
+        found = locate(q, tri_uv)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 8 << 20, f"{peak / 2**20:.0f} MiB"
+    assert np.array_equal(found, _brute_force_locate(q, tri_uv))
+    assert (found[:300] >= len(small)).sum() > 100 and (found[300:] >= 0).all()

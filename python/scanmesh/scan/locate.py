@@ -12,6 +12,13 @@ import numpy as np
 #: Candidate (point, triangle) pairs evaluated per step (bounds temporary memory).
 PAIRS_PER_STEP: int = 1 << 20
 
+#: Most (cell, triangle) entries of the bins per triangle and query point, on average.
+#: Cells are sized by a typical triangle; where sizes are very uneven (clusters far apart,
+#: joined by a few long triangles) each long triangle would cover millions of them, so the
+#: cells are widened until the bins fit (fuzz seed 75336: 55.7M entries, 425 MiB, for 60
+#: points).
+ENTRIES_PER_ITEM: int = 8
+
 
 def expand(
     count: np.ndarray, step: int = PAIRS_PER_STEP
@@ -50,7 +57,9 @@ def locate(uv: np.ndarray, tri_uv: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     (N,) int64
         Index of a triangle holding the point (the lowest one where several do), -1 where
         none does. Triangles are binned in a uniform grid of cells about twice a typical
-        triangle's size: O(N + F) for triangulations of even size.
+        triangle's size, widened until the bins hold at most :data:`ENTRIES_PER_ITEM` x
+        (N + F) entries: O(N + F) memory always, O(N + F) time for triangulations of even
+        size.
     """
     uv = np.ascontiguousarray(uv, dtype=np.float64)
     if len(tri_uv) == 0 or len(uv) == 0:
@@ -59,8 +68,13 @@ def locate(uv: np.ndarray, tri_uv: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     origin = lo.min(axis=0)
     extent = float((hi.max(axis=0) - origin).max()) or 1.0
     cell = max(2.0 * float(np.median((hi - lo).max(axis=1))), extent / 4096)
-    cell_lo = np.floor((lo - origin) / cell).astype(np.int64)
-    span = np.floor((hi - origin) / cell).astype(np.int64) - cell_lo + 1
+    budget = ENTRIES_PER_ITEM * (len(tri_uv) + len(uv))
+    while True:  # ends: at cell >= extent every triangle spans at most 2 x 2 cells
+        cell_lo = np.floor((lo - origin) / cell).astype(np.int64)
+        span = np.floor((hi - origin) / cell).astype(np.int64) - cell_lo + 1
+        if int(span.prod(axis=1).sum()) <= budget:
+            break
+        cell *= 2.0
     width = int(np.floor((hi.max(axis=0)[0] - origin[0]) / cell)) + 2
     keys, tris = [], []
     for owner, off in expand(span.prod(axis=1)):
