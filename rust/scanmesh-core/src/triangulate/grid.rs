@@ -523,7 +523,7 @@ pub fn grid_triangulate(
                     }
                 },
             ),
-        );
+        )?;
         out.filled = ears.len();
         out.triangles = peeled;
         out.triangles.extend(ears);
