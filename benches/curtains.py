@@ -79,7 +79,8 @@ OTHER_CURTAIN_ANGLES = (0.0, 5.0)
 # the long curtain: within 5 deg of the sight (``curtains``) and a longest edge over
 # this many local grid spacings (on a simulated scan the local spacing is s everywhere)
 LONG_CURTAIN = 4.0
-# the sheets the grid drops for their turn: within 90 - 80 deg of the sight, as long
+# the sheets the grid dropped for their turn at θ = 80 deg (its default before 85): within
+# 90 - 80 deg of the sight, as long
 SHEET_ANGLE = 10.0
 # classes of the true surface by its turn from the ray (degrees): < 60, 60-80, 80-88, > 88
 TURN_CLASSES = (60.0, 80.0, 88.0)

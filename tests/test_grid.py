@@ -323,3 +323,55 @@ def test_a_plane_the_scan_folds_over_is_named_as_such():
     # a plane it does not fold over, trimmed too short: the other cause
     with pytest.raises(scanmesh.DegenerateInputError, match="too sparse"):
         scanmesh.reconstruct(STEPS, "delaunay", plane="z", max_edge=0.1)
+
+
+def _stepped_part(step: float, wall_x: float = 1.013) -> trimesh.Trimesh:
+    """A block 2 x 1 with a step: its top at 1 + ``step`` for x < ``wall_x``, at 1 beyond,
+    the wall between them at x = ``wall_x``, off the scanner's columns."""
+    upper = trimesh.creation.box(bounds=[[0.0, 0.0, 0.0], [wall_x, 1.0, 1.0 + step]])
+    lower = trimesh.creation.box(bounds=[[wall_x, 0.0, 0.0], [2.0, 1.0, 1.0]])
+    return trimesh.util.concatenate([upper, lower])
+
+
+def _covered(points: np.ndarray, faces: np.ndarray, probes: np.ndarray) -> np.ndarray:
+    """(P,) bool: which (P, 2) plan positions lie inside a face's xy projection."""
+    tri = points[faces][:, :, :2]
+    inside = np.ones((len(tri), len(probes)), dtype=bool)
+    e, f = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    sign = np.sign(e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0])[:, None]
+    for k in range(3):
+        a, b = tri[:, k], tri[:, (k + 1) % 3]
+        side = (b[:, None, 0] - a[:, None, 0]) * (probes[None, :, 1] - a[:, None, 1]) - (
+            b[:, None, 1] - a[:, None, 1]
+        ) * (probes[None, :, 0] - a[:, None, 0])
+        inside &= sign * side >= 0
+    return inside.any(axis=0)
+
+
+def test_the_default_turn_covers_a_wall_a_few_spacings_high_without_curtains():
+    # a step 7 spacings high seen from above (the pocket along z of docs/benchmarks/
+    # curtains.md): no sample on the wall, the cells across it turn atan(7) = 82 deg from
+    # the rays with edges near 7.1 spacings. θ = 85 and k = 8 (the defaults) keep them, so
+    # the wall's band of the plan is covered, by faces within 2 spacings of the wall and at
+    # least 5 deg from the sight (no curtain); θ = 80 (the earlier default) leaves it open
+    s, wall_x = 0.05, 1.013
+    part = _stepped_part(7 * s, wall_x)
+    sp = simulate_range_scan(part, up="z", spacing=s, noise=0.05 * s, seed=0, grazing=80.0)
+    probes = np.column_stack([np.full(15, wall_x), np.linspace(0.15, 0.85, 15)])
+    kept = scanmesh.reconstruct(sp, "grid")
+    assert kept.options["max_turn"] == 85.0 and kept.options["edge_factor"] == 8.0
+    p = sp.points[kept.faces]
+    high = p[..., 2] > 1.0 + 3.5 * s
+    across = high.any(axis=1) & ~high.all(axis=1)
+    assert across.sum() >= 2 * 15 and _covered(sp.points, kept.faces, probes).all()
+    off = np.abs(trimesh.proximity.closest_point(part, p.mean(axis=1))[1])
+    assert off.max() <= 2 * s
+    assert np.abs(p[across].mean(axis=1)[:, 0] - wall_x).max() <= 2 * s
+    assert kept.options["curtains"]["count"] == 0
+    assert _angles_to_sight(sp.points, kept.faces, sp.up).min() >= CURTAIN_ANGLE_DEG
+    for rules in ({"max_turn": 80.0}, {"max_turn": 80.0, "edge_factor": 6.0}):
+        narrow = scanmesh.reconstruct(sp, "grid", **rules)
+        assert not _covered(sp.points, narrow.faces, probes).any()
+    # k = 6 drops the same sheets by their length
+    short = scanmesh.reconstruct(sp, "grid", edge_factor=6.0)
+    assert not _covered(sp.points, short.faces, probes).any()

@@ -324,7 +324,7 @@ def anneal_surface(
         from the scan's noise estimate), ``descend`` (True: the walk starts from the local
         optimum LOP reaches from ``initial``), ``sliver_angle`` (5 degrees: flips that make
         a smaller smallest 3-D angle than this and than before are refused),
-        ``curtain_angle`` (the core's CURTAIN_ANGLE_DEG, 10 degrees: flips that bring a
+        ``curtain_angle`` (the core's CURTAIN_ANGLE_DEG, 5 degrees: flips that bring a
         face's plane within this angle of the line of sight and nearer it than before are
         refused, in the walk, the descent and the polish: no new curtain; only where the
         scan knows its line of sight, ``stages.options.curtain_sight``),

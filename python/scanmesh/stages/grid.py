@@ -8,8 +8,10 @@ triangles are the grid's own cells (two per 2 x 2 block of samples, split along 
 cannot have seen it: its normal turns more than ``max_turn`` (θ) from the line of sight (a
 sheet hanging across a depth jump stands edge-on to the rays) or an edge is longer than
 ``edge_factor`` (k) x the local grid spacing. θ and k are the core's
-``DEFAULT_GRID_TURN_DEG`` and ``DEFAULT_GRID_EDGE_FACTOR``, chosen by
-``benches/curtains.py`` (docs/benchmarks/curtains.md).
+``DEFAULT_GRID_TURN_DEG`` and ``DEFAULT_GRID_EDGE_FACTOR`` (85 degrees, so that no kept face
+is within the curtain report's 5 degrees of the sight, and 8 spacings, so that the sheet
+across a step a few spacings high is kept), chosen by ``benches/curtains.py``
+(docs/benchmarks/curtains.md).
 
 The line of sight is ``PlanarScan.sight``: the scanner's recorded ``up``, else the normal
 of the scan's projection plane. The faces are counter-clockwise in the scan's plane, so LOP and

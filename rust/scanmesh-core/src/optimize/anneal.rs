@@ -101,12 +101,14 @@ pub const AUTO_MIN_PROPOSALS: u64 = 2_000_000;
 pub const AUTO_MIN_SWEEPS: usize = 8;
 
 /// Default [`AnnealParams::curtain_angle`] (degrees): 90° less the grid triangulation's
-/// largest turn ([`DEFAULT_GRID_TURN_DEG`], 80°), so that a flip never makes a face the
-/// grid would have dropped for its turn. Measured on fran_cut from its grid
-/// (docs/benchmarks/curtains.md): 73 curtains after LOP and 21 after annealing without the
-/// rule, none with 5° or 10°; tac_1 of LOP 46.9 off, 49.7 at 5°, 50.5 at 10°; on four
-/// simulated range scans the height RMS against the part is the same (0.041 s) off, at 5°
-/// and at 10°, the longest edge 9.8 s, 9.8 s and 7.8 s.
+/// largest turn ([`DEFAULT_GRID_TURN_DEG`], 85°: 5°, the curtain report's angle), so that a
+/// flip never makes a face the grid would have dropped for its turn. Measured on fran_cut
+/// from its grid (docs/benchmarks/curtains.md): 73 curtains after LOP and 21 after annealing
+/// without the rule, none with 5° or 10° (θ = 80° then); tac_1 of LOP 46.9 off, 49.7 at 5°,
+/// 50.5 at 10°; on four simulated range scans the height RMS against the part is the same
+/// (0.041 s) off, at 5° and at 10°, the longest edge 9.8 s, 9.8 s and 7.8 s. With θ = 85°
+/// (5° here) fran_cut keeps no curtain after LOP or annealing, nor do the nine scans of the
+/// range-scan panel.
 pub const CURTAIN_ANGLE_DEG: f64 = 90.0 - DEFAULT_GRID_TURN_DEG;
 
 /// Largest accepted [`AnnealParams::tiles`].

@@ -3,7 +3,9 @@
 //! samples of the part leaves it: a bore's rim, an inner corner). Measured on
 //! benches/curtains.py's range-scan panel (docs/benchmarks/curtains.md, "Notch ears").
 
+use crate::budget::try_filled;
 use crate::mesh::NONE;
+use crate::Result;
 use std::collections::{HashMap, HashSet, VecDeque};
 
 /// Largest turn (degrees) of a notch-filling ear from the line of sight ([`fill_notches`]),
@@ -86,8 +88,12 @@ impl GridAt<'_> {
 /// Repeated (first in, first out from the boundary vertices in ascending order) until no
 /// ear is added, so a notch several cells long fills ear by ear; deterministic. `cands`
 /// are the candidates before peeling with their `twins` (half-edge 3t + k from corner k),
-/// cell and corner `codes`; `flags` marks those in `kept`. O(m + boundary x (block +
-/// window)), a block of (edge / spacing + 3)² samples.
+/// cell and corner `codes`; `flags` marks those in `kept`. O(n + m + boundary x (block +
+/// window)), a block of (edge / spacing + 3)² samples: the maps hold the boundary only,
+/// the passes over all triangles index arrays (looking every kept triangle's corners up in
+/// the boundary's map took about a quarter of the core's samples under perf on the
+/// 1M-point grid of benches/curtains.py's timing; flags: under a tenth for the whole
+/// function, the same triangles). Errs only when the n flags cannot be allocated.
 pub(crate) fn fill_notches(
     grid: &GridAt,
     uv: &[[f64; 2]],
@@ -99,14 +105,17 @@ pub(crate) fn fill_notches(
         impl Fn(&[u32; 3], [usize; 2]) -> bool,
         impl Fn([usize; 2]) -> f64,
     ),
-) -> Vec<[u32; 3]> {
+) -> Result<Vec<[u32; 3]>> {
     // boundary half-edges (twin missing or peeled), a -> b with the mesh on the left, and
     // the (row, column) of their vertices
     let (mut next, mut prev, mut at) = (HashMap::new(), HashMap::new(), HashMap::new());
+    // which samples start a boundary half-edge: next's keys, for the pass over `kept`
+    let mut starts = try_filled("the grid's notch ears", false, uv.len())?;
     for (h, &twin) in twins.iter().enumerate() {
         let (t, k) = (h / 3, h % 3);
         if flags[t] && (twin == NONE || !flags[twin as usize / 3]) {
             let (a, b) = (cands[t][k], cands[t][(k + 1) % 3]);
+            starts[a as usize] = true;
             next.insert(a, b);
             prev.insert(b, a);
             let cell = cells[t] as usize;
@@ -117,7 +126,7 @@ pub(crate) fn fill_notches(
     }
     let key = |a: u32, b: u32| (a.min(b), a.max(b));
     let mut edges: HashSet<(u32, u32)> = (kept.iter())
-        .filter(|t| t.iter().any(|v| next.contains_key(v)))
+        .filter(|t| t.iter().any(|&v| starts[v as usize]))
         .flat_map(|t| [key(t[0], t[1]), key(t[1], t[2]), key(t[2], t[0])])
         .collect();
     let mut queue: Vec<u32> = next.keys().copied().collect();
@@ -171,7 +180,7 @@ pub(crate) fn fill_notches(
             queue.extend([u, w]);
         }
     }
-    out
+    Ok(out)
 }
 
 /// How far (input units) the outline sags towards the mesh (to the left) from the chord
