@@ -166,7 +166,10 @@ class FusionVolume:
     def carve(self, view: DepthView) -> None: ...
     def evidence(self) -> npt.NDArray[np.uint8]: ...
     def extract(
-        self, samples: npt.NDArray[np.float64], normals: npt.NDArray[np.float64]
+        self,
+        samples: npt.NDArray[np.float64],
+        normals: npt.NDArray[np.float64],
+        views: list[DepthView],
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int]: ...
 
 @final
