@@ -471,9 +471,10 @@ mod tests {
         f.vertices.len() as i64 - (edges.len() / 2) as i64 + f.faces.len() as i64
     }
 
-    /// A box seen from above only: carving closes it against unseen space below.
-    #[test]
-    fn a_plateau_seen_from_above_closes_into_one_sphere() {
+    /// A 12 × 12 view from above (rays along z at x = `shift` + i, y = `shift` + j) with
+    /// returns at z = 5 for 3 <= i, j <= 8 and none elsewhere, integrated and carved into a
+    /// 14 × 14 × 10 grid of unit voxels from (−1, −1, −1).
+    fn plateau_from_above(shift: f64) -> (DepthView, Volume) {
         let (w, h) = (12, 12);
         let depth: Vec<f64> = (0..w * h)
             .map(|p| {
@@ -489,10 +490,18 @@ mod tests {
         for k in 0..4 {
             pose[k * 5] = 1.0;
         }
+        (pose[3], pose[7]) = (shift, shift);
         let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
         let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
         vol.integrate(&view);
         vol.carve(&view);
+        (view, vol)
+    }
+
+    /// A box seen from above only: carving closes it against unseen space below.
+    #[test]
+    fn a_plateau_seen_from_above_closes_into_one_sphere() {
+        let (view, vol) = plateau_from_above(0.0);
         let samples: Vec<DVec3> = (3..9)
             .flat_map(|i| (3..9).map(move |j| DVec3::new(i as f64, j as f64, 5.0)))
             .collect();
@@ -521,28 +530,9 @@ mod tests {
     /// on the nodes' midpoints.
     #[test]
     fn walls_no_sample_saw_close_where_the_rays_footprints_meet() {
-        let (w, h) = (12, 12);
         // rays at x = 0.3 + i, y = 0.3 + j; returns for 3 <= i, j <= 8: the footprint's
         // sides are at 2.8 and 8.8 (halfway to the rays without return)
-        let depth: Vec<f64> = (0..w * h)
-            .map(|p| {
-                let (i, j) = (p % w, p / w);
-                if (3..9).contains(&i) && (3..9).contains(&j) {
-                    5.0
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect();
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        (pose[3], pose[7]) = (0.3, 0.3);
-        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
-        let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
-        vol.integrate(&view);
-        vol.carve(&view);
+        let (view, vol) = plateau_from_above(0.3);
         let fused = extract(&vol, &[], &[], &[&view]).unwrap();
         assert_eq!(euler(&fused), 2);
         // vertices on the sides, away from the top (z = 5), the bottom (the border) and the

@@ -162,24 +162,14 @@ impl Volume {
     /// What is known of node `n`: measured unless its mean is negative and
     /// [`EMPTY_VOTES`] views saw it well in front of their surfaces (then empty).
     pub fn evidence(&self, n: usize) -> Evidence {
-        if self.weight[n] > 0.0 && (self.sum[n] >= 0.0 || self.flags[n] / VOTE < EMPTY_VOTES) {
-            Evidence::Measured
-        } else if self.flags[n] & EMPTY != 0 {
-            Evidence::Empty
-        } else {
-            Evidence::Unseen
-        }
+        classify(self.sum[n], self.weight[n], self.flags[n])
     }
 
     /// The fused signed distance at node `n` (world units, positive outside): the weighted
     /// mean where measured, `+truncation` where seen empty, `−truncation` where unseen
     /// (unseen space counts as solid, so what no ray entered closes the surface).
     pub fn value(&self, n: usize) -> f64 {
-        match self.evidence(n) {
-            Evidence::Measured => f64::from(self.sum[n] / self.weight[n]),
-            Evidence::Empty => self.truncation,
-            Evidence::Unseen => -self.truncation,
-        }
+        distance(self.sum[n], self.weight[n], self.flags[n], self.truncation)
     }
 
     /// Adds one view's returns: the truncated distance near its surfaces, empty in front of
@@ -199,14 +189,9 @@ impl Volume {
                         let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
                         let q = view.to_scanner(p);
                         if let Lookup::Hit { depth, cos } = view.lookup(q.x, q.y) {
-                            let d = (q.z - depth) * cos;
                             let n = j * nx + i;
-                            if d > trunc {
-                                flags[n] = flags[n].saturating_add(VOTE) | EMPTY;
-                            } else if d >= -trunc {
-                                sum[n] += (cos * d) as f32;
-                                weight[n] += cos as f32;
-                            }
+                            let d = (q.z - depth) * cos;
+                            add_return(d, cos, trunc, &mut sum[n], &mut weight[n], &mut flags[n]);
                         }
                     }
                 }
@@ -218,11 +203,6 @@ impl Volume {
     /// every view is integrated. O(rays · nodes along a ray + nodes).
     pub fn carve(&mut self, view: &DepthView) {
         let stop = self.ray_stops(view);
-        self.carve_along(view, &stop);
-        self.stops.push(stop);
-    }
-
-    fn carve_along(&mut self, view: &DepthView, stop: &[f64]) {
         let (nx, ny) = (self.dims[0], self.dims[1]);
         let (origin, voxel) = (self.origin, self.voxel);
         self.flags
@@ -241,11 +221,7 @@ impl Volume {
                     }
                 }
             });
-    }
-
-    /// Views carved so far.
-    pub fn carved(&self) -> usize {
-        self.stops.len()
+        self.stops.push(stop);
     }
 
     /// The fused signed distance at any world point `p`, as [`Volume::value`] would give
@@ -282,12 +258,7 @@ impl Volume {
             match view.lookup(q.x, q.y) {
                 Lookup::Hit { depth, cos } => {
                     let d = (q.z - depth) * cos;
-                    if d > trunc {
-                        flags = flags.saturating_add(VOTE) | EMPTY;
-                    } else if d >= -trunc {
-                        sum += (cos * d) as f32;
-                        weight += cos as f32;
-                    }
+                    add_return(d, cos, trunc, &mut sum, &mut weight, &mut flags);
                 }
                 Lookup::Miss(pixel) => {
                     if q.z > stop[pixel] {
@@ -297,13 +268,7 @@ impl Volume {
                 Lookup::Outside => {}
             }
         }
-        if weight > 0.0 && (sum >= 0.0 || flags / VOTE < EMPTY_VOTES) {
-            f64::from(sum / weight)
-        } else if flags & EMPTY != 0 {
-            trunc
-        } else {
-            -trunc
-        }
+        distance(sum, weight, flags, trunc)
     }
 
     /// Per pixel of `view`: the scanner z where a ray without return met the first measured
@@ -342,6 +307,42 @@ impl Volume {
                     .unwrap_or(f64::NEG_INFINITY)
             })
             .collect()
+    }
+}
+
+/// Adds one view's return to a node's state (`sum`, `weight` of distances, `flags`): `d`,
+/// the distance along the view's normal from its surface to the node (positive in
+/// front), and the return's `cos`. More than `trunc` in front is a vote for empty; within
+/// `trunc` either side, a weighted distance; farther behind, nothing. The one rule of
+/// [`Volume::integrate`] at the nodes and of [`Volume::value_at`] between them. O(1).
+fn add_return(d: f64, cos: f64, trunc: f64, sum: &mut f32, weight: &mut f32, flags: &mut u8) {
+    if d > trunc {
+        *flags = flags.saturating_add(VOTE) | EMPTY;
+    } else if d >= -trunc {
+        *sum += (cos * d) as f32;
+        *weight += cos as f32;
+    }
+}
+
+/// What a node's state says ([`Volume::evidence`]): measured unless its mean is negative
+/// and [`EMPTY_VOTES`] views saw it well in front of their surfaces. O(1).
+fn classify(sum: f32, weight: f32, flags: u8) -> Evidence {
+    if weight > 0.0 && (sum >= 0.0 || flags / VOTE < EMPTY_VOTES) {
+        Evidence::Measured
+    } else if flags & EMPTY != 0 {
+        Evidence::Empty
+    } else {
+        Evidence::Unseen
+    }
+}
+
+/// The fused signed distance of a node's state ([`Volume::value`]): the weighted mean
+/// where measured, `+trunc` where seen empty, `−trunc` where unseen. O(1).
+fn distance(sum: f32, weight: f32, flags: u8, trunc: f64) -> f64 {
+    match classify(sum, weight, flags) {
+        Evidence::Measured => f64::from(sum / weight),
+        Evidence::Empty => trunc,
+        Evidence::Unseen => -trunc,
     }
 }
 
