@@ -295,10 +295,16 @@ impl<'a> Grid<'a> {
         }
     }
 
-    /// The crossing of the evidence's sign between `a` and `b` (fraction), if their signs differ.
-    fn bisect(&self, a: DVec3, b: DVec3, views: &[&DepthView]) -> Option<f64> {
+    /// The crossing of the evidence's sign between `a` and `b` (fraction), whose values
+    /// are `fa` and `fb`, if their signs differ.
+    fn bisect(
+        &self,
+        (a, fa): (DVec3, f64),
+        (b, fb): (DVec3, f64),
+        views: &[&DepthView],
+    ) -> Option<f64> {
         let at = |t: f64| self.volume.value_between(a.lerp(b, t), views);
-        let (mut lo, mut hi, mut f_lo, mut f_hi) = (0.0, 1.0, at(0.0), at(1.0));
+        let (mut lo, mut hi, mut f_lo, mut f_hi) = (0.0, 1.0, fa, fb);
         if (f_lo < 0.0) == (f_hi < 0.0) {
             return None;
         }
@@ -349,8 +355,8 @@ impl<'a> Grid<'a> {
         {
             return linear;
         }
-        let inside = |p: DVec3| self.volume.value_between(p, views) < 0.0;
-        if inside(a) == inside(b) {
+        let value = |p: DVec3| self.volume.value_between(p, views);
+        if (value(a) < 0.0) == (value(b) < 0.0) {
             return linear;
         }
         let axis = (b - a).abs().max_position();
@@ -365,12 +371,15 @@ impl<'a> Grid<'a> {
                 o[u] = f64::from(du) * step;
                 o[v] = f64::from(dv) * step;
                 let (p, q) = (a + o, b + o);
-                let t = if inside(p) != inside(q) {
-                    self.bisect(p, q, views)
-                } else if inside(p) == (fa < 0.0) {
-                    self.bisect(q, q + d, views).map(|t| 1.0 + t)
+                let (fp, fq) = (value(p), value(q));
+                let t = if (fp < 0.0) != (fq < 0.0) {
+                    self.bisect((p, fp), (q, fq), views)
+                } else if (fp < 0.0) == (fa < 0.0) {
+                    self.bisect((q, fq), (q + d, value(q + d)), views)
+                        .map(|t| 1.0 + t)
                 } else {
-                    self.bisect(p - d, p, views).map(|t| t - 1.0)
+                    self.bisect((p - d, value(p - d)), (p, fp), views)
+                        .map(|t| t - 1.0)
                 };
                 if let Some(t) = t {
                     sum += t;
