@@ -13,6 +13,9 @@ use rayon::prelude::*;
 use std::collections::TryReserveError;
 use std::ops::Range;
 
+/// Items one task of [`try_filled`] writes at least.
+const FILL_BLOCK: usize = 1 << 16;
+
 /// Indices one task of [`try_indices`]' count takes at least: below this, splitting costs
 /// more than it saves.
 const COUNT_BLOCK: usize = 1 << 14;
@@ -192,10 +195,17 @@ pub fn not_allocated<T>(what: &str, len: usize) -> Error {
 }
 
 /// `len` copies of `value` in a vector whose allocation may fail (an
-/// [`Error::OutOfMemory`] naming `what`) instead of aborting the process. O(len).
-pub fn try_filled<T: Clone>(what: &str, value: T, len: usize) -> Result<Vec<T>> {
+/// [`Error::OutOfMemory`] naming `what`) instead of aborting the process. O(len), written
+/// on every core when long: a fresh buffer's first write is its page faults, which cost
+/// more than the writes.
+pub fn try_filled<T: Clone + Send + Sync>(what: &str, value: T, len: usize) -> Result<Vec<T>> {
     let mut v = try_vec(what, len)?;
-    v.resize(len, value);
+    if len < FILL_BLOCK {
+        v.resize(len, value);
+    } else {
+        // an indexed extend writes into the room reserved, without growing it
+        v.par_extend(rayon::iter::repeat_n(value, len).with_min_len(FILL_BLOCK));
+    }
     Ok(v)
 }
 
@@ -226,18 +236,34 @@ pub fn try_par_collect<T: Send>(
 /// is never grown; `keep` is asked twice per index and must answer the same. O(len).
 pub fn try_indices<I>(what: &str, all: Range<I>, keep: impl Fn(I) -> bool + Sync) -> Result<Vec<I>>
 where
-    I: Copy + Send,
-    Range<I>: Clone + Iterator<Item = I> + IntoParallelIterator<Item = I>,
-    <Range<I> as IntoParallelIterator>::Iter: IndexedParallelIterator,
+    I: Copy + Send + Sync,
+    Range<I>: ExactSizeIterator<Item = I>,
 {
-    let count = all
-        .clone()
+    // Blocks of COUNT_BLOCK indices: each counts its kept ones, then writes them into its
+    // own share of the buffer (Range's skip is O(1)), so neither pass runs on one core.
+    let block = |k: usize| {
+        all.clone()
+            .skip(k * COUNT_BLOCK)
+            .take(COUNT_BLOCK)
+            .filter(|&i| keep(i))
+    };
+    let counts: Vec<usize> = (0..all.len().div_ceil(COUNT_BLOCK))
         .into_par_iter()
-        .with_min_len(COUNT_BLOCK)
-        .filter(|&i| keep(i))
-        .count();
-    let mut v = try_vec(what, count)?;
-    v.extend(all.filter(|&i| keep(i)));
+        .map(|k| block(k).count())
+        .collect();
+    let mut v = try_filled(what, all.start, counts.iter().sum())?;
+    let mut shares = Vec::with_capacity(counts.len());
+    let mut rest = &mut v[..];
+    for &count in &counts {
+        let (share, tail) = rest.split_at_mut(count);
+        shares.push(share);
+        rest = tail;
+    }
+    shares.into_par_iter().enumerate().for_each(|(k, share)| {
+        for (slot, i) in share.iter_mut().zip(block(k)) {
+            *slot = i;
+        }
+    });
     Ok(v)
 }
 

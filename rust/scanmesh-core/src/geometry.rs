@@ -207,30 +207,75 @@ pub fn unit_square(uv: &[[f64; 2]]) -> Vec<[f64; 2]> {
 /// [`unit_square`] and its scale as two powers of two whose product maps a length into the
 /// unit square (`x * s.0 * s.1`; one number could over- or underflow). O(n).
 pub(crate) fn unit_square_scaled(uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, (f64, f64)) {
-    let largest = uv
-        .iter()
-        .flat_map(|p| [p[0].abs(), p[1].abs()])
-        .fold(0.0, f64::max);
-    unit_square_scaled_by(uv, largest)
+    UnitSquare::of(uv).all(uv)
 }
 
 /// [`unit_square_scaled`] with the scale of a larger set whose largest |coordinate| is
 /// `largest` (a part of a scan mapped as the whole scan is). O(n).
 pub(crate) fn unit_square_scaled_by(uv: &[[f64; 2]], largest: f64) -> (Vec<[f64; 2]>, (f64, f64)) {
-    // largest = f × 2^e with f in [0.5, 1): scaling by 2^-e brings it into [0.5, 1), done
-    // in two steps because 2^-e alone over- or underflows at the ends of the f64 range.
-    let e = binary_exponent(largest);
-    let (first, second) = (pow2(-e / 2), pow2(-e - (-e / 2)));
-    let flush = |x: f64| {
-        let y = x * first * second;
-        if y.abs() < 1e-40 {
-            0.0
-        } else {
-            y
+    UnitSquare::by(largest).all(uv)
+}
+
+/// The map of [`unit_square`], for callers that need a few points of a large set mapped
+/// (the corners of boundary triangles) rather than all of them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct UnitSquare {
+    first: f64,
+    second: f64,
+}
+
+impl UnitSquare {
+    /// The map that brings `uv` into the unit square. O(n), on the rayon pool.
+    pub(crate) fn of(uv: &[[f64; 2]]) -> Self {
+        let largest = uv
+            .par_iter()
+            .with_min_len(1 << 14)
+            .map(|p| p[0].abs().max(p[1].abs()))
+            .reduce(|| 0.0, f64::max);
+        Self::by(largest)
+    }
+
+    /// The map for a set whose largest |coordinate| is `largest`. O(1).
+    pub(crate) fn by(largest: f64) -> Self {
+        // largest = f × 2^e with f in [0.5, 1): scaling by 2^-e brings it into [0.5, 1), done
+        // in two steps because 2^-e alone over- or underflows at the ends of the f64 range.
+        let e = binary_exponent(largest);
+        Self {
+            first: pow2(-e / 2),
+            second: pow2(-e - (-e / 2)),
         }
-    };
-    let unit = uv.iter().map(|p| [flush(p[0]), flush(p[1])]).collect();
-    (unit, (first, second))
+    }
+
+    /// One point mapped: scaled, and coordinates below 1e-40 flushed to zero. O(1).
+    pub(crate) fn map(self, p: [f64; 2]) -> [f64; 2] {
+        let flush = |x: f64| {
+            let y = x * self.first * self.second;
+            if y.abs() < 1e-40 {
+                0.0
+            } else {
+                y
+            }
+        };
+        [flush(p[0]), flush(p[1])]
+    }
+
+    /// `x` scaled by the map's power of two, exactly (no flushing). O(1).
+    pub(crate) fn scale(self, x: f64) -> f64 {
+        x * self.first * self.second
+    }
+
+    /// `x` brought back from the map's scale (the inverse of [`scale`](Self::scale)). O(1).
+    pub(crate) fn unscale(self, x: f64) -> f64 {
+        x / self.first / self.second
+    }
+
+    /// Every point mapped, and the scale. O(n).
+    fn all(self, uv: &[[f64; 2]]) -> (Vec<[f64; 2]>, (f64, f64)) {
+        (
+            uv.iter().map(|&p| self.map(p)).collect(),
+            (self.first, self.second),
+        )
+    }
 }
 
 /// The e with `x = f × 2^e`, f in [0.5, 1), for finite x > 0; 0 for x = 0. O(1).

@@ -13,13 +13,15 @@
 //! along it; notches no ray of the grid passes through are filled where the outline is not
 //! concave (`notches`).
 
-use crate::budget::{try_filled, try_grow, try_indices, try_par_collect, try_vec};
+use crate::budget::{try_filled, try_grow, try_indices, try_vec};
+use crate::geometry::UnitSquare;
 use crate::mesh::NONE;
 use crate::triangulate::notches::{area_sign, fill_notches, GridAt, EAR_TURN_DEG};
-use crate::triangulate::trim::peel_flags;
+use crate::triangulate::trim::peeled_flags;
 use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
 /// Default largest turn (degrees) of a kept triangle's normal away from the line of sight.
 /// 85°: every kept face is then at least 5° from the sight, the curtain report's angle (the
@@ -48,6 +50,9 @@ pub const DEFAULT_GRID_EDGE_FACTOR: f64 = 8.0;
 
 /// Rows of the grid per rayon task.
 const ROWS_PER_TASK: usize = 64;
+
+/// Columns of the grid per rayon task of the column spacings.
+const COLS_PER_TASK: usize = 32;
 
 /// The rules of [`grid_triangulate`]: where the scanner looked from and what it can see.
 #[derive(Debug, Clone, Copy)]
@@ -128,15 +133,13 @@ fn check(grid: &[i64], rows: usize, cols: usize, n: usize, turn: f64, factor: f6
     Ok(())
 }
 
-/// Length of `d` across the unit line of sight `s`, measured on `d` scaled to about 1 so
-/// that coordinates from 1e-300 to 1e300 neither overflow nor underflow.
+/// Length of `d` across the unit line of sight `s`, measured on `d` scaled to about 1 by a
+/// power of two (exact) so that coordinates from 1e-300 to 1e300 neither overflow nor
+/// underflow.
 fn across(d: DVec3, s: DVec3) -> f64 {
-    let m = d.abs().max_element();
-    if m == 0.0 {
-        return 0.0;
-    }
-    let u = d / m;
-    (u - u.dot(s) * s).length() * m
+    let unit = UnitSquare::by(d.abs().max_element());
+    let u = d.map(|x| unit.scale(x));
+    unit.unscale((u - u.dot(s) * s).length())
 }
 
 /// Median of `values` (NaN for none); reorders them. O(n).
@@ -173,18 +176,22 @@ fn local_spacings(
             median(&mut steps)
         })
         .collect();
-    let col_spacing: Vec<f64> = (0..cols)
+    // Columns are taken COLS_PER_TASK at a time and walked row by row, so each step reads
+    // a contiguous run of the grid (one column alone would stride a whole row per step).
+    let col_spacing: Vec<f64> = (0..cols.div_ceil(COLS_PER_TASK))
         .into_par_iter()
-        .map(|c| {
-            let mut steps: Vec<f64> = (0..rows.saturating_sub(1))
-                .filter_map(|r| match (at(r, c), at(r + 1, c)) {
-                    (a, b) if a >= 0 && b >= 0 => {
-                        Some(across(points[b as usize] - points[a as usize], s))
+        .flat_map_iter(|task| {
+            let columns = task * COLS_PER_TASK..((task + 1) * COLS_PER_TASK).min(cols);
+            let mut steps = vec![Vec::with_capacity(rows.saturating_sub(1)); columns.len()];
+            for r in 0..rows.saturating_sub(1) {
+                for (column, c) in steps.iter_mut().zip(columns.clone()) {
+                    let (a, b) = (at(r, c), at(r + 1, c));
+                    if a >= 0 && b >= 0 {
+                        column.push(across(points[b as usize] - points[a as usize], s));
                     }
-                    _ => None,
-                })
-                .collect();
-            median(&mut steps)
+                }
+            }
+            steps.into_iter().map(|mut column| median(&mut column))
         })
         .collect();
     (row_spacing, col_spacing)
@@ -250,34 +257,37 @@ fn grid_twins(cells: &[u32], codes: &[Codes], cols: usize, rows: usize) -> Resul
     for k in 0..n_cells {
         first[k + 1] += first[k];
     }
-    let twins = (0..3 * codes.len())
-        .into_par_iter()
-        .with_min_len(1 << 14)
-        .map(|h| {
-            let (t, k) = (h / 3, h % 3);
+    let mut twins = try_filled(GRID, NONE, 3 * codes.len())?;
+    let last = ((rows - 1) as isize, (cols - 1) as isize);
+    twins
+        .par_chunks_mut(3)
+        .with_min_len(1 << 12)
+        .enumerate()
+        .for_each(|(t, out)| {
+            // one division per triangle: its cell's row and column
             let cell = cells[t] as usize;
-            let (x, y) = (codes[t][k], codes[t][(k + 1) % 3]);
-            let (dr, dc, nx, ny) = across_edge(x, y);
-            let (r, c) = (
-                (cell / (cols - 1)) as isize + dr,
-                (cell % (cols - 1)) as isize + dc,
-            );
-            if r < 0 || c < 0 || r as usize >= rows - 1 || c as usize >= cols - 1 {
-                return NONE;
+            let (row, col) = ((cell / (cols - 1)) as isize, (cell % (cols - 1)) as isize);
+            for (k, twin) in out.iter_mut().enumerate() {
+                let (x, y) = (codes[t][k], codes[t][(k + 1) % 3]);
+                let (dr, dc, nx, ny) = across_edge(x, y);
+                let (r, c) = (row + dr, col + dc);
+                if r < 0 || c < 0 || r >= last.0 || c >= last.1 {
+                    continue;
+                }
+                let other = r as usize * (cols - 1) + c as usize;
+                // the twin runs the other way: from y to x
+                *twin = (first[other]..first[other + 1])
+                    .filter(|&u| u as usize != t)
+                    .find_map(|u| {
+                        let code = codes[u as usize];
+                        (0..3)
+                            .find(|&j| code[j] == ny && code[(j + 1) % 3] == nx)
+                            .map(|j| 3 * u + j as u32)
+                    })
+                    .unwrap_or(NONE);
             }
-            let other = r as usize * (cols - 1) + c as usize;
-            // the twin runs the other way: from y to x
-            (first[other]..first[other + 1])
-                .filter(|&u| u as usize != t)
-                .find_map(|u| {
-                    let code = codes[u as usize];
-                    (0..3)
-                        .find(|&j| code[j] == ny && code[(j + 1) % 3] == nx)
-                        .map(|j| 3 * u + j as u32)
-                })
-                .unwrap_or(NONE)
         });
-    try_par_collect(GRID, twins)
+    Ok(twins)
 }
 
 /// What the grid's failed allocations name.
@@ -290,6 +300,8 @@ struct Block {
     codes: Vec<Codes>,
     cells: Vec<u32>,
     signs: Vec<i8>,
+    /// How many kept have each sign: -1, 0, 1 at 0, 1, 2.
+    of_sign: [usize; 3],
     candidates: usize,
     turned: usize,
     long: usize,
@@ -304,6 +316,7 @@ impl Block {
             codes: try_vec(GRID, candidates)?,
             cells: try_vec(GRID, candidates)?,
             signs: try_vec(GRID, candidates)?,
+            of_sign: [0; 3],
             candidates: 0,
             turned: 0,
             long: 0,
@@ -392,15 +405,19 @@ pub fn grid_triangulate(
     };
     let judge = |t: &[u32; 3], h: f64, cos_turn: f64| -> Verdict {
         let [a, b, c] = t.map(|k| points[k as usize]);
-        // edges scaled to about 1: no overflow or underflow from 1e-300 to 1e300
-        let m = (b - a).abs().max_element().max((c - a).abs().max_element());
-        let (e1, e2) = ((b - a) / m, (c - a) / m);
+        // edges scaled to about 1 by a power of two (exact, a multiply where a division
+        // cost a third of the judging): no overflow or underflow from 1e-300 to 1e300
+        let unit = UnitSquare::by((b - a).abs().max_element().max((c - a).abs().max_element()));
+        let (e1, e2) = (
+            (b - a).map(|x| unit.scale(x)),
+            (c - a).map(|x| unit.scale(x)),
+        );
         let n = e1.cross(e2);
         let length = n.length();
-        if m == 0.0 || length == 0.0 || n.dot(s).abs() < cos_turn * length {
+        if length == 0.0 || n.dot(s).abs() < cos_turn * length {
             return Verdict::Turned;
         }
-        let limit = edge_factor * if h.is_finite() { h } else { spacing } / m;
+        let limit = unit.scale(edge_factor * if h.is_finite() { h } else { spacing });
         let longest = e1
             .length_squared()
             .max(e2.length_squared())
@@ -433,7 +450,9 @@ pub fn grid_triangulate(
                                 out.codes.push(*code);
                                 out.cells.push((r * (cols - 1) + c) as u32);
                                 let [a, b, c] = t.map(|k| k as usize);
-                                out.signs.push(area_sign(uv, a, b, c));
+                                let area = area_sign(uv, a, b, c);
+                                out.signs.push(area);
+                                out.of_sign[(area + 1) as usize] += 1;
                             }
                             Verdict::Turned => out.turned += 1,
                             Verdict::Long => out.long += 1,
@@ -444,72 +463,71 @@ pub fn grid_triangulate(
             Ok(out)
         })
         .collect::<Result<_>>()?;
-    let total: i64 = blocks
+    let count = |sign: i8| -> usize { blocks.iter().map(|b| b.of_sign[(sign + 1) as usize]).sum() };
+    let sign: i8 = if count(-1) > count(1) { -1 } else { 1 };
+    // The blocks' triangles of the majority sign, written in place in parallel: block i's
+    // share starts after the shares of blocks 0..i.
+    let shares: Vec<usize> = blocks
         .iter()
-        .flat_map(|b| b.signs.iter())
-        .map(|&x| i64::from(x))
-        .sum();
-    let sign: i8 = if total < 0 { -1 } else { 1 };
+        .map(|b| b.of_sign[(sign + 1) as usize])
+        .collect();
+    let total_kept: usize = shares.iter().sum();
+    let mut triangles = try_filled(GRID, [0u32; 3], total_kept)?;
+    let mut codes = try_filled(GRID, [0u8; 3], total_kept)?;
+    let mut cells = try_filled(GRID, 0u32, total_kept)?;
+    let mut parts = Vec::with_capacity(blocks.len());
+    let mut rest = (&mut triangles[..], &mut codes[..], &mut cells[..]);
+    for &share in &shares {
+        let (t, t_rest) = rest.0.split_at_mut(share);
+        let (c, c_rest) = rest.1.split_at_mut(share);
+        let (e, e_rest) = rest.2.split_at_mut(share);
+        parts.push((t, c, e));
+        rest = (t_rest, c_rest, e_rest);
+    }
+    let flip = sign < 0;
     let mut out = GridTriangles {
         spacing,
+        candidates: blocks.iter().map(|b| b.candidates).sum(),
+        turned: blocks.iter().map(|b| b.turned).sum(),
+        long: blocks.iter().map(|b| b.long).sum(),
+        folded: blocks.iter().map(|b| b.kept.len()).sum::<usize>() - total_kept,
         ..GridTriangles::default()
     };
-    let total_kept = blocks.iter().map(|b| b.kept.len()).sum();
-    try_grow(GRID, &mut out.triangles, total_kept)?;
-    let (mut codes, mut cells) = (try_vec(GRID, total_kept)?, try_vec(GRID, total_kept)?);
-    for block in blocks {
-        out.candidates += block.candidates;
-        out.turned += block.turned;
-        out.long += block.long;
-        let rows = block
-            .kept
-            .into_iter()
-            .zip(block.signs)
-            .zip(block.codes)
-            .zip(block.cells);
-        for (((t, area), code), cell) in rows {
-            if area == sign {
-                let flip = sign < 0;
-                out.triangles
-                    .push(if flip { [t[0], t[2], t[1]] } else { t });
-                codes.push(if flip {
+    blocks
+        .into_par_iter()
+        .zip(parts)
+        .for_each(|(block, (t_out, c_out, e_out))| {
+            let same = (block.kept.iter().zip(&block.codes).zip(&block.cells))
+                .zip(&block.signs)
+                .filter(|(_, &area)| area == sign);
+            for ((((t, code), &cell), _), ((t_to, c_to), e_to)) in
+                same.zip(t_out.iter_mut().zip(c_out.iter_mut()).zip(e_out.iter_mut()))
+            {
+                *t_to = if flip { [t[0], t[2], t[1]] } else { *t };
+                *c_to = if flip {
                     [code[0], code[2], code[1]]
                 } else {
-                    code
-                });
-                cells.push(cell);
-            } else {
-                out.folded += 1;
+                    *code
+                };
+                *e_to = cell;
             }
-        }
-    }
+        });
+    out.triangles = triangles;
     // Cells dropped around a vertex can leave it joining two fans (a pinch); LOP and
     // annealing need a manifold start, as trimming gives them. The twins come from the
     // grid's edges, so no half-edge search is needed.
     if !out.triangles.is_empty() {
         let twins = grid_twins(&cells, &codes, cols, rows)?;
-        let kept = out.triangles.len();
-        let keep = try_filled(GRID, true, kept)?;
-        let peeled = peel_flags(uv, &out.triangles, &twins, keep, None)?;
-        out.peeled = kept - peeled.len();
-        // peeling keeps the order: which triangles it kept, by walking both lists
-        let mut next = peeled.iter().peekable();
-        let mut keep = try_vec(GRID, kept)?;
-        keep.extend(
-            out.triangles
-                .iter()
-                .map(|t| next.next_if(|&p| p == t).is_some()),
-        );
+        let candidates = out.triangles.len();
+        let keep = try_filled(GRID, true, candidates)?;
+        let (keep, boundary) = peeled_flags(uv, &out.triangles, &twins, keep, None)?;
         let grid_at = GridAt { grid, rows, cols };
-        let (cands, candidates) = (&out.triangles, (&twins[..], &cells[..], &codes[..]));
         let cos_ear = cos_turn.max(EAR_TURN_DEG.to_radians().cos());
         let ears = fill_notches(
             &grid_at,
             uv,
-            &peeled,
-            cands,
-            candidates,
-            &keep,
+            (&out.triangles, &cells, &codes),
+            (&keep, &boundary),
             (
                 |t: &[u32; 3], [r, c]: [usize; 2]| {
                     judge(t, local(r.min(rows - 2), c.min(cols - 2)), cos_ear) == Verdict::Keep
@@ -524,17 +542,27 @@ pub fn grid_triangulate(
                 },
             ),
         )?;
+        // in place, in order (retain visits each element once, in order)
+        let mut flags = keep.iter();
+        out.triangles.retain(|_| flags.next() == Some(&true));
+        out.peeled = candidates - out.triangles.len();
         out.filled = ears.len();
-        out.triangles = peeled;
+        try_grow(GRID, &mut out.triangles, ears.len())?;
         out.triangles.extend(ears);
     }
-    let mut used = try_filled(GRID, false, points.len())?;
-    for t in &out.triangles {
-        for &v in t {
-            used[v as usize] = true;
-        }
-    }
-    out.unused = try_indices(GRID, 0..points.len() as u32, |v| !used[v as usize])?;
+    // which points a kept triangle uses, marked on every core (relaxed stores: plain writes)
+    let mut used = try_vec(GRID, points.len())?;
+    used.extend((0..points.len()).map(|_| AtomicBool::new(false)));
+    out.triangles
+        .par_iter()
+        .with_min_len(1 << 14)
+        .for_each(|t| {
+            t.iter()
+                .for_each(|&v| used[v as usize].store(true, Relaxed))
+        });
+    out.unused = try_indices(GRID, 0..points.len() as u32, |v| {
+        !used[v as usize].load(Relaxed)
+    })?;
     Ok(out)
 }
 

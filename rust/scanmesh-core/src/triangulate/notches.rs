@@ -4,9 +4,13 @@
 //! benches/curtains.py's range-scan panel (docs/benchmarks/curtains.md, "Notch ears").
 
 use crate::budget::try_filled;
-use crate::mesh::NONE;
+use crate::geometry::UnitSquare;
 use crate::Result;
+use rayon::prelude::*;
 use std::collections::{HashMap, HashSet, VecDeque};
+
+/// What the notch ears' failed allocations name.
+const NOTCHES: &str = "the grid's notch ears";
 
 /// Largest turn (degrees) of a notch-filling ear from the line of sight ([`fill_notches`]),
 /// below θ: an ear is a guess between samples of the outline, not a cell whose rays
@@ -30,15 +34,13 @@ pub const EAR_WINDOW: usize = 6;
 pub const EAR_SAG: f64 = 1.5;
 
 /// The sign of the planar area of (a, b, c): 1, -1, or 0 when degenerate (computed on the
-/// edges scaled to about 1, so that no product overflows or underflows).
+/// edges scaled to about 1 by a power of two, exactly, so that no product overflows or
+/// underflows).
 pub(crate) fn area_sign(uv: &[[f64; 2]], a: usize, b: usize, c: usize) -> i8 {
     let (p, q, r) = (uv[a], uv[b], uv[c]);
     let e = [q[0] - p[0], q[1] - p[1], r[0] - p[0], r[1] - p[1]];
-    let m = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    if m == 0.0 {
-        return 0;
-    }
-    let [ux, uy, vx, vy] = e.map(|x| x / m);
+    let unit = UnitSquare::by(e.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+    let [ux, uy, vx, vy] = e.map(|x| unit.scale(x));
     let area = ux * vy - uy * vx;
     if area > 0.0 {
         1
@@ -67,7 +69,8 @@ impl GridAt<'_> {
     }
 }
 
-/// Triangles that fill the notches of the outline of `kept` (counter-clockwise in `uv`),
+/// Triangles that fill the notches of the outline of the kept triangles (the candidates
+/// `cands` flagged in `flags`, counter-clockwise in `uv`),
 /// where an outline crossing the grid at a slant leaves a staircase. At each boundary
 /// vertex v whose outline turns away from the mesh (u → v → w, the mesh on the left, a
 /// right turn), the ear (u, w, v) outside it is added when
@@ -87,47 +90,45 @@ impl GridAt<'_> {
 ///
 /// Repeated (first in, first out from the boundary vertices in ascending order) until no
 /// ear is added, so a notch several cells long fills ear by ear; deterministic. `cands`
-/// are the candidates before peeling with their `twins` (half-edge 3t + k from corner k),
-/// cell and corner `codes`; `flags` marks those in `kept`. O(n + m + boundary x (block +
-/// window)), a block of (edge / spacing + 3)² samples: the maps hold the boundary only,
-/// the passes over all triangles index arrays (looking every kept triangle's corners up in
-/// the boundary's map took about a quarter of the core's samples under perf on the
-/// 1M-point grid of benches/curtains.py's timing; flags: under a tenth for the whole
-/// function, the same triangles). Errs only when the n flags cannot be allocated.
+/// are the candidates before peeling with their `cells` and corner `codes`; `boundary` the
+/// kept triangles' half-edges (3t + k from corner k) without a kept twin, ascending.
+/// O(n + m + boundary x (block + window)), a block of (edge / spacing + 3)² samples: the
+/// maps hold the boundary only, and the pass over all triangles (the edges beside the
+/// boundary) indexes arrays on every core (looking every kept triangle's corners up in the
+/// boundary's map took about a quarter of the core's samples under perf on the 1M-point
+/// grid of benches/curtains.py's timing). Errs only when the n flags cannot be allocated.
 pub(crate) fn fill_notches(
     grid: &GridAt,
     uv: &[[f64; 2]],
-    kept: &[[u32; 3]],
-    cands: &[[u32; 3]],
-    (twins, cells, codes): (&[u32], &[u32], &[[u8; 3]]),
-    flags: &[bool],
+    (cands, cells, codes): (&[[u32; 3]], &[u32], &[[u8; 3]]),
+    (flags, boundary): (&[bool], &[u32]),
     (keep, step): (
         impl Fn(&[u32; 3], [usize; 2]) -> bool,
         impl Fn([usize; 2]) -> f64,
     ),
 ) -> Result<Vec<[u32; 3]>> {
-    // boundary half-edges (twin missing or peeled), a -> b with the mesh on the left, and
-    // the (row, column) of their vertices
+    // the boundary half-edges, a -> b with the mesh on the left, and the (row, column) of
+    // their vertices
     let (mut next, mut prev, mut at) = (HashMap::new(), HashMap::new(), HashMap::new());
-    // which samples start a boundary half-edge: next's keys, for the pass over `kept`
-    let mut starts = try_filled("the grid's notch ears", false, uv.len())?;
-    for (h, &twin) in twins.iter().enumerate() {
-        let (t, k) = (h / 3, h % 3);
-        if flags[t] && (twin == NONE || !flags[twin as usize / 3]) {
-            let (a, b) = (cands[t][k], cands[t][(k + 1) % 3]);
-            starts[a as usize] = true;
-            next.insert(a, b);
-            prev.insert(b, a);
-            let cell = cells[t] as usize;
-            let code = codes[t][k] as usize;
-            let r = cell / (grid.cols - 1) + (code >> 1);
-            at.insert(a, [r as i64, (cell % (grid.cols - 1) + (code & 1)) as i64]);
-        }
+    // which samples start a boundary half-edge: next's keys, for the pass over the kept
+    let mut starts = try_filled(NOTCHES, false, uv.len())?;
+    for &h in boundary {
+        let (t, k) = ((h / 3) as usize, (h % 3) as usize);
+        let (a, b) = (cands[t][k], cands[t][(k + 1) % 3]);
+        starts[a as usize] = true;
+        next.insert(a, b);
+        prev.insert(b, a);
+        let cell = cells[t] as usize;
+        let code = codes[t][k] as usize;
+        let r = cell / (grid.cols - 1) + (code >> 1);
+        at.insert(a, [r as i64, (cell % (grid.cols - 1) + (code & 1)) as i64]);
     }
     let key = |a: u32, b: u32| (a.min(b), a.max(b));
-    let mut edges: HashSet<(u32, u32)> = (kept.iter())
-        .filter(|t| t.iter().any(|&v| starts[v as usize]))
-        .flat_map(|t| [key(t[0], t[1]), key(t[1], t[2]), key(t[2], t[0])])
+    // the edges of kept triangles at the boundary: an ear's chord must not be one
+    let mut edges: HashSet<(u32, u32)> = (cands.par_iter().zip(flags))
+        .with_min_len(1 << 14)
+        .filter(|&(t, &kept)| kept && t.iter().any(|&v| starts[v as usize]))
+        .flat_map_iter(|(t, _)| [key(t[0], t[1]), key(t[1], t[2]), key(t[2], t[0])])
         .collect();
     let mut queue: Vec<u32> = next.keys().copied().collect();
     queue.sort_unstable();

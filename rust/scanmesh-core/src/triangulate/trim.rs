@@ -4,7 +4,7 @@
 use crate::budget::{try_filled, try_indices, try_par_collect, try_vec};
 use crate::geometry::orient2d;
 use crate::geometry::planar_distance;
-use crate::geometry::unit_square;
+use crate::geometry::UnitSquare;
 use crate::mesh::NONE;
 use crate::mesh::{prev, HalfEdgeMesh, COLLINEAR_SINE};
 use crate::triangulate::delaunay::relabel;
@@ -380,27 +380,10 @@ pub(crate) fn peel_flags(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
     twins: &[u32],
-    mut keep: Vec<bool>,
+    keep: Vec<bool>,
     to_input: Option<&[u32]>,
 ) -> Result<Vec<[u32; 3]>> {
-    // Degeneracy is judged scale-free: areas of 1e-300-sized triangles underflow.
-    let unit = unit_square(uv);
-    loop {
-        let kept = Kept {
-            triangles,
-            twins,
-            keep: &keep,
-            to_input,
-        };
-        let mut dropped = kept.pinched_fans_to_drop(uv.len());
-        dropped.extend(kept.degenerate_boundary_triangles(&unit));
-        if dropped.is_empty() {
-            break;
-        }
-        for t in dropped {
-            keep[t as usize] = false;
-        }
-    }
+    let (keep, _) = peeled_flags(uv, triangles, twins, keep, to_input)?;
     let mut kept = try_vec(KEEP, keep.par_iter().filter(|&&k| k).count())?;
     kept.extend(
         triangles
@@ -410,6 +393,39 @@ pub(crate) fn peel_flags(
             .map(|(t, _)| *t),
     );
     Ok(kept)
+}
+
+/// [`peel_flags`] as flags: `keep` with the peeled triangles cleared, and the boundary of
+/// what is left (its half-edges without a kept twin, ascending). O(m) per round.
+pub(crate) fn peeled_flags(
+    uv: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    twins: &[u32],
+    mut keep: Vec<bool>,
+    to_input: Option<&[u32]>,
+) -> Result<(Vec<bool>, Vec<u32>)> {
+    // Degeneracy is judged scale-free (areas of 1e-300-sized triangles underflow), on the
+    // boundary's corners alone mapped into the unit square.
+    let unit = UnitSquare::of(uv);
+    loop {
+        let kept = Kept {
+            triangles,
+            twins,
+            keep: &keep,
+            to_input,
+        };
+        let boundary = try_indices(KEEP, 0..twins.len() as u32, |h| {
+            keep[(h / 3) as usize] && kept.twin(h) == NONE
+        })?;
+        let mut dropped = kept.pinched_fans_to_drop(&boundary, uv.len());
+        dropped.extend(kept.degenerate_boundary_triangles(&boundary, uv, unit));
+        if dropped.is_empty() {
+            return Ok((keep, boundary));
+        }
+        for t in dropped {
+            keep[t as usize] = false;
+        }
+    }
 }
 
 /// `kept` without the numerically degenerate triangles on its boundary and with every
@@ -493,36 +509,38 @@ impl Kept<'_> {
         self.triangles[(h / 3) as usize][(h % 3) as usize]
     }
 
-    /// Kept boundary triangles (an edge without kept twin) that are collinear slivers
-    /// ([`collinear_sliver`]). O(m), on the rayon pool.
-    fn degenerate_boundary_triangles(&self, uv: &[[f64; 2]]) -> Vec<u32> {
-        (0..self.triangles.len() as u32)
-            .into_par_iter()
-            .with_min_len(4096)
+    /// Kept triangles with a half-edge in `boundary` (no kept twin) that are collinear
+    /// slivers ([`collinear_sliver`]) in `unit`'s coordinates, ascending. O(boundary).
+    fn degenerate_boundary_triangles(
+        &self,
+        boundary: &[u32],
+        uv: &[[f64; 2]],
+        unit: UnitSquare,
+    ) -> Vec<u32> {
+        let mut slivers: Vec<u32> = boundary
+            .iter()
+            .map(|&h| h / 3)
             .filter(|&t| {
-                self.keep[t as usize] && (3 * t..3 * t + 3).any(|h| self.twin(h) == NONE) && {
-                    let [a, b, c] = self.triangles[t as usize].map(|v| uv[v as usize]);
-                    collinear_sliver(a, b, c)
-                }
+                let [a, b, c] = self.triangles[t as usize].map(|v| unit.map(uv[v as usize]));
+                collinear_sliver(a, b, c)
             })
-            .collect()
+            .collect();
+        slivers.dedup();
+        slivers
     }
 
     /// Triangles of the smaller fans at every pinched vertex (more than one boundary
     /// half-edge leaves it); of equal fans, the one with the smallest triangle (corner
-    /// indices sorted, compared lexicographically) stays. O(m).
-    fn pinched_fans_to_drop(&self, n_vertices: usize) -> Vec<u32> {
-        let boundary: Vec<u32> = (0..self.twins.len() as u32)
-            .filter(|&h| self.keep[(h / 3) as usize] && self.twin(h) == NONE)
-            .collect();
+    /// indices sorted, compared lexicographically) stays. O(n + boundary + fans).
+    fn pinched_fans_to_drop(&self, boundary: &[u32], n_vertices: usize) -> Vec<u32> {
         let mut leaving = vec![0u8; n_vertices];
-        for &h in &boundary {
+        for &h in boundary {
             let c = &mut leaving[self.start(h) as usize];
             *c = c.saturating_add(1);
         }
         let mut pinched: Vec<(u32, u32)> = boundary
-            .into_iter()
-            .map(|h| (self.start(h), h))
+            .iter()
+            .map(|&h| (self.start(h), h))
             .filter(|&(v, _)| leaving[v as usize] > 1)
             .collect();
         pinched.sort_unstable();

@@ -140,7 +140,7 @@ impl Ask {
 
     /// `len` copies of `fill`, allocated fallibly: memory the system refuses is an
     /// [`Error::OutOfMemory`] naming this strip, not an abort. O(len).
-    fn filled<T: Clone>(&self, len: usize, fill: T) -> Result<Vec<T>> {
+    fn filled<T: Clone + Send + Sync>(&self, len: usize, fill: T) -> Result<Vec<T>> {
         crate::budget::try_filled(&self.what(), fill, len)
     }
 
