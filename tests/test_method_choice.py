@@ -137,3 +137,18 @@ def test_on_a_gridded_scan_delaunay_chosen_builds_the_grid(monkeypatch):
     assert surface.options["method_choice"]["chosen"] == "delaunay"
     assert surface.method == surface.options["method_choice"]["built"] == "grid"
     assert surface.options["curtains"]["count"] == 0
+
+
+def test_on_a_gridded_scan_the_strips_are_no_candidate():
+    """The default stays inside a range grid's domain: the strips join lines wherever both
+    have samples, so on a gridded scan only annealing, LOP and Delaunay (the grid) are
+    judged; the same points without their grid are judged with the strips."""
+    scan = scanmesh.simulate_range_scan(
+        DATA / "cad" / "fandisk.obj", up="x", along="y", n_points=1_500
+    )
+    gridded = scanmesh.reconstruct(scan).options["method_choice"]
+    assert set(gridded["holdout"]) == set(choice.GRID_CANDIDATES)
+    assert "shortest-path" not in gridded["holdout"] and gridded["folds"] > 0
+    plain = scanmesh.reconstruct(dataclasses.replace(scan, grid=None))
+    plain = plain.options["method_choice"]
+    assert set(plain["holdout"]) == set(choice.CANDIDATES)

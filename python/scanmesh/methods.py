@@ -192,11 +192,15 @@ def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surfac
         spec = TABLE[name]
         return spec.run(part, spec.check({}, {}), quiet)
 
-    made = choice.choose(scan, build, seed=kw.seed or 0, progress=kw.progress)
+    gridded = default_initial(scan, kw.max_edge) == "grid"
+    candidates = choice.GRID_CANDIDATES if gridded else choice.CANDIDATES
+    made = choice.choose(
+        scan, build, seed=kw.seed or 0, candidates=candidates, progress=kw.progress
+    )
     # The parts have no range grid, so Delaunay stands in for the grid triangulation in the
     # judge; on a gridded scan the grid is built, as LOP and annealing start from it there
     # (Delaunay keeps the curtains the grid drops).
-    planar = "grid" if default_initial(scan, kw.max_edge) == "grid" else "delaunay"
+    planar = "grid" if gridded else "delaunay"
     built = planar if made.chosen == "delaunay" else made.chosen
     spec = TABLE[built]
     surface = spec.run(scan, spec.check({}, {}), kw)

@@ -48,7 +48,8 @@ def reconstruct(
         ``lines`` then belong to it).
     method : str
         ``"auto"`` (default: the method a holdout on a window of the scan prefers among
-        annealing, LOP, Delaunay and shortest-path, see ``scanmesh.stages.choice``; the
+        annealing, LOP, Delaunay and shortest-path (on a range grid the first three, the
+        grid built for Delaunay), see ``scanmesh.stages.choice``; the
         window's points withheld a tenth at a time, seeded by ``seed``; the Surface is the
         chosen method's, and ``options["method_choice"]`` gives ``"chosen"`` and every
         candidate's ``"holdout"`` RMS), ``"delaunay"`` (max-min angle optimum in the
