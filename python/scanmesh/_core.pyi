@@ -22,6 +22,7 @@ __all__ = [
     "DEFAULT_MAX_EDGE_FACTOR",
     "DEFAULT_GRID_TURN_DEG",
     "DEFAULT_GRID_EDGE_FACTOR",
+    "BEHIND_VOXELS",
     "project",
     "delaunay",
     "delaunay_trimmed",
@@ -72,6 +73,7 @@ DEFAULT_GRID_TURN_DEG: float
 DEFAULT_GRID_EDGE_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 JUMP_STEPS: float
+BEHIND_VOXELS: float
 
 def project(
     points: npt.NDArray[np.float64],

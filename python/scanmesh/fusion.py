@@ -4,8 +4,8 @@
 truncated signed distances in a voxel grid and carves the space their rays crossed
 (Curless & Levoy 1996; native, ``fusion/tsdf.rs``), then extracts the zero set as a
 closed 2-manifold whose vertices sit on the samples' tangent planes
-(``fusion/extract.rs``). Every face is labelled: ``measured`` (within the truncation of
-a sample), ``inferred`` (between space a ray crossed and space no ray entered: closed by
+(``fusion/extract.rs``). Every face is labelled: ``measured`` (within the averaging band
+of a sample), ``inferred`` (between space a ray crossed and space no ray entered: closed by
 carving) or ``filled`` (closed with no evidence).
 
 Memory: 9 bytes per grid node while fusing (plus the extraction's per-surface-cell
@@ -84,7 +84,9 @@ def merge(
         Grid spacing in world units (default: the median spacing of the views, made larger
         when the grid would exceed ``max_voxels``).
     truncation : float
-        How far from a sample its distance counts, in voxels (>= 1).
+        How far in front of a view's surface its distance counts, in voxels (>= 1); behind
+        it, at most ``_core.BEHIND_VOXELS`` (1.5: a view guesses solid behind what it saw,
+        and on a part thinner than a longer band that guess would push the far side out).
     max_voxels : int
         Largest grid accepted (nodes): a ``voxel`` that needs more is refused.
     refine : bool
@@ -203,6 +205,7 @@ def merge(
             "views": len(checked),
             "voxel": size,
             "truncation": trunc,
+            "behind": min(trunc, _core.BEHIND_VOXELS),
             "grid": tuple(int(d) for d in dims),
             "repaired_nodes": int(repaired),
             "refine_residual": residual,

@@ -56,7 +56,7 @@ pub use error::{Error, Result};
 pub use exact::enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
 pub use fusion::depth::{DepthView, Lookup, JUMP_STEPS, MIN_COS, RIGID_TOL};
 pub use fusion::extract::{extract, Fused, FILLED, INFERRED, MEASURED};
-pub use fusion::tsdf::{Evidence, Volume};
+pub use fusion::tsdf::{Evidence, Volume, BEHIND_VOXELS};
 pub use geometry::unit_square;
 pub use geometry::{check_finite, normalize_plane, triangle_angles};
 pub use glam;

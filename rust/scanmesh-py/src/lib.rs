@@ -129,6 +129,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         scanmesh_core::DEFAULT_GRID_EDGE_FACTOR,
     )?;
     m.add("JUMP_STEPS", scanmesh_core::JUMP_STEPS)?;
+    m.add("BEHIND_VOXELS", scanmesh_core::BEHIND_VOXELS)?;
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::median_spacing, m)?)?;
