@@ -463,7 +463,9 @@ def test_ctrl_c_under_dask_is_one_line_and_prompt(tmp_path):
     err, took, code = _signal_a_dask_run(tmp_path, lambda pid: os.killpg(pid, signal.SIGINT))
     assert code == 130
     assert err.splitlines() == ["scanmesh: interrupted"]
-    assert took < 4.0  # typically 1-2 s: the workers are stopped and the cluster closed
+    # typically 1-2 s (4.2 s once on a fresh CI machine): the workers are stopped and the
+    # cluster closed; the annealing it interrupts would run for many minutes
+    assert took < 10.0
     assert not leftovers(tmp_path)
 
 
