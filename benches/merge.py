@@ -4,6 +4,7 @@
     nice python benches/merge.py --parts fandisk --json out.jsonl
     python benches/merge.py --peers "open3d poisson d8" "open3d ball pivoting"   # fewer peers
     python benches/merge.py --spacing-divisor 150        # coarser scans
+    python benches/merge.py --tilted                     # 14 views: 8 more at 45°
     nice python benches/merge.py --memory 10 1000000     # peak memory, 10 views of 1M points
 
 Each CAD part in ``../shared/data/cad`` is scanned by the virtual range scanner
@@ -65,8 +66,28 @@ N_SAMPLES = 200_000
 SEED = 0
 
 
-def scan(mesh: trimesh.Trimesh, spacing: float, grazing: float) -> list[scanmesh.ScanPoints]:
-    return axis_views(mesh, spacing, noise=spacing / 30, grazing=grazing, seed=SEED)
+def scan(
+    mesh: trimesh.Trimesh, spacing: float, grazing: float, tilted: bool = False
+) -> list[scanmesh.ScanPoints]:
+    """The six axis views; with ``tilted``, eight more from 45° between +-z and +-x or +-y
+    (the walls inside pockets and the sides of bores that no axis view samples)."""
+    views = axis_views(mesh, spacing, noise=spacing / 30, grazing=grazing, seed=SEED)
+    if tilted:
+        tilts = [(a, 0, c) for c in (1, -1) for a in (1, -1)]
+        tilts += [(0, b, c) for c in (1, -1) for b in (1, -1)]
+        for x, y, z in tilts:
+            views.append(
+                scanmesh.simulate_range_scan(
+                    mesh,
+                    up=np.array([x, y, z]) / np.sqrt(2.0),
+                    along="y" if x else "x",
+                    spacing=spacing,
+                    noise=spacing / 30,
+                    seed=SEED + len(views),
+                    grazing=grazing,
+                )
+            )
+    return views
 
 
 def oriented_cloud(views: list[scanmesh.ScanPoints]) -> o3d.geometry.PointCloud:
@@ -220,11 +241,16 @@ class Judge:
 
 
 def run_part(
-    name: str, path: Path, divisor: float, grazing: float, peers: list[str] | None = None
+    name: str,
+    path: Path,
+    divisor: float,
+    grazing: float,
+    peers: list[str] | None = None,
+    tilted: bool = False,
 ) -> list[dict]:
     truth = trimesh.load(path, force="mesh", process=True)
     spacing = float(truth.extents.max()) / divisor
-    views = scan(truth, spacing, grazing)
+    views = scan(truth, spacing, grazing, tilted)
     judge = Judge(truth, views, spacing)
     # the genus of the solid: the conrod is three touching closed bodies (two rings and the
     # beam), 2 genus in all, as one piece would have
@@ -232,6 +258,7 @@ def run_part(
     truth_genus = (2 * bodies - truth.euler_number) / 2
     head = {
         "part": name,
+        "views": len(views),
         "spacing": spacing,
         "points": int(sum(len(v.points) for v in views)),
         "truth genus": truth_genus,
@@ -355,6 +382,7 @@ def main() -> None:
     ap.add_argument("--cad", type=Path, default=CAD, help=f"CAD folder (default {CAD})")
     ap.add_argument("--spacing-divisor", type=float, default=200.0)
     ap.add_argument("--grazing", type=float, default=75.0)
+    ap.add_argument("--tilted", action="store_true", help="8 more views, 45° between the axes")
     ap.add_argument("--peers", nargs="*", choices=list(PEERS), help="subset of the peers")
     ap.add_argument("--json", type=Path, help="also write the rows here (JSON lines)")
     ap.add_argument(
@@ -372,7 +400,9 @@ def main() -> None:
     for name, file in PARTS.items():
         if args.parts and name not in args.parts:
             continue
-        rows += run_part(name, args.cad / file, args.spacing_divisor, args.grazing, args.peers)
+        rows += run_part(
+            name, args.cad / file, args.spacing_divisor, args.grazing, args.peers, args.tilted
+        )
     if args.json:
         args.json.write_text("".join(json.dumps(r) + "\n" for r in rows))
     print(table(rows))

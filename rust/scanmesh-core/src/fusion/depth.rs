@@ -15,6 +15,16 @@ pub const JUMP_STEPS: f64 = 4.0;
 /// Smallest ray-to-normal cosine a sample is weighted with (grazing returns count little).
 pub const MIN_COS: f64 = 0.05;
 
+/// Longest run of rays without return (along a row or a column of the image) between two
+/// returns across a depth jump that is read as returns lost rather than as a gap the rays
+/// passed through: a real scanner loses its returns on surfaces it grazes (as
+/// `simulate_range_scan(grazing=...)` does), as on the side of an edge, between the edge's
+/// top and the surface below; such a ray, carving on to the first measured node, cut slots
+/// into a connecting rod seen 45° from its axes (`test_merge.py`). A gap this narrow (two
+/// rays) is below what a view resolves. Between returns on one continuous surface the
+/// carving already stops at that surface's band.
+pub const LOST_RUN: usize = 2;
+
 /// A depth image with its pose (scanner to world: `world = rotation * scanner + translation`).
 #[derive(Debug, Clone)]
 pub struct DepthView {
@@ -176,6 +186,39 @@ impl DepthView {
         self.depth[index].is_nan()
     }
 
+    /// For pixel `index` without a return: the depth (scanner z) of the nearer of the two
+    /// returns around it when it lies in a run of at most [`LOST_RUN`] such pixels between
+    /// them, along its row or its column, and they are a depth jump apart ([`JUMP_STEPS`]):
+    /// its return was lost on the jump's side, so the ray proves empty only the space in
+    /// front of the nearer one. `None` for a return, a wider gap or a continuous surface.
+    /// O(LOST_RUN).
+    pub fn lost_return_depth(&self, index: usize) -> Option<f64> {
+        if !self.is_miss(index) {
+            return None;
+        }
+        let (i, j) = (index % self.width, index / self.width);
+        // the first return from pixel (i, j) in direction (di, dj), within the run's length
+        let return_towards = |di: isize, dj: isize| {
+            (1..=LOST_RUN as isize).find_map(|k| {
+                let (x, y) = (i as isize + k * di, j as isize + k * dj);
+                if x < 0 || y < 0 || x >= self.width as isize || y >= self.height as isize {
+                    return Some(None);
+                }
+                let at = y as usize * self.width + x as usize;
+                (!self.is_miss(at)).then_some(Some((k, at)))
+            })?
+        };
+        [(1, 0), (0, 1)]
+            .into_iter()
+            .filter_map(|(di, dj)| {
+                let (k1, a) = return_towards(di, dj)?;
+                let (k2, b) = return_towards(-di, -dj)?;
+                let step = (self.depth[a] - self.depth[b]).abs() > JUMP_STEPS * self.step;
+                (k1 + k2 - 1 <= LOST_RUN as isize && step).then(|| self.depth[a].max(self.depth[b]))
+            })
+            .reduce(f64::max)
+    }
+
     /// What the ray through scanner (x, y) saw: the depth interpolated bilinearly between
     /// the four surrounding returns when none is missing and no depth jump separates them,
     /// else the nearest pixel's. O(1).
@@ -249,6 +292,42 @@ mod tests {
             Lookup::Hit { depth, .. } => assert_eq!(depth, 1.0),
             other => panic!("{other:?}"),
         }
+    }
+
+    /// A view looking down with unit steps, every return head-on.
+    fn looking_down(width: usize, height: usize, depth: Vec<f64>) -> DepthView {
+        let n = depth.len();
+        DepthView::new(
+            identity(),
+            [0.0; 2],
+            1.0,
+            width,
+            height,
+            depth,
+            vec![1.0; n],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_short_run_without_returns_across_a_jump_is_lost_a_long_one_a_gap() {
+        let nan = f64::NAN;
+        // returns at 0, 2 and 5 (depths 1, 9, 2: jumps of 8 and 7 steps) with runs of 1
+        // and 2 between them, and a run of 2 open towards the border
+        let line = vec![1.0, nan, 9.0, nan, nan, 2.0, nan, nan];
+        for view in [looking_down(8, 1, line.clone()), looking_down(1, 8, line)] {
+            assert_eq!(view.lost_return_depth(0), None); // a return
+            assert_eq!(view.lost_return_depth(1), Some(9.0)); // the nearer: towards +z
+            assert_eq!(view.lost_return_depth(3), Some(9.0));
+            assert_eq!(view.lost_return_depth(4), Some(9.0));
+            assert_eq!(view.lost_return_depth(6), None);
+        }
+        // three rays without return between two returns are a gap, one between returns
+        // on a continuous surface (3 steps apart) is left to that surface's band
+        let wide = looking_down(5, 1, vec![1.0, nan, nan, nan, 9.0]);
+        assert!((1..4).all(|k| wide.lost_return_depth(k).is_none()));
+        let smooth = looking_down(3, 1, vec![1.0, nan, 4.0]);
+        assert_eq!(smooth.lost_return_depth(1), None);
     }
 
     #[test]

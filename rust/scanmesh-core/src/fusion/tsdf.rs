@@ -221,8 +221,9 @@ impl Volume {
     }
 
     /// Marks empty the nodes on this view's rays without a return, from the scanner to the
-    /// first node some view measured, or all along the ray when there is none. Run after
-    /// every view is integrated. O(rays · nodes along a ray + nodes).
+    /// first node some view measured, or all along the ray when there is none; a ray whose
+    /// return was lost (a short run between returns, [`DepthView::lost_return_depth`])
+    /// only in front of its neighbours' nearer return. Run after every view is integrated. O(rays · nodes along a ray + nodes).
     pub fn carve(&mut self, view: &DepthView) {
         let stop = self.ray_stops(view);
         let (nx, ny) = (self.dims[0], self.dims[1]);
@@ -295,7 +296,8 @@ impl Volume {
     }
 
     /// Per pixel of `view`: the scanner z where a ray without return met the first measured
-    /// node, coming from the scanner (−∞: none; +∞: the ray returned).
+    /// node, coming from the scanner, or its lost return's depth if nearer (−∞: neither;
+    /// +∞: the ray returned).
     fn ray_stops(&self, view: &DepthView) -> Vec<f64> {
         let (w, h) = view.size();
         // the ray's stretch through the grid: scanner z over the grid's 8 corners
@@ -319,15 +321,17 @@ impl Volume {
                 if !view.is_miss(pixel) {
                     return f64::INFINITY;
                 }
+                let lost = view.lost_return_depth(pixel).unwrap_or(f64::NEG_INFINITY);
                 let [x, y] = view.ray_xy(pixel);
-                (0..steps)
+                let measured = (0..steps)
                     .map(|s| z_hi - s as f64 * dz)
                     .find(|&z| {
                         let p = view.to_world(DVec3::new(x, y, z));
                         self.nearest(p)
                             .is_some_and(|n| self.evidence(n) == Evidence::Measured)
                     })
-                    .unwrap_or(f64::NEG_INFINITY)
+                    .unwrap_or(f64::NEG_INFINITY);
+                measured.max(lost)
             })
             .collect()
     }
