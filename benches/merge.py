@@ -5,6 +5,7 @@
     python benches/merge.py --peers "open3d poisson d8" "open3d ball pivoting"   # fewer peers
     python benches/merge.py --spacing-divisor 150        # coarser scans
     python benches/merge.py --tilted                     # 14 views: 8 more at 45°
+    python benches/merge.py --voxel 0.7 --peers          # merge alone, voxel 0.7 s
     nice python benches/merge.py --memory 10 1000000     # peak memory, 10 views of 1M points
 
 Each CAD part in ``../shared/data/cad`` is scanned by the virtual range scanner
@@ -247,6 +248,7 @@ def run_part(
     grazing: float,
     peers: list[str] | None = None,
     tilted: bool = False,
+    voxel: float | None = None,
 ) -> list[dict]:
     truth = trimesh.load(path, force="mesh", process=True)
     spacing = float(truth.extents.max()) / divisor
@@ -267,7 +269,7 @@ def run_part(
     }
     rows = []
     t0 = time.perf_counter()
-    merged = scanmesh.merge(views)
+    merged = scanmesh.merge(views, voxel=None if voxel is None else voxel * spacing)
     seconds = time.perf_counter() - t0
     row = {**head, "method": "scanmesh merge", "seconds": seconds}
     row.update(judge(merged.vertices, merged.faces, merged.face_labels))
@@ -383,6 +385,7 @@ def main() -> None:
     ap.add_argument("--spacing-divisor", type=float, default=200.0)
     ap.add_argument("--grazing", type=float, default=75.0)
     ap.add_argument("--tilted", action="store_true", help="8 more views, 45° between the axes")
+    ap.add_argument("--voxel", type=float, help="merge's voxel in spacings s (default: s)")
     ap.add_argument("--peers", nargs="*", choices=list(PEERS), help="subset of the peers")
     ap.add_argument("--json", type=Path, help="also write the rows here (JSON lines)")
     ap.add_argument(
@@ -401,7 +404,13 @@ def main() -> None:
         if args.parts and name not in args.parts:
             continue
         rows += run_part(
-            name, args.cad / file, args.spacing_divisor, args.grazing, args.peers, args.tilted
+            name,
+            args.cad / file,
+            args.spacing_divisor,
+            args.grazing,
+            args.peers,
+            args.tilted,
+            args.voxel,
         )
     if args.json:
         args.json.write_text("".join(json.dumps(r) + "\n" for r in rows))

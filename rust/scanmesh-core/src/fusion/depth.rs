@@ -16,13 +16,13 @@ pub const JUMP_STEPS: f64 = 4.0;
 pub const MIN_COS: f64 = 0.05;
 
 /// Longest run of rays without return (along a row or a column of the image) between two
-/// returns across a depth jump that is read as returns lost rather than as a gap the rays
-/// passed through: a real scanner loses its returns on surfaces it grazes (as
-/// `simulate_range_scan(grazing=...)` does), as on the side of an edge, between the edge's
-/// top and the surface below; such a ray, carving on to the first measured node, cut slots
-/// into a connecting rod seen 45° from its axes (`test_merge.py`). A gap this narrow (two
-/// rays) is below what a view resolves. Between returns on one continuous surface the
-/// carving already stops at that surface's band.
+/// returns that is read as returns lost rather than as a gap the rays passed through: a
+/// real scanner loses its returns on surfaces it grazes (as `simulate_range_scan(grazing=
+/// ...)` does). Such a ray carved on to the first node some view measured: beside a depth
+/// jump it cut slots into a connecting rod seen 45° from its axes, and inside a face no
+/// other view samples, on a grid finer than the rays (whose nodes around it look up that
+/// ray), it bored a tunnel through a turbine blade (`test_merge.py`). A gap this narrow
+/// (two rays) is below what a view resolves.
 pub const LOST_RUN: usize = 2;
 
 /// A depth image with its pose (scanner to world: `world = rotation * scanner + translation`).
@@ -186,12 +186,13 @@ impl DepthView {
         self.depth[index].is_nan()
     }
 
-    /// For pixel `index` without a return: the depth (scanner z) of the nearer of the two
-    /// returns around it when it lies in a run of at most [`LOST_RUN`] such pixels between
-    /// them, along its row or its column, and they are a depth jump apart ([`JUMP_STEPS`]):
-    /// its return was lost on the jump's side, so the ray proves empty only the space in
-    /// front of the nearer one. `None` for a return, a wider gap or a continuous surface.
-    /// O(LOST_RUN).
+    /// For pixel `index` without a return that lies in a run of at most [`LOST_RUN`] such
+    /// pixels between two returns, along its row or its column: the depth (scanner z) its
+    /// return was lost at, as far as the ray proves space empty. Across a depth jump
+    /// ([`JUMP_STEPS`]) that is the nearer return's depth (the return was lost on the
+    /// jump's side, somewhere between them); on one continuous surface, the two returns'
+    /// depths interpolated at the pixel. The deepest such depth over the row and the
+    /// column; `None` for a return or a wider gap. O(LOST_RUN).
     pub fn lost_return_depth(&self, index: usize) -> Option<f64> {
         if !self.is_miss(index) {
             return None;
@@ -213,8 +214,14 @@ impl DepthView {
             .filter_map(|(di, dj)| {
                 let (k1, a) = return_towards(di, dj)?;
                 let (k2, b) = return_towards(-di, -dj)?;
-                let step = (self.depth[a] - self.depth[b]).abs() > JUMP_STEPS * self.step;
-                (k1 + k2 - 1 <= LOST_RUN as isize && step).then(|| self.depth[a].max(self.depth[b]))
+                let (za, zb) = (self.depth[a], self.depth[b]);
+                (k1 + k2 - 1 <= LOST_RUN as isize).then(|| {
+                    if (za - zb).abs() > JUMP_STEPS * self.step {
+                        za.max(zb)
+                    } else {
+                        za + (zb - za) * k1 as f64 / (k1 + k2) as f64
+                    }
+                })
             })
             .reduce(f64::max)
     }
@@ -310,7 +317,7 @@ mod tests {
     }
 
     #[test]
-    fn a_short_run_without_returns_across_a_jump_is_lost_a_long_one_a_gap() {
+    fn a_short_run_without_returns_between_returns_is_lost_a_long_one_a_gap() {
         let nan = f64::NAN;
         // returns at 0, 2 and 5 (depths 1, 9, 2: jumps of 8 and 7 steps) with runs of 1
         // and 2 between them, and a run of 2 open towards the border
@@ -322,12 +329,13 @@ mod tests {
             assert_eq!(view.lost_return_depth(4), Some(9.0));
             assert_eq!(view.lost_return_depth(6), None);
         }
-        // three rays without return between two returns are a gap, one between returns
-        // on a continuous surface (3 steps apart) is left to that surface's band
+        // on one surface (depths 1, 4: 3 steps apart), the depth between them
+        let smooth = looking_down(4, 1, vec![1.0, nan, nan, 4.0]);
+        assert_eq!(smooth.lost_return_depth(1), Some(2.0));
+        assert_eq!(smooth.lost_return_depth(2), Some(3.0));
+        // three rays without return between two returns are a gap
         let wide = looking_down(5, 1, vec![1.0, nan, nan, nan, 9.0]);
         assert!((1..4).all(|k| wide.lost_return_depth(k).is_none()));
-        let smooth = looking_down(3, 1, vec![1.0, nan, 4.0]);
-        assert_eq!(smooth.lost_return_depth(1), None);
     }
 
     #[test]
