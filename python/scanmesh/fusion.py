@@ -122,6 +122,7 @@ def merge(
     if not isinstance(refine, bool):
         raise ParameterError(f"refine must be True or False, got {refine!r}")
     spacings = [view_spacing(v.points[:, :2]) for v in checked]
+    ray_spacing = float(np.median(spacings))
     residual = None
     if refine:
         t0 = time.perf_counter()
@@ -134,7 +135,7 @@ def merge(
                 checked,
                 [image.normals for image in own],
                 [image.kept for image in own],
-                reach=REFINE_REACH * float(np.median(spacings)),
+                reach=REFINE_REACH * ray_spacing,
             )
         residual = {"before": before, "after": after}
         if math.isnan(before):
@@ -159,17 +160,17 @@ def merge(
         return lo - margin - 0.5 * size, dims
 
     if voxel is None:
-        size = float(np.median(spacings))
+        size = ray_spacing
         origin, dims = grid_for(size)
         if int(np.prod(dims)) > max_voxels:
             size *= (int(np.prod(dims)) / max_voxels) ** (1 / 3) * 1.01
             origin, dims = grid_for(size)
     else:
         size = _positive(voxel, "voxel")
-        if size < FINE_VOXEL * float(np.median(spacings)):
+        if size < FINE_VOXEL * ray_spacing:
             warnings.warn(
                 f"merge: voxel {voxel:g} is under {FINE_VOXEL:g} of the views' ray spacing"
-                f" {float(np.median(spacings)):g}: a run of rays whose returns were lost (at"
+                f" {ray_spacing:g}: a run of rays whose returns were lost (at"
                 " grazing angles) may carve through the part; a voxel of at least the"
                 " spacing is safe",
                 ScanmeshWarning,

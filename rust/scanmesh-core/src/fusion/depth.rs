@@ -191,23 +191,27 @@ impl DepthView {
     /// return was lost at, as far as the ray proves space empty. Across a depth jump
     /// ([`JUMP_STEPS`]) that is the nearer return's depth (the return was lost on the
     /// jump's side, somewhere between them); on one continuous surface, the two returns'
-    /// depths interpolated at the pixel. The deepest such depth over the row and the
-    /// column; `None` for a return or a wider gap. O(LOST_RUN).
+    /// depths interpolated at the pixel. Of the row's and the column's, the one nearer the
+    /// scanner; `None` for a return or a wider gap. O(LOST_RUN).
     pub fn lost_return_depth(&self, index: usize) -> Option<f64> {
         if !self.is_miss(index) {
             return None;
         }
         let (i, j) = (index % self.width, index / self.width);
-        // the first return from pixel (i, j) in direction (di, dj), within the run's length
-        let return_towards = |di: isize, dj: isize| {
-            (1..=LOST_RUN as isize).find_map(|k| {
+        // the first return from pixel (i, j) in direction (di, dj) and how many steps away,
+        // if within the run's length and inside the image
+        let return_towards = |di: isize, dj: isize| -> Option<(isize, usize)> {
+            for k in 1..=LOST_RUN as isize {
                 let (x, y) = (i as isize + k * di, j as isize + k * dj);
                 if x < 0 || y < 0 || x >= self.width as isize || y >= self.height as isize {
-                    return Some(None);
+                    return None;
                 }
                 let at = y as usize * self.width + x as usize;
-                (!self.is_miss(at)).then_some(Some((k, at)))
-            })?
+                if !self.is_miss(at) {
+                    return Some((k, at));
+                }
+            }
+            None
         };
         [(1, 0), (0, 1)]
             .into_iter()

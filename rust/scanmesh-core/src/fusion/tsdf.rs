@@ -223,7 +223,8 @@ impl Volume {
     /// Marks empty the nodes on this view's rays without a return, from the scanner to the
     /// first node some view measured, or all along the ray when there is none; a ray whose
     /// return was lost (a short run between returns, [`DepthView::lost_return_depth`])
-    /// only in front of the depth it was lost at. Run after every view is integrated. O(rays · nodes along a ray + nodes).
+    /// only in front of the depth it was lost at. Run after every view is integrated.
+    /// O(rays · nodes along a ray + nodes).
     pub fn carve(&mut self, view: &DepthView) {
         let stop = self.ray_stops(view);
         let (nx, ny) = (self.dims[0], self.dims[1]);
