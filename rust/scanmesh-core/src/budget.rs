@@ -252,19 +252,28 @@ where
         .map(|k| block(k).count())
         .collect();
     let mut v = try_filled(what, all.start, counts.iter().sum())?;
-    let mut shares = Vec::with_capacity(counts.len());
-    let mut rest = &mut v[..];
-    for &count in &counts {
-        let (share, tail) = rest.split_at_mut(count);
-        shares.push(share);
-        rest = tail;
-    }
-    shares.into_par_iter().enumerate().for_each(|(k, share)| {
-        for (slot, i) in share.iter_mut().zip(block(k)) {
-            *slot = i;
-        }
-    });
+    shares_mut(&mut v, &counts)
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(k, share)| {
+            for (slot, i) in share.iter_mut().zip(block(k)) {
+                *slot = i;
+            }
+        });
     Ok(v)
+}
+
+/// `buffer` cut into consecutive shares of `counts[k]` items each, for tasks that write
+/// their own part of one buffer in parallel. Panics if the counts exceed its length. O(k).
+pub fn shares_mut<'a, T>(mut buffer: &'a mut [T], counts: &[usize]) -> Vec<&'a mut [T]> {
+    counts
+        .iter()
+        .map(|&count| {
+            let (share, rest) = std::mem::take(&mut buffer).split_at_mut(count);
+            buffer = rest;
+            share
+        })
+        .collect()
 }
 
 /// The value of a `Name:   123 kB` line, in bytes.

@@ -249,7 +249,7 @@ impl UnitSquare {
     /// One point mapped: scaled, and coordinates below 1e-40 flushed to zero. O(1).
     pub(crate) fn map(self, p: [f64; 2]) -> [f64; 2] {
         let flush = |x: f64| {
-            let y = x * self.first * self.second;
+            let y = self.scale(x);
             if y.abs() < 1e-40 {
                 0.0
             } else {

@@ -5,12 +5,14 @@
 //! the distance along the ray `q.z − d` (positive towards the scanner) times the cosine
 //! between ray and surface is the distance to the surface's tangent plane. From the
 //! truncation in front to [`BEHIND_VOXELS`] behind it is averaged (weight: that cosine);
-//! farther in front the node is empty; farther behind, unseen. A ray without a return travelled through empty space
-//! up to the truncation band of the first surface another view measured on its way (where
-//! its return was lost, at a grazing angle, say), or through the whole grid when it met
-//! none: `carve` marks those nodes. (Stopping at the band, not behind the surface: a node
-//! behind a surface may average to a positive distance where views disagree, and a ray
-//! let through there would carve the part's inside.)
+//! farther in front the node is empty; farther behind, unseen. A ray without a return
+//! travelled through empty space up to the truncation band of the first surface another
+//! view measured on its way (where its return was lost, at a grazing angle, say), or
+//! through the whole grid when it met none; in a short run between returns, only up to
+//! where they say it was lost (`DepthView::lost_return_depth`): `carve` marks those
+//! nodes. (Stopping at the band, not behind the surface: a node behind a surface may
+//! average to a positive distance where views disagree, and a ray let through there would
+//! carve the part's inside.)
 //!
 //! A node averaging to a negative distance that a view saw more than the truncation in
 //! front of its surface is empty: it lies behind a thin wedge (an edge seen along the
@@ -341,8 +343,9 @@ impl Volume {
 /// Adds one view's return to a node's state (`sum`, `weight` of distances, `flags`): `d`,
 /// the distance along the view's normal from its surface to the node (positive in
 /// front), and the return's `cos`. More than `trunc` in front is a vote for empty; from
-/// `trunc` in front to `behind` behind, a weighted distance; farther behind, nothing. The one rule of
-/// [`Volume::integrate`] at the nodes and of [`Volume::value_at`] between them. O(1).
+/// `trunc` in front to `behind` behind, a weighted distance; farther behind, nothing. The
+/// one rule of [`Volume::integrate`] at the nodes and of [`Volume::value_at`] between
+/// them. O(1).
 fn add_return(d: f64, cos: f64, [trunc, behind]: [f64; 2], node: (&mut f32, &mut f32, &mut u8)) {
     let (sum, weight, flags) = node;
     if d > trunc {

@@ -13,7 +13,7 @@
 //! along it; notches no ray of the grid passes through are filled where the outline is not
 //! concave (`notches`).
 
-use crate::budget::{try_filled, try_grow, try_indices, try_vec};
+use crate::budget::{shares_mut, try_filled, try_grow, try_indices, try_vec};
 use crate::geometry::UnitSquare;
 use crate::mesh::NONE;
 use crate::triangulate::notches::{area_sign, fill_notches, GridAt, EAR_TURN_DEG};
@@ -475,15 +475,11 @@ pub fn grid_triangulate(
     let mut triangles = try_filled(GRID, [0u32; 3], total_kept)?;
     let mut codes = try_filled(GRID, [0u8; 3], total_kept)?;
     let mut cells = try_filled(GRID, 0u32, total_kept)?;
-    let mut parts = Vec::with_capacity(blocks.len());
-    let mut rest = (&mut triangles[..], &mut codes[..], &mut cells[..]);
-    for &share in &shares {
-        let (t, t_rest) = rest.0.split_at_mut(share);
-        let (c, c_rest) = rest.1.split_at_mut(share);
-        let (e, e_rest) = rest.2.split_at_mut(share);
-        parts.push((t, c, e));
-        rest = (t_rest, c_rest, e_rest);
-    }
+    let parts: Vec<_> = (shares_mut(&mut triangles, &shares).into_iter())
+        .zip(shares_mut(&mut codes, &shares))
+        .zip(shares_mut(&mut cells, &shares))
+        .map(|((t, c), e)| (t, c, e))
+        .collect();
     let flip = sign < 0;
     let mut out = GridTriangles {
         spacing,
