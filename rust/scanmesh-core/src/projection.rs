@@ -147,18 +147,7 @@ fn best_fit_frame(points: &[DVec3], box_fit: &Normalizer) -> Result<Frame> {
     // Work in the unit box: squares of 1e300 overflow, squares of 1e-300 vanish.
     // Mapped as they are summed (no unit-box copy of the points); the sums stay serial,
     // in point order, so the plane does not depend on the thread count.
-    let unit = || points.iter().map(|&p| box_fit.apply(p));
-    let centroid = unit().sum::<DVec3>() / points.len() as f64;
-    let mut cov = [[0.0f64; 3]; 3];
-    for p in unit() {
-        let d = p - centroid;
-        for (i, row) in cov.iter_mut().enumerate() {
-            for (j, c) in row.iter_mut().enumerate() {
-                *c += d[i] * d[j];
-            }
-        }
-    }
-    let (values, vectors) = symmetric_eigen3(cov);
+    let (centroid, values, vectors) = principal_axes(|| points.iter().map(|&p| box_fit.apply(p)));
     // values ascending: values[0] is the normal's, values[2] the longest axis'. A second
     // axis under 1e-7 of the first (1e-14 in variance) is rounding noise: a line.
     if values[1] <= values[2] * 1e-14 {
@@ -177,6 +166,28 @@ fn best_fit_frame(points: &[DVec3], box_fit: &Normalizer) -> Result<Frame> {
         v,
         normal,
     })
+}
+
+/// Centroid and principal axes of the points `points()` yields: the scatter matrix's
+/// eigenvalues ascending (sums of squared distances along each axis) and their unit
+/// vectors. `points` is called twice (centroid, then scatter), so nothing is collected;
+/// the sums run in the points' order. O(n).
+pub(crate) fn principal_axes<I: Iterator<Item = DVec3>>(
+    points: impl Fn() -> I,
+) -> (DVec3, [f64; 3], [DVec3; 3]) {
+    let (sum, count) = points().fold((DVec3::ZERO, 0usize), |(s, n), p| (s + p, n + 1));
+    let centroid = sum / count as f64;
+    let mut scatter = [[0.0f64; 3]; 3];
+    for p in points() {
+        let d = p - centroid;
+        for (i, row) in scatter.iter_mut().enumerate() {
+            for (j, c) in row.iter_mut().enumerate() {
+                *c += d[i] * d[j];
+            }
+        }
+    }
+    let (values, vectors) = symmetric_eigen3(scatter);
+    (centroid, values, vectors)
 }
 
 /// Flips `v` so that its largest-magnitude component is positive.

@@ -20,6 +20,7 @@ use super::depth::DepthView;
 use super::flips::follow_samples;
 use super::samples::SampleIndex;
 use super::tsdf::{Evidence, Volume};
+use super::walls::flatten_unsampled;
 use crate::error::{Error, Result};
 use glam::{DMat3, DVec3};
 use std::collections::HashMap;
@@ -101,7 +102,8 @@ const CELL_FACES: [[usize; 4]; 6] = [
 
 /// The closed mesh of `volume`'s zero set, vertices placed on `samples` (world points) with
 /// their outward unit `normals`; `views` (those integrated and carved, in the order carved)
-/// place the crossings on edges across a jump of the evidence. O(nodes · repair passes +
+/// place the crossings on edges across a jump of the evidence; a vertex with no sample near
+/// is then laid on the plane of its wall ([`flatten_unsampled`]). O(nodes · repair passes +
 /// samples log samples + surface cells · views).
 ///
 /// Errors: `InvalidParameter` when `samples` and `normals` differ in length, or `views` are
@@ -130,6 +132,7 @@ pub fn extract(
     };
     let mut cell_vertex: HashMap<usize, u32> = HashMap::new();
     let mut vertex_cells: Vec<[usize; 3]> = Vec::new();
+    let mut unsampled: Vec<bool> = Vec::new();
     let [nx, ny, nz] = grid.dims;
     let steps = [1, nx, nx * ny];
     for axis in 0..3 {
@@ -161,8 +164,10 @@ pub fn extract(
                     }
                     let ids = quad.map(|c| {
                         *cell_vertex.entry(c).or_insert_with(|| {
-                            out.vertices
-                                .push(grid.place(c, &side, &near, samples, normals, views));
+                            let (at, sampled) =
+                                grid.place(c, &side, &near, samples, normals, views);
+                            out.vertices.push(at);
+                            unsampled.push(!sampled);
                             vertex_cells.push(grid.coords(c));
                             (out.vertices.len() - 1) as u32
                         })
@@ -185,6 +190,7 @@ pub fn extract(
         samples,
         normals,
     );
+    flatten_unsampled(&mut out.vertices, &out.faces, &unsampled);
     Ok(out)
 }
 
@@ -410,7 +416,8 @@ impl<'a> Grid<'a> {
         (sum / found).clamp(-1.0, 2.0)
     }
 
-    /// The vertex of cell `cell` (its lowest node's index).
+    /// The vertex of cell `cell` (its lowest node's index), and whether samples placed it
+    /// (false: the mean of its crossings).
     fn place(
         &self,
         cell: usize,
@@ -419,7 +426,7 @@ impl<'a> Grid<'a> {
         samples: &[DVec3],
         normals: &[DVec3],
         views: &[&DepthView],
-    ) -> DVec3 {
+    ) -> (DVec3, bool) {
         let c = self.corners(cell);
         let f = c.map(|n| self.value(n, side));
         let [i, j, k] = self.coords(cell);
@@ -476,7 +483,7 @@ impl<'a> Grid<'a> {
             count *= 2.0;
         }
         if count == 0.0 {
-            return mass;
+            return (mass, false);
         }
         let reg = REGULARIZE * count;
         let x = (a + DMat3::from_diagonal(DVec3::splat(reg))).inverse() * (rhs + reg * mass);
@@ -484,9 +491,9 @@ impl<'a> Grid<'a> {
             // as far out as the samples used: a surface on a layer of nodes (a CAD face on
             // the grid) wanders between the cells on either side, and a crease's point may
             // lie in the next cell
-            x.clamp(lo - margin, hi + margin)
+            (x.clamp(lo - margin, hi + margin), true)
         } else {
-            mass
+            (mass, true)
         }
     }
 }

@@ -3,10 +3,12 @@
 //! truncated signed distance along its rays is averaged in a voxel grid and the space its
 //! rays crossed is marked empty (`tsdf`), and the zero set is extracted as a closed
 //! 2-manifold with vertices placed on the samples (`extract`) whose edges are then flipped
-//! towards the samples (`flips`).
+//! towards the samples (`flips`), and the vertices no sample placed are laid on the plane
+//! of their wall (`walls`).
 
 pub(crate) mod depth;
 pub(crate) mod extract;
 pub(crate) mod flips;
 pub(crate) mod samples;
 pub(crate) mod tsdf;
+pub(crate) mod walls;
