@@ -20,7 +20,7 @@ use super::depth::DepthView;
 use super::flips::follow_samples;
 use super::samples::SampleIndex;
 use super::tsdf::{Evidence, Volume};
-use super::walls::flatten_unsampled;
+use super::walls::{flatten_unsampled, Placed};
 use crate::error::{Error, Result};
 use glam::{DMat3, DVec3};
 use std::collections::HashMap;
@@ -103,7 +103,8 @@ const CELL_FACES: [[usize; 4]; 6] = [
 /// The closed mesh of `volume`'s zero set, vertices placed on `samples` (world points) with
 /// their outward unit `normals`; `views` (those integrated and carved, in the order carved)
 /// place the crossings on edges across a jump of the evidence; a vertex with no sample near
-/// is then laid on the plane of its wall ([`flatten_unsampled`]). O(nodes · repair passes +
+/// is then laid on the plane of its wall, and a face's last vertex beside such a wall taken
+/// halfway onto it ([`flatten_unsampled`]). O(nodes · repair passes +
 /// samples log samples + surface cells · views).
 ///
 /// Errors: `InvalidParameter` when `samples` and `normals` differ in length, or `views` are
@@ -132,7 +133,7 @@ pub fn extract(
     };
     let mut cell_vertex: HashMap<usize, u32> = HashMap::new();
     let mut vertex_cells: Vec<[usize; 3]> = Vec::new();
-    let mut unsampled: Vec<bool> = Vec::new();
+    let mut placed: Vec<Placed> = Vec::new();
     let [nx, ny, nz] = grid.dims;
     let steps = [1, nx, nx * ny];
     for axis in 0..3 {
@@ -164,10 +165,9 @@ pub fn extract(
                     }
                     let ids = quad.map(|c| {
                         *cell_vertex.entry(c).or_insert_with(|| {
-                            let (at, sampled) =
-                                grid.place(c, &side, &near, samples, normals, views);
+                            let (at, how) = grid.place(c, &side, &near, samples, normals, views);
                             out.vertices.push(at);
-                            unsampled.push(!sampled);
+                            placed.push(how);
                             vertex_cells.push(grid.coords(c));
                             (out.vertices.len() - 1) as u32
                         })
@@ -190,7 +190,7 @@ pub fn extract(
         samples,
         normals,
     );
-    flatten_unsampled(&mut out.vertices, &out.faces, &unsampled);
+    flatten_unsampled(&mut out.vertices, &out.faces, &placed, grid.volume.voxel());
     Ok(out)
 }
 
@@ -416,8 +416,7 @@ impl<'a> Grid<'a> {
         (sum / found).clamp(-1.0, 2.0)
     }
 
-    /// The vertex of cell `cell` (its lowest node's index), and whether samples placed it
-    /// (false: the mean of its crossings).
+    /// The vertex of cell `cell` (its lowest node's index), and how samples placed it.
     fn place(
         &self,
         cell: usize,
@@ -426,7 +425,7 @@ impl<'a> Grid<'a> {
         samples: &[DVec3],
         normals: &[DVec3],
         views: &[&DepthView],
-    ) -> (DVec3, bool) {
+    ) -> (DVec3, Placed) {
         let c = self.corners(cell);
         let f = c.map(|n| self.value(n, side));
         let [i, j, k] = self.coords(cell);
@@ -475,15 +474,21 @@ impl<'a> Grid<'a> {
             normal_sum += n * w;
             point_sum += p * w;
         }
-        if count > 0.0 && normal_sum.length() > SMOOTH_RESULTANT * count {
+        let how = if count == 0.0 {
+            Placed::Unsampled
+        } else if normal_sum.length() > SMOOTH_RESULTANT * count {
+            Placed::Smooth(normal_sum.normalize())
+        } else {
+            Placed::Crease
+        };
+        if let Placed::Smooth(m) = how {
             // smooth here: the centroid's plane cancels the tangent planes' curvature bias
-            let m = normal_sum.normalize();
             a += DMat3::from_cols(m * m.x, m * m.y, m * m.z) * count;
             rhs += m * m.dot(point_sum);
             count *= 2.0;
         }
         if count == 0.0 {
-            return (mass, false);
+            return (mass, how);
         }
         let reg = REGULARIZE * count;
         let x = (a + DMat3::from_diagonal(DVec3::splat(reg))).inverse() * (rhs + reg * mass);
@@ -491,9 +496,9 @@ impl<'a> Grid<'a> {
             // as far out as the samples used: a surface on a layer of nodes (a CAD face on
             // the grid) wanders between the cells on either side, and a crease's point may
             // lie in the next cell
-            (x.clamp(lo - margin, hi + margin), true)
+            (x.clamp(lo - margin, hi + margin), how)
         } else {
-            (mass, true)
+            (mass, how)
         }
     }
 }
