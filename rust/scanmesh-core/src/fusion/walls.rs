@@ -107,35 +107,55 @@ impl Rings {
     fn of(&self, v: usize) -> &[u32] {
         &self.neighbours[self.start[v]..self.start[v + 1]]
     }
+}
 
-    /// The vertices within `rings` edges of `v` (not `v`) that `keep`, into `out`.
-    /// `seen` is scratch, `usize::MAX` or another vertex's mark.
+/// Scratch for breadth-first walks over [`Rings`], allocated once per call of
+/// [`flatten_unsampled`] rather than once per vertex.
+struct Walk {
+    /// The centre of the walk that last reached each vertex (`usize::MAX`: none).
+    seen: Vec<usize>,
+    ring: Vec<usize>,
+    next: Vec<usize>,
+}
+
+impl Walk {
+    fn new(n: usize) -> Self {
+        Walk {
+            seen: vec![usize::MAX; n],
+            ring: Vec::new(),
+            next: Vec::new(),
+        }
+    }
+
+    /// The vertices within `depth` edges of `v` (not `v`) that `keep`, into `out`.
+    /// O(vertices within the rings).
     fn around(
-        &self,
+        &mut self,
+        rings: &Rings,
         v: usize,
-        rings: usize,
-        seen: &mut [usize],
+        depth: usize,
         out: &mut Vec<usize>,
         keep: impl Fn(usize) -> bool,
     ) {
         out.clear();
-        seen[v] = v;
-        let mut ring = vec![v];
-        for _ in 0..rings {
-            let mut next = Vec::new();
-            for &r in &ring {
-                for &w in self.of(r) {
+        self.seen[v] = v;
+        self.ring.clear();
+        self.ring.push(v);
+        for _ in 0..depth {
+            self.next.clear();
+            for &r in &self.ring {
+                for &w in rings.of(r) {
                     let w = w as usize;
-                    if seen[w] != v {
-                        seen[w] = v;
-                        next.push(w);
+                    if self.seen[w] != v {
+                        self.seen[w] = v;
+                        self.next.push(w);
                         if keep(w) {
                             out.push(w);
                         }
                     }
                 }
             }
-            ring = next;
+            std::mem::swap(&mut self.ring, &mut self.next);
         }
     }
 }
@@ -174,14 +194,14 @@ pub(super) fn flatten_unsampled(
     }
     let n = vertices.len();
     let rings = Rings::new(n, faces);
-    let mut seen = vec![usize::MAX; n];
+    let mut walk = Walk::new(n);
     let mut wall = Vec::new();
     let mut moved = 0;
 
     let normal = vertex_normals(vertices, faces);
     let before = vertices.to_vec();
     for v in (0..n).filter(|&v| unsampled(v)) {
-        rings.around(v, RINGS, &mut seen, &mut wall, |w| {
+        walk.around(&rings, v, RINGS, &mut wall, |w| {
             unsampled(w) && normal[w].dot(normal[v]) > SAME_WALL
         });
         wall.push(v);
@@ -192,8 +212,8 @@ pub(super) fn flatten_unsampled(
     }
 
     let normal = vertex_normals(vertices, faces);
+    // a walk's marks are its centre: the rims (sampled) were no centre of the first pass
     let flat = vertices.to_vec();
-    seen.fill(usize::MAX);
     for v in 0..n {
         let Placed::Smooth(m) = placed[v] else {
             continue;
@@ -202,7 +222,7 @@ pub(super) fn flatten_unsampled(
             continue;
         }
         // the unsampled vertices that face away from the samples: the wall's
-        rings.around(v, RIM_RINGS, &mut seen, &mut wall, |w| {
+        walk.around(&rings, v, RIM_RINGS, &mut wall, |w| {
             unsampled(w) && normal[w].dot(m).abs() < RIM_ANGLE
         });
         let Some((centroid, axis)) = trimmed_plane(&flat, &mut wall) else {
