@@ -16,8 +16,8 @@ from scanmesh import shape
 from scanmesh.cli import main
 from scanmesh.creases import chain, crease_edges
 from scanmesh.evaluate.digitizer import axis_views
-from scanmesh.formats.conf import quaternion_matrix
-from scanmesh.views import toward_frame
+from scanmesh.fusion.conf import quaternion_matrix
+from scanmesh.fusion.views import toward_frame
 
 
 def six_views(mesh: trimesh.Trimesh, spacing: float, grazing: float = 80.0, seed: int = 1):

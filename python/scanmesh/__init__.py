@@ -41,6 +41,7 @@ from scanmesh.errors import (
 from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
 from scanmesh.formats import ScanPoints, read
 from scanmesh.fusion import merge
+from scanmesh.fusion.views import View, read_conf
 from scanmesh.measures import Quality, quality
 from scanmesh.methods import METHODS
 from scanmesh.reconstruction import reconstruct
@@ -52,7 +53,6 @@ from scanmesh.stages.brute_force import brute_force_surface
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.optimal import optimal_surface
 from scanmesh.surface import Surface
-from scanmesh.views import View, read_conf
 
 #: The one version, written in Cargo.toml ([workspace.package]) and read back from the
 #: installed package metadata.

@@ -15,9 +15,9 @@ import numpy as np
 from scanmesh import shape
 from scanmesh.cli._common import _check_mesh_ending, _check_outputs, _Console, _dumps
 from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
-from scanmesh.formats.conf import conf_poses
 from scanmesh.fusion import merge
-from scanmesh.views import read_conf
+from scanmesh.fusion.conf import conf_poses
+from scanmesh.fusion.views import read_conf
 
 #: Library keywords in messages and the flags that set them.
 _FLAGS = {

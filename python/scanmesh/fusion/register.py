@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from scanmesh.views import View
+from scanmesh.fusion.views import View
 
 #: Pairs whose normals' cosine is below this are not the same surface seen twice.
 NORMAL_AGREEMENT = 0.7

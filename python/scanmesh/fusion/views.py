@@ -21,8 +21,8 @@ import numpy as np
 
 from scanmesh.errors import ParameterError
 from scanmesh.formats import read
-from scanmesh.formats.conf import conf_poses
 from scanmesh.formats.points import ScanPoints
+from scanmesh.fusion.conf import conf_poses
 from scanmesh.scan.axes import AxisSpec, parse_axis, scan_frame
 
 #: Largest entry of ``RᵀR − I`` a pose's rotation may have.
@@ -147,7 +147,7 @@ def as_views(
 
 def read_conf(path: str | os.PathLike, *, inverse_rotation: bool = False) -> list[View]:
     """The range scans a Stanford ``.conf`` file lists, read and posed (see
-    :mod:`scanmesh.formats.conf` for the format and the rotation convention), ready for
+    :mod:`scanmesh.fusion.conf` for the format and the rotation convention), ready for
     :func:`scanmesh.merge`. Each scan's scanner sits towards its +z."""
     return [
         _from_array(read(scan).points, pose, np.eye(3), str(scan))

@@ -1,6 +1,6 @@
 """Several aligned range views fused into one closed mesh that says what it invented.
 
-:func:`merge` builds a depth image per view (:mod:`scanmesh.scan.depth`), averages their
+:func:`merge` builds a depth image per view (:mod:`scanmesh.fusion.depth`), averages their
 truncated signed distances in a voxel grid and carves the space their rays crossed
 (Curless & Levoy 1996; native, ``fusion/tsdf.rs``), then extracts the zero set as a
 closed 2-manifold whose vertices sit on the samples' tangent planes
@@ -30,11 +30,11 @@ from scanmesh import _core
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import ParameterError, ScanmeshWarning
-from scanmesh.register import refine_poses
+from scanmesh.fusion.depth import depth_image, view_spacing
+from scanmesh.fusion.register import refine_poses
+from scanmesh.fusion.views import as_views
 from scanmesh.scan.axes import AxisSpec
-from scanmesh.scan.depth import depth_image, view_spacing
 from scanmesh.surface import Surface
-from scanmesh.views import as_views
 
 #: Grid nodes at most, unless ``max_voxels`` says otherwise (9 bytes each).
 MAX_VOXELS = 64_000_000
@@ -99,7 +99,7 @@ def merge(
         Largest grid accepted (nodes): a ``voxel`` that needs more is refused.
     refine : bool
         First refine the poses by point-to-plane ICP between overlapping views
-        (:func:`scanmesh.register.refine_poses`; the first view fixes the world); the
+        (:func:`scanmesh.fusion.register.refine_poses`; the first view fixes the world); the
         residual before and after is ``Surface.options["refine_residual"]``.
     progress : bool or callable
         As in :func:`scanmesh.reconstruct`: stages "refine", "integrate", "carve" (views)
