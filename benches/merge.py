@@ -7,6 +7,7 @@
     python benches/merge.py --tilted                     # 14 views: 8 more at 45°
     python benches/merge.py --voxel 0.7 --peers          # merge alone, voxel 0.7 s
     nice python benches/merge.py --memory 10 1000000     # peak memory, 10 views of 1M points
+    nice python benches/merge.py --real                  # the real scans (benches/multiview.py)
 
 Each CAD part in ``../shared/data/cad`` is scanned by the virtual range scanner
 (:func:`scanmesh.simulate_range_scan`) from the six axis directions, at a spacing s of its
@@ -49,7 +50,7 @@ import numpy as np
 import open3d as o3d
 import pymeshlab
 import trimesh
-from quality import CAD
+from quality import CAD, SHARED
 from scipy.spatial import cKDTree
 
 import scanmesh
@@ -395,7 +396,25 @@ def main() -> None:
         metavar=("VIEWS", "POINTS"),
         help="instead: peak memory of merge on VIEWS scans of a sphere, POINTS each",
     )
+    ap.add_argument("--real", action="store_true", help="instead: the real aligned scans")
+    ap.add_argument("--multiview", type=Path, default=SHARED / "multiview", help="their folder")
+    ap.add_argument("--sets", nargs="*", help="subset of the real sets")
+    ap.add_argument("--methods", nargs="*", help="subset of the methods on the real sets")
+    ap.add_argument("--voxel-world", type=float, help="merge's voxel on the real sets (metres)")
+    ap.add_argument("--pictures", type=Path, help="write the real sets' pictures here")
     args = ap.parse_args()
+    if args.real:
+        import multiview
+
+        rows = []
+        for name in args.sets or list(multiview.SETS):
+            rows += multiview.run_set(
+                args.multiview, name, args.methods, args.voxel_world, args.pictures
+            )
+        if args.json:
+            args.json.write_text("".join(json.dumps(r) + "\n" for r in rows))
+        print(multiview.table(rows))
+        return
     if args.memory:
         print(json.dumps(memory_run(*args.memory)))
         return

@@ -151,6 +151,7 @@ class DepthView:
         step: float,
         depth: npt.NDArray[np.float64],
         cos: npt.NDArray[np.float64],
+        weight: npt.NDArray[np.float64] | None = None,
     ) -> DepthView: ...
 
 @final

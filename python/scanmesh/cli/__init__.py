@@ -263,9 +263,10 @@ def build_parser() -> argparse.ArgumentParser:
         " gives the residual before and after",
     )
     p.add_argument(
-        "--inverse-rotation",
+        "--forward-rotation",
         action="store_true",
-        help="read a .conf file's quaternions as the inverse rotation (world = R(q)^T p + t)",
+        help="read a .conf file's quaternions as world = R(q) p + t (default: R(q)^T p + t,"
+        " which aligns the Stanford scans)",
     )
     p.set_defaults(func=cmd_merge, _parser=p)
 
