@@ -69,8 +69,8 @@ def _numeric(m: Any) -> bool:
 
 
 def _pieces_text(parts: list[Piece], listed: int = 5) -> str:
-    """``1 piece: closed, genus 0`` or ``3 pieces: closed, genus 2, 0; not closed, 2
-    holes``: the genus of each closed piece (the first ``listed``), the holes of the rest."""
+    """``1 piece (1 closed, genus 0)`` or ``3 pieces (2 closed, genus 2, 0; 1 not closed, 2
+    holes)``: the genus of each closed piece (the first ``listed``), the holes of the rest."""
     closed = [p for p in parts if p.closed]
     open_ = [p for p in parts if not p.closed]
     words = []
