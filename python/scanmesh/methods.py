@@ -16,7 +16,7 @@ from scanmesh._checks import Option, check_options
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.scan.planar import PlanarScan
-from scanmesh.stages import anneal, choice, grid, lop, optimal, strips
+from scanmesh.stages import anneal, choice, grid, lop, optimal, strips, strips_anneal
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.options import MAX_EDGE_OPTION
 from scanmesh.surface import Surface
@@ -182,6 +182,10 @@ def _run_anneal(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surfa
     return anneal.anneal_surface(start, seed=kw.seed, progress=kw.progress, **rest)
 
 
+def _run_strips_anneal(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
+    return strips_anneal.strips_anneal_surface(scan, seed=kw.seed, progress=kw.progress, **params)
+
+
 def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
     """The candidate a holdout on a window of the scan prefers (``stages.choice``), built on
     all points with the call's keywords; ``options["method_choice"]`` says what each
@@ -261,12 +265,19 @@ TABLE: dict[str, Method] = {
             uses=_anneal_uses,
         ),
         Method(
+            "strips-anneal",
+            _run_strips_anneal,
+            frozenset({"lines", "seed"}),
+            strips_anneal.OPTIONS,
+            "the strips' steps kept, every other edge annealed on tac",
+        ),
+        Method(
             "auto",
             _run_auto,
             frozenset({"lines", "max_edge", "seed"}),
             (),
-            "the default: the method a holdout on a window of the scan prefers (anneal, lop,"
-            " delaunay, shortest-path)",
+            "the default: the method a holdout away from steps prefers (strips-anneal, anneal,"
+            " lop, delaunay)",
         ),
         Method(
             "optimal",

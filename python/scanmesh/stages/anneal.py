@@ -297,6 +297,7 @@ def anneal_surface(
     *,
     seed: int | None = None,
     progress: Progress = False,
+    fixed: np.ndarray | None = None,
     **schedule: Any,
 ) -> Surface:
     """Anneal ``initial``'s triangulation in its projection plane, minimizing sum tac^p.
@@ -316,6 +317,10 @@ def anneal_surface(
         ``seconds_left=`` (see :func:`seconds_left`; None while unknown) if it takes that
         keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
+    fixed : (K, 2) int, optional
+        Edges of ``initial`` (pairs of point indices) that no flip may remove: the walk, the
+        descent and the polish keep them (``stages.strips_anneal`` keeps the strips' steps
+        so). Not with ``tiles`` > 1.
     **schedule
         ``sweeps`` (automatic: a budget of 24 proposals per point, at least 2 million in
         all, shared by the chains, between 8 and 1000 sweeps; ``AnnealParams.auto_sweeps``),
@@ -396,6 +401,7 @@ def anneal_surface(
                 local[start.faces],
                 _core.AnnealParams(seed=seed_value, **params),
                 curtain_sight(scan),
+                None if fixed is None else local[np.asarray(fixed, dtype=np.int64)],
             ),
         )
     total = runner.chains * params["sweeps"]

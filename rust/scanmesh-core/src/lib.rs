@@ -67,6 +67,7 @@ pub use mesh::NONE;
 pub use mesh::{prev, HalfEdgeMesh};
 pub use optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord, CURTAIN_ANGLE_DEG};
 pub use optimize::ensemble::{Ensemble, EnsembleSummary};
+pub use optimize::fixed::FixedEdges;
 pub use optimize::lop::{curtain_facing, run_lop, tac_lop, LopCriterion, TacOrder};
 pub use optimize::tac_state::{Detail, FlipMove, TacState};
 pub use optimize::tiles::TiledAnnealer;
