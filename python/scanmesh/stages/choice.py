@@ -7,16 +7,19 @@ a window of at most ``WINDOW`` points (whole scan lines around the middle one), 
 tenth of the points is withheld, every candidate is built on the rest, and each withheld
 point's distance to each mesh along the projection normal is measured (the measure of
 :func:`scanmesh.evaluate.holdout.holdout_error`), on the points that every candidate's mesh
-covers. Disjoint tenths are withheld in turn until at least ``MEASURED`` points are measured
-(at most ten: every point once). The lowest RMS wins (on exact ties the earlier candidate)
-among the candidates whose meshes have at most ``SLIVERS`` slivers.
+covers and that lie on no step: a withheld point whose holding face is tilted more than
+``STEP_TILT`` from the plane in any candidate's mesh is left out, since a point beside a
+wall is exactly where the strips must bridge and the holdout would rank them last there
+(the pocket, the rod along its thickness). Disjoint tenths are withheld in turn until at
+least ``MEASURED`` points are measured (at most ten: every point once). The lowest RMS
+wins among the candidates whose meshes have at most ``SLIVERS`` slivers, except that the
+first candidate stays unless the winner is more than ``PREFER`` lower.
 The winner is then built on all points (``methods``: on a gridded scan the grid
 triangulation where Delaunay wins, since the parts carry no grid). On a gridded scan the
 strips are no candidate (``GRID_CANDIDATES``): the default stays inside the grid's domain.
 
-The judge sees what a holdout sees: on real scans it agrees with the panel's holdout; on
-the stepped pocket it ranks the strips last while they are closest to the part (a withheld
-point beside a step is where strips bridge it), so there annealing stays.
+The judge sees what a holdout sees away from steps: on real scans it agrees with the
+panel's holdout; measurements in docs/benchmarks/panel.md.
 """
 
 from __future__ import annotations
@@ -37,10 +40,12 @@ from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.surface import Surface
 
-#: Candidates, in order of preference (the earlier wins an exact tie). Look-ahead is left
-#: out: it never beat shortest-path by more than 0.1 % on the panel, and its defect on the
-#: fandisk (40 x the height error) does not show in a holdout.
-CANDIDATES: tuple[str, ...] = ("anneal", "lop", "delaunay", "shortest-path")
+#: Candidates, in order of preference (the earlier wins an exact tie). The strips enter as
+#: ``strips-anneal`` (the strips annealed where tac rises above the noise), at least as
+#: close to the part as the plain strips on every panel scan; look-ahead is left out: it
+#: never beat shortest-path by more than 0.1 % on the panel, and its defect on the fandisk
+#: (40 x the height error) does not show in a holdout.
+CANDIDATES: tuple[str, ...] = ("strips-anneal", "anneal", "lop", "delaunay")
 
 #: Candidates on a gridded scan: those that stay inside the grid's domain (the grid, for
 #: which Delaunay stands in on the judge's parts, and LOP and annealing started from it).
@@ -71,10 +76,25 @@ OUTSIDE: float = 0.10
 #: scan has 2,205 points, says nothing of which method wins there.
 MIN_POINTS: int = 1_000
 
+#: The first candidate is kept unless another measures more than this share lower: on the
+#: pocket at s/10 the strips annealed and Delaunay differ by 0.05 % in the holdout while the
+#: former is 8 % closer to the part (the noise, not the mesh, fills the holdout there).
+PREFER: float = 0.01
+
+#: A withheld point whose holding face in any candidate's mesh is tilted more than this
+#: from the projection plane (degrees) lies beside a step and is not judged.
+STEP_TILT: float = 45.0
+
+#: The method built when nothing was judged (a window under ``MIN_POINTS``): annealing,
+#: which needs no scan lines (the strips on a few points in no scan order would follow
+#: lines detected from noise).
+FALLBACK: str = "anneal"
+
 #: What the holdout figures measure, for reports.
 MEASURE = (
     "RMS distance along the projection normal from withheld window points to each"
-    " candidate's mesh of the other window points, on the points every mesh covers"
+    " candidate's mesh of the other window points, on the points every mesh covers where"
+    f" no mesh's face is tilted over {STEP_TILT:g} degrees"
 )
 
 
@@ -147,14 +167,21 @@ def folds(n: int, seed: int, measured: int = MEASURED) -> list[np.ndarray]:
 
 def distances(
     points: np.ndarray, kept: np.ndarray, out: np.ndarray, surface: Surface
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """(len(out),) float64 distance along ``surface``'s projection normal from each withheld
-    point ``points[out]`` to ``surface`` (built on ``points[kept]``); nan outside its
-    outline or in its holes. ``points`` (W, 3) float64. O((F + len(out)) log F)."""
+    point ``points[out]`` to ``surface`` (built on ``points[kept]``), nan outside its
+    outline or in its holes; and (len(out),) bool: the face holding the point is tilted
+    more than ``STEP_TILT`` from the plane (a step). ``points`` (W, 3) float64.
+    O((F + len(out)) log F)."""
     frame = surface.frame
     axes = np.column_stack([frame.u, frame.v])
     tri = surface.vertices[surface.faces]  # (F, 3, 3): the points[kept] it was built on
-    return normal_distances(points[out], tri, axes, frame.normal)[0]
+    got, face = normal_distances(points[out], tri, axes, frame.normal)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    tilt = np.arctan2(np.linalg.norm(np.cross(n, frame.normal), axis=1), np.abs(n @ frame.normal))
+    steep = np.zeros(len(got), dtype=bool)
+    steep[face >= 0] = tilt[face[face >= 0]] > math.radians(STEP_TILT)
+    return got, steep
 
 
 def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
@@ -183,12 +210,14 @@ def choose(
     win = window(lines)
     parts = folds(len(win), seed, MEASURED) if len(win) >= MIN_POINTS else []
     dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
+    steps: list[np.ndarray] = []  # per tenth: withheld points on a step in some mesh
     slivers = dict.fromkeys(candidates, 0.0)
     seconds = dict.fromkeys(candidates, 0.0)
     with Stage(progress, "choose", len(parts) * len(candidates)) as stage:
         for out in parts:
             kept = np.setdiff1d(np.arange(len(win)), out)
             part = _part(scan, lines, win[kept])
+            steps.append(np.zeros(len(out), dtype=bool))
             for name in candidates:
                 t0 = time.perf_counter()
                 try:
@@ -199,7 +228,9 @@ def choose(
                     dist[name].append(np.full(len(out), np.nan))
                     slivers[name] = math.inf
                 else:
-                    dist[name].append(distances(scan.points[win], kept, out, surface))
+                    got, steep = distances(scan.points[win], kept, out, surface)
+                    dist[name].append(got)
+                    steps[-1] |= steep
                     slivers[name] += surface.quality.sliver_fraction / len(parts)
                 seconds[name] += time.perf_counter() - t0
                 stage.update(stage.done + 1)
@@ -209,6 +240,9 @@ def choose(
     # a candidate leaving many more points outside its outline than the fewest is not judged
     fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
     covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
+    flat = ~np.concatenate(steps) if steps else np.ones(0, dtype=bool)
+    if (covered & flat).any():  # a scan that is all steps is judged everywhere
+        covered &= flat
     holdout = {
         name: float(np.sqrt(np.mean(d[covered] ** 2)))
         if name in fair and covered.any()
@@ -217,7 +251,11 @@ def choose(
     }
     measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
     few = {k: v for k, v in measured.items() if slivers[k] <= SLIVERS} or measured
-    chosen = min(few, key=few.__getitem__) if few else candidates[0]
+    fallback = FALLBACK if FALLBACK in candidates else candidates[0]
+    chosen = min(few, key=few.__getitem__) if few else fallback
+    first = candidates[0]
+    if chosen != first and first in few and few[first] <= few[chosen] * (1.0 + PREFER):
+        chosen = first
     return MethodChoice(
         chosen=chosen,
         holdout=holdout,
