@@ -8,7 +8,8 @@ tenth of the points is withheld, every candidate is built on the rest, and each 
 point's distance to each mesh along the projection normal is measured (the measure of
 :func:`scanmesh.evaluate.holdout.holdout_error`), on the points that every candidate's mesh
 covers and that lie on no step: a withheld point whose holding face is tilted more than
-``STEP_TILT`` from the plane in any candidate's mesh is left out, since a point beside a
+``STEP_TILT`` from the plane in any candidate's mesh is left out (unless more than
+``STEP_SHARE`` of them are: a steep surface, not a step), since a point beside a
 wall is exactly where the strips must bridge and the holdout would rank them last there
 (the pocket, the rod along its thickness). Disjoint tenths are withheld in turn until at
 least ``MEASURED`` points are measured (at most ten: every point once). The lowest RMS
@@ -84,6 +85,11 @@ PREFER: float = 0.01
 #: A withheld point whose holding face in any candidate's mesh is tilted more than this
 #: from the projection plane (degrees) lies beside a step and is not judged.
 STEP_TILT: float = 45.0
+
+#: Steps are lines in the plane, a small share of the points: where more of the covered
+#: withheld points than this share lie on steep faces, the surface is steep (fran_cut, a
+#: cylindrical scan seen flat: 54 %), not stepped, and every covered point is judged.
+STEP_SHARE: float = 0.25
 
 #: The method built when nothing was judged (a window under ``MIN_POINTS``): annealing,
 #: which needs no scan lines (the strips on a few points in no scan order would follow
@@ -241,7 +247,7 @@ def choose(
     fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
     covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
     flat = ~np.concatenate(steps) if steps else np.ones(0, dtype=bool)
-    if (covered & flat).any():  # a scan that is all steps is judged everywhere
+    if covered.any() and (covered & ~flat).sum() <= STEP_SHARE * covered.sum():
         covered &= flat
     holdout = {
         name: float(np.sqrt(np.mean(d[covered] ** 2)))
