@@ -223,3 +223,19 @@ def test_the_test_command_installs_system_packages_only_on_ci_or_when_asked(tmp_
         assert code == 0 and any(c.startswith("apt-get install") for c in calls), calls
     code, calls = _ci_run(tmp_path, "--bogus")
     assert code == 2 and calls == []
+
+
+def test_compare_truth_is_a_stage_a_log_shows(tmp_path, monkeypatch, capsys):
+    """The height and domain error against --truth took seconds per method with nothing in a
+    log; it is a stage like the others (its end said once it was reported)."""
+    import scanmesh._progress as progress_module
+
+    cad = DATA / "cad" / "conrod_slevin48_onshape.stl"
+    points, lines = scanmesh.simulate_scan(cad, n_points=3000)
+    np.savetxt(tmp_path / "scan.xyz", np.column_stack([points, lines]))
+    monkeypatch.setattr(progress_module, "LOG_INTERVAL_SECONDS", 0.0)
+    args = ["compare", str(tmp_path / "scan.xyz"), "--truth", str(cad), "--methods", "delaunay"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"^scanmesh: truth: 100,000 samples in one native call", err, re.M), err
+    assert re.search(r"^scanmesh: truth: 100,000 samples done in .* samples/s$", err, re.M), err

@@ -49,6 +49,7 @@ STAGES: dict[str, str] = {
     "carve": "views",
     "extract": "nodes",
     "grid": "cells",
+    "truth": "samples",
 }
 
 #: A bar appears only for a stage still running after this many seconds (short steps stay
