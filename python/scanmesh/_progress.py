@@ -10,9 +10,10 @@ decreases and the last call has ``done == total``, except for annealing stopped 
 (``time_limit``, ``patience``), whose last call has the sweeps that ran; ``value`` is the
 energy for annealing and None elsewhere. Annealing also passes ``seconds_left=`` (its
 estimated time left: the sweeps still planned at the rate so far, at most what
-``time_limit`` leaves) to a callable that accepts that keyword (or ``**kwargs``). A stage
-that is one native call (which counts nothing until it returns) passes ``blocking=True`` to
-a callable that accepts that keyword, so that a log can say so instead of "0 %".
+``time_limit`` leaves) to a callable that accepts that keyword (or ``**kwargs``). The
+command's log (:class:`LogProgress`) is also told which stages are one native call
+(``blocking=True``: they count nothing until they return), so that it says so instead of
+"0 %"; other callables are called as above.
 """
 
 from __future__ import annotations
@@ -106,7 +107,7 @@ class Stage:
                 threading.Thread(target=self._tick, daemon=True).start()
         elif takes_stage(progress):
             self._call = progress  # type: ignore[assignment]
-            if blocking and accepts(progress, "blocking"):
+            if blocking and isinstance(progress, LogProgress):
                 self._extra = {"blocking": True}
         self.update(0)
 
