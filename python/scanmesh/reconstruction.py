@@ -143,7 +143,7 @@ def reconstruct(
         ``measures.CURTAIN_WARN_FRACTION`` (0.5 %) of the area; ``options["curtains"]``
         always gives their ``count``, ``area``, ``fraction`` and the ``sight`` used.
     SliversWarning
-        More than ``scan.slivers.SLIVER_WARN_FRACTION`` (half) of the triangles are slivers
+        More than ``scan.slivers.SLIVER_WARN_FRACTION`` (75 %) of the triangles are slivers
         (smallest angle below ``measures.SLIVER_ANGLE_DEG``, 5 degrees): the columns were
         probably read in the wrong order, or the plane sees the points in far-apart rows;
         the message names the likely cause and what to try. Not said where the next is
@@ -182,8 +182,8 @@ def reconstruct(
     elif slivers > SLIVER_WARN_FRACTION:  # not the plane, then: most likely the columns
         warnings.warn(
             f"{100 * slivers:.0f} % of the triangles are slivers (smallest angle below"
-            f" {SLIVER_ANGLE_DEG:g} deg), which no scanned surface gives: "
-            + columns_advice(scan.points, scan.plane),
+            f" {SLIVER_ANGLE_DEG:g} deg): unless the scan lines truly lie that far apart"
+            " compared to the points along them, " + columns_advice(scan.points, scan.plane),
             SliversWarning,
             stacklevel=2,
         )

@@ -15,8 +15,9 @@ from scanmesh import _core
 
 #: ``reconstruct`` warns (``SliversWarning``) when more than this share of the faces are
 #: slivers (smallest angle below ``measures.SLIVER_ANGLE_DEG``). The real scans of the tests
-#: stay under 7 % with every method (LOP on the Autzen ground: 6.9 %).
-SLIVER_WARN_FRACTION: float = 0.5
+#: stay under 7 % with every method (LOP on the Autzen ground: 6.9 %), random points with
+#: near-duplicates come to 57 %, the demo rod read with its columns swapped to 100 %.
+SLIVER_WARN_FRACTION: float = 0.75
 
 #: Faces measured, at most: every k-th face when there are more (a share needs no more).
 SAMPLE: int = 100_000

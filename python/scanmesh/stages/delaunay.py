@@ -146,5 +146,5 @@ def _why_nothing_kept(scan: PlanarScan, limit: float) -> str:
         " it (give a larger max_edge=, or another plane=)"
     )
     if line_id_axis(scan.points):  # more likely than sparse points: say it
-        text += "; or " + columns_advice(scan.points, scan.plane)
+        text += "; " + columns_advice(scan.points, scan.plane)
     return text
