@@ -225,6 +225,7 @@ def test_the_test_command_installs_system_packages_only_on_ci_or_when_asked(tmp_
     assert code == 2 and calls == []
 
 
+@pytest.mark.slow
 def test_compare_truth_is_a_stage_a_log_shows(tmp_path, monkeypatch, capsys):
     """The height and domain error against --truth took seconds per method with nothing in a
     log; it is a stage like the others (its end said once it was reported)."""
@@ -239,3 +240,13 @@ def test_compare_truth_is_a_stage_a_log_shows(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert re.search(r"^scanmesh: truth: 100,000 samples in one native call", err, re.M), err
     assert re.search(r"^scanmesh: truth: 100,000 samples done in .* samples/s$", err, re.M), err
+
+
+def test_the_quick_run_has_its_marker_registered_and_documented():
+    """``-m "not slow"`` is the contributor's quick run: the marker is declared (an unknown
+    one is an error) and CONTRIBUTING.md says how to run it."""
+    root = Path(__file__).resolve().parents[1]
+    config = (root / "pyproject.toml").read_text()
+    assert re.search(r'^\s*"slow: ', config, re.M) and "--strict-markers" in config
+    guide = (root / "CONTRIBUTING.md").read_text()
+    assert 'python -m pytest -q -m "not slow"' in guide

@@ -357,6 +357,7 @@ def test_optimum_is_never_worse_than_delaunay():
         assert exact.quality.tac_1 <= d.quality.tac_1 * (1 + 4 * MIP_REL_GAP)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("p", [1, math.inf])
 def test_optimum_is_never_worse_than_lop_or_annealing(p):
     worse = {"lop": 0, "anneal": 0}
@@ -438,6 +439,7 @@ def _helpers() -> list[int]:
     return scope["helpers"](MARK)
 
 
+@pytest.mark.slow
 @needs_proc
 def test_a_killable_call_returns_raises_and_is_killed_at_its_deadline():
     assert call_killable(math.hypot, (3.0, 4.0)) == 5.0
@@ -469,6 +471,7 @@ def _unpicklable():
     return lambda: None
 
 
+@pytest.mark.slow
 @needs_proc
 def test_ctrl_c_ends_a_killable_call_and_its_helper():
     script = (
@@ -511,6 +514,7 @@ def test_optimal_runs_in_a_plain_script_without_a_main_guard(tmp_path):
     assert done.stdout.split()[:2] == ["RAN", "True"], done.stdout  # once, and proven
 
 
+@pytest.mark.slow
 def test_optimal_keeps_its_time_limit_when_highs_overruns_it(tmp_path):
     """A stand-in for scipy's milp that sleeps a minute, as HiGHS's presolve overran
     time_limit=8 by 18 s: the call ends soon after its limit with the best triangulation
