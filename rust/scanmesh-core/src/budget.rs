@@ -8,6 +8,7 @@
 //! multiplies are made with `try_reserve`, so both end in an [`Error::TooCostly`] that names
 //! the option.
 
+use crate::error::describe_bytes;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::TryReserveError;
@@ -48,20 +49,6 @@ pub fn describe_proposals(count: u64, what: &str) -> String {
         format!("{:.0} hours", seconds / 3600.0)
     };
     format!("{count:.3e} {what} (about {time} on one core)")
-}
-
-/// `bytes` for messages: GiB, MiB or bytes. O(1).
-pub fn describe_bytes(bytes: u64) -> String {
-    const MIB: f64 = (1u64 << 20) as f64;
-    const GIB: f64 = (1u64 << 30) as f64;
-    let b = bytes as f64;
-    if b >= GIB {
-        format!("{:.1} GiB", b / GIB)
-    } else if b >= MIB {
-        format!("{:.1} MiB", b / MIB)
-    } else {
-        format!("{bytes} bytes")
-    }
 }
 
 /// The memory this process may still allocate and the limit that leaves it ("the 520.3 MiB

@@ -12,6 +12,21 @@ use crate::strips::fuchs::{Solver, Weight};
 use crate::Error;
 use glam::DVec3;
 
+/// Points or triangles per rayon task in the passes over all of them: large enough that
+/// splitting costs nothing next to the work, small enough to share a million among threads.
+const BLOCK: usize = 1 << 14;
+
+/// One strip to triangulate: the clipped segments, oriented along the scan direction.
+struct Task {
+    a: Vec<u32>,
+    b: Vec<u32>,
+    /// Where `a` and `b` lie in their oriented lines (for the planar check).
+    a_at: check::Window,
+    b_at: check::Window,
+    /// Index of the first of the two lines (for inserting lone points).
+    line: usize,
+}
+
 /// How each strip's path through the Fuchs matrix is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {

@@ -48,7 +48,7 @@
 //! process-wide (for benchmarks that time both in one process); [`strip_filter_counts`]
 //! reports the decisions and the fallbacks.
 
-use super::weights::{smallest_angle_dot, Parts, Terms, Tri};
+use super::weights::{smallest_angle_dot, with_turn, Parts, Terms, Tri};
 use super::Step;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
@@ -226,7 +226,7 @@ pub(super) fn filtered_choice(
     if let Some(c) = cheaper {
         let o = 1 - c;
         let step = exact_step(c);
-        let via = super::lookahead::with_turn(t, step, entered);
+        let via = with_turn(t, step, entered);
         let wins = |other_lo: f64| {
             if c == 0 {
                 via <= other_lo

@@ -3,7 +3,7 @@
 
 use super::dp::{best_from, full_dp, Cell, UNREACHED};
 use super::filter::{self, FilterCounts};
-use super::weights::{Terms, Tri, Weight};
+use super::weights::{with_turn, Terms, Tri, Weight};
 use super::{Solution, Step, MAX_LOOKAHEAD_CELLS};
 use crate::{Error, Result};
 use glam::DVec3;
@@ -192,13 +192,6 @@ fn exact_choice(t: &Terms, step_a: Tri, step_b: Tri, entered: &Option<Tri>) -> (
     } else {
         (Step::B, step_b, via_b)
     }
-}
-
-/// The cost `step` adds after the triangle `entered` (none at the start): its own cost
-/// plus the turn. O(1).
-#[inline(always)]
-pub(super) fn with_turn(t: &Terms, step: Tri, entered: &Option<Tri>) -> f64 {
-    step.cost + entered.map_or(0.0, |e| t.turn_from(&e, step.normal))
 }
 
 /// The walk of the look-ahead variants from (0, 0) to (n − 1, m − 1): on the last row or

@@ -288,6 +288,13 @@ impl<'a> Terms<'a> {
     }
 }
 
+/// The cost `step` adds after the triangle `entered` (none at the start): its own cost
+/// plus the turn. O(1).
+#[inline(always)]
+pub(super) fn with_turn(t: &Terms, step: Tri, entered: &Option<Tri>) -> f64 {
+    step.cost + entered.map_or(0.0, |e| t.turn_from(&e, step.normal))
+}
+
 /// The dot product of the two sides at a triangle's smallest angle, from its squared sides
 /// [|pq|², |qr|², |rp|²] and its corner products [at r, at p, at q] (see
 /// [`Terms::triangle`]); 0 for a degenerate triangle. O(1).
