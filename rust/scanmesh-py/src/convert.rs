@@ -6,8 +6,10 @@ use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use rayon::prelude::*;
+use scanmesh_core::budget::{try_filled, try_vec};
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{try_filled, try_vec, SweepRecord, NONE};
+use scanmesh_core::mesh::NONE;
+use scanmesh_core::optimize::SweepRecord;
 use std::borrow::Cow;
 
 /// numpy arrays handed to Python: (rows, cols) float64, (n,) float64, (rows, cols) int64, (n,) int64.

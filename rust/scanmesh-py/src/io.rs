@@ -6,7 +6,7 @@ use crate::{to_py, ParameterError};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
-use scanmesh_core::{parse_table, Table, TextErrorKind};
+use scanmesh_core::io::{parse_table, Table, TextErrorKind};
 
 /// Binary STL records of faces (M, 3) int64 over (N, 3) points: (M * 50,) uint8, normal and
 /// corners as little-endian float32, attribute 0 (`scanmesh_core` io::stl). Raises
@@ -20,7 +20,7 @@ pub(crate) fn stl_records<'py>(
     let pts = points3_view(&points)?;
     let t = face_rows(&faces_)?;
     let bytes = py
-        .detach(|| scanmesh_core::stl_records(&pts, &t))
+        .detach(|| scanmesh_core::io::stl_records(&pts, &t))
         .map_err(to_py)?;
     Ok(Array1::from_vec(bytes).into_pyarray(py))
 }

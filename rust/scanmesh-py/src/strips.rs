@@ -10,7 +10,8 @@ use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{stitch_part, Method, ScanContext, Solver, StripMesh, StripParams, Weight};
+use scanmesh_core::strips::fuchs::{Solver, Weight};
+use scanmesh_core::strips::{stitch_part, Method, ScanContext, StripMesh, StripParams};
 use std::borrow::Cow;
 
 /// Scan-line id per point, (N,) int64 numbered 0..L-1 in scan order, detected from the
@@ -23,7 +24,7 @@ pub(crate) fn detect_lines<'py>(
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let pts = points2(&uv)?;
     let ids = py
-        .detach(|| scanmesh_core::detect_lines(&pts, gap_factor))
+        .detach(|| scanmesh_core::strips::detect_lines(&pts, gap_factor))
         .map_err(to_py)?;
     Ok(Array1::from_iter(ids.into_iter().map(i64::from)).into_pyarray(py))
 }
@@ -41,7 +42,7 @@ pub(crate) fn scan_segments<'py>(
     let pts = points2(&uv)?;
     let ids = line_ids_in(&line_ids, pts.len())?;
     let scan = py
-        .detach(|| scanmesh_core::segment_lines(&pts, &ids, gap_factor))
+        .detach(|| scanmesh_core::strips::segment_lines(&pts, &ids, gap_factor))
         .map_err(to_py)?;
     let out = scan
         .lines
@@ -71,7 +72,7 @@ type Context = ([f64; 3], [f64; 3], f64, f64, bool, Option<(usize, usize)>);
 /// "dijkstra" and initial half width `band`) or "lookahead" (with `alpha`); lines cut and
 /// triangles dropped at depth jumps of `jump_factor` (inf: none). `context`: these points
 /// are some consecutive lines of a larger scan, to be solved as that scan solves them
-/// (`scanmesh_core::ScanContext`: (lo, hi) its 3-D bounding box, its largest |planar
+/// (`scanmesh_core::strips::ScanContext`: (lo, hi) its 3-D bounding box, its largest |planar
 /// coordinate|, its median planar step, whether the first line with two points runs
 /// against the scan, the rows (start, end) whose strips are returned, the lines around them
 /// only informing the drops at depth jumps and overlaps, or None). Returns a `StripResult` (faces counter-clockwise in the plane, unused
@@ -208,17 +209,17 @@ pub(crate) fn run_strips<'py>(
 }
 
 /// Turns the strips' filtered decisions on (the default) or off, process-wide
-/// (`scanmesh_core::set_strip_filter`); the faces are the same either way. For benchmarks.
+/// (`scanmesh_core::strips::fuchs::set_strip_filter`); the faces are the same either way. For benchmarks.
 #[pyfunction]
 pub(crate) fn set_strip_filter(on: bool) {
-    scanmesh_core::set_strip_filter(on);
+    scanmesh_core::strips::fuchs::set_strip_filter(on);
 }
 
 /// The filtered decisions' counters since the last reset, as (decisions, fallbacks)
-/// (`scanmesh_core::strip_filter_counts`); `reset` sets them to zero. For benchmarks.
+/// (`scanmesh_core::strips::fuchs::strip_filter_counts`); `reset` sets them to zero. For benchmarks.
 #[pyfunction]
 #[pyo3(signature = (reset=false))]
 pub(crate) fn strip_filter_counts(reset: bool) -> (u64, u64) {
-    let c = scanmesh_core::strip_filter_counts(reset);
+    let c = scanmesh_core::strips::fuchs::strip_filter_counts(reset);
     (c.decisions, c.fallbacks)
 }

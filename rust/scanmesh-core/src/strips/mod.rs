@@ -2,11 +2,14 @@
 //! stitching of the strips into one mesh, its check, depth jumps and repair.
 
 mod check;
-pub(crate) mod fuchs;
+pub mod fuchs;
 mod jumps;
 pub(crate) mod lines;
 mod repair;
 pub(crate) mod stitch;
+
+pub use lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
+pub use stitch::{stitch, stitch_part};
 
 use crate::strips::fuchs::{Solver, Weight};
 use crate::Error;
@@ -47,7 +50,7 @@ pub struct StripParams {
     /// Shortest path or look-ahead.
     pub method: Method,
     /// Whether to check that the mesh is a valid planar triangulation (as
-    /// [`HalfEdgeMesh::validate`](crate::HalfEdgeMesh::validate)): O(n) in parallel from the strips
+    /// [`HalfEdgeMesh::validate`](crate::mesh::HalfEdgeMesh::validate)): O(n) in parallel from the strips
     /// when they fit together
     /// as strips do, else O(m α(m)) on the half-edge mesh. An invalid mesh (lines that
     /// cross or fold in the plane) is then made valid by dropping the conflicting

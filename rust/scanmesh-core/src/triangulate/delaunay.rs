@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use std::collections::HashMap;
 
-/// Peak memory of [`delaunay_trimmed`](crate::delaunay_trimmed) per input point, checked
+/// Peak memory of [`delaunay_trimmed`](crate::triangulate::delaunay_trimmed) per input point, checked
 /// before it starts: the smallest address-space limit it ran under grows by about 390 bytes
 /// a point (bisected on 200,000 and 800,000 points, docs/benchmarks/memory.md), plus room.
 const PEAK_BYTES_PER_POINT: u64 = 450;

@@ -695,8 +695,8 @@ mod tests {
         assert_eq!((t.peeled, t.triangles.len()), (1, 1));
         let (g, uv, p) = terrain(6, 6, |r, c| if r >= 3 && c >= 3 { 9.0 } else { 0.0 });
         let t = grid_triangulate(&g, 6, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        let unit = crate::geometry::unit_square(&uv);
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();
     }
 
@@ -729,8 +729,8 @@ mod tests {
         assert!(t.filled > 0);
         let area = twice_area(&uv, &t.triangles) / 2.0;
         assert!((237.0..=239.0).contains(&area), "{area}");
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        let unit = crate::geometry::unit_square(&uv);
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();
         // a notch across a step is no ear: the same outline with the upper level 10 higher
         let (g2, uv2, p2) = (g.clone(), uv.clone(), {
@@ -781,8 +781,8 @@ mod tests {
                 assert!(!inside, "missing sample {k} under {f:?}");
             }
         }
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        let unit = crate::geometry::unit_square(&uv);
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();
     }
 
@@ -809,7 +809,7 @@ mod tests {
                 }
             }
         }
-        let mesh = crate::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
         let expected: Vec<u32> = (0..3 * tris.len() as u32).map(|h| mesh.twin(h)).collect();
         assert_eq!(grid_twins(&cells, &codes, cols, rows).unwrap(), expected);
     }

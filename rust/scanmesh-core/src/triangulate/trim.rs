@@ -207,7 +207,7 @@ pub fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> Result<()> {
 pub struct Trimmed {
     /// The kept counter-clockwise triangles, in input indices.
     pub triangles: Vec<[u32; 3]>,
-    /// As [`Delaunay::duplicate_of`](crate::Delaunay::duplicate_of).
+    /// As [`Delaunay::duplicate_of`](crate::triangulate::Delaunay::duplicate_of).
     pub duplicate_of: Vec<u32>,
     /// Points (ascending) that were a vertex of the triangulation and of no kept triangle.
     pub trimmed: Vec<u32>,
@@ -477,7 +477,7 @@ fn collinear_sliver(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
 
 /// The half-edge twins of `triangles` over `n_points` points (half-edge 3t + k runs from
 /// corner k of triangle t; [`NONE`] on the boundary), as
-/// [`Delaunay::twins`](crate::Delaunay::twins) has them.
+/// [`Delaunay::twins`](crate::triangulate::Delaunay::twins) has them.
 /// Errors: the triangles are not an oriented manifold. O(m).
 fn twins_of(n_points: usize, triangles: &[[u32; 3]]) -> Result<Vec<u32>> {
     let mesh = HalfEdgeMesh::from_triangles(n_points, triangles)?;

@@ -214,7 +214,7 @@ pub(crate) fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Res
 /// `b_ids[j]` is b_j; step A at (i, j) gives (a_i, a_{i+1}, b_j), step B gives
 /// (a_i, b_{j+1}, b_j). Errors: a path that does not fit the two index lists, or an `out`
 /// of another length. O(n + m).
-pub fn path_triangles_into(
+pub(crate) fn path_triangles_into(
     path: &[Step],
     a_ids: &[u32],
     b_ids: &[u32],
