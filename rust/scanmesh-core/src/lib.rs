@@ -35,6 +35,7 @@
 //!   records (`stl`).
 // `deny`, not `forbid`: the one exception is the cache prefetch hint in `mesh::locality::prefetch`.
 #![deny(unsafe_code)]
+#![deny(rustdoc::broken_intra_doc_links)]
 #![warn(missing_docs)]
 
 pub mod budget;

@@ -2,6 +2,7 @@
 //! the work, map `scanmesh_core::Error` to the exception classes declared here. One file
 //! per topic of the core (`triangulate`, `criteria`, `strips`, `optimize`, `exact`, `io`,
 //! `fusion`), numpy conversions in `convert`, the result classes in `results`.
+#![deny(rustdoc::broken_intra_doc_links)]
 
 use numpy::PyArray1;
 use pyo3::create_exception;

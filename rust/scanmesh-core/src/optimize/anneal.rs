@@ -23,7 +23,7 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnnealParams {
     /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per live edge
-    /// (see [`crate::optimize::active`]: flippable, by a corner whose tac is above the ties').
+    /// (see `crate::optimize::active`: flippable, by a corner whose tac is above the ties').
     pub sweeps: usize,
     /// Energy exponent p ≥ 1: the energy is Σ tac^p.
     pub p: f64,
@@ -67,7 +67,7 @@ pub struct AnnealParams {
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
     pub chains: usize,
-    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::optimize::tiles`]):
+    /// Tiles each chain is annealed in at once, on the rayon pool (see `crate::optimize::tiles`):
     /// 1
     /// runs the plain sequential chain; k > 1 splits the plane into stripes whose
     /// interiors anneal independently, phase by phase, with the stripes shifted every
@@ -199,9 +199,9 @@ impl AnnealParams {
     }
 
     /// Refuses a run from `state` that would plan more flip proposals than
-    /// [`budget::MAX_PROPOSALS`], calibrate longer than
-    /// [`budget::MAX_CALIBRATION_PROPOSALS`] before it can be interrupted, or need more
-    /// memory than this process may have ([`budget::memory_available`]); the error
+    /// `budget::MAX_PROPOSALS`, calibrate longer than
+    /// `budget::MAX_CALIBRATION_PROPOSALS` before it can be interrupted, or need more
+    /// memory than this process may have (`budget::memory_available`); the error
     /// ([`Error::TooCostly`]) names the option that asks for it and what it would need.
     /// Returns the number of chains. O(m).
     pub fn check_cost(&self, state: &TacState) -> Result<usize> {
@@ -283,7 +283,7 @@ impl AnnealParams {
 
     /// Number of chains to run on a triangulation with `interior_edges` interior edges:
     /// `chains` when set, otherwise `⌈AUTO_CHAIN_EDGES / interior_edges⌉` between 1 and
-    /// [`MAX_AUTO_CHAINS`]. O(1).
+    /// `MAX_AUTO_CHAINS`. O(1).
     pub fn chain_count(&self, interior_edges: usize) -> usize {
         if self.chains > 0 {
             return self.chains;
@@ -294,10 +294,10 @@ impl AnnealParams {
     }
 
     /// Sweeps of the automatic schedule on a triangulation of `n_vertices` points with
-    /// `interior_edges` interior edges: the budget max([`AUTO_PROPOSALS_PER_POINT`] × n,
-    /// [`AUTO_MIN_PROPOSALS`]) proposals shared by the [`chain_count`](Self::chain_count)
+    /// `interior_edges` interior edges: the budget max(`AUTO_PROPOSALS_PER_POINT` × n,
+    /// `AUTO_MIN_PROPOSALS`) proposals shared by the [`chain_count`](Self::chain_count)
     /// chains, one proposal per interior edge and sweep, kept between
-    /// [`AUTO_MIN_SWEEPS`] and `self.sweeps`. The plan depends on the input alone, never on
+    /// `AUTO_MIN_SWEEPS` and `self.sweeps`. The plan depends on the input alone, never on
     /// the clock, so a seed still fixes the result. O(1).
     pub fn auto_sweeps(&self, n_vertices: usize, interior_edges: usize) -> usize {
         let edges = interior_edges.max(1) as u64;
@@ -545,7 +545,7 @@ impl Annealer {
         self.sweep_len == 0 || self.stopped_early || self.trace.len() >= self.params.sweeps
     }
 
-    /// True when the run ended because no live edge was left (see [`crate::optimize::active`]):
+    /// True when the run ended because no live edge was left (see `crate::optimize::active`):
     /// no flip can lower the energy by more than a tie. O(1).
     pub fn is_exhausted(&self) -> bool {
         self.sweep_len == 0
@@ -557,7 +557,7 @@ impl Annealer {
     }
 
     /// Proposals in the current sweep: the live edges listed at its start (see
-    /// [`crate::optimize::active`]), 0 once none is left.
+    /// `crate::optimize::active`), 0 once none is left.
     pub fn sweep_len(&self) -> usize {
         self.sweep_len
     }

@@ -18,7 +18,7 @@ pub const ANGLE_EPSILON: f64 = 1e-12;
 /// the larger smallest 3-D angle wins when `sliver_guard` is on (the lexicographic order
 /// "tac energy first, then smallest angle"). With `planar_ties`, a move whose four
 /// corners are all flat up to the noise (tac at most
-/// [`NOISE_TAC`](crate::optimize::tac_state::NOISE_TAC) tie tolerances, see
+/// `NOISE_TAC` tie tolerances, see
 /// [`TacState::flat_quad_uv`]) is judged by the smallest planar angle alone, Delaunay's
 /// criterion.
 ///
@@ -178,8 +178,8 @@ pub enum LopCriterion {
 }
 
 /// LOP from `state`'s triangulation under `criterion`, within the flip budget
-/// [`max_flips`]: the final triangulation and the flips made. Errors: an
-/// [`Error::OutOfMemory`] when the edge stack cannot be allocated (see [`lop`]).
+/// `max_flips`: the final triangulation and the flips made. Errors: an
+/// [`Error::OutOfMemory`] when the edge stack cannot be allocated (see `lop`).
 /// O(flips + m).
 pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> Result<(HalfEdgeMesh, usize)> {
     match criterion {
@@ -203,8 +203,8 @@ pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> Result<(HalfEdge
     }
 }
 
-/// LOP of `state`'s tac energy under `order` within the flip budget [`max_flips`];
-/// returns the flips made, or an [`Error::OutOfMemory`] (see [`lop`]). O(flips + m).
+/// LOP of `state`'s tac energy under `order` within the flip budget `max_flips`;
+/// returns the flips made, or an [`Error::OutOfMemory`] (see `lop`). O(flips + m).
 pub fn tac_lop(state: &mut TacState, order: TacOrder) -> Result<usize> {
     let budget = max_flips(state.mesh().n_half_edges());
     lop(&mut TacLop { state, order }, budget)

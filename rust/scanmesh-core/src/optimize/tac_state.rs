@@ -196,7 +196,7 @@ pub fn vertex_energy(s: f64, p: f64) -> f64 {
 impl TacState {
     /// Builds the caches. `uv` are the planar positions the flips are checked in (use
     /// [`crate::geometry::unit_square`] of the projection), `xyz` the 3-D positions the angles
-    /// are measured on (normalize with [`crate::geometry::Normalizer`] to be scale-safe). O(m).
+    /// are measured on (normalize with `crate::geometry::Normalizer` to be scale-safe). O(m).
     pub fn new(mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
         let mut state = TacState::without_sums(mesh, uv, xyz, p)?;
         state.measure_sums();
@@ -478,7 +478,7 @@ impl TacState {
     /// Planar positions of the quadrilateral (a, b, c, d) of [`HalfEdgeMesh::quad`] of the
     /// interior half-edge `h` when each of its corners is flat up to the noise of
     /// `tie_tolerance` (a boundary vertex, or a tac at most
-    /// [`NOISE_TAC`] × tie_tolerance^(1/p)), else `None`. O(1).
+    /// `NOISE_TAC` × tie_tolerance^(1/p)), else `None`. O(1).
     pub fn flat_quad_uv(&self, h: u32, tie_tolerance: f64) -> Option<[[f64; 2]; 4]> {
         let floor = NOISE_TAC * tie_tolerance.powf(1.0 / self.p);
         let t = self.mesh.twin(h);
@@ -568,7 +568,7 @@ impl TacState {
     /// Prefetch hints for a later [`evaluate`](Self::evaluate)`(h)` and [`apply`](Self::apply),
     /// in three stages that a caller issues a few proposals apart, each reading only what the
     /// previous stage requested: 0, the slots of h's triangle; 1, those of its twin's; 2,
-    /// the four corners' positions and sums, and what [`PrefetchHints`] asks for. Hints
+    /// the four corners' positions and sums, and what `PrefetchHints` asks for. Hints
     /// never change results (a flip in between only makes one useless). O(1).
     #[inline(always)]
     pub fn prefetch(&self, h: u32, stage: usize, hints: PrefetchHints) {
@@ -621,7 +621,7 @@ impl TacState {
 
     /// True when `h` can flip (interior, strictly convex quadrilateral) and one of its four
     /// corners is an interior vertex whose tac exceeds `floor` (radians): the edges
-    /// [`crate::optimize::active`] draws annealing proposals from. O(1).
+    /// `crate::optimize::active` draws annealing proposals from. O(1).
     #[inline]
     pub fn is_live(&self, h: u32, floor: f64) -> bool {
         let Some((_, quad)) = self.mesh.twin_and_quad(h) else {

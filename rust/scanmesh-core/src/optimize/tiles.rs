@@ -191,7 +191,7 @@ impl TiledAnnealer {
     /// Runs the tiles of the current phase (starting one if needed) in parallel, each for
     /// at most `max_proposals` proposals, returning soon after `deadline` and at the end of
     /// the phase. Returns the proposals run. Where calls end never changes the result.
-    /// Errors: an [`Error::OutOfMemory`] when a phase's tiles, or the triangulation they
+    /// Errors: an [`Error::OutOfMemory`](crate::Error::OutOfMemory) when a phase's tiles, or the triangulation they
     /// are put back into, cannot be allocated.
     pub fn advance_until(
         &mut self,
@@ -223,7 +223,7 @@ impl TiledAnnealer {
     }
 
     /// Cuts the current triangulation into this phase's tiles; the copies that grow with
-    /// the input are allocated fallibly (an [`Error::OutOfMemory`]). O(m).
+    /// the input are allocated fallibly (an [`Error::OutOfMemory`](crate::Error::OutOfMemory)). O(m).
     fn start_phase(&mut self) -> Result<()> {
         let n = self.uv.len();
         let k = self.params.tiles;
@@ -311,7 +311,7 @@ impl TiledAnnealer {
 
     /// Puts the tiles back together: the current triangulation and sums, the sweep records
     /// of the phase, and the phase's best when it beats the best so far. Errors: an
-    /// [`Error::OutOfMemory`] for the triangulations (before anything changes). O(m).
+    /// [`Error::OutOfMemory`](crate::Error::OutOfMemory) for the triangulations (before anything changes). O(m).
     fn end_phase(&mut self) -> Result<()> {
         let phase = self.running.take().expect("a phase is running");
         let ends: Vec<TileEnd> = phase

@@ -39,12 +39,12 @@ pub enum Method {
     Lookahead(usize),
 }
 
-/// Options of [`stitch`].
+/// Options of [`stitch()`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StripParams {
     /// The path cost. Inside strips, lengths are measured in median steps of the scan and
     /// areas in squared median steps, so that criteria can be mixed and the result does
-    /// not depend on the units; [`TIE_BREAK`](crate::strips::stitch::TIE_BREAK) is added to the
+    /// not depend on the units; `TIE_BREAK` is added to the
     /// length coefficient.
     pub weight: Weight,
     /// Shortest path or look-ahead.
@@ -57,10 +57,10 @@ pub struct StripParams {
     /// triangles (`strips/repair.rs`), counted in [`StripMesh::dropped_overlaps`].
     pub check: bool,
     /// Depth-jump factor ([`crate::triangulate::jumps::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
-    /// [`stitch_part`](crate::strips::stitch::stitch_part) cuts lines where consecutive points jump
+    /// [`stitch_part`] cuts lines where consecutive points jump
     /// in depth
-    /// ([`crate::strips::lines::split_at_jumps`]), and triangles that still bridge a jump by the
-    /// rule of [`crate::triangulate::jumps::bridging_triangles`] (a strip between a line on top of
+    /// (`crate::strips::lines::split_at_jumps`), and triangles that still bridge a jump by the
+    /// rule of `crate::triangulate::jumps::bridging_triangles` (a strip between a line on top of
     /// a
     /// wall and one below it) are dropped, counted in [`StripMesh::dropped_jumps`].
     pub jump_factor: f64,
@@ -83,7 +83,7 @@ pub struct StripMesh {
     /// Triangles in the caller's point indices, counter-clockwise in the plane.
     pub triangles: Vec<[u32; 3]>,
     /// Points that are in no triangle, ascending (duplicates of
-    /// [`ScanLines`](crate::strips::lines::ScanLines) included).
+    /// [`ScanLines`] included).
     pub unused: Vec<u32>,
     /// Number of strips (pairs of overlapping segments) triangulated.
     pub n_strips: usize,
@@ -102,14 +102,14 @@ pub struct StripMesh {
     pub trimmed: Vec<u32>,
     /// Twice the planar signed area of the strips' triangles before the mesh was turned
     /// counter-clockwise (negative: they were turned round). Summed over the parts of a
-    /// scan solved with [`stitch_part`](crate::strips::stitch::stitch_part), its sign says which
+    /// scan solved with [`stitch_part`], its sign says which
     /// way the whole scan turns.
     pub signed_area: f64,
 }
 
 /// What a run over some consecutive lines of a scan shares with the whole scan, so that
 /// its strips are exactly the whole scan's strips between those lines
-/// ([`stitch_part`](crate::strips::stitch::stitch_part)).
+/// ([`stitch_part`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScanContext {
     /// The whole scan's 3-D bounding box (lowest corner, highest corner): the unit box the

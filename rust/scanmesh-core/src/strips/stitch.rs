@@ -315,7 +315,7 @@ pub fn stitch(
 /// The whole strip method from a line id per point, over some consecutive lines of a
 /// larger scan as that scan's `context` makes them (`None`: these points are the whole
 /// scan): the scan lines ([`crate::strips::lines::segment_lines`], split at gaps of
-/// `gap_factor` median steps, and at depth jumps by [`crate::strips::lines::split_at_jumps`]
+/// `gap_factor` median steps, and at depth jumps by `crate::strips::lines::split_at_jumps`
 /// with `params.jump_factor`), then [`stitch`]. Returns the mesh and the (dropped point,
 /// point it coincides with) pairs the lines found; the lines themselves are dropped before
 /// returning, so they never live beside the caller's copy of the faces.

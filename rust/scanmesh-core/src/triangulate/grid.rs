@@ -92,7 +92,7 @@ pub struct GridTriangles {
     /// Triangles dropped afterwards so that the rest is a valid planar triangulation:
     /// the smaller fans at a pinched vertex, collinear slivers on the boundary.
     pub peeled: usize,
-    /// Triangles added afterwards in the notches of the outline ([`fill_notches`]).
+    /// Triangles added afterwards in the notches of the outline (`fill_notches`).
     pub filled: usize,
     /// Median grid spacing across the line of sight (input units; 0 when there is none).
     pub spacing: f64,

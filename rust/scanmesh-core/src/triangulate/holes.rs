@@ -11,8 +11,8 @@ use crate::Result;
 use rayon::prelude::*;
 
 /// Default hole factor (a ratio of planar lengths): in trimming, a triangle spans missing
-/// samples and is dropped ([`covering_holes`]) when its longest planar edge exceeds this
-/// multiple of the local edge length **and** its planar area exceeds [`HOLE_AREA_FACTOR`]
+/// samples and is dropped (`covering_holes`) when its longest planar edge exceeds this
+/// multiple of the local edge length **and** its planar area exceeds `HOLE_AREA_FACTOR`
 /// times the local triangle area; either condition alone keeps it. The local values of a
 /// triangle are the median over its three corners of each corner's lower median (of the
 /// lengths of the two edges at that corner of every well-formed triangle there, and of

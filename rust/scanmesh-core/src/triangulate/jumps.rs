@@ -25,7 +25,7 @@ const BLOCK: usize = 1 << 14;
 pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 
 /// Default bridge factor: a triangle at any slope whose longest 3-D edge exceeds this
-/// multiple of the spacing across lines at its best-sampled corner (see [`Spacing`]) spans
+/// multiple of the spacing across lines at its best-sampled corner (see `Spacing`) spans
 /// a gap the planar rules leave (a strip's rung across a missed stretch of the next line,
 /// lookahead's fan from the end of a line segment, a sheet over a hole narrower than the
 /// planar trim length) and is dropped with the depth jumps. Chosen on the scans of

@@ -80,12 +80,12 @@ impl Window {
 /// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α; at α = 1 the window is the
 /// two steps themselves, compared without a DP (the same path bit for bit, about two step
 /// evaluations per triangle), each decision first from cheap bounds with exact fallback
-/// (`filter`: the same path and cost bit for bit; [`set_strip_filter`] turns it off). From α = n + m − 2 on, every
+/// (`filter`: the same path and cost bit for bit; [`set_strip_filter`](super::set_strip_filter) turns it off). From α = n + m − 2 on, every
 /// window reaches the end, the walk follows an optimal path, and a larger α changes
-/// nothing: that path is found by one DP instead ([`shortest_path_dp`]: the same cost; among
+/// nothing: that path is found by one DP instead ([`shortest_path_dp`](super::shortest_path_dp): the same cost; among
 /// tied optima, the DP's), in O(nm). Memory O(min(α, n) · min(α, m)). Errors: α = 0, a
-/// strip whose windows would exceed [`MAX_LOOKAHEAD_CELLS`] or [`MAX_STRIP_BYTES`], and
-/// those of [`shortest_path`].
+/// strip whose windows would exceed [`MAX_LOOKAHEAD_CELLS`] or [`MAX_STRIP_BYTES`](super::MAX_STRIP_BYTES), and
+/// those of [`shortest_path`](super::shortest_path).
 pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
     if alpha == 0 {

@@ -219,7 +219,7 @@ impl<'a> Terms<'a> {
     /// [|pq|², |qr|², |rp|²], the dot products of the two sides at the corners opposite
     /// them [at r, at p, at q], and `apex` = the corner off the entered edge minus a_i.
     /// Every evaluation of a step goes through here, whether its vectors are computed on
-    /// the spot ([`Terms::step`]) or taken from the DP's row caches ([`dp_in_band`]), so
+    /// the spot ([`Terms::step`]) or taken from the DP's row caches ([`dp_in_band`](super::dp::dp_in_band)), so
     /// both give bit-identical costs. Branch-free apart from the weight switches, which are
     /// the same for every call. O(1).
     #[inline(always)]
