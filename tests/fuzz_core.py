@@ -210,7 +210,13 @@ def run_case(seed: int, caller_plane: bool = False) -> str | None:
         out, finding, refused = _stage(
             f"lop {criterion}",
             lambda: _core.lop(
-                pts, uv, faces, criterion, o["p"], o["sliver_guard"], o["tie_tolerance"]
+                pts,
+                uv,
+                faces,
+                criterion,
+                p=o["p"],
+                sliver_guard=o["sliver_guard"],
+                tie_tolerance=o["tie_tolerance"],
             )[0],
         )
     if finding:

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh import _core
 from scanmesh._checks import check_options
 from scanmesh.errors import DegenerateInputError
 from scanmesh.scan.projection import PlaneSpec
@@ -273,7 +274,14 @@ def solve(
         method,
         params,
         params["gap_factor"],
-        (tuple(lo), tuple(hi), largest, median, partition.first_turned, (a, b)),
+        _core.ScanContext(
+            lo=tuple(lo),
+            hi=tuple(hi),
+            largest_planar=largest,
+            median_step=median,
+            first_turned=partition.first_turned,
+            own_rows=(a, b),
+        ),
     )
     points, line_ids, global_index = points[a:b], line_ids[a:b], global_index[a:b]
     # consecutive lines of consecutive parts: global indices are one offset away

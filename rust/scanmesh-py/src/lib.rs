@@ -140,6 +140,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("JUMP_STEPS", scanmesh_core::fusion::JUMP_STEPS)?;
     m.add("BEHIND_VOXELS", scanmesh_core::fusion::BEHIND_VOXELS)?;
+    m.add("MAX_TILES", scanmesh_core::optimize::MAX_TILES)?;
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::median_spacing, m)?)?;
@@ -170,6 +171,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<optimize::Annealer>()?;
     m.add_class::<fusion::DepthView>()?;
     m.add_class::<fusion::FusionVolume>()?;
+    m.add_class::<strips::StripParams>()?;
+    m.add_class::<strips::ScanContext>()?;
+    m.add_class::<results::ScanSegments>()?;
     m.add_class::<results::StripResult>()?;
     m.add_class::<results::AnnealOutcome>()?;
     m.add_class::<results::TrimmedDelaunay>()?;

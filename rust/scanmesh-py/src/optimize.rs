@@ -145,11 +145,12 @@ pub(crate) fn tac_state(
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
 /// larger smallest angle when `sliver_guard`, no flip bringing a face within
 /// `curtain_angle` degrees of the (3,) line of sight `sight` when one is given) or
-/// "max-min" (smallest angle in the plane; converges to Delaunay); `p`, `sliver_guard`,
-/// `tie_tolerance` and `curtain_angle` default to annealing's. Returns (faces, flips).
+/// "max-min" (smallest angle in the plane; converges to Delaunay); the options after it are
+/// keywords, and `p`, `sliver_guard`, `tie_tolerance` and `curtain_angle` default to
+/// annealing's. Returns (faces, flips).
 #[pyfunction]
 #[pyo3(signature = (
-    points, uv, faces_, criterion,
+    points, uv, faces_, criterion, *,
     p=scanmesh_core::optimize::AnnealParams::default().p,
     sliver_guard=scanmesh_core::optimize::AnnealParams::default().sliver_guard,
     tie_tolerance=scanmesh_core::optimize::AnnealParams::default().tie_tolerance,

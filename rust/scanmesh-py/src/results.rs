@@ -34,6 +34,19 @@ pub(crate) struct StripResult {
     pub signed_area: f64,
 }
 
+/// Scan lines split at gaps (`scan_segments`).
+#[pyclass(frozen, get_all, module = "scanmesh._core")]
+pub(crate) struct ScanSegments {
+    /// Per line, its segments in scan order, each a (K,) int64 array of point indices.
+    pub lines: Vec<Vec<Ints1>>,
+    /// The median planar step between consecutive points of a line.
+    pub median_step: f64,
+    /// The gap length: a step longer than this splits a line.
+    pub gap: f64,
+    /// (D, 2) int64 pairs (dropped point, the earlier point it coincides with).
+    pub duplicates: Ints2,
+}
+
 /// The end of an annealing run (`Annealer.finish`): the winner's faces and trace, and the
 /// run's summary.
 #[pyclass(frozen, get_all, module = "scanmesh._core")]
