@@ -142,9 +142,8 @@ pub(crate) fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResul
     Ok(out)
 }
 
-/// (M, 3) int64 faces for numpy, widened on every core without the GIL: 20M faces are
-/// 480 MB to write, a third of a second on one core. Allocated fallibly: memory refused
-/// is a `MemoryLimitError`, not an abort.
+/// (M, 3) int64 faces for numpy, widened on every core without the GIL: 24 bytes a face to
+/// write. Allocated fallibly: memory refused is a `MemoryLimitError`, not an abort.
 pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Ints2<'py>> {
     let flat = py.detach(|| {
         let mut flat = try_filled("the faces for numpy", 0i64, 3 * t.len())?;

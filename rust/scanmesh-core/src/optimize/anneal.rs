@@ -86,15 +86,14 @@ pub const AUTO_CHAIN_EDGES: usize = 8_000;
 pub const MAX_AUTO_CHAINS: usize = 128;
 
 /// Proposals per point an automatic schedule plans, all chains together
-/// ([`AnnealParams::auto_sweeps`]): measured on the panel (docs/benchmarks/panel.md), the
-/// sweeps from LOP's optimum take SainteHelens (148,885 points) from tac_1 1,310 to 1,217
-/// (4 sweeps), 1,189 (7), 1,168 (10) and 1,150 (14), against LOP's 1,267; 24 per point
-/// plans 9 sweeps there, to stay within a few times LOP's time.
+/// ([`AnnealParams::auto_sweeps`]): each sweep from LOP's optimum still lowers tac on a
+/// large terrain, and 24 per point keeps the run within a few times LOP's time (figures in
+/// docs/benchmarks/panel.md, "Figures behind the core's constants").
 pub const AUTO_PROPOSALS_PER_POINT: u64 = 24;
 
 /// The least proposals an automatic schedule plans in all: small scans are cheap, and on
-/// them longer runs keep lowering tac (fran_cut, 2,205 points: 14 sweeps end at 101, 150
-/// at 83).
+/// them longer runs keep lowering tac (fran_cut in docs/benchmarks/panel.md, "Figures
+/// behind the core's constants").
 pub const AUTO_MIN_PROPOSALS: u64 = 2_000_000;
 
 /// The fewest sweeps of an automatic schedule: fewer cool too fast to leave the start.
@@ -102,13 +101,10 @@ pub const AUTO_MIN_SWEEPS: usize = 8;
 
 /// Default [`AnnealParams::curtain_angle`] (degrees): 90° less the grid triangulation's
 /// largest turn ([`DEFAULT_GRID_TURN_DEG`], 85°: 5°, the curtain report's angle), so that a
-/// flip never makes a face the grid would have dropped for its turn. Measured on fran_cut
-/// from its grid (docs/benchmarks/curtains.md): 73 curtains after LOP and 21 after annealing
-/// without the rule, none with 5° or 10° (θ = 80° then); tac_1 of LOP 46.9 off, 49.7 at 5°,
-/// 50.5 at 10°; on four simulated range scans the height RMS against the part is the same
-/// (0.041 s) off, at 5° and at 10°, the longest edge 9.8 s, 9.8 s and 7.8 s. With θ = 85°
-/// (5° here) fran_cut keeps no curtain after LOP or annealing, nor do the nine scans of the
-/// range-scan panel.
+/// flip never makes a face the grid would have dropped for its turn: without the rule, LOP
+/// and annealing hang curtains across fran_cut's depth jumps, with it none, at a little tac
+/// and no height error (figures in docs/benchmarks/curtains.md, "Figures behind the core's
+/// constants").
 pub const CURTAIN_ANGLE_DEG: f64 = 90.0 - DEFAULT_GRID_TURN_DEG;
 
 /// Largest accepted [`AnnealParams::tiles`].

@@ -24,8 +24,8 @@ pub const ANGLE_EPSILON: f64 = 1e-12;
 ///
 /// Why: on a noisy scan the tac of such corners and the 3-D angles of their triangles are
 /// the noise's, so judging their flips by either picks triangles by the noise, which on
-/// a flat noisy part can only raise the height error above Delaunay's (the noisy rod, all
-/// flat: +1-1.6 %; docs/benchmarks/noise.md). The planar angle is blind to the heights:
+/// a flat noisy part can only raise the height error above Delaunay's (the noisy rod:
+/// docs/benchmarks/noise.md). The planar angle is blind to the heights:
 /// such parts keep (or return to) the Delaunay triangulation. Corners curved beyond the
 /// noise (creases, real relief) keep the tac order.
 #[derive(Debug, Clone, Copy, PartialEq)]

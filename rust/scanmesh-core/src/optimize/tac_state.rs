@@ -80,13 +80,10 @@ pub enum Detail {
 pub const COPLANAR_RELATIVE: f64 = 1e-13;
 
 /// With `planar_ties`, a corner is flat up to the noise when its tac is at most this many
-/// tie tolerances (per unit of p: tac <= NOISE_TAC × tie_tolerance^(1/p)). On the noisy
-/// rod (all flat) 99.9 % of the interior vertices of Delaunay's mesh have a tac below 1.8
-/// tolerances at sigma = s/30 and s/10; on the fandisk at s/30, 1.2 % (its creases) are
-/// above 4. Measured on the rod at s/10 (height RMS / Delaunay's, paired samples,
-/// docs/benchmarks/noise.md): 1.0004-1.0007 with 2; with 1, 1.005-1.007, and the real
-/// scans' holdout above Delaunay's (LAS ground 1.04); judging only the near-ties of flat
-/// corners in the plane, not all their flips: 1.014 (with 1), 1.007 (with 2).
+/// tie tolerances (per unit of p: tac <= NOISE_TAC × tie_tolerance^(1/p)): nearly every
+/// corner of a flat noisy scan is below it and a crease's are above, and 2 kept the noisy
+/// rod's height error closer to Delaunay's than 1 (figures in docs/benchmarks/noise.md,
+/// "Figures behind the core's constants").
 pub const NOISE_TAC: f64 = 2.0;
 
 /// Peak memory of [`TacState::from_input`] and one run of LOP on it, per point, checked

@@ -44,25 +44,22 @@ pub enum Method {
 pub struct StripParams {
     /// The path cost. Inside strips, lengths are measured in median steps of the scan and
     /// areas in squared median steps, so that criteria can be mixed and the result does
-    /// not depend on the units; `TIE_BREAK` is added to the
-    /// length coefficient.
+    /// not depend on the units; `TIE_BREAK` is added to the length coefficient.
     pub weight: Weight,
     /// Shortest path or look-ahead.
     pub method: Method,
     /// Whether to check that the mesh is a valid planar triangulation (as
-    /// [`HalfEdgeMesh::validate`](crate::mesh::HalfEdgeMesh::validate)): O(n) in parallel from the strips
-    /// when they fit together
-    /// as strips do, else O(m α(m)) on the half-edge mesh. An invalid mesh (lines that
+    /// [`HalfEdgeMesh::validate`](crate::mesh::HalfEdgeMesh::validate)): O(n) in parallel
+    /// from the strips when they fit together as strips do, else O(m α(m)) on the half-edge
+    /// mesh. An invalid mesh (lines that
     /// cross or fold in the plane) is then made valid by dropping the conflicting
     /// triangles (`strips/repair.rs`), counted in [`StripMesh::dropped_overlaps`].
     pub check: bool,
-    /// Depth-jump factor ([`crate::triangulate::jumps::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
-    /// [`stitch_part`] cuts lines where consecutive points jump
-    /// in depth
-    /// (`crate::strips::lines::split_at_jumps`), and triangles that still bridge a jump by the
-    /// rule of `crate::triangulate::jumps::bridging_triangles` (a strip between a line on top of
-    /// a
-    /// wall and one below it) are dropped, counted in [`StripMesh::dropped_jumps`].
+    /// Depth-jump factor ([`DEFAULT_JUMP_FACTOR`](crate::triangulate::DEFAULT_JUMP_FACTOR);
+    /// `∞` turns it off): [`stitch_part`] cuts lines where consecutive points jump in depth
+    /// (`split_at_jumps`), and triangles that still bridge a jump by the rule of
+    /// `bridging_triangles` (a strip between a line on top of a wall and one below it) are
+    /// dropped, counted in [`StripMesh::dropped_jumps`].
     pub jump_factor: f64,
 }
 

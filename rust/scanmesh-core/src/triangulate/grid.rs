@@ -26,17 +26,12 @@ use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 /// Default largest turn (degrees) of a kept triangle's normal away from the line of sight.
 /// 85°: every kept face is then at least 5° from the sight, the curtain report's angle (the
 /// issue's curtain), so the rule drops exactly the curtains. Chosen by benches/curtains.py
-/// (figures in docs/benchmarks/curtains.md) over nine simulated range scans of four CAD parts
-/// (noise 0.05 spacings, dropout beyond 80°): the faces of the plain range grid within 0.25
-/// spacings of the part turn 9.7° at the median and 80.2° at the 99th percentile, those 0.25
-/// to 2 spacings off it (sheets across walls, within 2 spacings of the wall) 84.1° at the
-/// median, those farther off 88.9°. The sheets turned 80-85° across a step a few spacings
-/// high are what the best peers cover walls with: 80° (the earlier default) left the pocket
-/// along z 7.00 points more of its area missed than the best peer's, 85° with the edge factor
-/// 8 brings all nine scans within 1 point (pocket z 1.17 % against 1.22 %) with no face
-/// more than 2 spacings off and no curtain; the price is pocket z's height RMS (0.053 to
-/// 0.189 spacings, those sheets) and conrod z's (0.039 to 0.048). 84° leaves pocket z 2.5
-/// points behind; above 85° would allow faces the curtain report counts.
+/// over nine simulated range scans of four CAD parts: faces on the part turn far less than
+/// 85°, while the sheets turned 80-85° across a step a few spacings high are what the best
+/// peers cover walls with, so a lower limit leaves more of the area missed and a higher one
+/// allows faces the curtain report counts; the price is some height error where those
+/// sheets stand (figures in docs/benchmarks/curtains.md, "Figures behind the core's
+/// constants").
 pub const DEFAULT_GRID_TURN_DEG: f64 = 85.0;
 
 /// Default edge factor: a triangle with a 3-D edge longer than this multiple of the local
