@@ -174,6 +174,9 @@ def test_strip_params_take_the_weight_by_name_and_refuse_what_the_method_ignores
             _core.StripParams(method, weight={"angle": 1.0}, **kwargs)
     with pytest.raises(_core.ParameterError, match='unknown weight criterion "curvature"'):
         _core.StripParams("shortest-path", weight={"curvature": 1.0})
+    for weight in ({"angle": -1.0}, {"angle": math.nan}, {"angle": 0.0}, {}):
+        with pytest.raises(_core.ParameterError, match="weight"):
+            _core.StripParams("shortest-path", weight=weight)
     with pytest.raises(TypeError):
         _core.StripParams("shortest-path", {"angle": 1.0})  # type: ignore[misc]
 

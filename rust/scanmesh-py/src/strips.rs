@@ -72,7 +72,7 @@ pub(crate) fn scan_segments<'py>(
 /// depth `alpha`, required); `weight` the coefficients of the criteria "length", "area",
 /// "angle" and "dihedral" by name (those not named are 0); whether to `check` the mesh in
 /// the plane; the depth-jump factor (inf: none). An option the method (or solver) does not
-/// use is refused, not ignored.
+/// use is refused, not ignored, and so are weights the core would refuse.
 #[pyclass(name = "StripParams", frozen, module = "scanmesh._core")]
 pub(crate) struct StripParams(scanmesh_core::strips::StripParams);
 
@@ -151,6 +151,7 @@ impl StripParams {
                 }
             } = value;
         }
+        w.check().map_err(to_py)?;
         Ok(StripParams(scanmesh_core::strips::StripParams {
             weight: w,
             method,
