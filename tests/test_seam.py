@@ -246,6 +246,7 @@ def test_result_classes_cannot_be_built_from_python():
         _core.TrimmedDelaunay,
         _core.CheapestFans,
         _core.TextTable,
+        _core.TextProblem,
     ):
         with pytest.raises(TypeError):
             cls()

@@ -58,6 +58,7 @@ __all__ = [
     "GridTriangles",
     "CheapestFans",
     "TextTable",
+    "TextProblem",
     "JUMP_STEPS",
     "DepthView",
     "FusionVolume",
@@ -338,7 +339,18 @@ class TextTable:
     @property
     def n_lines(self) -> int: ...
     @property
-    def problem(self) -> tuple[int, int, str] | None: ...
+    def problem(self) -> TextProblem | None: ...
+
+@final
+class TextProblem:
+    """The first bad line of a refused text range: its index, a byte offset, its kind."""
+
+    @property
+    def line(self) -> int: ...
+    @property
+    def offset(self) -> int: ...
+    @property
+    def kind(self) -> str: ...
 
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]

@@ -180,5 +180,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<results::GridTriangles>()?;
     m.add_class::<results::CheapestFans>()?;
     m.add_class::<results::TextTable>()?;
+    m.add_class::<results::TextProblem>()?;
     Ok(())
 }

@@ -138,7 +138,17 @@ pub(crate) struct TextTable {
     pub blank_lines: Ints1,
     /// Number of lines in the range.
     pub n_lines: usize,
-    /// None, or for a refused range (line index, byte offset within the range, "number" |
-    /// "count") of its first bad line, the other fields then empty.
-    pub problem: Option<(usize, usize, &'static str)>,
+    /// None, or for a refused range its first bad line, the other fields then empty.
+    pub problem: Option<Py<TextProblem>>,
+}
+
+/// The first bad line of a text range the parser refused (`TextTable.problem`).
+#[pyclass(frozen, get_all, module = "scanmesh._core")]
+pub(crate) struct TextProblem {
+    /// 0-based index of the line within the range.
+    pub line: usize,
+    /// Byte offset within the range: the token that is not a number, or the line's start.
+    pub offset: usize,
+    /// "number" (a token that is not a number) or "count" (a wrong count of numbers).
+    pub kind: &'static str,
 }
