@@ -14,7 +14,7 @@ fuzz_target!(|data: &[u8]| {
     let (uv, xyz) = common::points(head);
     let Ok(d) = delaunay(&uv) else { return };
     let p = [1.0, 2.0, 3.5][data.len() % 3];
-    let (mut state, _) = TacState::from_input(&xyz, &uv, &d.triangles, p).unwrap();
+    let (mut state, _) = TacState::from_input(&xyz, &uv, d.triangles, p).unwrap();
     let edges = state.mesh().n_half_edges().max(1);
     for m in moves.chunks_exact(2) {
         let h = (u16::from_le_bytes([m[0], m[1]]) as usize % edges) as u32;

@@ -33,7 +33,7 @@ fuzz_target!(|data: &[u8]| {
         assert!(vertex[i] != (k != NONE), "point {i} lost");
     }
     let factor = 1.0 + (data.len() % 7) as f64;
-    let limit = factor * median_spacing(&uv, &d.triangles);
+    let limit = factor * median_spacing(&uv, &d.triangles).unwrap();
     let trimmed = trim_long_edges(&uv, &d.triangles, limit, None).unwrap();
     HalfEdgeMesh::from_triangles(uv.len(), &trimmed)
         .unwrap()
