@@ -36,6 +36,7 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshError,
     ScanmeshWarning,
+    SliversWarning,
     WireZoomWarning,
 )
 from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
@@ -95,4 +96,5 @@ __all__ = [
     "CurtainsWarning",
     "ClosedPartWarning",
     "WireZoomWarning",
+    "SliversWarning",
 ]
