@@ -94,6 +94,7 @@ def test_the_seed_fixes_the_mesh(stepped):
     assert not np.array_equal(runs[0].faces, runs[2].faces)
 
 
+@pytest.mark.slow
 def test_the_steps_stay_and_the_rest_is_smoother(stepped):
     # Annealing fits the noise on the flat levels and re-bridges the step; the hybrid keeps
     # the strips there (flips within the noise are ties) and still lowers their tac.

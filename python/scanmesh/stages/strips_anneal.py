@@ -31,7 +31,7 @@ from scanmesh.surface import Surface
 #: A strip triangle whose normal is tilted more than this from the projection normal is a
 #: step (degrees): its edges are kept. Default 90, none: measured on the panel, keeping the
 #: edges of triangles steeper than 45, 60 or 75 degrees raised the height error on the
-#: fandisk at s/10 (by 3-6 %) and the oblique pocket at s/10 (by 5 %) against annealing them
+#: fandisk at s/10 (by 3.5-8 %) and the oblique pocket at s/10 (by 5 %) against annealing them
 #: from the strips, and changed nothing on the pocket along its axis: the noise's tie
 #: tolerance already keeps the strips where flips only fit the noise.
 STEP_ANGLE_OPTION = Option(
