@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from scanmesh._checks import Option, check_options
-from scanmesh._progress import Progress
+from scanmesh._context import QUIET, Context
 from scanmesh.errors import ParameterError
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.stages import anneal, choice, grid, lop, optimal, strips
@@ -45,11 +45,11 @@ def default_initial(scan: PlanarScan, max_edge: float | None = None) -> str:
 
 @dataclass(frozen=True)
 class Keywords:
-    """The shared keywords of one call, as given (None: not given)."""
+    """The shared keywords of one call that are no option of one stage: ``max_edge`` as
+    given (None: not given), and the call's progress and seed."""
 
     max_edge: float | None = None
-    seed: int | None = None
-    progress: Progress = False
+    context: Context = QUIET
 
 
 @dataclass(frozen=True)
@@ -149,23 +149,23 @@ def initial_surface(scan: PlanarScan, initial: str | Surface, keywords: Keywords
     if initial == "auto":
         initial = default_initial(scan, keywords.max_edge)
     if initial == "grid":
-        return grid.grid_surface(scan, progress=keywords.progress)
+        return grid.grid_surface(scan, context=keywords.context)
     if initial == "delaunay":
-        return delaunay(scan, max_edge=keywords.max_edge, progress=keywords.progress)
-    return strips.strip_surface(scan, method="shortest-path", progress=keywords.progress)
+        return delaunay(scan, max_edge=keywords.max_edge, progress=keywords.context.progress)
+    return strips.strip_surface(scan, method="shortest-path", context=keywords.context)
 
 
 def _run_delaunay(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
-    return delaunay(scan, max_edge=kw.max_edge, progress=kw.progress)
+    return delaunay(scan, max_edge=kw.max_edge, progress=kw.context.progress)
 
 
 def _run_grid(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
-    return grid.grid_surface(scan, progress=kw.progress, **params)
+    return grid.grid_surface(scan, context=kw.context, **params)
 
 
 def _strip_runner(name: str) -> Callable[[PlanarScan, dict[str, Any], Keywords], Surface]:
     def run(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
-        return strips.strip_surface(scan, method=name, progress=kw.progress, **params)
+        return strips.strip_surface(scan, method=name, context=kw.context, **params)
 
     return run
 
@@ -179,14 +179,14 @@ def _run_lop(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
 def _run_anneal(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
     rest = dict(params)
     start = initial_surface(scan, rest.pop("initial"), kw)
-    return anneal.anneal_surface(start, seed=kw.seed, progress=kw.progress, **rest)
+    return anneal.anneal_surface(start, context=kw.context, **rest)
 
 
 def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
     """The candidate a holdout on a window of the scan prefers (``stages.choice``), built on
     all points with the call's keywords; ``options["method_choice"]`` says what each
     candidate measured."""
-    quiet = Keywords(max_edge=kw.max_edge, seed=kw.seed)
+    quiet = Keywords(max_edge=kw.max_edge, context=kw.context.quiet())
 
     def build(name: str, part: PlanarScan) -> Surface:
         spec = TABLE[name]
@@ -194,9 +194,7 @@ def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surfac
 
     gridded = default_initial(scan, kw.max_edge) == "grid"
     candidates = choice.GRID_CANDIDATES if gridded else choice.CANDIDATES
-    made = choice.choose(
-        scan, build, seed=kw.seed or 0, candidates=candidates, progress=kw.progress
-    )
+    made = choice.choose(scan, build, candidates=candidates, context=kw.context)
     # The parts have no range grid, so Delaunay stands in for the grid triangulation in the
     # judge; on a gridded scan the grid is built, as LOP and annealing start from it there
     # (Delaunay keeps the curtains the grid drops).

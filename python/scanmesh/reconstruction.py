@@ -8,18 +8,18 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import Context
+from scanmesh._progress import Progress
 from scanmesh.errors import CurtainsWarning, NotAHeightFieldWarning, ScanmeshError
 from scanmesh.formats import ScanPoints
 from scanmesh.measures import CURTAIN_ANGLE_DEG, CURTAIN_WARN_FRACTION, curtains
-from scanmesh.methods import DEFAULT_METHOD, METHODS, Keywords
+from scanmesh.methods import DEFAULT_METHOD, METHODS, SHARED, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.hidden import drop_hidden
-from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 __all__ = ["reconstruct", "METHODS"]
@@ -140,18 +140,16 @@ def reconstruct(
     """
     spec = find_method(method)
     params = spec.check(options, {"lines": lines, "max_edge": max_edge, "seed": seed})
+    context = Context.of(progress, None if seed is None else SHARED["seed"].check(seed))
     # The one place the points are read (scan.read_scan_file), checked and projected.
-    if isinstance(source, ScanPoints):
-        scan = scan_of(source, plane=plane, lines=lines)
-    else:
-        scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
-    surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
+    scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
+    surface = spec.run(scan, params, Keywords(max_edge=max_edge, context=context))
     surface = drop_hidden(scan, surface)
     if scan.choice is not None:
         choice = scan.choice.as_dict(scan.frame.normal)
         surface.options = {**surface.options, "plane_choice": choice}
     _report_curtains(scan, surface)
-    with Stage(progress, "steep", len(surface.faces), blocking=True):
+    with context.stage("steep", len(surface.faces), blocking=True):
         steep = surface.steep_fraction
     if steep is not None and steep > STEEP_WARN_FRACTION and _points_steep(scan, surface):
         warnings.warn(

@@ -11,8 +11,9 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
-from scanmesh._progress import Progress, Stage, accepts, anneal_progress
+from scanmesh._progress import Progress, accepts, anneal_progress
 from scanmesh.scan.noise import noise_tolerance
 from scanmesh.stages.options import (
     CORE_ANNEAL_DEFAULTS,
@@ -296,7 +297,7 @@ def anneal_surface(
     initial: Surface,
     *,
     seed: int | None = None,
-    progress: Progress = False,
+    context: Context = QUIET,
     **schedule: Any,
 ) -> Surface:
     """Anneal ``initial``'s triangulation in its projection plane, minimizing sum tac^p.
@@ -308,11 +309,13 @@ def anneal_surface(
         its ``scan``; flips keep its outline and holes and are judged on the scan's planar
         coordinates, the ones the initial triangulation was built on.
     seed : int, optional
-        Seed of the PCG-64 generator (default 0): the same seed gives the same faces.
-    progress : bool or callable
-        True shows a progress bar per sweep with the energy and the estimated time left; a
-        callable receives ``(sweeps_done, sweeps_total, energy)`` after every chunk (sweeps
-        of all chains together: ``sweeps_total`` = chains x sweeps), and
+        Seed of the PCG-64 generator (default: the call's, ``context.seed``, 0 unless
+        given): the same seed gives the same faces.
+    context : Context
+        The call's seed and progress: ``progress=True`` shows a progress bar per sweep with
+        the energy and the estimated time left; a callable receives ``(sweeps_done,
+        sweeps_total, energy)`` after every chunk (sweeps of all chains together:
+        ``sweeps_total`` = chains x sweeps), and
         ``seconds_left=`` (see :func:`seconds_left`; None while unknown) if it takes that
         keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
@@ -370,13 +373,13 @@ def anneal_surface(
     """
     params = check_options(OPTIONS, schedule, "annealing")
     time_limit = params.pop("time_limit")
-    seed_value = 0 if seed is None else SEED_OPTION.check(seed)
+    seed_value = context.seed if seed is None else SEED_OPTION.check(seed)
     start = planar_start(initial, "annealing")
     scan = start.scan
     assert scan is not None
     t0 = time.perf_counter()
     n = len(scan.points)
-    with Stage(progress, "noise", n, blocking=True):
+    with context.stage("noise", n, blocking=True):
         sigma, params["tie_tolerance"] = noise_tolerance(
             start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
         )
@@ -386,7 +389,7 @@ def anneal_surface(
     local = np.full(n, -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
     params = planned(params, len(keep), start.faces)
-    with Stage(progress, "calibrate", len(start.faces), blocking=True):
+    with context.stage("calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
             len(keep),
@@ -399,8 +402,8 @@ def anneal_surface(
             ),
         )
     total = runner.chains * params["sweeps"]
-    stopped = drive(runner, total, anneal_progress(progress), time_limit)
-    with Stage(progress, "polish", len(start.faces), blocking=True):
+    stopped = drive(runner, total, anneal_progress(context.progress), time_limit)
+    with context.stage("polish", len(start.faces), blocking=True):
         outcome = interruptible(len(keep), runner.finish)
     if stopped is None:
         stopped = outcome.stopped

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
 from scanmesh.errors import ScanmeshError
 from scanmesh.scan.lines import GAP_FACTOR
 from scanmesh.scan.locate import normal_distances
@@ -167,25 +167,25 @@ def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
 def choose(
     scan: PlanarScan,
     build: Callable[[str, PlanarScan], Surface],
-    seed: int = 0,
     candidates: tuple[str, ...] = CANDIDATES,
-    progress: Progress = False,
+    context: Context = QUIET,
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
     ``build(name, part)`` builds candidate ``name`` on a part of the scan. The window is
     :func:`window` of the scan's line ids (given, else detected), the withheld tenths
-    :func:`folds` of it, seeded by ``seed``; reports the stage "choose" (builds). A
+    :func:`folds` of it, seeded by the call's seed; reports the stage "choose" (builds) to
+    the call's progress (``context``). A
     candidate whose build fails on a part is not judged; a window under ``MIN_POINTS``
     points is not judged at all (the first candidate). O(folds x candidates x a build of
     WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
-    parts = folds(len(win), seed, MEASURED) if len(win) >= MIN_POINTS else []
+    parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
     dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
     slivers = dict.fromkeys(candidates, 0.0)
     seconds = dict.fromkeys(candidates, 0.0)
-    with Stage(progress, "choose", len(parts) * len(candidates)) as stage:
+    with context.stage("choose", len(parts) * len(candidates)) as stage:
         for out in parts:
             kept = np.setdiff1d(np.arange(len(win)), out)
             part = _part(scan, lines, win[kept])

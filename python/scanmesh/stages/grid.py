@@ -26,8 +26,8 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
-from scanmesh._progress import Progress, Stage
 from scanmesh.errors import DegenerateInputError, ParameterError
 from scanmesh.formats import ScanPoints
 from scanmesh.scan.planar import PlanarScan
@@ -71,7 +71,7 @@ def grid_surface(
     plane: PlaneSpec = None,
     max_turn: float = _core.DEFAULT_GRID_TURN_DEG,
     edge_factor: float = _core.DEFAULT_GRID_EDGE_FACTOR,
-    progress: Progress = False,
+    context: Context = QUIET,
 ) -> Surface:
     """Triangulate a gridded scan along its grid (see the module doc).
 
@@ -86,8 +86,8 @@ def grid_surface(
         θ, degrees in (0, 90].
     edge_factor : float
         k, > 0 (``math.inf``: no edge limit).
-    progress : bool or callable
-        Reports the stage "grid" (cells) at its start and end.
+    context : Context
+        The call's progress: the stage "grid" (cells), at its start and end.
 
     Returns
     -------
@@ -118,7 +118,7 @@ def grid_surface(
     grid = scan.grid
     assert grid is not None
     t0 = time.perf_counter()
-    with Stage(progress, "grid", grid.size, blocking=True):
+    with context.stage("grid", grid.size, blocking=True):
         result = interruptible(
             grid.size,
             _core.grid_triangulate,

@@ -22,8 +22,8 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
-from scanmesh._progress import Progress, Stage
 from scanmesh.errors import (
     CoincidentPointsWarning,
     DegenerateInputError,
@@ -251,7 +251,7 @@ def strip_surface(
     lines: ArrayLike | None = None,
     method: str = "shortest-path",
     plane: PlaneSpec = None,
-    progress: Progress = False,
+    context: Context = QUIET,
     **options: Any,
 ) -> Surface:
     """Triangulate scan-line points strip by strip.
@@ -300,10 +300,10 @@ def strip_surface(
         (:data:`scanmesh.stages.options.JUMP_FACTOR`), with the pinches that leaves, are dropped
         (counted in ``options["dropped_jumps"]``; their points may end up unused). ``inf``
         keeps every strip whole.
-    progress : bool or callable
-        True shows progress bars; a callable taking ``stage=`` is called for the stages
-        "lines" and "strips" (in points; see :func:`scanmesh.reconstruct`). Each is one
-        native call, so it reports its start and its end.
+    context : Context
+        The call's progress: the stages "lines" and "strips" (in points; see
+        :func:`scanmesh.reconstruct`). Each is one native call, so it reports its start and
+        its end.
 
     ``weight``, ``alpha``, ``gap_factor``, ``solver``, ``band``, ``check`` and
     ``jump_factor`` are the method's options (:data:`OPTIONS`); an option of the other
@@ -350,11 +350,11 @@ def strip_surface(
             "all points are collinear after projection onto the plane: choose another plane"
         )
     t1 = time.perf_counter()
-    with Stage(progress, "lines", len(pts), blocking=True):
+    with context.stage("lines", len(pts), blocking=True):
         ids = scan.line_ids_for(k)  # detected once per gap factor, kept with the scan
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
-    with Stage(progress, "strips", len(pts), blocking=True):
+    with context.stage("strips", len(pts), blocking=True):
         work = _expected_cost(len(pts), n_lines, method, params)
         solved = interruptible(work, solve_strips, pts, uv, ids, method, params, k)
     faces, unused, duplicates = solved.faces, solved.unused, solved.duplicates
