@@ -30,9 +30,8 @@ from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
 from scanmesh.errors import DegenerateInputError, ParameterError
 from scanmesh.formats import ScanPoints
-from scanmesh.scan.planar import PlanarScan
+from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.scan.projection import PlaneSpec
-from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 #: The grid method's options (also those of the "grid" start of LOP and annealing).
@@ -106,7 +105,7 @@ def grid_surface(
     DegenerateInputError
         No candidate is kept.
     """
-    scan = scan_of(source, plane=plane)
+    scan = as_scan(source, plane=plane)
     params = check_options(
         OPTIONS, {"max_turn": max_turn, "edge_factor": edge_factor}, "grid triangulation"
     )
