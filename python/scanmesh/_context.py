@@ -27,9 +27,9 @@ class Context:
 
     @classmethod
     def of(cls, progress: Progress = False, seed: int | None = None) -> Context:
-        """The context of a call given ``progress=`` and ``seed=`` (None: 0, the one place
-        that says so; the value itself is checked by the option that takes it)."""
-        return cls(progress=progress, seed=0 if seed is None else seed)
+        """The context of a call given ``progress=`` and ``seed=`` (:func:`seed_of`; the
+        value itself is checked by the option that takes it)."""
+        return cls(progress=progress, seed=seed_of(seed))
 
     def stage(self, name: str, total: int, blocking: bool = False) -> Stage:
         """A :class:`scanmesh._progress.Stage` reporting to this call's progress."""
@@ -41,7 +41,12 @@ class Context:
         return dataclasses.replace(self, progress=False)
 
 
+def seed_of(seed: int | None) -> int:
+    """The seed of a call given ``seed=``: None (not given) is 0. The one place that says so."""
+    return 0 if seed is None else seed
+
+
 #: The context of a call that reports nothing and was given no seed.
 QUIET = Context()
 
-__all__ = ["Context", "QUIET"]
+__all__ = ["Context", "QUIET", "seed_of"]

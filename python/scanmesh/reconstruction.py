@@ -13,7 +13,7 @@ from scanmesh._progress import Progress
 from scanmesh.errors import CurtainsWarning, NotAHeightFieldWarning, ScanmeshError
 from scanmesh.formats import ScanPoints
 from scanmesh.measures import CURTAIN_ANGLE_DEG, CURTAIN_WARN_FRACTION, curtains
-from scanmesh.methods import DEFAULT_METHOD, METHODS, SHARED, Keywords
+from scanmesh.methods import DEFAULT_METHOD, METHODS, SHARED, TABLE, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
@@ -53,7 +53,9 @@ def reconstruct(
         window's points withheld a tenth at a time, seeded by ``seed``; the Surface is the
         chosen method's, and ``options["method_choice"]`` gives ``"chosen"`` and every
         candidate's ``"holdout"`` RMS), ``"delaunay"`` (max-min angle optimum in the
-        plane), ``"lookahead"`` and ``"shortest-path"`` (Fuchs-matrix strips between
+        plane), ``"grid"`` (a range grid's neighbours, less the faces the scanner cannot
+        have seen; scans with a grid only), ``"lookahead"`` and ``"shortest-path"``
+        (Fuchs-matrix strips between
         consecutive scan lines), ``"lop"``
         (greedy tac flips), ``"anneal"`` (simulated annealing on tac), ``"optimal"``
         (certified tac optimum, small inputs only).
@@ -194,7 +196,8 @@ def _points_steep(scan: PlanarScan, surface: Surface) -> bool:
     is steep too. A method's own slivers (annealing's, a strip's across a gap) can stand
     steep over a smooth height field; the plane choice's quick triangulation measured the
     chosen plane already."""
-    if surface.method == "delaunay":
+    built = TABLE.get(surface.method)
+    if built is not None and built.max_min_angle:
         return True
     if scan.choice is not None and scan.choice.steep.get(scan.choice.chosen) is not None:
         return scan.choice.steep[scan.choice.chosen] > STEEP_WARN_FRACTION
