@@ -32,9 +32,9 @@ def offences(root: Path) -> list[str]:
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, (ast.List, ast.Tuple, ast.Set)):
-                held = {_name(e, names) for e in node.elts} - {None}
+                held = {n for e in node.elts if (n := _name(e, names)) is not None}
                 if len(held) >= 2:
-                    found.append(f"{module}:{node.lineno}: lists {sorted(held)}")  # type: ignore[type-var]
+                    found.append(f"{module}:{node.lineno}: lists {sorted(held)}")
             elif isinstance(node, ast.Compare):
                 operands = [node.left, *node.comparators]
                 named = [_name(o, names) for o in operands if _name(o, names) is not None]
