@@ -426,8 +426,8 @@ def _tile_stages(
     else:
         limit = max_edge
     info: dict[str, Any] = {"tiles": grid.count, "max_edge": limit}
-    spec = TABLE[method]
-    if spec.tiles is Tiles.BUILT:
+    entry = TABLE[method]
+    if entry.tiles is Tiles.BUILT:
         blocks = _gated(
             client,
             "delaunay",
@@ -438,7 +438,7 @@ def _tile_stages(
         )
         wait(blocks)
         return blocks, info
-    if spec.anneals and params.get("tie_tolerance") is None:
+    if entry.anneals and params.get("tie_tolerance") is None:
         # annealing's automatic tie tolerance from the scan's noise, the median over tiles
         # of their estimates (reported; one process reports noise.noise of the whole
         # scan), and the median of the tiles' median edges (noise.noise_tolerance on one
@@ -466,7 +466,7 @@ def _tile_stages(
         params["tie_tolerance"] = (
             tie_tolerance(sigma, edge, params["p"], floor) if math.isfinite(sigma) else floor
         )
-    if spec.anneals:
+    if entry.anneals:
         info["tie_tolerance"] = params["tie_tolerance"]
     first = _gated(
         client,
