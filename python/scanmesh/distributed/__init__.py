@@ -23,7 +23,7 @@ from typing import Any
 from scanmesh._extras import require
 from scanmesh.errors import DegenerateInputError, ParameterError
 from scanmesh.formats.write import TermGuard, check_not_input
-from scanmesh.methods import STRIP_METHODS
+from scanmesh.methods import STRIP_METHODS, TILE_METHODS
 from scanmesh.methods import method as find_method
 from scanmesh.scan.projection import PlaneSpec
 
@@ -126,6 +126,10 @@ def reconstruct_distributed(
     files = None if _is_dask_array(source) else source_paths(source)
     check_not_input(target, files)
     spec = find_method(method)
+    if not spec.distributed:
+        raise ParameterError(
+            f"method {method!r} does not run on Dask; use one of {STRIP_METHODS + TILE_METHODS}"
+        )
     if partition_lines is not None and (
         isinstance(partition_lines, bool)
         or not isinstance(partition_lines, int)
