@@ -8,7 +8,9 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from scanmesh._checks import POSITIVE
 from scanmesh._context import seed_of
+from scanmesh.errors import ParameterError
 from scanmesh.methods import (
     DEFAULT_METHOD,
     FALLBACK_METHOD,
@@ -62,9 +64,10 @@ def _positive(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (value > 0) or not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a positive number")
-    return value
+    try:
+        return POSITIVE.check(value)  # the one positive-number check
+    except ParameterError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive number") from None
 
 
 def _max_edge(text: str) -> float:
