@@ -104,7 +104,6 @@ class Stages:
 def child(spec: dict) -> dict:
     """One measurement in this process: see the module doc."""
     import scanmesh
-    from scanmesh._context import Context
     from scanmesh.stages.anneal import anneal_surface
 
     stages = Stages()
@@ -117,7 +116,7 @@ def child(spec: dict) -> dict:
     t0 = time.perf_counter()
     d = scanmesh.reconstruct(pts, "delaunay", plane="y", **trim)
     t1 = time.perf_counter()
-    a = anneal_surface(d, seed=0, context=Context(stages.progress), **spec["options"])
+    a = anneal_surface(d, seed=0, progress=stages.progress, **spec["options"])
     t2 = time.perf_counter()
     stages.enter("quality")
     qa, qd = a.quality, d.quality

@@ -197,7 +197,7 @@ def _run_delaunay(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Su
 
 
 def _run_grid(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
-    return grid.grid_surface(scan, context=kw.context, **params)
+    return grid.build_grid(scan, params, kw.context)
 
 
 def _strip_runner(name: str) -> Callable[[PlanarScan, dict[str, Any], Keywords], Surface]:
@@ -216,7 +216,7 @@ def _run_lop(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
 def _run_anneal(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -> Surface:
     rest = dict(params)
     start = initial_surface(scan, rest.pop("initial"), kw)
-    return anneal.anneal_surface(start, context=kw.context, **rest)
+    return anneal.build_anneal(start, rest, kw.context)
 
 
 def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:

@@ -297,7 +297,7 @@ def anneal_surface(
     initial: Surface,
     *,
     seed: int | None = None,
-    context: Context = QUIET,
+    progress: Progress = False,
     **schedule: Any,
 ) -> Surface:
     """Anneal ``initial``'s triangulation in its projection plane, minimizing sum tac^p.
@@ -309,13 +309,11 @@ def anneal_surface(
         its ``scan``; flips keep its outline and holes and are judged on the scan's planar
         coordinates, the ones the initial triangulation was built on.
     seed : int, optional
-        Seed of the PCG-64 generator (default: the call's, ``context.seed``, 0 unless
-        given): the same seed gives the same faces.
-    context : Context
-        The call's seed and progress: ``progress=True`` shows a progress bar per sweep with
-        the energy and the estimated time left; a callable receives ``(sweeps_done,
-        sweeps_total, energy)`` after every chunk (sweeps of all chains together:
-        ``sweeps_total`` = chains x sweeps), and
+        Seed of the PCG-64 generator (default 0): the same seed gives the same faces.
+    progress : bool or callable
+        True shows a progress bar per sweep with the energy and the estimated time left; a
+        callable receives ``(sweeps_done, sweeps_total, energy)`` after every chunk (sweeps
+        of all chains together: ``sweeps_total`` = chains x sweeps), and
         ``seconds_left=`` (see :func:`seconds_left`; None while unknown) if it takes that
         keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
@@ -372,8 +370,17 @@ def anneal_surface(
         starts or polishes a large input; the run is discarded.
     """
     params = check_options(OPTIONS, schedule, "annealing")
+    given = None if seed is None else SEED_OPTION.check(seed)
+    return build_anneal(initial, params, Context.of(progress, given))
+
+
+def build_anneal(initial: Surface, params: dict[str, Any], context: Context = QUIET) -> Surface:
+    """:func:`anneal_surface` without its checks: ``params`` the checked options of
+    :data:`OPTIONS`, the seed and the progress those of the call (``context``), as the
+    registry (``scanmesh.methods``) has them. Same result, warnings and errors otherwise."""
+    params = dict(params)
     time_limit = params.pop("time_limit")
-    seed_value = context.seed if seed is None else SEED_OPTION.check(seed)
+    seed_value = context.seed
     start = planar_start(initial, "annealing")
     scan = start.scan
     assert scan is not None

@@ -21,6 +21,7 @@ annealing can start from them and flip inside their outline.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 from numpy.typing import ArrayLike
 
@@ -28,6 +29,7 @@ from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
+from scanmesh._progress import Progress
 from scanmesh.errors import DegenerateInputError, ParameterError
 from scanmesh.formats import ScanPoints
 from scanmesh.scan.planar import PlanarScan, as_scan
@@ -70,7 +72,7 @@ def grid_surface(
     plane: PlaneSpec = None,
     max_turn: float = _core.DEFAULT_GRID_TURN_DEG,
     edge_factor: float = _core.DEFAULT_GRID_EDGE_FACTOR,
-    context: Context = QUIET,
+    progress: Progress = False,
 ) -> Surface:
     """Triangulate a gridded scan along its grid (see the module doc).
 
@@ -85,8 +87,8 @@ def grid_surface(
         θ, degrees in (0, 90].
     edge_factor : float
         k, > 0 (``math.inf``: no edge limit).
-    context : Context
-        The call's progress: the stage "grid" (cells), at its start and end.
+    progress : bool or callable
+        Reports the stage "grid" (cells) at its start and end.
 
     Returns
     -------
@@ -109,6 +111,13 @@ def grid_surface(
     params = check_options(
         OPTIONS, {"max_turn": max_turn, "edge_factor": edge_factor}, "grid triangulation"
     )
+    return build_grid(scan, params, Context.of(progress))
+
+
+def build_grid(scan: PlanarScan, params: dict[str, Any], context: Context = QUIET) -> Surface:
+    """:func:`grid_surface` of ``scan`` without its option checks: ``params`` checked
+    (:data:`OPTIONS`), the progress the call's (``context``), as the registry
+    (``scanmesh.methods``) has them. Same result, warnings and errors otherwise."""
     if not is_gridded(scan):
         raise ParameterError(
             "the grid triangulation needs a scan with a range grid (a range_grid PLY, a"

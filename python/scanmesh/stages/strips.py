@@ -24,6 +24,7 @@ from scanmesh import _core
 from scanmesh._checks import Option, check_options
 from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
+from scanmesh._progress import Progress
 from scanmesh.errors import (
     CoincidentPointsWarning,
     CrossingLinesWarning,
@@ -239,7 +240,7 @@ def strip_surface(
     lines: ArrayLike | None = None,
     method: str = "shortest-path",
     plane: PlaneSpec = None,
-    context: Context = QUIET,
+    progress: Progress = False,
     **options: Any,
 ) -> Surface:
     """Triangulate scan-line points strip by strip.
@@ -288,10 +289,10 @@ def strip_surface(
         (:data:`scanmesh.stages.options.JUMP_FACTOR`), with the pinches that leaves, are dropped
         (counted in ``options["dropped_jumps"]``; their points may end up unused). ``inf``
         keeps every strip whole.
-    context : Context
-        The call's progress: the stages "lines" and "strips" (in points; see
-        :func:`scanmesh.reconstruct`). Each is one native call, so it reports its start and
-        its end.
+    progress : bool or callable
+        True shows progress bars; a callable taking ``stage=`` is called for the stages
+        "lines" and "strips" (in points; see :func:`scanmesh.reconstruct`). Each is one
+        native call, so it reports its start and its end.
 
     ``weight``, ``alpha``, ``gap_factor``, ``solver``, ``band``, ``check`` and
     ``jump_factor`` are the method's options (:data:`OPTIONS`); an option of the other
@@ -330,7 +331,8 @@ def strip_surface(
     if method not in OPTIONS:
         raise ParameterError(f"method must be one of {tuple(OPTIONS)}, got {method!r}")
     params = check_options(OPTIONS[method], options, f"method {method!r}")
-    return build_strips(as_scan(points, plane=plane, lines=lines), method, params, context)
+    scan = as_scan(points, plane=plane, lines=lines)
+    return build_strips(scan, method, params, Context.of(progress))
 
 
 def build_strips(
