@@ -38,6 +38,7 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshError,
     ScanmeshWarning,
+    SliversWarning,
     UnusedPointsWarning,
     WireZoomWarning,
 )
@@ -100,4 +101,5 @@ __all__ = [
     "WireZoomWarning",
     "CrossingLinesWarning",
     "UnusedPointsWarning",
+    "SliversWarning",
 ]
