@@ -9,15 +9,16 @@ point's distance to each mesh along the projection normal is measured (the measu
 :func:`scanmesh.evaluate.holdout.holdout_error`), on the points that every candidate's mesh
 covers and that lie on no step: a withheld point whose holding face is tilted more than
 ``STEP_TILT`` from the plane in any candidate's mesh is left out (unless more than
-``STEP_SHARE`` of them are: a steep surface, not a step), since a point beside a
-wall is exactly where the strips must bridge and the holdout would rank them last there
-(the pocket, the rod along its thickness). Disjoint tenths are withheld in turn until at
-least ``MEASURED`` points are measured (at most ten: every point once). The lowest RMS
-wins among the candidates whose meshes have at most ``SLIVERS`` slivers, except that the
-first candidate stays unless the winner is more than ``PREFER`` lower.
+``STEP_SHARE`` of them are: a steep surface, not a step), since a point beside a wall is
+exactly where the strips must bridge and the holdout would rank them last there (the
+pocket, the rod along its thickness). Disjoint tenths are withheld in turn until at least
+``MEASURED`` points are measured (at most ten: every point once). The lowest RMS wins
+among the candidates whose meshes have at most ``SLIVERS`` slivers, except that the first
+candidate stays unless the winner is more than ``PREFER`` lower.
 The winner is then built on all points (``methods``: on a gridded scan the grid
-triangulation where Delaunay wins, since the parts carry no grid). On a gridded scan the
-strips are no candidate (``GRID_CANDIDATES``): the default stays inside the grid's domain.
+triangulation where Delaunay wins, since the parts carry no grid). The candidates are the
+registry's (``methods.CANDIDATES``); on a gridded scan the strips are none
+(``methods.GRID_CANDIDATES``): the default stays inside the grid's domain.
 
 The judge sees what a holdout sees away from steps: on real scans it agrees with the
 panel's holdout; measurements in docs/benchmarks/panel.md.
@@ -34,26 +35,13 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
 from scanmesh.errors import ScanmeshError
+from scanmesh.judge import Seen, rms
+from scanmesh.judge import distances as normal_distances
 from scanmesh.scan.lines import GAP_FACTOR
-from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.surface import Surface
-
-#: Candidates, in order of preference (the earlier wins an exact tie). The strips enter as
-#: ``strips-anneal`` (the strips annealed where tac rises above the noise), at least as
-#: close to the part as the plain strips on every panel scan; look-ahead is left out: it
-#: never beat shortest-path by more than 0.1 % on the panel, and its defect on the fandisk
-#: (40 x the height error) does not show in a holdout.
-CANDIDATES: tuple[str, ...] = ("strips-anneal", "anneal", "lop", "delaunay")
-
-#: Candidates on a gridded scan: those that stay inside the grid's domain (the grid, for
-#: which Delaunay stands in on the judge's parts, and LOP and annealing started from it).
-#: The strips join neighbouring lines wherever both have samples, whatever the scanner saw
-#: between them: on the conrod scanned along y (benches/curtains.py) the holdout picked them
-#: and the default missed 1.62 points more of the part than the best peer, the grid 0.54 less.
-GRID_CANDIDATES: tuple[str, ...] = ("anneal", "lop", "delaunay")
 
 #: Points of the window the candidates are judged on, at most (whole lines).
 WINDOW: int = 20_000
@@ -171,23 +159,16 @@ def folds(n: int, seed: int, measured: int = MEASURED) -> list[np.ndarray]:
     return [np.sort(perm[f::10]) for f in range(k)]
 
 
-def distances(
-    points: np.ndarray, kept: np.ndarray, out: np.ndarray, surface: Surface
-) -> tuple[np.ndarray, np.ndarray]:
-    """(len(out),) float64 distance along ``surface``'s projection normal from each withheld
-    point ``points[out]`` to ``surface`` (built on ``points[kept]``), nan outside its
-    outline or in its holes; and (len(out),) bool: the face holding the point is tilted
-    more than ``STEP_TILT`` from the plane (a step). ``points`` (W, 3) float64.
-    O((F + len(out)) log F)."""
-    frame = surface.frame
-    axes = np.column_stack([frame.u, frame.v])
-    tri = surface.vertices[surface.faces]  # (F, 3, 3): the points[kept] it was built on
-    got, face = normal_distances(points[out], tri, axes, frame.normal)
+def _on_steps(seen: Seen, face: np.ndarray) -> np.ndarray:
+    """(K,) bool: the triangle ``face`` (-1: none) of ``seen`` holding each withheld point
+    is tilted more than ``STEP_TILT`` from the plane (a step). O(F + K)."""
+    tri = seen.tri
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    tilt = np.arctan2(np.linalg.norm(np.cross(n, frame.normal), axis=1), np.abs(n @ frame.normal))
-    steep = np.zeros(len(got), dtype=bool)
-    steep[face >= 0] = tilt[face[face >= 0]] > math.radians(STEP_TILT)
-    return got, steep
+    tilt = np.arctan2(np.linalg.norm(np.cross(n, seen.normal), axis=1), np.abs(n @ seen.normal))
+    steep = np.zeros(len(face), dtype=bool)
+    held = face >= 0
+    steep[held] = tilt[face[held]] > math.radians(STEP_TILT)
+    return steep
 
 
 def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
@@ -200,26 +181,26 @@ def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
 def choose(
     scan: PlanarScan,
     build: Callable[[str, PlanarScan], Surface],
-    seed: int = 0,
-    candidates: tuple[str, ...] = CANDIDATES,
-    progress: Progress = False,
+    candidates: tuple[str, ...],
+    context: Context = QUIET,
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
     ``build(name, part)`` builds candidate ``name`` on a part of the scan. The window is
     :func:`window` of the scan's line ids (given, else detected), the withheld tenths
-    :func:`folds` of it, seeded by ``seed``; reports the stage "choose" (builds). A
+    :func:`folds` of it, seeded by the call's seed; reports the stage "choose" (builds) to
+    the call's progress (``context``). A
     candidate whose build fails on a part is not judged; a window under ``MIN_POINTS``
-    points is not judged at all (the first candidate). O(folds x candidates x a build of
+    points is not judged at all (``FALLBACK``). O(folds x candidates x a build of
     WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
-    parts = folds(len(win), seed, MEASURED) if len(win) >= MIN_POINTS else []
+    parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
     dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
     steps: list[np.ndarray] = []  # per tenth: withheld points on a step in some mesh
     slivers = dict.fromkeys(candidates, 0.0)
     seconds = dict.fromkeys(candidates, 0.0)
-    with Stage(progress, "choose", len(parts) * len(candidates)) as stage:
+    with context.stage("choose", len(parts) * len(candidates)) as stage:
         for out in parts:
             kept = np.setdiff1d(np.arange(len(win)), out)
             part = _part(scan, lines, win[kept])
@@ -234,9 +215,11 @@ def choose(
                     dist[name].append(np.full(len(out), np.nan))
                     slivers[name] = math.inf
                 else:
-                    got, steep = distances(scan.points[win], kept, out, surface)
+                    held = scan.points[win][out]
+                    seen = Seen.of(surface)
+                    got, face = normal_distances(held, seen)
                     dist[name].append(got)
-                    steps[-1] |= steep
+                    steps[-1] |= _on_steps(seen, face)
                     slivers[name] += surface.quality.sliver_fraction / len(parts)
                 seconds[name] += time.perf_counter() - t0
                 stage.update(stage.done + 1)
@@ -250,9 +233,7 @@ def choose(
     if covered.any() and (covered & ~flat).sum() <= STEP_SHARE * covered.sum():
         covered &= flat
     holdout = {
-        name: float(np.sqrt(np.mean(d[covered] ** 2)))
-        if name in fair and covered.any()
-        else math.nan
+        name: rms(d[covered]) if name in fair and covered.any() else math.nan
         for name, d in joined.items()
     }
     measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
@@ -279,8 +260,5 @@ __all__ = [
     "choose",
     "window",
     "folds",
-    "distances",
-    "CANDIDATES",
-    "GRID_CANDIDATES",
     "WINDOW",
 ]

@@ -23,9 +23,11 @@ from typing import Any
 import numpy as np
 
 from scanmesh._checks import Option, check_options
+from scanmesh._context import QUIET, Context
 from scanmesh._progress import Progress
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.stages import anneal, strips
+from scanmesh.stages.options import SEED_OPTION
 from scanmesh.surface import Surface
 
 #: A strip triangle whose normal is tilted more than this from the projection normal is a
@@ -82,14 +84,14 @@ def strips_anneal_surface(
     progress: Progress = False,
     **options: Any,
 ) -> Surface:
-    """The shortest-path strips of ``scan`` with their step triangles' edges kept, every
-    other edge annealed on tac.
+    """The shortest-path strips of ``scan`` annealed on tac (with their step triangles'
+    edges kept when ``step_angle`` < 90).
 
-    ``options``: ``step_angle`` (degrees, 60) and the annealing schedule of
-    :func:`scanmesh.stages.anneal.anneal_surface` (all but ``tiles``); checked against
-    :data:`OPTIONS`. ``seed`` fixes every random choice; ``progress`` reports the strips'
-    and annealing's stages; Ctrl-C ends the run within annealing's chunk.
-    O(strips + annealing's proposals).
+    ``options``: ``step_angle`` (degrees, 90: none kept) and the annealing schedule of
+    :func:`scanmesh.stages.anneal.anneal_surface` (all but ``tiles``; ``tie_tolerance``
+    None by default: from the scan's noise); checked against :data:`OPTIONS`. ``seed``
+    fixes every random choice; ``progress`` reports the strips' and annealing's stages;
+    Ctrl-C ends the run within annealing's chunk. O(strips + annealing's proposals).
 
     Returns
     -------
@@ -98,13 +100,31 @@ def strips_anneal_surface(
         kept, ``options["initial"]`` is "shortest-path".
     """
     params = check_options(OPTIONS, options, "method 'strips-anneal'")
+    given = None if seed is None else SEED_OPTION.check(seed)
+    return build_strips_anneal(scan, params, Context.of(progress, given))
+
+
+def build_strips_anneal(
+    scan: PlanarScan, params: dict[str, Any], context: Context = QUIET
+) -> Surface:
+    """:func:`strips_anneal_surface` without its checks: ``params`` the checked options of
+    :data:`OPTIONS`, the seed and progress those of the call (``context``), as the registry
+    (``scanmesh.methods``) has them. O(strips + annealing's proposals)."""
+    params = dict(params)
     step_angle = params.pop("step_angle")
-    start = strips.strip_surface(scan, method="shortest-path", progress=progress)
+    defaults = check_options(strips.OPTIONS["shortest-path"], {}, "the strips")
+    start = strips.build_strips(scan, "shortest-path", defaults, context)
     fixed = step_edges(start, step_angle)
-    out = anneal.anneal_surface(start, seed=seed, progress=progress, fixed=fixed, **params)
+    out = anneal.build_anneal(start, {**params, "tiles": 1}, context, fixed)
     out.method = "strips-anneal"
     out.options = {**out.options, "step_angle": step_angle, "step_edges": len(fixed)}
     return out
 
 
-__all__ = ["strips_anneal_surface", "step_edges", "OPTIONS", "STEP_ANGLE_OPTION"]
+__all__ = [
+    "strips_anneal_surface",
+    "build_strips_anneal",
+    "step_edges",
+    "OPTIONS",
+    "STEP_ANGLE_OPTION",
+]
