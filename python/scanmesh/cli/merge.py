@@ -14,12 +14,13 @@ from typing import Any
 import numpy as np
 
 from scanmesh import shape
-from scanmesh.cli._common import _check_mesh_ending, _check_outputs, _Console, _dumps
+from scanmesh.cli._common import _check_outputs, _Console, _dumps
 from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
 from scanmesh.fusion import merge
 from scanmesh.fusion.conf import conf_poses
 from scanmesh.fusion.pieces import Piece, pieces
 from scanmesh.fusion.views import read_conf
+from scanmesh.surface import check_ending
 
 #: Library keywords in messages and the flags that set them.
 _FLAGS = {
@@ -89,7 +90,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
     holes of the others), the specks taken off, the area of each label and the creases."""
     inputs = [Path(p) for p in args.inputs]
     out = Path(args.output)
-    _check_mesh_ending(out)
+    check_ending(out)
     confs = [p for p in inputs if p.suffix.lower() == ".conf"]
     if confs and len(inputs) > 1:
         raise ParameterError("give one .conf file, or scan files with --poses, not both")

@@ -24,6 +24,7 @@ from scanmesh.errors import ParameterError, ScanmeshWarning
 from scanmesh.formats import read
 from scanmesh.formats.points import ScanPoints
 from scanmesh.fusion.conf import conf_poses
+from scanmesh.fusion.depth import view_spacing
 from scanmesh.scan.axes import AxisSpec, parse_axis, scan_frame
 
 #: Largest entry of ``RᵀR − I`` a pose's rotation may have.
@@ -191,8 +192,6 @@ def overlaps(views: Sequence[View], seed: int = 0) -> list[float]:
     within :data:`OVERLAP_SPACINGS` times the views' median spacing of another view's
     points. O(V² · OVERLAP_SAMPLE · log N)."""
     from scipy.spatial import cKDTree
-
-    from scanmesh.fusion.depth import view_spacing
 
     rng = np.random.default_rng(seed)
     reach = OVERLAP_SPACINGS * float(np.median([view_spacing(v.points[:, :2]) for v in views]))
