@@ -46,6 +46,7 @@ import json
 import time
 from pathlib import Path
 
+import multiview
 import numpy as np
 import open3d as o3d
 import pymeshlab
@@ -294,14 +295,6 @@ def run_part(
     return rows
 
 
-def fmt(v, spec=".3g") -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    return format(v, spec)
-
-
 def table(rows: list[dict]) -> str:
     cols = [
         ("method", None),
@@ -317,12 +310,10 @@ def table(rows: list[dict]) -> str:
         ("far unlabelled", ".2%"),
         ("seconds", ".1f"),
     ]
-    out = []
-    for part in dict.fromkeys(r["part"] for r in rows):
-        mine = [r for r in rows if r["part"] == part]
-        h = mine[0]
-        out.append(
-            f"\n**{part}** (s = {h['spacing']:.4g}, {h['points']:,} points, truth genus"
+
+    def heading(h: dict) -> str:
+        return (
+            f"\n**{h['part']}** (s = {h['spacing']:.4g}, {h['points']:,} points, truth genus"
             f" {h['truth genus']:g}, never sampled {h['unsampled share']:.1%} of the boundary"
             + (
                 f", {h['internal share']:.1%} of the file's area inside the solid"
@@ -331,20 +322,8 @@ def table(rows: list[dict]) -> str:
             )
             + ")\n"
         )
-        out.append("| " + " | ".join(c for c, _ in cols) + " |")
-        out.append("|" + "---|" * len(cols))
-        for r in mine:
-            out.append(
-                "| "
-                + " | ".join(
-                    str(r.get(c, "-"))
-                    if spec is None and not isinstance(r.get(c), bool)
-                    else fmt(r.get(c), spec or "")
-                    for c, spec in cols
-                )
-                + " |"
-            )
-    return "\n".join(out)
+
+    return multiview.markdown(rows, "part", heading, cols)
 
 
 def memory_run(n_views: int, n_points: int) -> dict:
@@ -404,8 +383,6 @@ def main() -> None:
     ap.add_argument("--pictures", type=Path, help="write the real sets' pictures here")
     args = ap.parse_args()
     if args.real:
-        import multiview
-
         rows = []
         for name in args.sets or list(multiview.SETS):
             rows += multiview.run_set(

@@ -245,6 +245,29 @@ def run_set(
     return rows
 
 
+def cell(value, spec: str | None) -> str:
+    """One table cell: "-" for none, yes/no, else formatted by ``spec``."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    return str(value) if spec is None else format(value, spec)
+
+
+def markdown(rows: list[dict], group: str, heading, cols: list[tuple[str, str | None]]) -> str:
+    """Markdown tables of ``rows``, one per value of ``group``, each under ``heading(its
+    first row)``."""
+    out = []
+    for name in dict.fromkeys(r[group] for r in rows):
+        mine = [r for r in rows if r[group] == name]
+        out.append(heading(mine[0]))
+        out.append("| " + " | ".join(c for c, _ in cols) + " |")
+        out.append("|" + "---|" * len(cols))
+        for r in mine:
+            out.append("| " + " | ".join(cell(r.get(c), spec) for c, spec in cols) + " |")
+    return "\n".join(out)
+
+
 def table(rows: list[dict]) -> str:
     cols = [
         ("method", None),
@@ -259,28 +282,12 @@ def table(rows: list[dict]) -> str:
         ("seconds", ".1f"),
         ("peak GiB", ".2f"),
     ]
-    out = []
-    for name in dict.fromkeys(r["set"] for r in rows):
-        mine = [r for r in rows if r["set"] == name]
-        h = mine[0]
-        out.append(
-            f"\n**{name}** ({h['views']} views, {h['points']:,} points, {h['held out']:,} held"
-            f" out, {h['held out on a surface']:.2%} of them on a scanned surface; spacing"
+
+    def heading(h: dict) -> str:
+        return (
+            f"\n**{h['set']}** ({h['views']} views, {h['points']:,} points, {h['held out']:,}"
+            f" held out, {h['held out on a surface']:.2%} of them on a scanned surface; spacing"
             f" {1000 * h['spacing']:.3f} mm, load {h['load']:.1f})\n"
         )
-        out.append("| " + " | ".join(c for c, _ in cols) + " |")
-        out.append("|" + "---|" * len(cols))
-        for r in mine:
-            cells = []
-            for c, spec in cols:
-                v = r.get(c)
-                if v is None:
-                    cells.append("-" if c != "method" else r["method"])
-                elif isinstance(v, bool):
-                    cells.append("yes" if v else "no")
-                elif spec is None:
-                    cells.append(str(v))
-                else:
-                    cells.append(format(v, spec))
-            out.append("| " + " | ".join(cells) + " |")
-    return "\n".join(out)
+
+    return markdown(rows, "set", heading, cols)
