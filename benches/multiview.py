@@ -35,7 +35,6 @@ from pathlib import Path
 
 import numpy as np
 import open3d as o3d
-import pymeshlab
 from scipy.spatial import cKDTree
 
 import scanmesh
@@ -93,16 +92,9 @@ def o3d_poisson(views, depth: int, spacing: float, voxel):
 
 
 def pml_poisson(views, depth: int, spacing: float, voxel):
-    cloud = oriented_cloud(views)
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(
-        pymeshlab.Mesh(
-            vertex_matrix=np.asarray(cloud.points), v_normals_matrix=np.asarray(cloud.normals)
-        )
-    )
-    ms.generate_surface_reconstruction_screened_poisson(depth=depth)
-    m = ms.current_mesh()
-    return m.vertex_matrix(), m.face_matrix().astype(np.int64)
+    import merge
+
+    return merge.pml_poisson(oriented_cloud(views), depth, spacing)
 
 
 def o3d_bpa(views, depth: int, spacing: float, voxel):
@@ -268,20 +260,13 @@ def markdown(rows: list[dict], group: str, heading, cols: list[tuple[str, str | 
     return "\n".join(out)
 
 
+#: The real sets' table: (column, format).
+COLUMNS = [("method", None), ("faces", ",d"), ("pieces", "d"), ("small pieces", "d")]
+COLUMNS += [("closed", None), ("genus", "g"), ("holes", "d"), ("holdout rms", ".4g")]
+COLUMNS += [("holdout rms all", ".4g"), ("seconds", ".1f"), ("peak GiB", ".2f")]
+
+
 def table(rows: list[dict]) -> str:
-    cols = [
-        ("method", None),
-        ("faces", ",d"),
-        ("pieces", "d"),
-        ("small pieces", "d"),
-        ("closed", None),
-        ("genus", "g"),
-        ("holes", "d"),
-        ("holdout rms", ".4g"),
-        ("holdout rms all", ".4g"),
-        ("seconds", ".1f"),
-        ("peak GiB", ".2f"),
-    ]
 
     def heading(h: dict) -> str:
         return (
@@ -290,4 +275,4 @@ def table(rows: list[dict]) -> str:
             f" {1000 * h['spacing']:.3f} mm, load {h['load']:.1f})\n"
         )
 
-    return markdown(rows, "set", heading, cols)
+    return markdown(rows, "set", heading, COLUMNS)
