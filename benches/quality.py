@@ -76,7 +76,7 @@ def machine() -> str:
 def scan(part: str) -> tuple[np.ndarray, np.ndarray]:
     """(points, line_ids) of a part at its stated settings."""
     if part == "conrod":
-        return scanmesh.load_demo()
+        return scanmesh.load_rod()
     cad, settings, _ = PARTS[part]
     return scanmesh.simulate_scan(CAD / cad, **settings)
 

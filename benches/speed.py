@@ -171,7 +171,7 @@ def anneal_speed() -> None:
         " / one chain |"
     )
     print("|---|---|---|---|---|---|---|---|")
-    rod, _ = scanmesh.load_demo()
+    rod, _ = scanmesh.load_rod()
     cases = [("rod (demo), along y", rod, "y", 300, 8)]
     for n in (100_000, 1_000_000):
         pts, _ = synthetic_scan(n)

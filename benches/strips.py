@@ -47,7 +47,7 @@ def best_time(run: Callable[[], object], repeat: int) -> tuple[float, object]:
 def quality_table(repeat: int) -> None:
     fran = read_vtk(DATA / "scans" / "fran_cut.vtk")
     dem = read_dem(DATA / "terrain" / "SainteHelens.dem")
-    rod = scanmesh.load_demo()
+    rod = scanmesh.load_rod()
     scans = {
         "fran_cut": (fran.points, fran.line_ids, None),
         "rod (demo)": (rod[0], rod[1], "y"),

@@ -155,12 +155,12 @@ def test_noise_aware_annealing_beats_delaunay_on_a_noisy_rod():
     annealing with the noise's tie tolerance stays at Delaunay's height error with few
     slivers; annealing with exact ties only chases the noise and lands farther from the
     true surface."""
-    from scanmesh.demo import demo_truth
+    from scanmesh.demo import rod_truth
     from scanmesh.evaluate.truth import TrueSurface, height_error
     from scanmesh.scan.lines import scan_lines
     from scanmesh.stages.anneal import ANNEAL_DEFAULTS
 
-    truth = TrueSurface(demo_truth())
+    truth = TrueSurface(rod_truth())
     settings = {"up": "y", "along": "x", "n_points": 5000}
     clean, lines = scanmesh.simulate_scan(truth.mesh, **settings)
     sigma = scan_lines(clean, lines, plane="y").median_step / 10
