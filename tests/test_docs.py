@@ -235,6 +235,15 @@ def test_architecture_is_short():
     assert line_count("ARCHITECTURE.md") <= 120
 
 
+#: Most lines any Markdown page may have (as for a Python file): a longer one is split.
+MAX_MARKDOWN_LINES = 800
+
+
+def test_every_markdown_page_is_under_its_cap():
+    long = [f"{i}: {line_count(i)}" for i in IDS if line_count(i) > MAX_MARKDOWN_LINES]
+    assert not long, "split these pages:\n" + "\n".join(long)
+
+
 def test_slug_rule():
     assert slug("Speed against the peers") == "speed-against-the-peers"
     assert slug("Depth jumps: no curtains, walls") == "depth-jumps-no-curtains-walls"
