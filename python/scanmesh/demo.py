@@ -64,8 +64,8 @@ def load_demo() -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     points : (N, 3) float64
-        About 10,000 points in the part's units, line by line (lines along x, stacked
-        along z, seen from +y).
+        About 10,000 points in the part's units, line by line (lines along +x, stacked
+        along -z, seen from +y).
     line_ids : (N,) int64
         Scan line of each point, 0..L-1.
 
