@@ -82,10 +82,10 @@ def _range(option: Any) -> str:
     return text
 
 
-def _flags(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
-    """The actions of ``scanmesh reconstruct`` by option string."""
+def _flags(parser: argparse.ArgumentParser, command: str) -> dict[str, argparse.Action]:
+    """The actions of ``scanmesh COMMAND`` by option string."""
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    return dict(sub.choices["reconstruct"]._option_string_actions)
+    return dict(sub.choices[command]._option_string_actions)
 
 
 def _flag(option: Any, actions: dict[str, argparse.Action]) -> str:
@@ -103,28 +103,30 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
+def _options_table(options: tuple[Any, ...], actions: dict[str, argparse.Action]) -> list[str]:
+    """The lines of one table of options."""
+    lines = ["| option | flag | kind | default | range | what |", "|---|---|---|---|---|---|"]
+    for option in options:
+        lines.append(
+            f"| `{option.name}` | {_flag(option, actions)} | {option.kind}"
+            f" | {_default(option)} | {_range(option)} | {_cell(option.doc)} |"
+        )
+    return lines
+
+
 def reference() -> str:
     """The whole page, Markdown."""
-    actions = _flags(build_parser())
+    actions = _flags(build_parser(), "reconstruct")
     lines = [HEADER, "## Methods", "", "| method | what it does | options |", "|---|---|---|"]
     for method in TABLE.values():
         names = ", ".join(f"`{o.name}`" for o in method.options) or "none"
         lines.append(f"| [`{method.name}`](#{method.name}) | {_cell(method.doc)} | {names} |")
     for method in TABLE.values():
-        lines += ["", f"## {method.name}", "", f"{method.doc[0].upper()}{method.doc[1:]}."]
-        if not method.options:
-            lines += ["", "No options of its own."]
-            continue
-        lines += [
-            "",
-            "| option | flag | kind | default | range | what |",
-            "|---|---|---|---|---|---|",
-        ]
-        for option in method.options:
-            lines.append(
-                f"| `{option.name}` | {_flag(option, actions)} | {option.kind}"
-                f" | {_default(option)} | {_range(option)} | {_cell(option.doc)} |"
-            )
+        lines += ["", f"## {method.name}", "", f"{method.doc[0].upper()}{method.doc[1:]}.", ""]
+        if method.options:
+            lines += _options_table(method.options, actions)
+        else:
+            lines.append("No options of its own.")
     return "\n".join(lines) + "\n"
 
 
