@@ -11,7 +11,7 @@ from scanmesh import _core
 
 #: A triangle is steep when its normal is more than this many degrees from the projection
 #: normal. Over a height field seen along a sensible normal, only walls and the rims of
-#: rounded parts come close (the demo rod along y: 1 % of its triangles); a surface folded
+#: rounded parts come close (the embedded rod along y: 1 % of its triangles); a surface folded
 #: over the plane makes most triangles steep or upside down (the rod along x: 100 %).
 STEEP_ANGLE_DEG: float = 75.0
 
