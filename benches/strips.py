@@ -50,7 +50,7 @@ def quality_table(repeat: int) -> None:
     rod = scanmesh.load_rod()
     scans = {
         "fran_cut": (fran.points, fran.line_ids, None),
-        "rod (demo)": (rod[0], rod[1], "y"),
+        "rod (load_rod)": (rod[0], rod[1], "y"),
         "Sainte Helens": (dem.points, dem.line_ids, None),
     }
     weights: list[str | dict[str, float]] = [*CRITERIA, DEFAULT_WEIGHT]

@@ -151,7 +151,7 @@ def default_and_exact_ties(points, lines, seed, plane="z"):
 
 
 def test_noise_aware_annealing_beats_delaunay_on_a_noisy_rod():
-    """sigma = s/10 on the connecting rod (the embedded demo's CAD truth, 5,000 points):
+    """sigma = s/10 on the connecting rod (the embedded rod's CAD truth, 5,000 points):
     annealing with the noise's tie tolerance stays at Delaunay's height error with few
     slivers; annealing with exact ties only chases the noise and lands farther from the
     true surface."""
