@@ -121,12 +121,14 @@ def folder(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_the_tour_says_how_to_make_its_files(folder):
     assert {"part.stl", "scan.xyz"} <= {p.name for p in folder.iterdir()}
     scan = scanmesh.read(folder / "scan.xyz")
     assert 5_000 < len(scan.points) < 20_000 and len(np.unique(scan.line_ids)) > 100
 
 
+@pytest.mark.slow
 def test_the_tours_scan_is_curved_and_the_methods_differ_on_it(folder):
     """Not a flat part (where every tac is 0 and every method gives the same picture)."""
     base = scanmesh.reconstruct(folder / "scan.xyz", "delaunay")
@@ -148,6 +150,7 @@ def python_tour(folder):
     return namespace
 
 
+@pytest.mark.slow
 def test_the_python_tour_runs_and_shows_annealing_ahead_of_delaunay(folder, python_tour):
     base, annealed, part = python_tour["base"], python_tour["annealed"], python_tour["part"]
     from scanmesh.evaluate.truth import height_error
@@ -158,6 +161,7 @@ def test_the_python_tour_runs_and_shows_annealing_ahead_of_delaunay(folder, pyth
     assert python_tour["auto"].options["method_choice"]["chosen"] == "anneal"
 
 
+@pytest.mark.slow
 def test_the_tours_tac_picture_shows_two_different_panels(folder, python_tour):
     path = folder / "tac.png"
     assert drawn_share(path) > DRAWN_SHARE
@@ -168,6 +172,7 @@ def test_the_tours_tac_picture_shows_two_different_panels(folder, python_tour):
     assert np.abs(left - right).mean() > 2.0  # Delaunay's bright creases, annealing's dark
 
 
+@pytest.mark.slow
 @pytest.mark.xfail(
     CONF_DEFAULT_NOT_STANFORD,
     reason="read_conf's default is R(q) p + t until the Stanford convention becomes it",
@@ -184,6 +189,7 @@ def test_the_tours_conf_file_puts_every_view_where_it_was(folder, python_tour):
     assert closed.face_labels is not None and len(closed.face_labels) == len(closed.faces)
 
 
+@pytest.mark.slow
 def test_the_command_tour_runs_and_its_pictures_show_the_part(folder, python_tour):
     (block,) = [b for b in _blocks("sh") if "scanmesh compare" in b]
     for argv in _commands(block):

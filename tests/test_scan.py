@@ -173,6 +173,7 @@ def _small_input(rng: np.random.Generator, k: int) -> np.ndarray:
     return pts
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::scanmesh.ScanmeshWarning")
 def test_flips_accept_every_triangulation_delaunay_returns():
     """LOP and annealing used to re-project along the frame normal and then found Delaunay's

@@ -38,6 +38,7 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshError,
     ScanmeshWarning,
+    SliversWarning,
     WireZoomWarning,
 )
 from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
@@ -98,4 +99,5 @@ __all__ = [
     "CurtainsWarning",
     "ClosedPartWarning",
     "WireZoomWarning",
+    "SliversWarning",
 ]

@@ -44,6 +44,13 @@ class NotAHeightFieldWarning(ScanmeshWarning):
     the surface is probably not a height field there; another ``plane=`` may fit it better."""
 
 
+class SliversWarning(ScanmeshWarning):
+    """Most of a mesh's triangles are slivers (``scan.slivers.SLIVER_WARN_FRACTION``): the
+    points are probably not what the file's columns were read as, or the plane sees them in
+    far-apart rows; the message names the likely cause. Not warned where
+    :class:`NotAHeightFieldWarning` is (the plane is then the cause)."""
+
+
 class CurtainsWarning(ScanmeshWarning):
     """Faces within ``measures.CURTAIN_ANGLE_DEG`` of the line of sight cover more than
     ``measures.CURTAIN_WARN_FRACTION`` of the mesh's area (``options["curtains"]``): sheets

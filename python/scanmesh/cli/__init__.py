@@ -54,7 +54,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--quiet",
         action="store_true",
         default=argparse.SUPPRESS,
-        help="no progress bars or remarks (bars show only on a terminal anyway)",
+        help="no progress bars, remarks or warnings (a --report still lists the warnings;"
+        " errors are always said)",
     )
     with_json = argparse.ArgumentParser(add_help=False)
     with_json.add_argument(

@@ -139,11 +139,13 @@ def _add_read_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cell", type=float, metavar="SIZE", help="cell size of a height grid")
 
 
+#: The reader flags (their keywords of read(): --columns is columns=).
+READ_FLAGS: tuple[str, ...] = ("columns", "decimal", "returns", "classes", "grid", "cell")
+
+
 def _read_options(args: argparse.Namespace | None) -> dict[str, Any]:
-    """The reader flags given (--columns, --decimal, --returns, --classes, --grid, --cell),
-    as keywords of read()."""
-    flags = ("columns", "decimal", "returns", "classes", "grid", "cell")
-    return {k: getattr(args, k) for k in flags if getattr(args, k, None) not in (None, False)}
+    """The reader flags given (:data:`READ_FLAGS`), as keywords of read()."""
+    return {k: getattr(args, k) for k in READ_FLAGS if getattr(args, k, None) not in (None, False)}
 
 
 def _method_flags() -> dict[str, tuple[Any, list[str]]]:

@@ -217,9 +217,9 @@ def optimize_piece(
             puv,
             local,
             params["criterion"],
-            params["p"],
-            params["sliver_guard"],
-            params["tie_tolerance"],
+            p=params["p"],
+            sliver_guard=params["sliver_guard"],
+            tie_tolerance=params["tie_tolerance"],
         )
     else:
         # time_limit bounds each tile's pass (the tiles of a pass run side by side)

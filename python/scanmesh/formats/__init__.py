@@ -217,7 +217,7 @@ def read(
         if options:
             raise ParameterError(
                 f"grid=True reads a matrix of heights and takes only cell=, not"
-                f" {', '.join(sorted(options))}"
+                f" {', '.join(f'{k}=' for k in sorted(options))}"
             )
         return read_matrix(target, cell=cell, progress=progress)
     fmt = format_of(target)

@@ -55,14 +55,14 @@ def raise_problem(
     path: Path,
     data: bytes,
     start: int,
-    problem: tuple[int, int, str],
+    problem: _core.TextProblem,
     expected: str,
     delimiter: str | None,
     context: str = "",
 ) -> None:
     """Raise the FileFormatError for a chunk starting at ``start`` that the native parser
-    refused with ``problem`` = (line index, byte offset within the chunk, kind)."""
-    _, offset, kind = problem
+    refused with ``problem`` (its byte offset within the chunk and kind)."""
+    offset, kind = problem.offset, problem.kind
     line, text = line_at(data, start + offset)
     if kind == "number":
         end = start + offset

@@ -146,12 +146,14 @@ class PlanarScan:
 
     def _segments(self, gap_factor: float) -> ScanLines:
         ids = self.line_ids_for(gap_factor)
-        lines, median_step, gap, duplicates = _core.scan_segments(self.uv, ids, gap_factor)
-        for line in lines:
+        s = _core.scan_segments(self.uv, ids, gap_factor)
+        for line in s.lines:
             for segment in line:
                 segment.flags.writeable = False
-        duplicates.flags.writeable = False
-        return ScanLines(lines=lines, median_step=median_step, gap=gap, duplicates=duplicates)
+        s.duplicates.flags.writeable = False
+        return ScanLines(
+            lines=s.lines, median_step=s.median_step, gap=s.gap, duplicates=s.duplicates
+        )
 
     def __repr__(self) -> str:
         lines = "" if self.line_ids is None else ", with line ids"

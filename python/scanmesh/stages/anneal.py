@@ -35,8 +35,8 @@ ANNEAL_DEFAULTS: dict[str, Any] = {
     k: v for k, v in CORE_ANNEAL_DEFAULTS.items() if k not in PYTHON_HANDLED
 }
 
-#: Most tiles per chain (the core's limit).
-MAX_TILES: int = 64
+#: Most tiles per chain (the core's limit, read from it).
+MAX_TILES: int = _core.MAX_TILES
 
 #: Each native call runs at most this long (seconds) before Python checks for Ctrl-C and
 #: reports progress: bounded in time, not in proposals, so the latency holds on slow machines.

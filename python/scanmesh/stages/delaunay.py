@@ -14,6 +14,7 @@ from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError
 from scanmesh.formats import ScanPoints
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.projection import PlaneSpec
+from scanmesh.scan.slivers import columns_advice, line_id_axis
 from scanmesh.scan.spacing import trim_length
 from scanmesh.stages.options import JUMP_FACTOR, MAX_EDGE_OPTION
 from scanmesh.stages.source import scan_of
@@ -140,7 +141,10 @@ def _why_nothing_kept(scan: PlanarScan, limit: float) -> str:
             " field over this plane: plane=None chooses one over which it is, or give another"
             " plane="
         )
-    return (
+    text = (
         f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse for"
-        " it (give a larger max_edge, or another plane=)"
+        " it (give a larger max_edge=, or another plane=)"
     )
+    if line_id_axis(scan.points):  # more likely than sparse points: say it
+        text += "; " + columns_advice(scan.points, scan.plane)
+    return text

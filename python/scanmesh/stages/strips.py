@@ -216,29 +216,29 @@ def solve_strips(
     method: str,
     params: Mapping[str, Any],
     gap_factor: float,
-    context: tuple | None = None,
+    context: _core.ScanContext | None = None,
 ) -> SolvedStrips:
     """The strips between consecutive lines of ``points`` (N, 3) with planar positions
     ``uv`` (N, 2) and ``line_ids`` (N,), by ``method`` with checked ``params``
     (:data:`OPTIONS`); ``context`` solves them as part of a larger scan
     (``_core.strip_mesh``). Time: that of the method, see :func:`strip_surface`."""
     n = max(len(points), 1)
-    return _core.strip_mesh(
-        points,
-        uv,
-        line_ids,
-        tuple(params["weight"].values()),
+    # The method's own options (OPTIONS): the core refuses one it would not use. Depths
+    # and widths beyond the longest strip change nothing (each strip has fewer than
+    # len(points) steps): capped, so that 10**30 is not an OverflowError.
+    own: dict[str, Any] = {k: int(min(params[k], n)) for k in ("alpha", "band") if k in params}
+    if "solver" in params:
+        own["solver"] = params["solver"]
+        if params["solver"] != "banded":
+            del own["band"]
+    core = _core.StripParams(
         method,
-        # Depths and widths beyond the longest strip change nothing (each strip has
-        # fewer than len(points) steps): capped, so that 10**30 is not an OverflowError.
-        int(min(params.get("alpha", DEFAULT_ALPHA), n)),
-        params.get("solver", "banded"),
-        int(min(params.get("band", _core.DEFAULT_BAND), n)),
-        gap_factor,
-        params["check"],
-        params["jump_factor"],
-        context,
+        weight=params["weight"],
+        check=params["check"],
+        jump_factor=params["jump_factor"],
+        **own,
     )
+    return _core.strip_mesh(points, uv, line_ids, core, gap_factor, context)
 
 
 def strip_surface(
