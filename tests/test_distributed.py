@@ -287,8 +287,10 @@ def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.obj")
     with pytest.raises(ParameterError, match="object store URL cannot be written atomically"):
         reconstruct_distributed(paths, client=client, output="s3://bucket/site.stl")
-    with pytest.raises(ParameterError, match="method must be one of"):
+    with pytest.raises(ParameterError, match="unknown method 'strips'"):
         reconstruct_distributed(paths, "strips", client=client, output=tmp_path / "m.stl")
+    with pytest.raises(ParameterError, match="method 'auto' does not run on Dask"):
+        reconstruct_distributed(paths, "auto", client=client, output=tmp_path / "m.stl")
     with pytest.raises(ParameterError, match="partition_lines"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.stl", partition_lines=0)
     with pytest.raises(ParameterError, match="partition_lines applies to the strip methods"):

@@ -158,7 +158,7 @@ def test_the_python_tour_runs_and_shows_annealing_ahead_of_delaunay(folder, pyth
     assert annealed.quality.tac_1 < 0.3 * base.quality.tac_1  # the comment says 0.21 x
     assert height_error(annealed, part)["h_rms"] < 0.8 * height_error(base, part)["h_rms"]
     assert (folder / "fandisk.ply").is_file()
-    assert python_tour["auto"].options["method_choice"]["chosen"] == "anneal"
+    assert python_tour["auto"].options["method_choice"]["chosen"] == "strips-anneal"
 
 
 @pytest.mark.slow

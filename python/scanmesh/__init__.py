@@ -13,7 +13,8 @@ The public API:
   :func:`simulate_range_scan` the same with its grid of rays and line of sight;
 - :func:`merge` - one closed, labelled mesh from aligned range views (:func:`read_conf`
   reads a Stanford ``.conf``; :class:`View` is one view);
-- :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
+- :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY/NPZ, VTK, USGS DEM, LAS/LAZ,
+  PTS, PCD, E57, ESRI ASCII grids; the vertices of STL, OBJ and OFF meshes);
 - :func:`load_demo` - the demo scan ``scanmesh demo`` reconstructs (the creased fandisk, noisy;
   its part: ``demo.demo_part``); :func:`load_rod` the embedded connecting-rod scan (flat
   where scanned; its part: ``demo.rod_truth``);
@@ -27,6 +28,7 @@ from scanmesh.demo import load_demo, load_rod
 from scanmesh.errors import (
     ClosedPartWarning,
     CoincidentPointsWarning,
+    CrossingLinesWarning,
     CurtainsWarning,
     DegenerateInputError,
     FileFormatError,
@@ -39,6 +41,7 @@ from scanmesh.errors import (
     ScanmeshError,
     ScanmeshWarning,
     SliversWarning,
+    UnusedPointsWarning,
     WireZoomWarning,
 )
 from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
@@ -99,5 +102,7 @@ __all__ = [
     "CurtainsWarning",
     "ClosedPartWarning",
     "WireZoomWarning",
+    "CrossingLinesWarning",
+    "UnusedPointsWarning",
     "SliversWarning",
 ]

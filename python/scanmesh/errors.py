@@ -68,6 +68,19 @@ class WireZoomWarning(ScanmeshWarning):
     edges stay apart (``present.render.WIRE_PIXELS``); the message says by how much."""
 
 
+class CrossingLinesWarning(ScanmeshWarning):
+    """Scan lines cross or fold in the plane, so some strips overlapped there.
+
+    The overlapping triangles were dropped (``options["dropped_overlaps"]`` counts them),
+    so the mesh returned is still a manifold, valid triangulation in the plane.
+    """
+
+
+class UnusedPointsWarning(ScanmeshWarning):
+    """Some points are in no strip: isolated points outside every strip, or line ends that
+    overhang both neighbouring lines by more than half a gap."""
+
+
 # Raised and shown as scanmesh.ScanmeshError, ...: the public names, not the modules that
 # define them (the core's classes would otherwise read _core.ScanmeshError in tracebacks).
 for _cls in (
@@ -83,7 +96,11 @@ for _cls in (
     CoincidentPointsWarning,
     NotAHeightFieldWarning,
     CurtainsWarning,
+    ClosedPartWarning,
     WireZoomWarning,
+    CrossingLinesWarning,
+    UnusedPointsWarning,
+    SliversWarning,
 ):
     _cls.__module__ = "scanmesh"
 del _cls
@@ -101,4 +118,9 @@ __all__ = [
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",
     "CurtainsWarning",
+    "ClosedPartWarning",
+    "WireZoomWarning",
+    "CrossingLinesWarning",
+    "UnusedPointsWarning",
+    "SliversWarning",
 ]

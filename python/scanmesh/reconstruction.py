@@ -8,7 +8,8 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import Context
+from scanmesh._progress import Progress
 from scanmesh.errors import (
     CurtainsWarning,
     NotAHeightFieldWarning,
@@ -22,7 +23,7 @@ from scanmesh.measures import (
     SLIVER_ANGLE_DEG,
     curtains,
 )
-from scanmesh.methods import DEFAULT_METHOD, METHODS, Keywords
+from scanmesh.methods import DEFAULT_METHOD, METHODS, SHARED, TABLE, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
@@ -30,7 +31,6 @@ from scanmesh.scan.slivers import SLIVER_WARN_FRACTION, columns_advice, sliver_s
 from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.hidden import drop_hidden
-from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 __all__ = ["reconstruct", "METHODS"]
@@ -64,7 +64,9 @@ def reconstruct(
         window's points withheld a tenth at a time, seeded by ``seed``; the Surface is the
         chosen method's, and ``options["method_choice"]`` gives ``"chosen"`` and every
         candidate's ``"holdout"`` RMS), ``"delaunay"`` (max-min angle optimum in the
-        plane), ``"lookahead"`` and ``"shortest-path"`` (Fuchs-matrix strips between
+        plane), ``"grid"`` (a range grid's neighbours, less the faces the scanner cannot
+        have seen; scans with a grid only), ``"lookahead"`` and ``"shortest-path"``
+        (Fuchs-matrix strips between
         consecutive scan lines), ``"lop"``
         (greedy tac flips), ``"anneal"`` (simulated annealing on tac), ``"optimal"``
         (certified tac optimum, small inputs only).
@@ -156,18 +158,16 @@ def reconstruct(
     """
     spec = find_method(method)
     params = spec.check(options, {"lines": lines, "max_edge": max_edge, "seed": seed})
+    context = Context.of(progress, None if seed is None else SHARED["seed"].check(seed))
     # The one place the points are read (scan.read_scan_file), checked and projected.
-    if isinstance(source, ScanPoints):
-        scan = scan_of(source, plane=plane, lines=lines)
-    else:
-        scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
-    surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
+    scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
+    surface = spec.run(scan, params, Keywords(max_edge=max_edge, context=context))
     surface = drop_hidden(scan, surface)
     if scan.choice is not None:
         choice = scan.choice.as_dict(scan.frame.normal)
         surface.options = {**surface.options, "plane_choice": choice}
     _report_curtains(scan, surface)
-    with Stage(progress, "steep", len(surface.faces), blocking=True):
+    with context.stage("steep", len(surface.faces), blocking=True):
         steep = surface.steep_fraction
         slivers = sliver_share(surface.vertices, surface.faces)
     if steep is not None and steep > STEEP_WARN_FRACTION and _points_steep(scan, surface):
@@ -221,7 +221,8 @@ def _points_steep(scan: PlanarScan, surface: Surface) -> bool:
     is steep too. A method's own slivers (annealing's, a strip's across a gap) can stand
     steep over a smooth height field; the plane choice's quick triangulation measured the
     chosen plane already."""
-    if surface.method == "delaunay":
+    built = TABLE.get(surface.method)
+    if built is not None and built.max_min_angle:
         return True
     if scan.choice is not None and scan.choice.steep.get(scan.choice.chosen) is not None:
         return scan.choice.steep[scan.choice.chosen] > STEEP_WARN_FRACTION

@@ -16,6 +16,7 @@ from scanmesh import _core
 from scanmesh.distributed._grid import Bins, Grid, certified, circumcentres
 from scanmesh.distributed._output import FaceBlock
 from scanmesh.errors import ScanmeshError
+from scanmesh.methods import TABLE
 from scanmesh.scan.noise import median_edge, noise
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.projection import Frame, PlaneSpec
@@ -211,7 +212,7 @@ def optimize_piece(
     used, local = np.unique(piece, return_inverse=True)
     local = local.reshape(piece.shape).astype(np.int64)
     pts, puv = np.ascontiguousarray(points[used]), np.ascontiguousarray(uv[used])
-    if method == "lop":
+    if not TABLE[method].anneals:  # LOP
         done, _ = _core.lop(
             pts,
             puv,
