@@ -4,7 +4,6 @@ pictures that show the part."""
 
 from __future__ import annotations
 
-import inspect
 import os
 import re
 import shlex
@@ -25,11 +24,6 @@ TEXT = README.read_text(encoding="utf-8")
 #: background (an edge-on view of a flat part drew 0.02 %; the tour's pictures draw 20-35 %).
 DRAWN_SHARE = 0.10
 
-
-#: read_conf still takes a .conf's rotation as R(q) p + t by default (not the convention the
-#: Stanford files align with, which the README's tour writes).
-_OLD = inspect.signature(scanmesh.read_conf).parameters.get("inverse_rotation")
-CONF_DEFAULT_NOT_STANFORD = _OLD is not None and _OLD.default is False
 
 
 def _section(title: str) -> str:
@@ -173,11 +167,6 @@ def test_the_tours_tac_picture_shows_two_different_panels(folder, python_tour):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    CONF_DEFAULT_NOT_STANFORD,
-    reason="read_conf's default is R(q) p + t until the Stanford convention becomes it",
-    strict=True,
-)
 def test_the_tours_conf_file_puts_every_view_where_it_was(folder, python_tour):
     """The .conf the tour writes (world = R(q)ᵀ p + t) read back by read_conf's default."""
     written = python_tour["views"]
