@@ -45,6 +45,8 @@ CHILD = textwrap.dedent(
     try:
         if what == "stl":
             scanmesh._core.stl_records(X, faces)
+        elif what == "merge":  # the scan as one view from above, a voxel of half a spacing
+            scanmesh.merge([(X, np.eye(4))], voxel=0.5, max_voxels=10**12)
         else:
             scanmesh.reconstruct(scan, what, **({"sweeps": 1} if what == "anneal" else {}))
         print("built")
@@ -130,3 +132,19 @@ def test_a_failed_allocation_is_a_memory_error_not_an_abort():
     assert r.returncode == 0, (r.returncode, r.stderr[-800:])
     line = r.stdout.strip()
     assert line.startswith("refused: STL records (") and "the allocator" in line, line
+
+
+def test_merge_beyond_the_address_space_limit_is_refused_naming_the_fusion_grid():
+    """The fusion grid's blocks are allocated as the views need them, each allocation
+    fallible: 90,000 points fused at half their spacing need about 50 MB of blocks near
+    the surface, refused under 30 MB of room with a MemoryLimitError naming them; more room
+    builds the mesh. Never killed by a signal."""
+    r = run_child("merge", 90_000, 30_000_000)
+    assert r.returncode == 0, (r.returncode, r.stderr[-800:])
+    line = r.stdout.strip()
+    assert line.startswith("refused: the fusion grid") and "the allocator" in line, line
+    for room in (60_000_000, 400_000_000):
+        r = run_child("merge", 90_000, room)
+        assert r.returncode == 0, (room, r.returncode, r.stderr[-800:])
+        assert r.stdout.startswith(("built", "refused: ")), (room, r.stdout)
+    assert r.stdout.startswith("built"), r.stdout

@@ -16,13 +16,17 @@
 //! between the nodes (`Grid::crossing`): that is where never-sampled walls close. Last, edges are
 //! flipped where the samples lie closer to the other split (`flips`): they follow creases.
 
+use super::blocks::BLOCK;
 use super::depth::DepthView;
 use super::flips::follow_samples;
 use super::samples::SampleIndex;
+use super::sides::{Sides, INSIDE, MOVED};
 use super::tsdf::{Evidence, Volume};
 use super::walls::{flatten_unsampled, Placed};
+use crate::budget;
 use crate::error::{Error, Result};
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Face label: within the truncation of a measured surface.
@@ -87,9 +91,6 @@ pub struct Fused {
     pub repaired: usize,
 }
 
-const INSIDE: u8 = 1;
-const MOVED: u8 = 2;
-
 /// Corners of a cell's six faces in cyclic order (corner bit 1: +x, 2: +y, 4: +z).
 const CELL_FACES: [[usize; 4]; 6] = [
     [0, 2, 6, 4],
@@ -124,16 +125,18 @@ pub fn extract(
         });
     }
     let grid = Grid::new(volume);
-    let mut side = grid.sides();
-    let repaired = grid.repair(&mut side);
+    let mut side = Sides::new(volume)?;
+    let repaired = grid.repair(&mut side)?;
     let near = SampleIndex::new(volume, samples);
     let mut out = Fused {
         repaired,
         ..Fused::default()
     };
+    // the quads in the order of their edges (axis by axis, x fastest), their vertices in
+    // the order first met; placed afterwards on every core
     let mut cell_vertex: HashMap<usize, u32> = HashMap::new();
-    let mut vertex_cells: Vec<[usize; 3]> = Vec::new();
-    let mut placed: Vec<Placed> = Vec::new();
+    let mut cells: Vec<usize> = Vec::new();
+    let mut quads: Vec<([u32; 4], u8)> = Vec::new();
     let [nx, ny, nz] = grid.dims;
     let steps = [1, nx, nx * ny];
     for axis in 0..3 {
@@ -141,15 +144,24 @@ pub fn extract(
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
         for k in 0..nz {
             for j in 0..ny {
-                for i in 0..nx {
+                if !side.row_active(j, k) {
+                    continue;
+                }
+                let mut i = 0;
+                while i < nx {
                     let at = [i, j, k];
+                    if !side.is_active(at) {
+                        i = (i / BLOCK + 1) * BLOCK;
+                        continue;
+                    }
+                    i += 1;
                     if at[axis] + 1 >= grid.dims[axis] {
                         continue;
                     }
-                    let a = grid.volume.index(i, j, k);
+                    let a = grid.volume.index(at[0], j, k);
                     let b = a + steps[axis];
-                    let a_in = side[a] & INSIDE != 0;
-                    if a_in == (side[b] & INSIDE != 0) {
+                    let a_in = side.get(a) & INSIDE != 0;
+                    if a_in == (side.get(b) & INSIDE != 0) {
                         continue;
                     }
                     // the four cells around the edge, counter-clockwise about +axis
@@ -165,20 +177,32 @@ pub fn extract(
                     }
                     let ids = quad.map(|c| {
                         *cell_vertex.entry(c).or_insert_with(|| {
-                            let (at, how) = grid.place(c, &side, &near, samples, normals, views);
-                            out.vertices.push(at);
-                            placed.push(how);
-                            vertex_cells.push(grid.coords(c));
-                            (out.vertices.len() - 1) as u32
+                            cells.push(c);
+                            (cells.len() - 1) as u32
                         })
                     });
-                    let label = grid.label(a, b, &side);
-                    for t in split(&out.vertices, ids) {
-                        out.faces.push(t);
-                        out.labels.push(label);
-                    }
+                    budget::try_grow("the fused mesh's quads", &mut quads, 1)?;
+                    quads.push((ids, grid.label(a, b, &side)));
                 }
             }
+        }
+    }
+    drop(cell_vertex);
+    let placed: Vec<(DVec3, Placed)> = budget::try_par_collect(
+        "the fused mesh's vertices",
+        cells
+            .par_iter()
+            .map(|&c| grid.place(c, &side, &near, samples, normals, views)),
+    )?;
+    let (vertices, placed): (Vec<DVec3>, Vec<Placed>) = placed.into_iter().unzip();
+    out.vertices = vertices;
+    let vertex_cells: Vec<[usize; 3]> = cells.iter().map(|&c| grid.coords(c)).collect();
+    budget::try_grow("the fused mesh's faces", &mut out.faces, 2 * quads.len())?;
+    budget::try_grow("the fused mesh's faces", &mut out.labels, 2 * quads.len())?;
+    for (ids, label) in quads {
+        for t in split(&out.vertices, ids) {
+            out.faces.push(t);
+            out.labels.push(label);
         }
     }
     follow_samples(
@@ -232,16 +256,9 @@ impl<'a> Grid<'a> {
         (0..3).any(|a| c[a] == 0 || c[a] + 1 == self.dims[a])
     }
 
-    /// INSIDE per node: negative fused distance, never on the border.
-    fn sides(&self) -> Vec<u8> {
-        (0..self.dims.iter().product::<usize>())
-            .map(|n| u8::from(!self.on_border(n) && self.volume.value(n) < 0.0))
-            .collect()
-    }
-
     /// The signed distance used for crossings: a moved node sits just inside.
-    fn value(&self, n: usize, side: &[u8]) -> f64 {
-        if side[n] & MOVED != 0 {
+    fn value(&self, n: usize, side: &Sides) -> f64 {
+        if side.get(n) & MOVED != 0 {
             -1e-3 * self.volume.voxel()
         } else {
             self.volume.value(n)
@@ -255,31 +272,44 @@ impl<'a> Grid<'a> {
     }
 
     /// Makes the inside well-composed (see the module comment); returns the nodes moved.
-    fn repair(&self, side: &mut [u8]) -> usize {
+    /// Visits the cells in the order of the whole grid (x fastest), skipping those of
+    /// blocks where the sides cannot differ (which a move makes active as it happens).
+    ///
+    /// Errors: `OutOfMemory`.
+    fn repair(&self, side: &mut Sides) -> Result<usize> {
         let [nx, ny, nz] = self.dims;
         let mut moved = 0;
         loop {
             let before = moved;
             for k in 0..nz - 1 {
                 for j in 0..ny - 1 {
-                    for i in 0..nx - 1 {
+                    if !side.row_active(j, k) {
+                        continue;
+                    }
+                    let mut i = 0;
+                    while i < nx - 1 {
+                        if !side.is_active([i, j, k]) {
+                            i = (i / BLOCK + 1) * BLOCK;
+                            continue;
+                        }
                         let c = self.corners(self.volume.index(i, j, k));
                         while let Some(n) = self.critical(&c, side) {
-                            side[n] |= INSIDE | MOVED;
+                            side.add(n, INSIDE | MOVED)?;
                             moved += 1;
                         }
+                        i += 1;
                     }
                 }
             }
             if moved == before {
-                return moved;
+                return Ok(moved);
             }
         }
     }
 
     /// An outside node whose move inside removes a critical configuration of cell `c`.
-    fn critical(&self, c: &[usize; 8], side: &[u8]) -> Option<usize> {
-        let inside = |k: usize| side[c[k]] & INSIDE != 0;
+    fn critical(&self, c: &[usize; 8], side: &Sides) -> Option<usize> {
+        let inside = |k: usize| side.get(c[k]) & INSIDE != 0;
         let mask: u8 = (0..8).map(|k| u8::from(inside(k)) << k).sum();
         let candidates: Vec<usize> = if let Some(f) = CELL_FACES.iter().find(|f| {
             inside(f[0]) == inside(f[2])
@@ -303,7 +333,7 @@ impl<'a> Grid<'a> {
     }
 
     /// The label of the quad across edge (a, b).
-    fn label(&self, a: usize, b: usize, side: &[u8]) -> u8 {
+    fn label(&self, a: usize, b: usize, side: &Sides) -> u8 {
         let ends = [a, b];
         if ends
             .iter()
@@ -311,7 +341,7 @@ impl<'a> Grid<'a> {
         {
             MEASURED
         } else if ends.iter().any(|&n| {
-            side[n] & MOVED != 0
+            side.get(n) & MOVED != 0
                 || (self.on_border(n) && self.volume.evidence(n) == Evidence::Unseen)
         }) {
             FILLED
@@ -420,7 +450,7 @@ impl<'a> Grid<'a> {
     fn place(
         &self,
         cell: usize,
-        side: &[u8],
+        side: &Sides,
         near: &SampleIndex,
         samples: &[DVec3],
         normals: &[DVec3],
@@ -446,7 +476,7 @@ impl<'a> Grid<'a> {
         for q in 0..8 {
             for bit in [1, 2, 4] {
                 let r = q | bit;
-                if r == q || (side[c[q]] & INSIDE) == (side[c[r]] & INSIDE) {
+                if r == q || (side.get(c[q]) & INSIDE) == (side.get(c[r]) & INSIDE) {
                     continue;
                 }
                 let t = self.crossing([c[q], c[r]], corner(q), corner(r), f[q], f[r], views);
@@ -546,8 +576,8 @@ mod tests {
         (pose[3], pose[7]) = (shift, shift);
         let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
         let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
-        vol.integrate(&view);
-        vol.carve(&view);
+        vol.integrate(&view).unwrap();
+        vol.carve(&view).unwrap();
         (view, vol)
     }
 
@@ -619,7 +649,7 @@ mod tests {
             .collect();
         let view = DepthView::new(pose, [0.0; 2], 1.0, 6, 6, depth, vec![1.0; 36]).unwrap();
         let mut vol = Volume::new([0.0; 3], 1.0, [6, 6, 6], 1.0).unwrap();
-        vol.carve(&view);
+        vol.carve(&view).unwrap();
         assert_eq!(vol.evidence(vol.index(2, 2, 3)), Evidence::Unseen);
         assert_eq!(vol.evidence(vol.index(2, 3, 3)), Evidence::Empty);
         let fused = extract(&vol, &[], &[], &[&view]).unwrap();
