@@ -124,10 +124,20 @@ pub fn extract(
             expected: "one normal per sample",
         });
     }
+    extract_from(volume, Sides::new(volume)?, samples, normals, views)
+}
+
+/// [`extract`] from the nodes' sides `side` (the blocks it walks), inputs checked.
+fn extract_from(
+    volume: &Volume,
+    mut side: Sides,
+    samples: &[DVec3],
+    normals: &[DVec3],
+    views: &[&DepthView],
+) -> Result<Fused> {
     let grid = Grid::new(volume);
-    let mut side = Sides::new(volume)?;
     let repaired = grid.repair(&mut side)?;
-    let near = SampleIndex::new(volume, samples);
+    let near = SampleIndex::new(volume, samples)?;
     let mut out = Fused {
         repaired,
         ..Fused::default()
@@ -175,6 +185,13 @@ pub fn extract(
                     if !a_in {
                         quad.reverse();
                     }
+                    budget::try_grow("the fused mesh's vertices", &mut cells, 4)?;
+                    cell_vertex.try_reserve(4).map_err(|_| {
+                        budget::not_allocated::<(usize, u32)>(
+                            "the fused mesh's cells",
+                            cells.len() + 4,
+                        )
+                    })?;
                     let ids = quad.map(|c| {
                         *cell_vertex.entry(c).or_insert_with(|| {
                             cells.push(c);
@@ -194,9 +211,12 @@ pub fn extract(
             .par_iter()
             .map(|&c| grid.place(c, &side, &near, samples, normals, views)),
     )?;
-    let (vertices, placed): (Vec<DVec3>, Vec<Placed>) = placed.into_iter().unzip();
-    out.vertices = vertices;
-    let vertex_cells: Vec<[usize; 3]> = cells.iter().map(|&c| grid.coords(c)).collect();
+    out.vertices = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.0))?;
+    let placed = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.1))?;
+    let vertex_cells = budget::try_collect(
+        "the fused mesh's vertices",
+        cells.iter().map(|&c| grid.coords(c)),
+    )?;
     budget::try_grow("the fused mesh's faces", &mut out.faces, 2 * quads.len())?;
     budget::try_grow("the fused mesh's faces", &mut out.labels, 2 * quads.len())?;
     for (ids, label) in quads {
@@ -213,8 +233,8 @@ pub fn extract(
         &near,
         samples,
         normals,
-    );
-    flatten_unsampled(&mut out.vertices, &out.faces, &placed, grid.volume.voxel());
+    )?;
+    flatten_unsampled(&mut out.vertices, &out.faces, &placed, grid.volume.voxel())?;
     Ok(out)
 }
 
@@ -634,6 +654,51 @@ mod tests {
             sides += 1;
         }
         assert!(sides > 20);
+    }
+
+    /// A plateau (a box's top at z = 12 over 10 <= x, y < 25) seen from above in a grid
+    /// of 6 × 6 × 4 blocks, most of them uniform: the walk over the blocks where the sides
+    /// may differ gives the mesh the walk over every node gives, vertex for vertex.
+    #[test]
+    fn walking_the_active_blocks_gives_the_mesh_of_walking_every_node() {
+        let (w, h) = (44, 44);
+        let depth: Vec<f64> = (0..w * h)
+            .map(|p| {
+                let (i, j) = (p % w, p / w);
+                if (10..25).contains(&i) && (10..25).contains(&j) && p % 13 != 5 {
+                    12.0 + 0.01 * (i as f64 - 0.3 * j as f64)
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let mut pose = [0.0; 16];
+        for k in 0..4 {
+            pose[k * 5] = 1.0;
+        }
+        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
+        let mut vol = Volume::new([-1.7, -2.2, -1.4], 1.0, [46, 45, 27], 3.0).unwrap();
+        vol.integrate(&view).unwrap();
+        vol.carve(&view).unwrap();
+        let samples: Vec<DVec3> = (10..25)
+            .flat_map(|i| (10..25).map(move |j| DVec3::new(i as f64, j as f64, 12.0)))
+            .collect();
+        let normals = vec![DVec3::Z; samples.len()];
+        let sparse = extract(&vol, &samples, &normals, &[&view]).unwrap();
+        let mut all = Sides::new(&vol).unwrap();
+        all.activate_all();
+        let dense = extract_from(&vol, all, &samples, &normals, &[&view]).unwrap();
+        assert!(sparse.faces.len() > 1000);
+        assert_eq!(sparse.repaired, dense.repaired);
+        assert_eq!(sparse.faces, dense.faces);
+        assert_eq!(sparse.labels, dense.labels);
+        assert_eq!(sparse.vertices, dense.vertices);
+        assert_eq!(euler(&sparse), 2);
+        let [distances, flags] = vol.allocated();
+        assert!(
+            distances + flags < 46 * 45 * 27 / 2,
+            "{distances} + {flags}"
+        );
     }
 
     #[test]

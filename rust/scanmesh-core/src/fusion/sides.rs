@@ -124,6 +124,13 @@ impl Sides {
         Ok(out)
     }
 
+    /// Every block active: the walk over every node (the dense grid's), for tests.
+    #[cfg(test)]
+    pub(super) fn activate_all(&mut self) {
+        self.active.fill(true);
+        self.rows.fill(true);
+    }
+
     fn coords(&self, n: usize) -> [usize; 3] {
         let [nx, ny, _] = self.dims;
         [n % nx, (n / nx) % ny, n / (nx * ny)]

@@ -897,9 +897,10 @@ mod tests {
         .into_iter()
         .map(|t| ball_view(pose_toward(t), centre, 9.0, 0.9))
         .collect();
-        // a grid whose sides are no multiple of the block's, the ball off its centre
-        let dims = [45, 38, 41];
-        let mut vol = Volume::new([-21.0, -19.5, -20.2], 1.0, dims, 3.0).unwrap();
+        // a grid whose sides are no multiple of the block's, the ball off its centre, the
+        // image's edge inside the grid along x
+        let dims = [62, 58, 61];
+        let mut vol = Volume::new([-30.2, -28.9, -31.0], 1.0, dims, 3.0).unwrap();
         for view in &views {
             vol.integrate(view).unwrap();
         }
