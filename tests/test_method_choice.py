@@ -11,6 +11,7 @@ import trimesh
 
 import scanmesh
 from conftest import DATA, bumpy_patch
+from scanmesh import methods
 from scanmesh.methods import DEFAULT_METHOD
 from scanmesh.scan.planar import as_scan
 from scanmesh.stages import choice
@@ -38,12 +39,13 @@ def test_the_default_is_auto_and_anneal_still_anneals(monkeypatch):
     default = scanmesh.reconstruct(pts, plane="z")
     made = default.options["method_choice"]
     assert made["chosen"] == default.method
-    assert set(made["holdout"]) == set(choice.CANDIDATES)
+    assert set(made["holdout"]) == set(methods.CANDIDATES)
     assert made["measured"] > 0 and made["folds"] == 1
     annealed = scanmesh.reconstruct(pts, "anneal", plane="z")
     assert annealed.method == "anneal" and "method_choice" not in annealed.options
 
 
+@pytest.mark.slow
 def test_the_same_seed_makes_the_same_choice_and_faces(monkeypatch):
     monkeypatch.setattr(choice, "MEASURED", 1)
     monkeypatch.setattr(choice, "MIN_POINTS", 30)
@@ -91,6 +93,7 @@ def test_the_window_is_whole_lines_around_the_middle_and_the_folds_disjoint():
     assert len(choice.folds(2_000, seed=1, measured=10**6)) == 10  # each point once
 
 
+@pytest.mark.slow
 def test_on_the_noisy_oblique_conrod_the_default_takes_delaunay():
     """The conrod turned 30 degrees at noise s/30 (the panel's scan): Delaunay is 12 % closer
     to the part than annealing; the holdout ranks it first too."""
@@ -116,6 +119,7 @@ def test_a_scan_too_small_to_judge_is_annealed():
     assert surface.method == "anneal" and made["folds"] == 0 and made["measured"] == 0
 
 
+@pytest.mark.slow
 def test_on_a_gridded_scan_delaunay_chosen_builds_the_grid(monkeypatch):
     """The judge's parts have no range grid, so Delaunay stands in for the grid there; on
     a range scan the grid is what gets built (no curtains), as LOP and annealing start
@@ -139,6 +143,7 @@ def test_on_a_gridded_scan_delaunay_chosen_builds_the_grid(monkeypatch):
     assert surface.options["curtains"]["count"] == 0
 
 
+@pytest.mark.slow
 def test_on_a_gridded_scan_the_strips_are_no_candidate():
     """The default stays inside a range grid's domain: the strips join lines wherever both
     have samples, so on a gridded scan only annealing, LOP and Delaunay (the grid) are
@@ -147,8 +152,8 @@ def test_on_a_gridded_scan_the_strips_are_no_candidate():
         DATA / "cad" / "fandisk.obj", up="x", along="y", n_points=1_500
     )
     gridded = scanmesh.reconstruct(scan).options["method_choice"]
-    assert set(gridded["holdout"]) == set(choice.GRID_CANDIDATES)
+    assert set(gridded["holdout"]) == set(methods.GRID_CANDIDATES)
     assert "shortest-path" not in gridded["holdout"] and gridded["folds"] > 0
     plain = scanmesh.reconstruct(dataclasses.replace(scan, grid=None))
     plain = plain.options["method_choice"]
-    assert set(plain["holdout"]) == set(choice.CANDIDATES)
+    assert set(plain["holdout"]) == set(methods.CANDIDATES)

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh import _core
+from scanmesh._checks import POSITIVE
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import ParameterError, ScanmeshWarning
@@ -55,16 +56,6 @@ REFINE_REACH = 3.0
 #: six views (docs/benchmarks/merge.md): none off at 0.7 spacing, the fandisk 1.5 % of its
 #: area in tunnels at 0.5, and no part better than at one spacing but the blade (4 %).
 FINE_VOXEL = 0.7
-
-
-def _positive(value: Any, name: str) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a positive number, got {value!r}") from None
-    if not math.isfinite(out) or out <= 0:
-        raise ParameterError(f"{name} must be a positive finite number, got {value!r}")
-    return out
 
 
 def _near_samples(points: np.ndarray, origin: np.ndarray, size: float) -> int:
@@ -131,7 +122,7 @@ def merge(
     timings: dict[str, float] = {}
     start = time.perf_counter()
     checked = as_views(views, poses=poses, toward=toward)
-    trunc = _positive(truncation, "truncation")
+    trunc = POSITIVE.check(truncation, "truncation")
     if trunc < 1.0:
         raise ParameterError(f"truncation must be at least 1 voxel, got {truncation!r}")
     if isinstance(max_voxels, bool) or not isinstance(max_voxels, (int, np.integer)):
@@ -187,7 +178,7 @@ def merge(
             size *= math.sqrt(need / max_voxels) * 1.01
             origin, dims = grid_for(size)
     else:
-        size = _positive(voxel, "voxel")
+        size = POSITIVE.check(voxel, "voxel")
         if size < FINE_VOXEL * ray_spacing:
             warnings.warn(
                 f"merge: voxel {voxel:g} is under {FINE_VOXEL:g} of the views' ray spacing"

@@ -11,8 +11,9 @@ covers. Disjoint tenths are withheld in turn until at least ``MEASURED`` points 
 (at most ten: every point once). The lowest RMS wins (on exact ties the earlier candidate)
 among the candidates whose meshes have at most ``SLIVERS`` slivers.
 The winner is then built on all points (``methods``: on a gridded scan the grid
-triangulation where Delaunay wins, since the parts carry no grid). On a gridded scan the
-strips are no candidate (``GRID_CANDIDATES``): the default stays inside the grid's domain.
+triangulation where Delaunay wins, since the parts carry no grid). The candidates are the
+registry's (``methods.CANDIDATES``); on a gridded scan the strips are none
+(``methods.GRID_CANDIDATES``): the default stays inside the grid's domain.
 
 The judge sees what a holdout sees: on real scans it agrees with the panel's holdout; on
 the stepped pocket it ranks the strips last while they are closest to the part (a withheld
@@ -30,24 +31,13 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
 from scanmesh.errors import ScanmeshError
+from scanmesh.judge import Seen, rms
+from scanmesh.judge import distances as normal_distances
 from scanmesh.scan.lines import GAP_FACTOR
-from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.surface import Surface
-
-#: Candidates, in order of preference (the earlier wins an exact tie). Look-ahead is left
-#: out: it never beat shortest-path by more than 0.1 % on the panel, and its defect on the
-#: fandisk (40 x the height error) does not show in a holdout.
-CANDIDATES: tuple[str, ...] = ("anneal", "lop", "delaunay", "shortest-path")
-
-#: Candidates on a gridded scan: those that stay inside the grid's domain (the grid, for
-#: which Delaunay stands in on the judge's parts, and LOP and annealing started from it).
-#: The strips join neighbouring lines wherever both have samples, whatever the scanner saw
-#: between them: on the conrod scanned along y (benches/curtains.py) the holdout picked them
-#: and the default missed 1.62 points more of the part than the best peer, the grid 0.54 less.
-GRID_CANDIDATES: tuple[str, ...] = ("anneal", "lop", "delaunay")
 
 #: Points of the window the candidates are judged on, at most (whole lines).
 WINDOW: int = 20_000
@@ -145,18 +135,6 @@ def folds(n: int, seed: int, measured: int = MEASURED) -> list[np.ndarray]:
     return [np.sort(perm[f::10]) for f in range(k)]
 
 
-def distances(
-    points: np.ndarray, kept: np.ndarray, out: np.ndarray, surface: Surface
-) -> np.ndarray:
-    """(len(out),) float64 distance along ``surface``'s projection normal from each withheld
-    point ``points[out]`` to ``surface`` (built on ``points[kept]``); nan outside its
-    outline or in its holes. ``points`` (W, 3) float64. O((F + len(out)) log F)."""
-    frame = surface.frame
-    axes = np.column_stack([frame.u, frame.v])
-    tri = surface.vertices[surface.faces]  # (F, 3, 3): the points[kept] it was built on
-    return normal_distances(points[out], tri, axes, frame.normal)[0]
-
-
 def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
     """The points ``index`` of ``scan`` as a scan of their own, projected along the same
     normal (not chosen again), with their line ids."""
@@ -167,25 +145,25 @@ def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
 def choose(
     scan: PlanarScan,
     build: Callable[[str, PlanarScan], Surface],
-    seed: int = 0,
-    candidates: tuple[str, ...] = CANDIDATES,
-    progress: Progress = False,
+    candidates: tuple[str, ...],
+    context: Context = QUIET,
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
     ``build(name, part)`` builds candidate ``name`` on a part of the scan. The window is
     :func:`window` of the scan's line ids (given, else detected), the withheld tenths
-    :func:`folds` of it, seeded by ``seed``; reports the stage "choose" (builds). A
+    :func:`folds` of it, seeded by the call's seed; reports the stage "choose" (builds) to
+    the call's progress (``context``). A
     candidate whose build fails on a part is not judged; a window under ``MIN_POINTS``
     points is not judged at all (the first candidate). O(folds x candidates x a build of
     WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
-    parts = folds(len(win), seed, MEASURED) if len(win) >= MIN_POINTS else []
+    parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
     dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
     slivers = dict.fromkeys(candidates, 0.0)
     seconds = dict.fromkeys(candidates, 0.0)
-    with Stage(progress, "choose", len(parts) * len(candidates)) as stage:
+    with context.stage("choose", len(parts) * len(candidates)) as stage:
         for out in parts:
             kept = np.setdiff1d(np.arange(len(win)), out)
             part = _part(scan, lines, win[kept])
@@ -199,7 +177,8 @@ def choose(
                     dist[name].append(np.full(len(out), np.nan))
                     slivers[name] = math.inf
                 else:
-                    dist[name].append(distances(scan.points[win], kept, out, surface))
+                    held = scan.points[win][out]
+                    dist[name].append(normal_distances(held, Seen.of(surface))[0])
                     slivers[name] += surface.quality.sliver_fraction / len(parts)
                 seconds[name] += time.perf_counter() - t0
                 stage.update(stage.done + 1)
@@ -210,9 +189,7 @@ def choose(
     fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
     covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
     holdout = {
-        name: float(np.sqrt(np.mean(d[covered] ** 2)))
-        if name in fair and covered.any()
-        else math.nan
+        name: rms(d[covered]) if name in fair and covered.any() else math.nan
         for name, d in joined.items()
     }
     measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
@@ -235,8 +212,5 @@ __all__ = [
     "choose",
     "window",
     "folds",
-    "distances",
-    "CANDIDATES",
-    "GRID_CANDIDATES",
     "WINDOW",
 ]

@@ -6,8 +6,10 @@ use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use rayon::prelude::*;
+use scanmesh_core::budget::{try_filled, try_vec};
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{try_filled, try_vec, SweepRecord, NONE};
+use scanmesh_core::mesh::NONE;
+use scanmesh_core::optimize::SweepRecord;
 use std::borrow::Cow;
 
 /// numpy arrays handed to Python: (rows, cols) float64, (n,) float64, (rows, cols) int64, (n,) int64.
@@ -140,9 +142,8 @@ pub(crate) fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResul
     Ok(out)
 }
 
-/// (M, 3) int64 faces for numpy, widened on every core without the GIL: 20M faces are
-/// 480 MB to write, a third of a second on one core. Allocated fallibly: memory refused
-/// is a `MemoryLimitError`, not an abort.
+/// (M, 3) int64 faces for numpy, widened on every core without the GIL: 24 bytes a face to
+/// write. Allocated fallibly: memory refused is a `MemoryLimitError`, not an abort.
 pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Ints2<'py>> {
     let flat = py.detach(|| {
         let mut flat = try_filled("the faces for numpy", 0i64, 3 * t.len())?;

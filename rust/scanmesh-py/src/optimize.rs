@@ -8,16 +8,19 @@ use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use scanmesh_core::{curtain_facing, run_lop, Ensemble, LopCriterion, Relabel, TacOrder, TacState};
+use scanmesh_core::mesh::Relabel;
+use scanmesh_core::optimize::{
+    curtain_facing, run_lop, Ensemble, LopCriterion, TacOrder, TacState,
+};
 
-/// Lists `scanmesh_core::AnnealParams`'s fields once, for reading them from keywords and
+/// Lists `scanmesh_core::optimize::AnnealParams`'s fields once, for reading them from keywords and
 /// writing them to a dict. The destructuring in `fields_dict` names every field with no
 /// `..`, so a field added to the core does not compile until it is listed here too.
 macro_rules! anneal_fields {
     ($($field:ident),+ $(,)?) => {
         /// Sets the field `name` of `params` to `value`; false when there is no such field.
         fn set_field(
-            params: &mut scanmesh_core::AnnealParams,
+            params: &mut scanmesh_core::optimize::AnnealParams,
             name: &str,
             value: &Bound<'_, PyAny>,
         ) -> PyResult<bool> {
@@ -31,9 +34,9 @@ macro_rules! anneal_fields {
         /// Every field of `params` by name, in the struct's order.
         fn fields_dict<'py>(
             py: Python<'py>,
-            params: &scanmesh_core::AnnealParams,
+            params: &scanmesh_core::optimize::AnnealParams,
         ) -> PyResult<Bound<'py, PyDict>> {
-            let scanmesh_core::AnnealParams { $($field),+ } = params;
+            let scanmesh_core::optimize::AnnealParams { $($field),+ } = params;
             let dict = PyDict::new(py);
             $(dict.set_item(stringify!($field), $field)?;)+
             Ok(dict)
@@ -75,19 +78,19 @@ fn extract_field<'py, T: FromPyObjectOwned<'py>>(
     })
 }
 
-/// The parameters of an annealing run (`scanmesh_core::AnnealParams`): the core's defaults
+/// The parameters of an annealing run (`scanmesh_core::optimize::AnnealParams`): the core's defaults
 /// with the given keywords replaced, range-checked by the core (`AnnealParams::check`).
 /// The one declaration of annealing's fields and defaults: Python reads them from
 /// `as_dict()`.
 #[pyclass(name = "AnnealParams", frozen, module = "scanmesh._core")]
-pub(crate) struct AnnealParams(scanmesh_core::AnnealParams);
+pub(crate) struct AnnealParams(scanmesh_core::optimize::AnnealParams);
 
 #[pymethods]
 impl AnnealParams {
     #[new]
     #[pyo3(signature = (**params))]
     fn new(params: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        let mut out = scanmesh_core::AnnealParams::default();
+        let mut out = scanmesh_core::optimize::AnnealParams::default();
         for (name, value) in params.into_iter().flatten() {
             let name: String = name.extract()?;
             if !set_field(&mut out, &name, &value)? {
@@ -101,7 +104,7 @@ impl AnnealParams {
     }
 
     /// Sweeps of the automatic schedule for `n_points` points and `interior_edges` interior
-    /// edges (`scanmesh_core::AnnealParams::auto_sweeps`).
+    /// edges (`scanmesh_core::optimize::AnnealParams::auto_sweeps`).
     fn auto_sweeps(&self, n_points: usize, interior_edges: usize) -> usize {
         self.0.auto_sweeps(n_points, interior_edges)
     }
@@ -142,16 +145,17 @@ pub(crate) fn tac_state(
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
 /// larger smallest angle when `sliver_guard`, no flip bringing a face within
 /// `curtain_angle` degrees of the (3,) line of sight `sight` when one is given) or
-/// "max-min" (smallest angle in the plane; converges to Delaunay); `p`, `sliver_guard`,
-/// `tie_tolerance` and `curtain_angle` default to annealing's. Returns (faces, flips).
+/// "max-min" (smallest angle in the plane; converges to Delaunay); the options after it are
+/// keywords, and `p`, `sliver_guard`, `tie_tolerance` and `curtain_angle` default to
+/// annealing's. Returns (faces, flips).
 #[pyfunction]
 #[pyo3(signature = (
-    points, uv, faces_, criterion,
-    p=scanmesh_core::AnnealParams::default().p,
-    sliver_guard=scanmesh_core::AnnealParams::default().sliver_guard,
-    tie_tolerance=scanmesh_core::AnnealParams::default().tie_tolerance,
+    points, uv, faces_, criterion, *,
+    p=scanmesh_core::optimize::AnnealParams::default().p,
+    sliver_guard=scanmesh_core::optimize::AnnealParams::default().sliver_guard,
+    tie_tolerance=scanmesh_core::optimize::AnnealParams::default().tie_tolerance,
     sight=None,
-    curtain_angle=scanmesh_core::AnnealParams::default().curtain_angle,
+    curtain_angle=scanmesh_core::optimize::AnnealParams::default().curtain_angle,
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn lop<'py>(

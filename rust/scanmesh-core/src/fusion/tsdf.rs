@@ -240,7 +240,7 @@ impl Volume {
     }
 
     /// What is known of node `n`: measured unless its mean is negative and
-    /// [`EMPTY_VOTES`] views saw it well in front of their surfaces (then empty). O(1).
+    /// `EMPTY_VOTES` views saw it well in front of their surfaces (then empty). O(1).
     pub fn evidence(&self, n: usize) -> Evidence {
         self.evidence_at(self.coords(n))
     }

@@ -8,3 +8,9 @@ pub(crate) mod ensemble;
 pub(crate) mod lop;
 pub(crate) mod tac_state;
 pub(crate) mod tiles;
+
+pub use anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord, CURTAIN_ANGLE_DEG, MAX_TILES};
+pub use ensemble::{Ensemble, EnsembleSummary};
+pub use lop::{curtain_facing, run_lop, tac_lop, LopCriterion, TacOrder};
+pub use tac_state::{Detail, FlipMove, TacState};
+pub use tiles::TiledAnnealer;

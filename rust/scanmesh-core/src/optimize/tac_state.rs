@@ -80,13 +80,10 @@ pub enum Detail {
 pub const COPLANAR_RELATIVE: f64 = 1e-13;
 
 /// With `planar_ties`, a corner is flat up to the noise when its tac is at most this many
-/// tie tolerances (per unit of p: tac <= NOISE_TAC × tie_tolerance^(1/p)). On the noisy
-/// rod (all flat) 99.9 % of the interior vertices of Delaunay's mesh have a tac below 1.8
-/// tolerances at sigma = s/30 and s/10; on the fandisk at s/30, 1.2 % (its creases) are
-/// above 4. Measured on the rod at s/10 (height RMS / Delaunay's, paired samples,
-/// docs/benchmarks/noise.md): 1.0004-1.0007 with 2; with 1, 1.005-1.007, and the real
-/// scans' holdout above Delaunay's (LAS ground 1.04); judging only the near-ties of flat
-/// corners in the plane, not all their flips: 1.014 (with 1), 1.007 (with 2).
+/// tie tolerances (per unit of p: tac <= NOISE_TAC × tie_tolerance^(1/p)): nearly every
+/// corner of a flat noisy scan is below it and a crease's are above, and 2 kept the noisy
+/// rod's height error closer to Delaunay's than 1 (figures in docs/benchmarks/noise.md,
+/// "Figures behind the core's constants").
 pub const NOISE_TAC: f64 = 2.0;
 
 /// Peak memory of [`TacState::from_input`] and one run of LOP on it, per point, checked
@@ -196,7 +193,7 @@ pub fn vertex_energy(s: f64, p: f64) -> f64 {
 impl TacState {
     /// Builds the caches. `uv` are the planar positions the flips are checked in (use
     /// [`crate::geometry::unit_square`] of the projection), `xyz` the 3-D positions the angles
-    /// are measured on (normalize with [`crate::geometry::Normalizer`] to be scale-safe). O(m).
+    /// are measured on (normalize with `crate::geometry::Normalizer` to be scale-safe). O(m).
     pub fn new(mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
         let mut state = TacState::without_sums(mesh, uv, xyz, p)?;
         state.measure_sums();
@@ -478,7 +475,7 @@ impl TacState {
     /// Planar positions of the quadrilateral (a, b, c, d) of [`HalfEdgeMesh::quad`] of the
     /// interior half-edge `h` when each of its corners is flat up to the noise of
     /// `tie_tolerance` (a boundary vertex, or a tac at most
-    /// [`NOISE_TAC`] × tie_tolerance^(1/p)), else `None`. O(1).
+    /// `NOISE_TAC` × tie_tolerance^(1/p)), else `None`. O(1).
     pub fn flat_quad_uv(&self, h: u32, tie_tolerance: f64) -> Option<[[f64; 2]; 4]> {
         let floor = NOISE_TAC * tie_tolerance.powf(1.0 / self.p);
         let t = self.mesh.twin(h);
@@ -568,7 +565,7 @@ impl TacState {
     /// Prefetch hints for a later [`evaluate`](Self::evaluate)`(h)` and [`apply`](Self::apply),
     /// in three stages that a caller issues a few proposals apart, each reading only what the
     /// previous stage requested: 0, the slots of h's triangle; 1, those of its twin's; 2,
-    /// the four corners' positions and sums, and what [`PrefetchHints`] asks for. Hints
+    /// the four corners' positions and sums, and what `PrefetchHints` asks for. Hints
     /// never change results (a flip in between only makes one useless). O(1).
     #[inline(always)]
     pub fn prefetch(&self, h: u32, stage: usize, hints: PrefetchHints) {
@@ -621,7 +618,7 @@ impl TacState {
 
     /// True when `h` can flip (interior, strictly convex quadrilateral) and one of its four
     /// corners is an interior vertex whose tac exceeds `floor` (radians): the edges
-    /// [`crate::optimize::active`] draws annealing proposals from. O(1).
+    /// `crate::optimize::active` draws annealing proposals from. O(1).
     #[inline]
     pub fn is_live(&self, h: u32, floor: f64) -> bool {
         let Some((_, quad)) = self.mesh.twin_and_quad(h) else {
