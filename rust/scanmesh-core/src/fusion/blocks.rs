@@ -149,7 +149,7 @@ impl Blocks {
     }
 
     /// Nodes allocated (whole blocks) with a distance (9 bytes each) and with flags alone
-    /// (1 byte each; those given up for a distance slot included).
+    /// (1 byte each; those given up or made uniform again included: their room is kept).
     pub(super) fn allocated(&self) -> [usize; 2] {
         [self.owner.len(), self.marks_owner.len()].map(|s| s * BLOCK_NODES)
     }
@@ -200,9 +200,13 @@ impl Blocks {
         self.index[b] = UNIFORM | u32::from(flags);
     }
 
-    /// Refuses a slot more beyond the nodes allowed (`TooCostly`, `max_voxels`).
-    fn check_room(&self) -> Result<()> {
-        if self.owner.len() + self.marks_owner.len() < self.max_slots {
+    /// Refuses a slot more beyond the nodes allowed (`TooCostly`, `max_voxels`): a node
+    /// with its flags alone counts as a ninth (1 byte against 9), every flags slot ever
+    /// taken counted, so the blocks never hold more than 9 bytes per node allowed.
+    fn check_room(&self, distances: bool) -> Result<()> {
+        let used = 9 * self.owner.len() + self.marks_owner.len();
+        let more = if distances { 9 } else { 1 };
+        if used + more <= self.max_slots.saturating_mul(9) {
             return Ok(());
         }
         Err(Error::TooCostly {
@@ -210,10 +214,39 @@ impl Blocks {
             value: (self.max_slots * BLOCK_NODES).to_string(),
             needs: format!(
                 "more voxels near the surface than that (blocks of {BLOCK}³ allocated where a \
-                 view's truncation band, silhouette or carving edge passes)"
+                 view's truncation band, silhouette or carving edge passes; a node with \
+                 flags alone counts as a ninth)"
             ),
             limit: "the voxels allowed: raise max_voxels or the voxel".into(),
         })
+    }
+
+    /// Makes uniform again each block of flags alone whose nodes are all seen empty, or
+    /// none is: once no distance can come (every view integrated), a node without one is
+    /// empty or unseen by that bit alone, its votes counting no more. O(flags slots · 512),
+    /// on every core.
+    pub(super) fn settle_flags(&mut self, empty: u8) {
+        let layout = self.layout;
+        let settled: Vec<Option<u8>> = self
+            .marks_owner
+            .par_iter()
+            .zip(self.marks.par_chunks(BLOCK_NODES))
+            .map(|(&b, marks)| {
+                if b == FREED {
+                    return None;
+                }
+                let mut nodes =
+                    block_nodes(layout.nodes(b as usize)).map(|(_, n)| marks[n] & empty);
+                let first = nodes.next()?;
+                nodes.all(|m| m == first).then_some(first)
+            })
+            .collect();
+        for (s, flags) in settled.into_iter().enumerate() {
+            if let Some(flags) = flags {
+                self.index[self.marks_owner[s] as usize] = UNIFORM | u32::from(flags);
+                self.marks_owner[s] = FREED;
+            }
+        }
     }
 
     /// Gives uniform block `b` its nodes' flags (the state it stood for), for a view that
@@ -225,7 +258,7 @@ impl Blocks {
         let Entry::Uniform(flags) = self.entry(b) else {
             return Ok(());
         };
-        self.check_room()?;
+        self.check_room(false)?;
         let what = "the fusion grid's blocks";
         budget::try_grow(what, &mut self.marks, BLOCK_NODES)?;
         budget::try_grow(what, &mut self.marks_owner, 1)?;
@@ -246,7 +279,7 @@ impl Blocks {
         if let Entry::Slot(_) = entry {
             return Ok(());
         }
-        self.check_room()?;
+        self.check_room(true)?;
         let what = "the fusion grid's blocks";
         budget::try_grow(what, &mut self.sum, BLOCK_NODES)?;
         budget::try_grow(what, &mut self.weight, BLOCK_NODES)?;
@@ -362,11 +395,14 @@ mod tests {
 
     #[test]
     fn allocation_beyond_max_voxels_is_refused() {
-        let mut blocks = Blocks::new([16, 16, 16]).unwrap();
+        let mut blocks = Blocks::new([32, 32, 16]).unwrap();
         blocks.limit(2 * BLOCK_NODES);
         blocks.allocate(0).unwrap();
-        blocks.allocate_flags(1).unwrap();
-        for err in [blocks.allocate(2), blocks.allocate_flags(2)] {
+        // a block of flags alone counts as a ninth: nine fit beside the distances
+        for b in 1..=9 {
+            blocks.allocate_flags(b).unwrap();
+        }
+        for err in [blocks.allocate(10), blocks.allocate_flags(10)] {
             let err = err.unwrap_err();
             assert!(
                 matches!(
@@ -379,6 +415,6 @@ mod tests {
                 "{err}"
             );
         }
-        assert_eq!(blocks.allocated(), [BLOCK_NODES, BLOCK_NODES]);
+        assert_eq!(blocks.allocated(), [BLOCK_NODES, 9 * BLOCK_NODES]);
     }
 }

@@ -693,12 +693,8 @@ mod tests {
         assert_eq!(sparse.faces, dense.faces);
         assert_eq!(sparse.labels, dense.labels);
         assert_eq!(sparse.vertices, dense.vertices);
-        assert_eq!(euler(&sparse), 2);
-        let [distances, flags] = vol.allocated();
-        assert!(
-            distances + flags < 46 * 45 * 27 / 2,
-            "{distances} + {flags}"
-        );
+        let [distances, _] = vol.allocated();
+        assert!(distances < 46 * 45 * 27 / 2, "{distances}");
     }
 
     #[test]
