@@ -104,12 +104,16 @@ def test_on_the_noisy_oblique_conrod_the_default_takes_delaunay():
     assert made["holdout"]["delaunay"] < made["holdout"]["anneal"]
 
 
-def test_on_the_oblique_pocket_the_default_still_anneals():
-    """The pocket of test_anneal_start's oblique crease test: annealing (from LOP's free
-    optimum) is closest to the part, and the holdout keeps it."""
+def test_on_the_oblique_pocket_the_holdout_ties_and_the_first_candidate_stays():
+    """The pocket of test_anneal_start's oblique crease test, noise-free: away from its
+    steps every candidate's mesh holds the withheld points exactly alike, so the first
+    candidate (the strips annealed) is built. (Annealing from LOP's free optimum is 6 %
+    closer to the part there: docs/benchmarks/panel.md.)"""
     pts, lines = _turned_scan("octagonal_pocket.ply", "z", 0.0)
     default = scanmesh.reconstruct(pts, plane="z", lines=lines, seed=0)
-    assert default.method == "anneal"
+    assert default.method == methods.CANDIDATES[0] == "strips-anneal"
+    holdout = default.options["method_choice"]["holdout"]
+    assert len(set(holdout.values())) == 1
 
 
 def test_a_scan_too_small_to_judge_is_annealed():

@@ -200,8 +200,14 @@ def test_bad_flag_values_are_one_line_naming_the_flag(scan_file, tmp_path, flags
 def test_flags_for_another_method_are_usage_errors(scan_file, tmp_path, capsys):
     out = tmp_path / "out.stl"
     for flags, text in (
-        (["--method", "delaunay", "--sweeps", "5"], "--sweeps applies to --method anneal only"),
-        (["--method", "delaunay", "--seed", "5"], "--seed applies to --method anneal, auto only"),
+        (
+            ["--method", "delaunay", "--sweeps", "5"],
+            "--sweeps applies to --method anneal, strips-anneal only",
+        ),
+        (
+            ["--method", "delaunay", "--seed", "5"],
+            "--seed applies to --method anneal, strips-anneal, auto only",
+        ),
         (["--method", "shortest-path", "--max-edge", "2"], "--max-edge applies"),
         (["--method", "lookahead", "--solver", "dp"], "--solver applies"),
     ):

@@ -145,6 +145,7 @@ def lop(
     tie_tolerance: float = ...,
     sight: npt.NDArray[np.float64] | None = None,
     curtain_angle: float = ...,
+    fixed: npt.NDArray[np.int64] | None = None,
 ) -> tuple[npt.NDArray[np.int64], int]: ...
 
 @final
@@ -201,6 +202,7 @@ class Annealer:
         faces: npt.NDArray[np.int64],
         params: AnnealParams,
         sight: npt.NDArray[np.float64] | None = None,
+        fixed: npt.NDArray[np.int64] | None = None,
     ) -> Annealer: ...
     def advance(self, max_proposals: int, max_seconds: float) -> int: ...
     @property

@@ -343,15 +343,16 @@ def build_parser() -> argparse.ArgumentParser:
         description="Scan the embedded fandisk (a CAD part with creases) turned so that its"
         " creases cross the scan lines, with noise; reconstruct it by Delaunay and by"
         f" annealing (seed 0); write {DEMO_MESH} (annealed), {DEMO_PREVIEW} (both,"
-        f" shaded) and {DEMO_TAC} (both, coloured by tac on one scale), and"
-        " print both meshes' quality and height error against the part.",
+        f" shaded) and {DEMO_TAC} (both, coloured by tac on one scale) into the current"
+        " folder or -o DIR, and print both meshes' quality and height error against the"
+        " part.",
     )
     p.add_argument(
         "-o",
         "--output-dir",
         default=".",
-        metavar="OUTDIR",
-        help="folder for the files (default: here)",
+        metavar="DIR",
+        help="folder for the files, made if missing (default: the current folder)",
     )
     p.set_defaults(func=cmd_demo, _parser=p)
     return parser

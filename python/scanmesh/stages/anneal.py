@@ -298,6 +298,7 @@ def anneal_surface(
     *,
     seed: int | None = None,
     progress: Progress = False,
+    fixed: np.ndarray | None = None,
     **schedule: Any,
 ) -> Surface:
     """Anneal ``initial``'s triangulation in its projection plane, minimizing sum tac^p.
@@ -317,6 +318,10 @@ def anneal_surface(
         ``seconds_left=`` (see :func:`seconds_left`; None while unknown) if it takes that
         keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
+    fixed : (K, 2) int, optional
+        Edges of ``initial`` (pairs of point indices) that no flip may remove: the walk, the
+        descent and the polish keep them (``stages.strips_anneal`` keeps the strips' steps
+        so). Not with ``tiles`` > 1.
     **schedule
         ``sweeps`` (automatic: a budget of 24 proposals per point, at least 2 million in
         all, shared by the chains, between 8 and 1000 sweeps; ``AnnealParams.auto_sweeps``),
@@ -371,13 +376,19 @@ def anneal_surface(
     """
     params = check_options(OPTIONS, schedule, "annealing")
     given = None if seed is None else SEED_OPTION.check(seed)
-    return build_anneal(initial, params, Context.of(progress, given))
+    return build_anneal(initial, params, Context.of(progress, given), fixed)
 
 
-def build_anneal(initial: Surface, params: dict[str, Any], context: Context = QUIET) -> Surface:
+def build_anneal(
+    initial: Surface,
+    params: dict[str, Any],
+    context: Context = QUIET,
+    fixed: np.ndarray | None = None,
+) -> Surface:
     """:func:`anneal_surface` without its checks: ``params`` the checked options of
     :data:`OPTIONS`, the seed and the progress those of the call (``context``), as the
-    registry (``scanmesh.methods``) has them. Same result, warnings and errors otherwise."""
+    registry (``scanmesh.methods``) has them, ``fixed`` the edges kept. Same result,
+    warnings and errors otherwise."""
     params = dict(params)
     time_limit = params.pop("time_limit")
     seed_value = context.seed
@@ -406,6 +417,7 @@ def build_anneal(initial: Surface, params: dict[str, Any], context: Context = QU
                 local[start.faces],
                 _core.AnnealParams(seed=seed_value, **params),
                 curtain_sight(scan),
+                None if fixed is None else local[np.asarray(fixed, dtype=np.int64)],
             ),
         )
     total = runner.chains * params["sweeps"]

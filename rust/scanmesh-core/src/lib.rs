@@ -25,7 +25,7 @@
 //! - `optimize/`: incremental tac energy under flips (`tac_state`, with `NOISE_TAC`), the
 //!   live edges annealing draws from (`active`), Lawson's greedy flipping (`lop`),
 //!   simulated annealing (`anneal`), one chain on several cores (`tiles`), independent
-//!   chains side by side (`ensemble`);
+//!   chains side by side (`ensemble`), edges no flip may remove (`fixed`);
 //! - `fusion/`: aligned range views fused into one closed mesh: a view's depth image and
 //!   pose (`depth`), the truncated signed distance and the space carved by the rays in a
 //!   voxel grid (`tsdf`) stored by blocks of 8³ allocated near the surfaces (`blocks`),

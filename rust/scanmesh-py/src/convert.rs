@@ -1,7 +1,7 @@
 //! numpy in and out: shape checks, zero-copy row views of C-contiguous arrays, and the
 //! output arrays (faces widened to int64 on every core without the GIL).
 
-use crate::{to_py, InvalidMeshError, ScanmeshError};
+use crate::{to_py, InvalidMeshError, ParameterError, ScanmeshError};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -217,4 +217,28 @@ pub(crate) fn duplicates_out<'py>(py: Python<'py>, duplicate_of: &[u32]) -> Ints
             .map(|&k| if k == NONE { -1 } else { i64::from(k) }),
     )
     .into_pyarray(py)
+}
+
+/// (K, 2) int64 vertex index pairs `a` (named `name` in errors) as `[u32; 2]`, each index
+/// below `n_vertices`; a `ParameterError` names the first pair out of range. O(K).
+pub(crate) fn edges(
+    name: &str,
+    a: &PyReadonlyArray2<'_, i64>,
+    n_vertices: usize,
+) -> PyResult<Vec<[u32; 2]>> {
+    let v = a.as_array();
+    if v.ncols() != 2 {
+        return Err(shape_error(name, "(K, 2)", v.shape()));
+    }
+    let mut out = try_vec("the edges", v.nrows()).map_err(to_py)?;
+    for (k, r) in v.rows().into_iter().enumerate() {
+        let pair = [r[0], r[1]];
+        if pair.iter().any(|&x| x < 0 || x as u64 >= n_vertices as u64) {
+            return Err(ParameterError::new_err(format!(
+                "{name} edge {k}: vertex indices {pair:?} out of range (there are {n_vertices} vertices)"
+            )));
+        }
+        out.push(pair.map(|x| x as u32));
+    }
+    Ok(out)
 }

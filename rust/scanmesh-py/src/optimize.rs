@@ -1,7 +1,9 @@
 //! Flips toward lower tac: Lawson's LOP and simulated annealing, with annealing's
 //! parameters exposed as the core declares them (`scanmesh_core` optimize/).
 
-use crate::convert::{faces, faces_out, points2_view, points3_view, trace_out, vector3, Ints2};
+use crate::convert::{
+    edges, faces, faces_out, points2_view, points3_view, trace_out, vector3, Ints2,
+};
 use crate::results::AnnealOutcome;
 use crate::{to_py, ParameterError, ScanmeshError};
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
@@ -10,7 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use scanmesh_core::mesh::Relabel;
 use scanmesh_core::optimize::{
-    curtain_facing, run_lop, Ensemble, LopCriterion, TacOrder, TacState,
+    curtain_facing, run_lop, Ensemble, FixedEdges, LopCriterion, TacOrder, TacState,
 };
 
 /// Lists `scanmesh_core::optimize::AnnealParams`'s fields once, for reading them from keywords and
@@ -125,21 +127,28 @@ impl AnnealParams {
 
 /// The incremental tac state of `faces` over 3-D `points` with planar `uv`, both normalized
 /// (scale-free), checked to be a valid planar triangulation, with the (3,) line of sight
-/// `sight` when given.
+/// `sight` when given and the (K, 2) point index pairs `fixed`, edges no flip may remove.
 pub(crate) fn tac_state(
     points: &PyReadonlyArray2<'_, f64>,
     uv: &PyReadonlyArray2<'_, f64>,
     faces_: &PyReadonlyArray2<'_, i64>,
     p: f64,
     sight: Option<PyReadonlyArray1<'_, f64>>,
+    fixed: Option<PyReadonlyArray2<'_, i64>>,
 ) -> PyResult<(TacState, Relabel)> {
     let sight = sight.map(|s| vector3("sight", &s)).transpose()?;
     // Borrowed from numpy where it lays them out as rows: no copy at the boundary.
     let xyz = points3_view(points)?;
     let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
+    let fixed = fixed.map(|f| edges("fixed", &f, xyz.len())).transpose()?;
     let (state, relabel) = TacState::from_input(&xyz, &plane, t, p).map_err(to_py)?;
-    Ok((state.with_sight(sight).map_err(to_py)?, relabel))
+    let fixed = fixed
+        .map(|f| FixedEdges::new(xyz.len(), &f)?.renamed(&relabel.to_local))
+        .transpose()
+        .map_err(to_py)?;
+    let state = state.with_sight(sight).and_then(|s| s.with_fixed(fixed));
+    Ok((state.map_err(to_py)?, relabel))
 }
 
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
@@ -147,7 +156,8 @@ pub(crate) fn tac_state(
 /// `curtain_angle` degrees of the (3,) line of sight `sight` when one is given) or
 /// "max-min" (smallest angle in the plane; converges to Delaunay); the options after it are
 /// keywords, and `p`, `sliver_guard`, `tie_tolerance` and `curtain_angle` default to
-/// annealing's. Returns (faces, flips).
+/// annealing's; no flip removes an edge of the (K, 2) point index pairs `fixed`. Returns
+/// (faces, flips).
 #[pyfunction]
 #[pyo3(signature = (
     points, uv, faces_, criterion, *,
@@ -156,6 +166,7 @@ pub(crate) fn tac_state(
     tie_tolerance=scanmesh_core::optimize::AnnealParams::default().tie_tolerance,
     sight=None,
     curtain_angle=scanmesh_core::optimize::AnnealParams::default().curtain_angle,
+    fixed=None,
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn lop<'py>(
@@ -169,6 +180,7 @@ pub(crate) fn lop<'py>(
     tie_tolerance: f64,
     sight: Option<PyReadonlyArray1<'py, f64>>,
     curtain_angle: f64,
+    fixed: Option<PyReadonlyArray2<'py, i64>>,
 ) -> PyResult<(Ints2<'py>, usize)> {
     let criterion = match criterion {
         "tac" => LopCriterion::Tac(TacOrder {
@@ -182,7 +194,7 @@ pub(crate) fn lop<'py>(
             )))
         }
     };
-    let (state, relabel) = tac_state(&points, &uv, &faces_, p, sight)?;
+    let (state, relabel) = tac_state(&points, &uv, &faces_, p, sight, fixed)?;
     let (faces, flips) = py
         .detach(|| {
             let (mesh, flips) = run_lop(state, criterion)?;
@@ -214,9 +226,10 @@ impl Annealer {
 impl Annealer {
     /// A run from `faces` over 3-D `points` with planar `uv`, with `params` (the core
     /// checks them against this triangulation and refuses runs that would cost too much)
-    /// and the (3,) line of sight `sight` its curtain rule judges by (None: no rule).
+    /// and the (3,) line of sight `sight` its curtain rule judges by (None: no rule); no
+    /// flip removes an edge of the (K, 2) point index pairs `fixed` (None: none kept).
     #[new]
-    #[pyo3(signature = (points, uv, faces, params, sight=None))]
+    #[pyo3(signature = (points, uv, faces, params, sight=None, fixed=None))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
@@ -224,9 +237,10 @@ impl Annealer {
         faces: PyReadonlyArray2<'_, i64>,
         params: PyRef<'_, AnnealParams>,
         sight: Option<PyReadonlyArray1<'_, f64>>,
+        fixed: Option<PyReadonlyArray2<'_, i64>>,
     ) -> PyResult<Self> {
         let params = params.0.clone();
-        let (state, relabel) = tac_state(&points, &uv, &faces, params.p, sight)?;
+        let (state, relabel) = tac_state(&points, &uv, &faces, params.p, sight, fixed)?;
         let inner = py.detach(|| Ensemble::new(state, params)).map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),

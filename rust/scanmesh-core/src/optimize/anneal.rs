@@ -181,7 +181,8 @@ impl AnnealParams {
         Ok(())
     }
 
-    /// [`check`](Self::check), and that `state` measures the energy with this `p`.
+    /// [`check`](Self::check), and that `state` measures the energy with this `p` (and has
+    /// no fixed edges when `tiles` > 1: the tiles' pieces keep none).
     pub fn check_for(&self, state: &TacState) -> Result<()> {
         self.check()?;
         if state.p() != self.p {
@@ -189,6 +190,13 @@ impl AnnealParams {
                 name: "p",
                 value: state.p().to_string(),
                 expected: "the state's p to equal the parameters' p",
+            });
+        }
+        if self.tiles > 1 && state.fixed().is_some() {
+            return Err(Error::InvalidParameter {
+                name: "tiles",
+                value: self.tiles.to_string(),
+                expected: "1 with fixed edges (the tiles' pieces keep none)",
             });
         }
         Ok(())

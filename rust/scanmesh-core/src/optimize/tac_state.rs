@@ -16,9 +16,11 @@ use crate::geometry::Normalizer;
 use crate::mesh::locality::{prefetch, Relabel};
 use crate::mesh::NONE;
 use crate::mesh::{convex_quad, next, prev, HalfEdgeMesh};
+use crate::optimize::fixed::FixedEdges;
 use crate::{Error, Result};
 use glam::DVec3;
 use std::f64::consts::TAU;
+use std::sync::Arc;
 
 /// A flip that has been evaluated but not applied.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -125,6 +127,8 @@ pub struct TacState {
     // Unit line of sight in the positions' frame (normalizing scales and shifts, so it is
     // the caller's direction); None: moves measure no facing.
     sight: Option<DVec3>,
+    // Edges no flip may remove (shared by the chains' copies); None: every edge may flip.
+    fixed: Option<Arc<FixedEdges>>,
 }
 
 /// All a proposal reads about one vertex, in one 64-byte cache line: a random edge's four
@@ -240,6 +244,7 @@ impl TacState {
             vert,
             p,
             sight,
+            fixed,
             ..
         } = self;
         drop(old);
@@ -251,6 +256,7 @@ impl TacState {
         stale.resize(mesh.n_triangles().div_ceil(64), 0);
         let mut state = TacState::assemble(mesh, vert, corner, stale, p);
         state.sight = sight;
+        state.fixed = fixed;
         state.measure_sums();
         Ok(state)
     }
@@ -287,6 +293,7 @@ impl TacState {
             p,
             energy: 0.0,
             sight: None,
+            fixed: None,
         };
         for t in 0..state.mesh.n_triangles() {
             let [a, b, c] = state.mesh.triangle(t).map(|v| state.vert[v as usize].xyz);
@@ -415,6 +422,7 @@ impl TacState {
             p: self.p,
             energy: self.energy,
             sight: self.sight,
+            fixed: self.fixed.clone(),
         })
     }
 
@@ -433,6 +441,35 @@ impl TacState {
             })?),
         };
         Ok(self)
+    }
+
+    /// The state with the edges `fixed` kept: no flip removes one (they are never
+    /// flippable, never live), so every optimizer of this state (LOP, annealing, its
+    /// descent and polish) keeps them; None: every edge may flip. The set must be over the
+    /// state's vertices, in its labels. O(1).
+    pub fn with_fixed(mut self, fixed: Option<FixedEdges>) -> Result<Self> {
+        if let Some(f) = &fixed {
+            if f.n_vertices() != self.mesh.n_vertices() {
+                return Err(Error::InvalidParameter {
+                    name: "fixed edges",
+                    value: format!("a set over {} vertices", f.n_vertices()),
+                    expected: "a set over the state's vertices",
+                });
+            }
+        }
+        self.fixed = fixed.map(Arc::new);
+        Ok(self)
+    }
+
+    /// The edges kept by [`with_fixed`](Self::with_fixed), if any. O(1).
+    pub fn fixed(&self) -> Option<&FixedEdges> {
+        self.fixed.as_deref()
+    }
+
+    /// True when the edge {a, b} is fixed. O(1) without fixed edges.
+    #[inline(always)]
+    fn is_fixed(&self, a: u32, b: u32) -> bool {
+        self.fixed.as_ref().is_some_and(|f| f.contains(a, b))
     }
 
     /// The unit line of sight given by [`with_sight`](Self::with_sight), if any. O(1).
@@ -609,7 +646,7 @@ impl TacState {
     fn flippable(&self, h: u32) -> Option<(u32, [u32; 4], [DVec3; 4], bool)> {
         let (t, quad) = self.mesh.twin_and_quad(h)?;
         let [ra, rb, rc, rd] = quad.map(|v| &self.vert[v as usize]);
-        if !convex_quad(ra.uv, rb.uv, rc.uv, rd.uv) {
+        if !convex_quad(ra.uv, rb.uv, rc.uv, rd.uv) || self.is_fixed(quad[0], quad[1]) {
             return None;
         }
         let pos = [ra.xyz, rb.xyz, rc.xyz, rd.xyz];
@@ -625,7 +662,9 @@ impl TacState {
             return false;
         };
         let [ra, rb, rc, rd] = quad.map(|v| &self.vert[v as usize]);
-        [ra, rb, rc, rd].iter().any(|r| r.above(floor)) && convex_quad(ra.uv, rb.uv, rc.uv, rd.uv)
+        [ra, rb, rc, rd].iter().any(|r| r.above(floor))
+            && convex_quad(ra.uv, rb.uv, rc.uv, rd.uv)
+            && !self.is_fixed(quad[0], quad[1])
     }
 
     /// True when `h` is interior and one of its four corners is an interior vertex whose
