@@ -45,6 +45,8 @@ CHILD = textwrap.dedent(
     try:
         if what == "stl":
             scanmesh._core.stl_records(X, faces)
+        elif what == "merge":  # the scan as one view from above, a voxel of half a spacing
+            scanmesh.merge([(X, np.eye(4))], voxel=0.5, max_voxels=10**12)
         else:
             scanmesh.reconstruct(scan, what, **({"sweeps": 1} if what == "anneal" else {}))
         print("built")
@@ -134,3 +136,21 @@ def test_a_failed_allocation_is_a_memory_error_not_an_abort():
     assert r.returncode == 0, (r.returncode, r.stderr[-800:])
     line = r.stdout.strip()
     assert line.startswith("refused: STL records (") and "the allocator" in line, line
+
+
+def test_merge_beyond_the_address_space_limit_is_refused_naming_what_did_not_fit():
+    """The fusion grid's blocks are allocated as the views need them, and the extraction's
+    buffers after them, each allocation fallible: 90,000 points fused at half their
+    spacing, refused under 60 MB of room with a MemoryLimitError naming the grid's blocks;
+    under 400 MB the map of the mesh's edges (its 109 MB hash table aborted the process
+    with SIGABRT before it was reserved fallibly); 1 GB builds the mesh."""
+    for room, start in (
+        (60_000_000, "refused: the fusion grid's blocks"),
+        (400_000_000, "refused: the fused mesh's"),
+        (1_000_000_000, "built"),
+    ):
+        r = run_child("merge", 90_000, room)
+        assert r.returncode == 0, (room, r.returncode, r.stderr[-800:])
+        assert r.stdout.startswith(start), (room, r.stdout)
+        if start != "built":
+            assert "the allocator" in r.stdout, r.stdout

@@ -8,12 +8,12 @@ closed 2-manifold whose vertices sit on the samples' tangent planes
 of a sample), ``inferred`` (between space a ray crossed and space no ray entered: closed by
 carving) or ``filled`` (closed with no evidence).
 
-Memory: 9 bytes per grid node while fusing (plus the extraction's per-surface-cell
-vertices) and one depth image per view (16 bytes per ray, and 8 for where a ray without a
-return stopped carving: the extraction finds walls between the nodes on the rays). Ten
-views of 1M points of a part 1,000 spacings across need a 1,000³ grid at the default voxel
-(9 GB): the default voxel grows so that the grid stays under ``max_voxels`` (64M nodes,
-576 MB).
+Memory grows with the surface, not its box: the grid is stored by blocks of 8³ nodes, 9
+bytes per node only in the blocks some view's averaging band, silhouette or carving edge
+crosses, 4 bytes per block elsewhere (``max_voxels`` bounds the nodes allocated: 64M,
+576 MB). Besides: the extraction's per-surface-cell vertices and one depth image per view
+(16 bytes per ray, and 8 for where a ray without a return stopped carving: the extraction
+finds walls between the nodes on the rays).
 """
 
 from __future__ import annotations
@@ -38,8 +38,12 @@ from scanmesh.fusion.views import as_views
 from scanmesh.scan.axes import AxisSpec
 from scanmesh.surface import Surface
 
-#: Grid nodes at most, unless ``max_voxels`` says otherwise (9 bytes each).
+#: Grid nodes allocated at most (blocks of 8³ near the surfaces; 9 bytes each), unless
+#: ``max_voxels`` says otherwise.
 MAX_VOXELS = 64_000_000
+
+#: Nodes along a side of the grid's blocks (the core's ``fusion::blocks::BLOCK``).
+BLOCK = 8
 
 #: The default truncation of the signed distance, in voxels.
 TRUNCATION_VOXELS = 3.0
@@ -58,6 +62,15 @@ SAMPLE_TRUST = 1e-9
 #: six views (docs/benchmarks/merge.md): none off at 0.7 spacing, the fandisk 1.5 % of its
 #: area in tunnels at 0.5, and no part better than at one spacing but the blade (4 %).
 FINE_VOXEL = 0.7
+
+
+def _near_samples(points: np.ndarray, origin: np.ndarray, size: float) -> int:
+    """Grid nodes in the blocks holding a sample or next to one (26 neighbours): what the
+    fusion allocates at least, as it allocates the blocks a surface's band crosses."""
+    keys = np.unique(np.floor((points - origin) / (BLOCK * size)).astype(np.int64), axis=0)
+    offsets = np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)])
+    near = np.unique((keys[:, None, :] + offsets[None]).reshape(-1, 3), axis=0)
+    return len(near) * BLOCK**3
 
 
 def merge(
@@ -86,14 +99,18 @@ def merge(
         Where the scanner sits in each view's own coordinates (its rays run along it).
     voxel : float, optional
         Grid spacing in world units (default: the median spacing of the views, made larger
-        when the grid would exceed ``max_voxels``); below 0.7 of that spacing a warning
-        says that lost returns may carve through the part.
+        when the blocks near the samples would exceed ``max_voxels``); below 0.7 of that
+        spacing a warning says that lost returns may carve through the part.
     truncation : float
         How far in front of a view's surface its distance counts, in voxels (>= 1); behind
         it, at most ``_core.BEHIND_VOXELS`` (1.5: a view guesses solid behind what it saw,
         and on a part thinner than a longer band that guess would push the far side out).
     max_voxels : int
-        Largest grid accepted (nodes): a ``voxel`` that needs more is refused.
+        Most grid nodes allocated (blocks of 8³ nodes where the surfaces, silhouettes and
+        carving edges pass; the rest of the box costs 4 bytes per block): a ``voxel``
+        whose blocks near the samples alone exceed it is refused, the default voxel is
+        made larger until they do not, and fusion that would allocate more stops with a
+        ``ParameterError``.
     refine : bool
         First refine the poses by point-to-plane ICP between overlapping views
         (:func:`scanmesh.fusion.register.refine_poses`; the first view fixes the world); the
@@ -158,11 +175,15 @@ def merge(
         dims = np.ceil((extent + 2 * margin) / size).astype(np.int64) + 2
         return lo - margin - 0.5 * size, dims
 
+    samples_world = np.concatenate(world)
     if voxel is None:
         size = ray_spacing
         origin, dims = grid_for(size)
-        if int(np.prod(dims)) > max_voxels:
-            size *= (int(np.prod(dims)) / max_voxels) ** (1 / 3) * 1.01
+        for _ in range(4):  # the blocks near a surface scale as 1 / voxel²
+            need = _near_samples(samples_world, origin, size)
+            if need <= max_voxels:
+                break
+            size *= math.sqrt(need / max_voxels) * 1.01
             origin, dims = grid_for(size)
     else:
         size = POSITIVE.check(voxel, "voxel")
@@ -176,13 +197,16 @@ def merge(
                 stacklevel=2,
             )
         origin, dims = grid_for(size)
-        if int(np.prod(dims)) > max_voxels:
-            need = float(np.max(extent)) / (max_voxels ** (1 / 3))
+        need = _near_samples(samples_world, origin, size)
+        if need > max_voxels:
+            larger = size * math.sqrt(need / max_voxels) * 1.01
             raise ParameterError(
-                f"voxel {voxel!r} makes a grid of {' x '.join(map(str, dims))} nodes, over"
-                f" max_voxels={max_voxels:,}; use voxel of about {need:.3g} or more"
+                f"voxel {voxel!r} needs about {need:,} grid nodes near the samples, over"
+                f" max_voxels={max_voxels:,}; use voxel of about {larger:.3g} or more"
             )
-    volume = _core.FusionVolume(tuple(origin), size, tuple(int(d) for d in dims), trunc * size)
+    volume = _core.FusionVolume(
+        tuple(origin), size, tuple(int(d) for d in dims), trunc * size, int(max_voxels)
+    )
     corners = origin + np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]) * (
         (dims - 1) * size
     )
@@ -231,6 +255,7 @@ def merge(
             "truncation": trunc,
             "behind": min(trunc, _core.BEHIND_VOXELS),
             "grid": tuple(int(d) for d in dims),
+            "allocated_voxels": volume.allocated,  # (with distances, with flags alone)
             "repaired_nodes": int(repaired),
             "specks_removed": specks,
             "refine_residual": residual,

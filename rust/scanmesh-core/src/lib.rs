@@ -28,7 +28,9 @@
 //!   chains side by side (`ensemble`), edges no flip may remove (`fixed`);
 //! - `fusion/`: aligned range views fused into one closed mesh: a view's depth image and
 //!   pose (`depth`), the truncated signed distance and the space carved by the rays in a
-//!   voxel grid (`tsdf`), the samples' tangent planes near a cell (`samples`), the zero set
+//!   voxel grid (`tsdf`) stored by blocks of 8³ allocated near the surfaces (`blocks`),
+//!   decided per block from its footprint in a view's image (`footprint`), the nodes'
+//!   sides by blocks (`sides`), the samples' tangent planes near a cell (`samples`), the zero set
 //!   as a labelled closed 2-manifold (`extract`), its edges flipped along creases (`flips`);
 //! - `exact/`: empty triangles and every triangulation of a small point set (`enumerate`);
 //! - `io/`: numeric text tables (XYZ, CSV rows) parsed from bytes (`text`), binary STL

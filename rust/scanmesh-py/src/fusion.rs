@@ -64,8 +64,10 @@ impl DepthView {
 }
 
 /// The voxel grid: `dims` (nx, ny, nz) nodes `voxel` apart from `origin` (world units),
-/// signed distances truncated at `truncation`. Raises ParameterError for bad sizes and
-/// MemoryLimitError when its 9 bytes per node do not fit.
+/// signed distances truncated at `truncation`, stored by blocks of 8³ nodes allocated
+/// where the evidence varies, at most `max_voxels` nodes allocated. Raises ParameterError
+/// for bad sizes and MemoryLimitError when its block index (4 bytes per block) does not
+/// fit.
 #[pyclass(module = "scanmesh._core")]
 pub(crate) struct FusionVolume {
     inner: scanmesh_core::fusion::Volume,
@@ -79,6 +81,7 @@ impl FusionVolume {
         voxel: f64,
         dims: (usize, usize, usize),
         truncation: f64,
+        max_voxels: usize,
     ) -> PyResult<Self> {
         let inner = scanmesh_core::fusion::Volume::new(
             [origin.0, origin.1, origin.2],
@@ -86,23 +89,36 @@ impl FusionVolume {
             [dims.0, dims.1, dims.2],
             truncation,
         )
-        .map_err(to_py)?;
+        .map_err(to_py)?
+        .with_max_voxels(max_voxels);
         Ok(Self { inner })
     }
 
+    /// Nodes allocated so far (whole blocks of 8³): with distances (9 bytes each), and
+    /// with flags alone (1 byte each: near silhouettes and carving edges).
+    #[getter]
+    fn allocated(&self) -> (usize, usize) {
+        let [distances, flags] = self.inner.allocated();
+        (distances, flags)
+    }
+
     /// Adds a view's returns (distance near its surfaces, empty space in front of them).
-    /// O(nodes), GIL released.
-    fn integrate(&mut self, py: Python<'_>, view: &DepthView) {
-        py.detach(|| self.inner.integrate(&view.inner));
+    /// O(blocks + pixels + nodes of the blocks its surfaces cross), GIL released. Raises
+    /// ParameterError beyond `max_voxels`, MemoryLimitError when the blocks do not fit.
+    fn integrate(&mut self, py: Python<'_>, view: &DepthView) -> PyResult<()> {
+        py.detach(|| self.inner.integrate(&view.inner))
+            .map_err(to_py)
     }
 
     /// Marks empty the space along the view's rays without return that crossed no measured
-    /// surface; call after every `integrate`. O(rays · nodes per ray + nodes), GIL released.
-    fn carve(&mut self, py: Python<'_>, view: &DepthView) {
-        py.detach(|| self.inner.carve(&view.inner));
+    /// surface; call after every `integrate`. O(rays · blocks per ray + blocks + nodes of
+    /// the blocks the carving's edge crosses), GIL released. Raises as `integrate`.
+    fn carve(&mut self, py: Python<'_>, view: &DepthView) -> PyResult<()> {
+        py.detach(|| self.inner.carve(&view.inner)).map_err(to_py)
     }
 
-    /// (nx, ny, nz) uint8 per node: 0 measured, 1 seen empty, 2 unseen.
+    /// (nx, ny, nz) uint8 per node: 0 measured, 1 seen empty, 2 unseen (a byte per node of
+    /// the whole grid: for small grids and tests).
     fn evidence<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray3<u8>> {
         let [nx, ny, nz] = self.inner.dims();
         let codes: Vec<u8> = (0..nx * ny * nz)

@@ -219,6 +219,25 @@ impl DepthView {
         ]
     }
 
+    /// Pixel coordinates (u, v) of scanner (x, y): pixel (i, j)'s ray is at (i, j), as
+    /// [`DepthView::lookup`] reads them. O(1).
+    pub fn pixel(&self, x: f64, y: f64) -> [f64; 2] {
+        [
+            (x - self.origin[0]) / self.step,
+            (y - self.origin[1]) / self.step,
+        ]
+    }
+
+    /// The depths row by row (scanner z, NaN: no return).
+    pub fn depths(&self) -> &[f64] {
+        &self.depth
+    }
+
+    /// The ray-to-normal cosines row by row, in [[`MIN_COS`], 1].
+    pub fn cosines(&self) -> &[f64] {
+        &self.cos
+    }
+
     /// True when pixel `index` has no return.
     pub fn is_miss(&self, index: usize) -> bool {
         self.depth[index].is_nan()

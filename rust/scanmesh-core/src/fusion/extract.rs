@@ -16,13 +16,17 @@
 //! between the nodes (`Grid::crossing`): that is where never-sampled walls close. Last, edges are
 //! flipped where the samples lie closer to the other split (`flips`): they follow creases.
 
+use super::blocks::BLOCK;
 use super::depth::DepthView;
 use super::flips::follow_samples;
 use super::samples::SampleIndex;
+use super::sides::{Sides, INSIDE, MOVED};
 use super::tsdf::{Evidence, Volume};
 use super::walls::{flatten_unsampled, Placed};
+use crate::budget;
 use crate::error::{Error, Result};
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Face label: within the truncation of a measured surface.
@@ -87,9 +91,6 @@ pub struct Fused {
     pub repaired: usize,
 }
 
-const INSIDE: u8 = 1;
-const MOVED: u8 = 2;
-
 /// Corners of a cell's six faces in cyclic order (corner bit 1: +x, 2: +y, 4: +z).
 const CELL_FACES: [[usize; 4]; 6] = [
     [0, 2, 6, 4],
@@ -123,17 +124,29 @@ pub fn extract(
             expected: "one normal per sample",
         });
     }
+    extract_from(volume, Sides::new(volume)?, samples, normals, views)
+}
+
+/// [`extract`] from the nodes' sides `side` (the blocks it walks), inputs checked.
+fn extract_from(
+    volume: &Volume,
+    mut side: Sides,
+    samples: &[DVec3],
+    normals: &[DVec3],
+    views: &[&DepthView],
+) -> Result<Fused> {
     let grid = Grid::new(volume);
-    let mut side = grid.sides();
-    let repaired = grid.repair(&mut side);
-    let near = SampleIndex::new(volume, samples);
+    let repaired = grid.repair(&mut side)?;
+    let near = SampleIndex::new(volume, samples)?;
     let mut out = Fused {
         repaired,
         ..Fused::default()
     };
+    // the quads in the order of their edges (axis by axis, x fastest), their vertices in
+    // the order first met; placed afterwards on every core
     let mut cell_vertex: HashMap<usize, u32> = HashMap::new();
-    let mut vertex_cells: Vec<[usize; 3]> = Vec::new();
-    let mut placed: Vec<Placed> = Vec::new();
+    let mut cells: Vec<usize> = Vec::new();
+    let mut quads: Vec<([u32; 4], u8)> = Vec::new();
     let [nx, ny, nz] = grid.dims;
     let steps = [1, nx, nx * ny];
     for axis in 0..3 {
@@ -141,15 +154,24 @@ pub fn extract(
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
         for k in 0..nz {
             for j in 0..ny {
-                for i in 0..nx {
+                if !side.row_active(j, k) {
+                    continue;
+                }
+                let mut i = 0;
+                while i < nx {
                     let at = [i, j, k];
+                    if !side.is_active(at) {
+                        i = (i / BLOCK + 1) * BLOCK;
+                        continue;
+                    }
+                    i += 1;
                     if at[axis] + 1 >= grid.dims[axis] {
                         continue;
                     }
-                    let a = grid.volume.index(i, j, k);
+                    let a = grid.volume.index(at[0], j, k);
                     let b = a + steps[axis];
-                    let a_in = side[a] & INSIDE != 0;
-                    if a_in == (side[b] & INSIDE != 0) {
+                    let a_in = side.get(a) & INSIDE != 0;
+                    if a_in == (side.get(b) & INSIDE != 0) {
                         continue;
                     }
                     // the four cells around the edge, counter-clockwise about +axis
@@ -163,22 +185,44 @@ pub fn extract(
                     if !a_in {
                         quad.reverse();
                     }
+                    budget::try_grow("the fused mesh's vertices", &mut cells, 4)?;
+                    cell_vertex.try_reserve(4).map_err(|_| {
+                        budget::not_allocated::<(usize, u32)>(
+                            "the fused mesh's cells",
+                            cells.len() + 4,
+                        )
+                    })?;
                     let ids = quad.map(|c| {
                         *cell_vertex.entry(c).or_insert_with(|| {
-                            let (at, how) = grid.place(c, &side, &near, samples, normals, views);
-                            out.vertices.push(at);
-                            placed.push(how);
-                            vertex_cells.push(grid.coords(c));
-                            (out.vertices.len() - 1) as u32
+                            cells.push(c);
+                            (cells.len() - 1) as u32
                         })
                     });
-                    let label = grid.label(a, b, &side);
-                    for t in split(&out.vertices, ids) {
-                        out.faces.push(t);
-                        out.labels.push(label);
-                    }
+                    budget::try_grow("the fused mesh's quads", &mut quads, 1)?;
+                    quads.push((ids, grid.label(a, b, &side)));
                 }
             }
+        }
+    }
+    drop(cell_vertex);
+    let placed: Vec<(DVec3, Placed)> = budget::try_par_collect(
+        "the fused mesh's vertices",
+        cells
+            .par_iter()
+            .map(|&c| grid.place(c, &side, &near, samples, normals, views)),
+    )?;
+    out.vertices = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.0))?;
+    let placed = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.1))?;
+    let vertex_cells = budget::try_collect(
+        "the fused mesh's vertices",
+        cells.iter().map(|&c| grid.coords(c)),
+    )?;
+    budget::try_grow("the fused mesh's faces", &mut out.faces, 2 * quads.len())?;
+    budget::try_grow("the fused mesh's faces", &mut out.labels, 2 * quads.len())?;
+    for (ids, label) in quads {
+        for t in split(&out.vertices, ids) {
+            out.faces.push(t);
+            out.labels.push(label);
         }
     }
     follow_samples(
@@ -189,8 +233,8 @@ pub fn extract(
         &near,
         samples,
         normals,
-    );
-    flatten_unsampled(&mut out.vertices, &out.faces, &placed, grid.volume.voxel());
+    )?;
+    flatten_unsampled(&mut out.vertices, &out.faces, &placed, grid.volume.voxel())?;
     Ok(out)
 }
 
@@ -232,16 +276,9 @@ impl<'a> Grid<'a> {
         (0..3).any(|a| c[a] == 0 || c[a] + 1 == self.dims[a])
     }
 
-    /// INSIDE per node: negative fused distance, never on the border.
-    fn sides(&self) -> Vec<u8> {
-        (0..self.dims.iter().product::<usize>())
-            .map(|n| u8::from(!self.on_border(n) && self.volume.value(n) < 0.0))
-            .collect()
-    }
-
     /// The signed distance used for crossings: a moved node sits just inside.
-    fn value(&self, n: usize, side: &[u8]) -> f64 {
-        if side[n] & MOVED != 0 {
+    fn value(&self, n: usize, side: &Sides) -> f64 {
+        if side.get(n) & MOVED != 0 {
             -1e-3 * self.volume.voxel()
         } else {
             self.volume.value(n)
@@ -255,31 +292,44 @@ impl<'a> Grid<'a> {
     }
 
     /// Makes the inside well-composed (see the module comment); returns the nodes moved.
-    fn repair(&self, side: &mut [u8]) -> usize {
+    /// Visits the cells in the order of the whole grid (x fastest), skipping those of
+    /// blocks where the sides cannot differ (which a move makes active as it happens).
+    ///
+    /// Errors: `OutOfMemory`.
+    fn repair(&self, side: &mut Sides) -> Result<usize> {
         let [nx, ny, nz] = self.dims;
         let mut moved = 0;
         loop {
             let before = moved;
             for k in 0..nz - 1 {
                 for j in 0..ny - 1 {
-                    for i in 0..nx - 1 {
+                    if !side.row_active(j, k) {
+                        continue;
+                    }
+                    let mut i = 0;
+                    while i < nx - 1 {
+                        if !side.is_active([i, j, k]) {
+                            i = (i / BLOCK + 1) * BLOCK;
+                            continue;
+                        }
                         let c = self.corners(self.volume.index(i, j, k));
                         while let Some(n) = self.critical(&c, side) {
-                            side[n] |= INSIDE | MOVED;
+                            side.add(n, INSIDE | MOVED)?;
                             moved += 1;
                         }
+                        i += 1;
                     }
                 }
             }
             if moved == before {
-                return moved;
+                return Ok(moved);
             }
         }
     }
 
     /// An outside node whose move inside removes a critical configuration of cell `c`.
-    fn critical(&self, c: &[usize; 8], side: &[u8]) -> Option<usize> {
-        let inside = |k: usize| side[c[k]] & INSIDE != 0;
+    fn critical(&self, c: &[usize; 8], side: &Sides) -> Option<usize> {
+        let inside = |k: usize| side.get(c[k]) & INSIDE != 0;
         let mask: u8 = (0..8).map(|k| u8::from(inside(k)) << k).sum();
         let candidates: Vec<usize> = if let Some(f) = CELL_FACES.iter().find(|f| {
             inside(f[0]) == inside(f[2])
@@ -303,7 +353,7 @@ impl<'a> Grid<'a> {
     }
 
     /// The label of the quad across edge (a, b).
-    fn label(&self, a: usize, b: usize, side: &[u8]) -> u8 {
+    fn label(&self, a: usize, b: usize, side: &Sides) -> u8 {
         let ends = [a, b];
         if ends
             .iter()
@@ -311,7 +361,7 @@ impl<'a> Grid<'a> {
         {
             MEASURED
         } else if ends.iter().any(|&n| {
-            side[n] & MOVED != 0
+            side.get(n) & MOVED != 0
                 || (self.on_border(n) && self.volume.evidence(n) == Evidence::Unseen)
         }) {
             FILLED
@@ -420,7 +470,7 @@ impl<'a> Grid<'a> {
     fn place(
         &self,
         cell: usize,
-        side: &[u8],
+        side: &Sides,
         near: &SampleIndex,
         samples: &[DVec3],
         normals: &[DVec3],
@@ -446,7 +496,7 @@ impl<'a> Grid<'a> {
         for q in 0..8 {
             for bit in [1, 2, 4] {
                 let r = q | bit;
-                if r == q || (side[c[q]] & INSIDE) == (side[c[r]] & INSIDE) {
+                if r == q || (side.get(c[q]) & INSIDE) == (side.get(c[r]) & INSIDE) {
                     continue;
                 }
                 let t = self.crossing([c[q], c[r]], corner(q), corner(r), f[q], f[r], views);
@@ -546,8 +596,8 @@ mod tests {
         (pose[3], pose[7]) = (shift, shift);
         let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
         let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
-        vol.integrate(&view);
-        vol.carve(&view);
+        vol.integrate(&view).unwrap();
+        vol.carve(&view).unwrap();
         (view, vol)
     }
 
@@ -606,6 +656,47 @@ mod tests {
         assert!(sides > 20);
     }
 
+    /// A plateau (a box's top at z = 12 over 10 <= x, y < 25) seen from above in a grid
+    /// of 6 × 6 × 4 blocks, most of them uniform: the walk over the blocks where the sides
+    /// may differ gives the mesh the walk over every node gives, vertex for vertex.
+    #[test]
+    fn walking_the_active_blocks_gives_the_mesh_of_walking_every_node() {
+        let (w, h) = (44, 44);
+        let depth: Vec<f64> = (0..w * h)
+            .map(|p| {
+                let (i, j) = (p % w, p / w);
+                if (10..25).contains(&i) && (10..25).contains(&j) && p % 13 != 5 {
+                    12.0 + 0.01 * (i as f64 - 0.3 * j as f64)
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let mut pose = [0.0; 16];
+        for k in 0..4 {
+            pose[k * 5] = 1.0;
+        }
+        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
+        let mut vol = Volume::new([-1.7, -2.2, -1.4], 1.0, [46, 45, 27], 3.0).unwrap();
+        vol.integrate(&view).unwrap();
+        vol.carve(&view).unwrap();
+        let samples: Vec<DVec3> = (10..25)
+            .flat_map(|i| (10..25).map(move |j| DVec3::new(i as f64, j as f64, 12.0)))
+            .collect();
+        let normals = vec![DVec3::Z; samples.len()];
+        let sparse = extract(&vol, &samples, &normals, &[&view]).unwrap();
+        let mut all = Sides::new(&vol).unwrap();
+        all.activate_all();
+        let dense = extract_from(&vol, all, &samples, &normals, &[&view]).unwrap();
+        assert!(sparse.faces.len() > 1000);
+        assert_eq!(sparse.repaired, dense.repaired);
+        assert_eq!(sparse.faces, dense.faces);
+        assert_eq!(sparse.labels, dense.labels);
+        assert_eq!(sparse.vertices, dense.vertices);
+        let [distances, _] = vol.allocated();
+        assert!(distances < 46 * 45 * 27 / 2, "{distances}");
+    }
+
     #[test]
     fn two_columns_touching_along_an_edge_are_repaired_into_one_manifold() {
         // rays through pixels (2, 2) and (3, 3) meet a surface above the grid (so the grid
@@ -619,7 +710,7 @@ mod tests {
             .collect();
         let view = DepthView::new(pose, [0.0; 2], 1.0, 6, 6, depth, vec![1.0; 36]).unwrap();
         let mut vol = Volume::new([0.0; 3], 1.0, [6, 6, 6], 1.0).unwrap();
-        vol.carve(&view);
+        vol.carve(&view).unwrap();
         assert_eq!(vol.evidence(vol.index(2, 2, 3)), Evidence::Unseen);
         assert_eq!(vol.evidence(vol.index(2, 3, 3)), Evidence::Empty);
         let fused = extract(&vol, &[], &[], &[&view]).unwrap();

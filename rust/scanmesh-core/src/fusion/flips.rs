@@ -11,6 +11,8 @@
 //! than one cell apart (edges stay short and the samples gathered cover the quad).
 
 use super::samples::SampleIndex;
+use crate::budget;
+use crate::error::Result;
 use glam::DVec3;
 use std::collections::HashMap;
 
@@ -30,6 +32,8 @@ const MIN_FACING: f64 = 0.17;
 /// Flips the edges of the closed mesh (`vertices`, `faces`) towards the samples; `cells`
 /// holds each vertex's cell (grid coordinates), `labels` the faces' labels. Returns the
 /// flips made. O(passes · faces · samples per cell neighbourhood).
+///
+/// Errors: `OutOfMemory` when the edges' map does not fit.
 pub(super) fn follow_samples(
     vertices: &[DVec3],
     cells: &[[usize; 3]],
@@ -38,8 +42,11 @@ pub(super) fn follow_samples(
     near: &SampleIndex,
     samples: &[DVec3],
     normals: &[DVec3],
-) -> usize {
-    let mut owner: HashMap<(u32, u32), u32> = HashMap::with_capacity(faces.len() * 3);
+) -> Result<usize> {
+    let mut owner: HashMap<(u32, u32), u32> = HashMap::new();
+    owner.try_reserve(faces.len() * 3).map_err(|_| {
+        budget::not_allocated::<((u32, u32), u32)>("the fused mesh's edges", faces.len() * 3)
+    })?;
     for (f, t) in faces.iter().enumerate() {
         for e in 0..3 {
             owner.insert((t[e], t[(e + 1) % 3]), f as u32);
@@ -105,7 +112,7 @@ pub(super) fn follow_samples(
             break;
         }
     }
-    flips
+    Ok(flips)
 }
 
 /// Whether triangles (a, d, c), (b, c, d) fit the samples better than (a, b, c), (b, a, d);

@@ -6,10 +6,13 @@
 //! towards the samples (`flips`), and the vertices no sample placed are laid on the plane
 //! of their wall (`walls`).
 
+pub(crate) mod blocks;
 pub(crate) mod depth;
 pub(crate) mod extract;
 pub(crate) mod flips;
+pub(crate) mod footprint;
 pub(crate) mod samples;
+pub(crate) mod sides;
 pub(crate) mod tsdf;
 pub(crate) mod walls;
 

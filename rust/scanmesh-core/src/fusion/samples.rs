@@ -2,7 +2,10 @@
 //! around a cell: the vertex placement and the edge flips of the extraction read them.
 
 use super::tsdf::Volume;
+use crate::budget;
+use crate::error::Result;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Samples sorted by the cell they fall in, for the samples around a cell.
 pub(super) struct SampleIndex {
@@ -12,20 +15,20 @@ pub(super) struct SampleIndex {
 }
 
 impl SampleIndex {
-    pub(super) fn new(volume: &Volume, samples: &[DVec3]) -> Self {
+    /// The samples inside the grid by cell. O(samples log samples), on every core.
+    ///
+    /// Errors: `OutOfMemory`.
+    pub(super) fn new(volume: &Volume, samples: &[DVec3]) -> Result<Self> {
         let dims = volume.dims();
         let origin = volume.node(0, 0, 0);
-        let mut keys: Vec<(usize, usize)> = samples
-            .iter()
-            .enumerate()
-            .filter_map(|(s, p)| {
-                let g = ((*p - origin) / volume.voxel()).floor();
-                let ok = (0..3).all(|a| g[a] >= 0.0 && g[a] < dims[a] as f64);
-                ok.then(|| (volume.index(g.x as usize, g.y as usize, g.z as usize), s))
-            })
-            .collect();
-        keys.sort_unstable();
-        Self { dims, keys }
+        let mut keys: Vec<(usize, usize)> = budget::try_vec("the samples by cell", samples.len())?;
+        keys.extend(samples.iter().enumerate().filter_map(|(s, p)| {
+            let g = ((*p - origin) / volume.voxel()).floor();
+            let ok = (0..3).all(|a| g[a] >= 0.0 && g[a] < dims[a] as f64);
+            ok.then(|| (volume.index(g.x as usize, g.y as usize, g.z as usize), s))
+        }));
+        keys.par_sort_unstable();
+        Ok(Self { dims, keys })
     }
 
     /// Samples in the 27 cells around cell `c` (grid coordinates).

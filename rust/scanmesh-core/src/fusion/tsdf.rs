@@ -18,7 +18,9 @@
 //! front of its surface is empty: it lies behind a thin wedge (an edge seen along the
 //! rays) in another view, outside the part (a view's vote, `EMPTY_VOTES`).
 
+use super::blocks::{block_nodes, Blocks, Entry, BLOCK, BLOCK_NODES};
 use super::depth::{DepthView, Lookup};
+use super::footprint::Footprint;
 use crate::budget;
 use crate::error::{Error, Result};
 use glam::DVec3;
@@ -51,10 +53,9 @@ pub const EMPTY_VOTES: u8 = 1;
 /// kept a fifth of the blade's excess.
 pub const BEHIND_VOXELS: f64 = 1.5;
 
-/// Bytes per node: the distance sum, the weight, the flags.
-pub const NODE_BYTES: u64 = 9;
-
-/// Nodes along each axis, on a regular grid `origin + (i, j, k) * voxel`.
+/// Nodes along each axis, on a regular grid `origin + (i, j, k) * voxel`, stored by blocks
+/// (8³ (`BLOCK`) nodes): allocated where some view's evidence varies within the block, else
+/// one state for the whole block.
 #[derive(Debug, Clone)]
 pub struct Volume {
     origin: DVec3,
@@ -62,9 +63,7 @@ pub struct Volume {
     dims: [usize; 3],
     truncation: f64,
     behind: f64,
-    sum: Vec<f32>,
-    weight: Vec<f32>,
-    flags: Vec<u8>,
+    blocks: Blocks,
     /// Per carved view, in the order carved: [`Volume::ray_stops`] (8 bytes per ray), for
     /// the evidence between nodes ([`Volume::value_at`]).
     stops: Vec<Vec<f64>>,
@@ -81,13 +80,68 @@ pub enum Evidence {
     Unseen,
 }
 
+/// What one view does to the nodes of one block, decided from the block's footprint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Action {
+    /// Nothing to any node.
+    Nothing,
+    /// The same to every node: a vote for empty ([`Volume::integrate`]) or marked empty
+    /// ([`Volume::carve`]).
+    All,
+    /// Node by node, a vote for empty or nothing: no distance ([`Volume::integrate`]).
+    Votes,
+    /// Node by node.
+    Each,
+}
+
+/// A block's nodes seen from a view: the pixel coordinates (u, v) and the scanner z they
+/// span, widened by far more than rounding can move a node's own.
+struct Span {
+    u: [f64; 2],
+    v: [f64; 2],
+    z: [f64; 2],
+    /// The margin (world units) the depths are widened by.
+    margin: f64,
+}
+
+impl Span {
+    /// Every node outside the image ([`DepthView::lookup`]'s `Outside`).
+    fn outside(&self, (w, h): (usize, usize)) -> bool {
+        self.u[1] <= -0.5
+            || self.v[1] <= -0.5
+            || self.u[0] >= w as f64 - 0.5
+            || self.v[0] >= h as f64 - 0.5
+    }
+
+    /// Every node inside the image.
+    fn inside(&self, (w, h): (usize, usize)) -> bool {
+        self.u[0] > -0.5
+            && self.v[0] > -0.5
+            && self.u[1] < w as f64 - 0.5
+            && self.v[1] < h as f64 - 0.5
+    }
+
+    /// The pixels any node's lookup may read (the nearest and the four around it), inside
+    /// the image; for a span not [`Span::outside`] it.
+    fn pixels(&self, (w, h): (usize, usize)) -> [[usize; 2]; 2] {
+        let range = |[a, b]: [f64; 2], n: usize| {
+            let lo = a.floor().max(0.0) as usize;
+            let hi = (b.floor() + 1.0).clamp(0.0, (n - 1) as f64) as usize;
+            [lo.min(n - 1), hi]
+        };
+        [range(self.u, w), range(self.v, h)]
+    }
+}
+
 impl Volume {
     /// An empty grid of `dims` nodes spaced `voxel` apart from `origin` (world units), the
     /// signed distance truncated at `truncation` in front of a surface and at the smaller of
-    /// it and [`BEHIND_VOXELS`] behind (world units, at least one voxel).
+    /// it and [`BEHIND_VOXELS`] behind (world units, at least one voxel). No node is
+    /// allocated yet: 4 bytes per block of 8³ (`BLOCK`) nodes; [`Volume::with_max_voxels`]
+    /// bounds the nodes allocated later.
     ///
     /// Errors: `InvalidParameter` for a non-positive voxel or truncation, fewer than 2 nodes
-    /// along an axis; `OutOfMemory` when 9 bytes per node do not fit.
+    /// along an axis; `OutOfMemory` when the block index does not fit.
     pub fn new(origin: [f64; 3], voxel: f64, dims: [usize; 3], truncation: f64) -> Result<Self> {
         let bad =
             |name: &'static str, value: String, expected: &'static str| Error::InvalidParameter {
@@ -116,33 +170,23 @@ impl Volume {
             ));
         }
         let n = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
-        let n = n.ok_or_else(|| bad("dims", format!("{dims:?}"), "a grid that can be counted"))?;
-        budget::check_stage(
-            || {
-                format!(
-                    "a fusion grid of {} × {} × {} nodes",
-                    dims[0], dims[1], dims[2]
-                )
-            },
-            n as u64 * NODE_BYTES,
-        )?;
+        n.ok_or_else(|| bad("dims", format!("{dims:?}"), "a grid that can be counted"))?;
         Ok(Self {
             origin: DVec3::from_array(origin),
             voxel,
             dims,
             truncation,
             behind: truncation.min(BEHIND_VOXELS * voxel),
-            sum: budget::try_vec("the fusion grid", n)?,
-            weight: budget::try_vec("the fusion grid", n)?,
-            flags: budget::try_vec("the fusion grid", n)?,
+            blocks: Blocks::new(dims)?,
             stops: Vec::new(),
         })
-        .map(|mut v: Self| {
-            v.sum.resize(n, 0.0);
-            v.weight.resize(n, 0.0);
-            v.flags.resize(n, 0);
-            v
-        })
+    }
+
+    /// The same grid, at most `max_voxels` nodes ever allocated (whole blocks of
+    /// 8³ (`BLOCK`)): `integrate` or `carve` needing more is refused (`TooCostly`). O(1).
+    pub fn with_max_voxels(mut self, max_voxels: usize) -> Self {
+        self.blocks.limit(max_voxels);
+        self
     }
 
     /// Nodes along x, y, z.
@@ -160,6 +204,14 @@ impl Volume {
         self.truncation
     }
 
+    /// Nodes allocated so far (whole blocks of 8³ (`BLOCK`)): with a distance (9 bytes each:
+    /// the distance sum, the weight, the flags) and with flags alone (1 byte each), where
+    /// only a silhouette or a carving edge passes. Both count towards
+    /// [`Volume::with_max_voxels`].
+    pub fn allocated(&self) -> [usize; 2] {
+        self.blocks.allocated()
+    }
+
     /// World position of node (i, j, k).
     pub fn node(&self, i: usize, j: usize, k: usize) -> DVec3 {
         self.origin + DVec3::new(i as f64, j as f64, k as f64) * self.voxel
@@ -170,89 +222,275 @@ impl Volume {
         (k * self.dims[1] + j) * self.dims[0] + i
     }
 
+    /// Grid coordinates of flat index `n`.
+    pub(super) fn coords(&self, n: usize) -> [usize; 3] {
+        let [nx, ny, _] = self.dims;
+        [n % nx, (n / nx) % ny, n / (nx * ny)]
+    }
+
     /// The node nearest to world point `p`, if inside the grid.
     pub fn nearest(&self, p: DVec3) -> Option<usize> {
+        self.nearest_coords(p).map(|[i, j, k]| self.index(i, j, k))
+    }
+
+    fn nearest_coords(&self, p: DVec3) -> Option<[usize; 3]> {
         let g = ((p - self.origin) / self.voxel).round();
         let inside = (0..3).all(|a| g[a] >= 0.0 && g[a] < self.dims[a] as f64);
-        inside.then(|| self.index(g.x as usize, g.y as usize, g.z as usize))
+        inside.then_some([g.x as usize, g.y as usize, g.z as usize])
     }
 
     /// What is known of node `n`: measured unless its mean is negative and
-    /// `EMPTY_VOTES` views saw it well in front of their surfaces (then empty).
+    /// `EMPTY_VOTES` views saw it well in front of their surfaces (then empty). O(1).
     pub fn evidence(&self, n: usize) -> Evidence {
-        classify(self.sum[n], self.weight[n], self.flags[n])
+        self.evidence_at(self.coords(n))
+    }
+
+    fn evidence_at(&self, node: [usize; 3]) -> Evidence {
+        let (sum, weight, flags) = self.blocks.state(node);
+        classify(sum, weight, flags)
     }
 
     /// The fused signed distance at node `n` (world units, positive outside): the weighted
     /// mean where measured, `+truncation` where seen empty, `−truncation` where unseen
-    /// (unseen space counts as solid, so what no ray entered closes the surface).
+    /// (unseen space counts as solid, so what no ray entered closes the surface). O(1).
     pub fn value(&self, n: usize) -> f64 {
-        distance(self.sum[n], self.weight[n], self.flags[n], self.truncation)
+        let (sum, weight, flags) = self.blocks.state(self.coords(n));
+        distance(sum, weight, flags, self.truncation)
+    }
+
+    /// The blocks, for the extraction's walk over those where the surface may be.
+    pub(super) fn blocks(&self) -> &Blocks {
+        &self.blocks
+    }
+
+    /// The fused signed distance every node of block `b` has, if they all have one (an
+    /// unallocated block). O(1).
+    pub(super) fn uniform_value(&self, b: usize) -> Option<f64> {
+        match self.blocks.entry(b) {
+            Entry::Uniform(flags) => Some(distance(0.0, 0.0, flags, self.truncation)),
+            Entry::Flags(_) | Entry::Slot(_) => None,
+        }
+    }
+
+    /// Block `b`'s nodes in `view`'s scanner coordinates, as pixel coordinates and depth.
+    fn span(&self, b: usize, view: &DepthView) -> Span {
+        let [lo, hi] = self.blocks.nodes(b);
+        let (mut u, mut v, mut z) = ([f64::INFINITY, f64::NEG_INFINITY], [0.0; 2], [0.0; 2]);
+        (v[0], v[1], z[0], z[1]) = (u[0], u[1], u[0], u[1]);
+        let mut scale: f64 = 0.0;
+        for c in 0..8 {
+            let at = |a: usize, bit: usize| if c & bit == 0 { lo[a] } else { hi[a] };
+            let q = view.to_scanner(self.node(at(0, 1), at(1, 2), at(2, 4)));
+            let [pu, pv] = view.pixel(q.x, q.y);
+            (u[0], u[1]) = (u[0].min(pu), u[1].max(pu));
+            (v[0], v[1]) = (v[0].min(pv), v[1].max(pv));
+            (z[0], z[1]) = (z[0].min(q.z), z[1].max(q.z));
+            scale = scale.max(q.abs().max_element());
+        }
+        // the nodes between the corners are affine combinations of them: a margin of
+        // 1e-9 relative to the coordinates holds their rounding many times over
+        let margin = 1e-9 * (self.voxel + scale);
+        let du = 1e-9 * (1.0 + u[0].abs().max(u[1].abs()));
+        let dv = 1e-9 * (1.0 + v[0].abs().max(v[1].abs()));
+        Span {
+            u: [u[0] - du, u[1] + du],
+            v: [v[0] - dv, v[1] + dv],
+            z: [z[0] - margin, z[1] + margin],
+            margin,
+        }
+    }
+
+    /// What `view`'s returns do to block `b`'s nodes ([`add_return`]): nothing where every
+    /// node is outside the image, on a ray without return or farther behind its surface
+    /// than the band; a vote for empty where every node is inside the image, on a return,
+    /// and farther in front of its surface than the truncation; votes alone where every
+    /// node on a return is that far in front.
+    fn returns_action(&self, b: usize, view: &DepthView, foot: &Footprint<'_>) -> Action {
+        let size = view.size();
+        let s = self.span(b, view);
+        if s.outside(size) {
+            return Action::Nothing;
+        }
+        let [across, down] = s.pixels(size);
+        let seen = foot.query(across, down);
+        if seen.missing == seen.pixels {
+            return Action::Nothing;
+        }
+        // a lookup's depth and cosine are convex combinations of its pixels'
+        let cos = seen.cos * (1.0 - 1e-9);
+        let (lo, hi) = (seen.lo - s.margin, seen.hi + s.margin);
+        if (s.z[1] - lo) * cos < -self.behind * (1.0 + 1e-9) && s.z[1] < lo {
+            return Action::Nothing;
+        }
+        if s.z[0] > hi && (s.z[0] - hi) * cos > self.truncation * (1.0 + 1e-9) {
+            if s.inside(size) && seen.missing == 0 {
+                return Action::All;
+            }
+            return Action::Votes;
+        }
+        Action::Each
+    }
+
+    /// What carving `view` with ray stops `stop` does to block `b`'s nodes: nothing where
+    /// every node is outside the image or no farther from the scanner than its ray's stop;
+    /// marked empty where every node is inside the image and beyond the stop of its ray.
+    fn carve_action(&self, b: usize, view: &DepthView, foot: &Footprint<'_>) -> Action {
+        let size = view.size();
+        let s = self.span(b, view);
+        if s.outside(size) {
+            return Action::Nothing;
+        }
+        let [across, down] = s.pixels(size);
+        let stops = foot.query(across, down);
+        if s.z[1] <= stops.lo - s.margin {
+            return Action::Nothing;
+        }
+        if s.inside(size) && s.z[0] > stops.hi + s.margin {
+            return Action::All;
+        }
+        Action::Each
+    }
+
+    /// The actions of one view on every block, on every core.
+    fn actions(&self, act: impl Fn(usize) -> Action + Sync + Send) -> Result<Vec<Action>> {
+        budget::try_par_collect(
+            "the fusion grid's blocks seen by a view",
+            (0..self.blocks.len()).into_par_iter().map(act),
+        )
+    }
+
+    /// Makes room for what a view does to each block ([`Volume::integrate`] with
+    /// `returns`, else [`Volume::carve`]): a uniform block changed alike gets `all`
+    /// applied to its shared flags; one changed node by node gets its nodes' flags, and
+    /// their distances where the view may add one.
+    fn allocate_for(&mut self, actions: &[Action], returns: bool) -> Result<()> {
+        for (b, &a) in actions.iter().enumerate() {
+            match (a, self.blocks.entry(b)) {
+                (Action::All, Entry::Uniform(flags)) => self.blocks.set_uniform(
+                    b,
+                    if returns {
+                        flags.saturating_add(VOTE) | EMPTY
+                    } else {
+                        flags | EMPTY
+                    },
+                ),
+                // a node seen empty stays so: carving it again changes nothing
+                (_, Entry::Uniform(flags)) if !returns && flags & EMPTY != 0 => {}
+                (Action::Each, Entry::Uniform(_)) if !returns => self.blocks.allocate_flags(b)?,
+                (Action::Votes, Entry::Uniform(_)) => self.blocks.allocate_flags(b)?,
+                (Action::Each, Entry::Uniform(_) | Entry::Flags(_)) if returns => {
+                    self.blocks.allocate(b)?
+                }
+                _ => {}
+            }
+        }
+        Ok(())
     }
 
     /// Adds one view's returns: the truncated distance near its surfaces, empty in front of
-    /// them. O(nodes), in parallel over z slices.
-    pub fn integrate(&mut self, view: &DepthView) {
-        let trunc = self.truncation;
-        let behind = self.behind;
-        let (nx, ny) = (self.dims[0], self.dims[1]);
-        let (origin, voxel) = (self.origin, self.voxel);
-        self.sum
-            .par_chunks_mut(nx * ny)
-            .zip(self.weight.par_chunks_mut(nx * ny))
-            .zip(self.flags.par_chunks_mut(nx * ny))
-            .enumerate()
-            .for_each(|(k, ((sum, weight), flags))| {
-                for j in 0..ny {
-                    for i in 0..nx {
-                        let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
-                        let q = view.to_scanner(p);
-                        if let Lookup::Hit {
-                            depth,
-                            cos,
-                            weight: trust,
-                        } = view.lookup(q.x, q.y)
-                        {
-                            let n = j * nx + i;
-                            let d = (q.z - depth) * cos;
-                            add_return(
-                                d,
-                                cos * trust,
-                                [trunc, behind],
-                                (&mut sum[n], &mut weight[n], &mut flags[n]),
-                            );
-                        }
-                    }
-                }
+    /// them. Blocks are decided from their footprint in the image where the view does the
+    /// same to every node, else node by node (and allocated: with distances near its
+    /// surfaces, flags alone near its silhouettes). O(blocks + pixels + nodes of the
+    /// blocks near the view's surfaces and silhouettes), on every core.
+    ///
+    /// Errors: `TooCostly` beyond [`Volume::with_max_voxels`]; `OutOfMemory`;
+    /// `InvalidParameter` after a view was carved.
+    pub fn integrate(&mut self, view: &DepthView) -> Result<()> {
+        if !self.stops.is_empty() {
+            return Err(Error::InvalidParameter {
+                name: "view",
+                value: format!("a view integrated after {} carved", self.stops.len()),
+                expected: "every view integrated before the first is carved",
             });
+        }
+        let (w, h) = view.size();
+        let foot = Footprint::new(w, h, view.depths(), Some(view.cosines()))?;
+        let actions = self.actions(|b| self.returns_action(b, view, &foot))?;
+        drop(foot);
+        self.allocate_for(&actions, true)?;
+        let bands = [self.truncation, self.behind];
+        let (origin, voxel) = (self.origin, self.voxel);
+        let layout = self.blocks.layout();
+        // each node of block `b` on a return: its place in the block, distance and weight
+        // (the cosine times the return's trust)
+        let each = |b: usize, add: &mut dyn FnMut(usize, f64, f64)| {
+            for ([i, j, k], n) in block_nodes(layout.nodes(b)) {
+                let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
+                let q = view.to_scanner(p);
+                if let Lookup::Hit {
+                    depth,
+                    cos,
+                    weight: trust,
+                } = view.lookup(q.x, q.y)
+                {
+                    add(n, (q.z - depth) * cos, cos * trust);
+                }
+            }
+        };
+        self.blocks
+            .par_slots_mut()
+            .filter(|(b, _)| actions[*b] != Action::Nothing)
+            .for_each(|(b, ((sum, weight), flags))| {
+                each(b, &mut |n, d, w| {
+                    add_return(d, w, bands, (&mut sum[n], &mut weight[n], &mut flags[n]));
+                });
+            });
+        self.blocks
+            .par_marks_mut()
+            .filter(|(b, _)| actions[*b] != Action::Nothing)
+            .for_each(|(b, marks)| {
+                // votes alone: no node within the band (a distance would be lost here)
+                each(b, &mut |n, d, w| {
+                    let (mut sum, mut weight) = (0.0, 0.0);
+                    add_return(d, w, bands, (&mut sum, &mut weight, &mut marks[n]));
+                    debug_assert_eq!(weight, 0.0, "a distance in a block of flags alone");
+                });
+            });
+        Ok(())
     }
 
     /// Marks empty the nodes on this view's rays without a return, from the scanner to the
     /// first node some view measured, or all along the ray when there is none; a ray whose
     /// return was lost (a short run between returns, [`DepthView::lost_return_depth`])
     /// only in front of the depth it was lost at. Run after every view is integrated.
-    /// O(rays · nodes along a ray + nodes).
-    pub fn carve(&mut self, view: &DepthView) {
-        let stop = self.ray_stops(view);
-        let (nx, ny) = (self.dims[0], self.dims[1]);
+    /// O(rays · blocks along a ray + blocks + nodes of the blocks the carving's edge
+    /// crosses), on every core.
+    ///
+    /// Errors: `TooCostly` beyond [`Volume::with_max_voxels`]; `OutOfMemory`.
+    pub fn carve(&mut self, view: &DepthView) -> Result<()> {
+        if self.stops.is_empty() {
+            // every view integrated: the votes of a node without distance count no more
+            self.blocks.settle_flags(EMPTY);
+        }
+        let stop = self.ray_stops(view)?;
+        let (w, h) = view.size();
+        let foot = Footprint::new(w, h, &stop, None)?;
+        let actions = self.actions(|b| self.carve_action(b, view, &foot))?;
+        drop(foot);
+        self.allocate_for(&actions, false)?;
         let (origin, voxel) = (self.origin, self.voxel);
-        self.flags
-            .par_chunks_mut(nx * ny)
-            .enumerate()
-            .for_each(|(k, flags)| {
-                for j in 0..ny {
-                    for i in 0..nx {
-                        let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
-                        let q = view.to_scanner(p);
-                        if let Lookup::Miss(pixel) = view.lookup(q.x, q.y) {
-                            if q.z > stop[pixel] {
-                                flags[j * nx + i] |= EMPTY;
-                            }
-                        }
+        let layout = self.blocks.layout();
+        let each = |b: usize, flags: &mut [u8]| {
+            for ([i, j, k], n) in block_nodes(layout.nodes(b)) {
+                let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
+                let q = view.to_scanner(p);
+                if let Lookup::Miss(pixel) = view.lookup(q.x, q.y) {
+                    if q.z > stop[pixel] {
+                        flags[n] |= EMPTY;
                     }
                 }
-            });
+            }
+        };
+        self.blocks
+            .par_slots_mut()
+            .filter(|(b, _)| actions[*b] != Action::Nothing)
+            .for_each(|(b, (_, flags))| each(b, flags));
+        self.blocks
+            .par_marks_mut()
+            .filter(|(b, _)| actions[*b] != Action::Nothing)
+            .for_each(|(b, marks)| each(b, marks));
         self.stops.push(stop);
+        Ok(())
     }
 
     /// The fused signed distance at any world point `p`, as [`Volume::value`] would give
@@ -308,10 +546,37 @@ impl Volume {
         distance(sum, weight, flags, trunc)
     }
 
+    /// Per block: whether it or one of its 26 neighbours holds a measured node, so that
+    /// a ray's nearest nodes within half a block of a point in a block without are not
+    /// measured. O(blocks + allocated nodes).
+    fn near_measured(&self) -> Result<Vec<bool>> {
+        let blocks = &self.blocks;
+        let mut measured = budget::try_filled("the measured blocks", false, blocks.len())?;
+        for (s, &b) in blocks.owner.iter().enumerate() {
+            let at = s * BLOCK_NODES;
+            measured[b as usize] = (at..at + BLOCK_NODES).any(|n| {
+                classify(blocks.sum[n], blocks.weight[n], blocks.flags[n]) == Evidence::Measured
+            });
+        }
+        let [bx, by, bz] = blocks.counts();
+        let near = |b: usize| {
+            let c = blocks.coords(b);
+            let range = |v: usize, n: usize| v.saturating_sub(1)..(v + 2).min(n);
+            range(c[2], bz).any(|z| {
+                range(c[1], by).any(|y| range(c[0], bx).any(|x| measured[blocks.at([x, y, z])]))
+            })
+        };
+        budget::try_par_collect(
+            "the measured blocks",
+            (0..blocks.len()).into_par_iter().map(near),
+        )
+    }
+
     /// Per pixel of `view`: the scanner z where a ray without return met the first measured
     /// node, coming from the scanner, or its lost return's depth if nearer (−∞: neither;
-    /// +∞: the ray returned).
-    fn ray_stops(&self, view: &DepthView) -> Vec<f64> {
+    /// +∞: the ray returned). A ray's steps (half a voxel) are taken [`SKIP`] at a time
+    /// through blocks with no measured node near.
+    fn ray_stops(&self, view: &DepthView) -> Result<Vec<f64>> {
         let (w, h) = view.size();
         // the ray's stretch through the grid: scanner z over the grid's 8 corners
         let hi = self.node(self.dims[0] - 1, self.dims[1] - 1, self.dims[2] - 1);
@@ -326,29 +591,52 @@ impl Volume {
             z_lo = z_lo.min(z);
             z_hi = z_hi.max(z);
         }
+        let near = self.near_measured()?;
         let dz = 0.5 * self.voxel;
         let steps = ((z_hi - z_lo) / dz).ceil() as usize + 1;
-        (0..w * h)
-            .into_par_iter()
-            .map(|pixel| {
+        let top = self.dims.map(|d| (d - 1) as f64);
+        let far_from_measured = |p: DVec3| {
+            // the nearest node, clamped into the grid: the next SKIP steps' nearest nodes
+            // lie within half a block of it (or of the grid), so in its block's neighbours
+            let g = ((p - self.origin) / self.voxel).round();
+            let c: [usize; 3] = std::array::from_fn(|a| g[a].clamp(0.0, top[a]) as usize / BLOCK);
+            !near[self.blocks.at(c)]
+        };
+        budget::try_par_collect(
+            "the rays' stops",
+            (0..w * h).into_par_iter().map(|pixel| {
                 if !view.is_miss(pixel) {
                     return f64::INFINITY;
                 }
                 let lost = view.lost_return_depth(pixel).unwrap_or(f64::NEG_INFINITY);
                 let [x, y] = view.ray_xy(pixel);
-                let measured = (0..steps)
-                    .map(|s| z_hi - s as f64 * dz)
-                    .find(|&z| {
-                        let p = view.to_world(DVec3::new(x, y, z));
-                        self.nearest(p)
-                            .is_some_and(|n| self.evidence(n) == Evidence::Measured)
-                    })
-                    .unwrap_or(f64::NEG_INFINITY);
+                let mut s = 0;
+                let mut measured = f64::NEG_INFINITY;
+                while s < steps {
+                    let z = z_hi - s as f64 * dz;
+                    let p = view.to_world(DVec3::new(x, y, z));
+                    if s % SKIP == 0 && far_from_measured(p) {
+                        s += SKIP;
+                        continue;
+                    }
+                    if self
+                        .nearest_coords(p)
+                        .is_some_and(|n| self.evidence_at(n) == Evidence::Measured)
+                    {
+                        measured = z;
+                        break;
+                    }
+                    s += 1;
+                }
                 measured.max(lost)
-            })
-            .collect()
+            }),
+        )
     }
 }
+
+/// Half-voxel steps along a ray skipped at once where no node is measured near: their
+/// nearest nodes lie within 4.5 voxels of the first one's, inside its block's neighbours.
+const SKIP: usize = 8;
 
 /// Adds one view's return to a node's state (`sum`, `weight` of distances, `flags`): `d`,
 /// the distance along the view's normal from its surface to the node (positive in
@@ -397,163 +685,4 @@ fn distance(sum: f32, weight: f32, flags: u8, trunc: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn looking_down(depth: Vec<f64>, width: usize, height: usize, step: f64) -> DepthView {
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        let cos = vec![1.0; depth.len()];
-        DepthView::new(pose, [0.0, 0.0], step, width, height, depth, cos).unwrap()
-    }
-
-    #[test]
-    fn a_plane_gives_its_distance_and_empty_space_above() {
-        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-        vol.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
-        for k in 0..9 {
-            let n = vol.index(2, 2, k);
-            let d = k as f64 - 4.0;
-            // averaged from the truncation (2) in front to BEHIND_VOXELS (1.5) behind
-            match vol.evidence(n) {
-                Evidence::Measured => {
-                    assert!(
-                        (vol.value(n) - d).abs() < 1e-6 && d >= -BEHIND_VOXELS,
-                        "{k}"
-                    )
-                }
-                Evidence::Empty => assert!(d > 2.0, "{k}"),
-                Evidence::Unseen => assert!(d < -BEHIND_VOXELS, "{k}"),
-            }
-        }
-        assert_eq!(vol.evidence(vol.index(2, 2, 8)), Evidence::Empty);
-        assert_eq!(vol.evidence(vol.index(2, 2, 2)), Evidence::Unseen);
-    }
-
-    #[test]
-    fn a_slab_thinner_than_the_truncation_keeps_its_far_face() {
-        // a slab from z = 4 to z = 5 seen from above (its face z = 5) and from below (its
-        // face z = 4), with a truncation (3) longer than the slab is thick
-        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 3.0).unwrap();
-        vol.integrate(&looking_down(vec![5.0; 25], 5, 5, 1.0));
-        // from below: world = (x, 4 - y, -z) of the scanner's (x, y, z)
-        let mut pose = [0.0; 16];
-        (pose[0], pose[5], pose[7], pose[10], pose[15]) = (1.0, -1.0, 4.0, -1.0, 1.0);
-        let below = DepthView::new(pose, [0.0, 0.0], 1.0, 5, 5, vec![-4.0; 25], vec![1.0; 25]);
-        vol.integrate(&below.unwrap());
-        // node z = 3 lies 1 in front of the face seen from below and 2 behind the one seen
-        // from above: that view's guess of solid behind its face (2 < 3) no longer outvotes
-        // the view that saw the node empty (the mean would be -0.5: the face pushed out)
-        let n = vol.index(2, 2, 3);
-        assert_eq!(vol.evidence(n), Evidence::Measured);
-        assert!((vol.value(n) - 1.0).abs() < 1e-6, "{}", vol.value(n));
-        assert!((vol.value(vol.index(2, 2, 6)) - 1.0).abs() < 1e-6);
-    }
-
-    #[test]
-    fn rays_without_return_carve_down_to_the_first_measured_surface() {
-        // view 1 (from above) sees a plane at z = 4 over x < 3, nothing beyond
-        let depth: Vec<f64> = (0..25)
-            .map(|k| if k % 5 < 3 { 4.0 } else { f64::NAN })
-            .collect();
-        let top = looking_down(depth, 5, 5, 1.0);
-        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-        vol.integrate(&top);
-        vol.carve(&top);
-        // under the missed rays: empty all the way down
-        assert_eq!(vol.evidence(vol.index(4, 2, 0)), Evidence::Empty);
-        // under the plane: unseen (solid)
-        assert_eq!(vol.evidence(vol.index(1, 2, 0)), Evidence::Unseen);
-        // a view whose returns were all lost stops at the measured plane: it carves nothing
-        // below it
-        let mut lower = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-        let plane = looking_down(vec![4.0; 25], 5, 5, 1.0);
-        lower.integrate(&plane);
-        let lost = looking_down(vec![f64::NAN; 25], 5, 5, 1.0);
-        lower.carve(&lost);
-        assert_eq!(lower.evidence(lower.index(1, 2, 0)), Evidence::Unseen);
-    }
-
-    #[test]
-    fn a_view_that_saw_a_node_in_front_outvotes_one_behind_a_surface() {
-        // one view sees a surface at z = 4 (node z = 3 lies 1 behind it, within the
-        // truncation), another a surface at z = 0 (node z = 3 lies 3 in front of it)
-        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-        vol.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
-        let n = vol.index(2, 2, 3);
-        assert_eq!(vol.evidence(n), Evidence::Measured);
-        assert!(vol.value(n) < 0.0);
-        vol.integrate(&looking_down(vec![0.0; 25], 5, 5, 1.0));
-        assert_eq!(vol.evidence(n), Evidence::Empty);
-        // a positive mean stays measured: the node z = 5 is 1 in front of the first surface
-        let m = vol.index(2, 2, 5);
-        assert_eq!(vol.evidence(m), Evidence::Measured);
-        assert!((vol.value(m) - 1.0).abs() < 1e-6);
-    }
-
-    #[test]
-    fn between_nodes_the_carving_ends_where_the_rays_footprints_meet() {
-        // rays at x = 0.3 + i: a plane at z = 4 for i < 3 (x <= 2.3), no return beyond
-        // (x >= 3.3): the carved space begins halfway, at x = 2.8, between nodes x = 2, 3
-        let depth: Vec<f64> = (0..25)
-            .map(|k| if k % 5 < 3 { 4.0 } else { f64::NAN })
-            .collect();
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        pose[3] = 0.3;
-        let view = DepthView::new(pose, [0.0, 0.0], 1.0, 5, 5, depth, vec![1.0; 25]).unwrap();
-        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-        vol.integrate(&view);
-        vol.carve(&view);
-        assert!(vol.value_at(DVec3::ZERO, &[]).is_err());
-        for n in 0..5 * 5 * 9 {
-            let p = vol.node(n % 5, (n / 5) % 5, n / 25);
-            assert_eq!(vol.value_at(p, &[&view]).unwrap(), vol.value(n));
-        }
-        let at = |x: f64| vol.value_at(DVec3::new(x, 2.0, 0.0), &[&view]).unwrap();
-        assert_eq!(at(2.0), -2.0);
-        assert_eq!(at(2.75), -2.0);
-        assert_eq!(at(2.85), 2.0);
-        assert_eq!(at(3.0), 2.0);
-    }
-
-    #[test]
-    fn a_return_of_weight_zero_neither_averages_nor_votes() {
-        // one view sees a plane at z = 4; another, from above too, a return at z = 0 that
-        // is not trusted (a mixed pixel): node z = 3 lies 1 behind the plane and 3 (over
-        // the truncation) in front of that return, which must not vote it empty
-        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-        vol.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
-        let ghost = looking_down(vec![0.0; 25], 5, 5, 1.0)
-            .with_weight(vec![0.0; 25])
-            .unwrap();
-        vol.integrate(&ghost);
-        let n = vol.index(2, 2, 3);
-        assert_eq!(vol.evidence(n), Evidence::Measured);
-        assert!((vol.value(n) + 1.0).abs() < 1e-6, "{}", vol.value(n));
-        // trusted, the same return votes the node empty
-        let mut trusted = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-        trusted.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
-        trusted.integrate(&looking_down(vec![0.0; 25], 5, 5, 1.0));
-        assert_eq!(trusted.evidence(n), Evidence::Empty);
-        // weights outside [0, 1] or of the wrong length are refused
-        assert!(looking_down(vec![1.0; 4], 2, 2, 1.0)
-            .with_weight(vec![1.5; 4])
-            .is_err());
-        assert!(looking_down(vec![1.0; 4], 2, 2, 1.0)
-            .with_weight(vec![1.0; 3])
-            .is_err());
-    }
-
-    #[test]
-    fn refuses_bad_grids() {
-        assert!(Volume::new([0.0; 3], 0.0, [4, 4, 4], 1.0).is_err());
-        assert!(Volume::new([0.0; 3], 1.0, [4, 1, 4], 1.0).is_err());
-        assert!(Volume::new([0.0; 3], 1.0, [4, 4, 4], 0.5).is_err());
-        assert!(Volume::new([0.0; 3], 1.0, [usize::MAX, 4, 4], 1.0).is_err());
-    }
-}
+mod tests;

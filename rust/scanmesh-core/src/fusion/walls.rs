@@ -9,6 +9,8 @@
 //! halfway onto the wall's plane: two estimates of where the face ends, each to the rays'
 //! spacing, whose mean is better than either.
 
+use crate::budget;
+use crate::error::Result;
 use crate::projection::principal_axes;
 use glam::DVec3;
 
@@ -76,9 +78,10 @@ struct Rings {
 }
 
 impl Rings {
-    /// O(faces).
-    fn new(n: usize, faces: &[[u32; 3]]) -> Self {
-        let mut start = vec![0usize; n + 1];
+    /// O(faces). Errors: `OutOfMemory`.
+    fn new(n: usize, faces: &[[u32; 3]]) -> Result<Self> {
+        let what = "the fused mesh's vertex rings";
+        let mut start = budget::try_filled(what, 0usize, n + 1)?;
         for t in faces {
             for &a in t {
                 start[a as usize + 1] += 1;
@@ -87,8 +90,9 @@ impl Rings {
         for v in 0..n {
             start[v + 1] += start[v];
         }
-        let mut fill = start.clone();
-        let mut neighbours = vec![0u32; start[n]];
+        let mut fill =
+            budget::try_copy(&start).map_err(|_| budget::not_allocated::<usize>(what, n + 1))?;
+        let mut neighbours = budget::try_filled(what, 0u32, start[n])?;
         for t in faces {
             for e in 0..3 {
                 let a = t[e] as usize;
@@ -96,7 +100,7 @@ impl Rings {
                 fill[a] += 1;
             }
         }
-        Rings { start, neighbours }
+        Ok(Rings { start, neighbours })
     }
 
     /// The neighbours of `v`.
@@ -115,12 +119,12 @@ struct Walk {
 }
 
 impl Walk {
-    fn new(n: usize) -> Self {
-        Walk {
-            seen: vec![usize::MAX; n],
+    fn new(n: usize) -> Result<Self> {
+        Ok(Walk {
+            seen: budget::try_filled("the fused mesh's walls", usize::MAX, n)?,
             ring: Vec::new(),
             next: Vec::new(),
-        }
+        })
     }
 
     /// The vertices within `depth` edges of `v` (not `v`) that `keep`, into `out`.
@@ -156,9 +160,9 @@ impl Walk {
     }
 }
 
-/// Area-weighted unit vertex normals. O(faces).
-fn vertex_normals(vertices: &[DVec3], faces: &[[u32; 3]]) -> Vec<DVec3> {
-    let mut normal = vec![DVec3::ZERO; vertices.len()];
+/// Area-weighted unit vertex normals. O(faces). Errors: `OutOfMemory`.
+fn vertex_normals(vertices: &[DVec3], faces: &[[u32; 3]]) -> Result<Vec<DVec3>> {
+    let mut normal = budget::try_filled("the fused mesh's normals", DVec3::ZERO, vertices.len())?;
     for t in faces {
         let p = t.map(|i| vertices[i as usize]);
         let area_normal = (p[1] - p[0]).cross(p[2] - p[0]);
@@ -166,7 +170,10 @@ fn vertex_normals(vertices: &[DVec3], faces: &[[u32; 3]]) -> Vec<DVec3> {
             normal[a as usize] += area_normal;
         }
     }
-    normal.iter().map(|m| m.normalize_or_zero()).collect()
+    for m in &mut normal {
+        *m = m.normalize_or_zero();
+    }
+    Ok(normal)
 }
 
 /// Lays the never-sampled walls flat, then squares their rims. Each vertex `placed`
@@ -178,24 +185,29 @@ fn vertex_normals(vertices: &[DVec3], faces: &[[u32; 3]]) -> Vec<DVec3> {
 /// from it, where that is at most [`RIM_REACH`] voxels (`voxel`, world units) away. `faces`
 /// must make a closed 2-manifold. Returns the vertices moved.
 /// O(faces + (unsampled vertices + rim vertices) · vertices within the rings).
+///
+/// Errors: `OutOfMemory`.
 pub(super) fn flatten_unsampled(
     vertices: &mut [DVec3],
     faces: &[[u32; 3]],
     placed: &[Placed],
     voxel: f64,
-) -> usize {
+) -> Result<usize> {
     let unsampled = |v: usize| placed[v] == Placed::Unsampled;
     if !(0..vertices.len()).any(unsampled) {
-        return 0;
+        return Ok(0);
     }
     let n = vertices.len();
-    let rings = Rings::new(n, faces);
-    let mut walk = Walk::new(n);
+    let rings = Rings::new(n, faces)?;
+    let mut walk = Walk::new(n)?;
     let mut wall = Vec::new();
     let mut moved = 0;
 
-    let normal = vertex_normals(vertices, faces);
-    let before = vertices.to_vec();
+    let copy = |v: &[DVec3]| {
+        budget::try_copy(v).map_err(|_| budget::not_allocated::<DVec3>("the fused mesh's walls", n))
+    };
+    let normal = vertex_normals(vertices, faces)?;
+    let before = copy(vertices)?;
     for v in (0..n).filter(|&v| unsampled(v)) {
         walk.around(&rings, v, RINGS, &mut wall, |w| {
             unsampled(w) && normal[w].dot(normal[v]) > SAME_WALL
@@ -207,9 +219,9 @@ pub(super) fn flatten_unsampled(
         }
     }
 
-    let normal = vertex_normals(vertices, faces);
+    let normal = vertex_normals(vertices, faces)?;
     // a walk's marks are its centre: the rims (sampled) were no centre of the first pass
-    let flat = vertices.to_vec();
+    let flat = copy(vertices)?;
     for v in 0..n {
         let Placed::Smooth(m) = placed[v] else {
             continue;
@@ -236,7 +248,7 @@ pub(super) fn flatten_unsampled(
             moved += 1;
         }
     }
-    moved
+    Ok(moved)
 }
 
 /// The plane of `points[wall]` fitted twice, the second time without the points beyond
@@ -351,7 +363,7 @@ mod tests {
         let sampled_before = sampled(&vertices);
         let rms_before = off(&vertices);
         let placed = placements(&unsampled);
-        let moved = flatten_unsampled(&mut vertices, &faces, &placed, 1.0 / n as f64);
+        let moved = flatten_unsampled(&mut vertices, &faces, &placed, 1.0 / n as f64).unwrap();
         let rms_after = off(&vertices);
         assert!(moved > 0);
         assert!(rms_after < 0.2 * rms_before, "{rms_before} -> {rms_after}");
@@ -383,7 +395,7 @@ mod tests {
             vertices[v].x -= 0.4 * voxel;
         }
         let before = vertices.clone();
-        flatten_unsampled(&mut vertices, &faces, &placed, voxel);
+        flatten_unsampled(&mut vertices, &faces, &placed, voxel).unwrap();
         for &v in &rim {
             let short = (1.0 - vertices[v].x) / voxel;
             assert!(
@@ -414,7 +426,8 @@ mod tests {
             &faces,
             &placements(&unsampled),
             1.0 / n as f64,
-        );
+        )
+        .unwrap();
         let worst = vertices
             .iter()
             .zip(&before)
