@@ -22,25 +22,22 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from scanmesh import _core
+from scanmesh._checks import check_options, power_of_two_exponent
 from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import ParameterError, ScanmeshWarning
+from scanmesh.errors import DegenerateInputError, MemoryLimitError, ScanmeshWarning
 from scanmesh.fusion.depth import depth_image, view_spacing
+from scanmesh.fusion.grid import MAX_VOXELS, OPTIONS, TRUNCATION_VOXELS, grid_for
 from scanmesh.fusion.register import refine_poses
-from scanmesh.fusion.views import as_views
+from scanmesh.fusion.views import View, as_views
 from scanmesh.scan.axes import AxisSpec
 from scanmesh.surface import Surface
-
-#: Grid nodes at most, unless ``max_voxels`` says otherwise (9 bytes each).
-MAX_VOXELS = 64_000_000
-
-#: The default truncation of the signed distance, in voxels.
-TRUNCATION_VOXELS = 3.0
 
 #: How far apart two views' samples may be to be paired by ``refine``, in spacings.
 REFINE_REACH = 3.0
@@ -53,13 +50,15 @@ REFINE_REACH = 3.0
 FINE_VOXEL = 0.7
 
 
-def _positive(value: Any, name: str) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a positive number, got {value!r}") from None
-    if not math.isfinite(out) or out <= 0:
-        raise ParameterError(f"{name} must be a positive finite number, got {value!r}")
+def _scaled(views: list[View], exponent: int) -> list[View]:
+    """The views with points and translations times 2**-exponent (exact: a power of two),
+    so that no distance, square or product of the fusion overflows or underflows at
+    coordinates of 1e-300 or 1e300."""
+    out = []
+    for view in views:
+        pose = view.pose.copy()
+        pose[:3, 3] = np.ldexp(pose[:3, 3], -exponent)
+        out.append(replace(view, points=np.ldexp(view.points, -exponent), pose=pose))
     return out
 
 
@@ -113,18 +112,24 @@ def merge(
     """
     timings: dict[str, float] = {}
     start = time.perf_counter()
-    checked = as_views(views, poses=poses, toward=toward)
-    trunc = _positive(truncation, "truncation")
-    if trunc < 1.0:
-        raise ParameterError(f"truncation must be at least 1 voxel, got {truncation!r}")
-    if isinstance(max_voxels, bool) or not isinstance(max_voxels, (int, np.integer)):
-        raise ParameterError(f"max_voxels must be an integer, got {max_voxels!r}")
-    if not isinstance(refine, bool):
-        raise ParameterError(f"refine must be True or False, got {refine!r}")
-    spacings = [view_spacing(v.points[:, :2]) for v in checked]
+    # every option checked (and max_voxels honoured) before a file is read or a byte allocated
+    params = check_options(
+        OPTIONS,
+        {"voxel": voxel, "truncation": truncation, "max_voxels": max_voxels, "refine": refine},
+        "merge",
+    )
+    trunc = params["truncation"]
+    given = as_views(views, poses=poses, toward=toward)
+    # work at unit scale: points and translations times a power of two, undone on the result
+    exponent = power_of_two_exponent(
+        np.array([np.abs(a).max() for v in given for a in (v.points, v.pose[:3, 3])])
+    )
+    unit = math.ldexp(1.0, exponent)
+    checked = _scaled(given, exponent)
+    spacings = [view_spacing(v.points[:, :2], v.source) for v in checked]
     ray_spacing = float(np.median(spacings))
     residual = None
-    if refine:
+    if params["refine"]:
         t0 = time.perf_counter()
         with Stage(progress, "refine", len(checked), blocking=True):
             own = [
@@ -137,7 +142,7 @@ def merge(
                 [image.kept for image in own],
                 reach=REFINE_REACH * ray_spacing,
             )
-        residual = {"before": before, "after": after}
+        residual = {"before": before * unit, "after": after * unit}
         if math.isnan(before):
             warnings.warn(
                 "refine: the views share no surface (no samples of two views within"
@@ -149,55 +154,54 @@ def merge(
     world = [v.world for v in checked]
     lo = np.min([w.min(axis=0) for w in world], axis=0)
     hi = np.max([w.max(axis=0) for w in world], axis=0)
-    extent = hi - lo
-
-    def grid_for(size: float) -> tuple[np.ndarray, np.ndarray]:
-        # half a voxel more on the low side: the part's extreme faces (and CAD faces on
-        # round coordinates) fall between node layers, not on one, where the sign of the
-        # distance would be noise and the surface would fold between two layers of cells
-        margin = (trunc + 2.0) * size
-        dims = np.ceil((extent + 2 * margin) / size).astype(np.int64) + 2
-        return lo - margin - 0.5 * size, dims
-
-    if voxel is None:
-        size = ray_spacing
-        origin, dims = grid_for(size)
-        if int(np.prod(dims)) > max_voxels:
-            size *= (int(np.prod(dims)) / max_voxels) ** (1 / 3) * 1.01
-            origin, dims = grid_for(size)
-    else:
-        size = _positive(voxel, "voxel")
-        if size < FINE_VOXEL * ray_spacing:
-            warnings.warn(
-                f"merge: voxel {voxel:g} is under {FINE_VOXEL:g} of the views' ray spacing"
-                f" {ray_spacing:g}: a run of rays whose returns were lost (at"
-                " grazing angles) may carve through the part; a voxel of at least the"
-                " spacing is safe",
-                ScanmeshWarning,
-                stacklevel=2,
-            )
-        origin, dims = grid_for(size)
-        if int(np.prod(dims)) > max_voxels:
-            need = float(np.max(extent)) / (max_voxels ** (1 / 3))
-            raise ParameterError(
-                f"voxel {voxel!r} makes a grid of {' x '.join(map(str, dims))} nodes, over"
-                f" max_voxels={max_voxels:,}; use voxel of about {need:.3g} or more"
-            )
-    volume = _core.FusionVolume(tuple(origin), size, tuple(int(d) for d in dims), trunc * size)
-    corners = origin + np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]) * (
-        (dims - 1) * size
+    view_size = max(float(np.max(w.max(axis=0) - w.min(axis=0))) for w in world)
+    size_given = None if params["voxel"] is None else math.ldexp(params["voxel"], -exponent)
+    grid = grid_for(
+        lo,
+        hi - lo,
+        view_size,
+        size_given,
+        ray_spacing,
+        trunc,
+        params["max_voxels"],
+        unit,
+        params["voxel"],
     )
+    size, dims = grid.voxel, np.array(grid.dims)
+    if size_given is not None and size < FINE_VOXEL * ray_spacing:
+        warnings.warn(
+            f"merge: voxel {params['voxel']:g} is under {FINE_VOXEL:g} of the views' ray"
+            f" spacing {ray_spacing * unit:g}: a run of rays whose returns were lost (at"
+            " grazing angles) may carve through the part; a voxel of at least the"
+            " spacing is safe",
+            ScanmeshWarning,
+            stacklevel=2,
+        )
+    volume = _core.FusionVolume(tuple(grid.origin), size, grid.dims, trunc * size)
+    corners = grid.origin + np.array(
+        [[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+    ) * ((dims - 1) * size)
     native, samples, normals = [], [], []
-    for view, spacing in zip(checked, spacings, strict=True):
-        rot, shift = view.pose[:3, :3], view.pose[:3, 3]
-        in_view = (corners - shift) @ rot  # the grid's corners in scanner coordinates
-        window = np.array([in_view[:, :2].min(axis=0), in_view[:, :2].max(axis=0)])
-        image = depth_image(view.points, max(spacing, 0.5 * size), window)
-        native.append(_core.DepthView(view.pose, image.origin, image.step, image.depth, image.cos))
-        samples.append(view.points[image.kept] @ rot.T + shift)
-        normals.append(image.normals @ rot.T)
+    try:
+        for view, spacing in zip(checked, spacings, strict=True):
+            rot, shift = view.pose[:3, :3], view.pose[:3, 3]
+            in_view = (corners - shift) @ rot  # the grid's corners in scanner coordinates
+            window = np.array([in_view[:, :2].min(axis=0), in_view[:, :2].max(axis=0)])
+            image = depth_image(view.points, max(spacing, 0.5 * size), window)
+            native.append(
+                _core.DepthView(view.pose, image.origin, image.step, image.depth, image.cos)
+            )
+            samples.append(view.points[image.kept] @ rot.T + shift)
+            normals.append(image.normals @ rot.T)
+    except MemoryError as exc:  # numpy's: the depth images are the Python side's memory
+        if isinstance(exc, MemoryLimitError):
+            raise
+        raise MemoryLimitError(
+            f"merge: the depth images of {len(checked)} views at voxel {size * unit:g} do not"
+            f" fit in memory ({exc}); use a larger voxel"
+        ) from None
     timings["depth images"] = time.perf_counter() - start
-    cost = float(np.prod(dims))
+    cost = float(grid.nodes)
     for name, call in (("integrate", volume.integrate), ("carve", volume.carve)):
         t0 = time.perf_counter()
         with Stage(progress, name, len(native)) as stage:
@@ -215,20 +219,33 @@ def merge(
             native,
         )
     timings["extract"] = time.perf_counter() - t0
+    if len(faces) == 0:
+        raise DegenerateInputError(
+            f"merge: no surface at voxel {size * unit:g}: no node of the"
+            f" {' x '.join(map(str, grid.dims))} grid lies inside the views' surfaces; use a"
+            f" voxel near the views' ray spacing ({ray_spacing * unit:.4g})"
+        )
     return Surface(
-        vertices=vertices,
+        vertices=np.ldexp(vertices, exponent),
         faces=faces,
         method="merge",
         options={
             "views": len(checked),
-            "voxel": size,
+            "voxel": size * unit,
             "truncation": trunc,
             "behind": min(trunc, _core.BEHIND_VOXELS),
-            "grid": tuple(int(d) for d in dims),
+            "grid": grid.dims,
             "repaired_nodes": int(repaired),
             "refine_residual": residual,
-            "poses": [v.pose for v in checked],
+            "poses": [_unscaled(v.pose, exponent) for v in checked],
         },
         timings=timings,
         face_labels=labels,
+        inputs=[v.file for v in given if v.file is not None],
     )
+
+
+def _unscaled(pose: np.ndarray, exponent: int) -> np.ndarray:
+    out = pose.copy()
+    out[:3, 3] = np.ldexp(out[:3, 3], exponent)
+    return out

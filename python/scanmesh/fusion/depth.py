@@ -47,16 +47,24 @@ class DepthImage:
     normals: np.ndarray
 
 
-def view_spacing(xy: np.ndarray, seed: int = 0) -> float:
+def view_spacing(xy: np.ndarray, where: str = "a view", seed: int = 0) -> float:
     """Median distance from a point to its nearest other point across the rays (scanner
-    x, y), on a sample of at most SPACING_SAMPLE points; O(N log N)."""
+    x, y), on a sample of at most SPACING_SAMPLE points; DegenerateInputError naming
+    ``where`` when no two points lie on different rays. O(N log N)."""
+    if len(xy) < 2:
+        raise DegenerateInputError(
+            f"{where}: a view of {len(xy)} point has no spacing across its rays; a view needs"
+            " at least 2 points on different rays"
+        )
     tree = cKDTree(xy)
     rng = np.random.default_rng(seed)
     probe = xy if len(xy) <= SPACING_SAMPLE else xy[rng.choice(len(xy), SPACING_SAMPLE, False)]
     dist, _ = tree.query(probe, k=2)
-    near = dist[:, 1][dist[:, 1] > 0]
+    near = dist[:, 1][np.isfinite(dist[:, 1]) & (dist[:, 1] > 0)]
     if len(near) == 0:
-        raise DegenerateInputError("a view's points all lie on one ray: no spacing across rays")
+        raise DegenerateInputError(
+            f"{where}: the view's points all lie on one ray: no spacing across rays"
+        )
     return float(np.median(near))
 
 

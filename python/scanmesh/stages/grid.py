@@ -110,6 +110,12 @@ def grid_surface(
     params = check_options(
         OPTIONS, {"max_turn": max_turn, "edge_factor": edge_factor}, "grid triangulation"
     )
+    if scan.grid is not None and not is_gridded(scan):
+        shape = " x ".join(map(str, scan.grid.shape))
+        raise DegenerateInputError(
+            f"the scan's range grid is {shape} (lines x positions): the grid triangulation"
+            " needs at least 2 x 2 to make a triangle; use another method"
+        )
     if not is_gridded(scan):
         raise ParameterError(
             "the grid triangulation needs a scan with a range grid (a range_grid PLY, a"
