@@ -30,6 +30,7 @@ import numpy as np
 from scanmesh import _core
 from scanmesh._checks import check_options, power_of_two_exponent
 from scanmesh._interrupt import interruptible
+from scanmesh._memory import memory_room
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import DegenerateInputError, MemoryLimitError, ScanmeshWarning
 from scanmesh.fusion.depth import depth_image, view_spacing
@@ -110,14 +111,33 @@ def merge(
         New vertices (not the input points), faces counter-clockwise from outside,
         ``face_labels`` (M,) uint8 codes into ``Surface.LABELS``.
     """
-    timings: dict[str, float] = {}
-    start = time.perf_counter()
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(
         OPTIONS,
         {"voxel": voxel, "truncation": truncation, "max_voxels": max_voxels, "refine": refine},
         "merge",
     )
+    try:
+        return _merge(views, poses, toward, params, progress)
+    except MemoryError as exc:  # numpy's or Python's: what the estimates did not foresee
+        if isinstance(exc, MemoryLimitError):
+            raise
+        raise MemoryLimitError(
+            f"merge: an allocation failed ({exc or 'out of memory'}); this process may take"
+            f" {memory_room().limit}: use a larger voxel or fewer points"
+        ) from None
+
+
+def _merge(
+    views: Sequence[Any],
+    poses: Sequence[Any] | None,
+    toward: AxisSpec,
+    params: dict[str, Any],
+    progress: Progress,
+) -> Surface:
+    """:func:`merge` once its options are checked."""
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
     trunc = params["truncation"]
     given = as_views(views, poses=poses, toward=toward)
     # work at unit scale: points and translations times a power of two, undone on the result
@@ -182,24 +202,14 @@ def merge(
         [[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
     ) * ((dims - 1) * size)
     native, samples, normals = [], [], []
-    try:
-        for view, spacing in zip(checked, spacings, strict=True):
-            rot, shift = view.pose[:3, :3], view.pose[:3, 3]
-            in_view = (corners - shift) @ rot  # the grid's corners in scanner coordinates
-            window = np.array([in_view[:, :2].min(axis=0), in_view[:, :2].max(axis=0)])
-            image = depth_image(view.points, max(spacing, 0.5 * size), window)
-            native.append(
-                _core.DepthView(view.pose, image.origin, image.step, image.depth, image.cos)
-            )
-            samples.append(view.points[image.kept] @ rot.T + shift)
-            normals.append(image.normals @ rot.T)
-    except MemoryError as exc:  # numpy's: the depth images are the Python side's memory
-        if isinstance(exc, MemoryLimitError):
-            raise
-        raise MemoryLimitError(
-            f"merge: the depth images of {len(checked)} views at voxel {size * unit:g} do not"
-            f" fit in memory ({exc}); use a larger voxel"
-        ) from None
+    for view, spacing in zip(checked, spacings, strict=True):
+        rot, shift = view.pose[:3, :3], view.pose[:3, 3]
+        in_view = (corners - shift) @ rot  # the grid's corners in scanner coordinates
+        window = np.array([in_view[:, :2].min(axis=0), in_view[:, :2].max(axis=0)])
+        image = depth_image(view.points, max(spacing, 0.5 * size), window)
+        native.append(_core.DepthView(view.pose, image.origin, image.step, image.depth, image.cos))
+        samples.append(view.points[image.kept] @ rot.T + shift)
+        normals.append(image.normals @ rot.T)
     timings["depth images"] = time.perf_counter() - start
     cost = float(grid.nodes)
     for name, call in (("integrate", volume.integrate), ("carve", volume.carve)):

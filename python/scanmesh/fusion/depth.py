@@ -20,6 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from scanmesh._core import JUMP_STEPS
+from scanmesh._memory import describe_bytes, memory_room
 from scanmesh.errors import DegenerateInputError, MemoryLimitError
 
 #: Points whose nearest neighbour is measured for the spacing (a sample of larger views).
@@ -27,6 +28,10 @@ SPACING_SAMPLE = 20_000
 
 #: Largest depth image built (pixels); a view finer than this over the part is refused.
 MAX_PIXELS = 50_000_000
+
+#: Peak bytes per pixel while a depth image is built: depth, cosine, normals and the
+#: slopes' shifted copies (about twenty float64 arrays of the image's size).
+BYTES_PER_PIXEL = 160
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,12 @@ def depth_image(points: np.ndarray, step: float, window: np.ndarray) -> DepthIma
         raise MemoryLimitError(
             f"a depth image of {width} x {height} rays (spacing {step:g}) is over the"
             f" {MAX_PIXELS:,} allowed; use a larger voxel"
+        )
+    need, room = width * height * BYTES_PER_PIXEL, memory_room()
+    if need > room.bytes:
+        raise MemoryLimitError(
+            f"a depth image of {width} x {height} rays needs about {describe_bytes(need)} of"
+            f" memory, more than {room.limit}; use a larger voxel"
         )
     ij = np.rint((points[:, :2] - first) / step).astype(np.int64)
     inside = (ij >= 0).all(axis=1) & (ij[:, 0] < width) & (ij[:, 1] < height)

@@ -122,8 +122,9 @@ impl AnnealParams {
 
 /// The incremental tac state of `faces` over 3-D `points` with planar `uv`, both normalized
 /// (scale-free), checked to be a valid planar triangulation, with the (3,) line of sight
-/// `sight` when given.
+/// `sight` when given. Built without the GIL (0.4 s on 200,000 points: Ctrl-C waited).
 pub(crate) fn tac_state(
+    py: Python<'_>,
     points: &PyReadonlyArray2<'_, f64>,
     uv: &PyReadonlyArray2<'_, f64>,
     faces_: &PyReadonlyArray2<'_, i64>,
@@ -135,7 +136,9 @@ pub(crate) fn tac_state(
     let xyz = points3_view(points)?;
     let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
-    let (state, relabel) = TacState::from_input(&xyz, &plane, t, p).map_err(to_py)?;
+    let (state, relabel) = py
+        .detach(|| TacState::from_input(&xyz, &plane, t, p))
+        .map_err(to_py)?;
     Ok((state.with_sight(sight).map_err(to_py)?, relabel))
 }
 
@@ -178,7 +181,7 @@ pub(crate) fn lop<'py>(
             )))
         }
     };
-    let (state, relabel) = tac_state(&points, &uv, &faces_, p, sight)?;
+    let (state, relabel) = tac_state(py, &points, &uv, &faces_, p, sight)?;
     let (faces, flips) = py
         .detach(|| {
             let (mesh, flips) = run_lop(state, criterion)?;
@@ -222,7 +225,7 @@ impl Annealer {
         sight: Option<PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<Self> {
         let params = params.0.clone();
-        let (state, relabel) = tac_state(&points, &uv, &faces, params.p, sight)?;
+        let (state, relabel) = tac_state(py, &points, &uv, &faces, params.p, sight)?;
         let inner = py.detach(|| Ensemble::new(state, params)).map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),
