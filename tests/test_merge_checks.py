@@ -282,3 +282,25 @@ def test_bad_flags_are_one_line_naming_the_flag(tmp_path, capsys, scans, flags, 
     for word in words:
         assert word in err[0], err
     assert not out.exists()
+
+
+def test_a_conf_translation_beyond_1e300_is_refused_by_line(tmp_path):
+    """read_conf accepted 1e308, and merge then overflowed (OverflowError)."""
+    np.savetxt(tmp_path / "a.xyz", cap())
+    conf = tmp_path / "part.conf"
+    conf.write_text("bmesh a.xyz 1e308 0 0 0 0 0 1\n", encoding="utf-8")
+    with pytest.raises(scanmesh.FileFormatError, match=r"part.conf, line 1: translation"):
+        scanmesh.read_conf(conf)
+
+
+@pytest.mark.parametrize("far", [1e20, 1e300, 1e308])
+def test_a_pose_too_far_for_float64_to_hold_the_points_apart_is_refused(far):
+    """At 1e20 the neighbouring floats are 16,384 apart: the views' points were rounded
+    together and a mesh came out anyway; at 1e308 an OverflowError."""
+    views = two_views()
+    for k, (points, pose) in enumerate(views):
+        moved = pose.copy()
+        moved[0, 3] = far
+        views[k] = (points, moved)
+    with pytest.raises(scanmesh.DegenerateInputError, match="view 0: its pose puts its points"):
+        scanmesh.merge(views)

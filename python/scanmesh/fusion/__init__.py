@@ -32,7 +32,7 @@ from scanmesh._checks import check_options, power_of_two_exponent
 from scanmesh._interrupt import interruptible
 from scanmesh._memory import memory_room
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import DegenerateInputError, MemoryLimitError, ScanmeshWarning
+from scanmesh.errors import DegenerateInputError, MemoryLimitError, ParameterError, ScanmeshWarning
 from scanmesh.fusion.depth import depth_image, view_spacing
 from scanmesh.fusion.grid import MAX_VOXELS, OPTIONS, TRUNCATION_VOXELS, grid_for
 from scanmesh.fusion.register import refine_poses
@@ -61,6 +61,31 @@ def _scaled(views: list[View], exponent: int) -> list[View]:
         pose[:3, 3] = np.ldexp(pose[:3, 3], -exponent)
         out.append(replace(view, points=np.ldexp(view.points, -exponent), pose=pose))
     return out
+
+
+#: A view whose world coordinates are so large that neighbouring floats there are more
+#: than this share of its ray spacing apart is refused: its points would be rounded together.
+RESOLUTION_SHARE = 0.01
+
+
+def _own_spacing(view: View) -> float:
+    """The view's ray spacing, measured at its own unit scale (the nearest-neighbour
+    search squares distances: 1e200 would overflow, 1e-200 underflow)."""
+    e = power_of_two_exponent(view.points[:, :2])
+    return math.ldexp(view_spacing(np.ldexp(view.points[:, :2], -e), view.source), e)
+
+
+def _check_resolution(view: View, spacing: float) -> None:
+    """Refuse a pose that moves the view where float64 cannot hold its points apart."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        far = float(np.max(np.abs(view.world)))
+    if not math.isfinite(far) or float(np.spacing(far)) > RESOLUTION_SHARE * spacing:
+        raise DegenerateInputError(
+            f"{view.source}: its pose puts its points {far:.3g} from the origin, where"
+            f" neighbouring floats are {float(np.spacing(far)):.3g} apart against its ray"
+            f" spacing {spacing:.3g}: the points would be rounded together; give poses in"
+            " the part's frame (near the origin)"
+        )
 
 
 def merge(
@@ -140,15 +165,24 @@ def _merge(
     start = time.perf_counter()
     trunc = params["truncation"]
     given = as_views(views, poses=poses, toward=toward)
+    own = [_own_spacing(v) for v in given]
+    for view, spacing in zip(given, own, strict=True):
+        _check_resolution(view, spacing)
     # work at unit scale: points and translations times a power of two, undone on the result
-    exponent = power_of_two_exponent(
-        np.array([np.abs(a).max() for v in given for a in (v.points, v.pose[:3, 3])])
+    # (one less than the largest magnitude's exponent: 2**exponent itself stays finite)
+    exponent = (
+        power_of_two_exponent(
+            np.array([np.abs(a).max() for v in given for a in (v.points, v.pose[:3, 3])])
+        )
+        - 1
     )
     unit = math.ldexp(1.0, exponent)
     checked = _scaled(given, exponent)
-    spacings = [view_spacing(v.points[:, :2], v.source) for v in checked]
+    spacings = [math.ldexp(s, -exponent) for s in own]
     ray_spacing = float(np.median(spacings))
     residual = None
+    if params["refine"] and len(checked) < 2:
+        raise ParameterError(f"refine=True needs at least two views to align, got {len(checked)}")
     if params["refine"]:
         t0 = time.perf_counter()
         with Stage(progress, "refine", len(checked), blocking=True):
@@ -175,7 +209,8 @@ def _merge(
     lo = np.min([w.min(axis=0) for w in world], axis=0)
     hi = np.max([w.max(axis=0) for w in world], axis=0)
     view_size = max(float(np.max(w.max(axis=0) - w.min(axis=0))) for w in world)
-    size_given = None if params["voxel"] is None else math.ldexp(params["voxel"], -exponent)
+    # (np.ldexp: a voxel beyond the float range once scaled is inf, refused as too coarse)
+    size_given = None if params["voxel"] is None else float(np.ldexp(params["voxel"], -exponent))
     grid = grid_for(
         lo,
         hi - lo,

@@ -135,6 +135,9 @@ def grid_for(
             raise ParameterError(f"max_voxels={max_voxels:,} is too small: {smallest}")
         size = spacing
         nodes = _count(node_counts(extent, size, truncation))
+        if math.isinf(nodes):  # views of very different scales: start from the longest side
+            size = max(size, float(np.max(extent)) / max_voxels ** (1 / 3))
+            nodes = _count(node_counts(extent, size, truncation))
         while nodes > max_voxels:  # each step at least 1 % coarser: the count falls to `side`³
             size *= max((nodes / max_voxels) ** (1 / 3), 1.0) * 1.01
             nodes = _count(node_counts(extent, size, truncation))
@@ -147,6 +150,12 @@ def grid_for(
             )
     else:
         size, shown = voxel, voxel * unit if shown is None else shown
+        if size >= view_size:
+            raise ParameterError(
+                f"voxel={float(shown)!r} is coarser than any view ({view_size * unit:.4g}"
+                " across): the surface would fall between the nodes; use a voxel near the"
+                f" views' ray spacing ({spacing * unit:.4g})"
+            )
         counts = node_counts(extent, size, truncation)
         nodes = _count(counts)
         if nodes > max_voxels:
@@ -156,12 +165,6 @@ def grid_for(
             raise ParameterError(
                 f"voxel={float(shown)!r} at truncation={truncation:g} makes a grid of {sizes}"
                 f" nodes, over max_voxels={max_voxels:,}; {hint}"
-            )
-        if size >= view_size:
-            raise ParameterError(
-                f"voxel={float(shown)!r} is coarser than any view ({view_size * unit:.4g}"
-                " across): the surface would fall between the nodes; use a voxel near the"
-                f" views' ray spacing ({spacing * unit:.4g})"
             )
     dims = tuple(int(c) for c in node_counts(extent, size, truncation))
     margin = (truncation + 2.0) * size
