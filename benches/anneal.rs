@@ -17,15 +17,15 @@
 
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use scanmesh_core::delaunay;
+use scanmesh_core::geometry::triangle_angles;
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::prev;
-use scanmesh_core::triangle_angles;
-use scanmesh_core::TacState;
-use scanmesh_core::TiledAnnealer;
-use scanmesh_core::{median_spacing, trim_long_edges, DEFAULT_MAX_EDGE_FACTOR};
-use scanmesh_core::{project, Plane};
-use scanmesh_core::{AnnealParams, Annealer};
+use scanmesh_core::mesh::prev;
+use scanmesh_core::optimize::TacState;
+use scanmesh_core::optimize::TiledAnnealer;
+use scanmesh_core::optimize::{AnnealParams, Annealer};
+use scanmesh_core::projection::{project, Plane};
+use scanmesh_core::triangulate::delaunay;
+use scanmesh_core::triangulate::{median_spacing, trim_long_edges, DEFAULT_MAX_EDGE_FACTOR};
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -58,10 +58,10 @@ from scanmesh.evaluate.truth import TrueSurface, domain_error, height_error
 from scanmesh.formats.grid import height_grid
 from scanmesh.measures import curtains
 from scanmesh.methods import DEFAULT_METHOD
+from scanmesh.scan.planar import as_scan
 from scanmesh.scan.projection import project
 from scanmesh.stages.grid import grid_surface
 from scanmesh.stages.hidden import hiding_faces
-from scanmesh.stages.source import scan_of
 
 FRAN = Path(__file__).resolve().parents[1] / "tests" / "data" / "scans" / "fran_cut.vtk"
 N_POINTS = 12_000
@@ -532,7 +532,7 @@ def timing(n: int = 1000) -> str:
     z = 0.05 * np.sin(8 * i) * np.cos(6 * j) + 0.3 * ((np.abs(i - 0.5) < 0.2) & (j > 0.4))
     z[np.hypot(i - 0.3, j - 0.7) < 0.05] = np.nan  # a bore: no samples
     sp = height_grid(z, cell=1.0 / n)
-    scan = scan_of(sp, plane="z")
+    scan = as_scan(sp, plane="z")
     sight = np.array([0.0, 0.0, 1.0])
     best = {"numpy": math.inf, "core": math.inf, "stage": math.inf}
     for _ in range(REPEATS):

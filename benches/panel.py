@@ -12,13 +12,17 @@ Scans (from ../shared/data, or the folder given with --data):
   ("oblique": creases cross the scan lines), each at noise sigma = 0, s/30 and s/10 (s the
   spacing); and one scan of the turbine blade with at least 1M points. Error: height RMS
   and mean normal error against the (turned) part (``scanmesh.evaluate.truth``), on
-  100,000 samples (seed 0).
+  100,000 samples (seed 0). The connecting rod scanned along its thickness (y: ribs, bores,
+  walls at every one) is among them ("conrod_axis_0", "conrod_axis_s/30"); and one part is
+  given as plain points, in scan order without line ids ("..._points": methods that need
+  lines detect them from the order).
 
 Each (scan, method) runs in a fresh child process (multiprocessing, spawn) that loads the
 scan from a temporary .npz, so the memory column is that process's peak resident set size
 (``resource.getrusage(RUSAGE_SELF).ru_maxrss``) right after ``reconstruct``: the
 interpreter, numpy, the scan and the method together, the figure a user sees (the error
-measures run after it and are not counted). Wall time is the main ``reconstruct`` call only.
+measures run after it and are not counted). Wall time is the main ``reconstruct`` call only;
+"x LOP" is it over LOP's on the same scan in the same run.
 A run still going after ``--cap`` seconds is stopped and its cells read "timed out"
 (figures already measured are kept: the reconstruction may finish and the holdout not).
 
@@ -45,7 +49,14 @@ import numpy as np
 #: ../shared/data beside the repository (as the other benches find the shared data)
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 
-METHODS = ("delaunay", "lop", "lookahead", "shortest-path", "anneal", "auto")
+METHODS = ("delaunay", "lop", "lookahead", "shortest-path", "anneal", "strips-anneal", "auto")
+
+#: Methods that take the scan lines and the seed when the scan has them.
+LINES = ("lookahead", "shortest-path", "anneal", "strips-anneal", "auto")
+SEEDED = ("anneal", "strips-anneal", "auto")
+
+#: Scans given as plain points (no line ids): (part, up, oblique, noise label).
+POINTS_ONLY = (("octagonal_pocket.ply", "z", False, "s/30"),)
 
 #: Per CAD part: the axis its scanned side is a height field along (see the data README).
 PARTS = {
@@ -137,6 +148,20 @@ def panel(data: Path, quick: bool) -> list[dict]:
                         "cells": cells,
                     }
                 )
+    for part, up, oblique, label in () if quick else POINTS_ONLY:
+        stem = Path(part).stem.split("_")[0]
+        scans.append(
+            {
+                "name": f"{stem}_{'oblique' if oblique else 'axis'}_{label}_points",
+                "kind": "sim",
+                "part": data / "cad" / part,
+                "up": up,
+                "oblique": oblique,
+                "sigma": dict((b, a) for a, b in NOISE)[label],
+                "cells": cells,
+                "points_only": True,
+            }
+        )
     if not quick:
         scans.append(
             {
@@ -183,6 +208,8 @@ def prepare(scan: dict, folder: Path) -> dict:
         truth = folder / f"{stem}_truth.ply"
         mesh.export(truth)
         info["truth"], info["spacing"], info["plane"] = str(truth), s, scan["up"]
+    if scan.get("points_only"):
+        lines = None
     np.savez(out, points=pts, lines=np.asarray(lines) if lines is not None else np.zeros(0))
     info["n"] = len(pts)
     return info
@@ -202,9 +229,9 @@ def child(kind: str, info: dict, method: str, out: mp.Queue) -> None:
     lines = data["lines"] if len(data["lines"]) else None
     plane = info.get("plane")
     kw = {"plane": plane} if plane is not None else {}
-    if method in ("lookahead", "shortest-path", "anneal", "auto") and lines is not None:
+    if method in LINES and lines is not None:
         kw["lines"] = lines
-    if method in ("anneal", "auto"):
+    if method in SEEDED:
         kw["seed"] = 0
     t0 = time.perf_counter()
     surface = scanmesh.reconstruct(pts, method, **kw)
@@ -264,10 +291,14 @@ def cell(got: dict, key: str, fmt: str) -> str:
 def table(rows: list[tuple[dict, dict, str, dict]]) -> str:
     head = (
         "| scan | points | method | error | normal err (deg) | tac_1 | slivers | wall (s)"
-        " | peak RSS (MiB) |\n|---|---:|---|---:|---:|---:|---:|---:|---:|\n"
+        " | x LOP | peak RSS (MiB) |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n"
     )
+    lop_wall = {s["name"]: g["wall"] for s, _, m, g in rows if m == "lop" and "wall" in g}
     lines = []
     for scan, info, method, got in rows:
+        base = lop_wall.get(scan["name"])
+        ratio = f"{got['wall'] / base:.2f}" if base and "wall" in got else ""
+
         if scan["kind"] == "real":
             err = cell(got, "holdout", ".4g")
             err = f"{err} (holdout)" if "holdout" in got else err
@@ -280,7 +311,7 @@ def table(rows: list[tuple[dict, dict, str, dict]]) -> str:
         lines.append(
             f"| {scan['name']} | {info['n']:,} | {method} | {err} | {normal}"
             f" | {cell(got, 'tac_1', '.5g')} | {slivers} | {cell(got, 'wall', '.2f')}"
-            f" | {cell(got, 'peak_mb', '.0f')} |"
+            f" | {ratio} | {cell(got, 'peak_mb', '.0f')} |"
         )
     return head + "\n".join(lines) + "\n"
 
@@ -312,7 +343,7 @@ def main() -> None:
             for method in methods:
                 got = run(scan["kind"], info, method, cap)
                 rows.append((scan, info, method, got))
-                print(table(rows[-1:]).splitlines()[-1], file=sys.stderr, flush=True)
+                print(table(rows).splitlines()[-1], file=sys.stderr, flush=True)
     text = table(rows)
     if args.out:
         args.out.write_text(text)

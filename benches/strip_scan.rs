@@ -2,7 +2,7 @@
 //! (`strips.rs`, criterion; `strips_best.rs`, best-of runs).
 
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::Weight;
+use scanmesh_core::strips::fuchs::Weight;
 
 #[path = "jitter.rs"]
 mod jitter;

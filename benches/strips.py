@@ -88,7 +88,7 @@ def quality_table(repeat: int) -> None:
 
 
 def time_table(sizes: list[int], repeat: int) -> None:
-    coefficients = weight_coefficients(DEFAULT_WEIGHT)
+    weight = dict(zip(CRITERIA, weight_coefficients(DEFAULT_WEIGHT), strict=True))
     print("| points | lines | strip_surface | scanmesh.delaunay | ratio |", end="")
     print(" core strips (check) | core strips (no check) | core delaunay | core ratio |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
@@ -108,18 +108,8 @@ def time_table(sizes: list[int], repeat: int) -> None:
         uv, _ = scanmesh.project(points, "y")
 
         def core(check: bool, p=points, uv=uv, ids=line_ids):
-            return _core.strip_mesh(
-                p,
-                uv,
-                ids,
-                coefficients,
-                "shortest-path",
-                3,
-                "banded",
-                _core.DEFAULT_BAND,
-                4.0,
-                check,
-            )
+            params = _core.StripParams("shortest-path", weight=weight, check=check)
+            return _core.strip_mesh(p, uv, ids, params, 4.0)
 
         c_checked, _ = best_time(lambda: core(True), r)
         c_bare, _ = best_time(lambda: core(False), r)

@@ -5,17 +5,18 @@
 //!   (square, jittered); `strips` is `segment_lines` + `stitch` with the default weight
 //!   (angle + 0.3 dihedral), banded shortest path and the planar check; `strips_unchecked`
 //!   the same without the check; `strips_length` with the length weight, unchecked;
-//!   `delaunay` is spade's bulk load through `scanmesh_core::delaunay` (no trimming);
+//!   `delaunay` is spade's bulk load through `scanmesh_core::triangulate::delaunay` (no trimming);
 //! - `strips_threads/{1,2}`: `strips_unchecked` at 1M points on a rayon pool of 1 and of 2
 //!   threads (the target is a 2-core speed-up of at least 1.8: the strips are independent);
 //! - `solvers`: every solver and look-ahead depth on the embedded ~14,000-point rod scan.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use scanmesh_core::delaunay;
-use scanmesh_core::{detect_lines, segment_lines, DEFAULT_GAP_FACTOR};
-use scanmesh_core::{project, Plane};
-use scanmesh_core::{stitch, Method, StripParams, DEFAULT_JUMP_FACTOR};
-use scanmesh_core::{Solver, Weight, DEFAULT_BAND};
+use scanmesh_core::projection::{project, Plane};
+use scanmesh_core::strips::fuchs::{Solver, Weight, DEFAULT_BAND};
+use scanmesh_core::strips::{detect_lines, segment_lines, DEFAULT_GAP_FACTOR};
+use scanmesh_core::strips::{stitch, Method, StripParams};
+use scanmesh_core::triangulate::delaunay;
+use scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR;
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -11,16 +11,17 @@
 //!   check) on rayon pools of 1 and 2 threads alternating: best wall time of each and the
 //!   speed-up (the target is at least 1.8 on 2 cores: the strips are independent);
 //! - `vs`: the strips with and without the planar check and spade's Delaunay
-//!   (`scanmesh_core::delaunay`, no trimming) alternating on the global pool: best and
+//!   (`scanmesh_core::triangulate::delaunay`, no trimming) alternating on the global pool: best and
 //!   median of each and the ratios (the target: the checked strips take at most half of
 //!   spade's time at 1M points, or the strips lose their reason to exist beside Delaunay).
 //!
 //! Defaults: 1,000,000 points, 10 runs.
 
-use scanmesh_core::delaunay;
-use scanmesh_core::{segment_lines, DEFAULT_GAP_FACTOR};
-use scanmesh_core::{stitch, Method, StripParams, DEFAULT_JUMP_FACTOR};
-use scanmesh_core::{Solver, DEFAULT_BAND};
+use scanmesh_core::strips::fuchs::{Solver, DEFAULT_BAND};
+use scanmesh_core::strips::{segment_lines, DEFAULT_GAP_FACTOR};
+use scanmesh_core::strips::{stitch, Method, StripParams};
+use scanmesh_core::triangulate::delaunay;
+use scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR;
 use std::hint::black_box;
 use std::time::Instant;
 

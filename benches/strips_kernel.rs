@@ -12,8 +12,8 @@
 //! paths are the same. Defaults: 1,000,000 points, 5 runs.
 
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{lookahead, shortest_path_banded, Solution, DEFAULT_BAND};
-use scanmesh_core::{set_strip_filter, strip_filter_counts};
+use scanmesh_core::strips::fuchs::{lookahead, shortest_path_banded, Solution, DEFAULT_BAND};
+use scanmesh_core::strips::fuchs::{set_strip_filter, strip_filter_counts};
 use std::hint::black_box;
 
 #[path = "strip_scan.rs"]

@@ -11,7 +11,7 @@ Used by tests/test_fuzz_core.py (a bounded number of seeds in CI) and by
 benches/fuzz_core.py (the long run, each case in a child process with a time limit).
 
 The validity check is independent of ``_core.validate``: orientation by exact rational
-arithmetic on the same unit-square coordinates (``scanmesh_core::delaunay::unit_square``
+arithmetic on the same unit-square coordinates (``scanmesh_core::geometry::unit_square``
 redone in numpy, same IEEE operations), each interior edge shared by two faces in
 opposite directions, and planar angles around every interior vertex summing to 2π (no
 fold).
@@ -88,7 +88,7 @@ def make_case(seed: int) -> dict[str, Any]:
 
 
 def unit_square(uv: np.ndarray) -> np.ndarray:
-    """``scanmesh_core::delaunay::unit_square`` in numpy: the same IEEE operations."""
+    """``scanmesh_core::geometry::unit_square`` in numpy: the same IEEE operations."""
     lo, hi = uv.min(axis=0), uv.max(axis=0)
     center = lo * 0.5 + hi * 0.5
     half = max(hi[0] * 0.5 - lo[0] * 0.5, hi[1] * 0.5 - lo[1] * 0.5)
@@ -210,7 +210,13 @@ def run_case(seed: int, caller_plane: bool = False) -> str | None:
         out, finding, refused = _stage(
             f"lop {criterion}",
             lambda: _core.lop(
-                pts, uv, faces, criterion, o["p"], o["sliver_guard"], o["tie_tolerance"]
+                pts,
+                uv,
+                faces,
+                criterion,
+                p=o["p"],
+                sliver_guard=o["sliver_guard"],
+                tie_tolerance=o["tie_tolerance"],
             )[0],
         )
     if finding:

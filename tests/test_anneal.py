@@ -193,6 +193,7 @@ def test_bad_method_and_seed():
         scanmesh.reconstruct(bumpy_patch(50, 6), "lop", criterion="nope")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tiles", [1, 4])
 def test_ctrl_c_stops_a_long_run_quickly(tmp_path, tiles):
     script = textwrap.dedent(
@@ -224,6 +225,7 @@ def test_ctrl_c_stops_a_long_run_quickly(tmp_path, tiles):
     assert seconds_to_interrupt(script, 0.3) < 0.2
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_the_polish_of_a_large_run_quickly():
     """The polish after the sweeps is one native call of seconds on a large hot state: it
     runs in a worker thread, so Ctrl-C does not wait for it."""
@@ -315,6 +317,7 @@ def test_time_limit_stops_a_long_run_with_the_best_state():
     assert all(x is not None and 0 <= x <= 0.3 for x in left) and left[-1] == 0
 
 
+@pytest.mark.slow
 def test_without_a_time_limit_results_and_stop_reasons_are_unchanged():
     pts = bumpy_patch(500, 3)
     a = scanmesh.reconstruct(pts, "anneal", sweeps=30, seed=11, patience=0)

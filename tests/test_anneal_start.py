@@ -72,6 +72,7 @@ OPTIONS = st.fixed_dictionaries(
 )
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::scanmesh.NotAHeightFieldWarning")
 @settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(points=scans(), options=OPTIONS)
@@ -84,6 +85,7 @@ def test_never_above_the_start(points, options):
     assert after <= before + 1e-9 * max(1.0, before)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_sliver_angle_holds_slivers_at_the_starts_share(seed):
     pts = bumpy_patch(1500, seed)

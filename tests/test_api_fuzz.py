@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from api_fuzz import (
     JUNK,
@@ -29,6 +30,7 @@ from scanmesh.methods import TABLE
 EXAMPLES = 300
 
 
+@pytest.mark.slow
 def test_reconstruct_gives_a_valid_mesh_or_a_scanmesh_error_naming_the_bad_input() -> None:
     findings, outcomes = run_many(range(EXAMPLES), timeout=60.0, memory_bytes=3 * 2**30)
     report = "\n".join(

@@ -120,6 +120,7 @@ def rod_scan(tmp_path_factory) -> Path:
 # --------------------------------------------------------------------------- usage errors
 
 
+@pytest.mark.slow
 def test_help_and_version():
     result = run("--help")
     assert result.returncode == 0
@@ -129,6 +130,7 @@ def test_help_and_version():
     assert result.returncode == 0 and result.stdout.startswith("scanmesh ")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args",
     [
@@ -153,6 +155,7 @@ def test_usage_errors_exit_2(args, tmp_path):
 # --------------------------------------------------------------------------- bad input
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "name, content",
     [
@@ -174,6 +177,7 @@ def test_bad_scan_files_exit_1_with_one_line(name, content, tmp_path):
     assert no_partial_files(tmp_path)
 
 
+@pytest.mark.slow
 def test_bad_files_for_the_other_commands(tmp_path):
     junk = tmp_path / "junk.stl"
     junk.write_bytes(b"solid nothing\nendsolid nothing\n")
@@ -184,6 +188,7 @@ def test_bad_files_for_the_other_commands(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["junk.stl"]
 
 
+@pytest.mark.slow
 def test_unwritable_output_exits_1(scan, tmp_path):
     message = assert_failed(run("reconstruct", scan, "-o", tmp_path / "no" / "such" / "out.stl"))
     assert "does not exist" in message
@@ -196,6 +201,7 @@ def test_unwritable_output_exits_1(scan, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_reconstruct_refuses_to_overwrite_its_input(tmp_path):
     points, _ = grid_scan()
     # a PLY of points is both a scan the readers take and a mesh ending the writer takes
@@ -230,6 +236,7 @@ def test_reconstruct_refuses_to_overwrite_its_input(tmp_path):
 # --------------------------------------------------------------------------- reconstruct
 
 
+@pytest.mark.slow
 def test_reconstruct_writes_mesh_report_and_preview(scan, tmp_path):
     out, report, preview = tmp_path / "cap.stl", tmp_path / "cap.json", tmp_path / "cap.png"
     result = run(
@@ -263,6 +270,7 @@ def test_reconstruct_writes_mesh_report_and_preview(scan, tmp_path):
     assert no_partial_files(tmp_path)
 
 
+@pytest.mark.slow
 def test_reconstruct_without_quality_writes_the_same_mesh(scan, tmp_path):
     """--no-quality skips the measurement only: same faces, the report's quality null (and
     the summary says so), the other figures as with it."""
@@ -311,6 +319,7 @@ def test_reconstruct_whose_quality_runs_out_of_memory_warns_and_succeeds(
     assert no_partial_files(tmp_path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ending", [".ply", ".obj", ".off"])
 def test_reconstruct_writes_each_mesh_format(scan, tmp_path, ending):
     out = tmp_path / f"cap{ending}"
@@ -322,6 +331,7 @@ def test_reconstruct_writes_each_mesh_format(scan, tmp_path, ending):
     assert len(mesh.vertices) == 300
 
 
+@pytest.mark.slow
 def test_reconstruct_same_seed_same_mesh(scan, tmp_path):
     a, b = tmp_path / "a.ply", tmp_path / "b.ply"
     for out in (a, b):
@@ -352,6 +362,7 @@ def test_reconstruct_options_reach_the_method(scan, tmp_path):
     assert data["counts"]["faces"] == 2 * 19 * 14 == len(load_mesh(out).faces)
 
 
+@pytest.mark.slow
 def test_reconstruct_time_limit_stops_annealing_and_is_reported(tmp_path):
     rng = np.random.default_rng(4)
     xy = rng.random((3000, 2))
@@ -379,6 +390,7 @@ def test_reconstruct_time_limit_stops_annealing_and_is_reported(tmp_path):
 # --------------------------------------------------------------------------- compare
 
 
+@pytest.mark.slow
 def test_compare_json_has_every_key(scan, cap_truth, tmp_path):
     methods = ["delaunay", "lop", "anneal"]
     result = run(
@@ -409,6 +421,7 @@ def test_compare_json_has_every_key(scan, cap_truth, tmp_path):
     assert_png(tmp_path / "cmp.png")
 
 
+@pytest.mark.slow
 def test_compare_table_without_truth(scan):
     result = run("compare", scan, "--methods", "delaunay", "anneal", "--sweeps", 20)
     assert result.returncode == 0, result.stderr
@@ -425,6 +438,7 @@ def test_compare_table_without_truth(scan):
     assert not set(HEIGHT_KEYS + DOMAIN_KEYS) & set(row)
 
 
+@pytest.mark.slow
 def test_compare_without_truth_reports_the_holdout_error(scan):
     points = scanmesh.read(scan)
     result = run("compare", scan, "--methods", "delaunay", "shortest-path", "--json", "--seed", 3)
@@ -533,6 +547,7 @@ def test_simulate_noise_table_and_spacing(tmp_path):
     assert np.std(rows[table, 1]) == pytest.approx(0.001, rel=0.2)
 
 
+@pytest.mark.slow
 def test_simulate_refuses_to_overwrite_the_mesh(tmp_path):
     copy = tmp_path / "rod.stl"
     copy.write_bytes(CONROD.read_bytes())
@@ -541,6 +556,7 @@ def test_simulate_refuses_to_overwrite_the_mesh(tmp_path):
     assert copy.read_bytes() == CONROD.read_bytes()
 
 
+@pytest.mark.slow
 def test_info_text_and_json(rod_scan):
     result = run("info", rod_scan, "--json")
     assert result.returncode == 0, result.stderr
@@ -560,6 +576,7 @@ def test_info_text_and_json(rod_scan):
         assert word in text
 
 
+@pytest.mark.slow
 def test_info_judges_a_mesh_file_by_the_same_criteria(tmp_path):
     import trimesh
 
@@ -577,6 +594,7 @@ def test_info_judges_a_mesh_file_by_the_same_criteria(tmp_path):
     assert "tac_1" in run("info", tmp_path / "m.stl").stdout
 
 
+@pytest.mark.slow
 def test_info_steep_share_of_a_flat_and_a_folded_scan(tmp_path):
     points, ids = grid_scan()
     flat = points.copy()
@@ -598,6 +616,7 @@ def test_info_steep_share_of_a_flat_and_a_folded_scan(tmp_path):
 # --------------------------------------------------------------------------- render, demo
 
 
+@pytest.mark.slow
 def test_render_a_mesh(tmp_path):
     out = tmp_path / "rod.png"
     result = run("render", CONROD, "-o", out, "--size", "320x240", "--wire")
@@ -608,6 +627,7 @@ def test_render_a_mesh(tmp_path):
     assert (pixels != 255).any(axis=2).mean() > 0.05  # the part is drawn
 
 
+@pytest.mark.slow
 def test_demo_end_to_end(tmp_path):
     folder = tmp_path / "out"
     t0 = time.perf_counter()
@@ -623,6 +643,7 @@ def test_demo_end_to_end(tmp_path):
     assert elapsed < 120, f"the demo took {elapsed:.0f} s"
 
 
+@pytest.mark.slow
 def test_demo_shows_annealing_winning_on_the_part(tmp_path):
     """The demo's point, in its own figures: on the creased part, annealing halves
     Delaunay's tac_1 and comes closer to the true surface (measured 0.21 x and 0.69 x)."""
@@ -639,6 +660,7 @@ def test_demo_shows_annealing_winning_on_the_part(tmp_path):
 # --------------------------------------------------------------------------- Ctrl-C
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs a named pipe")
 def test_ctrl_c_exits_130_without_partial_output(tmp_path):
     source = tmp_path / "scan.xyz"

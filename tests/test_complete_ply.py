@@ -118,6 +118,7 @@ def test_error_against_a_truth_is_the_closest_point_distance(tmp_path):
         surface.save(tmp_path / "e.stl", truth=part)
 
 
+@pytest.mark.slow
 def test_las_colours_intensity_and_crs_reach_the_ply_glb_and_report(tmp_path):
     pytest.importorskip("laspy")
     laz = DATA / "lidar" / "autzen_trim.laz"
@@ -186,6 +187,7 @@ def test_dem_with_a_recorded_datum_names_its_epsg_code(tmp_path):
     assert scanmesh.read(tmp_path / "d.dem").georef.crs == "EPSG:26910"
 
 
+@pytest.mark.slow
 def test_reconstruct_truth_writes_the_error_and_reports_it(tmp_path):
     part = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     part.export(tmp_path / "part.stl")
@@ -217,6 +219,7 @@ def test_reconstruct_truth_writes_the_error_and_reports_it(tmp_path):
     assert refused.returncode == 2 and "--truth" in refused.stderr
 
 
+@pytest.mark.slow
 def test_info_names_the_values_and_crs_a_file_carries():
     pytest.importorskip("laspy")
     result = run("info", DATA / "lidar" / "autzen_trim.laz", "--json")

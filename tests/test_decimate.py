@@ -31,6 +31,7 @@ def million():
     return bumpy_grid(710)  # 1,005,362 faces
 
 
+@pytest.mark.slow
 def test_a_million_faces_in_a_notebook_take_at_most_5_mb(million):
     vertices, faces = million
     assert len(faces) > 1_000_000
@@ -40,6 +41,7 @@ def test_a_million_faces_in_a_notebook_take_at_most_5_mb(million):
     assert "decimated for display" in html.unescape(shown)
 
 
+@pytest.mark.slow
 def test_the_coarse_copy_keeps_the_surface(million):
     vertices, faces = million
     v, f = cluster(vertices, faces, NOTEBOOK_FACES)

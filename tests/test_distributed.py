@@ -90,6 +90,7 @@ def leftovers(folder: Path) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("method", "partition_lines", "ending"),
     [
@@ -135,6 +136,7 @@ def stepped_scan(rows: int = 24, cols: int = 30, seed: int = 0) -> tuple[np.ndar
     return np.concatenate(pts), np.concatenate(ids)
 
 
+@pytest.mark.slow
 def test_drops_at_jumps_and_crossings_near_borders_are_the_single_process_ones(client, tmp_path):
     """Depth jumps and crossing lines at partition borders: every partitioning gives the
     one-process file. Each partition decided the drops there on its own triangles before
@@ -193,6 +195,7 @@ def _stop_counting() -> list[str]:
     return formats._reads
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("method", "ending"), [("shortest-path", ".ply"), ("delaunay", ".stl")])
 def test_each_text_file_is_parsed_once(client, scan, tmp_path, method, ending):
     """The listing copies text parts to .npy; line statistics, strips or tiles and the
@@ -284,8 +287,10 @@ def test_bad_requests_are_refused_before_any_work(client, scan, tmp_path):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.obj")
     with pytest.raises(ParameterError, match="object store URL cannot be written atomically"):
         reconstruct_distributed(paths, client=client, output="s3://bucket/site.stl")
-    with pytest.raises(ParameterError, match="method must be one of"):
+    with pytest.raises(ParameterError, match="unknown method 'strips'"):
         reconstruct_distributed(paths, "strips", client=client, output=tmp_path / "m.stl")
+    with pytest.raises(ParameterError, match="method 'auto' does not run on Dask"):
+        reconstruct_distributed(paths, "auto", client=client, output=tmp_path / "m.stl")
     with pytest.raises(ParameterError, match="partition_lines"):
         reconstruct_distributed(paths, client=client, output=tmp_path / "m.stl", partition_lines=0)
     with pytest.raises(ParameterError, match="partition_lines applies to the strip methods"):
@@ -326,6 +331,7 @@ def test_a_failure_at_the_end_leaves_the_old_output_and_no_trace(
     assert out.read_bytes() == b"the user's file" and not leftovers(tmp_path)
 
 
+@pytest.mark.slow
 def test_a_killed_worker_is_replaced_and_the_file_is_the_same(scan, tmp_path):
     points, ids = wavy_scan(120, 400, seed=1)  # 48k points, 12 partitions
     paths = write_files(tmp_path, points, ids, [0, *range(30, 360, 30), 1000])
@@ -358,6 +364,7 @@ def test_a_killed_worker_is_replaced_and_the_file_is_the_same(scan, tmp_path):
     assert not leftovers(tmp_path)
 
 
+@pytest.mark.slow
 def test_without_dask_the_extra_is_named(tmp_path):
     script = textwrap.dedent(
         """
@@ -382,6 +389,7 @@ def test_without_dask_the_extra_is_named(tmp_path):
     assert 'pip install "scanmesh[dask]"' in result.stdout
 
 
+@pytest.mark.slow
 def test_the_command_runs_on_a_local_cluster(scan, tmp_path, capsys):
     from scanmesh.cli import main
 
@@ -421,6 +429,7 @@ def _command(tmp_path: Path, *args: str) -> subprocess.Popen:
     )
 
 
+@pytest.mark.slow
 def test_a_bad_file_under_dask_is_one_line(tmp_path):
     (tmp_path / "bad.xyz").write_text("1 2 3\n4 5 x\n")
     proc = _command(tmp_path, "bad.xyz", "-o", "m.ply", "--method", "delaunay", "--quiet")
@@ -453,12 +462,14 @@ def _signal_a_dask_run(tmp_path: Path, kill: Callable[[int], None]) -> tuple[str
             os.killpg(proc.pid, signal.SIGKILL)
 
 
+@pytest.mark.slow
 def test_sigterm_under_dask_discards_the_temporaries(tmp_path):
     _, _, code = _signal_a_dask_run(tmp_path, lambda pid: os.kill(pid, signal.SIGTERM))
     assert code == -signal.SIGTERM  # still ended by the signal, after the cleanup
     assert not leftovers(tmp_path) and not (tmp_path / "m.ply").exists()
 
 
+@pytest.mark.slow
 def test_ctrl_c_under_dask_is_one_line_and_prompt(tmp_path):
     err, took, code = _signal_a_dask_run(tmp_path, lambda pid: os.killpg(pid, signal.SIGINT))
     assert code == 130

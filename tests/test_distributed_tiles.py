@@ -103,6 +103,7 @@ def seam_band(uv: np.ndarray, grid: _tiles.Grid, width: float) -> np.ndarray:
     return grid.near_borders(uv, width)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("count", [2, 5])
 def test_delaunay_equals_one_process(client, small_tiles, tmp_path, count):
     points, ids = line_scan(160, 250, step=True)
@@ -124,6 +125,7 @@ def test_delaunay_equals_one_process(client, small_tiles, tmp_path, count):
     _core.validate(one.scan.uv, faces)
 
 
+@pytest.mark.slow
 def test_delaunay_with_max_edge_and_trimming_ties(client, small_tiles, tmp_path):
     """An explicit max_edge, and a scan whose depth jump pinches vertices after trimming
     (equal fans: the tie goes to the fan with the smallest sorted corner triple, so tiles
@@ -135,6 +137,7 @@ def test_delaunay_with_max_edge_and_trimming_ties(client, small_tiles, tmp_path)
     assert face_set(faces) == face_set(one.faces)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["lop", "anneal"])
 def test_union_is_one_valid_mesh(client, small_tiles, tmp_path, method):
     points, ids = line_scan(120, 200, step=True, seed=1)
@@ -206,6 +209,7 @@ def height_rms(points: np.ndarray, faces: np.ndarray, seed: int = 0) -> float:
     return float(np.sqrt(np.mean((p[:, 2] - ridge(p[:, 0], p[:, 1])) ** 2)))
 
 
+@pytest.mark.slow
 def test_anneal_quality_within_5_percent(client, small_tiles, tmp_path):
     points = ridge_scan()
     ids = np.repeat(np.arange(60, dtype=np.int64), 240)
@@ -315,6 +319,7 @@ def tiles_at_once(events: list[tuple[str, float, int]], run: str) -> int:
     return most
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("per_thread", [1, 2])
 def test_tiles_in_flight_are_bounded(client, monkeypatch, tmp_path, per_thread):
     """A worker holds a few tiles, not its share of all of them: from its parts' binning to

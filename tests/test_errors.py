@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 import scanmesh
+import scanmesh.errors
 from conftest import bumpy_patch
-from scanmesh import DegenerateInputError, ParameterError, ScanmeshError
+from scanmesh import DegenerateInputError, ParameterError, ScanmeshError, formats
 
 
 def test_error_hierarchy():
@@ -78,3 +79,27 @@ def test_extreme_magnitudes_work(scale):
     s = scanmesh.delaunay(pts * scale)
     assert len(s.faces) > 100
     assert np.isfinite(s.quality.tac_1)
+
+
+def test_every_error_and_warning_class_is_exported_under_the_package_name():
+    classes = [
+        obj
+        for obj in vars(scanmesh.errors).values()
+        if isinstance(obj, type) and issubclass(obj, (ScanmeshError, scanmesh.ScanmeshWarning))
+    ]
+    assert len(classes) >= 15  # the core's five errors, those of errors.py and the warnings
+    for cls in classes:
+        assert cls.__name__ in scanmesh.__all__, cls
+        assert cls.__name__ in scanmesh.errors.__all__, cls
+        assert getattr(scanmesh, cls.__name__) is cls
+        assert cls.__module__ == "scanmesh", cls  # tracebacks name the public class
+
+
+def test_every_reader_is_named_in_the_package_docstring():
+    read_line = " ".join(
+        line.strip() for line in scanmesh.__doc__.split(":func:`read`")[1].split("- :")[0].split()
+    )
+    readers = [f for f in (*formats.FORMATS, formats._ESRI) if f.reader is not None]
+    assert len(readers) >= 15
+    for fmt in readers:
+        assert fmt.name.split()[0].upper() in read_line, fmt.name

@@ -29,6 +29,7 @@ FILES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(FILES))
 def test_one_command_gives_a_mesh_a_picture_and_a_complete_ply(tmp_path, name):
     if name.endswith(".laz"):

@@ -69,6 +69,7 @@ def test_a_huge_first_row_over_blank_lines_is_refused_in_little_memory(tmp_path)
     assert got.startswith("FileFormatError") and "found 100000" in got, got
 
 
+@pytest.mark.slow
 def test_rows_over_many_empty_lines_allocate_by_what_was_read(tmp_path):
     # three points, then 2**27 empty lines, then one more: 4 GiB by the line count before
     path = tmp_path / "sparse.xyz"
@@ -116,6 +117,7 @@ def las_bytes(tmp_path: Path) -> bytes:
     return path.read_bytes()
 
 
+@pytest.mark.slow
 def test_las_declaring_millions_of_vlrs_or_points_is_refused_at_once(tmp_path):
     data = bytearray(las_bytes(tmp_path))
     assert len(read(write(tmp_path / "ok.las", bytes(data)))) == 2000
@@ -258,6 +260,7 @@ def test_an_option_the_format_does_not_take_is_refused(tmp_path):
 # --------------------------------------------------------------------------- Ctrl-C
 
 
+@pytest.mark.slow
 def test_ctrl_c_while_reading_a_large_ascii_ply(tmp_path):
     from conftest import seconds_to_interrupt
 
@@ -467,6 +470,7 @@ def test_cyberware_range_grid_lines_are_its_columns(tmp_path):
     assert read(plain).n_lines == rows and read(plain, lines="columns").n_lines == cols
 
 
+@pytest.mark.slow
 def test_the_command_reads_columns_and_records_up(tmp_path):
     import json
 
@@ -531,6 +535,7 @@ def valid_files(tmp_path: Path) -> dict[str, bytes]:
 TRIALS = 150
 
 
+@pytest.mark.slow
 def test_mutated_files_are_read_or_refused_clearly(tmp_path):
     """Bit flips, byte changes, cuts and repeats of valid files: every outcome is points or
     a ScanmeshError (FileFormatError) naming the file, never another exception."""

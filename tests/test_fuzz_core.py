@@ -17,6 +17,7 @@ from fuzz_core import make_case, mesh_fault, run_case
 from scanmesh import ParameterError, _core
 
 
+@pytest.mark.slow
 @settings(
     max_examples=150,
     deadline=None,
@@ -83,6 +84,7 @@ def test_runs_too_costly_are_refused_naming_the_option(option: str, value: int, 
         _annealer(_bumpy(50), **{option: value})
 
 
+@pytest.mark.slow
 def test_stripes_too_narrow_for_an_edge_still_end() -> None:
     # Used to loop forever (each phase started again with no tile able to flip). In a child
     # process, so that a regression fails instead of hanging the suite.

@@ -135,6 +135,7 @@ def test_simulated_range_scans_keep_simulate_scans_points_and_know_their_grid():
         simulate_range_scan(POCKET, up="z", n_points=3000, grazing=0.0)
 
 
+@pytest.mark.slow
 def test_grid_faces_lie_on_the_part_where_delaunay_bridges_its_walls():
     sp = simulate_range_scan(POCKET, up="z", n_points=6000)
     truth = trimesh.load(POCKET, force="mesh")
@@ -271,6 +272,7 @@ def _dome(n: int = 40):
     return height_grid(z, cell=2 / (n - 1))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["lop", "anneal"])
 def test_flips_from_the_grid_never_turn_a_face_past_the_curtain_angle(method):
     sp = _dome()

@@ -39,6 +39,7 @@ def _brute_force(points, faces, sight, depth):
     return hidden
 
 
+@pytest.mark.slow
 def test_hiding_faces_agree_with_a_brute_force_search():
     rng = np.random.default_rng(5)
     pts = rng.random((80, 3)) * [1, 1, 0.3]

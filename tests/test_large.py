@@ -49,6 +49,7 @@ def scan_file(tmp_path_factory) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_stage_progress_through_reconstruct(scan_file, monkeypatch):
     from scanmesh.formats import table
     from scanmesh.formats.write import save_mesh
@@ -97,6 +98,7 @@ def test_progress_callback_with_kwargs_sees_every_stage(scan_file):
     assert list(dict.fromkeys(seen)) == ["read", "delaunay", "trim", "steep"]
 
 
+@pytest.mark.slow
 def test_command_end_to_end_on_100k_points(scan_file, tmp_path, capsys):
     out = tmp_path / "mesh.stl"
     report = tmp_path / "report.json"

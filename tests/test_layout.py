@@ -7,6 +7,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "python" / "scanmesh"
 MAX_LINES = 800
@@ -115,6 +117,7 @@ def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
     return None
 
 
+@pytest.mark.slow
 def test_no_import_circle():
     graph = import_graph()
     # the package's own __init__ imports its public modules; a submodule importing

@@ -64,6 +64,7 @@ def run_child(*args: object) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "method, stage",
     [
@@ -84,6 +85,7 @@ def test_a_stage_beyond_the_address_space_limit_is_refused_with_need_and_limit(m
     assert "MiB of memory, more than the" in line and "RLIMIT_AS (ulimit -v)" in line, line
 
 
+@pytest.mark.slow
 def test_no_limit_between_nothing_and_enough_aborts_the_process():
     """Whatever the room, the process ends normally: built, or refused with a
     MemoryLimitError (a ScanmeshError and a MemoryError); never killed by a signal."""
@@ -93,6 +95,7 @@ def test_no_limit_between_nothing_and_enough_aborts_the_process():
         assert r.stdout.startswith(("built", "refused: ")), (room, r.stdout)
 
 
+@pytest.mark.slow
 def test_the_command_under_ulimit_v_exits_1_with_one_line(tmp_path):
     """`ulimit -v 700000` on the command aborted it with no message."""
     out = tmp_path / "mesh.ply"
@@ -105,6 +108,7 @@ def test_the_command_under_ulimit_v_exits_1_with_one_line(tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["lop", "shortest-path"])
 def test_lop_and_the_strips_end_in_one_line_or_a_mesh_at_any_room(tmp_path, method):
     """The command ends with a mesh or exits 1 with one line, never by a signal. 60, 106

@@ -198,6 +198,7 @@ def bored_box(centre, radius: float, sections: int = 256) -> trimesh.Trimesh:
     return mesh
 
 
+@pytest.mark.slow
 def test_a_bore_no_view_samples_closes_where_the_rays_passed():
     """A box with a through-bore from the six axis views: the rays along the bore pass
     through it and no view samples its wall (the side views are blocked by the box). The
@@ -272,6 +273,7 @@ def test_never_sampled_walls_at_a_slant_to_the_rays_are_laid_flat(
     assert np.abs(off).max() < 0.4
 
 
+@pytest.mark.slow
 def test_sampled_faces_meet_never_sampled_walls_at_a_square_rim(
     slanted_box_from_above_and_below,
 ):
@@ -428,6 +430,7 @@ def test_a_turned_box_is_one_piece(angles):
     assert shape.euler_characteristic(surface.faces) == 2
 
 
+@pytest.mark.slow
 def test_returns_lost_beside_an_edge_carve_no_slot_into_the_part():
     """A view 45° between the rod's axes grazes the sides of its rings and beam: a real
     scanner loses those returns, and a ray without return used to carve on through the

@@ -44,6 +44,7 @@ def test_stl_vertices_keep_the_order_they_first_appear_in():
     assert scan.extra["repeats_dropped"] == len(flat) - len(order)
 
 
+@pytest.mark.slow
 def test_the_command_meshes_a_mesh_file_again(tmp_path):
     """A mesh that does not close (a reconstruction saved with its faces) is its vertices;
     a closed one is scanned instead (test_closed_part.py)."""

@@ -11,6 +11,7 @@ import trimesh
 
 import scanmesh
 from conftest import DATA, bumpy_patch
+from scanmesh import methods
 from scanmesh.methods import DEFAULT_METHOD
 from scanmesh.scan.planar import as_scan
 from scanmesh.stages import choice
@@ -38,12 +39,13 @@ def test_the_default_is_auto_and_anneal_still_anneals(monkeypatch):
     default = scanmesh.reconstruct(pts, plane="z")
     made = default.options["method_choice"]
     assert made["chosen"] == default.method
-    assert set(made["holdout"]) == set(choice.CANDIDATES)
+    assert set(made["holdout"]) == set(methods.CANDIDATES)
     assert made["measured"] > 0 and made["folds"] == 1
     annealed = scanmesh.reconstruct(pts, "anneal", plane="z")
     assert annealed.method == "anneal" and "method_choice" not in annealed.options
 
 
+@pytest.mark.slow
 def test_the_same_seed_makes_the_same_choice_and_faces(monkeypatch):
     monkeypatch.setattr(choice, "MEASURED", 1)
     monkeypatch.setattr(choice, "MIN_POINTS", 30)
@@ -91,6 +93,7 @@ def test_the_window_is_whole_lines_around_the_middle_and_the_folds_disjoint():
     assert len(choice.folds(2_000, seed=1, measured=10**6)) == 10  # each point once
 
 
+@pytest.mark.slow
 def test_on_the_noisy_oblique_conrod_the_default_takes_delaunay():
     """The conrod turned 30 degrees at noise s/30 (the panel's scan): Delaunay is 12 % closer
     to the part than annealing; the holdout ranks it first too."""
@@ -101,12 +104,16 @@ def test_on_the_noisy_oblique_conrod_the_default_takes_delaunay():
     assert made["holdout"]["delaunay"] < made["holdout"]["anneal"]
 
 
-def test_on_the_oblique_pocket_the_default_still_anneals():
-    """The pocket of test_anneal_start's oblique crease test: annealing (from LOP's free
-    optimum) is closest to the part, and the holdout keeps it."""
+def test_on_the_oblique_pocket_the_holdout_ties_and_the_first_candidate_stays():
+    """The pocket of test_anneal_start's oblique crease test, noise-free: away from its
+    steps every candidate's mesh holds the withheld points exactly alike, so the first
+    candidate (the strips annealed) is built. (Annealing from LOP's free optimum is 6 %
+    closer to the part there: docs/benchmarks/panel.md.)"""
     pts, lines = _turned_scan("octagonal_pocket.ply", "z", 0.0)
     default = scanmesh.reconstruct(pts, plane="z", lines=lines, seed=0)
-    assert default.method == "anneal"
+    assert default.method == methods.CANDIDATES[0] == "strips-anneal"
+    holdout = default.options["method_choice"]["holdout"]
+    assert len(set(holdout.values())) == 1
 
 
 def test_a_scan_too_small_to_judge_is_annealed():
@@ -116,6 +123,7 @@ def test_a_scan_too_small_to_judge_is_annealed():
     assert surface.method == "anneal" and made["folds"] == 0 and made["measured"] == 0
 
 
+@pytest.mark.slow
 def test_on_a_gridded_scan_delaunay_chosen_builds_the_grid(monkeypatch):
     """The judge's parts have no range grid, so Delaunay stands in for the grid there; on
     a range scan the grid is what gets built (no curtains), as LOP and annealing start
@@ -139,6 +147,7 @@ def test_on_a_gridded_scan_delaunay_chosen_builds_the_grid(monkeypatch):
     assert surface.options["curtains"]["count"] == 0
 
 
+@pytest.mark.slow
 def test_on_a_gridded_scan_the_strips_are_no_candidate():
     """The default stays inside a range grid's domain: the strips join lines wherever both
     have samples, so on a gridded scan only annealing, LOP and Delaunay (the grid) are
@@ -147,8 +156,8 @@ def test_on_a_gridded_scan_the_strips_are_no_candidate():
         DATA / "cad" / "fandisk.obj", up="x", along="y", n_points=1_500
     )
     gridded = scanmesh.reconstruct(scan).options["method_choice"]
-    assert set(gridded["holdout"]) == set(choice.GRID_CANDIDATES)
+    assert set(gridded["holdout"]) == set(methods.GRID_CANDIDATES)
     assert "shortest-path" not in gridded["holdout"] and gridded["folds"] > 0
     plain = scanmesh.reconstruct(dataclasses.replace(scan, grid=None))
     plain = plain.options["method_choice"]
-    assert set(plain["holdout"]) == set(choice.CANDIDATES)
+    assert set(plain["holdout"]) == set(methods.CANDIDATES)

@@ -282,6 +282,7 @@ def noisy_flat_scan(seed: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([x.ravel(), y.ravel(), z.ravel()]), lines
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("sigma", [1 / 30, 1 / 10])
 def test_planar_ties_keep_a_noisy_plane_at_delaunay(seed, sigma):

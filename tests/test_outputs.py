@@ -108,6 +108,7 @@ def _scans(folder: Path) -> list[Path]:
     return paths
 
 
+@pytest.mark.slow
 def test_dask_command_refuses_an_input_as_output(tmp_path):
     paths = _scans(tmp_path / "scans")
     before = [p.read_bytes() for p in paths]
@@ -170,6 +171,7 @@ def test_remote_output_is_refused_naming_the_flag(tmp_path):
     assert "does not exist" not in message
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("args", "flag"),
     [

@@ -98,6 +98,7 @@ def test_core_install_reconstructs_judges_and_draws_without_any_extra(tmp_path):
     assert (tmp_path / "rod.stl").stat().st_size == 84 + 50 * out["faces"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("call", "extra"),
     [

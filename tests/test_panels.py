@@ -138,6 +138,7 @@ def test_render_panels_refuses_what_it_cannot_draw(tmp_path):
         render_panels([sq], tmp_path / "x.jpg")
 
 
+@pytest.mark.slow
 def test_render_command_draws_a_bar_with_colours_and_no_bar_on_request(tmp_path):
     bar, bare = tmp_path / "bar.png", tmp_path / "bare.png"
     assert run("render", CONROD, "-o", bar, "--color", "tac", "--size", "200x150").returncode == 0
@@ -148,6 +149,7 @@ def test_render_command_draws_a_bar_with_colours_and_no_bar_on_request(tmp_path)
     assert width > 250 and height > 150
 
 
+@pytest.mark.slow
 def test_reconstruct_preview_takes_the_camera(tmp_path):
     scan = tmp_path / "scan.xyz"
     rng = np.random.default_rng(0)

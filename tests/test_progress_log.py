@@ -38,22 +38,47 @@ def test_lines_every_interval_with_a_fake_clock():
     clock.now = 21.0
     log.tick()  # the rate so far: 500 in 21 s, 500 to go
     assert lines[-1] == (
-        "scanmesh: delaunay: 500 / 1,000 points (50 %), 0 min 21 s elapsed, about 0 min 21 s left"
+        "scanmesh: delaunay: 500 / 1,000 points (50 %), 0 min 21 s elapsed, 24 points/s,"
+        " about 0 min 21 s left"
     )
-    log(1000, 1000, None, stage="delaunay")
+    clock.now = 24.0
+    log(1000, 1000, None, stage="delaunay")  # reported while it ran: its end is said
+    assert lines[-1] == "scanmesh: delaunay: 1,000 points done in 0 min 24 s, 42 points/s"
     clock.now = 100.0
     log.tick()
-    assert len(lines) == 2  # finished: nothing more
+    assert len(lines) == 3  # finished: nothing more
     # annealing's own estimate of the time left wins over the rate
     log(10, 400, 3.5, stage="anneal", seconds_left=125.0)
     clock.now = 111.0
     log(20, 400, 3.4, stage="anneal", seconds_left=130.0)
     assert lines[-1] == (
-        "scanmesh: anneal: 20 / 400 sweeps (5 %), 0 min 11 s elapsed, about 2 min 10 s left"
+        "scanmesh: anneal: 20 / 400 sweeps (5 %), 0 min 11 s elapsed, 1.8 sweeps/s,"
+        " about 2 min 10 s left"
     )
 
 
+def test_lines_come_further_apart_as_a_long_stage_goes_on():
+    clock, lines = FakeClock(), []
+    log = LogProgress(lines.append, interval=10.0, clock=clock, start=False)
+    log(0, 10**6, None, stage="extract")
+    times = []
+    for second in range(1, 12 * 60 + 1):  # twelve minutes, ticked every second
+        clock.now = float(second)
+        log(second * 1000, 10**6, None, stage="extract")
+        if len(lines) > len(times):
+            times.append(second)
+    gaps = np.diff(times)
+    assert times[0] == 10 and gaps[0] == 10  # the first lines as before
+    assert 15 <= len(times) <= 35 and gaps.max() <= 60 and gaps[-1] > 30, times
+    assert all(b >= a for a, b in zip(gaps, gaps[1:], strict=False))
+    # every line says how far, how fast and how long yet: the figures move
+    assert "1,000 nodes/s" in lines[-1] and lines[-1].endswith("left")
+    assert len(set(lines)) == len(lines)
+
+
 def test_a_blocking_stage_is_reported_while_it_runs():
+    """One native call counts nothing until it returns: its lines say so and how long it has
+    run (not "0 / 5,000 (0 %)" again and again), and its last line its total and rate."""
     lines: list[str] = []
     log = LogProgress(lines.append, interval=0.05)
     try:
@@ -64,7 +89,50 @@ def test_a_blocking_stage_is_reported_while_it_runs():
     finally:
         log.close()
     assert seen >= 3 and len(lines) == seen
-    assert all(line.startswith("scanmesh: strips: 0 / 5,000 points (0 %)") for line in lines)
+    running, last = lines[:-1], lines[-1]
+    assert all(
+        line.startswith("scanmesh: strips: 5,000 points in one native call,")
+        and "counts nothing until it returns" in line
+        for line in running
+    ), lines
+    assert not any("(0 %)" in line for line in lines)
+    assert last.startswith("scanmesh: strips: 5,000 points done in 0 min 00 s,"), last
+    assert last.endswith("points/s")
+
+
+def test_a_bar_is_drawn_in_a_terminal_without_a_size():
+    """A pseudo-terminal that reports 0 columns (``script`` without a terminal around it):
+    tqdm drew nothing there; the bar now gets a width of its own."""
+    import os
+    import pty
+    import subprocess
+    import sys
+
+    code = (
+        "import time\n"
+        "from scanmesh._progress import Stage\n"
+        "with Stage(True, 'delaunay', 100) as s:\n"
+        "    for k in range(1, 101):\n"
+        "        time.sleep(0.02)\n"
+        "        s.update(k)\n"
+    )
+    main, child = pty.openpty()  # a fresh pty: 0 rows, 0 columns
+    try:
+        proc = subprocess.Popen([sys.executable, "-c", code], stderr=child, stdout=child)
+        os.close(child)
+        out = b""
+        while True:
+            try:
+                chunk = os.read(main, 4096)
+            except OSError:  # the child closed its end
+                break
+            if not chunk:
+                break
+            out += chunk
+        assert proc.wait(timeout=60) == 0
+    finally:
+        os.close(main)
+    assert b"delaunay:" in out and b"points/s]" in out, out  # a bar, drawn
 
 
 def test_the_command_writes_progress_lines_to_a_log(tmp_path, monkeypatch, capsys):

@@ -88,6 +88,7 @@ def test_delaunay_is_valid_and_loses_no_point(points):
     assert len(np.unique(hull.faces)) + len(hull.duplicates) == len(points)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(points=point_sets, p=st.sampled_from([1.0, 2.0]))
 def test_lop_and_annealing_keep_valid_meshes_and_their_vertices(points, p):
@@ -142,6 +143,7 @@ def test_strip_meshes_of_clean_scans_are_valid(scan, method, given_lines):
     assert_accounted_for(surface)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(points=point_sets, solver=st.sampled_from(["banded", "dp", "dijkstra"]))
 def test_strips_over_any_points_never_panic(points, solver):

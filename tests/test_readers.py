@@ -418,13 +418,13 @@ def test_native_chunk_parser_refuses_what_the_reference_refuses(line, comma):
     problem = _core.parse_text_table(data, 0, len(data), 4, "," if comma else None).problem
     with pytest.raises(FileFormatError, match=r"t, line 2:") as info:
         numpy_chunk(Path("t"), data, 0, len(data), 4, comma, 1, 1)
-    assert problem is not None and problem[0] == 1
+    assert problem is not None and problem.line == 1
     line_start = len(data.split(b"\n")[0]) + 1
-    if problem[2] == "number" and "is not a number" in str(info.value):
-        bad = data[problem[1] :].split(b"\n")[0].replace(b",", b" ").split()[0]
+    if problem.kind == "number" and "is not a number" in str(info.value):
+        bad = data[problem.offset :].split(b"\n")[0].replace(b",", b" ").split()[0]
         assert repr(bad.decode()) in str(info.value)  # the token the reference names
     else:  # both refuse the line; which rule trips first may differ ('1;2;3;4')
-        assert line_start <= problem[1] < len(data)
+        assert line_start <= problem.offset < len(data)
 
 
 def test_native_chunk_parser_checks_its_range():

@@ -62,12 +62,14 @@ def folder(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_the_tour_says_how_to_make_its_files(folder):
     assert {"part.stl", "scan.xyz", "scan.txt"} <= {p.name for p in folder.iterdir()}
     points, ids = scanmesh.simulate_scan(folder / "part.stl", up="y", spacing=0.05)
     assert 1000 < len(points) < 100_000 and len(np.unique(ids)) > 20  # a scan, not 14 points
 
 
+@pytest.mark.slow
 def test_the_python_tour_runs(folder, monkeypatch):
     (code,) = _blocks("python")[:1]
     monkeypatch.chdir(folder)
@@ -78,6 +80,7 @@ def test_the_python_tour_runs(folder, monkeypatch):
     assert (folder / "rod.html").is_file()
 
 
+@pytest.mark.slow
 def test_the_command_tour_runs(folder):
     block = next(b for b in _blocks("sh") if "scanmesh compare" in b)
     for argv in _commands(block):

@@ -349,6 +349,7 @@ def _grid_mesh(n: int) -> tuple[np.ndarray, np.ndarray]:
     return v, np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
 
 
+@pytest.mark.slow
 def test_a_wireframe_of_many_triangles_zooms_until_they_are_readable():
     mesh = _grid_mesh(300)  # 178,802 triangles: 1.7 pixels each in 800 x 600
     edge = np.asarray(WIRE) * 255

@@ -408,6 +408,7 @@ print("finished", flush=True)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method, max_edge", [("shortest-path", None), ("delaunay", 5.0)])
 def test_ctrl_c_during_a_long_native_call_returns_quickly(method, max_edge):
     script = CTRL_C_SCRIPT.replace("METHOD", repr(method)).replace("MAX_EDGE", repr(max_edge))
@@ -415,6 +416,7 @@ def test_ctrl_c_during_a_long_native_call_returns_quickly(method, max_edge):
     assert seconds_to_interrupt(script, 0.8) < 0.2
 
 
+@pytest.mark.slow
 def test_ctrl_c_while_reading_a_large_text_file_returns_quickly(tmp_path):
     path = tmp_path / "big.xyz"
     script = f"""
@@ -466,6 +468,7 @@ print("finished", flush=True)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method, wait", [("optimal", 3.0), ("shortest-path", 0.3)])
 def test_ctrl_c_during_a_slow_call_on_few_points_returns_quickly(method, wait):
     """Small but slow: the exact optimum (HiGHS) on 200 points, the whole-matrix strip

@@ -2,9 +2,11 @@
 `self::` paths of non-test code) and no Rust file over 900 lines.
 
 The module graph is read from the source text: each file is a module (`mod.rs` and `lib.rs`
-name their folder); a path's longest prefix that is a module is the module it uses. A file
-using its own folder's `mod.rs` (re-exports, shared types) is not counted: the folder is
-one room, and its parent always declares it."""
+name their folder); a path's longest prefix that is a module is the module it uses, and a
+name that module re-exports (`pub use`, `pub(crate) use`) leads on to the file defining it,
+so `crate::Error` is an edge to `error.rs`. `super::` in `a/b.rs` is `a`, as in Rust. A
+file using its own folder's `mod.rs` (shared types) is not counted: the folder is one room,
+and its parent always declares it."""
 
 from __future__ import annotations
 
@@ -67,35 +69,62 @@ def expand(path: str) -> list[str]:
     return [q for p in parts if p.strip() for q in expand(head + p.strip())]
 
 
+def resolve(me: Module, path: str) -> list[str]:
+    """`path` (`crate::`, `super::`, `self::` or relative to `me`) as absolute segments."""
+    segments = [s for s in path.split("::") if s]
+    if segments[0] == "crate":
+        return segments[1:]
+    base = list(me)
+    if segments[0] == "self":
+        segments = segments[1:]
+    while segments and segments[0] == "super":
+        segments, base = segments[1:], base[:-1]
+    return base + segments
+
+
+def reexports(files: dict[Module, Path]) -> dict[tuple[Module, str], list[str]]:
+    """What each module re-exports: (module, name) -> the absolute path it stands for."""
+    found: dict[tuple[Module, str], list[str]] = {}
+    for me, path in files.items():
+        code = without_tests_and_comments(path.read_text())
+        for used in re.findall(r"\bpub(?:\([a-z]+\))?\s+use\s+([^;]+);", code):
+            # `a::b as c` kept apart by a marker while the white space goes
+            used = re.sub(r"\s+", "", re.sub(r"\s+as\s+", "@", used))
+            for full in expand(used):
+                target, _, alias = full.partition("@")
+                found[(me, alias or target.split("::")[-1])] = resolve(me, target)
+    return found
+
+
+def module_of_path(
+    segments: list[str], files: dict[Module, Path], aliases: dict[tuple[Module, str], list[str]]
+) -> Module | None:
+    """The file an absolute path leads to: its longest prefix that is a module, followed
+    through the re-exports of that module (a few hops at most)."""
+    for _ in range(8):
+        n = next((n for n in range(len(segments), -1, -1) if tuple(segments[:n]) in files), None)
+        if n is None:
+            return None
+        module = tuple(segments[:n])
+        if n < len(segments) and (module, segments[n]) in aliases:
+            segments = aliases[(module, segments[n])] + segments[n + 1 :]
+            continue
+        return module
+    return None
+
+
 def module_graph(src: Path) -> dict[Module, set[Module]]:
     files = {module_of(p, src): p for p in src.rglob("*.rs")}
+    aliases = reexports(files)
     graph: dict[Module, set[Module]] = {m: set() for m in files}
     for me, path in files.items():
         if path.name == "tests.rs":
             continue
-        folder = me if path.name in ("mod.rs", "lib.rs") else me[:-1]
         code = re.sub(r"\s+", "", without_tests_and_comments(path.read_text()))
         for found in re.findall(r"(?:crate|super|self)::[A-Za-z0-9_:{},*]+", code):
             for full in expand(found):
-                segments = [s for s in full.split("::") if s]
-                base: list[str] = []
-                if segments[0] == "crate":
-                    segments = segments[1:]
-                else:
-                    base = list(folder)
-                    if segments[0] == "self":
-                        segments = segments[1:]
-                    while segments and segments[0] == "super":
-                        segments, base = segments[1:], base[:-1]
-                target = next(
-                    (
-                        t
-                        for n in range(len(base + segments), 0, -1)
-                        if (t := tuple((base + segments)[:n])) in files
-                    ),
-                    None,
-                )
-                if target and target != me and me[: len(target)] != target:
+                target = module_of_path(resolve(me, full), files, aliases)
+                if target is not None and target != me and me[: len(target)] != target:
                     graph[me].add(target)
     return graph
 
@@ -135,6 +164,25 @@ def test_the_graph_sees_a_cycle():
     graph[("a",)].add(("b", "c"))
     graph[("b", "c")].add(("a",))
     assert cycles(graph) and not cycles({("a",): {("b",)}, ("b",): set()})
+
+
+def test_the_reader_sees_circles_between_files(tmp_path):
+    """Two files of one folder using each other through `super::`, and a file reaching
+    another through a re-export of the crate root, are circles; a file using its own
+    folder's `mod.rs` is not."""
+    files = {
+        "lib.rs": "mod a; mod b; mod c; pub use b::Thing;",
+        "a/mod.rs": "mod x; mod y; pub(crate) struct Shared;",
+        "a/x.rs": "use super::y::Y; use super::Shared; pub(crate) struct X;",
+        "a/y.rs": "use super::x::X; pub(crate) struct Y;",
+        "b.rs": "use crate::c::C; pub struct Thing;",
+        "c.rs": "use crate::Thing; pub(crate) struct C;",
+    }
+    for name, text in files.items():
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+    found = sorted(sorted(c) for c in cycles(module_graph(tmp_path)))
+    assert found == [[("a", "x"), ("a", "y")], [("b",), ("c",)]]
 
 
 def test_core_has_no_module_cycle():

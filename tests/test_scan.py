@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import scanmesh
-from conftest import bumpy_patch
+from conftest import DATA, bumpy_patch
 from scanmesh import ParameterError, ScanmeshError, planar_scan
 
 
@@ -173,6 +173,7 @@ def _small_input(rng: np.random.Generator, k: int) -> np.ndarray:
     return pts
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::scanmesh.ScanmeshWarning")
 def test_flips_accept_every_triangulation_delaunay_returns():
     """LOP and annealing used to re-project along the frame normal and then found Delaunay's
@@ -196,3 +197,15 @@ def test_a_flat_grid_is_flipped_not_refused():
         s = scanmesh.reconstruct(flat, method, max_edge=math.inf)
         assert len(s.faces) == len(base.faces)
         assert s.quality.tac_1 == pytest.approx(0.0, abs=1e-9)
+
+
+def test_what_read_returns_is_the_scan_its_file_is():
+    path = DATA / "scans" / "steps_range_grid.ply"
+    from_file = planar_scan(path)
+    from_read = planar_scan(scanmesh.read(path))
+    for name in ("points", "uv", "line_ids", "grid", "up"):
+        assert np.array_equal(getattr(from_read, name), getattr(from_file, name)), name
+    assert from_read.plane == from_file.plane and from_read.source == from_file.source
+    assert from_read.source_file == from_file.source_file  # the same file, so no writer replaces it
+    same = scanmesh.reconstruct(scanmesh.read(path), "delaunay")
+    assert np.array_equal(same.faces, scanmesh.reconstruct(path, "delaunay").faces)

@@ -66,7 +66,13 @@ def test_lop_defaults_are_annealing_s():
     faces, _ = _core.delaunay(uv)
     implicit = _core.lop(pts, uv, faces, "tac")
     explicit = _core.lop(
-        pts, uv, faces, "tac", core["p"], core["sliver_guard"], core["tie_tolerance"]
+        pts,
+        uv,
+        faces,
+        "tac",
+        p=core["p"],
+        sliver_guard=core["sliver_guard"],
+        tie_tolerance=core["tie_tolerance"],
     )
     np.testing.assert_array_equal(implicit[0], explicit[0])
     assert implicit[1] == explicit[1]
@@ -121,14 +127,20 @@ def test_annealing_ends_in_a_typed_outcome():
         run.finish()
 
 
-def test_strip_mesh_returns_a_typed_result():
-    x, y = np.meshgrid(np.linspace(0, 1, 40), np.arange(12) * 0.03)
+def _wavy_scan(lines: int = 12, per_line: int = 40):
+    x, y = np.meshgrid(np.linspace(0, 1, per_line), np.arange(lines) * 0.03)
     points = np.column_stack([x.ravel(), y.ravel(), 0.1 * np.sin(4 * x.ravel())])
-    ids = np.repeat(np.arange(12, dtype=np.int64), 40)
-    uv = np.ascontiguousarray(points[:, :2])
-    r = _core.strip_mesh(
-        points, uv, ids, (0.0, 0.0, 1.0, 0.3), "shortest-path", 3, "banded", 16, 4.0
-    )
+    ids = np.repeat(np.arange(lines, dtype=np.int64), per_line)
+    return points, np.ascontiguousarray(points[:, :2]), ids
+
+
+ANGLE_DIHEDRAL = {"angle": 1.0, "dihedral": 0.3}
+
+
+def test_strip_mesh_returns_a_typed_result():
+    points, uv, ids = _wavy_scan()
+    params = _core.StripParams("shortest-path", weight=ANGLE_DIHEDRAL, band=16)
+    r = _core.strip_mesh(points, uv, ids, params, 4.0)
     assert isinstance(r, _core.StripResult)
     assert r.faces.ndim == 2 and r.faces.shape[1] == 3 and r.n_strips > 0
     assert r.planar_error is None or isinstance(r.planar_error, str)
@@ -138,13 +150,103 @@ def test_strip_mesh_returns_a_typed_result():
     assert isinstance(r.dropped_jumps, int) and isinstance(r.dropped_overlaps, int)
 
 
+def test_strip_params_take_the_weight_by_name_and_refuse_what_the_method_ignores():
+    points, uv, ids = _wavy_scan()
+    by_name = _core.StripParams("lookahead", weight={"length": 1.0}, alpha=2)
+    zeros = _core.StripParams(
+        "lookahead", weight={"length": 1.0, "area": 0.0, "angle": 0.0, "dihedral": 0.0}, alpha=2
+    )
+    faces = [_core.strip_mesh(points, uv, ids, p, 4.0).faces for p in (by_name, zeros)]
+    np.testing.assert_array_equal(faces[0], faces[1])
+    assert "Lookahead(2)" in repr(by_name) and "length: 1.0" in repr(by_name)
+    refused = [
+        ({"method": "lookahead", "alpha": 2, "band": 3}, "band is not an option"),
+        ({"method": "lookahead", "alpha": 2, "solver": "dp"}, "solver is not an option"),
+        ({"method": "lookahead"}, "needs its depth alpha"),
+        ({"method": "shortest-path", "alpha": 2}, "alpha is not an option"),
+        ({"method": "shortest-path", "solver": "dp", "band": 3}, "band is not an option"),
+        ({"method": "shortest-path", "solver": "astar"}, "solver must be"),
+        ({"method": "greedy"}, "method must be"),
+    ]
+    for kwargs, message in refused:
+        method = kwargs.pop("method")
+        with pytest.raises(_core.ParameterError, match=message):
+            _core.StripParams(method, weight={"angle": 1.0}, **kwargs)
+    with pytest.raises(_core.ParameterError, match='unknown weight criterion "curvature"'):
+        _core.StripParams("shortest-path", weight={"curvature": 1.0})
+    for weight in ({"angle": -1.0}, {"angle": math.nan}, {"angle": 0.0}, {}):
+        with pytest.raises(_core.ParameterError, match="weight"):
+            _core.StripParams("shortest-path", weight=weight)
+    with pytest.raises(TypeError):
+        _core.StripParams("shortest-path", {"angle": 1.0})  # type: ignore[misc]
+
+
+def test_a_scan_solved_in_its_own_context_is_solved_as_without_one():
+    """The context's fields reach the core in their places: a scan given its own bounding
+    box, planar scale, median step and orientation gives the same mesh as no context, and
+    rows restrict the strips returned to those between lines within them."""
+    points, uv, ids = _wavy_scan()
+    params = _core.StripParams("shortest-path", weight=ANGLE_DIHEDRAL)
+    alone = _core.strip_mesh(points, uv, ids, params, 4.0)
+    own = dict(
+        lo=tuple(points.min(axis=0)),
+        hi=tuple(points.max(axis=0)),
+        largest_planar=float(np.abs(uv).max()),
+        median_step=_core.scan_segments(uv, ids, 4.0).median_step,
+        first_turned=False,
+    )
+    whole = _core.strip_mesh(points, uv, ids, params, 4.0, _core.ScanContext(**own))
+    np.testing.assert_array_equal(whole.faces, alone.faces)
+    assert whole.cost == alone.cost and whole.signed_area == alone.signed_area
+    rows = _core.ScanContext(**own, own_rows=(0, 4 * 40))
+    part = _core.strip_mesh(points, uv, ids, params, 4.0, rows)
+    assert part.n_strips == 3 and len(part.faces) < len(alone.faces)
+    assert "own_rows: Some((0, 160))" in repr(rows)
+    with pytest.raises(TypeError):
+        _core.ScanContext(own["lo"], own["hi"], 1.0, 0.1, False)  # type: ignore[misc]
+
+
+def test_scan_segments_are_read_by_name():
+    x, y = np.meshgrid(np.linspace(0, 1, 10), np.arange(3) * 0.03)
+    uv = np.insert(np.column_stack([x.ravel(), y.ravel()]), 1, [0.0, 0.0], axis=0)
+    ids = np.insert(np.repeat(np.arange(3, dtype=np.int64), 10), 1, 0)  # point 1 repeats 0
+    s = _core.scan_segments(uv, ids, 4.0)
+    assert isinstance(s, _core.ScanSegments)
+    assert [len(line) for line in s.lines] == [1, 1, 1]
+    np.testing.assert_array_equal(s.lines[0][0], [0, *range(2, 11)])
+    np.testing.assert_array_equal(s.lines[1][0], np.arange(11, 21))
+    np.testing.assert_array_equal(s.duplicates, [[1, 0]])
+    assert s.median_step == pytest.approx(1 / 9) and s.gap == pytest.approx(4 / 9)
+
+
+def test_max_tiles_is_the_core_s_limit():
+    from scanmesh.stages import anneal
+
+    assert anneal.MAX_TILES == _core.MAX_TILES
+    _core.AnnealParams(tiles=_core.MAX_TILES)
+    with pytest.raises(_core.ParameterError, match="tiles"):
+        _core.AnnealParams(tiles=_core.MAX_TILES + 1)
+
+
+def test_lop_options_are_keywords():
+    rng = np.random.default_rng(2)
+    xy = rng.random((20, 2))
+    pts = np.column_stack([xy, np.sin(3 * xy[:, 0])])
+    uv, _ = _core.project(pts, "z")
+    faces, _ = _core.delaunay(uv)
+    with pytest.raises(TypeError):
+        _core.lop(pts, uv, faces, "tac", 1.0)  # type: ignore[misc]
+
+
 def test_result_classes_cannot_be_built_from_python():
     for cls in (
         _core.StripResult,
+        _core.ScanSegments,
         _core.AnnealOutcome,
         _core.TrimmedDelaunay,
         _core.CheapestFans,
         _core.TextTable,
+        _core.TextProblem,
     ):
         with pytest.raises(TypeError):
             cls()

@@ -296,6 +296,7 @@ def test_crossing_lines_keep_the_strips_that_do_not_overlap():
     assert 0 < surface.options["dropped_overlaps"] < 22
 
 
+@pytest.mark.slow
 def test_shortest_path_is_never_above_lookahead_on_real_strips(rod_scan):
     fran = read_vtk(DATA / "scans" / "fran_cut.vtk")
     scans = {"rod": rod_scan, "fran": (fran.points, fran.line_ids)}
@@ -311,6 +312,7 @@ def test_shortest_path_is_never_above_lookahead_on_real_strips(rod_scan):
                     assert best <= look * (1 + 1e-12), f"{name} {weight} alpha={alpha}"
 
 
+@pytest.mark.slow
 def test_every_solver_finds_the_same_optimum_on_real_strips(rod_scan):
     points, line_ids = rod_scan
     for weight in ALL_WEIGHTS:
@@ -345,6 +347,7 @@ def test_fran_cut_is_a_manifold_mesh_valid_in_its_plane():
     assert surface.quality.min_angle_deg > 10
 
 
+@pytest.mark.slow
 def test_sainte_helens_is_a_valid_mesh_of_every_point():
     dem = read_dem(DATA / "terrain" / "SainteHelens.dem")
     surface = quiet(dem.points, lines=dem.line_ids)
@@ -402,6 +405,7 @@ print(json.dumps(out))
 """
 
 
+@pytest.mark.slow
 def test_strips_do_not_depend_on_the_thread_count():
     import json
     import os

@@ -163,6 +163,7 @@ def paraboloid_scan(noise: float = 0.0, n_lines: int = 30, per_line: int = 40):
     return points, np.repeat(np.arange(n_lines), per_line)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("by", ["points", "lines"])
 def test_holdout_matches_trimesh_ray_casting(by):
     points, lines = paraboloid_scan(noise=0.01)

@@ -18,6 +18,7 @@ from conftest import DATA
 from test_cli import assert_failed, grid_scan, run, write_xyz
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ending", [".glb", ".html"])
 def test_reconstruct_writes_what_surface_save_writes(tmp_path, ending):
     points, ids = grid_scan()
@@ -41,6 +42,7 @@ def test_reconstruct_still_refuses_an_unknown_ending(tmp_path):
     assert ".glb" in err and ".stl" in err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["render", "view", "info-truth"])
 @pytest.mark.parametrize("ending", [".xyz", ".ply"])
 def test_a_point_file_where_a_mesh_is_expected_says_so(tmp_path, command, ending):
@@ -64,6 +66,7 @@ def test_a_point_file_where_a_mesh_is_expected_says_so(tmp_path, command, ending
     assert "convert string" not in err
 
 
+@pytest.mark.slow
 def test_view_leaves_no_folder_per_run(tmp_path):
     points, ids = grid_scan()
     mesh = tmp_path / "mesh.stl"
@@ -93,6 +96,7 @@ def _lone_point_scan(folder):
     return write_xyz(folder / "lone.xyz", np.vstack([points, [[3.0, 3.0, 0.0]]]), np.append(ids, 6))
 
 
+@pytest.mark.slow
 def test_warnings_point_only_to_a_report_that_is_written(tmp_path):
     scan = _lone_point_scan(tmp_path)
     out = tmp_path / "m.stl"
@@ -123,6 +127,7 @@ def test_one_face_is_one_face(tmp_path):
     assert "1 faces" not in result.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["conrod_slevin48_onshape.stl", "turbineblade_cut.ply"])
 def test_info_on_a_mesh_gives_area_watertightness_and_boundary_as_trimesh(name):
     path = DATA / "cad" / name

@@ -89,6 +89,7 @@ def test_colour_by_height_on_terrain_reads_the_elevations(terrain):
     assert (scale.lo, scale.hi) == (z.min(), z.max())
 
 
+@pytest.mark.slow
 def test_glb_coloured_by_height_on_terrain_follows_the_elevation(tmp_path, terrain):
     # by default, not a tilted mix of elevation and northing along the best-fit normal
     default = save_glb(terrain, tmp_path / "default.glb", color_by="height")
@@ -96,6 +97,7 @@ def test_glb_coloured_by_height_on_terrain_follows_the_elevation(tmp_path, terra
     assert default.read_bytes() == along_z.read_bytes()
 
 
+@pytest.mark.slow
 def test_scanmesh_render_colours_terrain_by_elevation(tmp_path, terrain):
     mesh = tmp_path / "terrain.ply"
     terrain.save(mesh)
@@ -178,6 +180,7 @@ def test_a_nan_reads_nan_in_messages():
         )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("plane", [None, "z"])
 def test_no_height_field_warning_for_a_smooth_height_field(plane):
     rng = np.random.default_rng(0)

@@ -241,6 +241,7 @@ def run(*args) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_view_command_writes_the_page(tmp_path):
     out = tmp_path / "rod.html"
     result = run("view", CONROD, "-o", out, "--no-open", "--color", "tac")
@@ -255,6 +256,7 @@ def test_view_command_writes_the_page(tmp_path):
     )
 
 
+@pytest.mark.slow
 def test_view_command_default_goes_to_a_new_folder(tmp_path):
     result = subprocess.run(
         [sys.executable, "-m", "scanmesh", "view", str(CONROD), "--no-open"],
@@ -270,6 +272,7 @@ def test_view_command_default_goes_to_a_new_folder(tmp_path):
     shutil.rmtree(written.parent)
 
 
+@pytest.mark.slow
 def test_view_and_render_command_errors(tmp_path):
     for args, fragment in (
         (("view", CONROD, "-o", tmp_path / "x.png", "--no-open"), ".html or .glb"),
@@ -284,6 +287,7 @@ def test_view_and_render_command_errors(tmp_path):
     assert result.returncode == 2 and "invalid choice" in result.stderr
 
 
+@pytest.mark.slow
 def test_render_command_colours_by_error_against_the_truth(tmp_path):
     """The rod against itself shifted: coloured pictures differ from the plain one."""
     mesh = trimesh.load(CONROD)

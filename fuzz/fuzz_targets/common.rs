@@ -13,7 +13,11 @@ pub fn points(data: &[u8]) -> (Vec<[f64; 2]>, Vec<DVec3>) {
     let mut uv = Vec::new();
     let mut xyz = Vec::new();
     for c in rest.chunks_exact(3) {
-        let (x, y, z) = (c[0] as f64 % 17.0, c[1] as f64 % 17.0, (c[2] as f64 - 128.0) / 16.0);
+        let (x, y, z) = (
+            c[0] as f64 % 17.0,
+            c[1] as f64 % 17.0,
+            (c[2] as f64 - 128.0) / 16.0,
+        );
         uv.push([x * scale, y * scale]);
         xyz.push(DVec3::new(x, y, z) * scale);
     }

@@ -13,7 +13,8 @@ The public API:
   :func:`simulate_range_scan` the same with its grid of rays and line of sight;
 - :func:`merge` - one closed, labelled mesh from aligned range views (:func:`read_conf`
   reads a Stanford ``.conf``; :class:`View` is one view);
-- :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY, VTK, USGS DEM, LAS/LAZ);
+- :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY/NPZ, VTK, USGS DEM, LAS/LAZ,
+  PTS, PCD, E57, ESRI ASCII grids; the vertices of STL, OBJ and OFF meshes);
 - :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
 - :class:`Surface`, :class:`Quality`, :class:`Frame`, :class:`PlanarScan` - the results;
 - :class:`ScanmeshError` - base of every input error (a ``ValueError``).
@@ -25,6 +26,7 @@ from scanmesh.demo import load_demo
 from scanmesh.errors import (
     ClosedPartWarning,
     CoincidentPointsWarning,
+    CrossingLinesWarning,
     CurtainsWarning,
     DegenerateInputError,
     FileFormatError,
@@ -36,6 +38,8 @@ from scanmesh.errors import (
     ParameterError,
     ScanmeshError,
     ScanmeshWarning,
+    SliversWarning,
+    UnusedPointsWarning,
     WireZoomWarning,
 )
 from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
@@ -95,4 +99,7 @@ __all__ = [
     "CurtainsWarning",
     "ClosedPartWarning",
     "WireZoomWarning",
+    "CrossingLinesWarning",
+    "UnusedPointsWarning",
+    "SliversWarning",
 ]

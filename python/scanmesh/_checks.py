@@ -229,6 +229,11 @@ class Option:
         return f" in {opening}{self.low:g}, {self.high:g}{closing}"
 
 
+#: A positive finite number (a spacing, a voxel size, an angle, a truncation): the one
+#: check of such keywords outside the method options; ``POSITIVE.check(value, name)``.
+POSITIVE = Option("value", "float", None, "a positive finite number", low=0.0, low_open=True)
+
+
 def check_options(known: Iterable[Option], given: Mapping[str, Any], where: str) -> dict[str, Any]:
     """Every option of ``known`` checked, defaults for those not ``given``.
 

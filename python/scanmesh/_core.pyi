@@ -3,7 +3,7 @@
 Checked against the built module by ``python -m mypy.stubtest scanmesh._core`` in CI.
 """
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import final
 
 import numpy as np
@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_GRID_TURN_DEG",
     "DEFAULT_GRID_EDGE_FACTOR",
     "BEHIND_VOXELS",
+    "MAX_TILES",
     "project",
     "delaunay",
     "delaunay_trimmed",
@@ -38,6 +39,9 @@ __all__ = [
     "detect_lines",
     "scan_segments",
     "strip_mesh",
+    "StripParams",
+    "ScanContext",
+    "ScanSegments",
     "set_strip_filter",
     "strip_filter_counts",
     "empty_triangles",
@@ -54,6 +58,7 @@ __all__ = [
     "GridTriangles",
     "CheapestFans",
     "TextTable",
+    "TextProblem",
     "JUMP_STEPS",
     "DepthView",
     "FusionVolume",
@@ -74,6 +79,7 @@ DEFAULT_GRID_EDGE_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 JUMP_STEPS: float
 BEHIND_VOXELS: float
+MAX_TILES: int
 
 def project(
     points: npt.NDArray[np.float64],
@@ -133,11 +139,13 @@ def lop(
     uv: npt.NDArray[np.float64],
     faces_: npt.NDArray[np.int64],
     criterion: str,
+    *,
     p: float = ...,
     sliver_guard: bool = ...,
     tie_tolerance: float = ...,
     sight: npt.NDArray[np.float64] | None = None,
     curtain_angle: float = ...,
+    fixed: npt.NDArray[np.int64] | None = None,
 ) -> tuple[npt.NDArray[np.int64], int]: ...
 
 @final
@@ -191,6 +199,7 @@ class Annealer:
         faces: npt.NDArray[np.int64],
         params: AnnealParams,
         sight: npt.NDArray[np.float64] | None = None,
+        fixed: npt.NDArray[np.int64] | None = None,
     ) -> Annealer: ...
     def advance(self, max_proposals: int, max_seconds: float) -> int: ...
     @property
@@ -236,23 +245,62 @@ DEFAULT_BAND: int
 def detect_lines(uv: npt.NDArray[np.float64], gap_factor: float) -> npt.NDArray[np.int64]: ...
 def scan_segments(
     uv: npt.NDArray[np.float64], line_ids: npt.NDArray[np.int64], gap_factor: float
-) -> tuple[list[list[npt.NDArray[np.int64]]], float, float, npt.NDArray[np.int64]]: ...
+) -> ScanSegments: ...
+
+@final
+class ScanSegments:
+    """Scan lines split at gaps: segments of point indices per line, the median step, the
+    gap length and the duplicates."""
+
+    @property
+    def lines(self) -> list[list[npt.NDArray[np.int64]]]: ...
+    @property
+    def median_step(self) -> float: ...
+    @property
+    def gap(self) -> float: ...
+    @property
+    def duplicates(self) -> npt.NDArray[np.int64]: ...
+
 def set_strip_filter(on: bool) -> None: ...
 def strip_filter_counts(reset: bool = False) -> tuple[int, int]: ...
+@final
+class StripParams:
+    """The strip method's options; an option its method or solver does not use is refused."""
+
+    def __new__(
+        cls,
+        method: str,
+        *,
+        weight: Mapping[str, float],
+        alpha: int | None = None,
+        solver: str | None = None,
+        band: int | None = None,
+        check: bool = True,
+        jump_factor: float = ...,
+    ) -> StripParams: ...
+
+@final
+class ScanContext:
+    """What a run over some consecutive lines shares with the whole scan."""
+
+    def __new__(
+        cls,
+        *,
+        lo: Sequence[float],
+        hi: Sequence[float],
+        largest_planar: float,
+        median_step: float,
+        first_turned: bool,
+        own_rows: tuple[int, int] | None = None,
+    ) -> ScanContext: ...
+
 def strip_mesh(
     points: npt.NDArray[np.float64],
     uv: npt.NDArray[np.float64],
     line_ids: npt.NDArray[np.int64],
-    weight: tuple[float, float, float, float],
-    method: str,
-    alpha: int,
-    solver: str,
-    band: int,
+    params: StripParams,
     gap_factor: float,
-    check: bool = True,
-    jump_factor: float = ...,
-    context: tuple[Sequence[float], Sequence[float], float, float, bool, tuple[int, int] | None]
-    | None = None,
+    context: ScanContext | None = None,
 ) -> StripResult: ...
 
 @final
@@ -293,7 +341,18 @@ class TextTable:
     @property
     def n_lines(self) -> int: ...
     @property
-    def problem(self) -> tuple[int, int, str] | None: ...
+    def problem(self) -> TextProblem | None: ...
+
+@final
+class TextProblem:
+    """The first bad line of a refused text range: its index, a byte offset, its kind."""
+
+    @property
+    def line(self) -> int: ...
+    @property
+    def offset(self) -> int: ...
+    @property
+    def kind(self) -> str: ...
 
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]

@@ -12,13 +12,16 @@ from types import ModuleType
 from scanmesh.errors import MissingExtraError
 
 
-def require(module: str, extra: str, feature: str) -> ModuleType:
+def require(module: str, extra: str, feature: str, instead: str = "") -> ModuleType:
     """Import ``module`` (dotted name) for ``feature``; when it is missing, raise a
-    :class:`MissingExtraError` that says which extra installs it."""
+    :class:`MissingExtraError` that says which extra installs it (and ``instead``, what
+    works without it, when given). Commands call it before any work for what they will
+    need at the end."""
     try:
         return importlib.import_module(module)
     except ImportError as exc:
         package = module.split(".")[0]
         raise MissingExtraError(
             f'{feature} needs {package}, which is not installed: pip install "scanmesh[{extra}]"'
+            + (f"; or {instead}" if instead else "")
         ) from exc

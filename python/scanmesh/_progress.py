@@ -10,12 +10,18 @@ decreases and the last call has ``done == total``, except for annealing stopped 
 (``time_limit``, ``patience``), whose last call has the sweeps that ran; ``value`` is the
 energy for annealing and None elsewhere. Annealing also passes ``seconds_left=`` (its
 estimated time left: the sweeps still planned at the rate so far, at most what
-``time_limit`` leaves) to a callable that accepts that keyword (or ``**kwargs``).
+``time_limit`` leaves) to a callable that accepts that keyword (or ``**kwargs``). The
+command's log (:class:`LogProgress`) is also told which stages are one native call
+(``blocking=True``: they count nothing until they return), so that it says so instead of
+"0 %"; other callables are called as above.
 """
 
 from __future__ import annotations
 
 import inspect
+import math
+import os
+import sys
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -43,6 +49,8 @@ STAGES: dict[str, str] = {
     "integrate": "views",
     "carve": "views",
     "extract": "nodes",
+    "grid": "cells",
+    "truth": "samples",
 }
 
 #: A bar appears only for a stage still running after this many seconds (short steps stay
@@ -77,6 +85,7 @@ class Stage:
     def __init__(self, progress: Progress, name: str, total: int, blocking: bool = False):
         self.name, self.total, self.done = name, max(int(total), 0), 0
         self._call: Callable[..., None] | None = None
+        self._extra: dict[str, Any] = {}
         self._bar: Any = None
         self._ticker: threading.Event | None = None
         if progress is True:
@@ -91,12 +100,15 @@ class Stage:
                 delay=BAR_DELAY_SECONDS,
                 # one native call moves no bar: show what runs, on how much, for how long
                 bar_format="{desc} ({total_fmt} {unit}): {elapsed}" if blocking else None,
+                **_bar_size(),
             )
             if blocking:  # no updates come during one native call: keep the clock moving
                 self._ticker = threading.Event()
                 threading.Thread(target=self._tick, daemon=True).start()
         elif takes_stage(progress):
             self._call = progress  # type: ignore[assignment]
+            if blocking and isinstance(progress, LogProgress):
+                self._extra = {"blocking": True}
         self.update(0)
 
     def _tick(self) -> None:
@@ -110,7 +122,7 @@ class Stage:
         """Report ``done`` of ``total`` (clamped so that it never decreases)."""
         self.done = min(max(int(done), self.done), self.total)
         if self._call is not None:
-            self._call(self.done, self.total, value, stage=self.name)
+            self._call(self.done, self.total, value, stage=self.name, **self._extra)
         elif self._bar is not None:
             self._bar.n = self.done
             self._bar.update(0)  # redraws, once BAR_DELAY_SECONDS have passed
@@ -137,6 +149,23 @@ class Stage:
             self._bar.close()
 
 
+#: Bar size where the terminal reports none (a pseudo-terminal without a size, as ``script``
+#: makes without a terminal around it: tqdm draws nothing at 0 columns and 0 rows).
+FALLBACK_SIZE: tuple[int, int] = (80, 24)
+
+
+def _bar_size() -> dict[str, int]:
+    """tqdm's ``ncols`` and ``nrows`` (:data:`FALLBACK_SIZE`) where stderr's terminal
+    reports no size; else nothing (tqdm follows the terminal)."""
+    try:
+        size = os.get_terminal_size(sys.stderr.fileno())
+    except (OSError, ValueError, AttributeError):  # not a terminal, or no file descriptor
+        return {}
+    if size.columns > 0 and size.lines > 0:
+        return {}
+    return {"ncols": FALLBACK_SIZE[0], "nrows": FALLBACK_SIZE[1]}
+
+
 def anneal_progress(progress: Progress) -> Progress:
     """What annealing gets: the progress as it is, or for a stage-aware callable one that
     adds ``stage="anneal"`` (annealing keeps its own ``(done, total, energy)`` calls) and
@@ -152,8 +181,16 @@ def anneal_progress(progress: Progress) -> Progress:
     return report
 
 
-#: Longest silence of a running stage in a log (stderr not a terminal), in seconds.
+#: Silence of a running stage in a log (stderr not a terminal) before its first line and
+#: between lines, in seconds, at first.
 LOG_INTERVAL_SECONDS: float = 10.0
+
+#: Lines of a long stage come apart by this share of its time so far (a 12-minute stage
+#: writes about 25 lines, not 72), at most :data:`LOG_INTERVAL_MAX_SECONDS`.
+LOG_INTERVAL_GROWTH: float = 0.2
+
+#: Longest silence of a running stage in a log, in seconds.
+LOG_INTERVAL_MAX_SECONDS: float = 60.0
 
 
 def _duration(seconds: float) -> str:
@@ -161,15 +198,26 @@ def _duration(seconds: float) -> str:
     return f"{s // 3600} h {s // 60 % 60:02d} min" if s >= 3600 else f"{s // 60} min {s % 60:02d} s"
 
 
+def _rate(count: float, seconds: float, unit: str) -> str:
+    """``27,800 points/s``; ``1.5 sweeps/s`` below ten a second."""
+    rate = count / seconds if seconds > 0 else math.inf
+    if not math.isfinite(rate):
+        return f"? {unit}/s"
+    return f"{rate:,.0f} {unit}/s" if rate >= 10 else f"{rate:.2g} {unit}/s"
+
+
 class LogProgress:
     """Progress for a log (stderr not a terminal, where bars would be carriage-return noise):
-    a stage-aware callable (``progress(done, total, value, stage=, seconds_left=)``) that
-    writes one line, ``scanmesh: anneal: 1,200 / 5,000 sweeps (24 %), 2 min 10 s elapsed,
-    about 6 min 51 s left``, for every stage still running after ``interval`` seconds (default
-    :data:`LOG_INTERVAL_SECONDS`, read when made), and
-    again every ``interval`` seconds while it runs, also through one blocking native call
-    (a watcher thread writes the last known state; short stages write nothing). The time
-    left is annealing's own estimate where it gives one, else the rate so far.
+    a stage-aware callable (``progress(done, total, value, stage=, seconds_left=,
+    blocking=)``) that writes one line, ``scanmesh: anneal: 1,200 / 5,000 sweeps (24 %),
+    2 min 10 s elapsed, 9.2 sweeps/s, about 6 min 51 s left``, for every stage still running
+    after ``interval`` seconds (default :data:`LOG_INTERVAL_SECONDS`, read when made), and
+    again while it runs, also through one blocking native call (a watcher thread writes the
+    last known state; short stages write nothing), the lines coming further apart as the
+    stage goes on (:data:`LOG_INTERVAL_GROWTH`, at most :data:`LOG_INTERVAL_MAX_SECONDS`).
+    A stage that was reported ends with a line of its total, time and rate. The time left is
+    annealing's own estimate where it gives one, else the rate so far. A blocking stage
+    (one native call, counting nothing until it returns) says so instead of "0 / N (0 %)".
 
     ``clock`` and ``start=False`` are for tests: call :meth:`tick` to write what is due.
     """
@@ -199,37 +247,65 @@ class LogProgress:
         value: float | None = None,
         stage: str = "anneal",
         seconds_left: float | None = None,
+        blocking: bool = False,
     ) -> None:
         now = self._clock()
         with self._lock:
             s = self._state
             if s is None or s["stage"] != stage or done < s["done"]:
-                s = self._state = {"stage": stage, "start": now, "last": now, "done": done}
-            s.update(done=done, total=total, left=seconds_left)
-            if total > 0 and done >= total:
-                self._state = None  # finished: nothing more to say
-                return
+                s = self._state = {
+                    "stage": stage,
+                    "start": now,
+                    "last": now,
+                    "done": done,
+                    "said": False,
+                }
+            s.update(done=done, total=total, left=seconds_left, blocking=blocking)
+            finished = total > 0 and done >= total
+            if finished:
+                self._state = None
+        if finished:
+            if s["said"]:  # it was reported: its total, time and rate
+                unit = STAGES.get(stage, "items")
+                took = now - s["start"]
+                self._write(
+                    f"scanmesh: {stage}: {total:,} {unit} done in {_duration(took)},"
+                    f" {_rate(total, took, unit)}"
+                )
+            return
         self.tick()
 
     def tick(self) -> None:
-        """Write a line for the running stage if ``interval`` has passed since the last."""
+        """Write a line for the running stage if its interval has passed since the last."""
         now = self._clock()
         with self._lock:
             s = self._state
-            if s is None or now - s["last"] < self.interval:
+            if s is None:
                 return
-            s["last"] = now
             elapsed = now - s["start"]
+            gap = self.interval
+            if s["said"]:
+                gap = max(gap, min(LOG_INTERVAL_GROWTH * elapsed, LOG_INTERVAL_MAX_SECONDS))
+            if now - s["last"] < gap:
+                return
+            s["last"], s["said"] = now, True
             done, total, left = s["done"], s["total"], s["left"]
-            if left is None and 0 < done < total:
-                left = elapsed * (total - done) / done
-            unit = STAGES.get(s["stage"], "")
-            share = f" ({100 * done / total:.0f} %)" if total > 0 else ""
-            tail = "time left unknown" if left is None else f"about {_duration(left)} left"
-            line = (
-                f"scanmesh: {s['stage']}: {done:,} / {total:,} {unit}{share},"
-                f" {_duration(elapsed)} elapsed, {tail}"
-            )
+            unit = STAGES.get(s["stage"], "items")
+            if s["blocking"]:
+                line = (
+                    f"scanmesh: {s['stage']}: {total:,} {unit} in one native call,"
+                    f" {_duration(elapsed)} elapsed (it counts nothing until it returns)"
+                )
+            else:
+                if left is None and 0 < done < total:
+                    left = elapsed * (total - done) / done
+                share = f" ({100 * done / total:.0f} %)" if total > 0 else ""
+                rate = f", {_rate(done, elapsed, unit)}" if done > 0 else ""
+                tail = "time left unknown" if left is None else f"about {_duration(left)} left"
+                line = (
+                    f"scanmesh: {s['stage']}: {done:,} / {total:,} {unit}{share},"
+                    f" {_duration(elapsed)} elapsed{rate}, {tail}"
+                )
         self._write(line)
 
     def _watch(self) -> None:

@@ -44,6 +44,13 @@ class NotAHeightFieldWarning(ScanmeshWarning):
     the surface is probably not a height field there; another ``plane=`` may fit it better."""
 
 
+class SliversWarning(ScanmeshWarning):
+    """Most of a mesh's triangles are slivers (``scan.slivers.SLIVER_WARN_FRACTION``): the
+    points are probably not what the file's columns were read as, or the plane sees them in
+    far-apart rows; the message names the likely cause. Not warned where
+    :class:`NotAHeightFieldWarning` is (the plane is then the cause)."""
+
+
 class CurtainsWarning(ScanmeshWarning):
     """Faces within ``measures.CURTAIN_ANGLE_DEG`` of the line of sight cover more than
     ``measures.CURTAIN_WARN_FRACTION`` of the mesh's area (``options["curtains"]``): sheets
@@ -61,6 +68,19 @@ class WireZoomWarning(ScanmeshWarning):
     edges stay apart (``present.render.WIRE_PIXELS``); the message says by how much."""
 
 
+class CrossingLinesWarning(ScanmeshWarning):
+    """Scan lines cross or fold in the plane, so some strips overlapped there.
+
+    The overlapping triangles were dropped (``options["dropped_overlaps"]`` counts them),
+    so the mesh returned is still a manifold, valid triangulation in the plane.
+    """
+
+
+class UnusedPointsWarning(ScanmeshWarning):
+    """Some points are in no strip: isolated points outside every strip, or line ends that
+    overhang both neighbouring lines by more than half a gap."""
+
+
 # Raised and shown as scanmesh.ScanmeshError, ...: the public names, not the modules that
 # define them (the core's classes would otherwise read _core.ScanmeshError in tracebacks).
 for _cls in (
@@ -76,7 +96,11 @@ for _cls in (
     CoincidentPointsWarning,
     NotAHeightFieldWarning,
     CurtainsWarning,
+    ClosedPartWarning,
     WireZoomWarning,
+    CrossingLinesWarning,
+    UnusedPointsWarning,
+    SliversWarning,
 ):
     _cls.__module__ = "scanmesh"
 del _cls
@@ -94,4 +118,9 @@ __all__ = [
     "CoincidentPointsWarning",
     "NotAHeightFieldWarning",
     "CurtainsWarning",
+    "ClosedPartWarning",
+    "WireZoomWarning",
+    "CrossingLinesWarning",
+    "UnusedPointsWarning",
+    "SliversWarning",
 ]

@@ -8,18 +8,29 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from scanmesh._progress import Progress, Stage
-from scanmesh.errors import CurtainsWarning, NotAHeightFieldWarning, ScanmeshError
+from scanmesh._context import Context
+from scanmesh._progress import Progress
+from scanmesh.errors import (
+    CurtainsWarning,
+    NotAHeightFieldWarning,
+    ScanmeshError,
+    SliversWarning,
+)
 from scanmesh.formats import ScanPoints
-from scanmesh.measures import CURTAIN_ANGLE_DEG, CURTAIN_WARN_FRACTION, curtains
-from scanmesh.methods import DEFAULT_METHOD, METHODS, Keywords
+from scanmesh.measures import (
+    CURTAIN_ANGLE_DEG,
+    CURTAIN_WARN_FRACTION,
+    SLIVER_ANGLE_DEG,
+    curtains,
+)
+from scanmesh.methods import DEFAULT_METHOD, METHODS, SHARED, TABLE, Keywords
 from scanmesh.methods import method as find_method
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.scan.projection import PlaneSpec
+from scanmesh.scan.slivers import SLIVER_WARN_FRACTION, columns_advice, sliver_share
 from scanmesh.scan.steep import STEEP_ANGLE_DEG, STEEP_WARN_FRACTION
 from scanmesh.stages.delaunay import delaunay
 from scanmesh.stages.hidden import drop_hidden
-from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 __all__ = ["reconstruct", "METHODS"]
@@ -53,7 +64,9 @@ def reconstruct(
         window's points withheld a tenth at a time, seeded by ``seed``; the Surface is the
         chosen method's, and ``options["method_choice"]`` gives ``"chosen"`` and every
         candidate's ``"holdout"`` RMS), ``"delaunay"`` (max-min angle optimum in the
-        plane), ``"lookahead"`` and ``"shortest-path"`` (Fuchs-matrix strips between
+        plane), ``"grid"`` (a range grid's neighbours, less the faces the scanner cannot
+        have seen; scans with a grid only), ``"lookahead"`` and ``"shortest-path"``
+        (Fuchs-matrix strips between
         consecutive scan lines), ``"lop"``
         (greedy tac flips), ``"anneal"`` (simulated annealing on tac), ``"optimal"``
         (certified tac optimum, small inputs only).
@@ -72,9 +85,6 @@ def reconstruct(
     seed : int, optional
         Seed for annealing and for the holdout of ``"auto"`` (default 0). The same seed
         gives the same faces.
-
-    A keyword the chosen method does not use is refused (``scanmesh.methods.TABLE`` says
-    which method uses which).
     progress : bool or callable
         True shows a progress bar (on stderr) for every stage that runs longer than a second.
         A callable is called as ``progress(done, total, value)``. If it accepts a keyword
@@ -107,7 +117,9 @@ def reconstruct(
         the scan knows its line of sight, a recorded ``up`` or a range grid);
         ``lookahead``: ``weight``, ``alpha``, ``gap_factor``, ``check``;
         ``shortest-path``: ``weight``, ``solver``, ``band``, ``gap_factor``, ``check``;
-        ``optimal``: ``p``, ``time_limit``, ``strengthen``, ``incumbent``.
+        ``optimal``: ``p``, ``time_limit``, ``strengthen``, ``incumbent``. A keyword the
+        chosen method does not use is refused (``scanmesh.methods.TABLE`` says which method
+        uses which), as are ``lines``, ``max_edge`` and ``seed`` where it does not.
 
     Returns
     -------
@@ -132,6 +144,12 @@ def reconstruct(
         scan's recorded ``up``, else the projection normal) cover more than
         ``measures.CURTAIN_WARN_FRACTION`` (0.5 %) of the area; ``options["curtains"]``
         always gives their ``count``, ``area``, ``fraction`` and the ``sight`` used.
+    SliversWarning
+        More than ``scan.slivers.SLIVER_WARN_FRACTION`` (75 %) of the triangles are slivers
+        (smallest angle below ``measures.SLIVER_ANGLE_DEG``, 5 degrees): the columns were
+        probably read in the wrong order, or the plane sees the points in far-apart rows;
+        the message names the likely cause and what to try. Not said where the next is
+        (steep triangles name the plane as the cause).
     NotAHeightFieldWarning
         More than ``scan.steep.STEEP_WARN_FRACTION`` (10 %) of the triangles are steeper than
         ``scan.steep.STEEP_ANGLE_DEG`` (75 degrees) over the projection plane (see
@@ -140,19 +158,18 @@ def reconstruct(
     """
     spec = find_method(method)
     params = spec.check(options, {"lines": lines, "max_edge": max_edge, "seed": seed})
+    context = Context.of(progress, None if seed is None else SHARED["seed"].check(seed))
     # The one place the points are read (scan.read_scan_file), checked and projected.
-    if isinstance(source, ScanPoints):
-        scan = scan_of(source, plane=plane, lines=lines)
-    else:
-        scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
-    surface = spec.run(scan, params, Keywords(max_edge=max_edge, seed=seed, progress=progress))
+    scan = planar_scan(source, plane=plane, lines=lines, progress=progress)
+    surface = spec.run(scan, params, Keywords(max_edge=max_edge, context=context))
     surface = drop_hidden(scan, surface)
     if scan.choice is not None:
         choice = scan.choice.as_dict(scan.frame.normal)
         surface.options = {**surface.options, "plane_choice": choice}
     _report_curtains(scan, surface)
-    with Stage(progress, "steep", len(surface.faces), blocking=True):
+    with context.stage("steep", len(surface.faces), blocking=True):
         steep = surface.steep_fraction
+        slivers = sliver_share(surface.vertices, surface.faces)
     if steep is not None and steep > STEEP_WARN_FRACTION and _points_steep(scan, surface):
         warnings.warn(
             f"{100 * steep:.0f} % of the triangles are steep (normal more than"
@@ -160,6 +177,14 @@ def reconstruct(
             f" not a height field over this plane (plane={scan.plane!r}); try another plane=,"
             " e.g. 'x', 'y', 'z' or a normal vector",
             NotAHeightFieldWarning,
+            stacklevel=2,
+        )
+    elif slivers > SLIVER_WARN_FRACTION:  # not the plane, then: most likely the columns
+        warnings.warn(
+            f"{100 * slivers:.0f} % of the triangles are slivers (smallest angle below"
+            f" {SLIVER_ANGLE_DEG:g} deg): unless the scan lines truly lie that far apart"
+            " compared to the points along them, " + columns_advice(scan.points, scan.plane),
+            SliversWarning,
             stacklevel=2,
         )
     return surface
@@ -196,7 +221,8 @@ def _points_steep(scan: PlanarScan, surface: Surface) -> bool:
     is steep too. A method's own slivers (annealing's, a strip's across a gap) can stand
     steep over a smooth height field; the plane choice's quick triangulation measured the
     chosen plane already."""
-    if surface.method == "delaunay":
+    built = TABLE.get(surface.method)
+    if built is not None and built.max_min_angle:
         return True
     if scan.choice is not None and scan.choice.steep.get(scan.choice.chosen) is not None:
         return scan.choice.steep[scan.choice.chosen] > STEEP_WARN_FRACTION

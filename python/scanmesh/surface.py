@@ -33,6 +33,24 @@ if TYPE_CHECKING:
     import trimesh
 
 
+#: Endings :meth:`Surface.save` writes besides the mesh formats (``write.FORMATS``): a 3-D
+#: view page (:meth:`Surface.to_html`) and binary glTF (``present.view.save_glb``).
+VIEW_ENDINGS: tuple[str, ...] = (".glb", ".htm", ".html")
+
+
+def check_ending(path: str | os.PathLike) -> str:
+    """The lower-case ending of ``path`` when :meth:`Surface.save` writes it; otherwise a
+    ParameterError that lists every ending it writes (the writers' and :data:`VIEW_ENDINGS`)."""
+    suffix = Path(path).suffix.lower()
+    endings = sorted((*write.FORMATS, *VIEW_ENDINGS))
+    if suffix not in endings:
+        raise ParameterError(
+            f"cannot write {path}: unknown ending {Path(path).suffix!r}; use one of"
+            f" {', '.join(endings)}"
+        )
+    return suffix
+
+
 @dataclass(eq=False)
 class Surface:
     """A triangle mesh whose vertices are the input points, in input order.
@@ -219,9 +237,9 @@ class Surface:
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
         reconstructed from, or any file of :attr:`inputs` (a merge's views)."""
+        suffix = check_ending(path)
         inputs = write.inputs_of(self)  # recorded when read: a later os.chdir cannot fool it
         write.check_not_input(path, inputs)
-        suffix = Path(path).suffix.lower()
         if truth is not None and suffix != ".ply":
             raise ParameterError(
                 f"truth= adds each vertex's error to a PLY file; {Path(path).name} is not one"

@@ -40,7 +40,7 @@ from scanmesh.cli._common import (
     _speak_flags,
 )
 from scanmesh.cli._parser import Parser
-from scanmesh.cli.compare import COMPARE_METHODS, HOLDOUT_FRACTION, cmd_compare
+from scanmesh.cli.compare import HOLDOUT_FRACTION, cmd_compare
 from scanmesh.cli.demo import DEMO_MESH, DEMO_PREVIEW, DEMO_TAC, cmd_demo
 from scanmesh.cli.info import cmd_info
 from scanmesh.cli.merge import cmd_merge
@@ -50,7 +50,7 @@ from scanmesh.cli.simulate import cmd_simulate
 from scanmesh.cli.view import cmd_view
 from scanmesh.errors import ScanmeshError
 from scanmesh.fusion.grid import OPTIONS as MERGE_OPTIONS
-from scanmesh.methods import DEFAULT_METHOD, METHODS
+from scanmesh.methods import COMPARED, DEFAULT_METHOD, METHODS
 from scanmesh.scan.steep import STEEP_ANGLE_DEG
 
 
@@ -62,7 +62,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--quiet",
         action="store_true",
         default=argparse.SUPPRESS,
-        help="no progress bars or remarks (bars show only on a terminal anyway)",
+        help="no progress bars, remarks or warnings (a --report still lists the warnings;"
+        " errors are always said)",
     )
     with_json = argparse.ArgumentParser(add_help=False)
     with_json.add_argument(
@@ -176,7 +177,7 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="+",
         choices=METHODS,
         metavar="M",
-        help=f"methods to run (default: {' '.join(COMPARE_METHODS)}, grid on gridded scans"
+        help=f"methods to run (default: {' '.join(COMPARED)}, grid on gridded scans"
         " only; choices:"
         f" {', '.join(METHODS)})",
     )

@@ -8,7 +8,17 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from scanmesh.methods import DEFAULT_METHOD, INITIALS, SHARED, TABLE, used_keywords
+from scanmesh._checks import POSITIVE
+from scanmesh._context import seed_of
+from scanmesh.errors import ParameterError
+from scanmesh.methods import (
+    DEFAULT_METHOD,
+    FALLBACK_METHOD,
+    INITIALS,
+    SHARED,
+    TABLE,
+    used_keywords,
+)
 from scanmesh.present.render import COLOR_BY
 
 
@@ -54,9 +64,10 @@ def _positive(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (value > 0) or not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a positive number")
-    return value
+    try:
+        return POSITIVE.check(value)  # the one positive-number check
+    except ParameterError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive number") from None
 
 
 def _max_edge(text: str) -> float:
@@ -139,11 +150,13 @@ def _add_read_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cell", type=float, metavar="SIZE", help="cell size of a height grid")
 
 
+#: The reader flags (their keywords of read(): --columns is columns=).
+READ_FLAGS: tuple[str, ...] = ("columns", "decimal", "returns", "classes", "grid", "cell")
+
+
 def _read_options(args: argparse.Namespace | None) -> dict[str, Any]:
-    """The reader flags given (--columns, --decimal, --returns, --classes, --grid, --cell),
-    as keywords of read()."""
-    flags = ("columns", "decimal", "returns", "classes", "grid", "cell")
-    return {k: getattr(args, k) for k in flags if getattr(args, k, None) not in (None, False)}
+    """The reader flags given (:data:`READ_FLAGS`), as keywords of read()."""
+    return {k: getattr(args, k) for k in READ_FLAGS if getattr(args, k, None) not in (None, False)}
 
 
 def _method_flags() -> dict[str, tuple[Any, list[str]]]:
@@ -247,15 +260,15 @@ def _given_flags(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def chosen_method(args: argparse.Namespace, dask: bool = False) -> str:
-    """``--method`` as given; without it annealing when only annealing's flags are given
-    (they meant annealing when it was the default) or on Dask (which has no "auto"), else
-    the default method."""
+    """``--method`` as given; without it the fallback (annealing) when only its flags are
+    given (they meant annealing when it was the default) or on Dask (which has no "auto"),
+    else the default method (both: :mod:`scanmesh.methods`)."""
     if args.method is not None:
         return str(args.method)
     flags = _method_flags()
     given = _given_flags(args)
-    if dask or (given and all("anneal" in flags[name][1] for name in given)):
-        return "anneal"
+    if dask or (given and all(FALLBACK_METHOD in flags[name][1] for name in given)):
+        return FALLBACK_METHOD
     return DEFAULT_METHOD
 
 
@@ -295,7 +308,8 @@ def _shared(args: argparse.Namespace, method: str, options: dict[str, Any]) -> d
     if "max_edge" in used and args.max_edge is not None:
         shared["max_edge"] = SHARED["max_edge"].check(args.max_edge, "--max-edge")
     if "seed" in used:
-        shared["seed"] = 0 if args.seed is None else SHARED["seed"].check(args.seed, "--seed")
+        given = None if args.seed is None else SHARED["seed"].check(args.seed, "--seed")
+        shared["seed"] = seed_of(given)
     return shared
 
 

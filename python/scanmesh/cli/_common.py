@@ -17,11 +17,10 @@ from typing import Any
 import numpy as np
 
 from scanmesh._progress import LogProgress, Progress
-from scanmesh.cli._args import _method_flags, _read_options
+from scanmesh.cli._args import READ_FLAGS, _method_flags, _read_options
 from scanmesh.errors import ParameterError
 from scanmesh.formats import read
 from scanmesh.formats.write import (
-    FORMATS,
     _same_file,
     check_not_input,
     refuse_remote,
@@ -108,19 +107,6 @@ def _check_outputs(inputs: Sequence[Path], outputs: Sequence[Path | None]) -> No
             raise ParameterError(f"cannot write {out}: folder {folder} does not exist")
 
 
-#: endings Surface.save writes besides the mesh formats: a 3-D view and binary glTF
-VIEW_ENDINGS = (".glb", ".htm", ".html")
-
-
-def _check_mesh_ending(path: Path) -> None:
-    """Refuse an ending ``Surface.save`` does not write."""
-    if path.suffix.lower() not in (*FORMATS, *VIEW_ENDINGS):
-        raise ParameterError(
-            f"cannot write {path}: unknown ending {path.suffix!r}; use one of"
-            f" {', '.join(sorted((*FORMATS, *VIEW_ENDINGS)))}"
-        )
-
-
 def _plural(count: int, word: str) -> str:
     """``1 face``, ``2 faces``, ``27,715 faces``."""
     return f"{count:,} {word}{'' if count == 1 else 's'}"
@@ -181,14 +167,16 @@ class _Console:
             self.out(text)
 
     def warn(self, message, category, filename, lineno, file=None, line=None) -> None:
-        """``warnings.showwarning``: one line on stderr naming flags, kept for --report."""
+        """``warnings.showwarning``: one line on stderr naming flags (none with --quiet), kept
+        for --report."""
         text = _speak_flags(" ".join(str(message).split()), self.report)
         if self.context is not None:
             text = f"{self.context}: {text}"
         if text in self.warnings:
             return  # the same step warned of the same thing again (compare's holdout)
         self.warnings.append(text)
-        print(f"scanmesh: warning: {text}", file=sys.stderr, flush=True)
+        if not self.quiet:
+            print(f"scanmesh: warning: {text}", file=sys.stderr, flush=True)
 
     def note(self, text: str) -> None:
         """A remark on stderr (nothing with --quiet)."""
@@ -244,6 +232,8 @@ def _one_line(exc: BaseException) -> str:
 _PYTHON_WORDS = (
     (re.compile(r"reconstruct\(method='([\w-]+)'\)"), r"--method \1"),
     (re.compile(r"\bmath\.inf\b"), "inf"),
+    # a message that names both (``columns= (--columns)``) names the flag alone
+    (re.compile(r"\b[a-z][a-z_]*= \((--[a-z-]+)\)"), r"\1"),
 )
 #: Where a message sends the user to the surface's lists, and the report's names for them.
 _LISTS = re.compile(r"(;\s*)?see Surface\.(options\['(\w+)'\]|duplicates)")
@@ -265,18 +255,17 @@ def _speak_flags(text: str, report: str | None = "--report") -> str:
     """A library message in the command's words: ``name=`` of an option or a shared
     keyword becomes its flag (``--max-edge``), Python calls become flags; ``report`` as
     for :attr:`_Console.report`."""
-    names = set(_method_flags()) | set(SHARED) | {"plane", "toward"} | set(MERGE_OPTIONS)
+    names = set(_method_flags()) | set(SHARED) | set(READ_FLAGS) | {"plane", "toward"}
+    names |= set(MERGE_OPTIONS)
     text = _LISTS.sub(lambda m: _listed(m, report), text)
     for pattern, replacement in _PYTHON_WORDS:
         text = pattern.sub(replacement, text)
-    return (
-        re.sub(
-            r"\b([a-z][a-z_]*)=(?!=)",
-            lambda m: (
-                "--" + m.group(1).replace("_", "-") + " " if m.group(1) in names else m.group(0)
-            ),
-            text,
-        )
-        .replace(" ,", ",")
-        .replace(" )", ")")
-    )
+
+    def flag(m: re.Match) -> str:
+        if m.group(1) not in names:
+            return m.group(0)
+        # a switch given as ``grid=True`` is the flag alone
+        return "--" + m.group(1).replace("_", "-") + ("" if m.group(2) else " ")
+
+    text = re.sub(r"\b([a-z][a-z_]*)=(?!=)(True\b)?", flag, text)
+    return " ".join(text.replace(" ,", ",").replace(" )", ")").split())

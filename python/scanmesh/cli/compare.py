@@ -10,6 +10,9 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from scanmesh._context import seed_of
+from scanmesh._extras import require
+from scanmesh._progress import Stage
 from scanmesh.cli._args import _method_options, _read_options, _refuse_stray_flags, _shared
 from scanmesh.cli._common import (
     _check_outputs,
@@ -25,22 +28,31 @@ from scanmesh.errors import ScanmeshError
 from scanmesh.evaluate.holdout import HOLDOUT_MEASURE, holdout_error
 from scanmesh.evaluate.truth import DOMAIN_MEASURE, MEASURE, TrueSurface, domain_error, height_error
 from scanmesh.measures import SLIVER_ANGLE_DEG
-from scanmesh.methods import default_initial
+from scanmesh.methods import COMPARED, INITIAL_OPTION, TABLE, default_initial
 from scanmesh.present.panels import render_compare
 from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.reconstruction import reconstruct
 from scanmesh.scan.planar import PlanarScan, planar_scan
 from scanmesh.stages.grid import is_gridded
 
-#: Methods ``scanmesh compare`` runs by default: all but the exact one (small inputs only);
-#: "grid" on gridded scans only (:func:`default_methods`).
-COMPARE_METHODS = ("delaunay", "grid", "lookahead", "shortest-path", "lop", "anneal")
-
 
 def default_methods(scan: PlanarScan) -> list[str]:
-    """COMPARE_METHODS, without "grid" unless ``scan`` has a range grid to triangulate."""
-    return [m for m in COMPARE_METHODS if m != "grid" or is_gridded(scan)]
+    """What ``scanmesh compare`` runs when no method is named: the registry's
+    :data:`scanmesh.methods.COMPARED`, those needing a range grid only if ``scan`` has one."""
+    return [m for m in COMPARED if not TABLE[m].needs_grid or is_gridded(scan)]
 
+
+#: Points sampled on each mesh for its height error against --truth.
+TRUTH_SAMPLES = 100_000
+
+#: Methods the holdout cannot judge, and why (said under the table and in the JSON): those
+#: needing a range grid (the registry's ``needs_grid``), which the kept points no longer form.
+NO_HOLDOUT = {
+    name: "each withheld point is a hole in the range grid it triangulates, so no face"
+    " is left to measure it against"
+    for name, spec in TABLE.items()
+    if spec.needs_grid
+}
 
 #: Share of the points ``scanmesh compare`` withholds without ``--truth`` (the holdout
 #: error: the truth-free judge of a method, ``scanmesh.evaluate.holdout.holdout_error``).
@@ -51,7 +63,7 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     """Run several methods on the same points; one table (and one picture)."""
     source = Path(args.input)
     picture = Path(args.picture) if args.picture else None
-    methods = list(dict.fromkeys(args.methods or COMPARE_METHODS))
+    methods = list(dict.fromkeys(args.methods or COMPARED))
     # --seed also seeds the height error's samples and the holdout's withheld points
     _refuse_stray_flags(args, methods, seeded=True)
     options = {m: _method_options(args, m) for m in methods}
@@ -59,6 +71,13 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
     inputs = [source] + ([Path(args.truth)] if args.truth else [])
     _check_outputs(inputs, [picture])
     _check_png(picture)
+    if picture is not None:  # before any work: the picture comes last
+        require(
+            "matplotlib.figure",
+            "plots",
+            "compare --picture (the meshes side by side, titled)",
+            instead="leave out --picture: the table needs no extra",
+        )
     truth = None
     if args.truth:
         truth = TrueSurface(args.truth)
@@ -69,34 +88,34 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         methods = default_methods(scan)
 
     rows, surfaces, failed = [], [], {}
-    # One trimmed Delaunay triangulation: a row of its own and the start of LOP and annealing.
-    built: list[tuple[Any, float]] = []
+    # A method without options of its own (the trimmed Delaunay triangulation) is built
+    # once: a row of its own and the start of the methods starting from it (LOP, annealing).
+    built: dict[str, tuple[Any, float]] = {}
 
-    def delaunay_base() -> tuple[Any, float]:
-        if not built:
+    def plain(name: str) -> tuple[Any, float]:
+        if name not in built:
             t = time.perf_counter()
-            base = reconstruct(
-                scan, "delaunay", progress=con.progress, **_shared(args, "delaunay", {})
-            )
-            built.append((base, time.perf_counter() - t))
-        return built[0]
+            made = reconstruct(scan, name, progress=con.progress, **_shared(args, name, {}))
+            built[name] = (made, time.perf_counter() - t)
+        return built[name]
 
     for method in methods:
         con.context = method  # its warnings name it
         if con.progress is True:
             con.note(f"{method} ...")
         kwargs = {**shared[method], **options[method]}
+        spec = TABLE[method]
         try:
-            if method == "delaunay":
-                surface, seconds = delaunay_base()
+            if not spec.options:
+                surface, seconds = plain(method)
             else:
                 start = 0.0
-                initial = kwargs.get("initial", "auto")
-                if initial == "auto":
+                initial = kwargs.get("initial", INITIAL_OPTION.default)
+                if initial == INITIAL_OPTION.default:
                     initial = default_initial(scan, kwargs.get("max_edge"))
-                if method in ("lop", "anneal") and initial == "delaunay":
+                if spec.starts and not TABLE[initial].options:
                     kwargs.pop("max_edge", None)
-                    kwargs["initial"], start = delaunay_base()
+                    kwargs["initial"], start = plain(initial)
                 t0 = time.perf_counter()
                 surface = reconstruct(scan, method, progress=con.progress, **kwargs)
                 seconds = start + time.perf_counter() - t0
@@ -108,9 +127,11 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         row.update(_quality_row(surface))
         row["faces"] = int(len(surface.faces))
         if truth is not None:
-            err = height_error(surface, truth, seed=args.seed or 0)
+            # seconds each on a CAD part: said in a log as every other stage
+            with Stage(con.progress, "truth", TRUTH_SAMPLES, blocking=True):
+                err = height_error(surface, truth, n_samples=TRUTH_SAMPLES, seed=seed_of(args.seed))
+                dom = domain_error(surface, truth)
             row.update({k: err[k] for k in ("h_rms", "h_mean", "h_max")})
-            dom = domain_error(surface, truth)
             row.update({k: dom[k] for k in ("air_share", "missed_share")})
         elif args.holdout > 0:
             row.update(_holdout_row(scan, method, args, options[method], shared[method]))
@@ -118,41 +139,55 @@ def cmd_compare(args: argparse.Namespace, con: _Console) -> int:
         surfaces.append(surface)
 
     con.context = None
-    if picture is not None and surfaces:
-        titles = [
-            f"{r['method']}: tac_1 {r['tac_1']:.4g}, {r['time_s']:.2g} s"
-            + (f"\nRMS height error {r['h_rms']:.3g}" if truth is not None else "")
-            for r in rows
-        ]
-        ref = surfaces[0]
-        render_compare(
-            surfaces,
-            picture,
-            titles=titles,
-            suptitle=f"{source.name}: {len(scan.points):,} points",
-            **_auto_view(ref.vertices, ref.faces, ref.frame),
-        )
     if con.json:
         data: dict[str, Any] = {"input": str(source), "points": int(len(scan.points))}
         data["methods"] = rows
         if truth is not None:
-            data["height_error"] = {"measure": MEASURE, "n_samples": 100_000}
+            data["height_error"] = {"measure": MEASURE, "n_samples": TRUTH_SAMPLES}
             data["domain_error"] = {"measure": DOMAIN_MEASURE}
         elif args.holdout > 0:
             data["holdout_error"] = {"measure": HOLDOUT_MEASURE, "fraction": args.holdout}
+            unjudged = {m: why for m, why in NO_HOLDOUT.items() if m in methods}
+            if unjudged:
+                data["holdout_error"]["not_judged"] = unjudged
         if failed:
             data["failed"] = failed
         print(_dumps(data))
     else:
         _print_table(con, source, scan, rows, truth is not None)
-        if picture is not None and surfaces:
-            con.summary(f"wrote {picture}")
+    # after the table: whatever happens to the picture, the figures are out
+    if picture is not None and surfaces:
+        try:
+            _picture(picture, source, scan, rows, surfaces, truth is not None)
+        except (ScanmeshError, OSError) as exc:
+            print(f"scanmesh: error: {picture}: {_one_line(exc)}", file=sys.stderr, flush=True)
+            return 1
+        con.summary(f"wrote {picture}")
     return 1 if failed else 0
+
+
+def _picture(picture: Path, source: Path, scan, rows: list[dict], surfaces: list, truth: bool):
+    """The meshes side by side, each titled with its method, tac_1, time (and height error)."""
+    titles = [
+        f"{r['method']}: tac_1 {r['tac_1']:.4g}, {r['time_s']:.2g} s"
+        + (f"\nRMS height error {r['h_rms']:.3g}" if truth else "")
+        for r in rows
+    ]
+    ref = surfaces[0]
+    render_compare(
+        surfaces,
+        picture,
+        titles=titles,
+        suptitle=f"{source.name}: {len(scan.points):,} points",
+        **_auto_view(ref.vertices, ref.faces, ref.frame),
+    )
 
 
 def _holdout_row(scan, method: str, args, options: dict, shared: dict) -> dict[str, Any]:
     """The holdout error of ``method`` on ``scan`` (rebuilt from the kept points with the
     same options; the seed of --seed chooses the withheld points)."""
+    if method in NO_HOLDOUT:  # said under the table: not a failure
+        return {"holdout_rms": None, "holdout_p99": None, "holdout_outside": None}
     given = {k: v for k, v in shared.items() if k not in ("lines", "seed")}
     try:
         with warnings.catch_warnings():
@@ -161,7 +196,7 @@ def _holdout_row(scan, method: str, args, options: dict, shared: dict) -> dict[s
                 scan.points,
                 method,
                 fraction=args.holdout,
-                seed=args.seed or 0,
+                seed=seed_of(args.seed),
                 plane=scan.plane,
                 lines=scan.line_ids,
                 **given,
@@ -210,7 +245,7 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
     )
     if with_truth:
         con.out(
-            "h_*: closest-point distance to the truth at 100,000 random points on each"
+            f"h_*: closest-point distance to the truth at {TRUTH_SAMPLES:,} random points on each"
             " mesh's area (model units); air: area the mesh covers outside the truth's"
             " shadow on the plane, missed: shadow area the mesh leaves open (both in % of the"
             " shadow)"
@@ -221,6 +256,9 @@ def _print_table(con: _Console, source: Path, scan, rows: list[dict], with_truth
             " the withheld points' height above or below that mesh along the plane normal"
             " (model units), the error a user without a CAD model can judge by"
         )
+        for method, why in NO_HOLDOUT.items():
+            if any(r["method"] == method for r in rows):
+                con.out(f"{method}: no holdout: {why}")
 
 
 def _sliver_deg() -> float:

@@ -12,13 +12,14 @@ from typing import Any
 import numpy as np
 
 from scanmesh import shape
-from scanmesh.cli._common import _check_mesh_ending, _check_outputs, _Console, _dumps
+from scanmesh.cli._common import _check_outputs, _Console, _dumps
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import read_bytes
 from scanmesh.fusion import merge
 from scanmesh.fusion.conf import conf_poses
 from scanmesh.fusion.grid import OPTIONS
 from scanmesh.fusion.views import check_pose, read_conf
+from scanmesh.surface import check_ending
 
 
 def read_poses(path: Path, scans: list[Path]) -> list[np.ndarray]:
@@ -57,7 +58,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
     """Fuse the views, write the mesh, report its labels, genus and creases."""
     inputs = [Path(p) for p in args.inputs]
     out = Path(args.output)
-    _check_mesh_ending(out)
+    check_ending(out)
     confs = [p for p in inputs if p.suffix.lower() == ".conf"]
     if confs and len(inputs) > 1:
         raise ParameterError("give one .conf file, or scan files with --poses, not both")

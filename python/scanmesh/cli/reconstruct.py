@@ -28,7 +28,6 @@ from scanmesh.cli._args import (
 )
 from scanmesh.cli._common import (
     _background,
-    _check_mesh_ending,
     _check_outputs,
     _check_png,
     _Console,
@@ -50,6 +49,7 @@ from scanmesh.present.render import auto_view as _auto_view
 from scanmesh.present.render import render_mesh
 from scanmesh.reconstruction import reconstruct
 from scanmesh.scan.planar import planar_scan
+from scanmesh.surface import check_ending
 
 
 def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
@@ -71,7 +71,7 @@ def cmd_reconstruct(args: argparse.Namespace, con: _Console) -> int:
     if truth_path is not None and out.suffix.lower() != ".ply":
         args._parser.error(f"--truth adds each vertex's error to a .ply output, not to {out}")
     con.report = "--report" if report is not None else "--json output" if con.json else ""
-    _check_mesh_ending(out)
+    check_ending(out)
     _check_png(preview)
     if preview is None and (args.view is not None or args.up is not None):
         flag = "--view" if args.view is not None else "--up"

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scanmesh._extras import require
 from scanmesh.cli._common import _check_outputs, _check_png, _Console
 from scanmesh.formats.mesh import load_mesh
 from scanmesh.present.panels import render_panels
@@ -26,6 +27,13 @@ def cmd_render(args: argparse.Namespace, con: _Console) -> int:
     mesh_path, out = Path(args.mesh), Path(args.output)
     _check_outputs([mesh_path], [out])
     _check_png(out)
+    if args.color is not None and args.bar:  # before reading: say now what is missing
+        require(
+            "matplotlib.figure",
+            "plots",
+            "render --color (the title and colour bar beside the picture)",
+            instead="give --no-bar: the coloured picture alone needs no extra",
+        )
     vertices, faces = _mesh_file(mesh_path)
     camera = _auto_view(vertices, faces)
     if args.view is not None:

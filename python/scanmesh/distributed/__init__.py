@@ -23,7 +23,8 @@ from typing import Any
 from scanmesh._extras import require
 from scanmesh.errors import DegenerateInputError, ParameterError
 from scanmesh.formats.write import TermGuard, check_not_input
-from scanmesh.methods import TABLE
+from scanmesh.methods import STRIP_METHODS, TILE_METHODS
+from scanmesh.methods import method as find_method
 from scanmesh.scan.projection import PlaneSpec
 
 from ._output import StreamedMesh, Written, check_output, scratch_folder
@@ -41,9 +42,6 @@ from ._strips import strip_blocks
 from ._tiles import tile_blocks
 
 __all__ = ["DistributedResult", "reconstruct_distributed", "STRIP_METHODS"]
-
-#: Methods solved in partitions of consecutive lines; every other goes to tiles.
-STRIP_METHODS: tuple[str, ...] = ("shortest-path", "lookahead")
 
 #: Points of the scan sampled (evenly over the parts) to choose the plane.
 PLANE_SAMPLE: int = 200_000
@@ -127,15 +125,18 @@ def reconstruct_distributed(
     # the files a pattern matches now are the inputs: the output may be none of them
     files = None if _is_dask_array(source) else source_paths(source)
     check_not_input(target, files)
-    if method not in TABLE:
-        raise ParameterError(f"method must be one of {sorted(TABLE)}, got {method!r}")
+    spec = find_method(method)
+    if not spec.distributed:
+        raise ParameterError(
+            f"method {method!r} does not run on Dask; use one of {STRIP_METHODS + TILE_METHODS}"
+        )
     if partition_lines is not None and (
         isinstance(partition_lines, bool)
         or not isinstance(partition_lines, int)
         or partition_lines < 1
     ):
         raise ParameterError(f"partition_lines must be an integer >= 1, got {partition_lines!r}")
-    if partition_lines is not None and method not in STRIP_METHODS:
+    if partition_lines is not None and not spec.strips:
         raise ParameterError(
             f"partition_lines applies to the strip methods {STRIP_METHODS}; method {method!r}"
             " runs in tiles of the plane"
@@ -166,7 +167,7 @@ def reconstruct_distributed(
             mesh = StreamedMesh(client, target, parts, columns, common_georef(paths, summaries))
             seams: list[Any] = []
             try:
-                if method in STRIP_METHODS:
+                if spec.strips:
                     blocks, seams, info = strip_blocks(
                         client,
                         parts,

@@ -11,7 +11,7 @@ lines before it). So the work is three passes over the parts, each on the worker
 2. the exact median of all steps, by three rounds of counting on those workers
    (:func:`scanmesh.distributed._median.exact_median`, as the tiles' median spacing: 22,
    21 and 21 bits of the float at a time, no step is gathered);
-3. per partition: ``scanmesh_core::stitch_part`` with the scan's context (:func:`solve`).
+3. per partition: ``scanmesh_core::strips::stitch_part`` with the scan's context (:func:`solve`).
 
 Partitions start and end on a line that has a strip on both sides and no lone point (an
 "eligible" line): each returns the strips from its first line to its last, and the next one
@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from scanmesh import _core
 from scanmesh._checks import check_options
 from scanmesh.errors import DegenerateInputError
 from scanmesh.scan.projection import PlaneSpec
@@ -79,7 +80,7 @@ def line_stats(
 ) -> tuple[LineStats, np.ndarray]:
     """A part's :class:`LineStats` and its sorted non-zero steps (kept on the worker).
 
-    Steps are measured as ``scanmesh_core::lines::segment_lines`` measures them: between
+    Steps are measured as ``scanmesh_core::strips::segment_lines`` measures them: between
     consecutive points of a line after dropping points that coincide in the plane with the
     previous one, by ``hypot`` of the planar differences. O(n log n).
     """
@@ -273,7 +274,14 @@ def solve(
         method,
         params,
         params["gap_factor"],
-        (tuple(lo), tuple(hi), largest, median, partition.first_turned, (a, b)),
+        _core.ScanContext(
+            lo=tuple(lo),
+            hi=tuple(hi),
+            largest_planar=largest,
+            median_step=median,
+            first_turned=partition.first_turned,
+            own_rows=(a, b),
+        ),
     )
     points, line_ids, global_index = points[a:b], line_ids[a:b], global_index[a:b]
     # consecutive lines of consecutive parts: global indices are one offset away

@@ -16,6 +16,7 @@ from scanmesh import _core
 from scanmesh.distributed._grid import Bins, Grid, certified, circumcentres
 from scanmesh.distributed._output import FaceBlock
 from scanmesh.errors import ScanmeshError
+from scanmesh.methods import TABLE
 from scanmesh.scan.noise import median_edge, noise
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.scan.projection import Frame, PlaneSpec
@@ -211,15 +212,15 @@ def optimize_piece(
     used, local = np.unique(piece, return_inverse=True)
     local = local.reshape(piece.shape).astype(np.int64)
     pts, puv = np.ascontiguousarray(points[used]), np.ascontiguousarray(uv[used])
-    if method == "lop":
+    if not TABLE[method].anneals:  # LOP
         done, _ = _core.lop(
             pts,
             puv,
             local,
             params["criterion"],
-            params["p"],
-            params["sliver_guard"],
-            params["tie_tolerance"],
+            p=params["p"],
+            sliver_guard=params["sliver_guard"],
+            tie_tolerance=params["tie_tolerance"],
         )
     else:
         # time_limit bounds each tile's pass (the tiles of a pass run side by side)

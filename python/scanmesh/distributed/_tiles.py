@@ -69,6 +69,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh import _core
+from scanmesh._context import seed_of
 from scanmesh.distributed._grid import Grid, _bin_part, project_with_box
 from scanmesh.distributed._median import exact_median
 from scanmesh.distributed._source import Part, load_part
@@ -83,7 +84,7 @@ from scanmesh.distributed._tile import (
     _trim,
 )
 from scanmesh.errors import ParameterError, ScanmeshError
-from scanmesh.methods import TABLE
+from scanmesh.methods import TABLE, TILE_INITIALS, TILE_METHODS, Tiles
 from scanmesh.scan.noise import tie_tolerance
 from scanmesh.scan.plane_choice import choose_plane
 from scanmesh.scan.projection import Frame, PlaneSpec, plane_args
@@ -116,10 +117,6 @@ NEAREST = operator.attrgetter("nearest")
 #: (k this times the cluster's threads), so a worker holds the data of a few tiles whatever
 #: the scan's size; pass 1's meshes go to disk, read back by pass 2's tiles.
 TILES_PER_THREAD: int = 2
-
-#: Methods run in tiles.
-METHODS = ("delaunay", "lop", "anneal")
-
 
 # ---------------------------------------------------------------------------------------
 # Geometry of the tiling
@@ -191,21 +188,22 @@ def check_tile_options(
     """The method's options checked by its table entry; returns (params, max_edge, seed).
     ``initial`` must be "delaunay" or "auto" (tiles start from the tiled Delaunay
     triangulation)."""
-    if method not in METHODS:
-        raise ParameterError(f"method {method!r} does not run in tiles; use one of {METHODS}")
+    if method not in TILE_METHODS:
+        raise ParameterError(f"method {method!r} does not run in tiles; use one of {TILE_METHODS}")
     rest = dict(options)
     shared = {k: rest.pop(k) for k in ("max_edge", "seed", "lines") if k in rest}
     if "lines" in shared:
         raise ParameterError("lines= comes from the parts' files in a distributed run")
     params = TABLE[method].check(rest, shared)
-    if params.pop("initial", "delaunay") not in ("auto", "delaunay"):
+    if params.pop("initial", TILE_INITIALS[0]) not in TILE_INITIALS:
         raise ParameterError(
             f"method {method!r} in tiles starts from initial='delaunay' only (got"
             f" {options.get('initial')!r})"
         )
     max_edge = shared.get("max_edge")
-    seed = 0 if shared.get("seed") is None else SEED_OPTION.check(shared["seed"])
-    if method == "anneal" and params.get("chains", 0) == 0:
+    given = shared.get("seed")
+    seed = seed_of(None if given is None else SEED_OPTION.check(given))
+    if TABLE[method].anneals and params.get("chains", 0) == 0:
         params["chains"] = 1  # automatic chains follow each piece's size, not the scan's
     return params, (None if max_edge is None else MAX_EDGE_OPTION.check(max_edge)), seed
 
@@ -428,7 +426,8 @@ def _tile_stages(
     else:
         limit = max_edge
     info: dict[str, Any] = {"tiles": grid.count, "max_edge": limit}
-    if method == "delaunay":
+    entry = TABLE[method]
+    if entry.tiles is Tiles.BUILT:
         blocks = _gated(
             client,
             "delaunay",
@@ -439,7 +438,7 @@ def _tile_stages(
         )
         wait(blocks)
         return blocks, info
-    if method == "anneal" and params.get("tie_tolerance") is None:
+    if entry.anneals and params.get("tie_tolerance") is None:
         # annealing's automatic tie tolerance from the scan's noise, the median over tiles
         # of their estimates (reported; one process reports noise.noise of the whole
         # scan), and the median of the tiles' median edges (noise.noise_tolerance on one
@@ -467,7 +466,7 @@ def _tile_stages(
         params["tie_tolerance"] = (
             tie_tolerance(sigma, edge, params["p"], floor) if math.isfinite(sigma) else floor
         )
-    if method == "anneal":
+    if entry.anneals:
         info["tie_tolerance"] = params["tie_tolerance"]
     first = _gated(
         client,

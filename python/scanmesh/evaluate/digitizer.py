@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from scanmesh._checks import POSITIVE, Option
 from scanmesh.errors import InvalidMeshError, ParameterError
 from scanmesh.formats.mesh import load_mesh
 from scanmesh.formats.points import ScanPoints
@@ -194,16 +195,16 @@ def _grid_axis(lo: float, hi: float, step: float) -> tuple[float, int]:
     return lo + 0.5 * ((hi - lo) - (count - 1) * step), count
 
 
-def _positive(value: float | None, name: str) -> float | None:
-    if value is None:
-        return None
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a positive number, got {value!r}") from None
-    if not math.isfinite(out) or out <= 0.0:
-        raise ParameterError(f"{name} must be a positive finite number, got {value!r}")
-    return out
+#: The largest angle between a face and the ray that still returns a sample (degrees).
+GRAZING_OPTION = Option(
+    "grazing",
+    "float",
+    90.0,
+    "largest angle of a sampled face to the ray (degrees)",
+    low=0.0,
+    low_open=True,
+    high=90.0,
+)
 
 
 class _Scanner:
@@ -341,8 +342,8 @@ def simulate_range_scan(
     :func:`simulate_scan` for ``grazing=90``; ``ScanPoints.source`` is
     ``Path("simulated")``."""
 
-    spacing = _positive(spacing, "spacing")
-    line_spacing = _positive(line_spacing, "line_spacing")
+    spacing = None if spacing is None else POSITIVE.check(spacing, "spacing")
+    line_spacing = None if line_spacing is None else POSITIVE.check(line_spacing, "line_spacing")
     noise_f = float(noise) if isinstance(noise, (int, float, np.floating, np.integer)) else None
     if noise_f is None or not math.isfinite(noise_f) or noise_f < 0.0:
         raise ParameterError(f"noise must be a finite number >= 0, got {noise!r}")
@@ -368,9 +369,7 @@ def simulate_range_scan(
     a0, na, c0, nc = grid
     step_c = line_spacing or spacing
 
-    grazing_f = _positive(grazing, "grazing")
-    if grazing_f is None or grazing_f > 90.0:
-        raise ParameterError(f"grazing must be an angle in (0, 90] degrees, got {grazing!r}")
+    grazing_f = GRAZING_OPTION.check(grazing)
     hit = np.isfinite(height)
     if table:
         height = np.where(hit, height, scanner.lo[2])

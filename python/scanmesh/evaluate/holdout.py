@@ -13,10 +13,10 @@ import numpy as np
 from scanmesh._checks import as_points
 from scanmesh.errors import ParameterError
 from scanmesh.formats import read
+from scanmesh.judge import Seen, distances, rms, withhold
 from scanmesh.methods import used_keywords
 from scanmesh.reconstruction import reconstruct
 from scanmesh.scan.lines import GAP_FACTOR, as_line_ids
-from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.planar import as_scan
 
 #: What :func:`holdout_error` measures, for reports.
@@ -111,8 +111,7 @@ def holdout_error(
         n_units = len(ids)
     else:
         n_out = int(round(frac * len(pts)))
-        withheld = np.zeros(len(pts), dtype=bool)
-        withheld[rng.choice(len(pts), size=n_out, replace=False)] = True
+        withheld = withhold(len(pts), n_out, rng)
         unit = "points"
         n_units = len(pts)
     if n_out == 0 or n_out == n_units:
@@ -128,15 +127,12 @@ def holdout_error(
     if "lines" in used and lines is not None:
         shared["lines"] = lines[kept]
     surface = reconstruct(pts[kept], method, **shared, **options)
-    frame = surface.frame
-    axes = np.column_stack([frame.u, frame.v])
-    tri = pts[kept][surface.faces]  # (F, 3, 3)
-    got, face = normal_distances(pts[out], tri, axes, frame.normal)
+    got, face = distances(pts[out], Seen.of(surface))  # surface.vertices: pts[kept]
     inside = face >= 0
     dist = got[inside]
     measured = len(dist) > 0
     return {
-        "rms": float(np.sqrt(np.mean(dist * dist))) if measured else math.nan,
+        "rms": rms(dist),
         "p99": float(np.percentile(dist, 99)) if measured else math.nan,
         "max": float(dist.max()) if measured else math.nan,
         "n_withheld": int(len(out)),

@@ -43,7 +43,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import Context
+from scanmesh._progress import Progress
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import GZIP_MAGIC, check_regular, is_gzip
 from scanmesh.formats.csv import read_csv
@@ -77,7 +78,7 @@ class Format:
     magic: bytes | None
     #: reads scan points (None: a mesh-only format)
     reader: Callable[..., ScanPoints] | None
-    #: reader keywords besides ``progress`` (which every reader accepts through ``read``)
+    #: reader keywords besides ``context`` (the call's progress, given through ``read``)
     options: tuple[str, ...]
     #: writes meshes (None: points only)
     writer: MeshWriter | None
@@ -117,7 +118,7 @@ READERS: dict[str, Callable[..., ScanPoints]] = {
 #: File ending (lower case) -> format of the meshes written there.
 MESH_FORMATS: dict[str, Format] = {e: f for f in FORMATS if f.writer is not None for e in f.endings}
 
-_TAKES_PROGRESS = (read_xyz, read_csv, read_ply, read_pts, read_pcd, read_e57)
+_TAKES_CONTEXT = (read_xyz, read_csv, read_ply, read_pts, read_pcd, read_e57)
 
 
 #: Formats whose readers decompress a gzip-compressed file (those reading it as bytes).
@@ -213,13 +214,14 @@ def read(
     ScanPoints
     """
     target = Path(path)
+    context = Context.of(progress)
     if grid:
         if options:
             raise ParameterError(
                 f"grid=True reads a matrix of heights and takes only cell=, not"
-                f" {', '.join(sorted(options))}"
+                f" {', '.join(f'{k}=' for k in sorted(options))}"
             )
-        return read_matrix(target, cell=cell, progress=progress)
+        return read_matrix(target, cell=cell, context=context)
     fmt = format_of(target)
     taken = set(fmt.options)
     unknown = sorted(set(options) - taken)
@@ -235,13 +237,13 @@ def read(
     if fmt is _ESRI:
         options["cell"] = cell
     assert fmt.reader is not None
-    if fmt.reader in _TAKES_PROGRESS:
-        return fmt.reader(target, progress=progress, **options)
+    if fmt.reader in _TAKES_CONTEXT:
+        return fmt.reader(target, context=context, **options)
     try:
         size = target.stat().st_size
     except OSError:
         size = 0  # the reader reports the missing file
-    with Stage(progress, "read", size, blocking=True):
+    with context.stage("read", size, blocking=True):
         return fmt.reader(target, **options)
 
 

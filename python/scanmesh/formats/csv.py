@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from scanmesh._progress import Progress
+from scanmesh._context import QUIET, Context
 from scanmesh.formats.points import ScanPoints
 from scanmesh.formats.xyz import Columns, read_points_table
 
@@ -14,7 +14,7 @@ def read_csv(
     *,
     columns: Columns = None,
     decimal: str = ".",
-    progress: Progress = False,
+    context: Context = QUIET,
 ) -> ScanPoints:
     """Read a CSV file of points: ``x,y,z`` or ``x,y,z,line`` per row.
 
@@ -23,11 +23,11 @@ def read_csv(
     ``columns=`` chooses them otherwise (see :mod:`scanmesh.formats.xyz`). Without a header
     the columns follow the XYZ rules; ``decimal=","`` reads decimal commas (values then
     separated by semicolons, as spreadsheets in such locales write them). Parsed natively
-    in chunks; ``progress`` as in :func:`scanmesh.read`.
+    in chunks; ``context``: the call's progress (:func:`scanmesh.read`).
 
     Returns
     -------
     ScanPoints
         ``points`` (N, 3) float64; ``line_ids`` (N,) int64 or None.
     """
-    return read_points_table(path, "csv", columns=columns, decimal=decimal, progress=progress)
+    return read_points_table(path, "csv", columns=columns, decimal=decimal, context=context)

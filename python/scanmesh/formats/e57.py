@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from scanmesh._context import QUIET, Context
 from scanmesh._extras import require
-from scanmesh._progress import Progress, Stage
 from scanmesh.errors import FileFormatError
 from scanmesh.formats._source import check_finite, check_regular
 from scanmesh.formats.points import ScanPoints
@@ -33,7 +33,7 @@ FIELDS: dict[str, str] = {
 }
 
 
-def read_e57(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoints:
+def read_e57(path: str | os.PathLike, *, context: Context = QUIET) -> ScanPoints:
     """Read every scan of an E57 file. O(points); needs pye57.
 
     Returns
@@ -51,7 +51,7 @@ def read_e57(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoin
         if handle.read(len(E57_MAGIC)) != E57_MAGIC:
             raise FileFormatError(f"{path}: not an E57 file (no {E57_MAGIC.decode()} signature)")
     scans: list[dict[str, np.ndarray]] = []
-    with Stage(progress, "read", size, blocking=True):
+    with context.stage("read", size, blocking=True):
         try:
             e57 = pye57.E57(str(path))
             for index in range(e57.scan_count):

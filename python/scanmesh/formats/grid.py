@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from scanmesh._progress import Progress
-from scanmesh.errors import FileFormatError, ParameterError
+from scanmesh._context import QUIET, Context
+from scanmesh.errors import FileFormatError, ParameterError, ScanmeshWarning
 from scanmesh.formats._source import check_declared, check_text, quote, read_bytes
 from scanmesh.formats.npy import load_arrays
 from scanmesh.formats.points import ScanPoints
@@ -90,11 +91,20 @@ def height_grid(
 
 
 def read_matrix(
-    path: str | os.PathLike, *, cell: Cell = None, progress: Progress = False
+    path: str | os.PathLike, *, cell: Cell = None, context: Context = QUIET
 ) -> ScanPoints:
     """A matrix of heights from a ``.npy`` array or a text/CSV table (header lines allowed,
-    e.g. R's ``V1,...,V61``), as in :func:`height_grid`."""
+    e.g. R's ``V1,...,V61``), as in :func:`height_grid`. Such a file records no cell size:
+    without ``cell`` a ``ScanmeshWarning`` says that cells of 1 are assumed."""
     path = Path(path)
+    if cell is None:
+        warnings.warn(
+            f"{path.name}: a matrix of heights records no cell size; read with cells of 1"
+            " (x and y are column and row numbers): give cell= (the spacing, or (dx, dy))"
+            " for the scan's true size",
+            ScanmeshWarning,
+            stacklevel=3,
+        )
     if path.suffix.lower() in (".npy", ".npz"):
         arrays = load_arrays(path)
         if len(arrays) != 1:
@@ -106,7 +116,7 @@ def read_matrix(
             raise FileFormatError(f"{path}: heights must be real numbers, got dtype {z.dtype}")
         return height_grid(z, cell=cell, source=path, extra={"format": "npy height grid"})
     data = read_bytes(path)
-    table = read_table(path, data, "rows of heights", progress)
+    table = read_table(path, data, "rows of heights", context)
     return height_grid(table.values, cell=cell, source=path, extra={"format": "text height grid"})
 
 

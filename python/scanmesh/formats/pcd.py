@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
+from scanmesh._progress import Stage
 from scanmesh.errors import FileFormatError
 from scanmesh.formats._source import check_declared, check_text, quote, read_bytes
 from scanmesh.formats.points import ScanPoints
@@ -174,7 +175,7 @@ def _colors(packed: np.ndarray, alpha: bool) -> dict[str, np.ndarray]:
     return out
 
 
-def read_pcd(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoints:
+def read_pcd(path: str | os.PathLike, *, context: Context = QUIET) -> ScanPoints:
     """Read a PCD point cloud (ASCII or binary; gzip-compressed too). O(file size).
 
     Returns
@@ -191,7 +192,7 @@ def read_pcd(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoin
     if not data:
         raise FileFormatError(f"{path}: the file is empty; expected a PCD file")
     head = _header(path, data)
-    with Stage(progress, "read", len(data)) as stage:
+    with context.stage("read", len(data)) as stage:
         columns = _table(path, data, head, stage)
     xyz = np.column_stack([columns.pop(c).astype(np.float64) for c in "xyz"])
     valid = np.isfinite(xyz).all(axis=1)

@@ -26,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
+from scanmesh._progress import Stage
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import (
     check_declared,
@@ -271,7 +272,7 @@ def _is_cyberware(info: dict[str, str]) -> bool:
 
 
 def read_ply(
-    path: str | os.PathLike, *, lines: str = "auto", progress: Progress = False
+    path: str | os.PathLike, *, lines: str = "auto", context: Context = QUIET
 ) -> ScanPoints:
     """Read the vertices of a PLY file (ASCII, binary little- or big-endian).
 
@@ -282,8 +283,9 @@ def read_ply(
     lines : {"auto", "rows", "columns"}
         Which direction of a range grid is a scan line (see the module doc); "auto": columns
         for Cyberware data, rows otherwise.
-    progress : bool or callable
-        As in :func:`scanmesh.read` (bytes of an ASCII vertex list, chunk by chunk).
+    context : Context
+        The call's progress, as in :func:`scanmesh.read` (bytes of an ASCII vertex list,
+        chunk by chunk).
 
     Returns
     -------
@@ -331,7 +333,7 @@ def read_ply(
                         f"{path}, line {el.line}: list properties in the vertex element are not"
                         " supported"
                     )
-                vertices = _ascii_vertices(path, data, pos, end, el, progress)
+                vertices = _ascii_vertices(path, data, pos, end, el, context)
             elif el.name == "range_grid":
                 grid = _ascii_lists(path, data, pos, end, el)
             pos = end
@@ -340,7 +342,7 @@ def read_ply(
         data_of = {p[0]: vertices[:, k].astype(p[1]) for k, p in enumerate(vertex_el.props)}
     else:
         order = "<" if head.fmt == "binary_little_endian" else ">"
-        with Stage(progress, "read", len(data), blocking=True):
+        with context.stage("read", len(data), blocking=True):
             for el in head.elements:
                 got, pos = _ply_binary_element(path, data, pos, el, order)
                 if el.name == "vertex":
@@ -379,12 +381,12 @@ def read_ply(
 
 
 def _ascii_vertices(
-    path: Path, data: bytes, a: int, b: int, el: _PlyElement, progress: Progress
+    path: Path, data: bytes, a: int, b: int, el: _PlyElement, context: Context
 ) -> np.ndarray:
     """The (count, nprops) values of an ASCII vertex element in ``data[a:b]``."""
     nprops = len(el.props)
     line_no, _ = line_at(data, a)
-    with Stage(progress, "read", b) as stage:
+    with context.stage("read", b) as stage:
         rows = parse_rows(
             path,
             data,

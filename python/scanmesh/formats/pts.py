@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
 from scanmesh.errors import FileFormatError
 from scanmesh.formats._source import check_finite, check_text, line_at, quote, read_bytes
 from scanmesh.formats.points import ScanPoints
@@ -41,7 +41,7 @@ def _next_line(data: bytes, pos: int) -> tuple[int, int]:
     return len(data), len(data)
 
 
-def read_pts(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoints:
+def read_pts(path: str | os.PathLike, *, context: Context = QUIET) -> ScanPoints:
     """Read a PTS point file (gzip-compressed too), every scan in it, in file order.
 
     O(file size); the rows are parsed natively (:mod:`scanmesh.formats.table`).
@@ -60,7 +60,7 @@ def read_pts(path: str | os.PathLike, *, progress: Progress = False) -> ScanPoin
     starts: list[int] = []
     width = None
     pos, n = 0, 0
-    with Stage(progress, "read", len(data)) as stage:
+    with context.stage("read", len(data)) as stage:
         while True:
             pos, end = _next_line(data, pos)
             if pos >= len(data):

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from scanmesh import _core
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
+from scanmesh._progress import Stage
 from scanmesh.errors import FileFormatError
 from scanmesh.formats._source import check_text, line_at, quote
 
@@ -56,14 +57,14 @@ def raise_problem(
     path: Path,
     data: bytes,
     start: int,
-    problem: tuple[int, int, str],
+    problem: _core.TextProblem,
     expected: str,
     delimiter: str | None,
     context: str = "",
 ) -> None:
     """Raise the FileFormatError for a chunk starting at ``start`` that the native parser
-    refused with ``problem`` = (line index, byte offset within the chunk, kind)."""
-    _, offset, kind = problem
+    refused with ``problem`` (its byte offset within the chunk and kind)."""
+    offset, kind = problem.offset, problem.kind
     line, text = line_at(data, start + offset)
     if kind == "number":
         end = start + offset
@@ -355,7 +356,7 @@ def read_table(
     path: Path,
     data: bytes,
     what: str,
-    progress: Progress = False,
+    context: Context = QUIET,
     head: Head | None = None,
     split: Sequence[int] | None = None,
 ) -> Table:
@@ -368,7 +369,7 @@ def read_table(
     """
     head = read_head(path, data, what) if head is None else head
     n = len(data)
-    with Stage(progress, "read", n) as stage:
+    with context.stage("read", n) as stage:
         stage.update(head.start)
         rows = parse_rows(
             path,

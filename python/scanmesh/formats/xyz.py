@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh._progress import Progress
+from scanmesh._context import QUIET, Context
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import quote, read_bytes
 from scanmesh.formats.points import ScanPoints
@@ -206,7 +206,7 @@ def read_points_table(
     *,
     columns: Columns = None,
     decimal: str = ".",
-    progress: Progress = False,
+    context: Context = QUIET,
 ) -> ScanPoints:
     """Read a text file of points (``fmt`` "xyz" or "csv"; see the module doc for columns;
     ``decimal``: the decimal mark, "." or ",").
@@ -232,7 +232,7 @@ def read_points_table(
     elif ncols in (3, 4) and not (head.header and fmt == "csv"):
         chosen = {"x": 0, "y": 1, "z": 2}
     split = None if chosen is None else [chosen["x"], chosen["y"], chosen["z"]]
-    table = read_table(path, data, what, progress, head, split)
+    table = read_table(path, data, what, context, head, split)
     if chosen is None and head.header and fmt == "csv":
         raise FileFormatError(
             f"{path}, line {head.header_lines[-1]}: the header"
@@ -290,7 +290,7 @@ def read_xyz(
     *,
     columns: Columns = None,
     decimal: str = ".",
-    progress: Progress = False,
+    context: Context = QUIET,
 ) -> ScanPoints:
     """Read an XYZ text file (also ``.txt``, ``.asc`` without a grid header).
 
@@ -298,7 +298,7 @@ def read_xyz(
     module doc; ``decimal=","`` reads decimal commas (``1,5`` is 1.5; the values then
     separated by semicolons, tabs or spaces). Non-numeric lines at the top are a header;
     ``#`` lines are comments anywhere. Numbers are parsed natively in chunks, so Ctrl-C is
-    honoured between chunks; ``progress`` as in :func:`scanmesh.read`.
+    honoured between chunks; ``context``: the call's progress (:func:`scanmesh.read`).
 
     Returns
     -------
@@ -306,7 +306,7 @@ def read_xyz(
         ``points`` (N, 3) float64; ``line_ids`` (N,) int64 from a line-id column or from
         the blank-line blocks (0, 1, ...), or None when neither is present.
     """
-    return read_points_table(path, "xyz", columns=columns, decimal=decimal, progress=progress)
+    return read_points_table(path, "xyz", columns=columns, decimal=decimal, context=context)
 
 
 def xyz_rows(

@@ -2,7 +2,7 @@
 
 A scan line is an ordered list of point indices; a gap inside a line (a hole, a bore, a
 missed region) splits it into segments, and strips never bridge gaps. All rules work on
-the points projected onto the triangulation plane (see ``scanmesh_core::lines`` for the
+the points projected onto the triangulation plane (see ``scanmesh_core::strips`` for the
 exact rules); in short, with h the median step between consecutive points:
 
 - a step that turns more than 45 degrees from the line's direction (a reversal of the

@@ -12,6 +12,7 @@ on, and ``Surface.frame`` is the frame every stage worked in.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Callable, Hashable, Mapping
@@ -24,6 +25,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_line_ids, as_points
+from scanmesh._context import Context
 from scanmesh._progress import Progress
 from scanmesh.errors import ParameterError
 from scanmesh.formats import ScanPoints, read
@@ -146,12 +148,14 @@ class PlanarScan:
 
     def _segments(self, gap_factor: float) -> ScanLines:
         ids = self.line_ids_for(gap_factor)
-        lines, median_step, gap, duplicates = _core.scan_segments(self.uv, ids, gap_factor)
-        for line in lines:
+        s = _core.scan_segments(self.uv, ids, gap_factor)
+        for line in s.lines:
             for segment in line:
                 segment.flags.writeable = False
-        duplicates.flags.writeable = False
-        return ScanLines(lines=lines, median_step=median_step, gap=gap, duplicates=duplicates)
+        s.duplicates.flags.writeable = False
+        return ScanLines(
+            lines=s.lines, median_step=s.median_step, gap=s.gap, duplicates=s.duplicates
+        )
 
     def __repr__(self) -> str:
         lines = "" if self.line_ids is None else ", with line ids"
@@ -160,7 +164,7 @@ class PlanarScan:
 
 
 def planar_scan(
-    source: ArrayLike | str | os.PathLike | PlanarScan,
+    source: ArrayLike | str | os.PathLike | PlanarScan | ScanPoints,
     *,
     plane: PlaneSpec = None,
     lines: ArrayLike | None = None,
@@ -171,10 +175,11 @@ def planar_scan(
 
     Parameters
     ----------
-    source : (N, 3) float array, path or PlanarScan
+    source : (N, 3) float array, path, ScanPoints or PlanarScan
         The points, or a scan file (:func:`scanmesh.read`; its line ids are used unless
-        ``lines`` is given). A PlanarScan is returned as it is (``plane`` and ``lines``
-        must then be left out or agree with it).
+        ``lines`` is given), or what :func:`scanmesh.read` returned (the same). A
+        PlanarScan is returned as it is (``plane`` and ``lines`` must then be left out or
+        agree with it).
     plane : None, "best-fit", "x", "y", "z" or (3,) float
         Projection plane (see :func:`scanmesh.project`), obeyed as given. None (default):
         chosen by the data (:func:`scanmesh.scan.plane_choice.choose_plane`): among the
@@ -201,28 +206,9 @@ def planar_scan(
     if isinstance(source, (str, os.PathLike)):
         t0 = time.perf_counter()
         path = Path(source)
-        recorded = input_file(path)
-        scan = read_scan_file(path, progress, read_options or {})
-        if lines is None:  # a closed mesh's vertices are no scan: scan the part instead
-            scan = scan_closed_part(scan, plane) or scan
-        seconds = time.perf_counter() - t0
-        ids = scan.line_ids if lines is None else lines
-        made = as_scan(scan.points, plane=plane, lines=ids, up=scan.up)
-        return PlanarScan(
-            points=made.points,
-            uv=made.uv,
-            frame=made.frame,
-            line_ids=made.line_ids,
-            plane=made.plane,
-            source=path,
-            choice=made.choice,
-            timings={"read": seconds, **made.timings},
-            source_file=recorded,
-            point_data=scan.point_data,
-            grid=scan.grid,
-            up=made.up,
-            georef=scan.georef,
-        )
+        recorded = input_file(path)  # before reading: no writer may replace what was read
+        scan = read_scan_file(path, Context.of(progress), read_options or {})
+        return dataclasses.replace(_of_read(scan, plane, lines, recorded, t0), source=path)
     if read_options:
         raise ParameterError(
             f"reader options {sorted(read_options)} apply to files only, not to arrays"
@@ -230,14 +216,42 @@ def planar_scan(
     return as_scan(source, plane=plane, lines=lines)
 
 
-def read_scan_file(path: Path, progress: Progress, options: Mapping[str, Any]) -> ScanPoints:
+def read_scan_file(path: Path, context: Context, options: Mapping[str, Any]) -> ScanPoints:
     """The one place a scan file is read for triangulation, with the reader's options
     (such as the columns to use)."""
-    return read(path, progress=progress, **options)
+    return read(path, progress=context.progress, **options)
+
+
+def _of_read(
+    scan: ScanPoints,
+    plane: PlaneSpec,
+    lines: ArrayLike | None,
+    recorded: InputFile | None = None,
+    t0: float | None = None,
+) -> PlanarScan:
+    """What :func:`scanmesh.read` returned, checked and projected: its points, its line ids
+    (unless ``lines`` is given), its recorded ``up``, range grid, georeference and
+    ``point_data``, its file as the scan's source (``recorded``: as recorded before
+    reading; else recorded now, by absolute path and inode, so that no writer replaces
+    it); ``t0``: when the reading started (``timings["read"]``)."""
+    if lines is None:  # a closed mesh's vertices are no scan: scan the part instead
+        scan = scan_closed_part(scan, plane) or scan
+    read_seconds = {} if t0 is None else {"read": time.perf_counter() - t0}
+    ids = scan.line_ids if lines is None else lines
+    made = as_scan(scan.points, plane=plane, lines=ids, up=scan.up)
+    return dataclasses.replace(
+        made,
+        source=scan.source,
+        source_file=input_file(scan.source) if recorded is None else recorded,
+        timings={**read_seconds, **made.timings},
+        point_data=scan.point_data,
+        grid=scan.grid,
+        georef=scan.georef,
+    )
 
 
 def as_scan(
-    points: ArrayLike | PlanarScan,
+    points: ArrayLike | PlanarScan | ScanPoints,
     *,
     plane: PlaneSpec = None,
     lines: ArrayLike | None = None,
@@ -246,7 +260,11 @@ def as_scan(
     """``points`` as a PlanarScan: projected now from an array (a path is refused as points)
     on ``plane``, or for None on the plane chosen by the data (``up``: the direction the
     file records, a candidate, kept as ``PlanarScan.up``); or a PlanarScan checked to agree
-    with ``plane`` and ``lines``."""
+    with ``plane`` and ``lines``; or what :func:`scanmesh.read` returned (a
+    :class:`ScanPoints`: its line ids, recorded ``up``, range grid, georeference, file and
+    ``point_data`` kept, as :func:`planar_scan` keeps them for its file)."""
+    if isinstance(points, ScanPoints):
+        return _of_read(points, plane, lines)
     if isinstance(points, PlanarScan):
         if plane is not None and not same_plane(plane, points.plane):
             raise ParameterError(

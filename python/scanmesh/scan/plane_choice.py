@@ -34,7 +34,7 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh.errors import ScanmeshError
-from scanmesh.scan.locate import normal_distances
+from scanmesh.judge import Seen, distances, rms, withhold
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.scan.spacing import trim_length
 from scanmesh.scan.steep import steep_fraction
@@ -190,25 +190,22 @@ def holdout(points: np.ndarray, normal: np.ndarray) -> tuple[float, float] | Non
     candidates seen along different normals compare. The outside share is that of the
     withheld points beyond the outline. O(M log M)."""
     n = len(points)
-    rng = np.random.default_rng(SAMPLE_SEED)
-    out = np.zeros(n, dtype=bool)
-    out[rng.choice(n, size=max(1, n // 10), replace=False)] = True
+    out = withhold(n, max(1, n // 10), np.random.default_rng(SAMPLE_SEED))
     kept = points[~out]
     faces = quick_faces(kept, normal)
     if faces is None:
         return None
-    axes = plane_axes(normal)
-    tri = kept[faces]
-    got, face = normal_distances(points[out], tri, axes, normal)
+    seen = Seen(kept[faces], normal, plane_axes(normal))
+    got, face = distances(points[out], seen)
     inside = face >= 0
     if not inside.any():
         return None
     held = face[inside]
     along = got[inside]
+    tri = seen.tri
     cross = np.cross(tri[held, 1] - tri[held, 0], tri[held, 2] - tri[held, 0])
     cosine = np.abs(cross @ normal) / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)
-    distance = along * cosine
-    return float(np.sqrt(np.mean(distance * distance))), 1.0 - float(inside.mean())
+    return rms(along * cosine), 1.0 - float(inside.mean())
 
 
 def settled(measured: dict[str, tuple[float, float] | None]) -> bool:

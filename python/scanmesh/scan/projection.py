@@ -75,7 +75,11 @@ _TOO_LARGE = (
 def check_span(points: np.ndarray) -> None:
     """Refuse (DegenerateInputError) finite points whose differences overflow float64: the
     plane, the projection and every measure work on differences. O(N)."""
-    if len(points) and not np.isfinite(points.max(axis=0) - points.min(axis=0)).all():
+    if not len(points):
+        return
+    with np.errstate(over="ignore"):  # the overflow is what is looked for, not a fault
+        span = points.max(axis=0) - points.min(axis=0)
+    if not np.isfinite(span).all():
         raise DegenerateInputError(_TOO_LARGE)
 
 

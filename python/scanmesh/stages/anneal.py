@@ -11,8 +11,9 @@ import numpy as np
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
-from scanmesh._progress import Progress, Stage, accepts, anneal_progress
+from scanmesh._progress import Progress, accepts, anneal_progress
 from scanmesh.scan.noise import noise_tolerance
 from scanmesh.stages.options import (
     CORE_ANNEAL_DEFAULTS,
@@ -35,8 +36,8 @@ ANNEAL_DEFAULTS: dict[str, Any] = {
     k: v for k, v in CORE_ANNEAL_DEFAULTS.items() if k not in PYTHON_HANDLED
 }
 
-#: Most tiles per chain (the core's limit).
-MAX_TILES: int = 64
+#: Most tiles per chain (the core's limit, read from it).
+MAX_TILES: int = _core.MAX_TILES
 
 #: Each native call runs at most this long (seconds) before Python checks for Ctrl-C and
 #: reports progress: bounded in time, not in proposals, so the latency holds on slow machines.
@@ -304,6 +305,7 @@ def anneal_surface(
     *,
     seed: int | None = None,
     progress: Progress = False,
+    fixed: np.ndarray | None = None,
     **schedule: Any,
 ) -> Surface:
     """Anneal ``initial``'s triangulation in its projection plane, minimizing sum tac^p.
@@ -323,6 +325,10 @@ def anneal_surface(
         ``seconds_left=`` (see :func:`seconds_left`; None while unknown) if it takes that
         keyword or ``**kwargs``. A callable that takes ``stage=`` also hears the stages
         around the sweeps, "noise", "calibrate" and "polish" (``scanmesh._progress``).
+    fixed : (K, 2) int, optional
+        Edges of ``initial`` (pairs of point indices) that no flip may remove: the walk, the
+        descent and the polish keep them (``stages.strips_anneal`` keeps the strips' steps
+        so). Not with ``tiles`` > 1.
     **schedule
         ``sweeps`` (automatic: a budget of 24 proposals per point, at least 2 million in
         all, shared by the chains, between 8 and 1000 sweeps; ``AnnealParams.auto_sweeps``),
@@ -376,14 +382,29 @@ def anneal_surface(
         starts or polishes a large input; the run is discarded.
     """
     params = check_options(OPTIONS, schedule, "annealing")
+    given = None if seed is None else SEED_OPTION.check(seed)
+    return build_anneal(initial, params, Context.of(progress, given), fixed)
+
+
+def build_anneal(
+    initial: Surface,
+    params: dict[str, Any],
+    context: Context = QUIET,
+    fixed: np.ndarray | None = None,
+) -> Surface:
+    """:func:`anneal_surface` without its checks: ``params`` the checked options of
+    :data:`OPTIONS`, the seed and the progress those of the call (``context``), as the
+    registry (``scanmesh.methods``) has them, ``fixed`` the edges kept. Same result,
+    warnings and errors otherwise."""
+    params = dict(params)
     time_limit = params.pop("time_limit")
-    seed_value = 0 if seed is None else SEED_OPTION.check(seed)
+    seed_value = context.seed
     start = planar_start(initial, "annealing")
     scan = start.scan
     assert scan is not None
     t0 = time.perf_counter()
     n = len(scan.points)
-    with Stage(progress, "noise", n, blocking=True):
+    with context.stage("noise", n, blocking=True):
         sigma, params["tie_tolerance"] = noise_tolerance(
             start, params["p"], params["tie_tolerance"], ANNEAL_DEFAULTS["tie_tolerance"]
         )
@@ -393,7 +414,7 @@ def anneal_surface(
     local = np.full(n, -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
     params = planned(params, len(keep), start.faces)
-    with Stage(progress, "calibrate", len(start.faces), blocking=True):
+    with context.stage("calibrate", len(start.faces), blocking=True):
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
             CALIBRATE_COST * len(keep),
@@ -403,11 +424,12 @@ def anneal_surface(
                 local[start.faces],
                 _core.AnnealParams(seed=seed_value, **params),
                 curtain_sight(scan),
+                None if fixed is None else local[np.asarray(fixed, dtype=np.int64)],
             ),
         )
     total = runner.chains * params["sweeps"]
-    stopped = drive(runner, total, anneal_progress(progress), time_limit)
-    with Stage(progress, "polish", len(start.faces), blocking=True):
+    stopped = drive(runner, total, anneal_progress(context.progress), time_limit)
+    with context.stage("polish", len(start.faces), blocking=True):
         outcome = interruptible(len(keep), runner.finish)
     if stopped is None:
         stopped = outcome.stopped

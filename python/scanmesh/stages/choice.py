@@ -7,16 +7,21 @@ a window of at most ``WINDOW`` points (whole scan lines around the middle one), 
 tenth of the points is withheld, every candidate is built on the rest, and each withheld
 point's distance to each mesh along the projection normal is measured (the measure of
 :func:`scanmesh.evaluate.holdout.holdout_error`), on the points that every candidate's mesh
-covers. Disjoint tenths are withheld in turn until at least ``MEASURED`` points are measured
-(at most ten: every point once). The lowest RMS wins (on exact ties the earlier candidate)
-among the candidates whose meshes have at most ``SLIVERS`` slivers.
+covers and that lie on no step: a withheld point whose holding face is tilted more than
+``STEP_TILT`` from the plane in any candidate's mesh is left out (unless more than
+``STEP_SHARE`` of them are: a steep surface, not a step), since a point beside a wall is
+exactly where the strips must bridge and the holdout would rank them last there (the
+pocket, the rod along its thickness). Disjoint tenths are withheld in turn until at least
+``MEASURED`` points are measured (at most ten: every point once). The lowest RMS wins
+among the candidates whose meshes have at most ``SLIVERS`` slivers, except that the first
+candidate stays unless the winner is more than ``PREFER`` lower.
 The winner is then built on all points (``methods``: on a gridded scan the grid
-triangulation where Delaunay wins, since the parts carry no grid). On a gridded scan the
-strips are no candidate (``GRID_CANDIDATES``): the default stays inside the grid's domain.
+triangulation where Delaunay wins, since the parts carry no grid). The candidates are the
+registry's (``methods.CANDIDATES``); on a gridded scan the strips are none
+(``methods.GRID_CANDIDATES``): the default stays inside the grid's domain.
 
-The judge sees what a holdout sees: on real scans it agrees with the panel's holdout; on
-the stepped pocket it ranks the strips last while they are closest to the part (a withheld
-point beside a step is where strips bridge it), so there annealing stays.
+The judge sees what a holdout sees away from steps: on real scans it agrees with the
+panel's holdout; measurements in docs/benchmarks/panel.md.
 """
 
 from __future__ import annotations
@@ -30,24 +35,13 @@ from typing import Any
 
 import numpy as np
 
-from scanmesh._progress import Progress, Stage
+from scanmesh._context import QUIET, Context
 from scanmesh.errors import ScanmeshError
+from scanmesh.judge import Seen, rms
+from scanmesh.judge import distances as normal_distances
 from scanmesh.scan.lines import GAP_FACTOR
-from scanmesh.scan.locate import normal_distances
 from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.surface import Surface
-
-#: Candidates, in order of preference (the earlier wins an exact tie). Look-ahead is left
-#: out: it never beat shortest-path by more than 0.1 % on the panel, and its defect on the
-#: fandisk (40 x the height error) does not show in a holdout.
-CANDIDATES: tuple[str, ...] = ("anneal", "lop", "delaunay", "shortest-path")
-
-#: Candidates on a gridded scan: those that stay inside the grid's domain (the grid, for
-#: which Delaunay stands in on the judge's parts, and LOP and annealing started from it).
-#: The strips join neighbouring lines wherever both have samples, whatever the scanner saw
-#: between them: on the conrod scanned along y (benches/curtains.py) the holdout picked them
-#: and the default missed 1.62 points more of the part than the best peer, the grid 0.54 less.
-GRID_CANDIDATES: tuple[str, ...] = ("anneal", "lop", "delaunay")
 
 #: Points of the window the candidates are judged on, at most (whole lines).
 WINDOW: int = 20_000
@@ -71,10 +65,30 @@ OUTSIDE: float = 0.10
 #: scan has 2,205 points, says nothing of which method wins there.
 MIN_POINTS: int = 1_000
 
+#: The first candidate is kept unless another measures more than this share lower: on the
+#: pocket at s/10 the strips annealed and Delaunay differ by 0.05 % in the holdout while the
+#: former is 8 % closer to the part (the noise, not the mesh, fills the holdout there).
+PREFER: float = 0.01
+
+#: A withheld point whose holding face in any candidate's mesh is tilted more than this
+#: from the projection plane (degrees) lies beside a step and is not judged.
+STEP_TILT: float = 45.0
+
+#: Steps are lines in the plane, a small share of the points: where more of the covered
+#: withheld points than this share lie on steep faces, the surface is steep (fran_cut, a
+#: cylindrical scan seen flat: 54 %), not stepped, and every covered point is judged.
+STEP_SHARE: float = 0.25
+
+#: The method built when nothing was judged (a window under ``MIN_POINTS``): annealing,
+#: which needs no scan lines (the strips on a few points in no scan order would follow
+#: lines detected from noise).
+FALLBACK: str = "anneal"
+
 #: What the holdout figures measure, for reports.
 MEASURE = (
     "RMS distance along the projection normal from withheld window points to each"
-    " candidate's mesh of the other window points, on the points every mesh covers"
+    " candidate's mesh of the other window points, on the points every mesh covers where"
+    f" no mesh's face is tilted over {STEP_TILT:g} degrees"
 )
 
 
@@ -145,16 +159,16 @@ def folds(n: int, seed: int, measured: int = MEASURED) -> list[np.ndarray]:
     return [np.sort(perm[f::10]) for f in range(k)]
 
 
-def distances(
-    points: np.ndarray, kept: np.ndarray, out: np.ndarray, surface: Surface
-) -> np.ndarray:
-    """(len(out),) float64 distance along ``surface``'s projection normal from each withheld
-    point ``points[out]`` to ``surface`` (built on ``points[kept]``); nan outside its
-    outline or in its holes. ``points`` (W, 3) float64. O((F + len(out)) log F)."""
-    frame = surface.frame
-    axes = np.column_stack([frame.u, frame.v])
-    tri = surface.vertices[surface.faces]  # (F, 3, 3): the points[kept] it was built on
-    return normal_distances(points[out], tri, axes, frame.normal)[0]
+def _on_steps(seen: Seen, face: np.ndarray) -> np.ndarray:
+    """(K,) bool: the triangle ``face`` (-1: none) of ``seen`` holding each withheld point
+    is tilted more than ``STEP_TILT`` from the plane (a step). O(F + K)."""
+    tri = seen.tri
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    tilt = np.arctan2(np.linalg.norm(np.cross(n, seen.normal), axis=1), np.abs(n @ seen.normal))
+    steep = np.zeros(len(face), dtype=bool)
+    held = face >= 0
+    steep[held] = tilt[face[held]] > math.radians(STEP_TILT)
+    return steep
 
 
 def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
@@ -167,28 +181,30 @@ def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
 def choose(
     scan: PlanarScan,
     build: Callable[[str, PlanarScan], Surface],
-    seed: int = 0,
-    candidates: tuple[str, ...] = CANDIDATES,
-    progress: Progress = False,
+    candidates: tuple[str, ...],
+    context: Context = QUIET,
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
     ``build(name, part)`` builds candidate ``name`` on a part of the scan. The window is
     :func:`window` of the scan's line ids (given, else detected), the withheld tenths
-    :func:`folds` of it, seeded by ``seed``; reports the stage "choose" (builds). A
+    :func:`folds` of it, seeded by the call's seed; reports the stage "choose" (builds) to
+    the call's progress (``context``). A
     candidate whose build fails on a part is not judged; a window under ``MIN_POINTS``
-    points is not judged at all (the first candidate). O(folds x candidates x a build of
+    points is not judged at all (``FALLBACK``). O(folds x candidates x a build of
     WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
-    parts = folds(len(win), seed, MEASURED) if len(win) >= MIN_POINTS else []
+    parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
     dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
+    steps: list[np.ndarray] = []  # per tenth: withheld points on a step in some mesh
     slivers = dict.fromkeys(candidates, 0.0)
     seconds = dict.fromkeys(candidates, 0.0)
-    with Stage(progress, "choose", len(parts) * len(candidates)) as stage:
+    with context.stage("choose", len(parts) * len(candidates)) as stage:
         for out in parts:
             kept = np.setdiff1d(np.arange(len(win)), out)
             part = _part(scan, lines, win[kept])
+            steps.append(np.zeros(len(out), dtype=bool))
             for name in candidates:
                 t0 = time.perf_counter()
                 try:
@@ -199,7 +215,11 @@ def choose(
                     dist[name].append(np.full(len(out), np.nan))
                     slivers[name] = math.inf
                 else:
-                    dist[name].append(distances(scan.points[win], kept, out, surface))
+                    held = scan.points[win][out]
+                    seen = Seen.of(surface)
+                    got, face = normal_distances(held, seen)
+                    dist[name].append(got)
+                    steps[-1] |= _on_steps(seen, face)
                     slivers[name] += surface.quality.sliver_fraction / len(parts)
                 seconds[name] += time.perf_counter() - t0
                 stage.update(stage.done + 1)
@@ -209,15 +229,20 @@ def choose(
     # a candidate leaving many more points outside its outline than the fewest is not judged
     fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
     covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
+    flat = ~np.concatenate(steps) if steps else np.ones(0, dtype=bool)
+    if covered.any() and (covered & ~flat).sum() <= STEP_SHARE * covered.sum():
+        covered &= flat
     holdout = {
-        name: float(np.sqrt(np.mean(d[covered] ** 2)))
-        if name in fair and covered.any()
-        else math.nan
+        name: rms(d[covered]) if name in fair and covered.any() else math.nan
         for name, d in joined.items()
     }
     measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
     few = {k: v for k, v in measured.items() if slivers[k] <= SLIVERS} or measured
-    chosen = min(few, key=few.__getitem__) if few else candidates[0]
+    fallback = FALLBACK if FALLBACK in candidates else candidates[0]
+    chosen = min(few, key=few.__getitem__) if few else fallback
+    first = candidates[0]
+    if chosen != first and first in few and few[first] <= few[chosen] * (1.0 + PREFER):
+        chosen = first
     return MethodChoice(
         chosen=chosen,
         holdout=holdout,
@@ -235,8 +260,5 @@ __all__ = [
     "choose",
     "window",
     "folds",
-    "distances",
-    "CANDIDATES",
-    "GRID_CANDIDATES",
     "WINDOW",
 ]

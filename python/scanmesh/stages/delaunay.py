@@ -12,11 +12,11 @@ from scanmesh._interrupt import interruptible
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import CoincidentPointsWarning, DegenerateInputError
 from scanmesh.formats import ScanPoints
-from scanmesh.scan.planar import PlanarScan
+from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.scan.projection import PlaneSpec
+from scanmesh.scan.slivers import columns_advice, line_id_axis
 from scanmesh.scan.spacing import trim_length
 from scanmesh.stages.options import JUMP_FACTOR, MAX_EDGE_OPTION
-from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 
@@ -74,7 +74,7 @@ def delaunay(
         Wrong shape, non-finite values, fewer than 3 distinct points, collinear points, or
         a trimming length that leaves no triangle.
     """
-    scan = scan_of(points, plane=plane)
+    scan = as_scan(points, plane=plane)
     if max_edge is not None:
         max_edge = MAX_EDGE_OPTION.check(max_edge)  # before the work, not after it
     pts, uv = scan.points, scan.uv
@@ -140,7 +140,10 @@ def _why_nothing_kept(scan: PlanarScan, limit: float) -> str:
             " field over this plane: plane=None chooses one over which it is, or give another"
             " plane="
         )
-    return (
+    text = (
         f"trimming at max_edge={limit:.6g} left no triangle: the points are too sparse for"
-        " it (give a larger max_edge, or another plane=)"
+        " it (give a larger max_edge=, or another plane=)"
     )
+    if line_id_axis(scan.points):  # more likely than sparse points: say it
+        text += "; " + columns_advice(scan.points, scan.plane)
+    return text

@@ -21,18 +21,19 @@ annealing can start from them and flip inside their outline.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
-from scanmesh._progress import Progress, Stage
+from scanmesh._progress import Progress
 from scanmesh.errors import DegenerateInputError, ParameterError
 from scanmesh.formats import ScanPoints
-from scanmesh.scan.planar import PlanarScan
+from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.scan.projection import PlaneSpec
-from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 #: The grid method's options (also those of the "grid" start of LOP and annealing).
@@ -106,10 +107,17 @@ def grid_surface(
     DegenerateInputError
         No candidate is kept.
     """
-    scan = scan_of(source, plane=plane)
+    scan = as_scan(source, plane=plane)
     params = check_options(
         OPTIONS, {"max_turn": max_turn, "edge_factor": edge_factor}, "grid triangulation"
     )
+    return build_grid(scan, params, Context.of(progress))
+
+
+def build_grid(scan: PlanarScan, params: dict[str, Any], context: Context = QUIET) -> Surface:
+    """:func:`grid_surface` of ``scan`` without its option checks: ``params`` checked
+    (:data:`OPTIONS`), the progress the call's (``context``), as the registry
+    (``scanmesh.methods``) has them. Same result, warnings and errors otherwise."""
     if scan.grid is not None and not is_gridded(scan):
         shape = " x ".join(map(str, scan.grid.shape))
         raise DegenerateInputError(
@@ -124,7 +132,7 @@ def grid_surface(
     grid = scan.grid
     assert grid is not None
     t0 = time.perf_counter()
-    with Stage(progress, "grid", grid.size, blocking=True):
+    with context.stage("grid", grid.size, blocking=True):
         result = interruptible(
             grid.size,
             _core.grid_triangulate,

@@ -92,11 +92,11 @@ def lop_surface(
         scan.uv,
         start.faces,
         params["criterion"],
-        params["p"],
-        params["sliver_guard"],
-        params["tie_tolerance"],
-        curtain_sight(scan),
-        params["curtain_angle"],
+        p=params["p"],
+        sliver_guard=params["sliver_guard"],
+        tie_tolerance=params["tie_tolerance"],
+        sight=curtain_sight(scan),
+        curtain_angle=params["curtain_angle"],
     )
     return Surface(
         vertices=scan.points,

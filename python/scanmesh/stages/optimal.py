@@ -114,7 +114,7 @@ MIP_REL_GAP: float = 1e-6
 #: when it converges); HiGHS gets the rest.
 FAN_SHARE: float = 0.5
 
-#: Seconds HiGHS may run past the time it was given before its child process is killed
+#: Seconds HiGHS may run past the time it was given before its helper process is killed
 #: (its presolve checks the limit only between passes): the whole call then ends within
 #: about this much of ``time_limit``.
 KILL_AFTER_SECONDS: float = 0.25
@@ -260,7 +260,7 @@ def optimal_surface(
         # the assembly (at least a twentieth of it, for HiGHS to return what it finds)
         options["time_limit"] = max(limit - (t2 - started), 0.05 * limit)
     # HiGHS can run for minutes past its time limit (one presolve pass took 26 s under
-    # time_limit=8): in a child process, killed KILL_AFTER_SECONDS after its own limit or
+    # time_limit=8): in a helper process, killed KILL_AFTER_SECONDS after its own limit or
     # on Ctrl-C
     deadline = None
     if math.isfinite(limit):

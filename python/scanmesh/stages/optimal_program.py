@@ -18,10 +18,9 @@ from scanmesh import _core
 from scanmesh._checks import power_of_two_unit
 from scanmesh._interrupt import UNBOUNDED, interruptible
 from scanmesh.formats import ScanPoints
-from scanmesh.scan.planar import PlanarScan
+from scanmesh.scan.planar import PlanarScan, as_scan
 from scanmesh.scan.projection import PlaneSpec
 from scanmesh.stages.delaunay import delaunay
-from scanmesh.stages.source import scan_of
 from scanmesh.surface import Surface
 
 if TYPE_CHECKING:
@@ -60,7 +59,7 @@ class _Instance:
 
 def _instance(points: ArrayLike | PlanarScan | ScanPoints, plane: PlaneSpec) -> _Instance:
     t0 = time.perf_counter()
-    scan = scan_of(points, plane=plane)
+    scan = as_scan(points, plane=plane)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         base = delaunay(scan, max_edge=math.inf)

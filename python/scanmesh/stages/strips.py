@@ -22,13 +22,15 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import Option, check_options
+from scanmesh._context import QUIET, Context
 from scanmesh._interrupt import interruptible
-from scanmesh._progress import Progress, Stage
+from scanmesh._progress import Progress
 from scanmesh.errors import (
     CoincidentPointsWarning,
+    CrossingLinesWarning,
     DegenerateInputError,
     ParameterError,
-    ScanmeshWarning,
+    UnusedPointsWarning,
 )
 from scanmesh.formats import count_lines
 from scanmesh.scan.lines import GAP_FACTOR_OPTION
@@ -64,21 +66,6 @@ DEFAULT_ALPHA: int = 3
 #: Shortest-path solvers: "banded" (DP in a widening band, near-linear), "dp" (the whole
 #: matrix, O(nm)) and "dijkstra" (binary heap, as the seed paper, O(nm log nm)).
 SOLVERS: tuple[str, ...] = ("banded", "dp", "dijkstra")
-
-METHODS: tuple[str, ...] = ("shortest-path", "lookahead")
-
-
-class CrossingLinesWarning(ScanmeshWarning):
-    """Scan lines cross or fold in the plane, so some strips overlapped there.
-
-    The overlapping triangles were dropped (``options["dropped_overlaps"]`` counts them),
-    so the mesh returned is still a manifold, valid triangulation in the plane.
-    """
-
-
-class UnusedPointsWarning(ScanmeshWarning):
-    """Some points are in no strip: isolated points outside every strip, or line ends that
-    overhang both neighbouring lines by more than half a gap."""
 
 
 #: Rows of the planar coordinates whose rank :func:`_spans_plane` tries first.
@@ -162,7 +149,8 @@ JUMP_OPTION = Option(
     finite=False,
 )
 
-#: The options of each strip method, by method name.
+#: The options of each strip method, by method name (the registry, ``scanmesh.methods``,
+#: takes them from here).
 OPTIONS: dict[str, tuple[Option, ...]] = {
     "shortest-path": (
         WEIGHT_OPTION,
@@ -202,13 +190,14 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
 SolvedStrips = _core.StripResult
 
 
-def _expected_cost(n: int, n_lines: int, method: str, params: Mapping[str, Any]) -> float:
+def _expected_cost(n: int, n_lines: int, params: Mapping[str, Any]) -> float:
     """What :func:`solve_strips` costs, in the unit of ``scanmesh._interrupt.interruptible``
     (points of a linear-time stage), counted generously as path-matrix cells: the banded
     solver is near-linear (n), the whole-matrix solvers ("dp", "dijkstra") visit about
-    n^2 / lines cells, the look-ahead n alpha^2 (at most the whole matrices). O(1)."""
+    n^2 / lines cells, the look-ahead (the method with a depth ``alpha``) n alpha^2 (at most
+    the whole matrices). O(1)."""
     whole = n * (n / max(n_lines, 1))
-    if method == "lookahead":
+    if "alpha" in params:
         return min(n * float(params.get("alpha", DEFAULT_ALPHA)) ** 2, whole)
     return whole if params.get("solver", "banded") in ("dp", "dijkstra") else float(n)
 
@@ -220,29 +209,29 @@ def solve_strips(
     method: str,
     params: Mapping[str, Any],
     gap_factor: float,
-    context: tuple | None = None,
+    context: _core.ScanContext | None = None,
 ) -> SolvedStrips:
     """The strips between consecutive lines of ``points`` (N, 3) with planar positions
     ``uv`` (N, 2) and ``line_ids`` (N,), by ``method`` with checked ``params``
     (:data:`OPTIONS`); ``context`` solves them as part of a larger scan
     (``_core.strip_mesh``). Time: that of the method, see :func:`strip_surface`."""
     n = max(len(points), 1)
-    return _core.strip_mesh(
-        points,
-        uv,
-        line_ids,
-        tuple(params["weight"].values()),
+    # The method's own options (OPTIONS): the core refuses one it would not use. Depths
+    # and widths beyond the longest strip change nothing (each strip has fewer than
+    # len(points) steps): capped, so that 10**30 is not an OverflowError.
+    own: dict[str, Any] = {k: int(min(params[k], n)) for k in ("alpha", "band") if k in params}
+    if "solver" in params:
+        own["solver"] = params["solver"]
+        if params["solver"] != "banded":
+            del own["band"]
+    core = _core.StripParams(
         method,
-        # Depths and widths beyond the longest strip change nothing (each strip has
-        # fewer than len(points) steps): capped, so that 10**30 is not an OverflowError.
-        int(min(params.get("alpha", DEFAULT_ALPHA), n)),
-        params.get("solver", "banded"),
-        int(min(params.get("band", _core.DEFAULT_BAND), n)),
-        gap_factor,
-        params["check"],
-        params["jump_factor"],
-        context,
+        weight=params["weight"],
+        check=params["check"],
+        jump_factor=params["jump_factor"],
+        **own,
     )
+    return _core.strip_mesh(points, uv, line_ids, core, gap_factor, context)
 
 
 def strip_surface(
@@ -339,23 +328,32 @@ def strip_surface(
         fewer than two lines with two points each, or no triangle left (every one bridged
         a depth jump or overlapped others: the scan folds onto itself in the plane).
     """
-    if method not in METHODS:
-        raise ParameterError(f"method must be one of {METHODS}, got {method!r}")
+    if method not in OPTIONS:
+        raise ParameterError(f"method must be one of {tuple(OPTIONS)}, got {method!r}")
     params = check_options(OPTIONS[method], options, f"method {method!r}")
-    k = params["gap_factor"]
     scan = as_scan(points, plane=plane, lines=lines)
+    return build_strips(scan, method, params, Context.of(progress))
+
+
+def build_strips(
+    scan: PlanarScan, method: str, params: dict[str, Any], context: Context = QUIET
+) -> Surface:
+    """:func:`strip_surface` of ``scan`` without its checks: ``method`` a key of
+    :data:`OPTIONS` and ``params`` its options checked, as the registry
+    (``scanmesh.methods``) has them. Same result, warnings and errors otherwise."""
+    k = params["gap_factor"]
     pts, uv = scan.points, scan.uv
     if not _spans_plane(uv):
         raise DegenerateInputError(
             "all points are collinear after projection onto the plane: choose another plane"
         )
     t1 = time.perf_counter()
-    with Stage(progress, "lines", len(pts), blocking=True):
+    with context.stage("lines", len(pts), blocking=True):
         ids = scan.line_ids_for(k)  # detected once per gap factor, kept with the scan
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
-    with Stage(progress, "strips", len(pts), blocking=True):
-        work = _expected_cost(len(pts), n_lines, method, params)
+    with context.stage("strips", len(pts), blocking=True):
+        work = _expected_cost(len(pts), n_lines, params)
         solved = interruptible(work, solve_strips, pts, uv, ids, method, params, k)
     faces, unused, duplicates = solved.faces, solved.unused, solved.duplicates
     n_strips, cost, planar_error = solved.n_strips, solved.cost, solved.planar_error

@@ -8,6 +8,7 @@
 //! multiplies are made with `try_reserve`, so both end in an [`Error::TooCostly`] that names
 //! the option.
 
+use crate::error::describe_bytes;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::TryReserveError;
@@ -23,22 +24,22 @@ const COUNT_BLOCK: usize = 1 << 14;
 /// Most flip proposals (calibration included, all chains together) one annealing run may
 /// plan: about 18 hours on one core at [`PROPOSALS_PER_SECOND`]; 3,000 sweeps on a million
 /// points plan 9 × 10^9.
-pub const MAX_PROPOSALS: u64 = 1_000_000_000_000;
+pub(crate) const MAX_PROPOSALS: u64 = 1_000_000_000_000;
 
 /// Most calibration proposals (all chains together) before a run's first sweep: about a
 /// second and a half on one core. Calibration runs when the run is set up, before a caller
 /// can interrupt it, so its bound is much tighter than [`MAX_PROPOSALS`]; the default
 /// (2,000 samples) allows 10,000 chains.
-pub const MAX_CALIBRATION_PROPOSALS: u64 = 20_000_000;
+pub(crate) const MAX_CALIBRATION_PROPOSALS: u64 = 20_000_000;
 
 /// Proposals per second of one annealing chain on one core, measured on the rod
 /// (docs/benchmarks/speed.md, "Annealing throughput": 11-15 million): only for the time in
 /// messages.
-pub const PROPOSALS_PER_SECOND: f64 = 15e6;
+pub(crate) const PROPOSALS_PER_SECOND: f64 = 15e6;
 
 /// `count` of `what` (proposals) as a time on one core at [`PROPOSALS_PER_SECOND`], for
 /// messages. O(1).
-pub fn describe_proposals(count: u64, what: &str) -> String {
+pub(crate) fn describe_proposals(count: u64, what: &str) -> String {
     let seconds = count as f64 / PROPOSALS_PER_SECOND;
     let time = if seconds < 120.0 {
         format!("{seconds:.0} s")
@@ -50,24 +51,10 @@ pub fn describe_proposals(count: u64, what: &str) -> String {
     format!("{count:.3e} {what} (about {time} on one core)")
 }
 
-/// `bytes` for messages: GiB, MiB or bytes. O(1).
-pub fn describe_bytes(bytes: u64) -> String {
-    const MIB: f64 = (1u64 << 20) as f64;
-    const GIB: f64 = (1u64 << 30) as f64;
-    let b = bytes as f64;
-    if b >= GIB {
-        format!("{:.1} GiB", b / GIB)
-    } else if b >= MIB {
-        format!("{:.1} MiB", b / MIB)
-    } else {
-        format!("{bytes} bytes")
-    }
-}
-
 /// The memory this process may still allocate and the limit that leaves it ("the 520.3 MiB
 /// left under RLIMIT_AS (ulimit -v) of 700.0 MiB"), for messages.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Room {
+pub(crate) struct Room {
     /// Bytes this process may still allocate.
     pub bytes: u64,
     /// The limit that leaves them, for messages.
@@ -81,7 +68,7 @@ pub struct Room {
 /// fallible copies guard. Physical memory, not what other processes use now; the cgroup's
 /// room is its limit less its current use, since exceeding it kills the process. O(1)
 /// (a few small files).
-pub fn memory_room() -> Option<Room> {
+pub(crate) fn memory_room() -> Option<Room> {
     let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
     let total = kib_field(&meminfo, "MemTotal:")?;
     let mut room = Room {
@@ -121,7 +108,7 @@ pub fn memory_room() -> Option<Room> {
 }
 
 /// Memory this process may still allocate, in bytes: [`memory_room`]'s. O(1).
-pub fn memory_available() -> Option<u64> {
+pub(crate) fn memory_available() -> Option<u64> {
     memory_room().map(|room| room.bytes)
 }
 
@@ -145,7 +132,7 @@ fn cgroup_memory() -> Option<(u64, u64)> {
 /// What the core allocates itself and sizes from the input is fallible besides
 /// ([`try_vec`] and the helpers below); `spade` and `delaunator` allocate inside and cannot
 /// be made so: their peak is guarded by this estimate, checked before the call. O(1).
-pub fn check_stage(what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
+pub(crate) fn check_stage(what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
     let refuse = |limit: String| Error::OutOfMemory {
         what: what(),
         needs: bytes,
@@ -179,14 +166,14 @@ pub fn try_vec<T>(what: &str, len: usize) -> Result<Vec<T>> {
 /// (amortized doubling) but by an allocation that may fail (an [`Error::OutOfMemory`]
 /// naming `what`) instead of aborting the process: for buffers that grow with the input
 /// while a stage runs (LOP's edge stack). O(len) when it grows, else O(1).
-pub fn try_grow<T>(what: &str, v: &mut Vec<T>, additional: usize) -> Result<()> {
+pub(crate) fn try_grow<T>(what: &str, v: &mut Vec<T>, additional: usize) -> Result<()> {
     v.try_reserve(additional)
         .map_err(|_| not_allocated::<T>(what, v.len().saturating_add(additional)))
 }
 
 /// The error of a failed allocation of `len` items of `T` for `what`: for containers the
 /// helpers above do not build (a heap's `try_reserve`). O(1).
-pub fn not_allocated<T>(what: &str, len: usize) -> Error {
+pub(crate) fn not_allocated<T>(what: &str, len: usize) -> Error {
     Error::OutOfMemory {
         what: format!("{what} ({len} items)"),
         needs: (len as u64).saturating_mul(std::mem::size_of::<T>() as u64),
@@ -211,7 +198,10 @@ pub fn try_filled<T: Clone + Send + Sync>(what: &str, value: T, len: usize) -> R
 
 /// The items of `items` in a vector allocated once for all of them, an allocation that may
 /// fail (an [`Error::OutOfMemory`] naming `what`) instead of aborting the process. O(len).
-pub fn try_collect<T>(what: &str, items: impl ExactSizeIterator<Item = T>) -> Result<Vec<T>> {
+pub(crate) fn try_collect<T>(
+    what: &str,
+    items: impl ExactSizeIterator<Item = T>,
+) -> Result<Vec<T>> {
     let mut v = try_vec(what, items.len())?;
     v.extend(items);
     Ok(v)
@@ -220,7 +210,7 @@ pub fn try_collect<T>(what: &str, items: impl ExactSizeIterator<Item = T>) -> Re
 /// The items of the indexed parallel iterator `items`, in order, in a vector allocated once
 /// for all of them, an allocation that may fail (an [`Error::OutOfMemory`] naming `what`)
 /// instead of aborting the process: [`try_collect`] on every core. O(len).
-pub fn try_par_collect<T: Send>(
+pub(crate) fn try_par_collect<T: Send>(
     what: &str,
     items: impl IndexedParallelIterator<Item = T>,
 ) -> Result<Vec<T>> {
@@ -234,7 +224,11 @@ pub fn try_par_collect<T: Send>(
 /// exactly them, an allocation that may fail (an [`Error::OutOfMemory`] naming `what`)
 /// instead of aborting the process. They are counted on every core first, so the buffer
 /// is never grown; `keep` is asked twice per index and must answer the same. O(len).
-pub fn try_indices<I>(what: &str, all: Range<I>, keep: impl Fn(I) -> bool + Sync) -> Result<Vec<I>>
+pub(crate) fn try_indices<I>(
+    what: &str,
+    all: Range<I>,
+    keep: impl Fn(I) -> bool + Sync,
+) -> Result<Vec<I>>
 where
     I: Copy + Send + Sync,
     Range<I>: ExactSizeIterator<Item = I>,
@@ -265,7 +259,7 @@ where
 
 /// `buffer` cut into consecutive shares of `counts[k]` items each, for tasks that write
 /// their own part of one buffer in parallel. Panics if the counts exceed its length. O(k).
-pub fn shares_mut<'a, T>(mut buffer: &'a mut [T], counts: &[usize]) -> Vec<&'a mut [T]> {
+pub(crate) fn shares_mut<'a, T>(mut buffer: &'a mut [T], counts: &[usize]) -> Vec<&'a mut [T]> {
     counts
         .iter()
         .map(|&count| {
@@ -291,7 +285,7 @@ fn soft_limit(limits: &str, name: &str) -> Option<u64> {
 
 /// Refuses `bytes` of memory asked for by option `name` = `value` when this process cannot
 /// have them (see [`memory_available`]). O(1).
-pub fn check_memory(name: &'static str, value: impl ToString, bytes: u64) -> Result<()> {
+pub(crate) fn check_memory(name: &'static str, value: impl ToString, bytes: u64) -> Result<()> {
     match memory_room() {
         Some(room) if bytes > room.bytes => Err(Error::TooCostly {
             name,
@@ -305,7 +299,7 @@ pub fn check_memory(name: &'static str, value: impl ToString, bytes: u64) -> Res
 
 /// A copy of `src` whose allocation may fail (`try_reserve_exact`) instead of aborting.
 /// O(len).
-pub fn try_copy<T: Clone>(src: &[T]) -> std::result::Result<Vec<T>, TryReserveError> {
+pub(crate) fn try_copy<T: Clone>(src: &[T]) -> std::result::Result<Vec<T>, TryReserveError> {
     let mut v = Vec::new();
     v.try_reserve_exact(src.len())?;
     v.extend_from_slice(src);
@@ -313,7 +307,7 @@ pub fn try_copy<T: Clone>(src: &[T]) -> std::result::Result<Vec<T>, TryReserveEr
 }
 
 /// The error of a failed allocation of `bytes` that option `name` = `value` asked for.
-pub fn allocation_failed(name: &'static str, value: impl ToString, bytes: u64) -> Error {
+pub(crate) fn allocation_failed(name: &'static str, value: impl ToString, bytes: u64) -> Error {
     Error::TooCostly {
         name,
         value: value.to_string(),

@@ -60,7 +60,7 @@ impl Norm {
 }
 
 /// Checks face indices: in range and three distinct vertices; the error names the face. O(m).
-pub fn check_faces(n_vertices: usize, faces: &[[u32; 3]]) -> Result<()> {
+pub(crate) fn check_faces(n_vertices: usize, faces: &[[u32; 3]]) -> Result<()> {
     for (f, t) in faces.iter().enumerate() {
         if let Some(&v) = t.iter().find(|&&v| v as usize >= n_vertices) {
             return Err(Error::InvalidFace {
@@ -180,7 +180,7 @@ fn fan_angle_sum(faces: &[[u32; 3]], angles: &[[f64; 3]], v: u32, fan: &[u32]) -
 /// Per-vertex sum of incident 3-D corner angles (radians); 0 for unused vertices. Faces
 /// must be in range. O(n + m), in parallel; each sum adds its corners in face order, so the
 /// result does not depend on the thread count. Errors: an [`Error::OutOfMemory`].
-pub fn angle_sums(points: &[DVec3], faces: &[[u32; 3]]) -> Result<Vec<f64>> {
+pub(crate) fn angle_sums(points: &[DVec3], faces: &[[u32; 3]]) -> Result<Vec<f64>> {
     let angles = corner_angles(points, faces, |p| p)?;
     let fans = Fans::new(points.len(), faces)?;
     let sums = (0..points.len())

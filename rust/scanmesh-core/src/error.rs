@@ -110,7 +110,7 @@ impl fmt::Display for Error {
             Error::OutOfMemory { what, needs, limit } => write!(
                 f,
                 "{what} needs about {} of memory, more than {limit}",
-                crate::budget::describe_bytes(*needs)
+                describe_bytes(*needs)
             ),
             Error::InvalidFace { face, reason } => write!(f, "face {face}: {reason}"),
             Error::Invariant(what) => write!(f, "mesh invariant violated: {what}"),
@@ -120,3 +120,17 @@ impl fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
+
+/// `bytes` for messages: GiB, MiB or bytes. O(1).
+pub(crate) fn describe_bytes(bytes: u64) -> String {
+    const MIB: f64 = (1u64 << 20) as f64;
+    const GIB: f64 = (1u64 << 30) as f64;
+    let b = bytes as f64;
+    if b >= GIB {
+        format!("{:.1} GiB", b / GIB)
+    } else if b >= MIB {
+        format!("{:.1} MiB", b / MIB)
+    } else {
+        format!("{bytes} bytes")
+    }
+}

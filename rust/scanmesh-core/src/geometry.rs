@@ -19,7 +19,7 @@ pub(crate) const PAR_BLOCK: usize = 1 << 14;
 /// them: u = min/max, or (min − max)/(min + max) when min > 0.66 max (one division
 /// where Cephes divides twice; min − max is exact there by Sterbenz). O(1).
 #[inline(always)]
-pub fn atan2_upper(y: f64, x: f64) -> f64 {
+pub(crate) fn atan2_upper(y: f64, x: f64) -> f64 {
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
     const MOREBITS: f64 = 6.123_233_995_736_766e-17;
     const P: [f64; 5] = [
@@ -67,7 +67,7 @@ pub fn atan2_upper(y: f64, x: f64) -> f64 {
 /// Uses `atan2(|u × v|, u · v)`, which stays accurate for tiny and near-straight angles
 /// where `acos` of a clamped cosine loses half the digits. O(1).
 #[inline]
-pub fn corner_angle(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+pub(crate) fn corner_angle(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let u = a - p;
     let v = b - p;
     atan2_upper(u.cross(v).length(), u.dot(v))
@@ -98,7 +98,7 @@ pub(crate) fn triangle_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 
 /// Angle in radians at corner `p` of the planar triangle (p, a, b), atan2 form. O(1).
 #[inline]
-pub fn planar_corner_angle(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+pub(crate) fn planar_corner_angle(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let (ux, uy) = (a[0] - p[0], a[1] - p[1]);
     let (vx, vy) = (b[0] - p[0], b[1] - p[1]);
     atan2_upper((ux * vy - uy * vx).abs(), ux * vx + uy * vy)
@@ -106,7 +106,7 @@ pub fn planar_corner_angle(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 
 /// Smallest corner angle (radians) of the planar triangle (a, b, c). O(1).
 #[inline]
-pub fn planar_smallest_angle(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+pub(crate) fn planar_smallest_angle(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     planar_corner_angle(a, b, c)
         .min(planar_corner_angle(b, c, a))
         .min(planar_corner_angle(c, a, b))
@@ -115,7 +115,7 @@ pub fn planar_smallest_angle(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
 /// Orientation of the planar triangle (a, b, c) by Shewchuk's exact predicate:
 /// positive when counter-clockwise, negative when clockwise, exactly zero when collinear. O(1).
 #[inline]
-pub fn orient2d(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+pub(crate) fn orient2d(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     robust::orient2d(
         robust::Coord { x: a[0], y: a[1] },
         robust::Coord { x: b[0], y: b[1] },
@@ -125,7 +125,7 @@ pub fn orient2d(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
 
 /// Euclidean distance between two planar points. O(1).
 #[inline]
-pub fn planar_distance(a: [f64; 2], b: [f64; 2]) -> f64 {
+pub(crate) fn planar_distance(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
@@ -134,7 +134,7 @@ pub fn planar_distance(a: [f64; 2], b: [f64; 2]) -> f64 {
 /// Angles, orientations and the order of lengths are invariant under it, and it keeps
 /// products like `u × v` from overflowing at 1e300 or underflowing at 1e-300. O(n) to fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Normalizer {
+pub(crate) struct Normalizer {
     /// Centre of the bounding box, in input units.
     pub center: DVec3,
     /// Half the largest bounding-box extent, in input units (0 when all points coincide).
@@ -351,7 +351,7 @@ pub fn check_finite(points: &[DVec3]) -> crate::Result<()> {
 
 /// Checks planar points for the triangulation code: every coordinate finite (the error
 /// names the first bad one) and fewer than 2^32 − 1 of them (indices are u32). O(n).
-pub fn check_planar(uv: &[[f64; 2]]) -> crate::Result<()> {
+pub(crate) fn check_planar(uv: &[[f64; 2]]) -> crate::Result<()> {
     if uv.len() >= u32::MAX as usize {
         return Err(crate::Error::InvalidParameter {
             name: "points",

@@ -1,8 +1,10 @@
 //! scanmesh-core: triangulated surfaces from digitized scan-line points.
 //!
-//! Pure Rust, no Python. The public API is the list re-exported below, what the binding,
-//! the benches, the integration tests and the fuzz targets use (modules are private). The
-//! modules, grouped by job; a folder imports only from the rows above it (or its own row):
+//! Pure Rust, no Python. The root holds only [`Error`], [`Result`] and `glam`; each family
+//! is a public module whose files stay private behind a chosen `pub use` list (what the
+//! binding, the benches, the integration tests and the fuzz targets use), so a path reads
+//! `scanmesh_core::strips::stitch`, and the strips' solvers `scanmesh_core::strips::fuchs::*`.
+//! The modules, grouped by job; a folder imports only from the rows above it (or its own row):
 //! - `error`, `budget`: the one error type; what options may cost in work and memory;
 //! - `geometry`: corner angles (atan2 form), areas, exact orientation, normalization, the
 //!   power-of-two unit square;
@@ -23,7 +25,7 @@
 //! - `optimize/`: incremental tac energy under flips (`tac_state`, with `NOISE_TAC`), the
 //!   live edges annealing draws from (`active`), Lawson's greedy flipping (`lop`),
 //!   simulated annealing (`anneal`), one chain on several cores (`tiles`), independent
-//!   chains side by side (`ensemble`);
+//!   chains side by side (`ensemble`), edges no flip may remove (`fixed`);
 //! - `fusion/`: aligned range views fused into one closed mesh: a view's depth image and
 //!   pose (`depth`), the truncated signed distance and the space carved by the rays in a
 //!   voxel grid (`tsdf`), the samples' tangent planes near a cell (`samples`), the zero set
@@ -33,59 +35,23 @@
 //!   records (`stl`).
 // `deny`, not `forbid`: the one exception is the cache prefetch hint in `mesh::locality::prefetch`.
 #![deny(unsafe_code)]
+#![deny(rustdoc::broken_intra_doc_links)]
 #![warn(missing_docs)]
 
-mod budget;
-mod criteria;
+pub mod budget;
+pub mod criteria;
 mod error;
-mod exact;
-mod fusion;
-mod geometry;
-mod io;
-mod mesh;
-mod optimize;
-mod projection;
-mod strips;
+pub mod exact;
+pub mod fusion;
+pub mod geometry;
+pub mod io;
+pub mod mesh;
+pub mod optimize;
+pub mod projection;
+pub mod strips;
 #[cfg(test)]
 mod testing;
-mod triangulate;
+pub mod triangulate;
 
-pub use budget::{try_filled, try_vec};
-pub use criteria::{steep_count, tac_and_min_angles, Norm, SLIVER_ANGLE_DEG};
 pub use error::{Error, Result};
-pub use exact::enumerate::{cheapest_fans, empty_triangles, triangulations, CheapestFan};
-pub use fusion::depth::{DepthView, Lookup, JUMP_STEPS, MIN_COS, RIGID_TOL};
-pub use fusion::extract::{extract, Fused, FILLED, INFERRED, MEASURED};
-pub use fusion::tsdf::{Evidence, Volume, BEHIND_VOXELS};
-pub use geometry::unit_square;
-pub use geometry::{check_finite, normalize_plane, triangle_angles};
 pub use glam;
-pub use io::stl::records as stl_records;
-pub use io::text::{parse_table, Table, TextError, TextErrorKind};
-pub use mesh::locality::Relabel;
-pub use mesh::NONE;
-pub use mesh::{prev, HalfEdgeMesh};
-pub use optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord, CURTAIN_ANGLE_DEG};
-pub use optimize::ensemble::{Ensemble, EnsembleSummary};
-pub use optimize::lop::{curtain_facing, run_lop, tac_lop, LopCriterion, TacOrder};
-pub use optimize::tac_state::{Detail, FlipMove, TacState};
-pub use optimize::tiles::TiledAnnealer;
-pub use projection::{project, Frame, Plane, Projection};
-pub use strips::fuchs::{
-    lookahead, path_cost, shortest_path_banded, shortest_path_dijkstra, shortest_path_dp, Solution,
-    Solver, Step, Weight, DEFAULT_BAND,
-};
-pub use strips::fuchs::{set_strip_filter, strip_filter_counts, FilterCounts};
-pub use strips::lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
-pub use strips::stitch::{stitch, stitch_part};
-pub use strips::{Method, ScanContext, StripMesh, StripParams};
-pub use triangulate::delaunay::{delaunay, Delaunay};
-pub use triangulate::grid::{
-    grid_triangulate, GridParams, GridTriangles, DEFAULT_GRID_EDGE_FACTOR, DEFAULT_GRID_TURN_DEG,
-};
-pub use triangulate::holes::DEFAULT_HOLE_FACTOR;
-pub use triangulate::jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};
-pub use triangulate::trim::{
-    check_trim_lengths, delaunay_trimmed, median_spacing, trim_long_edges, Trimmed,
-    DEFAULT_MAX_EDGE_FACTOR,
-};

@@ -212,7 +212,7 @@ fn canonical_sign(v: DVec3) -> DVec3 {
 /// Returns eigenvalues ascending and the matching unit eigenvectors. Jacobi is chosen over
 /// the closed-form cubic because it stays accurate when two eigenvalues nearly coincide
 /// (a scan of a near-square flat patch). O(1): at most 50 sweeps of 3 rotations.
-pub fn symmetric_eigen3(m: [[f64; 3]; 3]) -> ([f64; 3], [DVec3; 3]) {
+pub(crate) fn symmetric_eigen3(m: [[f64; 3]; 3]) -> ([f64; 3], [DVec3; 3]) {
     let mut a = m;
     let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     for _ in 0..50 {

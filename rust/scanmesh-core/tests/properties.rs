@@ -8,12 +8,15 @@
 //! valid wherever the lines do not cross, and account for every point.
 
 use proptest::prelude::*;
+use scanmesh_core::geometry::{normalize_plane, unit_square};
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{
-    delaunay, median_spacing, normalize_plane, segment_lines, stitch, tac_lop, trim_long_edges,
-    unit_square, AnnealParams, Annealer, Detail, Error, HalfEdgeMesh, Method, StripParams,
-    TacOrder, TacState, DEFAULT_GAP_FACTOR, DEFAULT_MAX_EDGE_FACTOR, NONE,
+use scanmesh_core::mesh::{HalfEdgeMesh, NONE};
+use scanmesh_core::optimize::{tac_lop, AnnealParams, Annealer, Detail, TacOrder, TacState};
+use scanmesh_core::strips::{segment_lines, stitch, Method, StripParams, DEFAULT_GAP_FACTOR};
+use scanmesh_core::triangulate::{
+    delaunay, median_spacing, trim_long_edges, DEFAULT_MAX_EDGE_FACTOR,
 };
+use scanmesh_core::Error;
 
 const CASES: u32 = 64;
 
@@ -113,7 +116,7 @@ fn planar(points: &[DVec3]) -> Vec<[f64; 2]> {
 
 /// Delaunay of the planar positions; `None` for the honest refusals (too few distinct
 /// points, all collinear), which are the only errors allowed.
-fn triangulate(uv: &[[f64; 2]]) -> Option<scanmesh_core::Delaunay> {
+fn triangulate(uv: &[[f64; 2]]) -> Option<scanmesh_core::triangulate::Delaunay> {
     match delaunay(uv) {
         Ok(d) => Some(d),
         Err(Error::TooFewPoints { .. }) | Err(Error::Collinear { .. }) => None,
@@ -316,7 +319,7 @@ fn strips_with_scrambled_line_ids_report_instead_of_panicking() {
 /// Fuzz finding `fuzz/artifacts/fuchs/crash-ef0a4d08…` (weight length 1 + area 3 + angle 3,
 /// band 1): a 2 × 4 matrix of random points where the banded DP used to return a path 3x
 /// the optimum (its band could not see the optimum; it now widens until it proves it).
-fn fuzz_fuchs_ef0a4d08() -> (Vec<DVec3>, Vec<DVec3>, scanmesh_core::Weight) {
+fn fuzz_fuchs_ef0a4d08() -> (Vec<DVec3>, Vec<DVec3>, scanmesh_core::strips::fuchs::Weight) {
     let bytes: [u8; 19] = [
         0x0a, 0x0e, 0x80, 0x00, 0x00, 0x0e, 0x00, 0x00, 0x08, 0xb7, 0xee, 0x25, 0x0a, 0x25, 0x0a,
         0x25, 0x48, 0x48, 0x00,
@@ -331,7 +334,7 @@ fn fuzz_fuchs_ef0a4d08() -> (Vec<DVec3>, Vec<DVec3>, scanmesh_core::Weight) {
             )
         })
         .collect();
-    let w = scanmesh_core::Weight {
+    let w = scanmesh_core::strips::fuchs::Weight {
         length: 1.0,
         area: 3.0,
         angle: 3.0,
@@ -342,7 +345,7 @@ fn fuzz_fuchs_ef0a4d08() -> (Vec<DVec3>, Vec<DVec3>, scanmesh_core::Weight) {
 
 #[test]
 fn fuzz_fuchs_ef0a4d08_dp_and_dijkstra_agree_banded_is_a_path() {
-    use scanmesh_core::*;
+    use scanmesh_core::strips::fuchs::*;
     let (a, b, w) = fuzz_fuchs_ef0a4d08();
     let dp = shortest_path_dp(&a, &b, w).unwrap();
     let dijkstra = shortest_path_dijkstra(&a, &b, w).unwrap();
@@ -355,7 +358,7 @@ fn fuzz_fuchs_ef0a4d08_dp_and_dijkstra_agree_banded_is_a_path() {
 
 #[test]
 fn fuzz_fuchs_ef0a4d08_banded_finds_the_optimum() {
-    use scanmesh_core::*;
+    use scanmesh_core::strips::fuchs::*;
     let (a, b, w) = fuzz_fuchs_ef0a4d08();
     let dp = shortest_path_dp(&a, &b, w).unwrap();
     let banded = shortest_path_banded(&a, &b, w, 1).unwrap();

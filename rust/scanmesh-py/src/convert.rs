@@ -1,13 +1,15 @@
 //! numpy in and out: shape checks, zero-copy row views of C-contiguous arrays, and the
 //! output arrays (faces widened to int64 on every core without the GIL).
 
-use crate::{to_py, InvalidMeshError, ScanmeshError};
+use crate::{to_py, InvalidMeshError, ParameterError, ScanmeshError};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use rayon::prelude::*;
+use scanmesh_core::budget::{try_filled, try_vec};
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{try_filled, try_vec, SweepRecord, NONE};
+use scanmesh_core::mesh::NONE;
+use scanmesh_core::optimize::SweepRecord;
 use std::borrow::Cow;
 
 /// numpy arrays handed to Python: (rows, cols) float64, (n,) float64, (rows, cols) int64, (n,) int64.
@@ -140,9 +142,8 @@ pub(crate) fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResul
     Ok(out)
 }
 
-/// (M, 3) int64 faces for numpy, widened on every core without the GIL: 20M faces are
-/// 480 MB to write, a third of a second on one core. Allocated fallibly: memory refused
-/// is a `MemoryLimitError`, not an abort.
+/// (M, 3) int64 faces for numpy, widened on every core without the GIL: 24 bytes a face to
+/// write. Allocated fallibly: memory refused is a `MemoryLimitError`, not an abort.
 pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Ints2<'py>> {
     let flat = py.detach(|| {
         let mut flat = try_filled("the faces for numpy", 0i64, 3 * t.len())?;
@@ -216,4 +217,28 @@ pub(crate) fn duplicates_out<'py>(py: Python<'py>, duplicate_of: &[u32]) -> Ints
             .map(|&k| if k == NONE { -1 } else { i64::from(k) }),
     )
     .into_pyarray(py)
+}
+
+/// (K, 2) int64 vertex index pairs `a` (named `name` in errors) as `[u32; 2]`, each index
+/// below `n_vertices`; a `ParameterError` names the first pair out of range. O(K).
+pub(crate) fn edges(
+    name: &str,
+    a: &PyReadonlyArray2<'_, i64>,
+    n_vertices: usize,
+) -> PyResult<Vec<[u32; 2]>> {
+    let v = a.as_array();
+    if v.ncols() != 2 {
+        return Err(shape_error(name, "(K, 2)", v.shape()));
+    }
+    let mut out = try_vec("the edges", v.nrows()).map_err(to_py)?;
+    for (k, r) in v.rows().into_iter().enumerate() {
+        let pair = [r[0], r[1]];
+        if pair.iter().any(|&x| x < 0 || x as u64 >= n_vertices as u64) {
+            return Err(ParameterError::new_err(format!(
+                "{name} edge {k}: vertex indices {pair:?} out of range (there are {n_vertices} vertices)"
+            )));
+        }
+        out.push(pair.map(|x| x as u32));
+    }
+    Ok(out)
 }

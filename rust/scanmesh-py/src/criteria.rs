@@ -5,8 +5,9 @@ use crate::to_py;
 use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
+use scanmesh_core::criteria::{tac_and_min_angles, Norm};
+use scanmesh_core::geometry::check_finite;
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{check_finite, tac_and_min_angles, Norm};
 
 /// 3-D quality of a mesh. Returns (tac (N,) with NaN off the interior, smallest angle per
 /// face (M,) in radians).
@@ -45,7 +46,7 @@ pub(crate) fn steep_count(
         return Err(shape_error("normal", "(3,)", n.shape()));
     }
     let n = DVec3::new(n[0], n[1], n[2]);
-    py.detach(|| scanmesh_core::steep_count(&pts, &t, n, max_tilt))
+    py.detach(|| scanmesh_core::criteria::steep_count(&pts, &t, n, max_tilt))
         .map_err(to_py)
 }
 

@@ -17,7 +17,7 @@ pub(crate) fn empty_triangles<'py>(
 ) -> PyResult<Ints2<'py>> {
     let pts = points2(&uv)?;
     let t = py
-        .detach(|| scanmesh_core::empty_triangles(&pts))
+        .detach(|| scanmesh_core::exact::empty_triangles(&pts))
         .map_err(to_py)?;
     faces_out(py, &t)
 }
@@ -35,7 +35,7 @@ pub(crate) fn triangulations<'py>(
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
     let all = py
-        .detach(|| scanmesh_core::triangulations(&pts, &t, max_count))
+        .detach(|| scanmesh_core::exact::triangulations(&pts, &t, max_count))
         .map_err(to_py)?;
     let flat: Vec<i64> = all
         .iter()
@@ -82,7 +82,7 @@ pub(crate) fn cheapest_fans<'py>(
     }
     let w = w.as_array().to_vec();
     let fans = py
-        .detach(|| scanmesh_core::cheapest_fans(&pts, &t, &d, &c, &vs, &w))
+        .detach(|| scanmesh_core::exact::cheapest_fans(&pts, &t, &d, &c, &vs, &w))
         .map_err(to_py)?;
     let bounds: Vec<f64> = fans.iter().map(|f| f.lower_bound).collect();
     let (mut owner, mut values, mut flat, mut offsets) =

@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 /// a pose that is not rigid and finite, a bad step or mismatched shapes. O(H · W).
 #[pyclass(frozen, module = "scanmesh._core")]
 pub(crate) struct DepthView {
-    inner: scanmesh_core::DepthView,
+    inner: scanmesh_core::fusion::DepthView,
 }
 
 #[pymethods]
@@ -37,7 +37,7 @@ impl DepthView {
         }
         let (height, width) = d.dim();
         let flat: [f64; 16] = std::array::from_fn(|k| pose[[k / 4, k % 4]]);
-        let inner = scanmesh_core::DepthView::new(
+        let inner = scanmesh_core::fusion::DepthView::new(
             flat,
             [origin.0, origin.1],
             step,
@@ -56,7 +56,7 @@ impl DepthView {
 /// MemoryLimitError when its 9 bytes per node do not fit.
 #[pyclass(module = "scanmesh._core")]
 pub(crate) struct FusionVolume {
-    inner: scanmesh_core::Volume,
+    inner: scanmesh_core::fusion::Volume,
 }
 
 #[pymethods]
@@ -68,7 +68,7 @@ impl FusionVolume {
         dims: (usize, usize, usize),
         truncation: f64,
     ) -> PyResult<Self> {
-        let inner = scanmesh_core::Volume::new(
+        let inner = scanmesh_core::fusion::Volume::new(
             [origin.0, origin.1, origin.2],
             voxel,
             [dims.0, dims.1, dims.2],
@@ -95,9 +95,9 @@ impl FusionVolume {
         let [nx, ny, nz] = self.inner.dims();
         let codes: Vec<u8> = (0..nx * ny * nz)
             .map(|n| match self.inner.evidence(n) {
-                scanmesh_core::Evidence::Measured => 0,
-                scanmesh_core::Evidence::Empty => 1,
-                scanmesh_core::Evidence::Unseen => 2,
+                scanmesh_core::fusion::Evidence::Measured => 0,
+                scanmesh_core::fusion::Evidence::Empty => 1,
+                scanmesh_core::fusion::Evidence::Unseen => 2,
             })
             .collect();
         // stored x fastest: (nz, ny, nx) in C order, transposed to (nx, ny, nz)
@@ -123,9 +123,10 @@ impl FusionVolume {
     ) -> PyResult<(Floats2<'py>, Ints2<'py>, Bound<'py, PyArray1<u8>>, usize)> {
         let s = points3_view(&samples)?;
         let n = points3_view(&normals)?;
-        let inner: Vec<&scanmesh_core::DepthView> = views.iter().map(|v| &v.inner).collect();
+        let inner: Vec<&scanmesh_core::fusion::DepthView> =
+            views.iter().map(|v| &v.inner).collect();
         let fused = py
-            .detach(|| scanmesh_core::extract(&self.inner, &s, &n, &inner))
+            .detach(|| scanmesh_core::fusion::extract(&self.inner, &s, &n, &inner))
             .map_err(to_py)?;
         let flat: Vec<f64> = fused.vertices.iter().flat_map(|v| v.to_array()).collect();
         let vertices = Array2::from_shape_vec((fused.vertices.len(), 3), flat)

@@ -1,12 +1,12 @@
 //! Bytes in and out: binary STL records and numeric text tables (`scanmesh_core` io/).
 
 use crate::convert::{face_rows, points3_view};
-use crate::results::TextTable;
+use crate::results::{TextProblem, TextTable};
 use crate::{to_py, ParameterError};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
-use scanmesh_core::{parse_table, Table, TextErrorKind};
+use scanmesh_core::io::{parse_table, Table, TextErrorKind};
 
 /// Binary STL records of faces (M, 3) int64 over (N, 3) points: (M * 50,) uint8, normal and
 /// corners as little-endian float32, attribute 0 (`scanmesh_core` io::stl). Raises
@@ -20,7 +20,7 @@ pub(crate) fn stl_records<'py>(
     let pts = points3_view(&points)?;
     let t = face_rows(&faces_)?;
     let bytes = py
-        .detach(|| scanmesh_core::stl_records(&pts, &t))
+        .detach(|| scanmesh_core::io::stl_records(&pts, &t))
         .map_err(to_py)?;
     Ok(Array1::from_vec(bytes).into_pyarray(py))
 }
@@ -30,8 +30,9 @@ pub(crate) fn stl_records<'py>(
 /// (rules in scanmesh-core's `parse_table`), without the GIL. Returns a `TextTable`: values
 /// (R, ncols) float64, or (V, 1) holding every value with `ncols` 0, row_lines (R,) int64
 /// and blank_lines (B,) int64, both 0-based line indices within the range, the number of
-/// lines, and problem: None, or for a refused range (line index, byte offset within the
-/// range, "number" | "count") of its first bad line, the other fields then empty.
+/// lines, and problem: None, or for a refused range a `TextProblem` naming its first bad
+/// line (index, byte offset within the range, "number" | "count"), the other fields then
+/// empty.
 #[pyfunction]
 #[pyo3(signature = (data, start, stop, ncols, delimiter=None))]
 pub(crate) fn parse_text_table<'py>(
@@ -75,7 +76,12 @@ pub(crate) fn parse_text_table<'py>(
                     }))
                 }
             };
-            (Table::default(), Some((e.line, e.offset, kind)))
+            let problem = TextProblem {
+                line: e.line,
+                offset: e.offset,
+                kind,
+            };
+            (Table::default(), Some(Py::new(py, problem)?))
         }
     };
     let rows = table.values.len() / width;

@@ -2,6 +2,7 @@
 //! the work, map `scanmesh_core::Error` to the exception classes declared here. One file
 //! per topic of the core (`triangulate`, `criteria`, `strips`, `optimize`, `exact`, `io`,
 //! `fusion`), numpy conversions in `convert`, the result classes in `results`.
+#![deny(rustdoc::broken_intra_doc_links)]
 
 use numpy::PyArray1;
 use pyo3::create_exception;
@@ -109,27 +110,37 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ParameterError", py.get_type::<ParameterError>())?;
     m.add("InvalidMeshError", py.get_type::<InvalidMeshError>())?;
     m.add("MemoryLimitError", memory_limit_error(py)?)?;
-    m.add("SLIVER_ANGLE_DEG", scanmesh_core::SLIVER_ANGLE_DEG)?;
+    m.add(
+        "SLIVER_ANGLE_DEG",
+        scanmesh_core::criteria::SLIVER_ANGLE_DEG,
+    )?;
     m.add(
         "DEFAULT_MAX_EDGE_FACTOR",
-        scanmesh_core::DEFAULT_MAX_EDGE_FACTOR,
+        scanmesh_core::triangulate::DEFAULT_MAX_EDGE_FACTOR,
     )?;
-    m.add("DEFAULT_JUMP_FACTOR", scanmesh_core::DEFAULT_JUMP_FACTOR)?;
+    m.add(
+        "DEFAULT_JUMP_FACTOR",
+        scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR,
+    )?;
     m.add(
         "DEFAULT_BRIDGE_FACTOR",
-        scanmesh_core::DEFAULT_BRIDGE_FACTOR,
+        scanmesh_core::triangulate::DEFAULT_BRIDGE_FACTOR,
     )?;
-    m.add("DEFAULT_HOLE_FACTOR", scanmesh_core::DEFAULT_HOLE_FACTOR)?;
+    m.add(
+        "DEFAULT_HOLE_FACTOR",
+        scanmesh_core::triangulate::DEFAULT_HOLE_FACTOR,
+    )?;
     m.add(
         "DEFAULT_GRID_TURN_DEG",
-        scanmesh_core::DEFAULT_GRID_TURN_DEG,
+        scanmesh_core::triangulate::DEFAULT_GRID_TURN_DEG,
     )?;
     m.add(
         "DEFAULT_GRID_EDGE_FACTOR",
-        scanmesh_core::DEFAULT_GRID_EDGE_FACTOR,
+        scanmesh_core::triangulate::DEFAULT_GRID_EDGE_FACTOR,
     )?;
-    m.add("JUMP_STEPS", scanmesh_core::JUMP_STEPS)?;
-    m.add("BEHIND_VOXELS", scanmesh_core::BEHIND_VOXELS)?;
+    m.add("JUMP_STEPS", scanmesh_core::fusion::JUMP_STEPS)?;
+    m.add("BEHIND_VOXELS", scanmesh_core::fusion::BEHIND_VOXELS)?;
+    m.add("MAX_TILES", scanmesh_core::optimize::MAX_TILES)?;
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::median_spacing, m)?)?;
@@ -140,8 +151,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(criteria::mesh_quality, m)?)?;
     m.add_function(wrap_pyfunction!(criteria::tac_norm, m)?)?;
     m.add_function(wrap_pyfunction!(criteria::steep_count, m)?)?;
-    m.add("DEFAULT_GAP_FACTOR", scanmesh_core::DEFAULT_GAP_FACTOR)?;
-    m.add("DEFAULT_BAND", scanmesh_core::DEFAULT_BAND)?;
+    m.add(
+        "DEFAULT_GAP_FACTOR",
+        scanmesh_core::strips::DEFAULT_GAP_FACTOR,
+    )?;
+    m.add("DEFAULT_BAND", scanmesh_core::strips::fuchs::DEFAULT_BAND)?;
     m.add_function(wrap_pyfunction!(strips::detect_lines, m)?)?;
     m.add_function(wrap_pyfunction!(strips::scan_segments, m)?)?;
     m.add_function(wrap_pyfunction!(strips::strip_mesh, m)?)?;
@@ -157,11 +171,15 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<optimize::Annealer>()?;
     m.add_class::<fusion::DepthView>()?;
     m.add_class::<fusion::FusionVolume>()?;
+    m.add_class::<strips::StripParams>()?;
+    m.add_class::<strips::ScanContext>()?;
+    m.add_class::<results::ScanSegments>()?;
     m.add_class::<results::StripResult>()?;
     m.add_class::<results::AnnealOutcome>()?;
     m.add_class::<results::TrimmedDelaunay>()?;
     m.add_class::<results::GridTriangles>()?;
     m.add_class::<results::CheapestFans>()?;
     m.add_class::<results::TextTable>()?;
+    m.add_class::<results::TextProblem>()?;
     Ok(())
 }

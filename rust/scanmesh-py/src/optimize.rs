@@ -1,23 +1,28 @@
 //! Flips toward lower tac: Lawson's LOP and simulated annealing, with annealing's
 //! parameters exposed as the core declares them (`scanmesh_core` optimize/).
 
-use crate::convert::{faces, faces_out, points2_view, points3_view, trace_out, vector3, Ints2};
+use crate::convert::{
+    edges, faces, faces_out, points2_view, points3_view, trace_out, vector3, Ints2,
+};
 use crate::results::AnnealOutcome;
 use crate::{to_py, ParameterError, ScanmeshError};
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use scanmesh_core::{curtain_facing, run_lop, Ensemble, LopCriterion, Relabel, TacOrder, TacState};
+use scanmesh_core::mesh::Relabel;
+use scanmesh_core::optimize::{
+    curtain_facing, run_lop, Ensemble, FixedEdges, LopCriterion, TacOrder, TacState,
+};
 
-/// Lists `scanmesh_core::AnnealParams`'s fields once, for reading them from keywords and
+/// Lists `scanmesh_core::optimize::AnnealParams`'s fields once, for reading them from keywords and
 /// writing them to a dict. The destructuring in `fields_dict` names every field with no
 /// `..`, so a field added to the core does not compile until it is listed here too.
 macro_rules! anneal_fields {
     ($($field:ident),+ $(,)?) => {
         /// Sets the field `name` of `params` to `value`; false when there is no such field.
         fn set_field(
-            params: &mut scanmesh_core::AnnealParams,
+            params: &mut scanmesh_core::optimize::AnnealParams,
             name: &str,
             value: &Bound<'_, PyAny>,
         ) -> PyResult<bool> {
@@ -31,9 +36,9 @@ macro_rules! anneal_fields {
         /// Every field of `params` by name, in the struct's order.
         fn fields_dict<'py>(
             py: Python<'py>,
-            params: &scanmesh_core::AnnealParams,
+            params: &scanmesh_core::optimize::AnnealParams,
         ) -> PyResult<Bound<'py, PyDict>> {
-            let scanmesh_core::AnnealParams { $($field),+ } = params;
+            let scanmesh_core::optimize::AnnealParams { $($field),+ } = params;
             let dict = PyDict::new(py);
             $(dict.set_item(stringify!($field), $field)?;)+
             Ok(dict)
@@ -75,19 +80,19 @@ fn extract_field<'py, T: FromPyObjectOwned<'py>>(
     })
 }
 
-/// The parameters of an annealing run (`scanmesh_core::AnnealParams`): the core's defaults
+/// The parameters of an annealing run (`scanmesh_core::optimize::AnnealParams`): the core's defaults
 /// with the given keywords replaced, range-checked by the core (`AnnealParams::check`).
 /// The one declaration of annealing's fields and defaults: Python reads them from
 /// `as_dict()`.
 #[pyclass(name = "AnnealParams", frozen, module = "scanmesh._core")]
-pub(crate) struct AnnealParams(scanmesh_core::AnnealParams);
+pub(crate) struct AnnealParams(scanmesh_core::optimize::AnnealParams);
 
 #[pymethods]
 impl AnnealParams {
     #[new]
     #[pyo3(signature = (**params))]
     fn new(params: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        let mut out = scanmesh_core::AnnealParams::default();
+        let mut out = scanmesh_core::optimize::AnnealParams::default();
         for (name, value) in params.into_iter().flatten() {
             let name: String = name.extract()?;
             if !set_field(&mut out, &name, &value)? {
@@ -101,7 +106,7 @@ impl AnnealParams {
     }
 
     /// Sweeps of the automatic schedule for `n_points` points and `interior_edges` interior
-    /// edges (`scanmesh_core::AnnealParams::auto_sweeps`).
+    /// edges (`scanmesh_core::optimize::AnnealParams::auto_sweeps`).
     fn auto_sweeps(&self, n_points: usize, interior_edges: usize) -> usize {
         self.0.auto_sweeps(n_points, interior_edges)
     }
@@ -122,7 +127,8 @@ impl AnnealParams {
 
 /// The incremental tac state of `faces` over 3-D `points` with planar `uv`, both normalized
 /// (scale-free), checked to be a valid planar triangulation, with the (3,) line of sight
-/// `sight` when given. Built without the GIL (0.4 s on 200,000 points: Ctrl-C waited).
+/// `sight` when given and the (K, 2) point index pairs `fixed`, edges no flip may remove.
+/// Built without the GIL (0.4 s on 200,000 points: Ctrl-C waited).
 pub(crate) fn tac_state(
     py: Python<'_>,
     points: &PyReadonlyArray2<'_, f64>,
@@ -130,31 +136,41 @@ pub(crate) fn tac_state(
     faces_: &PyReadonlyArray2<'_, i64>,
     p: f64,
     sight: Option<PyReadonlyArray1<'_, f64>>,
+    fixed: Option<PyReadonlyArray2<'_, i64>>,
 ) -> PyResult<(TacState, Relabel)> {
     let sight = sight.map(|s| vector3("sight", &s)).transpose()?;
     // Borrowed from numpy where it lays them out as rows: no copy at the boundary.
     let xyz = points3_view(points)?;
     let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
+    let fixed = fixed.map(|f| edges("fixed", &f, xyz.len())).transpose()?;
     let (state, relabel) = py
         .detach(|| TacState::from_input(&xyz, &plane, t, p))
         .map_err(to_py)?;
-    Ok((state.with_sight(sight).map_err(to_py)?, relabel))
+    let fixed = fixed
+        .map(|f| FixedEdges::new(xyz.len(), &f)?.renamed(&relabel.to_local))
+        .transpose()
+        .map_err(to_py)?;
+    let state = state.with_sight(sight).and_then(|s| s.with_fixed(fixed));
+    Ok((state.map_err(to_py)?, relabel))
 }
 
 /// Lawson's LOP from `faces`. `criterion` is "tac" (energy Σ tac^p, ties broken toward the
 /// larger smallest angle when `sliver_guard`, no flip bringing a face within
 /// `curtain_angle` degrees of the (3,) line of sight `sight` when one is given) or
-/// "max-min" (smallest angle in the plane; converges to Delaunay); `p`, `sliver_guard`,
-/// `tie_tolerance` and `curtain_angle` default to annealing's. Returns (faces, flips).
+/// "max-min" (smallest angle in the plane; converges to Delaunay); the options after it are
+/// keywords, and `p`, `sliver_guard`, `tie_tolerance` and `curtain_angle` default to
+/// annealing's; no flip removes an edge of the (K, 2) point index pairs `fixed`. Returns
+/// (faces, flips).
 #[pyfunction]
 #[pyo3(signature = (
-    points, uv, faces_, criterion,
-    p=scanmesh_core::AnnealParams::default().p,
-    sliver_guard=scanmesh_core::AnnealParams::default().sliver_guard,
-    tie_tolerance=scanmesh_core::AnnealParams::default().tie_tolerance,
+    points, uv, faces_, criterion, *,
+    p=scanmesh_core::optimize::AnnealParams::default().p,
+    sliver_guard=scanmesh_core::optimize::AnnealParams::default().sliver_guard,
+    tie_tolerance=scanmesh_core::optimize::AnnealParams::default().tie_tolerance,
     sight=None,
-    curtain_angle=scanmesh_core::AnnealParams::default().curtain_angle,
+    curtain_angle=scanmesh_core::optimize::AnnealParams::default().curtain_angle,
+    fixed=None,
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn lop<'py>(
@@ -168,6 +184,7 @@ pub(crate) fn lop<'py>(
     tie_tolerance: f64,
     sight: Option<PyReadonlyArray1<'py, f64>>,
     curtain_angle: f64,
+    fixed: Option<PyReadonlyArray2<'py, i64>>,
 ) -> PyResult<(Ints2<'py>, usize)> {
     let criterion = match criterion {
         "tac" => LopCriterion::Tac(TacOrder {
@@ -181,7 +198,7 @@ pub(crate) fn lop<'py>(
             )))
         }
     };
-    let (state, relabel) = tac_state(py, &points, &uv, &faces_, p, sight)?;
+    let (state, relabel) = tac_state(py, &points, &uv, &faces_, p, sight, fixed)?;
     let (faces, flips) = py
         .detach(|| {
             let (mesh, flips) = run_lop(state, criterion)?;
@@ -213,9 +230,10 @@ impl Annealer {
 impl Annealer {
     /// A run from `faces` over 3-D `points` with planar `uv`, with `params` (the core
     /// checks them against this triangulation and refuses runs that would cost too much)
-    /// and the (3,) line of sight `sight` its curtain rule judges by (None: no rule).
+    /// and the (3,) line of sight `sight` its curtain rule judges by (None: no rule); no
+    /// flip removes an edge of the (K, 2) point index pairs `fixed` (None: none kept).
     #[new]
-    #[pyo3(signature = (points, uv, faces, params, sight=None))]
+    #[pyo3(signature = (points, uv, faces, params, sight=None, fixed=None))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
@@ -223,9 +241,10 @@ impl Annealer {
         faces: PyReadonlyArray2<'_, i64>,
         params: PyRef<'_, AnnealParams>,
         sight: Option<PyReadonlyArray1<'_, f64>>,
+        fixed: Option<PyReadonlyArray2<'_, i64>>,
     ) -> PyResult<Self> {
         let params = params.0.clone();
-        let (state, relabel) = tac_state(py, &points, &uv, &faces, params.p, sight)?;
+        let (state, relabel) = tac_state(py, &points, &uv, &faces, params.p, sight, fixed)?;
         let inner = py.detach(|| Ensemble::new(state, params)).map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),

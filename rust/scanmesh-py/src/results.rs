@@ -34,6 +34,19 @@ pub(crate) struct StripResult {
     pub signed_area: f64,
 }
 
+/// Scan lines split at gaps (`scan_segments`).
+#[pyclass(frozen, get_all, module = "scanmesh._core")]
+pub(crate) struct ScanSegments {
+    /// Per line, its segments in scan order, each a (K,) int64 array of point indices.
+    pub lines: Vec<Vec<Ints1>>,
+    /// The median planar step between consecutive points of a line.
+    pub median_step: f64,
+    /// The gap length: a step longer than this splits a line.
+    pub gap: f64,
+    /// (D, 2) int64 pairs (dropped point, the earlier point it coincides with).
+    pub duplicates: Ints2,
+}
+
 /// The end of an annealing run (`Annealer.finish`): the winner's faces and trace, and the
 /// run's summary.
 #[pyclass(frozen, get_all, module = "scanmesh._core")]
@@ -125,7 +138,17 @@ pub(crate) struct TextTable {
     pub blank_lines: Ints1,
     /// Number of lines in the range.
     pub n_lines: usize,
-    /// None, or for a refused range (line index, byte offset within the range, "number" |
-    /// "count") of its first bad line, the other fields then empty.
-    pub problem: Option<(usize, usize, &'static str)>,
+    /// None, or for a refused range its first bad line, the other fields then empty.
+    pub problem: Option<Py<TextProblem>>,
+}
+
+/// The first bad line of a text range the parser refused (`TextTable.problem`).
+#[pyclass(frozen, get_all, module = "scanmesh._core")]
+pub(crate) struct TextProblem {
+    /// 0-based index of the line within the range.
+    pub line: usize,
+    /// Byte offset within the range: the token that is not a number, or the line's start.
+    pub offset: usize,
+    /// "number" (a token that is not a number) or "count" (a wrong count of numbers).
+    pub kind: &'static str,
 }

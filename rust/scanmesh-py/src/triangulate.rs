@@ -10,8 +10,10 @@ use crate::{to_py, ParameterError};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
+use scanmesh_core::geometry::check_finite;
 use scanmesh_core::glam::DVec3;
-use scanmesh_core::{check_finite, HalfEdgeMesh, Plane};
+use scanmesh_core::mesh::HalfEdgeMesh;
+use scanmesh_core::projection::Plane;
 use std::borrow::Cow;
 
 /// Projects (N, 3) points onto a plane. `plane` is "best-fit", "x", "y" or "z", or None
@@ -38,7 +40,7 @@ pub(crate) fn project<'py>(
         }
     };
     let p = py
-        .detach(|| scanmesh_core::project(&pts, plane))
+        .detach(|| scanmesh_core::projection::project(&pts, plane))
         .map_err(to_py)?;
     let f = p.frame;
     let frame: Vec<f64> = [f.origin, f.u, f.v, f.normal]
@@ -61,7 +63,9 @@ pub(crate) fn delaunay<'py>(
     uv: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<(Ints2<'py>, Ints1<'py>)> {
     let pts = points2(&uv)?;
-    let d = py.detach(|| scanmesh_core::delaunay(&pts)).map_err(to_py)?;
+    let d = py
+        .detach(|| scanmesh_core::triangulate::delaunay(&pts))
+        .map_err(to_py)?;
     Ok((
         faces_out(py, &d.triangles)?,
         duplicates_out(py, &d.duplicate_of),
@@ -71,7 +75,7 @@ pub(crate) fn delaunay<'py>(
 /// Refuses a trimming length or depth-jump factor that is NaN or not positive (the core's
 /// check, run before the arrays are converted).
 pub(crate) fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> PyResult<()> {
-    scanmesh_core::check_trim_lengths(max_edge, jump_factor).map_err(to_py)
+    scanmesh_core::triangulate::check_trim_lengths(max_edge, jump_factor).map_err(to_py)
 }
 
 /// Delaunay triangulation of (N, 2) `uv` trimmed in the same call (`delaunay_trimmed` in
@@ -80,7 +84,7 @@ pub(crate) fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> PyResult<()
 /// `TrimmedDelaunay`: faces, duplicate_of as in `delaunay`, trimmed (K,) int64, the
 /// max_edge used, (triangulate, trim) seconds.
 #[pyfunction]
-#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::DEFAULT_JUMP_FACTOR))]
+#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR))]
 pub(crate) fn delaunay_trimmed<'py>(
     py: Python<'py>,
     uv: PyReadonlyArray2<'py, f64>,
@@ -92,7 +96,7 @@ pub(crate) fn delaunay_trimmed<'py>(
     let pts = points2_view(&uv)?;
     let xyz = matching_points(&points, pts.len())?;
     let t = py
-        .detach(|| scanmesh_core::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor))
+        .detach(|| scanmesh_core::triangulate::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor))
         .map_err(to_py)?;
     Ok(TrimmedDelaunay {
         faces: faces_out(py, &t.triangles)?.unbind(),
@@ -110,8 +114,8 @@ pub(crate) fn delaunay_trimmed<'py>(
 #[pyfunction]
 #[pyo3(signature = (
     grid, uv, points, sight,
-    max_turn_deg=scanmesh_core::DEFAULT_GRID_TURN_DEG,
-    edge_factor=scanmesh_core::DEFAULT_GRID_EDGE_FACTOR,
+    max_turn_deg=scanmesh_core::triangulate::DEFAULT_GRID_TURN_DEG,
+    edge_factor=scanmesh_core::triangulate::DEFAULT_GRID_EDGE_FACTOR,
 ))]
 pub(crate) fn grid_triangulate<'py>(
     py: Python<'py>,
@@ -132,13 +136,15 @@ pub(crate) fn grid_triangulate<'py>(
         Some(flat) => Cow::Borrowed(flat),
         None => Cow::Owned(g.iter().copied().collect()),
     };
-    let params = scanmesh_core::GridParams {
+    let params = scanmesh_core::triangulate::GridParams {
         sight,
         max_turn_deg,
         edge_factor,
     };
     let t = py
-        .detach(|| scanmesh_core::grid_triangulate(&cells, rows, cols, &pts, &xyz, params))
+        .detach(|| {
+            scanmesh_core::triangulate::grid_triangulate(&cells, rows, cols, &pts, &xyz, params)
+        })
         .map_err(to_py)?;
     Ok(GridTriangles {
         faces: faces_out(py, &t.triangles)?.unbind(),
@@ -161,7 +167,7 @@ pub(crate) fn median_spacing(
 ) -> PyResult<f64> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    py.detach(|| scanmesh_core::median_spacing(&pts, &t))
+    py.detach(|| scanmesh_core::triangulate::median_spacing(&pts, &t))
         .map_err(to_py)
 }
 
@@ -186,13 +192,15 @@ pub(crate) fn trim_long_edges<'py>(
         .as_ref()
         .map(|p| matching_points(p, pts.len()))
         .transpose()?;
-    let jumps = xyz.as_deref().map(|p| scanmesh_core::DepthJumps {
-        points: p,
-        factor: jump_factor,
-        gaps: true,
-    });
+    let jumps = xyz
+        .as_deref()
+        .map(|p| scanmesh_core::triangulate::DepthJumps {
+            points: p,
+            factor: jump_factor,
+            gaps: true,
+        });
     let kept = py
-        .detach(|| scanmesh_core::trim_long_edges(&pts, &t, max_edge, jumps))
+        .detach(|| scanmesh_core::triangulate::trim_long_edges(&pts, &t, max_edge, jumps))
         .map_err(to_py)?;
     faces_out(py, &kept)
 }
@@ -205,7 +213,7 @@ pub(crate) fn validate(
     uv: PyReadonlyArray2<'_, f64>,
     faces_: PyReadonlyArray2<'_, i64>,
 ) -> PyResult<()> {
-    let pts = scanmesh_core::unit_square(&points2(&uv)?);
+    let pts = scanmesh_core::geometry::unit_square(&points2(&uv)?);
     let t = faces(&faces_, pts.len())?;
     py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts)))
         .map_err(to_py)

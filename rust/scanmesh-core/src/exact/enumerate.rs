@@ -161,10 +161,10 @@ pub fn check_full_triangulation(uv: &[[f64; 2]], mesh: &HalfEdgeMesh) -> Result<
 }
 
 /// Every triangulation of the convex hull of `uv`, found by breadth-first search over edge
-/// flips from `start`; each in [`canonical`] form, `start` first, in the order found.
+/// flips from `start`; each in `canonical` form, `start` first, in the order found.
 ///
 /// `start` must be a triangulation of the hull using every point (checked with
-/// [`check_full_triangulation`]); `uv` must be pairwise distinct. Errors with
+/// `check_full_triangulation`); `uv` must be pairwise distinct. Errors with
 /// `InvalidParameter { name: "max_count" }` as soon as more than `max_count` triangulations
 /// are found (their number grows exponentially: Catalan(n − 2) for n points in convex
 /// position). O(K·m·(m log m)) time and O(K·m) memory for K triangulations of m triangles.
@@ -252,7 +252,7 @@ pub struct CheapestFan {
 /// `P = Σ (w d + c)` and `Q = Σ (−w d + c)`; labels keep the Pareto front of (P, Q), pruned
 /// by shortest-path lower bounds and by the best value so far. Minimizing `|Σ d|` is a
 /// subset-sum-like problem (fronts can be exponential), so a node keeps at most
-/// [`FAN_LABEL_CAP`] labels: the rest are merged into componentwise minima, which lower
+/// `FAN_LABEL_CAP` labels: the rest are merged into componentwise minima, which lower
 /// every value they stand for. The result is then a valid lower bound and a real fan, and
 /// `exact` says whether they coincide. O(m·(cap·deg)·log) per DAG pass for m neighbours,
 /// one pass per neighbour with arcs across the ray; vertices run in parallel.

@@ -186,7 +186,7 @@ impl DepthView {
         self.depth[index].is_nan()
     }
 
-    /// For pixel `index` without a return that lies in a run of at most [`LOST_RUN`] such
+    /// For pixel `index` without a return that lies in a run of at most `LOST_RUN` such
     /// pixels between two returns, along its row or its column: the depth (scanner z) its
     /// return was lost at, as far as the ray proves space empty. Across a depth jump
     /// ([`JUMP_STEPS`]) that is the nearer return's depth (the return was lost on the

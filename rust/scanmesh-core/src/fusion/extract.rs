@@ -104,7 +104,7 @@ const CELL_FACES: [[usize; 4]; 6] = [
 /// their outward unit `normals`; `views` (those integrated and carved, in the order carved)
 /// place the crossings on edges across a jump of the evidence; a vertex with no sample near
 /// is then laid on the plane of its wall, and a face's last vertex beside such a wall taken
-/// halfway onto it ([`flatten_unsampled`]). O(nodes · repair passes +
+/// halfway onto it (`flatten_unsampled`). O(nodes · repair passes +
 /// samples log samples + surface cells · views).
 ///
 /// Errors: `InvalidParameter` when `samples` and `normals` differ in length, or `views` are

@@ -12,3 +12,7 @@ pub(crate) mod flips;
 pub(crate) mod samples;
 pub(crate) mod tsdf;
 pub(crate) mod walls;
+
+pub use depth::{DepthView, Lookup, JUMP_STEPS, MIN_COS, RIGID_TOL};
+pub use extract::{extract, Fused, FILLED, INFERRED, MEASURED};
+pub use tsdf::{Evidence, Volume, BEHIND_VOXELS};

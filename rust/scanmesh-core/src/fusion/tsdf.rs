@@ -178,7 +178,7 @@ impl Volume {
     }
 
     /// What is known of node `n`: measured unless its mean is negative and
-    /// [`EMPTY_VOTES`] views saw it well in front of their surfaces (then empty).
+    /// `EMPTY_VOTES` views saw it well in front of their surfaces (then empty).
     pub fn evidence(&self, n: usize) -> Evidence {
         classify(self.sum[n], self.weight[n], self.flags[n])
     }

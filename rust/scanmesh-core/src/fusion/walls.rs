@@ -13,16 +13,15 @@ use crate::projection::principal_axes;
 use glam::DVec3;
 
 /// Rings of mesh neighbours whose unsampled vertices make a vertex's plane: 3 voxels each
-/// way, several steps of a staircase 10° off the rows. On benches/merge.py's four parts
-/// from six views (docs/benchmarks/merge.md) the fandisk's never-sampled wall was 0.00123
-/// RMS with 2 rings, 0.00102 with 3 (0.0015 before).
+/// way, several steps of a staircase 10° off the rows; 3 laid the fandisk's never-sampled
+/// wall closer than 2 (docs/benchmarks/merge.md, "Figures behind the core's constants").
 const RINGS: usize = 3;
 
 /// Neighbours on the same wall: vertex normals within this cosine (14°). The wall across a
 /// corner or the floor below a rim is another plane, and a corner cell's vertex, the mean of
 /// its crossings on two walls, leans towards the other: at 0.9 such vertices tilted the
-/// planes of a box's exact walls, moving them 0.022 voxel off (`extract`'s tests), and put
-/// the blade's root face 6 % further off.
+/// planes of a box's exact walls (`extract`'s tests) and moved the blade's root face off
+/// (figures in docs/benchmarks/merge.md).
 const SAME_WALL: f64 = 0.97;
 
 /// Vertices farther from the first plane than this many times the RMS distance are left out
@@ -50,12 +49,9 @@ pub(super) enum Placed {
 }
 
 /// A rim vertex (smooth, sampled, beside a never-sampled wall) is moved along its samples'
-/// plane this share of the way to the wall's plane. On benches/merge.py's four parts from
-/// six views (docs/benchmarks/merge.md; the wall fitted over 3 rings), 0.3, 0.5, 0.7 and 1:
-/// the conrod's RMS 0.943, 0.930, 0.946, 1.058 × 1e-3 (1.000 unmoved), the pocket's 6.45,
-/// 6.47, 6.77, 7.48 × 1e-5 (6.78), its crease normals 13.2°, 12.2°, 12.1°, 12.0° (14.7°):
-/// all the way, the wall's offset along a row of rays (up to half a spacing) becomes the
-/// face's.
+/// plane this share of the way to the wall's plane: halfway balanced the parts best of the
+/// shares tried on benches/merge.py's parts (figures in docs/benchmarks/merge.md); all the
+/// way, the wall's offset along a row of rays (up to half a spacing) becomes the face's.
 const RIM_SHARE: f64 = 0.5;
 
 /// A rim vertex is moved only where the wall's plane is at most this many voxels away
@@ -63,9 +59,9 @@ const RIM_SHARE: f64 = 0.5;
 const RIM_REACH: f64 = 1.0;
 
 /// Rings around a rim vertex whose unsampled vertices make its wall's plane: fewer than
-/// the wall's own [`RINGS`], as they are not limited to one wall's normals. With 3, a
-/// curved wall's chord moved the conrod's rims from fourteen views (RMS 1.10 → 1.22 ×
-/// 1e-3; with 2, 1.19) and cost the blade 1.1 % from six (nothing with 2).
+/// the wall's own [`RINGS`], as they are not limited to one wall's normals: with 3, a
+/// curved wall's chord moved the conrod's rims from fourteen views and the blade's from six
+/// (figures in docs/benchmarks/merge.md).
 const RIM_RINGS: usize = 2;
 
 /// The wall's plane must be at least 30° (this cosine) from the samples' for a rim vertex to

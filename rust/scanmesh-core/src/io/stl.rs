@@ -1,5 +1,6 @@
 //! Binary STL records, encoded in parallel: the writer's per-face work (gather, normal,
-//! float32 rounding) was about 15 s for 20M faces in numpy blocks, more than the file I/O.
+//! float32 rounding) outweighs the file I/O (docs/benchmarks/speed.md, "Figures behind the
+//! core's constants").
 
 use crate::{Error, Result};
 use glam::DVec3;

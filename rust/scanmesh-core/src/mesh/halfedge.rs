@@ -346,7 +346,7 @@ impl HalfEdgeMesh {
     /// With the quadrilateral (a, d, b, c) around diagonal a→b, the old triangles are strictly
     /// counter-clockwise by invariant, so strict convexity is exactly that both new triangles
     /// (d, c, a) and (c, d, b) are strictly counter-clockwise (exact predicate). "Collinear"
-    /// includes numerically collinear: see [`COLLINEAR_SINE`]. O(1).
+    /// includes numerically collinear: see `COLLINEAR_SINE`. O(1).
     pub fn can_flip(&self, h: u32, uv: &[[f64; 2]]) -> bool {
         let t = self.twin[h as usize];
         if t == NONE {
@@ -369,7 +369,7 @@ impl HalfEdgeMesh {
     }
 
     /// Prefetch hint for the `start` and `twin` entries of triangle `t` (see
-    /// [`crate::mesh::locality::prefetch`]; no effect on results). O(1).
+    /// `crate::mesh::locality::prefetch`; no effect on results). O(1).
     #[inline(always)]
     pub fn prefetch_triangle(&self, t: u32) {
         // A triangle's three u32 entries straddle two cache lines in 2 of 16 positions:

@@ -9,4 +9,5 @@ mod validate;
 pub(crate) use fans::Fans;
 pub(crate) use halfedge::{convex_quad, well_formed, COLLINEAR_SINE};
 pub use halfedge::{next, prev, HalfEdgeMesh, NONE};
+pub use locality::Relabel;
 pub(crate) use validate::count_cycles;

@@ -23,7 +23,7 @@ impl HalfEdgeMesh {
     ///
     /// O(m α(m)) time (the components' union-find), no sort and no floating-point angle:
     /// repeated directed edges and folds are found by the fan walks (see
-    /// [`fan_winding`](Self::fan_winding)), exactly. The half-edge, triangle and vertex checks run
+    /// `fan_winding`), exactly. The half-edge, triangle and vertex checks run
     /// in
     /// parallel on the rayon pool; the error named is that of the lowest failing
     /// half-edge, else triangle, else vertex (in that order of checks), so it does not

@@ -36,8 +36,8 @@ const STAGE_GAP: usize = 4;
 /// From this many half-edges up, the lines a flip writes outside its two triangles are
 /// hinted too: about 175,000 points, where the state (some 100 bytes per half-edge)
 /// outgrows a last-level cache and those stores go to memory, fill the store buffer and
-/// stall the loop (measured +5-20 % at 1M points). Below, the stores hit the cache and
-/// the hints only crowd the useful ones (measured -8 % on the rod).
+/// stall the loop. Below, the stores hit the cache and the hints only crowd the useful ones
+/// (both measured: docs/benchmarks/speed.md, "Figures behind the core's constants").
 const FLIP_HINT_HALF_EDGES: u64 = 1 << 20;
 
 /// Random numbers drawn this many proposals ahead of their use.

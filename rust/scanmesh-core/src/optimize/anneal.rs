@@ -23,7 +23,7 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnnealParams {
     /// Number of sweeps (the paper's "iterations"); one sweep = one proposal per live edge
-    /// (see [`crate::optimize::active`]: flippable, by a corner whose tac is above the ties').
+    /// (see `crate::optimize::active`: flippable, by a corner whose tac is above the ties').
     pub sweeps: usize,
     /// Energy exponent p ≥ 1: the energy is Σ tac^p.
     pub p: f64,
@@ -67,7 +67,7 @@ pub struct AnnealParams {
     /// [`AnnealParams::for_chain`]); the best final state wins. 0 = automatic
     /// ([`AnnealParams::chain_count`]): one chain on large inputs, more on small ones.
     pub chains: usize,
-    /// Tiles each chain is annealed in at once, on the rayon pool (see [`crate::optimize::tiles`]):
+    /// Tiles each chain is annealed in at once, on the rayon pool (see `crate::optimize::tiles`):
     /// 1
     /// runs the plain sequential chain; k > 1 splits the plane into stripes whose
     /// interiors anneal independently, phase by phase, with the stripes shifted every
@@ -86,15 +86,14 @@ pub const AUTO_CHAIN_EDGES: usize = 8_000;
 pub const MAX_AUTO_CHAINS: usize = 128;
 
 /// Proposals per point an automatic schedule plans, all chains together
-/// ([`AnnealParams::auto_sweeps`]): measured on the panel (docs/benchmarks/panel.md), the
-/// sweeps from LOP's optimum take SainteHelens (148,885 points) from tac_1 1,310 to 1,217
-/// (4 sweeps), 1,189 (7), 1,168 (10) and 1,150 (14), against LOP's 1,267; 24 per point
-/// plans 9 sweeps there, to stay within a few times LOP's time.
+/// ([`AnnealParams::auto_sweeps`]): each sweep from LOP's optimum still lowers tac on a
+/// large terrain, and 24 per point keeps the run within a few times LOP's time (figures in
+/// docs/benchmarks/panel.md, "Figures behind the core's constants").
 pub const AUTO_PROPOSALS_PER_POINT: u64 = 24;
 
 /// The least proposals an automatic schedule plans in all: small scans are cheap, and on
-/// them longer runs keep lowering tac (fran_cut, 2,205 points: 14 sweeps end at 101, 150
-/// at 83).
+/// them longer runs keep lowering tac (fran_cut in docs/benchmarks/panel.md, "Figures
+/// behind the core's constants").
 pub const AUTO_MIN_PROPOSALS: u64 = 2_000_000;
 
 /// The fewest sweeps of an automatic schedule: fewer cool too fast to leave the start.
@@ -102,13 +101,10 @@ pub const AUTO_MIN_SWEEPS: usize = 8;
 
 /// Default [`AnnealParams::curtain_angle`] (degrees): 90° less the grid triangulation's
 /// largest turn ([`DEFAULT_GRID_TURN_DEG`], 85°: 5°, the curtain report's angle), so that a
-/// flip never makes a face the grid would have dropped for its turn. Measured on fran_cut
-/// from its grid (docs/benchmarks/curtains.md): 73 curtains after LOP and 21 after annealing
-/// without the rule, none with 5° or 10° (θ = 80° then); tac_1 of LOP 46.9 off, 49.7 at 5°,
-/// 50.5 at 10°; on four simulated range scans the height RMS against the part is the same
-/// (0.041 s) off, at 5° and at 10°, the longest edge 9.8 s, 9.8 s and 7.8 s. With θ = 85°
-/// (5° here) fran_cut keeps no curtain after LOP or annealing, nor do the nine scans of the
-/// range-scan panel.
+/// flip never makes a face the grid would have dropped for its turn: without the rule, LOP
+/// and annealing hang curtains across fran_cut's depth jumps, with it none, at a little tac
+/// and no height error (figures in docs/benchmarks/curtains.md, "Figures behind the core's
+/// constants").
 pub const CURTAIN_ANGLE_DEG: f64 = 90.0 - DEFAULT_GRID_TURN_DEG;
 
 /// Largest accepted [`AnnealParams::tiles`].
@@ -185,7 +181,8 @@ impl AnnealParams {
         Ok(())
     }
 
-    /// [`check`](Self::check), and that `state` measures the energy with this `p`.
+    /// [`check`](Self::check), and that `state` measures the energy with this `p` (and has
+    /// no fixed edges when `tiles` > 1: the tiles' pieces keep none).
     pub fn check_for(&self, state: &TacState) -> Result<()> {
         self.check()?;
         if state.p() != self.p {
@@ -195,13 +192,20 @@ impl AnnealParams {
                 expected: "the state's p to equal the parameters' p",
             });
         }
+        if self.tiles > 1 && state.fixed().is_some() {
+            return Err(Error::InvalidParameter {
+                name: "tiles",
+                value: self.tiles.to_string(),
+                expected: "1 with fixed edges (the tiles' pieces keep none)",
+            });
+        }
         Ok(())
     }
 
     /// Refuses a run from `state` that would plan more flip proposals than
-    /// [`budget::MAX_PROPOSALS`], calibrate longer than
-    /// [`budget::MAX_CALIBRATION_PROPOSALS`] before it can be interrupted, or need more
-    /// memory than this process may have ([`budget::memory_available`]); the error
+    /// `budget::MAX_PROPOSALS`, calibrate longer than
+    /// `budget::MAX_CALIBRATION_PROPOSALS` before it can be interrupted, or need more
+    /// memory than this process may have (`budget::memory_available`); the error
     /// ([`Error::TooCostly`]) names the option that asks for it and what it would need.
     /// Returns the number of chains. O(m).
     pub fn check_cost(&self, state: &TacState) -> Result<usize> {
@@ -283,7 +287,7 @@ impl AnnealParams {
 
     /// Number of chains to run on a triangulation with `interior_edges` interior edges:
     /// `chains` when set, otherwise `⌈AUTO_CHAIN_EDGES / interior_edges⌉` between 1 and
-    /// [`MAX_AUTO_CHAINS`]. O(1).
+    /// `MAX_AUTO_CHAINS`. O(1).
     pub fn chain_count(&self, interior_edges: usize) -> usize {
         if self.chains > 0 {
             return self.chains;
@@ -294,10 +298,10 @@ impl AnnealParams {
     }
 
     /// Sweeps of the automatic schedule on a triangulation of `n_vertices` points with
-    /// `interior_edges` interior edges: the budget max([`AUTO_PROPOSALS_PER_POINT`] × n,
-    /// [`AUTO_MIN_PROPOSALS`]) proposals shared by the [`chain_count`](Self::chain_count)
+    /// `interior_edges` interior edges: the budget max(`AUTO_PROPOSALS_PER_POINT` × n,
+    /// `AUTO_MIN_PROPOSALS`) proposals shared by the [`chain_count`](Self::chain_count)
     /// chains, one proposal per interior edge and sweep, kept between
-    /// [`AUTO_MIN_SWEEPS`] and `self.sweeps`. The plan depends on the input alone, never on
+    /// `AUTO_MIN_SWEEPS` and `self.sweeps`. The plan depends on the input alone, never on
     /// the clock, so a seed still fixes the result. O(1).
     pub fn auto_sweeps(&self, n_vertices: usize, interior_edges: usize) -> usize {
         let edges = interior_edges.max(1) as u64;
@@ -545,7 +549,7 @@ impl Annealer {
         self.sweep_len == 0 || self.stopped_early || self.trace.len() >= self.params.sweeps
     }
 
-    /// True when the run ended because no live edge was left (see [`crate::optimize::active`]):
+    /// True when the run ended because no live edge was left (see `crate::optimize::active`):
     /// no flip can lower the energy by more than a tie. O(1).
     pub fn is_exhausted(&self) -> bool {
         self.sweep_len == 0
@@ -557,7 +561,7 @@ impl Annealer {
     }
 
     /// Proposals in the current sweep: the live edges listed at its start (see
-    /// [`crate::optimize::active`]), 0 once none is left.
+    /// `crate::optimize::active`), 0 once none is left.
     pub fn sweep_len(&self) -> usize {
         self.sweep_len
     }

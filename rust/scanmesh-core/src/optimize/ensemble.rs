@@ -166,7 +166,8 @@ impl Ensemble {
     /// Advances every unfinished chain by at most `max_proposals` proposals, in parallel,
     /// each returning soon after `deadline` (see [`Annealer::advance_until`]). Returns the
     /// proposals run in all. Where chunks end never changes a chain's result. Errors: an
-    /// [`Error::OutOfMemory`] when a tiled chain cannot allocate a phase's tiles.
+    /// [`Error::OutOfMemory`](crate::Error::OutOfMemory) when a tiled chain cannot allocate a
+    /// phase's tiles.
     pub fn advance_until(
         &mut self,
         max_proposals: usize,
@@ -235,12 +236,12 @@ pub(crate) const SLIVER_BUDGET: f64 = 0.01;
 ///
 /// A crease that crosses the scan lines obliquely can only be followed by thin triangles,
 /// so the sliver rule can hold the walk far above LOP's own optimum (the octagonal pocket
-/// turned 30 degrees: tac_1 11.8 against LOP's 3.1, docs/benchmarks/panel.md). LOP is
+/// turned 30 degrees: docs/benchmarks/panel.md, "Figures behind the core's constants"). LOP is
 /// therefore also run without the rule, on a copy, and its optimum is the start when it
 /// is below [`SLIVER_COST`] × the other's energy with at most [`SLIVER_BUDGET`] slivers;
 /// the walk still refuses new slivers from there. The copy is skipped when memory for it
-/// cannot be had; LOP's own stack may fail too (an [`Error::OutOfMemory`]). O(flips + m),
-/// twice.
+/// cannot be had; LOP's own stack may fail too (an
+/// [`Error::OutOfMemory`](crate::Error::OutOfMemory)). O(flips + m), twice.
 pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) -> Result<()> {
     if !params.descend {
         return Ok(());

@@ -18,14 +18,14 @@ pub const ANGLE_EPSILON: f64 = 1e-12;
 /// the larger smallest 3-D angle wins when `sliver_guard` is on (the lexicographic order
 /// "tac energy first, then smallest angle"). With `planar_ties`, a move whose four
 /// corners are all flat up to the noise (tac at most
-/// [`NOISE_TAC`](crate::optimize::tac_state::NOISE_TAC) tie tolerances, see
+/// `NOISE_TAC` tie tolerances, see
 /// [`TacState::flat_quad_uv`]) is judged by the smallest planar angle alone, Delaunay's
 /// criterion.
 ///
 /// Why: on a noisy scan the tac of such corners and the 3-D angles of their triangles are
 /// the noise's, so judging their flips by either picks triangles by the noise, which on
-/// a flat noisy part can only raise the height error above Delaunay's (the noisy rod, all
-/// flat: +1-1.6 %; docs/benchmarks/noise.md). The planar angle is blind to the heights:
+/// a flat noisy part can only raise the height error above Delaunay's (the noisy rod:
+/// docs/benchmarks/noise.md). The planar angle is blind to the heights:
 /// such parts keep (or return to) the Delaunay triangulation. Corners curved beyond the
 /// noise (creases, real relief) keep the tac order.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -178,8 +178,8 @@ pub enum LopCriterion {
 }
 
 /// LOP from `state`'s triangulation under `criterion`, within the flip budget
-/// [`max_flips`]: the final triangulation and the flips made. Errors: an
-/// [`Error::OutOfMemory`] when the edge stack cannot be allocated (see [`lop`]).
+/// `max_flips`: the final triangulation and the flips made. Errors: an
+/// [`Error::OutOfMemory`] when the edge stack cannot be allocated (see `lop`).
 /// O(flips + m).
 pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> Result<(HalfEdgeMesh, usize)> {
     match criterion {
@@ -203,8 +203,8 @@ pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> Result<(HalfEdge
     }
 }
 
-/// LOP of `state`'s tac energy under `order` within the flip budget [`max_flips`];
-/// returns the flips made, or an [`Error::OutOfMemory`] (see [`lop`]). O(flips + m).
+/// LOP of `state`'s tac energy under `order` within the flip budget `max_flips`;
+/// returns the flips made, or an [`Error::OutOfMemory`] (see `lop`). O(flips + m).
 pub fn tac_lop(state: &mut TacState, order: TacOrder) -> Result<usize> {
     let budget = max_flips(state.mesh().n_half_edges());
     lop(&mut TacLop { state, order }, budget)

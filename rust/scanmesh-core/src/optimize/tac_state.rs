@@ -16,9 +16,11 @@ use crate::geometry::Normalizer;
 use crate::mesh::locality::{prefetch, Relabel};
 use crate::mesh::NONE;
 use crate::mesh::{convex_quad, next, prev, HalfEdgeMesh};
+use crate::optimize::fixed::FixedEdges;
 use crate::{Error, Result};
 use glam::DVec3;
 use std::f64::consts::TAU;
+use std::sync::Arc;
 
 /// A flip that has been evaluated but not applied.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,13 +82,10 @@ pub enum Detail {
 pub const COPLANAR_RELATIVE: f64 = 1e-13;
 
 /// With `planar_ties`, a corner is flat up to the noise when its tac is at most this many
-/// tie tolerances (per unit of p: tac <= NOISE_TAC × tie_tolerance^(1/p)). On the noisy
-/// rod (all flat) 99.9 % of the interior vertices of Delaunay's mesh have a tac below 1.8
-/// tolerances at sigma = s/30 and s/10; on the fandisk at s/30, 1.2 % (its creases) are
-/// above 4. Measured on the rod at s/10 (height RMS / Delaunay's, paired samples,
-/// docs/benchmarks/noise.md): 1.0004-1.0007 with 2; with 1, 1.005-1.007, and the real
-/// scans' holdout above Delaunay's (LAS ground 1.04); judging only the near-ties of flat
-/// corners in the plane, not all their flips: 1.014 (with 1), 1.007 (with 2).
+/// tie tolerances (per unit of p: tac <= NOISE_TAC × tie_tolerance^(1/p)): nearly every
+/// corner of a flat noisy scan is below it and a crease's are above, and 2 kept the noisy
+/// rod's height error closer to Delaunay's than 1 (figures in docs/benchmarks/noise.md,
+/// "Figures behind the core's constants").
 pub const NOISE_TAC: f64 = 2.0;
 
 /// Peak memory of [`TacState::from_input`] and one run of LOP on it, per point, checked
@@ -128,6 +127,8 @@ pub struct TacState {
     // Unit line of sight in the positions' frame (normalizing scales and shifts, so it is
     // the caller's direction); None: moves measure no facing.
     sight: Option<DVec3>,
+    // Edges no flip may remove (shared by the chains' copies); None: every edge may flip.
+    fixed: Option<Arc<FixedEdges>>,
 }
 
 /// All a proposal reads about one vertex, in one 64-byte cache line: a random edge's four
@@ -196,7 +197,7 @@ pub fn vertex_energy(s: f64, p: f64) -> f64 {
 impl TacState {
     /// Builds the caches. `uv` are the planar positions the flips are checked in (use
     /// [`crate::geometry::unit_square`] of the projection), `xyz` the 3-D positions the angles
-    /// are measured on (normalize with [`crate::geometry::Normalizer`] to be scale-safe). O(m).
+    /// are measured on (normalize with `crate::geometry::Normalizer` to be scale-safe). O(m).
     pub fn new(mesh: HalfEdgeMesh, uv: Vec<[f64; 2]>, xyz: Vec<DVec3>, p: f64) -> Result<Self> {
         let mut state = TacState::without_sums(mesh, uv, xyz, p)?;
         state.measure_sums();
@@ -243,6 +244,7 @@ impl TacState {
             vert,
             p,
             sight,
+            fixed,
             ..
         } = self;
         drop(old);
@@ -254,6 +256,7 @@ impl TacState {
         stale.resize(mesh.n_triangles().div_ceil(64), 0);
         let mut state = TacState::assemble(mesh, vert, corner, stale, p);
         state.sight = sight;
+        state.fixed = fixed;
         state.measure_sums();
         Ok(state)
     }
@@ -290,6 +293,7 @@ impl TacState {
             p,
             energy: 0.0,
             sight: None,
+            fixed: None,
         };
         for t in 0..state.mesh.n_triangles() {
             let [a, b, c] = state.mesh.triangle(t).map(|v| state.vert[v as usize].xyz);
@@ -418,6 +422,7 @@ impl TacState {
             p: self.p,
             energy: self.energy,
             sight: self.sight,
+            fixed: self.fixed.clone(),
         })
     }
 
@@ -436,6 +441,35 @@ impl TacState {
             })?),
         };
         Ok(self)
+    }
+
+    /// The state with the edges `fixed` kept: no flip removes one (they are never
+    /// flippable, never live), so every optimizer of this state (LOP, annealing, its
+    /// descent and polish) keeps them; None: every edge may flip. The set must be over the
+    /// state's vertices, in its labels. O(1).
+    pub fn with_fixed(mut self, fixed: Option<FixedEdges>) -> Result<Self> {
+        if let Some(f) = &fixed {
+            if f.n_vertices() != self.mesh.n_vertices() {
+                return Err(Error::InvalidParameter {
+                    name: "fixed edges",
+                    value: format!("a set over {} vertices", f.n_vertices()),
+                    expected: "a set over the state's vertices",
+                });
+            }
+        }
+        self.fixed = fixed.map(Arc::new);
+        Ok(self)
+    }
+
+    /// The edges kept by [`with_fixed`](Self::with_fixed), if any. O(1).
+    pub fn fixed(&self) -> Option<&FixedEdges> {
+        self.fixed.as_deref()
+    }
+
+    /// True when the edge {a, b} is fixed. O(1) without fixed edges.
+    #[inline(always)]
+    fn is_fixed(&self, a: u32, b: u32) -> bool {
+        self.fixed.as_ref().is_some_and(|f| f.contains(a, b))
     }
 
     /// The unit line of sight given by [`with_sight`](Self::with_sight), if any. O(1).
@@ -478,7 +512,7 @@ impl TacState {
     /// Planar positions of the quadrilateral (a, b, c, d) of [`HalfEdgeMesh::quad`] of the
     /// interior half-edge `h` when each of its corners is flat up to the noise of
     /// `tie_tolerance` (a boundary vertex, or a tac at most
-    /// [`NOISE_TAC`] × tie_tolerance^(1/p)), else `None`. O(1).
+    /// `NOISE_TAC` × tie_tolerance^(1/p)), else `None`. O(1).
     pub fn flat_quad_uv(&self, h: u32, tie_tolerance: f64) -> Option<[[f64; 2]; 4]> {
         let floor = NOISE_TAC * tie_tolerance.powf(1.0 / self.p);
         let t = self.mesh.twin(h);
@@ -568,7 +602,7 @@ impl TacState {
     /// Prefetch hints for a later [`evaluate`](Self::evaluate)`(h)` and [`apply`](Self::apply),
     /// in three stages that a caller issues a few proposals apart, each reading only what the
     /// previous stage requested: 0, the slots of h's triangle; 1, those of its twin's; 2,
-    /// the four corners' positions and sums, and what [`PrefetchHints`] asks for. Hints
+    /// the four corners' positions and sums, and what `PrefetchHints` asks for. Hints
     /// never change results (a flip in between only makes one useless). O(1).
     #[inline(always)]
     pub fn prefetch(&self, h: u32, stage: usize, hints: PrefetchHints) {
@@ -612,7 +646,7 @@ impl TacState {
     fn flippable(&self, h: u32) -> Option<(u32, [u32; 4], [DVec3; 4], bool)> {
         let (t, quad) = self.mesh.twin_and_quad(h)?;
         let [ra, rb, rc, rd] = quad.map(|v| &self.vert[v as usize]);
-        if !convex_quad(ra.uv, rb.uv, rc.uv, rd.uv) {
+        if !convex_quad(ra.uv, rb.uv, rc.uv, rd.uv) || self.is_fixed(quad[0], quad[1]) {
             return None;
         }
         let pos = [ra.xyz, rb.xyz, rc.xyz, rd.xyz];
@@ -621,14 +655,16 @@ impl TacState {
 
     /// True when `h` can flip (interior, strictly convex quadrilateral) and one of its four
     /// corners is an interior vertex whose tac exceeds `floor` (radians): the edges
-    /// [`crate::optimize::active`] draws annealing proposals from. O(1).
+    /// `crate::optimize::active` draws annealing proposals from. O(1).
     #[inline]
     pub fn is_live(&self, h: u32, floor: f64) -> bool {
         let Some((_, quad)) = self.mesh.twin_and_quad(h) else {
             return false;
         };
         let [ra, rb, rc, rd] = quad.map(|v| &self.vert[v as usize]);
-        [ra, rb, rc, rd].iter().any(|r| r.above(floor)) && convex_quad(ra.uv, rb.uv, rc.uv, rd.uv)
+        [ra, rb, rc, rd].iter().any(|r| r.above(floor))
+            && convex_quad(ra.uv, rb.uv, rc.uv, rd.uv)
+            && !self.is_fixed(quad[0], quad[1])
     }
 
     /// True when `h` is interior and one of its four corners is an interior vertex whose

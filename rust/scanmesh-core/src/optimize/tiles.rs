@@ -35,8 +35,8 @@ use std::time::Instant;
 
 /// Sweeps per phase. Longer phases amortize the cut, the reassembly (O(m) each, a few
 /// milliseconds on the rod) and the wait for the slowest tile; shorter ones move the frozen
-/// borders more often. Rod, 3,000 sweeps in 8 tiles: 4.04-4.08 s with 100, 4.25-4.63 s with
-/// 50, the same energy.
+/// borders more often; 100 ran faster than 50 to the same energy (docs/benchmarks/speed.md,
+/// "Figures behind the core's constants").
 pub const PHASE_SWEEPS: usize = 100;
 
 /// What the tiled run's failed allocations name.
@@ -191,8 +191,8 @@ impl TiledAnnealer {
     /// Runs the tiles of the current phase (starting one if needed) in parallel, each for
     /// at most `max_proposals` proposals, returning soon after `deadline` and at the end of
     /// the phase. Returns the proposals run. Where calls end never changes the result.
-    /// Errors: an [`Error::OutOfMemory`] when a phase's tiles, or the triangulation they
-    /// are put back into, cannot be allocated.
+    /// Errors: an [`Error::OutOfMemory`](crate::Error::OutOfMemory) when a phase's tiles, or
+    /// the triangulation they are put back into, cannot be allocated.
     pub fn advance_until(
         &mut self,
         max_proposals: usize,
@@ -223,14 +223,15 @@ impl TiledAnnealer {
     }
 
     /// Cuts the current triangulation into this phase's tiles; the copies that grow with
-    /// the input are allocated fallibly (an [`Error::OutOfMemory`]). O(m).
+    /// the input are allocated fallibly (an
+    /// [`Error::OutOfMemory`](crate::Error::OutOfMemory)). O(m).
     fn start_phase(&mut self) -> Result<()> {
         let n = self.uv.len();
         let k = self.params.tiles;
         // Even phases: k stripes of equal vertex counts; odd phases: the borders in the
         // middle of those stripes, the two outer half stripes making one tile, so that
         // every phase has k tiles of equal counts (k + 1 unequal tiles on k cores would
-        // leave one core waiting: measured 1.6x instead of 1.9x on two).
+        // leave one core waiting).
         let shift = (self.phases_done % 2) as u64;
         let tile_of = |v: u32| {
             let r = self.rank[v as usize] as u64;
@@ -311,7 +312,8 @@ impl TiledAnnealer {
 
     /// Puts the tiles back together: the current triangulation and sums, the sweep records
     /// of the phase, and the phase's best when it beats the best so far. Errors: an
-    /// [`Error::OutOfMemory`] for the triangulations (before anything changes). O(m).
+    /// [`Error::OutOfMemory`](crate::Error::OutOfMemory) for the triangulations (before
+    /// anything changes). O(m).
     fn end_phase(&mut self) -> Result<()> {
         let phase = self.running.take().expect("a phase is running");
         let ends: Vec<TileEnd> = phase

@@ -58,7 +58,7 @@
 //! [`HalfEdgeMesh::validate`]: crate::mesh::HalfEdgeMesh::validate
 //! [`HalfEdgeMesh::from_triangles`]: crate::mesh::HalfEdgeMesh::from_triangles
 
-use super::stitch::{Task, BLOCK};
+use super::{Task, BLOCK};
 use crate::budget::{try_collect, try_filled, try_par_collect, try_vec};
 use crate::geometry::orient2d;
 use crate::mesh::count_cycles;

@@ -2,15 +2,33 @@
 //! stitching of the strips into one mesh, its check, depth jumps and repair.
 
 mod check;
-pub(crate) mod fuchs;
+pub mod fuchs;
 mod jumps;
 pub(crate) mod lines;
 mod repair;
 pub(crate) mod stitch;
 
+pub use lines::{detect_lines, segment_lines, ScanLines, DEFAULT_GAP_FACTOR};
+pub use stitch::{stitch, stitch_part};
+
 use crate::strips::fuchs::{Solver, Weight};
 use crate::Error;
 use glam::DVec3;
+
+/// Points or triangles per rayon task in the passes over all of them: large enough that
+/// splitting costs nothing next to the work, small enough to share a million among threads.
+const BLOCK: usize = 1 << 14;
+
+/// One strip to triangulate: the clipped segments, oriented along the scan direction.
+struct Task {
+    a: Vec<u32>,
+    b: Vec<u32>,
+    /// Where `a` and `b` lie in their oriented lines (for the planar check).
+    a_at: check::Window,
+    b_at: check::Window,
+    /// Index of the first of the two lines (for inserting lone points).
+    line: usize,
+}
 
 /// How each strip's path through the Fuchs matrix is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -21,30 +39,27 @@ pub enum Method {
     Lookahead(usize),
 }
 
-/// Options of [`stitch`].
+/// Options of [`stitch()`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StripParams {
     /// The path cost. Inside strips, lengths are measured in median steps of the scan and
     /// areas in squared median steps, so that criteria can be mixed and the result does
-    /// not depend on the units; [`TIE_BREAK`](crate::strips::stitch::TIE_BREAK) is added to the
-    /// length coefficient.
+    /// not depend on the units; `TIE_BREAK` is added to the length coefficient.
     pub weight: Weight,
     /// Shortest path or look-ahead.
     pub method: Method,
     /// Whether to check that the mesh is a valid planar triangulation (as
-    /// [`HalfEdgeMesh::validate`](crate::HalfEdgeMesh::validate)): O(n) in parallel from the strips
-    /// when they fit together
-    /// as strips do, else O(m α(m)) on the half-edge mesh. An invalid mesh (lines that
+    /// [`HalfEdgeMesh::validate`](crate::mesh::HalfEdgeMesh::validate)): O(n) in parallel
+    /// from the strips when they fit together as strips do, else O(m α(m)) on the half-edge
+    /// mesh. An invalid mesh (lines that
     /// cross or fold in the plane) is then made valid by dropping the conflicting
     /// triangles (`strips/repair.rs`), counted in [`StripMesh::dropped_overlaps`].
     pub check: bool,
-    /// Depth-jump factor ([`crate::triangulate::jumps::DEFAULT_JUMP_FACTOR`]; `∞` turns it off):
-    /// [`stitch_part`](crate::strips::stitch::stitch_part) cuts lines where consecutive points jump
-    /// in depth
-    /// ([`crate::strips::lines::split_at_jumps`]), and triangles that still bridge a jump by the
-    /// rule of [`crate::triangulate::jumps::bridging_triangles`] (a strip between a line on top of
-    /// a
-    /// wall and one below it) are dropped, counted in [`StripMesh::dropped_jumps`].
+    /// Depth-jump factor ([`DEFAULT_JUMP_FACTOR`](crate::triangulate::DEFAULT_JUMP_FACTOR);
+    /// `∞` turns it off): [`stitch_part`] cuts lines where consecutive points jump in depth
+    /// (`split_at_jumps`), and triangles that still bridge a jump by the rule of
+    /// `bridging_triangles` (a strip between a line on top of a wall and one below it) are
+    /// dropped, counted in [`StripMesh::dropped_jumps`].
     pub jump_factor: f64,
 }
 
@@ -65,7 +80,7 @@ pub struct StripMesh {
     /// Triangles in the caller's point indices, counter-clockwise in the plane.
     pub triangles: Vec<[u32; 3]>,
     /// Points that are in no triangle, ascending (duplicates of
-    /// [`ScanLines`](crate::strips::lines::ScanLines) included).
+    /// [`ScanLines`] included).
     pub unused: Vec<u32>,
     /// Number of strips (pairs of overlapping segments) triangulated.
     pub n_strips: usize,
@@ -84,14 +99,14 @@ pub struct StripMesh {
     pub trimmed: Vec<u32>,
     /// Twice the planar signed area of the strips' triangles before the mesh was turned
     /// counter-clockwise (negative: they were turned round). Summed over the parts of a
-    /// scan solved with [`stitch_part`](crate::strips::stitch::stitch_part), its sign says which
+    /// scan solved with [`stitch_part`], its sign says which
     /// way the whole scan turns.
     pub signed_area: f64,
 }
 
 /// What a run over some consecutive lines of a scan shares with the whole scan, so that
 /// its strips are exactly the whole scan's strips between those lines
-/// ([`stitch_part`](crate::strips::stitch::stitch_part)).
+/// ([`stitch_part`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScanContext {
     /// The whole scan's 3-D bounding box (lowest corner, highest corner): the unit box the

@@ -28,7 +28,7 @@
 //! names every error; a failure (crossing lines, a pinch) is reported in
 //! [`StripMesh::planar_error`], never as a panic, and the 3-D mesh is still returned.
 
-use super::{check, jumps, repair, Method, ScanContext, StripMesh, StripParams};
+use super::{check, jumps, repair, Method, ScanContext, StripMesh, StripParams, Task, BLOCK};
 use crate::budget::{try_filled, try_indices, try_par_collect, try_vec};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
@@ -51,21 +51,6 @@ pub const TIE_BREAK: f64 = 1e-6;
 /// shortest-path run (Python's part included) needs about 130 bytes a point more address
 /// space (bisected on 200,000 and 800,000 points, docs/benchmarks/memory.md), plus room.
 const PEAK_BYTES_PER_POINT: u64 = 250;
-
-/// Points or triangles per rayon task in the passes over all of them: large enough that
-/// splitting costs nothing next to the work, small enough to share a million among threads.
-pub(super) const BLOCK: usize = 1 << 14;
-
-/// One strip to triangulate: the clipped segments, oriented along the scan direction.
-pub(super) struct Task {
-    pub(super) a: Vec<u32>,
-    pub(super) b: Vec<u32>,
-    /// Where `a` and `b` lie in their oriented lines (for the planar check).
-    pub(super) a_at: check::Window,
-    pub(super) b_at: check::Window,
-    /// Index of the first of the two lines (for inserting lone points).
-    pub(super) line: usize,
-}
 
 /// The part of `segment` whose t lies in [lo, hi] (in (lo, hi] when `open`), and the index
 /// of its first point in `segment`. Segments run in their line's oriented direction,
@@ -330,7 +315,7 @@ pub fn stitch(
 /// The whole strip method from a line id per point, over some consecutive lines of a
 /// larger scan as that scan's `context` makes them (`None`: these points are the whole
 /// scan): the scan lines ([`crate::strips::lines::segment_lines`], split at gaps of
-/// `gap_factor` median steps, and at depth jumps by [`crate::strips::lines::split_at_jumps`]
+/// `gap_factor` median steps, and at depth jumps by `crate::strips::lines::split_at_jumps`
 /// with `params.jump_factor`), then [`stitch`]. Returns the mesh and the (dropped point,
 /// point it coincides with) pairs the lines found; the lines themselves are dropped before
 /// returning, so they never live beside the caller's copy of the faces.

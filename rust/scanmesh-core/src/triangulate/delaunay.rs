@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 use std::collections::HashMap;
 
-/// Peak memory of [`delaunay_trimmed`](crate::delaunay_trimmed) per input point, checked
+/// Peak memory of [`delaunay_trimmed`](crate::triangulate::delaunay_trimmed) per input point, checked
 /// before it starts: the smallest address-space limit it ran under grows by about 390 bytes
 /// a point (bisected on 200,000 and 800,000 points, docs/benchmarks/memory.md), plus room.
 const PEAK_BYTES_PER_POINT: u64 = 450;
@@ -63,7 +63,7 @@ impl HasPosition for IndexedPoint {
 /// delaunator's circle sweep (robust orientation, floating-point in-circle) runs first, about
 /// twice as fast as spade's bulk load on scans, and its result is accepted only when exact
 /// predicates prove it the unique Delaunay triangulation of the distinct points
-/// ([`proven`]); anything else (cocircular points, near-duplicates it skipped, collinear
+/// (`proven`); anything else (cocircular points, near-duplicates it skipped, collinear
 /// hull stretches closed by flat triangles) falls back to spade, which is exact throughout.
 /// So the faces are the same whichever answers.
 pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
@@ -133,7 +133,7 @@ fn point(p: [f64; 2]) -> delaunator::Point {
     delaunator::Point { x: p[0], y: p[1] }
 }
 
-/// [`sweep`] on the points already in delaunator's type: the only copy of the coordinates
+/// `sweep` on the points already in delaunator's type: the only copy of the coordinates
 /// while it runs (its peak is the call's). Ok(None) when the result is not proven; the
 /// input-sized buffers after delaunator's own may fail to allocate (an
 /// [`Error::OutOfMemory`]). O(n log n).

@@ -26,17 +26,12 @@ use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 /// Default largest turn (degrees) of a kept triangle's normal away from the line of sight.
 /// 85°: every kept face is then at least 5° from the sight, the curtain report's angle (the
 /// issue's curtain), so the rule drops exactly the curtains. Chosen by benches/curtains.py
-/// (figures in docs/benchmarks/curtains.md) over nine simulated range scans of four CAD parts
-/// (noise 0.05 spacings, dropout beyond 80°): the faces of the plain range grid within 0.25
-/// spacings of the part turn 9.7° at the median and 80.2° at the 99th percentile, those 0.25
-/// to 2 spacings off it (sheets across walls, within 2 spacings of the wall) 84.1° at the
-/// median, those farther off 88.9°. The sheets turned 80-85° across a step a few spacings
-/// high are what the best peers cover walls with: 80° (the earlier default) left the pocket
-/// along z 7.00 points more of its area missed than the best peer's, 85° with the edge factor
-/// 8 brings all nine scans within 1 point (pocket z 1.17 % against 1.22 %) with no face
-/// more than 2 spacings off and no curtain; the price is pocket z's height RMS (0.053 to
-/// 0.189 spacings, those sheets) and conrod z's (0.039 to 0.048). 84° leaves pocket z 2.5
-/// points behind; above 85° would allow faces the curtain report counts.
+/// over nine simulated range scans of four CAD parts: faces on the part turn far less than
+/// 85°, while the sheets turned 80-85° across a step a few spacings high are what the best
+/// peers cover walls with, so a lower limit leaves more of the area missed and a higher one
+/// allows faces the curtain report counts; the price is some height error where those
+/// sheets stand (figures in docs/benchmarks/curtains.md, "Figures behind the core's
+/// constants").
 pub const DEFAULT_GRID_TURN_DEG: f64 = 85.0;
 
 /// Default edge factor: a triangle with a 3-D edge longer than this multiple of the local
@@ -92,7 +87,7 @@ pub struct GridTriangles {
     /// Triangles dropped afterwards so that the rest is a valid planar triangulation:
     /// the smaller fans at a pinched vertex, collinear slivers on the boundary.
     pub peeled: usize,
-    /// Triangles added afterwards in the notches of the outline ([`fill_notches`]).
+    /// Triangles added afterwards in the notches of the outline (`fill_notches`).
     pub filled: usize,
     /// Median grid spacing across the line of sight (input units; 0 when there is none).
     pub spacing: f64,
@@ -695,8 +690,8 @@ mod tests {
         assert_eq!((t.peeled, t.triangles.len()), (1, 1));
         let (g, uv, p) = terrain(6, 6, |r, c| if r >= 3 && c >= 3 { 9.0 } else { 0.0 });
         let t = grid_triangulate(&g, 6, 6, &uv, &p, rules(DVec3::Z, 80.0, 6.0)).unwrap();
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        let unit = crate::geometry::unit_square(&uv);
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();
     }
 
@@ -729,8 +724,8 @@ mod tests {
         assert!(t.filled > 0);
         let area = twice_area(&uv, &t.triangles) / 2.0;
         assert!((237.0..=239.0).contains(&area), "{area}");
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        let unit = crate::geometry::unit_square(&uv);
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();
         // a notch across a step is no ear: the same outline with the upper level 10 higher
         let (g2, uv2, p2) = (g.clone(), uv.clone(), {
@@ -781,8 +776,8 @@ mod tests {
                 assert!(!inside, "missing sample {k} under {f:?}");
             }
         }
-        let unit = crate::unit_square(&uv);
-        let mesh = crate::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
+        let unit = crate::geometry::unit_square(&uv);
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(uv.len(), &t.triangles).unwrap();
         mesh.validate(&unit).unwrap();
     }
 
@@ -809,7 +804,7 @@ mod tests {
                 }
             }
         }
-        let mesh = crate::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
+        let mesh = crate::mesh::HalfEdgeMesh::from_triangles(p.len(), &tris).unwrap();
         let expected: Vec<u32> = (0..3 * tris.len() as u32).map(|h| mesh.twin(h)).collect();
         assert_eq!(grid_twins(&cells, &codes, cols, rows).unwrap(), expected);
     }

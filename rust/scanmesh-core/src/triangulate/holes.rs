@@ -11,23 +11,18 @@ use crate::Result;
 use rayon::prelude::*;
 
 /// Default hole factor (a ratio of planar lengths): in trimming, a triangle spans missing
-/// samples and is dropped ([`covering_holes`]) when its longest planar edge exceeds this
-/// multiple of the local edge length **and** its planar area exceeds [`HOLE_AREA_FACTOR`]
+/// samples and is dropped (`covering_holes`) when its longest planar edge exceeds this
+/// multiple of the local edge length **and** its planar area exceeds `HOLE_AREA_FACTOR`
 /// times the local triangle area; either condition alone keeps it. The local values of a
 /// triangle are the median over its three corners of each corner's lower median (of the
 /// lengths of the two edges at that corner of every well-formed triangle there, and of
 /// those triangles' areas). Degenerate triangles are never dropped by this rule; the
 /// comparison is on squared lengths in single precision, in [`unit_square`] coordinates,
-/// so the rule is scale-free. Chosen by benches/depth_jumps.py (figures in
-/// docs/benchmarks/depth-jumps.md):
-/// on the rocker arm it drops the thin triangles left across its 1.4 mm oil holes (5.2
-/// spacings across, narrower than the planar trim length, at one height) and takes its
-/// height RMS from 0.046 to 0.009 times planar trimming's (3.0: 0.011); the pocket and the
-/// fandisk lose 2 and 3 triangles. On samplings without holes it keeps the area: all of
-/// it on the demo rod, the DEM and jittered grids, 99.96 % with lines 4.5 times farther
-/// apart than their points, 99.75 % of uniform random points, 99.4 % of the Autzen LiDAR
-/// ground returns. An area rule alone (no edge condition) had to be at 5 × to keep
-/// irregular samplings and then left the thin triangles (RMS 0.016).
+/// so the rule is scale-free. Chosen by benches/depth_jumps.py: it drops the thin triangles
+/// left across the rocker arm's oil holes (narrower than the planar trim length) and keeps
+/// nearly all the area of samplings without holes; an area rule alone had to be so loose
+/// to keep irregular samplings that it left those thin triangles (figures in
+/// docs/benchmarks/depth-jumps.md, "Figures behind the core's constants").
 pub const DEFAULT_HOLE_FACTOR: f64 = 2.8;
 
 /// The area condition of the hole rule: more than this multiple of the area of the

@@ -17,21 +17,20 @@ const BLOCK: usize = 1 << 14;
 /// Default depth-jump factor: a triangle whose longest 3-D edge is steeper than 45° and
 /// exceeds this multiple of the local 3-D spacing at its best-sampled corner (see
 /// [`DepthJumps`]) bridges a wall, a step or a bore and is dropped. Chosen by
-/// benches/depth_jumps.py on three CAD parts scanned along their axis (15,000 points): at 3
-/// the height RMS against the truth is 0.16 (pocket), 0.10 (fandisk) and 0.05 (rocker arm)
-/// times that of planar trimming alone. 2 takes the pocket's to 0 but misses 0.8 (pocket)
-/// and 1.7 (fandisk) points more of the shadow; 4 measures the same on the pocket and the
-/// rocker arm and misses 0.7 points less of the fandisk's shadow at 5 % more height RMS.
+/// benches/depth_jumps.py on three CAD parts scanned along their axis: 3 removes most of
+/// planar trimming's height error; 2 misses more of the shadow, 4 less of the fandisk's
+/// at more height error (figures in docs/benchmarks/depth-jumps.md, "Figures behind the
+/// core's constants").
 pub const DEFAULT_JUMP_FACTOR: f64 = 3.0;
 
 /// Default bridge factor: a triangle at any slope whose longest 3-D edge exceeds this
-/// multiple of the spacing across lines at its best-sampled corner (see [`Spacing`]) spans
+/// multiple of the spacing across lines at its best-sampled corner (see `Spacing`) spans
 /// a gap the planar rules leave (a strip's rung across a missed stretch of the next line,
 /// lookahead's fan from the end of a line segment, a sheet over a hole narrower than the
 /// planar trim length) and is dropped with the depth jumps. Chosen on the scans of
-/// benches/strips_geometry.py (figures in docs/benchmarks/depth-jumps.md): 4 also drops
-/// lookahead's rungs of 4.7 spacings on a clean jittered grid, 6 keeps some of its fans
-/// over the connecting rod's bore (3.5 median edges off the CAD surface).
+/// benches/strips_geometry.py: 4 also drops lookahead's rungs on a clean jittered grid, 6
+/// keeps some of its fans over the connecting rod's bore (figures in
+/// docs/benchmarks/depth-jumps.md, "Figures behind the core's constants").
 pub const DEFAULT_BRIDGE_FACTOR: f64 = 5.0;
 
 /// The depth-jump rule of [`trim_long_edges`](crate::triangulate::trim::trim_long_edges): the 3-D

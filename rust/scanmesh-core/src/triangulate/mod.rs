@@ -8,3 +8,14 @@ pub(crate) mod holes;
 pub(crate) mod jumps;
 pub(crate) mod notches;
 pub(crate) mod trim;
+
+pub use delaunay::{delaunay, Delaunay};
+pub use grid::{
+    grid_triangulate, GridParams, GridTriangles, DEFAULT_GRID_EDGE_FACTOR, DEFAULT_GRID_TURN_DEG,
+};
+pub use holes::DEFAULT_HOLE_FACTOR;
+pub use jumps::{DepthJumps, DEFAULT_BRIDGE_FACTOR, DEFAULT_JUMP_FACTOR};
+pub use trim::{
+    check_trim_lengths, delaunay_trimmed, median_spacing, trim_long_edges, Trimmed,
+    DEFAULT_MAX_EDGE_FACTOR,
+};

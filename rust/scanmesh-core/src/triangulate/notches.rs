@@ -14,9 +14,9 @@ const NOTCHES: &str = "the grid's notch ears";
 
 /// Largest turn (degrees) of a notch-filling ear from the line of sight ([`fill_notches`]),
 /// below θ: an ear is a guess between samples of the outline, not a cell whose rays
-/// bracket it. On benches/curtains.py's panel the ears turned more (8 on the conrod along
-/// z, 77°-79°, 0.66 spacings off the part) raised its height RMS 11 % for 0.04 points of
-/// missed area (docs/benchmarks/curtains.md).
+/// bracket it. On benches/curtains.py's panel the ears turned more raised the height error
+/// far more than they filled missed area (figures in docs/benchmarks/curtains.md, "Figures
+/// behind the core's constants").
 pub const EAR_TURN_DEG: f64 = 60.0;
 
 /// Boundary vertices walked beyond each end of a notch-filling ear's chord to see whether
@@ -28,9 +28,8 @@ pub const EAR_WINDOW: usize = 6;
 /// A straight outline's staircase lies within about one spacing of that chord (its
 /// vertices are samples within a cell of the outline); a concave one (a bore's rim, an
 /// inner corner) sags further, and there an ear's chord leaves the part. 1.5: a half
-/// spacing of margin; on the rocker arm along z without noise (benches/curtains.py,
-/// docs/benchmarks/curtains.md) 1.5 keeps the height RMS at rounding (6e-12 spacings),
-/// 2 lets rim ears through (1.8e-4), no limit 5.0e-3.
+/// spacing of margin, which keeps the rocker arm's rim ears out where 2 lets them through
+/// (figures in docs/benchmarks/curtains.md, "Figures behind the core's constants").
 pub const EAR_SAG: f64 = 1.5;
 
 /// The sign of the planar area of (a, b, c): 1, -1, or 0 when degenerate (computed on the

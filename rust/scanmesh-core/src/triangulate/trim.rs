@@ -32,8 +32,8 @@ pub const NEAR_DUPLICATE_RELATIVE: f64 = 1e-9;
 
 /// Median over used vertices of the planar distance to the nearest neighbour, taken along
 /// triangulation edges (the nearest-neighbour graph is a subgraph of Delaunay's), ignoring
-/// near-duplicates (see [`NEAR_DUPLICATE_RELATIVE`]). 0 when there are no triangles.
-/// Errors: an [`Error::OutOfMemory`](crate::Error::OutOfMemory) for its per-point
+/// near-duplicates (see `NEAR_DUPLICATE_RELATIVE`). 0 when there are no triangles.
+/// Errors: an [`Error::OutOfMemory`] for its per-point
 /// buffer. O(m + n log n).
 pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> Result<f64> {
     // Minima and maxima do not depend on the order they are taken in: the parallel passes
@@ -65,7 +65,7 @@ pub fn median_spacing(uv: &[[f64; 2]], triangles: &[[u32; 3]]) -> Result<f64> {
 }
 
 /// [`median_spacing`] of a triangulation of every point of `uv` (each point a vertex or
-/// an exact copy of one, as [`delaunay_ordered`](crate::triangulate::delaunay) returns
+/// an exact copy of one, as [`delaunay_ordered`](crate::triangulate::delaunay::delaunay_ordered) returns
 /// them) with its half-edge `twins`: the bounding box of the points themselves (the
 /// vertices' box: a copy adds no coordinate), read in order rather than through the
 /// triangles' corners, and each edge measured once, from its lower half-edge, not from both
@@ -146,9 +146,9 @@ fn nearest_median(
 /// smallest local spacing of its corners (computed over the input triangles), or, at any
 /// slope, [`DEFAULT_BRIDGE_FACTOR`](crate::triangulate::jumps::DEFAULT_BRIDGE_FACTOR) times their
 /// spacing across lines
-/// ([`bridging_triangles`](crate::triangulate::jumps::bridging_triangles)), or that is far longer
+/// (`bridging_triangles`), or that is far longer
 /// and larger in the plane than the
-/// triangles around it ([`covering_holes`] at [`DEFAULT_HOLE_FACTOR`]), so the hole stays
+/// triangles around it (`covering_holes` at [`DEFAULT_HOLE_FACTOR`]), so the hole stays
 /// open. Straight stretches
 /// of a scanned outline put collinear points on the convex hull, and
 /// Delaunay closes them with zero-area slivers whose angles (0, 0, π) make a boundary
@@ -207,7 +207,7 @@ pub fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> Result<()> {
 pub struct Trimmed {
     /// The kept counter-clockwise triangles, in input indices.
     pub triangles: Vec<[u32; 3]>,
-    /// As [`Delaunay::duplicate_of`](crate::Delaunay::duplicate_of).
+    /// As [`Delaunay::duplicate_of`](crate::triangulate::Delaunay::duplicate_of).
     pub duplicate_of: Vec<u32>,
     /// Points (ascending) that were a vertex of the triangulation and of no kept triangle.
     pub trimmed: Vec<u32>,
@@ -217,7 +217,7 @@ pub struct Trimmed {
     pub seconds: [f64; 2],
 }
 
-/// [`delaunay`](crate::triangulate::delaunay) of `uv` then the rules of [`trim_long_edges`]: at
+/// [`delaunay`](fn@crate::triangulate::delaunay) of `uv` then the rules of [`trim_long_edges`]: at
 /// `max_edge`, or for None
 /// [`DEFAULT_MAX_EDGE_FACTOR`] × [`median_spacing`]; when that length is finite, depth jumps
 /// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
@@ -477,7 +477,7 @@ fn collinear_sliver(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
 
 /// The half-edge twins of `triangles` over `n_points` points (half-edge 3t + k runs from
 /// corner k of triangle t; [`NONE`] on the boundary), as
-/// [`Delaunay::twins`](crate::Delaunay::twins) has them.
+/// [`Delaunay::twins`](crate::triangulate::Delaunay::twins) has them.
 /// Errors: the triangles are not an oriented manifold. O(m).
 fn twins_of(n_points: usize, triangles: &[[u32; 3]]) -> Result<Vec<u32>> {
     let mesh = HalfEdgeMesh::from_triangles(n_points, triangles)?;

@@ -18,14 +18,14 @@ use glam::DVec3;
 /// from below). When its cheapest path stays inside the band, no path through the outside
 /// can be cheaper, and that path is optimal over the whole matrix; otherwise w doubles and
 /// the DP repeats; at the latest the band becomes the whole matrix (the full DP). So the
-/// result is always the optimum (up to rounding: the same cost as [`shortest_path_dp`] to
+/// result is always the optimum (up to rounding: the same cost as [`shortest_path_dp`](super::shortest_path_dp) to
 /// about 1e-12 relative; tested against it and Dijkstra on 100,000 fuzzed strips).
 ///
 /// Time O((n + m) · w) and memory O(n · w) bytes for the final w (each round doubles the
 /// width, so all rounds together cost less than twice the last); with the default weight
 /// on scan strips the first band proves itself on almost every strip. Weights with only
 /// area or dihedral angle bound nothing far away and widen to the full DP, O(nm) (refused
-/// above [`MAX_STRIP_BYTES`]). Errors as [`shortest_path`], and `half_width` = 0.
+/// above [`MAX_STRIP_BYTES`](super::MAX_STRIP_BYTES)). Errors as [`shortest_path`](super::shortest_path), and `half_width` = 0.
 pub fn shortest_path_banded(
     a: &[DVec3],
     b: &[DVec3],

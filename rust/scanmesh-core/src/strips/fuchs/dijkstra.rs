@@ -37,7 +37,7 @@ impl PartialOrd for Queued {
 ///
 /// Graph: states (i, j, direction of the entering step), 2nm of them, each with at most
 /// two outgoing edges; all edge costs are non-negative. Time O(nm log(nm)), memory 9 bytes
-/// per state plus the heap (about 18·n·m bytes; refused above [`MAX_STRIP_BYTES`]; the
+/// per state plus the heap (about 18·n·m bytes; refused above [`MAX_STRIP_BYTES`](super::MAX_STRIP_BYTES); the
 /// heap grows fallibly). Kept as the reference the DP is tested against; the DP is faster
 /// on the same DAG.
 pub fn shortest_path_dijkstra(a: &[DVec3], b: &[DVec3], w: Weight) -> Result<Solution> {

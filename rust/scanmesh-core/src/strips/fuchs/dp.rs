@@ -211,15 +211,15 @@ impl Steps for RowCache<'_, '_> {
 }
 
 /// DP restricted to row bands `lo[i]..=hi[i]` (nondecreasing, overlapping consecutive rows,
-/// lo[0] = 0, hi[n−1] = m−1). O(Σ band widths) time and back-pointer bytes, checked
-/// against [`MAX_STRIP_BYTES`] before anything is allocated (refusals name `ask`'s option).
+/// `lo[0] = 0`, `hi[n−1] = m−1`). O(Σ band widths) time and back-pointer bytes, checked
+/// against [`MAX_STRIP_BYTES`](super::MAX_STRIP_BYTES) before anything is allocated (refusals name `ask`'s option).
 pub(super) fn dp_in_band(t: &Terms, lo: &[usize], hi: &[usize], ask: &Ask) -> Result<Solution> {
     let width = check_band(t, lo, hi, ask)?;
     let solution = dp_in_band_with(t, RowCache::new(t, width, ask)?, &mut Sealed, lo, hi, ask)?;
     Ok(solution.expect("a sealed band has no way out"))
 }
 
-/// Checks the memory of a DP in the band `lo..=hi` against [`MAX_STRIP_BYTES`]; returns
+/// Checks the memory of a DP in the band `lo..=hi` against [`MAX_STRIP_BYTES`](super::MAX_STRIP_BYTES); returns
 /// the widest row. O(n).
 pub(super) fn check_band(t: &Terms, lo: &[usize], hi: &[usize], ask: &Ask) -> Result<usize> {
     let width = (0..t.n()).map(|i| hi[i] + 1 - lo[i]).max().unwrap_or(1);

@@ -48,15 +48,15 @@
 //! process-wide (for benchmarks that time both in one process); [`strip_filter_counts`]
 //! reports the decisions and the fallbacks.
 
-use super::weights::{smallest_angle_dot, Parts, Terms, Tri};
+use super::weights::{smallest_angle_dot, with_turn, Parts, Terms, Tri};
 use super::Step;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
 
-/// Bound on |[`atan2_cheap`] − `atan2_upper`| in radians (see the module docs).
+/// Bound on |`atan2_cheap` − `atan2_upper`| in radians (see the module docs).
 pub(super) const ATAN_ERROR: f64 = 1e-7;
 
-/// Odd polynomial p(r) = r · Σ C[k] r²ᵏ ≈ atan(r) on [0, 1], error < 3.9e-8.
+/// Odd polynomial p(r) = r · Σ `C[k]` r²ᵏ ≈ atan(r) on [0, 1], error < 3.9e-8.
 const C: [f64; 8] = [
     0.999_999_336_427_165_9,
     -0.333_298_646_243_033_8,
@@ -75,7 +75,7 @@ pub(super) fn atan2_cheap(y: f64, x: f64) -> f64 {
     atan2_cheap2([y, 0.0], [x, 1.0])[0]
 }
 
-/// [`atan2_cheap`] of two pairs at once, lane by lane (written so the compiler can pack the
+/// `atan2_cheap` of two pairs at once, lane by lane (written so the compiler can pack the
 /// lanes into one vector register: one division for both). O(1).
 #[inline(always)]
 pub(super) fn atan2_cheap2(y: [f64; 2], x: [f64; 2]) -> [f64; 2] {
@@ -226,7 +226,7 @@ pub(super) fn filtered_choice(
     if let Some(c) = cheaper {
         let o = 1 - c;
         let step = exact_step(c);
-        let via = super::lookahead::with_turn(t, step, entered);
+        let via = with_turn(t, step, entered);
         let wins = |other_lo: f64| {
             if c == 0 {
                 via <= other_lo

@@ -3,7 +3,7 @@
 
 use super::dp::{best_from, full_dp, Cell, UNREACHED};
 use super::filter::{self, FilterCounts};
-use super::weights::{Terms, Tri, Weight};
+use super::weights::{with_turn, Terms, Tri, Weight};
 use super::{Solution, Step, MAX_LOOKAHEAD_CELLS};
 use crate::{Error, Result};
 use glam::DVec3;
@@ -80,12 +80,12 @@ impl Window {
 /// O((n + m) · min(α, n) · min(α, m)): O(n + m) for fixed α; at α = 1 the window is the
 /// two steps themselves, compared without a DP (the same path bit for bit, about two step
 /// evaluations per triangle), each decision first from cheap bounds with exact fallback
-/// (`filter`: the same path and cost bit for bit; [`set_strip_filter`] turns it off). From α = n + m − 2 on, every
+/// (`filter`: the same path and cost bit for bit; [`set_strip_filter`](super::set_strip_filter) turns it off). From α = n + m − 2 on, every
 /// window reaches the end, the walk follows an optimal path, and a larger α changes
-/// nothing: that path is found by one DP instead ([`shortest_path_dp`]: the same cost; among
+/// nothing: that path is found by one DP instead ([`shortest_path_dp`](super::shortest_path_dp): the same cost; among
 /// tied optima, the DP's), in O(nm). Memory O(min(α, n) · min(α, m)). Errors: α = 0, a
-/// strip whose windows would exceed [`MAX_LOOKAHEAD_CELLS`] or [`MAX_STRIP_BYTES`], and
-/// those of [`shortest_path`].
+/// strip whose windows would exceed [`MAX_LOOKAHEAD_CELLS`] or [`MAX_STRIP_BYTES`](super::MAX_STRIP_BYTES), and
+/// those of [`shortest_path`](super::shortest_path).
 pub fn lookahead(a: &[DVec3], b: &[DVec3], w: Weight, alpha: usize) -> Result<Solution> {
     let t = Terms::new(a, b, w)?;
     if alpha == 0 {
@@ -192,13 +192,6 @@ fn exact_choice(t: &Terms, step_a: Tri, step_b: Tri, entered: &Option<Tri>) -> (
     } else {
         (Step::B, step_b, via_b)
     }
-}
-
-/// The cost `step` adds after the triangle `entered` (none at the start): its own cost
-/// plus the turn. O(1).
-#[inline(always)]
-pub(super) fn with_turn(t: &Terms, step: Tri, entered: &Option<Tri>) -> f64 {
-    step.cost + entered.map_or(0.0, |e| t.turn_from(&e, step.normal))
 }
 
 /// The walk of the look-ahead variants from (0, 0) to (n − 1, m − 1): on the last row or

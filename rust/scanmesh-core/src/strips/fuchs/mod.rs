@@ -67,10 +67,9 @@ pub enum Solver {
 
 /// Default initial half width w of [`shortest_path_banded`]: optimal strips between scan
 /// lines of similar spacing stray one or two columns from the diagonal, and two columns
-/// keep the far triangles' angle bound high enough to prove the band on almost every strip.
-/// Measured on the 1M-point synthetic scan (`strips_best vs`, old and new builds
-/// alternating, load 9-10 on 2 cores): checked strips 1.74-2.49 s against 1.78-2.63 s with
-/// the former unproven band (a DP of half width 2w accepted when its path kept within w).
+/// keep the far triangles' angle bound high enough to prove the band on almost every strip
+/// (timed against the former unproven band in docs/benchmarks/speed.md, "Figures behind the
+/// core's constants").
 pub const DEFAULT_BAND: usize = 2;
 
 /// Most bytes the solver of one strip may hold (2 GiB): a strip whose solver would need
@@ -81,9 +80,8 @@ pub const MAX_STRIP_BYTES: u64 = 2 << 30;
 
 /// Most window cells look-ahead may evaluate on one strip: with α below n + m − 2 every
 /// decision runs a DP over up to min(α, n) · min(α, m) cells (above, one DP does it all).
-/// A cell costs up to about 0.1 µs with the dihedral weight (α = 100 on 2 × 1,500 points:
-/// 3.1e7 cells, 22 s on two cores shared with 15 other jobs), so the limit is about a
-/// minute.
+/// The limit is about a minute of work at the cost of a cell with the dihedral weight
+/// (measured in docs/benchmarks/speed.md, "Figures behind the core's constants").
 pub const MAX_LOOKAHEAD_CELLS: u64 = 500_000_000;
 
 /// `bytes` as "1.6 GB". O(1).
@@ -214,7 +212,7 @@ pub(crate) fn path_triangles(path: &[Step], a_ids: &[u32], b_ids: &[u32]) -> Res
 /// `b_ids[j]` is b_j; step A at (i, j) gives (a_i, a_{i+1}, b_j), step B gives
 /// (a_i, b_{j+1}, b_j). Errors: a path that does not fit the two index lists, or an `out`
 /// of another length. O(n + m).
-pub fn path_triangles_into(
+pub(crate) fn path_triangles_into(
     path: &[Step],
     a_ids: &[u32],
     b_ids: &[u32],

@@ -4,9 +4,9 @@
 //! # The relaxed graph
 //!
 //! A band is rows `lo[i]..=hi[i]`, both nondecreasing, consecutive rows overlapping. A
-//! path that leaves it goes above it (j > hi[i]) or below it (j < lo[i]), never from one
+//! path that leaves it goes above it (`j > hi[i]`) or below it (`j < lo[i]`), never from one
 //! side to the other without passing through it, and comes back: above by an A-step into
-//! (i, j) from (i − 1, j) with j > hi[i − 1], below by a B-step into (i, lo[i]). Replace
+//! (i, j) from (i − 1, j) with `j > hi[i − 1]`, below by a B-step into `(i, lo[i])`. Replace
 //! every step outside the band by a lower bound on its cost that depends only on the line
 //! edge the step uses (row r for an A-step, column j for a B-step: `a_above[r]` bounds the
 //! A-step of row r from any column above the band, and so on), drop the turns outside, and
@@ -16,8 +16,8 @@
 //! it is the cheapest path of the whole matrix.
 //!
 //! The band DP finds it without visiting a cell outside: an excursion above that leaves
-//! row i1 at (i1, hi[i1] + 1) and reaches (i − 1, j) uses exactly the A-edges i1..i − 1
-//! and the B-edges hi[i1] + 1..j, whatever its shape, so its bound is a difference of
+//! row i1 at `(i1, hi[i1] + 1)` and reaches (i − 1, j) uses exactly the A-edges i1..i − 1
+//! and the B-edges `hi[i1] + 1..j`, whatever its shape, so its bound is a difference of
 //! prefix sums, and the cheapest way back in at (i, j) is
 //! `A[i − 1] + B[j] + min over exits so far of (cost at exit − A[i1] − B[hi[i1] + 1])`:
 //! one running minimum per side ([`Bounds`]), O(1) per row.

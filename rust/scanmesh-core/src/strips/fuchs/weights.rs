@@ -219,7 +219,7 @@ impl<'a> Terms<'a> {
     /// [|pq|², |qr|², |rp|²], the dot products of the two sides at the corners opposite
     /// them [at r, at p, at q], and `apex` = the corner off the entered edge minus a_i.
     /// Every evaluation of a step goes through here, whether its vectors are computed on
-    /// the spot ([`Terms::step`]) or taken from the DP's row caches ([`dp_in_band`]), so
+    /// the spot ([`Terms::step`]) or taken from the DP's row caches ([`dp_in_band`](super::dp::dp_in_band)), so
     /// both give bit-identical costs. Branch-free apart from the weight switches, which are
     /// the same for every call. O(1).
     #[inline(always)]
@@ -286,6 +286,13 @@ impl<'a> Terms<'a> {
     pub(super) fn turn_from(&self, from: &Tri, n2: DVec3) -> f64 {
         self.turn(from.normal, from.apex, from.len, n2)
     }
+}
+
+/// The cost `step` adds after the triangle `entered` (none at the start): its own cost
+/// plus the turn. O(1).
+#[inline(always)]
+pub(super) fn with_turn(t: &Terms, step: Tri, entered: &Option<Tri>) -> f64 {
+    step.cost + entered.map_or(0.0, |e| t.turn_from(&e, step.normal))
 }
 
 /// The dot product of the two sides at a triangle's smallest angle, from its squared sides

@@ -266,7 +266,7 @@ fn the_sweep_ordered_trimming_is_that_of_input_labels_on_any_thread_count() {
     let mut p = terrain(40, 30, 1.2, |x, _| if x < 20.5 { 0.0 } else { 9.0 });
     p.retain(|q| (q.x - 10.0).powi(2) + (q.y - 15.0).powi(2) > 12.0);
     let uv = planar(&p);
-    let spade = crate::triangulate::delaunay::spade_delaunay(&crate::unit_square(&uv))
+    let spade = crate::triangulate::delaunay::spade_delaunay(&crate::geometry::unit_square(&uv))
         .unwrap()
         .triangles;
     let limit = DEFAULT_MAX_EDGE_FACTOR * median_spacing(&uv, &spade).unwrap();
