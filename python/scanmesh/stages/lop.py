@@ -87,16 +87,17 @@ def lop_surface(
     # under load, and Ctrl-C waited for it
     faces, flips = interruptible(
         LOP_COST * len(scan.points),
-        _core.lop,
-        scan.points,
-        scan.uv,
-        start.faces,
-        params["criterion"],
-        p=params["p"],
-        sliver_guard=params["sliver_guard"],
-        tie_tolerance=params["tie_tolerance"],
-        sight=curtain_sight(scan),
-        curtain_angle=params["curtain_angle"],
+        lambda: _core.lop(
+            scan.points,
+            scan.uv,
+            start.faces,
+            params["criterion"],
+            p=params["p"],
+            sliver_guard=params["sliver_guard"],
+            tie_tolerance=params["tie_tolerance"],
+            sight=curtain_sight(scan),
+            curtain_angle=params["curtain_angle"],
+        ),
     )
     return Surface(
         vertices=scan.points,
