@@ -247,7 +247,9 @@ def make_case(seed: int) -> dict[str, Any]:
 
 
 def _names(message: str, bad: list[str]) -> bool:
+    # refine=True with a single view is refused for itself, whatever else is bad
     words = [w.split()[0] for w in bad] + ["view", "pose", "points", "voxel", "max_voxels"]
+    words.append("refine")
     return any(re.search(rf"(?<!\w){re.escape(w)}(?!\w)", message) for w in words)
 
 
