@@ -30,14 +30,14 @@ def machine() -> str:
 
 def scans() -> dict[str, tuple[np.ndarray, str, object]]:
     """name -> (points, plane, truth mesh)."""
-    from scanmesh.demo import demo_truth
+    from scanmesh.demo import rod_truth
 
-    rod, _ = scanmesh.load_demo()
+    rod, _ = scanmesh.load_rod()
     fandisk, _ = scanmesh.simulate_scan(FANDISK, up="y", along="x", n_points=17_000)
     import trimesh
 
     return {
-        "rod (demo, 14,340 pts)": (rod, "y", demo_truth()),
+        "rod (load_rod, 14,340 pts)": (rod, "y", rod_truth()),
         f"fandisk ({len(fandisk):,} pts)": (fandisk, "y", trimesh.load(FANDISK, force="mesh")),
     }
 
@@ -126,13 +126,13 @@ def paper(picture: Path | None, tiles: int) -> None:
     Writes ``<picture>`` (both meshes shaded, side by side, like the paper's figures 1 and 2),
     ``<picture>_segment.png`` (a segment with its edges) and ``<picture>_trace.png``.
     """
-    from scanmesh.demo import demo_truth
+    from scanmesh.demo import rod_truth
     from scanmesh.evaluate.truth import TrueSurface, height_error, normal_error
     from scanmesh.present.panels import render_compare
     from scanmesh.present.render import auto_view as _auto_view
     from scanmesh.present.render import plot_convergence
 
-    pts, lines = scanmesh.load_demo()
+    pts, lines = scanmesh.load_rod()
     print(f"machine: {machine()}, load average {os.getloadavg()[0]:.1f} at the start\n")
     cpu = {}
     for key, method, opts in [
@@ -145,7 +145,7 @@ def paper(picture: Path | None, tiles: int) -> None:
         cpu[key] = (*timed(pts, method, "y", **opts), time.process_time() - c0)
     (sp, t_sp, c_sp), (an, t_an, c_an), (d, t_d, c_d) = cpu["sp"], cpu["an"], cpu["d"]
     at, t_at, c_at = cpu["at"]
-    truth = TrueSurface(demo_truth())
+    truth = TrueSurface(rod_truth())
     print(
         "| method | wall (s) | CPU (s) | 1997 time | speed-up (wall) | tac_1 | tac_2 | tac_inf |"
         " min angle (°) | sliver share | h_rms | h_max | normal mean (°) |"

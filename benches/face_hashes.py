@@ -9,7 +9,7 @@ time limit), so the fingerprints do not depend on the machine's load.
     python benches/face_hashes.py > before.txt
     python benches/face_hashes.py --data ../shared/data > before_shared.txt   # bench scans
 
-The default corpus is the repository's own: the demo scan and every file of
+The default corpus is the repository's own: the embedded rod scan and every file of
 ``tests/data`` (the CAD parts scanned by ``simulate_scan`` along z, clean and noisy), plus
 seeded random scans. Then the default (``auto``: the holdout's choice) on the simulated and
 random scans, the holdout error of two methods on the demo (its figures to the last digit),
@@ -54,7 +54,7 @@ def _fingerprint(faces: np.ndarray) -> str:
 
 def _scans(data: Path) -> list[tuple[str, object]]:
     """(name, source) pairs: a source is a path or (points, line_ids)."""
-    scans: list[tuple[str, object]] = [("demo", scanmesh.load_demo())]
+    scans: list[tuple[str, object]] = [("rod", scanmesh.load_rod())]
     for path in sorted(data.rglob("*")):
         if path.suffix in (".vtk", ".dem", ".laz"):
             scans.append((str(path.relative_to(data)), path))

@@ -1,6 +1,6 @@
 """Annealing on large scans: wall time, memory and quality against the goals.
 
-    python benches/large_anneal.py demo                   # the demo rod, default settings
+    python benches/large_anneal.py rod                    # the embedded rod, default settings
     python benches/large_anneal.py paper                  # 3,000 sweeps on the rod with curtains
     python benches/large_anneal.py million                # 1M points: defaults and a reference
     python benches/large_anneal.py million --points 10000000 --no-reference   # 10M points
@@ -107,8 +107,8 @@ def child(spec: dict) -> dict:
     from scanmesh.stages.anneal import anneal_surface
 
     stages = Stages()
-    if spec["points"] == "demo":
-        pts, _ = scanmesh.load_demo()
+    if spec["points"] == "rod":
+        pts, _ = scanmesh.load_rod()
     else:
         pts, _ = rod_scan(int(spec["points"]))
     trim = {} if spec["trim"] else {"max_edge": math.inf}
@@ -184,7 +184,7 @@ HEADER = (
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("case", choices=["demo", "paper", "million", "_child"])
+    parser.add_argument("case", choices=["rod", "paper", "million", "_child"])
     parser.add_argument("spec", nargs="?", help=argparse.SUPPRESS)
     parser.add_argument("--points", type=int, default=1_000_000)
     parser.add_argument("--old-python", help="also run every case under this interpreter")
@@ -201,19 +201,19 @@ def main() -> None:
     if args.old_python:
         builds.append(("old build", args.old_python))
     cases: list[tuple[str, dict]] = []
-    if args.case == "demo":
-        cases = [("demo rod, defaults", {"points": "demo", "trim": True, "options": {}})]
+    if args.case == "rod":
+        cases = [("embedded rod, defaults", {"points": "rod", "trim": True, "options": {}})]
     elif args.case == "paper":
         # the paper's annealing: from Delaunay itself, every flip judged by tac alone
         paper = {"sweeps": 3000, "patience": 0, "descend": False, "sliver_angle": 0.0}
         cases = [
             (
                 "rod with curtains, 3,000 sweeps",
-                {"points": "demo", "trim": False, "options": paper},
+                {"points": "rod", "trim": False, "options": paper},
             ),
             (
                 "rod with curtains, 3,000 sweeps, 8 tiles",
-                {"points": "demo", "trim": False, "options": {**paper, "tiles": 8}},
+                {"points": "rod", "trim": False, "options": {**paper, "tiles": 8}},
             ),
         ]
     else:

@@ -1,4 +1,4 @@
-"""Regenerate the embedded demo scan (python/scanmesh/data/) from the connecting rod STL.
+"""Regenerate the embedded data (python/scanmesh/data/): the rod's scan, the demo's part.
 
     python benches/make_demo.py            # write the files
     python benches/make_demo.py --check    # fail if the shipped files differ
@@ -82,7 +82,7 @@ def build() -> dict[Path, bytes]:
 
 
 ATTRIBUTION_TEXT = """\
-# Embedded demo data
+# Embedded data: the rod's scan and the demo's part
 
 ## conrod_slevin48_onshape.stl.gz: the true surface
 
@@ -96,7 +96,7 @@ A connecting rod modelled in Onshape: binary STL, 524 vertices / 1,044 faces, wa
   SHA-256 of the uncompressed STL: `{sha}`
   (the same file as `shared/data/cad/conrod_slevin48_onshape.stl`)
 
-## conrod_scan.npz: a simulated scan of it
+## conrod_scan.npz: a simulated scan of it (`scanmesh.load_rod()`)
 
 Made by this project (no noise, so every point lies on the STL's surface):
 
@@ -153,7 +153,8 @@ Hoppe's fandisk, the classic CAD test part with sharp creases: 2,877 vertices, O
   SHA-256 of the uncompressed OBJ: `{sha}`; of fandisk.obj.gz: `{gz_sha}`
 - `scanmesh demo` turns it 30 degrees about y through its centroid (so that its creases
   cross the scan lines) and scans it along y with noise (`scanmesh.demo.scan_demo_part`,
-  settings in `scanmesh.demo.PART_SCAN`); the scan is made when the demo runs (0.2 s)
+  settings in `scanmesh.demo.PART_SCAN`); the scan (`scanmesh.load_demo()`) is made
+  when called (under a second)
 """
 
 

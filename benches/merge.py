@@ -7,6 +7,7 @@
     python benches/merge.py --tilted                     # 14 views: 8 more at 45°
     python benches/merge.py --voxel 0.7 --peers          # merge alone, voxel 0.7 s
     nice python benches/merge.py --memory 10 1000000     # peak memory, 10 views of 1M points
+    nice python benches/merge.py --real                  # the real scans (benches/multiview.py)
 
 Each CAD part in ``../shared/data/cad`` is scanned by the virtual range scanner
 (:func:`scanmesh.simulate_range_scan`) from the six axis directions, at a spacing s of its
@@ -45,11 +46,12 @@ import json
 import time
 from pathlib import Path
 
+import multiview
 import numpy as np
 import open3d as o3d
 import pymeshlab
 import trimesh
-from quality import CAD
+from quality import CAD, SHARED
 from scipy.spatial import cKDTree
 
 import scanmesh
@@ -293,14 +295,6 @@ def run_part(
     return rows
 
 
-def fmt(v, spec=".3g") -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    return format(v, spec)
-
-
 def table(rows: list[dict]) -> str:
     cols = [
         ("method", None),
@@ -316,12 +310,10 @@ def table(rows: list[dict]) -> str:
         ("far unlabelled", ".2%"),
         ("seconds", ".1f"),
     ]
-    out = []
-    for part in dict.fromkeys(r["part"] for r in rows):
-        mine = [r for r in rows if r["part"] == part]
-        h = mine[0]
-        out.append(
-            f"\n**{part}** (s = {h['spacing']:.4g}, {h['points']:,} points, truth genus"
+
+    def heading(h: dict) -> str:
+        return (
+            f"\n**{h['part']}** (s = {h['spacing']:.4g}, {h['points']:,} points, truth genus"
             f" {h['truth genus']:g}, never sampled {h['unsampled share']:.1%} of the boundary"
             + (
                 f", {h['internal share']:.1%} of the file's area inside the solid"
@@ -330,20 +322,8 @@ def table(rows: list[dict]) -> str:
             )
             + ")\n"
         )
-        out.append("| " + " | ".join(c for c, _ in cols) + " |")
-        out.append("|" + "---|" * len(cols))
-        for r in mine:
-            out.append(
-                "| "
-                + " | ".join(
-                    str(r.get(c, "-"))
-                    if spec is None and not isinstance(r.get(c), bool)
-                    else fmt(r.get(c), spec or "")
-                    for c, spec in cols
-                )
-                + " |"
-            )
-    return "\n".join(out)
+
+    return multiview.markdown(rows, "part", heading, cols)
 
 
 def memory_run(n_views: int, n_points: int) -> dict:
@@ -395,7 +375,23 @@ def main() -> None:
         metavar=("VIEWS", "POINTS"),
         help="instead: peak memory of merge on VIEWS scans of a sphere, POINTS each",
     )
+    ap.add_argument("--real", action="store_true", help="instead: the real aligned scans")
+    ap.add_argument("--multiview", type=Path, default=SHARED / "multiview", help="their folder")
+    ap.add_argument("--sets", nargs="*", help="subset of the real sets")
+    ap.add_argument("--methods", nargs="*", help="subset of the methods on the real sets")
+    ap.add_argument("--voxel-world", type=float, help="merge's voxel on the real sets (metres)")
+    ap.add_argument("--pictures", type=Path, help="write the real sets' pictures here")
     args = ap.parse_args()
+    if args.real:
+        rows = []
+        for name in args.sets or list(multiview.SETS):
+            rows += multiview.run_set(
+                args.multiview, name, args.methods, args.voxel_world, args.pictures
+            )
+        if args.json:
+            args.json.write_text("".join(json.dumps(r) + "\n" for r in rows))
+        print(multiview.table(rows))
+        return
     if args.memory:
         print(json.dumps(memory_run(*args.memory)))
         return

@@ -170,7 +170,7 @@ def plane_check(n: int = 40_000, seed: int = 0) -> None:
 def cad_rows(part: str, data: Path) -> None:
     cad, settings, plane = PARTS[part]
     truth = TrueSurface(data / "cad" / cad)
-    # the rod's noise-free scan is the embedded demo, made with these settings
+    # the rod's noise-free scan is the embedded one (load_rod), made with these settings
     clean, lines = scanmesh.simulate_scan(data / "cad" / cad, **settings)
     step = scan_lines(clean, lines, plane=plane).median_step
     with warnings.catch_warnings():

@@ -42,8 +42,8 @@ from scanmesh.present.render import auto_view as _auto_view
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 CAD = SHARED / "cad"
 
-#: part -> (CAD file, simulate_scan settings, projection plane). The rod is the embedded demo
-#: scan (made with exactly these settings by benches/make_demo.py).
+#: part -> (CAD file, simulate_scan settings, projection plane). The rod is the embedded rod
+#: scan (``scanmesh.load_rod()``, made with exactly these settings by benches/make_demo.py).
 PARTS: dict[str, tuple[str, dict, str]] = {
     "conrod": ("conrod_slevin48_onshape.stl", {"up": "y", "along": "x", "n_points": 14_339}, "y"),
     "octagonal_pocket": (
@@ -76,7 +76,7 @@ def machine() -> str:
 def scan(part: str) -> tuple[np.ndarray, np.ndarray]:
     """(points, line_ids) of a part at its stated settings."""
     if part == "conrod":
-        return scanmesh.load_demo()
+        return scanmesh.load_rod()
     cad, settings, _ = PARTS[part]
     return scanmesh.simulate_scan(CAD / cad, **settings)
 

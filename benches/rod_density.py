@@ -4,8 +4,8 @@
     python benches/rod_density.py --points 10500 --seeds 0 1 2
 
 The rod (``../shared/data/cad/conrod_slevin48_onshape.stl``) is scanned by the virtual
-digitizer like the embedded demo (``simulate_scan(up="y", along="x", n_points=...)``, no
-noise; 14,339 gives the demo scan itself) and triangulated in the y plane by spade Delaunay
+digitizer like the embedded rod scan (``simulate_scan(up="y", along="x", n_points=...)``, no
+noise; 14,339 gives ``load_rod()`` itself) and triangulated in the y plane by spade Delaunay
 (trimmed at 5 x median spacing), ``scipy.spatial.Delaunay`` trimmed by the same code (grid
 scans are full of cocircular quadruples, and the Delaunay tie-break changes the denominator
 of every ratio), LOP, shortest path, default annealing (one row per seed) and annealing from

@@ -171,8 +171,8 @@ def anneal_speed() -> None:
         " / one chain |"
     )
     print("|---|---|---|---|---|---|---|---|")
-    rod, _ = scanmesh.load_demo()
-    cases = [("rod (demo), along y", rod, "y", 300, 8)]
+    rod, _ = scanmesh.load_rod()
+    cases = [("rod (load_rod), along y", rod, "y", 300, 8)]
     for n in (100_000, 1_000_000):
         pts, _ = synthetic_scan(n)
         cases.append((f"synthetic {n:,}", pts, "z", 30 if n < 1_000_000 else 20, 64))

@@ -47,10 +47,10 @@ def best_time(run: Callable[[], object], repeat: int) -> tuple[float, object]:
 def quality_table(repeat: int) -> None:
     fran = read_vtk(DATA / "scans" / "fran_cut.vtk")
     dem = read_dem(DATA / "terrain" / "SainteHelens.dem")
-    rod = scanmesh.load_demo()
+    rod = scanmesh.load_rod()
     scans = {
         "fran_cut": (fran.points, fran.line_ids, None),
-        "rod (demo)": (rod[0], rod[1], "y"),
+        "rod (load_rod)": (rod[0], rod[1], "y"),
         "Sainte Helens": (dem.points, dem.line_ids, None),
     }
     weights: list[str | dict[str, float]] = [*CRITERIA, DEFAULT_WEIGHT]

@@ -28,10 +28,10 @@ def bumpy_patch(n: int, seed: int) -> np.ndarray:
 
 @pytest.fixture(scope="session")
 def rod_scan() -> tuple[np.ndarray, np.ndarray]:
-    """The embedded connecting-rod demo scan: (points, line_ids)."""
+    """The embedded connecting-rod scan (`scanmesh.load_rod`): (points, line_ids)."""
     import scanmesh
 
-    return scanmesh.load_demo()
+    return scanmesh.load_rod()
 
 
 def seconds_to_interrupt(script: str, wait: float) -> float:

@@ -73,3 +73,11 @@ def test_help_lists_common_options_first_and_method_options_under_their_method()
     common = text.split("\noptions:\n", 1)[1].split("\n\n", 1)[0]
     for flag in ("--output", "--method", "--report", "--preview", "--view"):
         assert flag in common
+
+
+def test_the_demos_help_says_where_it_writes(capsys):
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "-o DIR, --output-dir DIR" in text
+    assert "into the current folder or -o DIR" in text and "made if missing" in text

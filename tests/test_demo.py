@@ -1,4 +1,5 @@
-"""The embedded demo: a scan of the connecting rod shipped inside the package, and its truth."""
+"""The embedded data: the demo scan (the fandisk ``scanmesh demo`` reconstructs) and the
+connecting rod's scan shipped inside the package, each with its part."""
 
 from __future__ import annotations
 
@@ -21,8 +22,9 @@ from scanmesh.demo import (
     TRUTH_FILE,
     TRUTH_SHA256,
     demo_part,
-    demo_truth,
     load_demo,
+    load_rod,
+    rod_truth,
     scan_demo_part,
 )
 
@@ -31,20 +33,20 @@ PACKAGE_DATA = resources.files("scanmesh.data")
 
 
 @pytest.fixture(scope="module")
-def demo():
-    return load_demo()
+def rod():
+    return load_rod()
 
 
-def test_demo_has_about_the_papers_point_count(demo):
-    points, line_ids = demo
+def test_rod_has_about_the_papers_point_count(rod):
+    points, line_ids = rod
     assert abs(len(points) - 14_339) <= 0.03 * 14_339
     assert points.shape == (len(points), 3) and points.dtype == np.float64
     assert line_ids.shape == (len(points),) and line_ids.dtype == np.int64
     assert np.all(np.isfinite(points))
 
 
-def test_demo_lines_are_ordered(demo):
-    points, line_ids = demo
+def test_rod_lines_are_ordered(rod):
+    points, line_ids = rod
     assert line_ids[0] == 0 and np.all(np.diff(line_ids) >= 0)
     assert np.array_equal(np.unique(line_ids), np.arange(line_ids.max() + 1))
     assert line_ids.max() + 1 > 100
@@ -54,9 +56,9 @@ def test_demo_lines_are_ordered(demo):
         assert np.ptp(row[:, 2]) == 0.0  # one z per line
 
 
-def test_demo_points_lie_on_the_truth(demo):
-    points, _ = demo
-    truth = demo_truth()
+def test_rod_points_lie_on_the_truth(rod):
+    points, _ = rod
+    truth = rod_truth()
     _, dist, _ = trimesh.proximity.closest_point(truth, points)
     assert dist.max() < 1e-9
     # seen from +y: only the top face and the recessed web
@@ -64,7 +66,7 @@ def test_demo_points_lie_on_the_truth(demo):
 
 
 def test_truth_is_the_connecting_rod():
-    truth = demo_truth()
+    truth = rod_truth()
     assert isinstance(truth, trimesh.Trimesh)
     assert truth.vertices.shape == (524, 3) and truth.faces.shape == (1044, 3)
     assert truth.is_watertight
@@ -77,10 +79,10 @@ def test_shipped_stl_is_the_source_byte_for_byte():
     assert raw == CONROD.read_bytes()
 
 
-def test_demo_regenerates_from_the_source(demo):
+def test_rod_regenerates_from_the_source(rod):
     points, line_ids = scanmesh.simulate_scan(CONROD, **SCAN_SETTINGS)
-    np.testing.assert_array_equal(points, demo[0])
-    np.testing.assert_array_equal(line_ids, demo[1])
+    np.testing.assert_array_equal(points, rod[0])
+    np.testing.assert_array_equal(line_ids, rod[1])
 
 
 def test_attribution_names_source_licence_and_settings():
@@ -90,7 +92,7 @@ def test_attribution_names_source_licence_and_settings():
 
 
 def test_exported_from_the_package():
-    assert scanmesh.load_demo is load_demo
+    assert scanmesh.load_demo is load_demo and scanmesh.load_rod is load_rod
     assert callable(scanmesh.simulate_scan)
 
 
@@ -122,3 +124,28 @@ def test_the_demo_scan_is_seeded_and_lies_on_the_part_within_its_noise():
     _, distance, _ = trimesh.proximity.closest_point(part, points[::10])
     assert np.sqrt(np.mean(distance**2)) < 2 * sigma
     assert distance.max() < 6 * sigma
+
+
+def test_load_demo_is_the_scan_the_demo_command_reconstructs():
+    """One name for one thing: ``load_demo()`` is the fandisk scan of ``scanmesh demo``
+    (not the rod), and its part is :func:`demo_part`."""
+    points, line_ids = load_demo()
+    scanned, scanned_ids, _ = scan_demo_part()
+    np.testing.assert_array_equal(points, scanned)
+    np.testing.assert_array_equal(line_ids, scanned_ids)
+    assert points.dtype == np.float64 and line_ids.dtype == np.int64
+    rod_points, _ = load_rod()
+    assert len(points) != len(rod_points)
+
+
+def test_the_demo_scan_is_curved_where_the_rod_is_flat(rod):
+    """The tour's scan gives the methods something to differ on: Delaunay's mesh of the
+    demo scan has tac well above zero and annealing lowers it, where on the rod (flat where
+    scanned) both are zero."""
+    points, line_ids = load_demo()
+    base = scanmesh.reconstruct(points, "delaunay", plane="y")
+    annealed = scanmesh.reconstruct(base.scan, "anneal", initial=base, seed=0)
+    assert base.quality.tac_1 > 10.0
+    assert annealed.quality.tac_1 < 0.5 * base.quality.tac_1
+    flat = scanmesh.reconstruct(rod[0], "delaunay", plane="y")
+    assert flat.quality.tac_1 < 1e-6

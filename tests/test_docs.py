@@ -235,8 +235,48 @@ def test_architecture_is_short():
     assert line_count("ARCHITECTURE.md") <= 120
 
 
+#: Most lines any Markdown page may have (as for a Python file): a longer one is split.
+MAX_MARKDOWN_LINES = 800
+
+
+def test_every_markdown_page_is_under_its_cap():
+    long = [f"{i}: {line_count(i)}" for i in IDS if line_count(i) > MAX_MARKDOWN_LINES]
+    assert not long, "split these pages:\n" + "\n".join(long)
+
+
 def test_slug_rule():
     assert slug("Speed against the peers") == "speed-against-the-peers"
     assert slug("Depth jumps: no curtains, walls") == "depth-jumps-no-curtains-walls"
     assert slug("The `scanmesh` command (α = 1)") == "the-scanmesh-command-α--1"
     assert slug("snake_case and hy-phen") == "snake_case-and-hy-phen"
+
+
+#: Most words a cell of BENCHMARKS.md's headline table may hold (a figure, its ratio, a link).
+HEADLINE_WORDS = 30
+
+
+def headline_cells(text: str) -> list[str]:
+    """The cells of the first table under BENCHMARKS.md's "## Headline", link targets left
+    out (a link counts as the words of its text)."""
+    section = text.split("\n## Headline\n", 1)[1].split("\n## ", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("|")][2:]
+    cells = []
+    for row in rows:
+        visible = re.sub(r"\]\([^)]*\)", "]", row)
+        cells += [cell.strip() for cell in visible.strip().strip("|").split("|")]
+    return cells
+
+
+def test_benchmarks_opens_with_a_headline_of_short_cells():
+    text = (ROOT / "BENCHMARKS.md").read_text(encoding="utf-8")
+    headings = [title for _, title in HEADING.findall(FENCE.sub("", text))]
+    assert headings[:2] == ["Benchmarks", "Headline"]
+    cells = headline_cells(text)
+    assert len(cells) >= 40  # a table of ten rows or more
+    long = [f"{len(c.split())} words: {c}" for c in cells if len(c.split()) > HEADLINE_WORDS]
+    assert not long, "headline cells over the cap:\n" + "\n".join(long)
+
+
+def test_headline_rule():
+    text = "# B\n\n## Headline\n\n| a | b |\n|---|---|\n| one [two](x.md#y) | three |\n\n## Next\n"
+    assert headline_cells(text) == ["one [two]", "three"]

@@ -151,16 +151,16 @@ def default_and_exact_ties(points, lines, seed, plane="z"):
 
 
 def test_noise_aware_annealing_beats_delaunay_on_a_noisy_rod():
-    """sigma = s/10 on the connecting rod (the embedded demo's CAD truth, 5,000 points):
+    """sigma = s/10 on the connecting rod (the embedded rod's CAD truth, 5,000 points):
     annealing with the noise's tie tolerance stays at Delaunay's height error with few
     slivers; annealing with exact ties only chases the noise and lands farther from the
     true surface."""
-    from scanmesh.demo import demo_truth
+    from scanmesh.demo import rod_truth
     from scanmesh.evaluate.truth import TrueSurface, height_error
     from scanmesh.scan.lines import scan_lines
     from scanmesh.stages.anneal import ANNEAL_DEFAULTS
 
-    truth = TrueSurface(demo_truth())
+    truth = TrueSurface(rod_truth())
     settings = {"up": "y", "along": "x", "n_points": 5000}
     clean, lines = scanmesh.simulate_scan(truth.mesh, **settings)
     sigma = scan_lines(clean, lines, plane="y").median_step / 10

@@ -81,12 +81,12 @@ def test_core_install_reconstructs_judges_and_draws_without_any_extra(tmp_path):
         import json, numpy as np, scanmesh
         from scanmesh.present.render import render_mesh
         from scanmesh.evaluate.truth import height_error
-        points, ids = scanmesh.load_demo()
+        points, ids = scanmesh.load_rod()
         keep = ids < 20
         s = scanmesh.reconstruct(points[keep], "anneal", lines=ids[keep], plane="y", seed=0)
         s.save("rod.stl")
         render_mesh(s, "rod.png", size=(120, 90), color_by="tac")
-        err = height_error(s, scanmesh.demo.demo_truth(), n_samples=2000, seed=0)
+        err = height_error(s, scanmesh.demo.rod_truth(), n_samples=2000, seed=0)
         print(json.dumps({"faces": len(s.faces), "h_rms": err["h_rms"]}))
         """,
         tmp_path,

@@ -300,7 +300,7 @@ def test_a_surface_seen_from_the_side_warns_and_suggests_a_plane(method):
             run(cylinder(), method, plane="x")
 
 
-def test_the_demo_rod_over_its_plane_is_a_height_field(rod_scan):
+def test_the_embedded_rod_over_its_plane_is_a_height_field(rod_scan):
     pts, _ = rod_scan
     with warnings.catch_warnings():
         warnings.simplefilter("error", NotAHeightFieldWarning)

@@ -38,7 +38,7 @@ NOTE_ROWS = 45
 
 @pytest.fixture(scope="module")
 def rod() -> scanmesh.Surface:
-    points, _ = scanmesh.load_demo()
+    points, _ = scanmesh.load_rod()
     return scanmesh.delaunay(points, plane="y")
 
 

@@ -15,14 +15,16 @@ The public API:
   reads a Stanford ``.conf``; :class:`View` is one view);
 - :func:`read` - scan points from a file (XYZ, CSV, PLY, NPY/NPZ, VTK, USGS DEM, LAS/LAZ,
   PTS, PCD, E57, ESRI ASCII grids; the vertices of STL, OBJ and OFF meshes);
-- :func:`load_demo` - the embedded connecting-rod scan (its CAD truth: ``demo.demo_truth``);
+- :func:`load_demo` - the demo scan ``scanmesh demo`` reconstructs (the creased fandisk, noisy;
+  its part: ``demo.demo_part``); :func:`load_rod` the embedded connecting-rod scan (flat
+  where scanned; its part: ``demo.rod_truth``);
 - :class:`Surface`, :class:`Quality`, :class:`Frame`, :class:`PlanarScan` - the results;
 - :class:`ScanmeshError` - base of every input error (a ``ValueError``).
 """
 
 from importlib import metadata as _metadata
 
-from scanmesh.demo import load_demo
+from scanmesh.demo import load_demo, load_rod
 from scanmesh.errors import (
     ClosedPartWarning,
     CoincidentPointsWarning,
@@ -71,6 +73,7 @@ __all__ = [
     "simulate_scan",
     "simulate_range_scan",
     "load_demo",
+    "load_rod",
     "quality",
     "detect_lines",
     "noise",

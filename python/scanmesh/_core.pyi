@@ -159,6 +159,7 @@ class DepthView:
         step: float,
         depth: npt.NDArray[np.float64],
         cos: npt.NDArray[np.float64],
+        weight: npt.NDArray[np.float64] | None = None,
     ) -> DepthView: ...
 
 @final

@@ -1,15 +1,17 @@
-"""The embedded demo data: a simulated scan of a connecting rod with the rod's true surface,
-and the part ``scanmesh demo`` scans.
+"""The embedded data: the demo scan with its part, and the connecting rod's scan with its part.
 
-The rod is the paper's reference part (Weinert, Mehnen and Prestifilippo, 1997: 14,339
-points). The scan was made by :func:`scanmesh.evaluate.digitizer.simulate_scan` without noise, so
-every point lies on :func:`demo_truth`; ``benches/make_demo.py`` regenerates it, and
-``scanmesh/data/ATTRIBUTION.md`` gives the sources, licences and settings.
+- The **demo scan** (:func:`load_demo`) is what ``scanmesh demo`` reconstructs: Hoppe's
+  fandisk (:func:`demo_part`, a CAD part with creases) turned so that its creases cross
+  the scan lines and scanned with seeded noise: a part on which the triangulation decides
+  how close the mesh comes to the surface.
+- The **rod scan** (:func:`load_rod`) is the paper's reference part (Weinert, Mehnen and
+  Prestifilippo, 1997: 14,339 points), made by
+  :func:`scanmesh.evaluate.digitizer.simulate_scan` without noise, so every point lies on
+  :func:`rod_truth`. Scanned along its thickness it is flat where the scan sees it (every
+  tac 0): a test and benchmark input, nothing there for annealing to do.
 
-The rod scanned along its thickness is nearly flat where the scan sees it: nothing there
-for annealing to do. ``scanmesh demo`` scans Hoppe's fandisk instead (:func:`demo_part`),
-turned so that its creases cross the scan lines, with noise: a part on which the
-triangulation decides how close the mesh comes to the surface.
+``benches/make_demo.py`` regenerates both files, and ``scanmesh/data/ATTRIBUTION.md``
+gives the sources, licences and settings.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from scanmesh.evaluate.digitizer import simulate_scan
 if TYPE_CHECKING:
     import trimesh
 
-#: Files inside the ``scanmesh.data`` package.
+#: Files inside the ``scanmesh.data`` package: the rod's scan and the rod.
 SCAN_FILE = "conrod_scan.npz"
 TRUTH_FILE = "conrod_slevin48_onshape.stl.gz"
 #: SHA-256 of the uncompressed STL (slevin48/3d, conrod.stl, commit 6c52a466).
@@ -56,7 +58,25 @@ def _read(name: str) -> bytes:
 
 
 def load_demo() -> tuple[np.ndarray, np.ndarray]:
-    """The demo scan of the connecting rod.
+    """The demo scan, the one ``scanmesh demo`` reconstructs: :func:`demo_part` (the
+    fandisk, turned) scanned along y with seeded noise (:func:`scan_demo_part`).
+
+    Returns
+    -------
+    points : (N, 3) float64
+        About 10,000 points in the part's units, line by line (lines along +x, stacked
+        along -z, seen from +y).
+    line_ids : (N,) int64
+        Scan line of each point, 0..L-1.
+
+    Made when called (deterministic, about a second): :func:`demo_part` is its truth.
+    """
+    points, line_ids, _ = scan_demo_part()
+    return points, line_ids
+
+
+def load_rod() -> tuple[np.ndarray, np.ndarray]:
+    """The embedded scan of the connecting rod (no noise; its truth: :func:`rod_truth`).
 
     Returns
     -------
@@ -72,8 +92,8 @@ def load_demo() -> tuple[np.ndarray, np.ndarray]:
     return points, line_ids
 
 
-def demo_truth() -> trimesh.Trimesh:
-    """The connecting rod the demo was scanned from (524 vertices, 1,044 faces, inches).
+def rod_truth() -> trimesh.Trimesh:
+    """The connecting rod :func:`load_rod` was scanned from (524 vertices, 1,044 faces, inches).
 
     The known true surface, for height error and normal error of a reconstruction.
     """
@@ -87,9 +107,9 @@ def demo_truth() -> trimesh.Trimesh:
 
 
 def demo_part() -> trimesh.Trimesh:
-    """The fandisk as ``scanmesh demo`` scans it: turned :data:`PART_SCAN` ``turn_deg``
-    degrees about ``up`` through its centroid (2,877 vertices; the true surface of
-    :func:`scan_demo_part`)."""
+    """The demo's part, the fandisk as ``scanmesh demo`` scans it: turned :data:`PART_SCAN`
+    ``turn_deg`` degrees about ``up`` through its centroid (2,877 vertices; the true surface
+    of :func:`load_demo` and :func:`scan_demo_part`)."""
     trimesh = import_interruptibly("trimesh")
 
     raw = gzip.decompress(_read(PART_FILE))

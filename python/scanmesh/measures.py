@@ -114,7 +114,7 @@ def quality(vertices: ArrayLike | PlanarScan, faces: ArrayLike) -> Quality:
     tri = as_faces(faces, len(pts))
     tac, min_angle = _core.mesh_quality(pts, tri)
     # Scalars from the radians (the per-face degrees are converted only if asked for): at
-    # 20M faces the conversion and the comparison on it took 0.5 s.
+    # 20M faces the conversion and the comparison on it take 0.5 s.
     smallest = float(np.degrees(min_angle.min())) if len(min_angle) else math.nan
     slivers = (
         np.count_nonzero(min_angle < _SLIVER_RADIANS) / len(min_angle) if len(min_angle) else 0.0

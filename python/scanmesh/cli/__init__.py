@@ -252,9 +252,10 @@ def build_parser() -> argparse.ArgumentParser:
     for option in MERGE_OPTIONS:
         add_option_flag(merge_flags, option, option_help(option))
     p.add_argument(
-        "--inverse-rotation",
+        "--forward-rotation",
         action="store_true",
-        help="read a .conf file's quaternions as the inverse rotation (world = R(q)^T p + t)",
+        help="read a .conf file's quaternions as world = R(q) p + t (default: R(q)^T p + t,"
+        " which aligns the Stanford scans)",
     )
     p.set_defaults(func=cmd_merge, _parser=p)
 
@@ -331,15 +332,16 @@ def build_parser() -> argparse.ArgumentParser:
         description="Scan the embedded fandisk (a CAD part with creases) turned so that its"
         " creases cross the scan lines, with noise; reconstruct it by Delaunay and by"
         f" annealing (seed 0); write {DEMO_MESH} (annealed), {DEMO_PREVIEW} (both,"
-        f" shaded) and {DEMO_TAC} (both, coloured by tac on one scale), and"
-        " print both meshes' quality and height error against the part.",
+        f" shaded) and {DEMO_TAC} (both, coloured by tac on one scale) into the current"
+        " folder or -o DIR, and print both meshes' quality and height error against the"
+        " part.",
     )
     p.add_argument(
         "-o",
         "--output-dir",
         default=".",
-        metavar="OUTDIR",
-        help="folder for the files (default: here)",
+        metavar="DIR",
+        help="folder for the files, made if missing (default: the current folder)",
     )
     p.set_defaults(func=cmd_demo, _parser=p)
     return parser

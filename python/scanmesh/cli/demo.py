@@ -1,5 +1,5 @@
 """``scanmesh demo``: a CAD part with creases scanned with noise, reconstructed by Delaunay
-and by the default method, judged against the part and pictured side by side."""
+and by annealing, judged against the part and pictured side by side."""
 
 from __future__ import annotations
 
@@ -38,8 +38,8 @@ ROWS = (
 
 
 def cmd_demo(args: argparse.Namespace, con: _Console) -> int:
-    """Scan the fandisk, reconstruct it by Delaunay and by annealing (what the default picks
-    there), compare both with the part; write demo_part.stl, demo_part.png and demo_tac.png."""
+    """Scan the fandisk, reconstruct it by Delaunay and by annealing, compare both with the
+    part; write demo_part.stl, demo_part.png and demo_tac.png into ``args.output_dir``."""
     folder = Path(args.output_dir)
     parent = folder.parent if str(folder.parent) else Path(".")
     if not parent.is_dir():

@@ -4,6 +4,7 @@ fused into one closed mesh with a label per face."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -18,6 +19,7 @@ from scanmesh.formats._source import read_bytes
 from scanmesh.fusion import merge
 from scanmesh.fusion.conf import conf_poses
 from scanmesh.fusion.grid import OPTIONS
+from scanmesh.fusion.pieces import Piece, pieces
 from scanmesh.fusion.views import check_pose, read_conf
 from scanmesh.surface import check_ending
 
@@ -54,8 +56,25 @@ def read_poses(path: Path, scans: list[Path]) -> list[np.ndarray]:
     return out
 
 
+def _pieces_text(parts: list[Piece], listed: int = 5) -> str:
+    """``1 piece (1 closed, genus 0)`` or ``3 pieces (2 closed, genus 2, 0; 1 not closed, 2
+    holes)``: the genus of each closed piece (the first ``listed``), the holes of the rest."""
+    closed = [p for p in parts if p.closed]
+    open_ = [p for p in parts if not p.closed]
+    words = []
+    if closed:
+        genera = ", ".join(f"{p.genus:g}" for p in closed[:listed])
+        more = f" and {len(closed) - listed} more" if len(closed) > listed else ""
+        words.append(f"{len(closed)} closed, genus {genera}{more}")
+    if open_:
+        words.append(f"{len(open_)} not closed, {sum(p.holes for p in open_)} holes")
+    count = f"{len(parts)} piece{'s' if len(parts) != 1 else ''}"
+    return f"{count} ({'; '.join(words)})" if words else "no faces"
+
+
 def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
-    """Fuse the views, write the mesh, report its labels, genus and creases."""
+    """Fuse the views, write the mesh, report its pieces (the genus of each closed one, the
+    holes of the others), the specks taken off, the area of each label and the creases."""
     inputs = [Path(p) for p in args.inputs]
     out = Path(args.output)
     check_ending(out)
@@ -64,8 +83,8 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         raise ParameterError("give one .conf file, or scan files with --poses, not both")
     if confs and args.poses is not None:
         raise ParameterError("--poses is for scan files; a .conf file holds its own poses")
-    if args.inverse_rotation and not confs:
-        raise ParameterError("--inverse-rotation is for a .conf file's quaternions")
+    if args.forward_rotation and not confs:
+        raise ParameterError("--forward-rotation is for a .conf file's quaternions")
     # the flags of the options table, checked by it under the flag's name
     options = {
         o.name: o.check(getattr(args, o.name), o.flag)
@@ -76,7 +95,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
     _check_outputs([*inputs, *scans], [out])  # the scans a .conf lists are inputs too
     t0 = time.perf_counter()
     if confs:
-        views: list[Any] = read_conf(confs[0], inverse_rotation=args.inverse_rotation)
+        views: list[Any] = read_conf(confs[0], inverse_rotation=not args.forward_rotation)
         poses = None
     else:
         views = [str(p) for p in inputs]
@@ -84,7 +103,8 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
     surface = merge(views, poses=poses, toward=args.toward, progress=con.progress, **options)
     surface.save(out, progress=con.progress)
     elapsed = time.perf_counter() - t0
-    closed = shape.is_watertight(surface.faces)
+    parts = pieces(surface.vertices, surface.faces)
+    closed = bool(parts) and all(p.closed for p in parts)
     euler = shape.euler_characteristic(surface.faces)
     areas = surface.label_areas or {}
     row = {
@@ -96,7 +116,9 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         "faces": len(surface.faces),
         "closed": closed,
         "euler_characteristic": euler,
-        "genus": (2 - euler) / 2 if closed else None,
+        "pieces": [dataclasses.asdict(p) for p in parts],
+        "holes": sum(p.holes for p in parts),
+        "specks_removed": surface.options["specks_removed"],
         "area": areas,
         "creases": len(surface.creases),
         "refine_residual": surface.options["refine_residual"],
@@ -107,7 +129,13 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         return 0
     total = sum(areas.values()) or 1.0
     share = ", ".join(f"{k} {v:.6g} ({100 * v / total:.1f} %)" for k, v in areas.items())
-    shape_text = f"closed, genus {row['genus']:g}" if closed else "not closed"
+    shape_text = _pieces_text(parts)
+    gone = surface.options["specks_removed"]
+    if gone["pieces"]:
+        shape_text += (
+            f" ({gone['pieces']} specks taken off: {gone['faces']:,} faces, area"
+            f" {gone['area']:.3g}, the largest {gone['largest']} faces)"
+        )
     if row["refine_residual"]:
         res = row["refine_residual"]
         con.summary(f"poses refined: residual {res['before']:.4g} -> {res['after']:.4g}")

@@ -34,6 +34,6 @@ def stl_chunks(
     for start in range(0, len(faces), STL_FACES_PER_BLOCK):
         block = np.ascontiguousarray(faces[start : start + STL_FACES_PER_BLOCK], dtype=np.int64)
         # native: gather, float64 normal, float32 rounding in parallel without the GIL
-        # (numpy took ~15 s for 20M faces, more than writing the 1 GB)
+        # (numpy takes about 15 s for 20M faces, more than writing the 1 GB)
         yield memoryview(_core.stl_records(points, block))
         stage.update(start + len(block))

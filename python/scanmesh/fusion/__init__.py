@@ -35,6 +35,7 @@ from scanmesh._progress import Progress, Stage
 from scanmesh.errors import DegenerateInputError, MemoryLimitError, ParameterError, ScanmeshWarning
 from scanmesh.fusion.depth import depth_image, view_spacing
 from scanmesh.fusion.grid import MAX_VOXELS, OPTIONS, TRUNCATION_VOXELS, grid_for
+from scanmesh.fusion.pieces import drop_specks
 from scanmesh.fusion.register import refine_poses
 from scanmesh.fusion.views import View, as_views
 from scanmesh.scan.axes import AxisSpec
@@ -42,6 +43,11 @@ from scanmesh.surface import Surface
 
 #: How far apart two views' samples may be to be paired by ``refine``, in spacings.
 REFINE_REACH = 3.0
+
+#: Returns trusted less than this (:func:`scanmesh.fusion.depth.trust`: near a range
+#: grid's edge or a depth jump, at grazing angles) count in the fused distance by their
+#: weight but place no vertex.
+SAMPLE_TRUST = 1e-9
 
 #: A ``voxel`` below this share of the views' ray spacing is warned about: the nodes
 #: around a ray then all look up that ray, and a run of rays whose returns were lost on a
@@ -134,7 +140,9 @@ def merge(
     -------
     Surface
         New vertices (not the input points), faces counter-clockwise from outside,
-        ``face_labels`` (M,) uint8 codes into ``Surface.LABELS``.
+        ``face_labels`` (M,) uint8 codes into ``Surface.LABELS``; the pieces under 1 % of
+        the largest one's area are taken off (:mod:`scanmesh.fusion.pieces`), what went
+        is ``options["specks_removed"]`` (pieces, faces, area, largest speck's faces).
     """
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(
@@ -242,9 +250,15 @@ def _merge(
         in_view = (corners - shift) @ rot  # the grid's corners in scanner coordinates
         window = np.array([in_view[:, :2].min(axis=0), in_view[:, :2].max(axis=0)])
         image = depth_image(view.points, max(spacing, 0.5 * size), window)
-        native.append(_core.DepthView(view.pose, image.origin, image.step, image.depth, image.cos))
-        samples.append(view.points[image.kept] @ rot.T + shift)
-        normals.append(image.normals @ rot.T)
+        native.append(
+            _core.DepthView(
+                view.pose, image.origin, image.step, image.depth, image.cos, image.weight
+            )
+        )
+        # the samples that place the vertices: the trusted returns only
+        good = image.weight.reshape(-1)[image.pixels] >= SAMPLE_TRUST
+        samples.append(view.points[image.kept[good]] @ rot.T + shift)
+        normals.append(image.normals[good] @ rot.T)
     timings["depth images"] = time.perf_counter() - start
     cost = float(grid.nodes)
     for name, call in (("integrate", volume.integrate), ("carve", volume.carve)):
@@ -263,6 +277,7 @@ def _merge(
             np.ascontiguousarray(np.concatenate(normals)),
             native,
         )
+    vertices, faces, labels, specks = drop_specks(vertices, faces, labels)
     timings["extract"] = time.perf_counter() - t0
     if len(faces) == 0:
         raise DegenerateInputError(
@@ -281,6 +296,7 @@ def _merge(
             "behind": min(trunc, _core.BEHIND_VOXELS),
             "grid": grid.dims,
             "repaired_nodes": int(repaired),
+            "specks_removed": specks,
             "refine_residual": residual,
             "poses": [_unscaled(v.pose, exponent) for v in checked],
         },

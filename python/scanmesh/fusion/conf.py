@@ -3,16 +3,24 @@
 The format of the Stanford 3D Scanning Repository (scanalyze, vrip)::
 
     camera tx ty tz qi qj qk qr
+    mesh dragonStandRight_cybcyl tx ty tz qi qj qk qr
     bmesh bun000.ply 0 0 0 0 0 0 1
     bmesh bun045.ply -0.0520211 -0.000383981 -0.0109223 0.00548449 -0.294635 -0.0038555 0.955586
 
-The ``camera`` line is the viewer's camera (ignored); each ``bmesh`` line names a range
-scan (relative to the ``.conf`` file's folder) and its pose: a translation ``t`` and a unit
-quaternion ``q = qr + qi i + qj j + qk k``. Stanford's convention: a scan point ``p`` is
-rotated by ``q``, then translated: ``world = R(q) p + t`` (the pose matrix is
-``[[R(q), t], [0, 1]]``). A report on the bunny data (astaka-pe/stanford_recon) finds the
-bunny's ``bun.conf`` aligned only with ``qr``'s sign flipped, i.e. with the inverse
-rotation ``world = R(q)ᵀ p + t``: ``inverse_rotation=True`` reads a file that way.
+The ``camera`` line is the viewer's camera and a ``mesh`` line a mesh the viewer loaded
+(the dragon's ``..._cybcyl``, the scanner's cylinder): neither is a scan, both are skipped.
+Each ``bmesh`` line names a range scan (relative to the ``.conf`` file's folder; a missing
+``FILE.ply`` is read from ``FILE.ply.gz`` when that exists, as many copies ship them) and
+its pose: a translation ``t`` and a unit quaternion ``q = qr + qi i + qj j + qk k``.
+
+The convention: a scan point ``p`` goes to ``world = R(q)ᵀ p + t``, ``R(q)`` the usual
+rotation matrix of ``q`` (scipy's ``Rotation.from_quat([qi, qj, qk, qr]).as_matrix()``).
+Measured on the three sets in ``../shared/data/multiview`` (each view's share of 3,000
+points within 1 mm of the next view's points / of any other view's): the dragon's stand
+series 46-94 % / at least 97.7 %, its side series 55-90 % / at least 94.2 %, the happy
+Buddha 32-92 % / at least 87 %; with ``R(q) p + t`` 0-4 % / a median of 1.2-11.4 %
+(a report on the bunny, astaka-pe/stanford_recon, found the same). ``inverse_rotation=
+False`` reads a file as ``R(q) p + t``, for files written that way.
 """
 
 from __future__ import annotations
@@ -46,9 +54,11 @@ def quaternion_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def conf_poses(
-    path: str | os.PathLike, *, inverse_rotation: bool = False
+    path: str | os.PathLike, *, inverse_rotation: bool = True
 ) -> list[tuple[Path, np.ndarray]]:
-    """The scans a ``.conf`` file lists, as (scan path, (4, 4) scanner-to-world pose).
+    """The scans a ``.conf`` file lists, as (scan path, (4, 4) scanner-to-world pose):
+    ``world = R(q)ᵀ p + t``, or ``R(q) p + t`` with ``inverse_rotation=False``. A scan
+    named ``FILE`` that does not exist is ``FILE.gz`` when that does.
 
     Raises FileFormatError naming the file, the line and the value for an unknown keyword,
     a missing or non-numeric field, a quaternion not of unit length, or no ``bmesh`` line.
@@ -65,10 +75,12 @@ def conf_poses(
         if not words or words[0].startswith("#"):
             continue
         where = f"{path}, line {no}"
-        if words[0] == "camera":
+        if words[0] in ("camera", "mesh"):
             continue
         if words[0] != "bmesh":
-            raise FileFormatError(f"{where}: expected 'camera' or 'bmesh', got {quote(raw)}")
+            raise FileFormatError(
+                f"{where}: expected 'camera', 'mesh' or 'bmesh', got {quote(raw)}"
+            )
         if len(words) != 9:
             raise FileFormatError(
                 f"{where}: 'bmesh file tx ty tz qi qj qk qr' needs 9 fields, got {len(words)}:"
@@ -97,7 +109,9 @@ def conf_poses(
         pose = np.eye(4)
         pose[:3, :3] = rotation.T if inverse_rotation else rotation
         pose[:3, 3] = values[:3]
-        out.append((path.parent / words[1], pose))
+        scan = path.parent / words[1]
+        packed = scan.with_name(scan.name + ".gz")
+        out.append((packed if not scan.exists() and packed.exists() else scan, pose))
     if not out:
         raise FileFormatError(f"{path}: no 'bmesh' line: the file lists no scan")
     return out

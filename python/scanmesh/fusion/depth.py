@@ -10,6 +10,12 @@ Normals come from the depth differences of neighbouring pixels: on each axis the
 one-sided difference whose own neighbour agrees with it best (an ENO choice), so a pixel
 next to a crease takes the slope of its own face, not the mean of both; differences over
 :data:`JUMP_STEPS` pixel steps are depth jumps, not slopes.
+
+Each return is given a trust in [0, 1] (:func:`trust`), as a scanner's physics suggests
+(Curless & Levoy 1996 weight by the angle and ramp the weight down towards a range grid's
+edges): a return at a grazing angle, on a silhouette or beside a depth jump is where a
+triangulation scanner's spot is spread over several depths (mixed pixels, the ragged
+fringe); a return with hardly any neighbour on its surface is an outlier.
 """
 
 from __future__ import annotations
@@ -33,6 +39,35 @@ MAX_PIXELS = 50_000_000
 #: slopes' shifted copies (about twenty float64 arrays of the image's size).
 BYTES_PER_PIXEL = 160
 
+#: Pixels from the edge of the returns (a pixel without return, or across a depth jump)
+#: over which the trust ramps up to 1 from :data:`EDGE_TRUST` on the edge itself.
+EDGE_PIXELS = 3.0
+
+#: The trust of a return on the edge of the returns (before its agreement and angle): a
+#: silhouette's returns are where a scanner's spot falls partly off the part, but on a
+#: clean part they are its edges' only evidence.
+EDGE_TRUST = 0.5
+
+#: A return's second difference this many times the image's median one halves its trust.
+ROUGH_SCALE = 4.0
+
+#: Ray-to-normal cosines below this are not trusted (about 78°): the spot spreads over
+#: five spacings and more along the ray.
+GRAZING_COS = 0.2
+
+#: Holes inside a view's returns up to the area of a disc of this radius (pixels) are not
+#: read as rays that passed through empty space: a triangulation scanner loses its returns
+#: where the camera does not see the laser's spot (shadows, dark or shiny spots, grazing
+#: angles), so such a hole is no proof of empty space; carving along its rays bored
+#: straight tunnels through the dragon (each a handle). A ray in such a hole shows empty
+#: only the space in front of the hole's rim (a return of trust 0 at the rim's depth
+#: nearest the scanner).
+HOLE_PIXELS = 6.0
+
+#: A return with fewer neighbours (of its 8) on its own surface (no depth jump between
+#: them) is an isolated return, not trusted.
+MIN_NEIGHBOURS = 2
+
 
 @dataclass(frozen=True)
 class DepthImage:
@@ -42,7 +77,9 @@ class DepthImage:
     origin: tuple[float, float]
     #: distance between neighbouring rays (scanner units)
     step: float
-    #: (H, W) float64 scanner z of the nearest return per pixel, NaN where none
+    #: (H, W) float64 scanner z of the nearest return per pixel, NaN where none; a pixel
+    #: without return near returns holds the nearest return's depth, at trust 0
+    #: (:data:`HOLE_PIXELS`)
     depth: np.ndarray
     #: (H, W) float64 |cos| between the ray and the surface normal (1 where unknown)
     cos: np.ndarray
@@ -50,6 +87,10 @@ class DepthImage:
     kept: np.ndarray
     #: (K, 3) float64 unit normals of the kept points in scanner coordinates, towards +z
     normals: np.ndarray
+    #: (K,) int64 the flat pixel (row-major) of each kept point
+    pixels: np.ndarray
+    #: (H, W) float64 trust in each return, in [0, 1] (:func:`trust`); 0 where none
+    weight: np.ndarray
 
 
 def view_spacing(xy: np.ndarray, where: str = "a view", seed: int = 0) -> float:
@@ -103,19 +144,141 @@ def depth_image(points: np.ndarray, step: float, window: np.ndarray) -> DepthIma
     pixel = flat[order[first_of]]
     depth = np.full(width * height, np.nan)
     depth[pixel] = points[kept, 2]
-    depth = depth.reshape(height, width)
+    depth = _fill_gaps(depth.reshape(height, width), JUMP_STEPS * step)
     gx = _slope(depth, step, axis=1)
     gy = _slope(depth, step, axis=0)
     normal = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
     normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    cos = normal[..., 2].copy()
+    weight = trust(depth, cos, step)
     return DepthImage(
         origin=(float(first[0]), float(first[1])),
         step=float(step),
-        depth=depth,
-        cos=normal[..., 2].copy(),
+        depth=_cover_holes(depth),
+        cos=cos,
         kept=kept,
         normals=normal.reshape(-1, 3)[pixel],
+        pixels=pixel,
+        weight=weight,
     )
+
+
+def trust(depth: np.ndarray, cos: np.ndarray, step: float) -> np.ndarray:
+    """(H, W) trust in each return of a depth image (NaN: no return; ``cos`` the ray-to-
+    normal cosines; ``step`` the ray spacing), in [0, 1], the product of:
+
+    - agreement with its neighbours: the return's second difference along the row and the
+      column (the larger, on one surface), against :data:`ROUGH_SCALE` times the image's
+      median one: ``1 / (1 + (r / scale)²)`` (a mixed pixel or a stray return stands out
+      of a surface its neighbours agree on; exact returns of a clean part all agree);
+    - the distance from the edge of the returns (a pixel without return or a depth jump
+      beside it): :data:`EDGE_TRUST` on the edge, rising linearly to 1 over
+      :data:`EDGE_PIXELS`;
+    - the angle: 0 under :data:`GRAZING_COS`, rising as the square root above it;
+
+    0 for an isolated return (fewer than :data:`MIN_NEIGHBOURS` of its 8 neighbours on its
+    surface). O(H · W)."""
+    from scipy.ndimage import distance_transform_edt
+
+    hit = ~np.isnan(depth)
+    jump = JUMP_STEPS * step
+    pad = np.pad(depth, 1, constant_values=np.nan)
+    h, w = depth.shape
+
+    def at(di: int, dj: int) -> np.ndarray:
+        return pad[1 + di : 1 + di + h, 1 + dj : 1 + dj + w]
+
+    near = np.zeros(depth.shape, dtype=np.int64)
+    edge = ~hit
+    with np.errstate(invalid="ignore"):
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                if di == 0 and dj == 0:
+                    continue
+                same = np.abs(at(di, dj) - depth) <= jump
+                near += same
+                if abs(di) + abs(dj) == 1:
+                    edge |= hit & ~same
+        second = [
+            np.where(
+                (np.abs(at(-di, -dj) - depth) <= jump) & (np.abs(at(di, dj) - depth) <= jump),
+                np.abs(at(-di, -dj) - 2 * depth + at(di, dj)),
+                np.nan,
+            )
+            for di, dj in ((1, 0), (0, 1))
+        ]
+    rough = np.fmax(second[0], second[1])
+    known = np.isfinite(rough)
+    # (a floor of a millionth of the step: the rounding of exact depths is no roughness)
+    median = float(np.median(rough[known])) if known.any() else 0.0
+    scale = max(ROUGH_SCALE * median, 1e-6 * step)
+    agree = np.ones(depth.shape)
+    agree[known] = 1.0 / (1.0 + (rough[known] / scale) ** 2)
+    # distance in pixels to the nearest edge pixel (an edge pixel itself: 0)
+    dist = distance_transform_edt(~edge) if edge.any() else np.full(depth.shape, np.inf)
+    ramp = EDGE_TRUST + (1.0 - EDGE_TRUST) * np.clip(dist / EDGE_PIXELS, 0.0, 1.0)
+    angle = np.clip((np.abs(cos) - GRAZING_COS) / (1.0 - GRAZING_COS), 0.0, 1.0)
+    out = agree * ramp * np.sqrt(angle)
+    out[hit & (near < MIN_NEIGHBOURS)] = 0.0
+    out[~hit] = 0.0
+    return out
+
+
+def _cover_holes(depth: np.ndarray) -> np.ndarray:
+    """``depth`` with each hole inside the returns (a run of pixels without return that
+    does not reach the image's border, of at most the area of a disc of
+    :data:`HOLE_PIXELS` radius) given the depth of the return nearest the scanner around
+    it. The space beyond a silhouette is left to carve: there the rays did pass the part.
+    O(H · W)."""
+    from scipy.ndimage import binary_dilation, label, maximum
+
+    miss = np.isnan(depth)
+    if not miss.any() or miss.all():
+        return depth
+    runs, count = label(miss)
+    sizes = np.bincount(runs.ravel(), minlength=count + 1)
+    border = np.unique(np.concatenate([runs[0], runs[-1], runs[:, 0], runs[:, -1]]))
+    small = sizes <= np.pi * HOLE_PIXELS**2
+    small[0] = False
+    small[border] = False
+    if not small.any():
+        return depth
+    holes = small[runs]
+    # each hole's rim: the returns beside it, and the nearest of them to the scanner
+    rim = binary_dilation(holes, structure=np.ones((3, 3), bool)) & ~miss
+    owner = np.zeros_like(runs)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            shifted = np.roll(np.roll(np.where(holes, runs, 0), di, axis=0), dj, axis=1)
+            owner = np.where(rim & (owner == 0), shifted, owner)
+    ids = np.flatnonzero(small)
+    top = maximum(np.where(rim, depth, -np.inf), labels=np.where(rim, owner, 0), index=ids)
+    level = np.full(count + 1, np.nan)
+    level[ids] = top
+    out = depth.copy()
+    out[holes] = level[runs[holes]]
+    return out
+
+
+def _fill_gaps(depth: np.ndarray, jump: float) -> np.ndarray:
+    """``depth`` with each pixel without return between two returns on one surface (no
+    depth jump between them) along its row or column given their mean: the gaps of a range
+    grid coarser than the image along one axis (a Cyberware grid's rows are 1.3-1.5 times
+    its columns' spacing), which are no rays the scanner shot. Two passes over both axes
+    (a gap between gaps). O(H · W)."""
+    out = depth.copy()
+    for axis in (0, 1, 0, 1):
+        depth = out.copy()
+        pad = np.pad(
+            depth, [(1, 1) if a == axis else (0, 0) for a in range(2)], constant_values=np.nan
+        )
+        n = depth.shape[axis]
+        before = np.take(pad, np.arange(0, n), axis=axis)
+        after = np.take(pad, np.arange(2, n + 2), axis=axis)
+        with np.errstate(invalid="ignore"):
+            fill = np.isnan(out) & (np.abs(after - before) <= jump)
+        out[fill] = 0.5 * (before[fill] + after[fill])
+    return out
 
 
 def _slope(depth: np.ndarray, step: float, axis: int) -> np.ndarray:

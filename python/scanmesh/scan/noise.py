@@ -121,7 +121,7 @@ def _line_residuals(scan: PlanarScan, uv: np.ndarray, height: np.ndarray) -> np.
     if not segments:
         return np.zeros(0)
     # Segments in batches of about PASS_CHUNK points: the stencil holds some twenty arrays
-    # of a batch's length at once, which at 10M points in one batch was 1.6 GB.
+    # of a batch's length at once: 1.6 GB for 10M points in a single batch.
     out, batch, size = [], [], 0
     for seg in segments:
         batch.append(seg)

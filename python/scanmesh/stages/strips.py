@@ -51,13 +51,9 @@ CRITERIA: tuple[str, ...] = ("length", "area", "angle", "dihedral")
 #: A weight: one criterion by name, or a mapping of criteria to non-negative coefficients.
 WeightSpec = str | Mapping[str, float]
 
-#: Default weight, chosen by measurement (docs/benchmarks/speed.md, "Strips": tac_1 and
-#: smallest angle of every criterion on fran_cut and on the connecting-rod scan). On the rod
-#: every criterion gives the same mesh quality (tac_1 88.4, smallest angle 4.9 degrees), so
-#: fran_cut decides: area and length keep 12.5 degrees at tac_1 71.3 and 73.1, angle 12.5 at
-#: 79.6, dihedral alone reaches tac_1 64.7 but lets the smallest angle fall to 4.8 degrees;
-#: angle + 0.3 x dihedral gives tac_1 67.0 with the largest smallest angle of all (12.8),
-#: while a full 1.0 x dihedral starts to cost angle (10.7 degrees).
+#: Default weight: of the criteria measured on fran_cut and the rod, angle + 0.3 x dihedral
+#: keeps the largest smallest angle at nearly dihedral's low tac_1, where dihedral alone
+#: lets the smallest angle fall (figures: docs/benchmarks/speed.md, "Quality of each weight").
 DEFAULT_WEIGHT: dict[str, float] = {"angle": 1.0, "dihedral": 0.3}
 
 #: Default look-ahead depth alpha (steps).

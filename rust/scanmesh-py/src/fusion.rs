@@ -10,8 +10,9 @@ use pyo3::prelude::*;
 /// One range view: a depth image seen along the scanner's -z, with its scanner-to-world
 /// pose. `pose` (4, 4) rigid; `depth` and `cos` (H, W) float64, row j and column i being
 /// the ray through scanner (x, y) = `origin + (i, j) * step`; depth NaN where the ray had
-/// no return; `cos` the |cosine| between ray and surface normal. Raises ParameterError for
-/// a pose that is not rigid and finite, a bad step or mismatched shapes. O(H · W).
+/// no return; `cos` the |cosine| between ray and surface normal; `weight` (H, W), optional,
+/// the trust in each return in [0, 1] (default 1). Raises ParameterError for a pose that is
+/// not rigid and finite, a bad step, a weight outside [0, 1] or mismatched shapes. O(H · W).
 #[pyclass(frozen, module = "scanmesh._core")]
 pub(crate) struct DepthView {
     inner: scanmesh_core::fusion::DepthView,
@@ -20,12 +21,14 @@ pub(crate) struct DepthView {
 #[pymethods]
 impl DepthView {
     #[new]
+    #[pyo3(signature = (pose, origin, step, depth, cos, weight=None))]
     fn new(
         pose: PyReadonlyArray2<'_, f64>,
         origin: (f64, f64),
         step: f64,
         depth: PyReadonlyArray2<'_, f64>,
         cos: PyReadonlyArray2<'_, f64>,
+        weight: Option<PyReadonlyArray2<'_, f64>>,
     ) -> PyResult<Self> {
         let pose = pose.as_array();
         if pose.shape() != [4, 4] {
@@ -37,7 +40,7 @@ impl DepthView {
         }
         let (height, width) = d.dim();
         let flat: [f64; 16] = std::array::from_fn(|k| pose[[k / 4, k % 4]]);
-        let inner = scanmesh_core::fusion::DepthView::new(
+        let mut inner = scanmesh_core::fusion::DepthView::new(
             flat,
             [origin.0, origin.1],
             step,
@@ -47,6 +50,15 @@ impl DepthView {
             c.iter().copied().collect(),
         )
         .map_err(to_py)?;
+        if let Some(w) = weight {
+            let w = w.as_array();
+            if w.shape() != d.shape() {
+                return Err(shape_error("weight", "the depth image's shape", w.shape()));
+            }
+            inner = inner
+                .with_weight(w.iter().copied().collect())
+                .map_err(to_py)?;
+        }
         Ok(Self { inner })
     }
 }

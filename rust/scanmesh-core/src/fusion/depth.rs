@@ -38,6 +38,10 @@ pub struct DepthView {
     depth: Vec<f64>,
     /// (height * width) |cos| between the ray and the surface normal at each return.
     cos: Vec<f64>,
+    /// (height * width) how far each return is trusted, in [0, 1] (1 unless
+    /// [`DepthView::with_weight`] says otherwise): it scales the return's weight in the
+    /// fused average, and a return of weight 0 only votes for empty space in front of it.
+    weight: Vec<f64>,
 }
 
 /// What a ray through a point of the image plane saw.
@@ -49,6 +53,8 @@ pub enum Lookup {
         depth: f64,
         /// |cos| of the angle between the ray and the surface normal, at least [`MIN_COS`].
         cos: f64,
+        /// How far the return is trusted, in [0, 1] ([`DepthView::with_weight`]).
+        weight: f64,
     },
     /// The nearest ray (pixel index) had no return.
     Miss(usize),
@@ -149,7 +155,39 @@ impl DepthView {
             height,
             depth,
             cos,
+            weight: vec![1.0; n],
         })
+    }
+
+    /// The view with a trust per return (`width * height` values row by row, each in
+    /// [0, 1]; NaN reads as 0): the scanner's own confidence, lower near the range grid's
+    /// edges, its depth jumps and at grazing angles. O(width · height).
+    ///
+    /// Errors: `InvalidParameter` when the length does not match or a value is outside
+    /// [0, 1].
+    pub fn with_weight(mut self, weight: Vec<f64>) -> Result<Self> {
+        if weight.len() != self.depth.len() {
+            return Err(Error::InvalidParameter {
+                name: "weight",
+                value: format!("{} weights for {} pixels", weight.len(), self.depth.len()),
+                expected: "one weight per pixel",
+            });
+        }
+        if let Some(w) = weight
+            .iter()
+            .find(|w| !w.is_nan() && !(0.0..=1.0).contains(*w))
+        {
+            return Err(Error::InvalidParameter {
+                name: "weight",
+                value: w.to_string(),
+                expected: "weights in [0, 1]",
+            });
+        }
+        self.weight = weight
+            .into_iter()
+            .map(|w| if w.is_nan() { 0.0 } else { w })
+            .collect();
+        Ok(self)
     }
 
     /// Pixels across and down.
@@ -257,6 +295,7 @@ impl DepthView {
             if z.iter().all(|v| !v.is_nan()) && hi - lo <= JUMP_STEPS * self.step {
                 let (fu, fv) = (u - i0, v - j0);
                 let c = corners.map(|c| self.cos[c]);
+                let t = corners.map(|c| self.weight[c]);
                 let mix = |a: [f64; 4]| {
                     (a[0] * (1.0 - fu) + a[1] * fu) * (1.0 - fv)
                         + (a[2] * (1.0 - fu) + a[3] * fu) * fv
@@ -264,12 +303,14 @@ impl DepthView {
                 return Lookup::Hit {
                     depth: mix(z),
                     cos: mix(c),
+                    weight: mix(t),
                 };
             }
         }
         Lookup::Hit {
             depth: d,
             cos: self.cos[nearest],
+            weight: self.weight[nearest],
         }
     }
 }

@@ -207,12 +207,17 @@ impl Volume {
                     for i in 0..nx {
                         let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
                         let q = view.to_scanner(p);
-                        if let Lookup::Hit { depth, cos } = view.lookup(q.x, q.y) {
+                        if let Lookup::Hit {
+                            depth,
+                            cos,
+                            weight: trust,
+                        } = view.lookup(q.x, q.y)
+                        {
                             let n = j * nx + i;
                             let d = (q.z - depth) * cos;
                             add_return(
                                 d,
-                                cos,
+                                cos * trust,
                                 [trunc, behind],
                                 (&mut sum[n], &mut weight[n], &mut flags[n]),
                             );
@@ -283,9 +288,14 @@ impl Volume {
         for (view, stop) in views.iter().zip(&self.stops) {
             let q = view.to_scanner(p);
             match view.lookup(q.x, q.y) {
-                Lookup::Hit { depth, cos } => {
+                Lookup::Hit {
+                    depth,
+                    cos,
+                    weight: trust,
+                } => {
                     let d = (q.z - depth) * cos;
-                    add_return(d, cos, [trunc, behind], (&mut sum, &mut weight, &mut flags));
+                    let w = cos * trust;
+                    add_return(d, w, [trunc, behind], (&mut sum, &mut weight, &mut flags));
                 }
                 Lookup::Miss(pixel) => {
                     if q.z > stop[pixel] {
@@ -342,13 +352,21 @@ impl Volume {
 
 /// Adds one view's return to a node's state (`sum`, `weight` of distances, `flags`): `d`,
 /// the distance along the view's normal from its surface to the node (positive in
-/// front), and the return's `cos`. More than `trunc` in front is a vote for empty; from
-/// `trunc` in front to `behind` behind, a weighted distance; farther behind, nothing. The
+/// front), and the return's weight `cos` (the ray-to-normal cosine times the return's
+/// trust, [`DepthView::with_weight`]). More than `trunc` in front is a vote for empty; from
+/// `trunc` in front to `behind` behind, a weighted distance; a return of weight 0 (not
+/// trusted: a mixed pixel on a silhouette may lie anywhere between the surfaces) neither
+/// averages nor votes, it only shows the space beyond the truncation in front of it
+/// empty; farther behind, nothing. The
 /// one rule of [`Volume::integrate`] at the nodes and of [`Volume::value_at`] between
 /// them. O(1).
 fn add_return(d: f64, cos: f64, [trunc, behind]: [f64; 2], node: (&mut f32, &mut f32, &mut u8)) {
     let (sum, weight, flags) = node;
-    if d > trunc {
+    if cos <= 0.0 {
+        if d > trunc {
+            *flags |= EMPTY;
+        }
+    } else if d > trunc {
         *flags = flags.saturating_add(VOTE) | EMPTY;
     } else if d >= -behind {
         *sum += (cos * d) as f32;
@@ -501,6 +519,34 @@ mod tests {
         assert_eq!(at(2.75), -2.0);
         assert_eq!(at(2.85), 2.0);
         assert_eq!(at(3.0), 2.0);
+    }
+
+    #[test]
+    fn a_return_of_weight_zero_neither_averages_nor_votes() {
+        // one view sees a plane at z = 4; another, from above too, a return at z = 0 that
+        // is not trusted (a mixed pixel): node z = 3 lies 1 behind the plane and 3 (over
+        // the truncation) in front of that return, which must not vote it empty
+        let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        vol.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
+        let ghost = looking_down(vec![0.0; 25], 5, 5, 1.0)
+            .with_weight(vec![0.0; 25])
+            .unwrap();
+        vol.integrate(&ghost);
+        let n = vol.index(2, 2, 3);
+        assert_eq!(vol.evidence(n), Evidence::Measured);
+        assert!((vol.value(n) + 1.0).abs() < 1e-6, "{}", vol.value(n));
+        // trusted, the same return votes the node empty
+        let mut trusted = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
+        trusted.integrate(&looking_down(vec![4.0; 25], 5, 5, 1.0));
+        trusted.integrate(&looking_down(vec![0.0; 25], 5, 5, 1.0));
+        assert_eq!(trusted.evidence(n), Evidence::Empty);
+        // weights outside [0, 1] or of the wrong length are refused
+        assert!(looking_down(vec![1.0; 4], 2, 2, 1.0)
+            .with_weight(vec![1.5; 4])
+            .is_err());
+        assert!(looking_down(vec![1.0; 4], 2, 2, 1.0)
+            .with_weight(vec![1.0; 3])
+            .is_err());
     }
 
     #[test]
