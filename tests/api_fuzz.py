@@ -1,5 +1,6 @@
 """Seeded fuzz cases for the Python API: ``scanmesh.reconstruct`` with every method, points
-of awkward kinds and sizes, and options of every type and size.
+of awkward kinds and sizes, and options of every type and size; every fifth seed a case of
+``scanmesh.merge``, ``read_conf`` or the range-grid and gzip readers (:mod:`api_fuzz_merge`).
 
 One integer seed fixes a case (:func:`make_case`). :func:`run_case` calls ``reconstruct``
 in this process and returns a finding, or None. Allowed outcomes:
@@ -41,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+import api_fuzz_merge
 from fuzz_core import degenerate_faces
 from scanmesh import ScanmeshError, _core, reconstruct
 from scanmesh._checks import Option
@@ -432,8 +434,20 @@ def surface_fault(surface: Any, method: str, n_points: int) -> str | None:
     return None
 
 
+#: Every MERGE_EVERY-th seed (those one short of a multiple) is a case of merge, read_conf
+#: or the range-grid and gzip readers (:mod:`api_fuzz_merge`) instead of reconstruct.
+MERGE_EVERY = 5
+
+
+def is_merge_seed(seed: int) -> bool:
+    """True for the seeds :mod:`api_fuzz_merge` makes."""
+    return seed % MERGE_EVERY == MERGE_EVERY - 1
+
+
 def run_case(seed: int) -> dict[str, Any]:
     """Runs case ``seed``: {"outcome": ..., "finding": class or None, "detail": ...}."""
+    if is_merge_seed(seed):
+        return api_fuzz_merge.run_case(seed)
     case = make_case(seed)
     method, bad, suspects = case["method"], case["bad"], case["suspects"]
     try:
@@ -475,6 +489,8 @@ def run_case(seed: int) -> dict[str, Any]:
 
 def reproducer(seed: int) -> str:
     """Python source that repeats case ``seed`` (points as make_case builds them)."""
+    if is_merge_seed(seed):
+        return api_fuzz_merge.reproducer(seed)
     case = make_case(seed)
     args = ", ".join(f"{k}={v!r}" for k, v in case["kwargs"].items())
     return (
@@ -526,7 +542,7 @@ class Runner:
         with selectors.DefaultSelector() as sel:
             sel.register(proc.stdout, selectors.EVENT_READ)
             ready = sel.select(self.timeout)
-        method = make_case(seed)["method"]
+        method = "merge or a reader" if is_merge_seed(seed) else make_case(seed)["method"]
         if not ready:
             self.close()
             return {

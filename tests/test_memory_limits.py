@@ -154,3 +154,89 @@ def test_merge_beyond_the_address_space_limit_is_refused_naming_what_did_not_fit
         assert r.stdout.startswith(start), (room, r.stdout)
         if start != "built":
             assert "the allocator" in r.stdout, r.stdout
+
+
+# merge: the views made first, then the limit; every room ends in a mesh or a refusal
+
+MERGE_CHILD = textwrap.dedent(
+    """
+    import resource, sys
+    import numpy as np
+    import trimesh
+    import scanmesh
+    from scanmesh.cli import main
+    from scanmesh.evaluate.digitizer import axis_views
+    from scanmesh.fusion.views import toward_frame
+
+    what, room = sys.argv[1], int(sys.argv[2])
+    box = trimesh.creation.box((2.0, 1.0, 0.6))
+    views = axis_views(box, 0.02, noise=0.0004, seed=1)
+    if what == "command":
+        import json
+        names, poses = [], []
+        for k, scan in enumerate(views):
+            turn = toward_frame(scan.up)
+            np.savetxt(f"{sys.argv[3]}/v{k}.xyz", scan.points @ turn.T)
+            pose = np.eye(4)
+            pose[:3, :3] = turn.T
+            names.append(f"{sys.argv[3]}/v{k}.xyz")
+            poses.append(pose.tolist())
+        with open(f"{sys.argv[3]}/poses.json", "w") as f:
+            json.dump(poses, f)
+    np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
+    # the core's thread pool starts at its first parallel call: a pool that cannot start
+    # (no room for its threads' stacks) panics, and the panic's own allocation fails (a hang)
+    scanmesh.quality(np.eye(3), [[0, 1, 2]])
+    size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
+                if l.startswith("VmSize:"))
+    resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
+    if what == "command":
+        sys.exit(main(["merge", *names, "--poses", f"{sys.argv[3]}/poses.json",
+                       "-o", f"{sys.argv[3]}/part.ply", "--voxel", "0.01", "--quiet"]))
+    try:
+        scanmesh.merge(views, voxel=0.01)
+        print("built")
+    except scanmesh.MemoryLimitError as e:
+        assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
+        print("refused:", e)
+    """
+)
+
+def run_merge_child(*args: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-c", MERGE_CHILD, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def test_merge_refuses_what_it_can_foresee_and_names_what_it_could_not():
+    """5 MB of room cannot hold the grid (13 MB) nor a view's depth image (about 8 MB at
+    voxel 0.01): refused before either is built, naming need and limit. 2 MB do not hold
+    the views' world coordinates (numpy's MemoryError before): a MemoryLimitError too."""
+    r = run_merge_child("api", 5_000_000)
+    assert r.returncode == 0, (r.returncode, r.stderr[-800:])
+    assert r.stdout.startswith("refused: ") and "needs about" in r.stdout, r.stdout
+    assert "RLIMIT_AS (ulimit -v)" in r.stdout, r.stdout
+    r = run_merge_child("api", 2_000_000)
+    assert r.returncode == 0, (r.returncode, r.stderr[-800:])
+    assert r.stdout.startswith("refused: ") and "RLIMIT_AS" in r.stdout, r.stdout
+
+
+def test_merge_under_any_limit_builds_or_refuses_never_aborts():
+    """550-900 MB of address space aborted merge with SIGABRT ('memory allocation of
+    2228240 bytes failed'); here the same sweep at this part's scale."""
+    for room in (5_000_000, 15_000_000, 30_000_000, 60_000_000, 120_000_000):
+        r = run_merge_child("api", room)
+        assert r.returncode == 0, (room, r.returncode, r.stderr[-800:])
+        assert r.stdout.startswith(("built", "refused: ")), (room, r.stdout)
+
+
+def test_the_merge_command_under_ulimit_v_ends_in_a_mesh_or_one_line(tmp_path):
+    for room in (10_000_000, 40_000_000, 120_000_000):
+        r = run_merge_child("command", room, tmp_path)
+        assert r.returncode in (0, 1), (room, r.returncode, r.stderr[-800:])
+        if r.returncode == 1:
+            lines = r.stderr.strip().splitlines()
+            assert len(lines) == 1 and lines[0].startswith("scanmesh: error: "), (room, lines)

@@ -18,6 +18,7 @@ from scanmesh.creases import creases as crease_lines
 from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.evaluate.truth import TrueSurface
 from scanmesh.formats import write
+from scanmesh.formats._source import InputFile
 from scanmesh.formats.georef import Georef
 from scanmesh.formats.points import checked_point_data, colors_of
 from scanmesh.measures import Quality, quality
@@ -94,6 +95,9 @@ class Surface:
     #: merged surfaces (:func:`scanmesh.merge`): (M,) uint8 per face, an index into
     #: :attr:`LABELS`; written to PLY as the face property ``label``; None otherwise
     face_labels: np.ndarray | None = None
+    #: the files the surface was made from besides :attr:`scan`'s (a merge's views), as
+    #: they were when read: :meth:`save` refuses to replace any of them
+    inputs: list[InputFile] = field(default_factory=list)
 
     #: What each code of :attr:`face_labels` means: ``measured`` (within the truncation of
     #: a sample), ``inferred`` (between space seen empty and space no ray entered),
@@ -232,7 +236,7 @@ class Surface:
         the other endings.
 
         Refuses (ParameterError, before writing) to replace the scan file the surface was
-        reconstructed from."""
+        reconstructed from, or any file of :attr:`inputs` (a merge's views)."""
         suffix = check_ending(path)
         inputs = write.inputs_of(self)  # recorded when read: a later os.chdir cannot fool it
         write.check_not_input(path, inputs)

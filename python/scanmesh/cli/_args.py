@@ -190,19 +190,21 @@ def _flag_text(kind: str) -> Callable[[str], Any]:
 UNLIMITED_BY_NONE = frozenset({"time_limit"})
 
 
+def _default_text(option: Any) -> str:
+    """An option's default as its help shows it."""
+    if option.default is None:
+        return "no limit" if option.name in UNLIMITED_BY_NONE else "automatic"
+    return f"{option.default:g}" if isinstance(option.default, float) else str(option.default)
+
+
 def _flag_help(name: str, users: list[str]) -> str:
     """Help of the flag of option ``name``: its doc and default, per method where the
     methods using it differ in either (e.g. --time-limit of annealing and of optimal)."""
 
-    def default(option: Any) -> str:
-        if option.default is None:
-            return "no limit" if option.name in UNLIMITED_BY_NONE else "automatic"
-        return f"{option.default:g}" if isinstance(option.default, float) else str(option.default)
-
     texts: dict[tuple[str, str], list[str]] = {}
     for user in users:
         option = next(o for o in TABLE[user].options if o.name == name)
-        texts.setdefault((option.doc, default(option)), []).append(user)
+        texts.setdefault((option.doc, _default_text(option)), []).append(user)
     return "; ".join(
         f"{doc} ({', '.join(methods)}; default {shown})" for (doc, shown), methods in texts.items()
     )
@@ -217,24 +219,35 @@ def _add_method_flags(parser: argparse.ArgumentParser) -> None:
             groups[users[0]] = parser.add_argument_group(
                 f"options of --method {users[0]} (and of the methods each names)"
             )
-        group = groups[users[0]]
-        text = _flag_help(option.name, users).replace("%", "%%")
-        if option.kind == "bool":
-            group.add_argument(
-                option.flag, action=argparse.BooleanOptionalAction, default=None, help=text
-            )
-        elif option.name == "initial":
-            group.add_argument(option.flag, choices=INITIALS, default=None, help=text)
-        elif option.kind == "choice":
-            group.add_argument(option.flag, choices=option.choices, default=None, help=text)
-        else:
-            group.add_argument(
-                option.flag,
-                type=_flag_text(option.kind),
-                default=None,
-                metavar="N" if option.kind == "int" else "X",
-                help=text,
-            )
+        add_option_flag(groups[users[0]], option, _flag_help(option.name, users))
+
+
+def add_option_flag(group: Any, option: Any, text: str) -> None:
+    """The flag of ``option`` (a ``_checks.Option``) with help ``text``: a switch for a
+    bool, the choices for a choice, else a number whose range the table checks (default
+    None: not given)."""
+    text = text.replace("%", "%%")
+    if option.kind == "bool":
+        group.add_argument(
+            option.flag, action=argparse.BooleanOptionalAction, default=None, help=text
+        )
+    elif option.name == "initial":
+        group.add_argument(option.flag, choices=INITIALS, default=None, help=text)
+    elif option.kind == "choice":
+        group.add_argument(option.flag, choices=option.choices, default=None, help=text)
+    else:
+        group.add_argument(
+            option.flag,
+            type=_flag_text(option.kind),
+            default=None,
+            metavar="N" if option.kind == "int" else "X",
+            help=text,
+        )
+
+
+def option_help(option: Any) -> str:
+    """``doc (default D)`` of an option with a single user (merge's)."""
+    return f"{option.doc} (default {_default_text(option)})"
 
 
 def _given_flags(args: argparse.Namespace) -> dict[str, Any]:

@@ -26,6 +26,7 @@ from scanmesh.formats.write import (
     refuse_remote,
     write_atomic,
 )
+from scanmesh.fusion.grid import TABLE as MERGE_OPTIONS
 from scanmesh.methods import SHARED
 
 
@@ -62,6 +63,26 @@ OUTPUT_FLAGS: dict[str, str] = {
     "preview": "--preview",
     "picture": "--picture",
 }
+
+
+#: Every argument that names a file a command reads (argparse name): no output may be one
+#: of them (:func:`_refuse_outputs_over_inputs`, run for every command).
+INPUT_ARGS: tuple[str, ...] = ("input", "inputs", "mesh", "poses", "truth")
+
+
+def _refuse_outputs_over_inputs(args: argparse.Namespace) -> None:
+    """Refuse, before any command runs, an output flag's file that is a file an input
+    argument names, by any alias (:func:`scanmesh.formats.write.check_not_input`); files
+    found only by reading (the scans a ``.conf`` lists) are checked by their command."""
+    inputs: list[Path] = []
+    for name in INPUT_ARGS:
+        given = getattr(args, name, None)
+        if given:
+            inputs.extend(Path(p) for p in (given if isinstance(given, list) else [given]))
+    for name in OUTPUT_FLAGS:
+        given = getattr(args, name, None)
+        if given:
+            check_not_input(Path(given), inputs)
 
 
 def _refuse_remote_outputs(args: argparse.Namespace) -> None:
@@ -234,7 +255,8 @@ def _speak_flags(text: str, report: str | None = "--report") -> str:
     """A library message in the command's words: ``name=`` of an option or a shared
     keyword becomes its flag (``--max-edge``), Python calls become flags; ``report`` as
     for :attr:`_Console.report`."""
-    names = set(_method_flags()) | set(SHARED) | set(READ_FLAGS) | {"plane"}
+    names = set(_method_flags()) | set(SHARED) | set(READ_FLAGS) | {"plane", "toward"}
+    names |= set(MERGE_OPTIONS)
     text = _LISTS.sub(lambda m: _listed(m, report), text)
     for pattern, replacement in _PYTHON_WORDS:
         text = pattern.sub(replacement, text)

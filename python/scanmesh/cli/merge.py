@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import re
 import time
 from pathlib import Path
 from typing import Any
@@ -15,58 +14,46 @@ import numpy as np
 
 from scanmesh import shape
 from scanmesh.cli._common import _check_outputs, _Console, _dumps
-from scanmesh.errors import FileFormatError, ParameterError, ScanmeshError
+from scanmesh.errors import FileFormatError, ParameterError
+from scanmesh.formats._source import read_bytes
 from scanmesh.fusion import merge
 from scanmesh.fusion.conf import conf_poses
+from scanmesh.fusion.grid import OPTIONS
 from scanmesh.fusion.pieces import Piece, pieces
-from scanmesh.fusion.views import read_conf
+from scanmesh.fusion.views import check_pose, read_conf
 from scanmesh.surface import check_ending
-
-#: Library keywords in messages and the flags that set them.
-_FLAGS = {
-    "max_voxels": "--max-voxels",
-    "voxel": "--voxel",
-    "truncation": "--truncation",
-    "toward": "--toward",
-}
-
-
-def _in_flags(text: str) -> str:
-    """A library message in the command's words (``max_voxels=`` as ``--max-voxels``)."""
-    for word, flag in _FLAGS.items():
-        text = re.sub(rf"\b{word}=", f"{flag} ", text)
-        text = re.sub(rf"^{word}\b", flag, text)
-    return text
 
 
 def read_poses(path: Path, scans: list[Path]) -> list[np.ndarray]:
     """The poses of a ``--poses`` JSON file: a list of 4 x 4 matrices, one per scan in the
-    order given, or an object from scan file name to its matrix."""
+    order given, or an object from scan file name to its matrix. Each is checked here
+    (numbers, shape, finite, rigid), so a bad one is a FileFormatError naming the file,
+    the pose and its scan."""
+    where = f"--poses {path}"
     try:
-        data: Any = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise FileFormatError(f"--poses {path}: no such file") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise FileFormatError(f"--poses {path}: not a JSON file of poses ({exc})") from None
+        data: Any = json.loads(read_bytes(path).decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        reason = "nested too deeply" if isinstance(exc, RecursionError) else str(exc)
+        raise FileFormatError(f"{where}: not a JSON file of poses ({reason})") from None
+    except FileFormatError as exc:
+        raise FileFormatError(f"--poses {exc}") from None
     if isinstance(data, dict):
         missing = [s.name for s in scans if s.name not in data and str(s) not in data]
         if missing:
-            raise FileFormatError(f"--poses {path}: no pose for {', '.join(missing)}")
+            raise FileFormatError(f"{where}: no pose for {', '.join(missing)}")
         data = [data.get(str(s), data.get(s.name)) for s in scans]
     if not isinstance(data, list) or len(data) != len(scans):
         count = len(data) if isinstance(data, list) else "no list of"
         raise FileFormatError(
-            f"--poses {path}: expected one 4 x 4 pose per scan ({len(scans)}), got {count} poses"
+            f"{where}: expected one 4 x 4 pose per scan ({len(scans)}), got {count} poses"
         )
-    return [np.asarray(m, dtype=np.float64) if _numeric(m) else m for m in data]
-
-
-def _numeric(m: Any) -> bool:
-    try:
-        np.asarray(m, dtype=np.float64)
-    except (TypeError, ValueError):
-        return False
-    return True
+    out = []
+    for k, (pose, scan) in enumerate(zip(data, scans, strict=True)):
+        try:
+            out.append(check_pose(pose, f"{where}, pose {k} ({scan.name})"))
+        except ParameterError as exc:
+            raise FileFormatError(str(exc)) from None
+    return out
 
 
 def _pieces_text(parts: list[Piece], listed: int = 5) -> str:
@@ -98,28 +85,22 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         raise ParameterError("--poses is for scan files; a .conf file holds its own poses")
     if args.forward_rotation and not confs:
         raise ParameterError("--forward-rotation is for a .conf file's quaternions")
+    # the flags of the options table, checked by it under the flag's name
+    options = {
+        o.name: o.check(getattr(args, o.name), o.flag)
+        for o in OPTIONS
+        if getattr(args, o.name) is not None
+    }
     scans = [s for s, _ in conf_poses(confs[0])] if confs else inputs
-    _check_outputs([*inputs, *scans], [out])
+    _check_outputs([*inputs, *scans], [out])  # the scans a .conf lists are inputs too
     t0 = time.perf_counter()
-    try:
-        if confs:
-            views: list[Any] = read_conf(confs[0], inverse_rotation=not args.forward_rotation)
-            poses = None
-        else:
-            views = [str(p) for p in inputs]
-            poses = read_poses(Path(args.poses), inputs) if args.poses else None
-        surface = merge(
-            views,
-            poses=poses,
-            toward=args.toward,
-            voxel=args.voxel,
-            truncation=args.truncation,
-            max_voxels=args.max_voxels,
-            refine=args.refine,
-            progress=con.progress,
-        )
-    except ScanmeshError as exc:
-        raise type(exc)(_in_flags(str(exc))) from None
+    if confs:
+        views: list[Any] = read_conf(confs[0], inverse_rotation=not args.forward_rotation)
+        poses = None
+    else:
+        views = [str(p) for p in inputs]
+        poses = read_poses(Path(args.poses), inputs) if args.poses else None
+    surface = merge(views, poses=poses, toward=args.toward, progress=con.progress, **options)
     surface.save(out, progress=con.progress)
     elapsed = time.perf_counter() - t0
     parts = pieces(surface.vertices, surface.faces)

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scanmesh._memory import memory_room
 from scanmesh.errors import FileFormatError, MissingFileError
 
 #: Bytes read from a pipe per call.
@@ -106,20 +107,23 @@ def read_bytes(path: Path) -> bytes:
     return gunzip(path, data) if data.startswith(GZIP_MAGIC) else data
 
 
-def _memory_bytes() -> int:
-    """The machine's physical memory in bytes (2**40 where the system does not say)."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (AttributeError, OSError, ValueError):
-        return 1 << 40
+def inflate_limit() -> tuple[int, str]:
+    """How many bytes a gzip file may decompress to, and why: half the memory this process
+    may still take (:func:`scanmesh._memory.memory_room`: the physical memory, or what
+    ``ulimit -v``, ``ulimit -d`` or a cgroup leave), since the pieces and their joined copy
+    are held together."""
+    room = memory_room()
+    return room.bytes // 2, f"half of {room.limit}"
 
 
 def gunzip(path: Path, data: bytes, limit: int | None = None) -> bytes:
     """The decompressed content of gzip ``data`` (every member, as ``gzip -d`` does), in
-    chunks, refused (FileFormatError) when corrupt, truncated or larger than ``limit``
-    bytes (default: half the machine's memory, so a compression bomb is refused instead of
-    exhausting memory). O(output)."""
-    limit = _memory_bytes() // 2 if limit is None else limit
+    chunks, refused (FileFormatError naming the file and the limit) when corrupt, truncated
+    or larger than ``limit`` bytes (default :func:`inflate_limit`), so a compression bomb is
+    refused as soon as it passes the limit instead of exhausting memory. O(output)."""
+    why = "the limit given"
+    if limit is None:
+        limit, why = inflate_limit()
     out: list[bytes] = []
     total, rest = 0, data
     try:
@@ -132,7 +136,8 @@ def gunzip(path: Path, data: bytes, limit: int | None = None) -> bytes:
                 if total > limit:
                     raise FileFormatError(
                         f"{path}: the gzip-compressed file decompresses to more than"
-                        f" {limit:,} bytes (half this machine's memory); decompress it first"
+                        f" {limit:,} bytes ({why}); decompress it first, or give the process"
+                        " more memory"
                     )
                 out.append(piece)
                 pending = inflate.unconsumed_tail

@@ -248,6 +248,8 @@ def _ascii_lists(path: Path, data: bytes, a: int, b: int, el: _PlyElement) -> li
         raise FileFormatError(
             f"{path}, line {el.line}: PLY element {el.name!r} must hold one list property"
         )
+    if el.count == 0:
+        return []
     counts = tokens_per_line(data, a, b)
     flat = parse_free(path, data, a, b, f" in PLY element {el.name!r}")
     first = np.cumsum(counts) - counts
@@ -417,6 +419,11 @@ def _range_grid_lines(
             f"{path}: PLY range_grid needs 'obj_info num_cols' and 'obj_info num_rows'"
             f" in the header (found {info})"
         ) from None
+    if rows < 1 or cols < 1:
+        raise FileFormatError(
+            f"{path}: PLY range_grid declares num_rows {rows} and num_cols {cols}; both must be"
+            " at least 1"
+        )
     if len(grid) != rows * cols:
         raise FileFormatError(
             f"{path}: PLY range_grid has {len(grid)} entries, not num_rows x num_cols ="

@@ -30,8 +30,9 @@ CHUNK_BYTES: int = 1 << 21
 #: How many non-numeric lines may open a text file before it is judged not to be numbers.
 MAX_HEADER_LINES: int = 100
 
-# A line whose first token starts like a number is a data line, not a header.
-_NUMBER_START = re.compile(rb"\s*[+-]?\.?\d")
+# A line whose first token starts like a number is a data line, not a header: digits, or
+# a hole or an infinity written as numpy and most tools write them (nan, inf, infinity).
+_NUMBER_START = re.compile(rb"\s*[+-]?(\.?\d|(nan|inf(inity)?)([\s,;]|$))", re.IGNORECASE)
 _WHITESPACE = b" \t\r\n"
 
 

@@ -94,13 +94,15 @@ def check_not_input(
 
 
 def inputs_of(mesh: Any) -> list[InputFile]:
-    """The files a mesh was made from (a Surface's scan file), for :func:`check_not_input`."""
+    """The files a mesh was made from (a Surface's scan file, a merge's views), for
+    :func:`check_not_input`."""
+    made_from = list(getattr(mesh, "inputs", None) or [])
     scan = getattr(mesh, "scan", None)
     recorded = getattr(scan, "source_file", None)
     if isinstance(recorded, InputFile):
-        return [recorded]
+        return [recorded, *made_from]
     source = getattr(scan, "source", None)
-    return [] if source is None else [input_file(source)]
+    return made_from if source is None else [input_file(source), *made_from]
 
 
 def refuse_remote(text: PathSpec, flag: str) -> None:

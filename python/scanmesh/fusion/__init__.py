@@ -22,31 +22,24 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from scanmesh import _core
-from scanmesh._checks import POSITIVE
+from scanmesh._checks import check_options, power_of_two_exponent
 from scanmesh._interrupt import interruptible
+from scanmesh._memory import memory_room
 from scanmesh._progress import Progress, Stage
-from scanmesh.errors import ParameterError, ScanmeshWarning
+from scanmesh.errors import DegenerateInputError, MemoryLimitError, ParameterError, ScanmeshWarning
 from scanmesh.fusion.depth import depth_image, view_spacing
+from scanmesh.fusion.grid import MAX_VOXELS, OPTIONS, TRUNCATION_VOXELS, grid_for
 from scanmesh.fusion.pieces import drop_specks
 from scanmesh.fusion.register import refine_poses
-from scanmesh.fusion.views import as_views
+from scanmesh.fusion.views import View, as_views
 from scanmesh.scan.axes import AxisSpec
 from scanmesh.surface import Surface
-
-#: Grid nodes allocated at most (blocks of 8³ near the surfaces; 9 bytes each), unless
-#: ``max_voxels`` says otherwise.
-MAX_VOXELS = 64_000_000
-
-#: Nodes along a side of the grid's blocks (the core's ``fusion::blocks::BLOCK``).
-BLOCK = 8
-
-#: The default truncation of the signed distance, in voxels.
-TRUNCATION_VOXELS = 3.0
 
 #: How far apart two views' samples may be to be paired by ``refine``, in spacings.
 REFINE_REACH = 3.0
@@ -64,13 +57,41 @@ SAMPLE_TRUST = 1e-9
 FINE_VOXEL = 0.7
 
 
-def _near_samples(points: np.ndarray, origin: np.ndarray, size: float) -> int:
-    """Grid nodes in the blocks holding a sample or next to one (26 neighbours): what the
-    fusion allocates at least, as it allocates the blocks a surface's band crosses."""
-    keys = np.unique(np.floor((points - origin) / (BLOCK * size)).astype(np.int64), axis=0)
-    offsets = np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)])
-    near = np.unique((keys[:, None, :] + offsets[None]).reshape(-1, 3), axis=0)
-    return len(near) * BLOCK**3
+def _scaled(views: list[View], exponent: int) -> list[View]:
+    """The views with points and translations times 2**-exponent (exact: a power of two),
+    so that no distance, square or product of the fusion overflows or underflows at
+    coordinates of 1e-300 or 1e300."""
+    out = []
+    for view in views:
+        pose = view.pose.copy()
+        pose[:3, 3] = np.ldexp(pose[:3, 3], -exponent)
+        out.append(replace(view, points=np.ldexp(view.points, -exponent), pose=pose))
+    return out
+
+
+#: A view whose world coordinates are so large that neighbouring floats there are more
+#: than this share of its ray spacing apart is refused: its points would be rounded together.
+RESOLUTION_SHARE = 0.01
+
+
+def _own_spacing(view: View) -> float:
+    """The view's ray spacing, measured at its own unit scale (the nearest-neighbour
+    search squares distances: 1e200 would overflow, 1e-200 underflow)."""
+    e = power_of_two_exponent(view.points[:, :2])
+    return math.ldexp(view_spacing(np.ldexp(view.points[:, :2], -e), view.source), e)
+
+
+def _check_resolution(view: View, spacing: float) -> None:
+    """Refuse a pose that moves the view where float64 cannot hold its points apart."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        far = float(np.max(np.abs(view.world)))
+    if not math.isfinite(far) or float(np.spacing(far)) > RESOLUTION_SHARE * spacing:
+        raise DegenerateInputError(
+            f"{view.source}: its pose puts its points {far:.3g} from the origin, where"
+            f" neighbouring floats are {float(np.spacing(far)):.3g} apart against its ray"
+            f" spacing {spacing:.3g}: the points would be rounded together; give poses in"
+            " the part's frame (near the origin)"
+        )
 
 
 def merge(
@@ -127,20 +148,54 @@ def merge(
         the largest one's area are taken off (:mod:`scanmesh.fusion.pieces`), what went
         is ``options["specks_removed"]`` (pieces, faces, area, largest speck's faces).
     """
+    # every option checked (and max_voxels honoured) before a file is read or a byte allocated
+    params = check_options(
+        OPTIONS,
+        {"voxel": voxel, "truncation": truncation, "max_voxels": max_voxels, "refine": refine},
+        "merge",
+    )
+    try:
+        return _merge(views, poses, toward, params, progress)
+    except MemoryError as exc:  # numpy's or Python's: what the estimates did not foresee
+        if isinstance(exc, MemoryLimitError):
+            raise
+        raise MemoryLimitError(
+            f"merge: an allocation failed ({exc or 'out of memory'}); this process may take"
+            f" {memory_room().limit}: use a larger voxel or fewer points"
+        ) from None
+
+
+def _merge(
+    views: Sequence[Any],
+    poses: Sequence[Any] | None,
+    toward: AxisSpec,
+    params: dict[str, Any],
+    progress: Progress,
+) -> Surface:
+    """:func:`merge` once its options are checked."""
     timings: dict[str, float] = {}
     start = time.perf_counter()
-    checked = as_views(views, poses=poses, toward=toward)
-    trunc = POSITIVE.check(truncation, "truncation")
-    if trunc < 1.0:
-        raise ParameterError(f"truncation must be at least 1 voxel, got {truncation!r}")
-    if isinstance(max_voxels, bool) or not isinstance(max_voxels, (int, np.integer)):
-        raise ParameterError(f"max_voxels must be an integer, got {max_voxels!r}")
-    if not isinstance(refine, bool):
-        raise ParameterError(f"refine must be True or False, got {refine!r}")
-    spacings = [view_spacing(v.points[:, :2]) for v in checked]
+    trunc = params["truncation"]
+    given = as_views(views, poses=poses, toward=toward)
+    own = [_own_spacing(v) for v in given]
+    for view, spacing in zip(given, own, strict=True):
+        _check_resolution(view, spacing)
+    # work at unit scale: points and translations times a power of two, undone on the result
+    # (one less than the largest magnitude's exponent: 2**exponent itself stays finite)
+    exponent = (
+        power_of_two_exponent(
+            np.array([np.abs(a).max() for v in given for a in (v.points, v.pose[:3, 3])])
+        )
+        - 1
+    )
+    unit = math.ldexp(1.0, exponent)
+    checked = _scaled(given, exponent)
+    spacings = [math.ldexp(s, -exponent) for s in own]
     ray_spacing = float(np.median(spacings))
     residual = None
-    if refine:
+    if params["refine"] and len(checked) < 2:
+        raise ParameterError(f"refine=True needs at least two views to align, got {len(checked)}")
+    if params["refine"]:
         t0 = time.perf_counter()
         with Stage(progress, "refine", len(checked), blocking=True):
             own = [
@@ -153,7 +208,7 @@ def merge(
                 [image.kept for image in own],
                 reach=REFINE_REACH * ray_spacing,
             )
-        residual = {"before": before, "after": after}
+        residual = {"before": before * unit, "after": after * unit}
         if math.isnan(before):
             warnings.warn(
                 "refine: the views share no surface (no samples of two views within"
@@ -165,51 +220,37 @@ def merge(
     world = [v.world for v in checked]
     lo = np.min([w.min(axis=0) for w in world], axis=0)
     hi = np.max([w.max(axis=0) for w in world], axis=0)
-    extent = hi - lo
-
-    def grid_for(size: float) -> tuple[np.ndarray, np.ndarray]:
-        # half a voxel more on the low side: the part's extreme faces (and CAD faces on
-        # round coordinates) fall between node layers, not on one, where the sign of the
-        # distance would be noise and the surface would fold between two layers of cells
-        margin = (trunc + 2.0) * size
-        dims = np.ceil((extent + 2 * margin) / size).astype(np.int64) + 2
-        return lo - margin - 0.5 * size, dims
-
-    samples_world = np.concatenate(world)
-    if voxel is None:
-        size = ray_spacing
-        origin, dims = grid_for(size)
-        for _ in range(4):  # the blocks near a surface scale as 1 / voxel²
-            need = _near_samples(samples_world, origin, size)
-            if need <= max_voxels:
-                break
-            size *= math.sqrt(need / max_voxels) * 1.01
-            origin, dims = grid_for(size)
-    else:
-        size = POSITIVE.check(voxel, "voxel")
-        if size < FINE_VOXEL * ray_spacing:
-            warnings.warn(
-                f"merge: voxel {voxel:g} is under {FINE_VOXEL:g} of the views' ray spacing"
-                f" {ray_spacing:g}: a run of rays whose returns were lost (at"
-                " grazing angles) may carve through the part; a voxel of at least the"
-                " spacing is safe",
-                ScanmeshWarning,
-                stacklevel=2,
-            )
-        origin, dims = grid_for(size)
-        need = _near_samples(samples_world, origin, size)
-        if need > max_voxels:
-            larger = size * math.sqrt(need / max_voxels) * 1.01
-            raise ParameterError(
-                f"voxel {voxel!r} needs about {need:,} grid nodes near the samples, over"
-                f" max_voxels={max_voxels:,}; use voxel of about {larger:.3g} or more"
-            )
+    view_size = max(float(np.max(w.max(axis=0) - w.min(axis=0))) for w in world)
+    # (np.ldexp: a voxel beyond the float range once scaled is inf, refused as too coarse)
+    size_given = None if params["voxel"] is None else float(np.ldexp(params["voxel"], -exponent))
+    grid = grid_for(
+        lo,
+        hi - lo,
+        view_size,
+        size_given,
+        ray_spacing,
+        trunc,
+        params["max_voxels"],
+        unit,
+        params["voxel"],
+        samples=np.concatenate(world),
+    )
+    size, dims = grid.voxel, np.array(grid.dims)
+    if size_given is not None and size < FINE_VOXEL * ray_spacing:
+        warnings.warn(
+            f"merge: voxel {params['voxel']:g} is under {FINE_VOXEL:g} of the views' ray"
+            f" spacing {ray_spacing * unit:g}: a run of rays whose returns were lost (at"
+            " grazing angles) may carve through the part; a voxel of at least the"
+            " spacing is safe",
+            ScanmeshWarning,
+            stacklevel=2,
+        )
     volume = _core.FusionVolume(
-        tuple(origin), size, tuple(int(d) for d in dims), trunc * size, int(max_voxels)
+        tuple(grid.origin), size, grid.dims, trunc * size, int(params["max_voxels"])
     )
-    corners = origin + np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]) * (
-        (dims - 1) * size
-    )
+    corners = grid.origin + np.array(
+        [[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+    ) * ((dims - 1) * size)
     native, samples, normals = [], [], []
     for view, spacing in zip(checked, spacings, strict=True):
         rot, shift = view.pose[:3, :3], view.pose[:3, 3]
@@ -226,7 +267,7 @@ def merge(
         samples.append(view.points[image.kept[good]] @ rot.T + shift)
         normals.append(image.normals[good] @ rot.T)
     timings["depth images"] = time.perf_counter() - start
-    cost = float(np.prod(dims))
+    cost = float(grid.nodes)
     for name, call in (("integrate", volume.integrate), ("carve", volume.carve)):
         t0 = time.perf_counter()
         with Stage(progress, name, len(native)) as stage:
@@ -245,22 +286,35 @@ def merge(
         )
     vertices, faces, labels, specks = drop_specks(vertices, faces, labels)
     timings["extract"] = time.perf_counter() - t0
+    if len(faces) == 0:
+        raise DegenerateInputError(
+            f"merge: no surface at voxel {size * unit:g}: no node of the"
+            f" {' x '.join(map(str, grid.dims))} grid lies inside the views' surfaces; use a"
+            f" voxel near the views' ray spacing ({ray_spacing * unit:.4g})"
+        )
     return Surface(
-        vertices=vertices,
+        vertices=np.ldexp(vertices, exponent),
         faces=faces,
         method="merge",
         options={
             "views": len(checked),
-            "voxel": size,
+            "voxel": size * unit,
             "truncation": trunc,
             "behind": min(trunc, _core.BEHIND_VOXELS),
-            "grid": tuple(int(d) for d in dims),
+            "grid": grid.dims,
             "allocated_voxels": volume.allocated,  # (with distances, with flags alone)
             "repaired_nodes": int(repaired),
             "specks_removed": specks,
             "refine_residual": residual,
-            "poses": [v.pose for v in checked],
+            "poses": [_unscaled(v.pose, exponent) for v in checked],
         },
         timings=timings,
         face_labels=labels,
+        inputs=[v.file for v in given if v.file is not None],
     )
+
+
+def _unscaled(pose: np.ndarray, exponent: int) -> np.ndarray:
+    out = pose.copy()
+    out[:3, 3] = np.ldexp(out[:3, 3], exponent)
+    return out

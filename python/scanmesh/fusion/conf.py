@@ -37,6 +37,9 @@ from scanmesh.formats._source import quote, read_bytes
 #: written with 6 significant digits).
 QUATERNION_TOL = 1e-3
 
+#: Largest translation read (README: coordinates from 1e-300 to 1e300).
+MAX_TRANSLATION = 1e300
+
 
 def quaternion_matrix(q: np.ndarray) -> np.ndarray:
     """(3, 3) rotation of the unit quaternion ``q = (qi, qj, qk, qr)`` (vector part first)."""
@@ -90,6 +93,11 @@ def conf_poses(
             raise FileFormatError(f"{where}: {bad!r} is not a number") from None
         if not np.isfinite(values).all():
             raise FileFormatError(f"{where}: pose values must be finite, got {quote(raw)}")
+        if np.abs(values[:3]).max() > MAX_TRANSLATION:
+            raise FileFormatError(
+                f"{where}: translation {values[:3].tolist()} is beyond the"
+                f" {MAX_TRANSLATION:g} scanmesh reads coordinates to"
+            )
         q = values[3:]
         length = float(np.linalg.norm(q))
         if abs(length - 1.0) > QUATERNION_TOL:

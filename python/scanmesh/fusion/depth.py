@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from scanmesh._core import JUMP_STEPS
+from scanmesh._memory import describe_bytes, memory_room
 from scanmesh.errors import DegenerateInputError, MemoryLimitError
 
 #: Points whose nearest neighbour is measured for the spacing (a sample of larger views).
@@ -33,6 +34,10 @@ SPACING_SAMPLE = 20_000
 
 #: Largest depth image built (pixels); a view finer than this over the part is refused.
 MAX_PIXELS = 50_000_000
+
+#: Peak bytes per pixel while a depth image is built: depth, cosine, normals and the
+#: slopes' shifted copies (about twenty float64 arrays of the image's size).
+BYTES_PER_PIXEL = 160
 
 #: Pixels from the edge of the returns (a pixel without return, or across a depth jump)
 #: over which the trust ramps up to 1 from :data:`EDGE_TRUST` on the edge itself.
@@ -88,16 +93,24 @@ class DepthImage:
     weight: np.ndarray
 
 
-def view_spacing(xy: np.ndarray, seed: int = 0) -> float:
+def view_spacing(xy: np.ndarray, where: str = "a view", seed: int = 0) -> float:
     """Median distance from a point to its nearest other point across the rays (scanner
-    x, y), on a sample of at most SPACING_SAMPLE points; O(N log N)."""
+    x, y), on a sample of at most SPACING_SAMPLE points; DegenerateInputError naming
+    ``where`` when no two points lie on different rays. O(N log N)."""
+    if len(xy) < 2:
+        raise DegenerateInputError(
+            f"{where}: a view of {len(xy)} point has no spacing across its rays; a view needs"
+            " at least 2 points on different rays"
+        )
     tree = cKDTree(xy)
     rng = np.random.default_rng(seed)
     probe = xy if len(xy) <= SPACING_SAMPLE else xy[rng.choice(len(xy), SPACING_SAMPLE, False)]
     dist, _ = tree.query(probe, k=2)
-    near = dist[:, 1][dist[:, 1] > 0]
+    near = dist[:, 1][np.isfinite(dist[:, 1]) & (dist[:, 1] > 0)]
     if len(near) == 0:
-        raise DegenerateInputError("a view's points all lie on one ray: no spacing across rays")
+        raise DegenerateInputError(
+            f"{where}: the view's points all lie on one ray: no spacing across rays"
+        )
     return float(np.median(near))
 
 
@@ -113,6 +126,12 @@ def depth_image(points: np.ndarray, step: float, window: np.ndarray) -> DepthIma
         raise MemoryLimitError(
             f"a depth image of {width} x {height} rays (spacing {step:g}) is over the"
             f" {MAX_PIXELS:,} allowed; use a larger voxel"
+        )
+    need, room = width * height * BYTES_PER_PIXEL, memory_room()
+    if need > room.bytes:
+        raise MemoryLimitError(
+            f"a depth image of {width} x {height} rays needs about {describe_bytes(need)} of"
+            f" memory, more than {room.limit}; use a larger voxel"
         )
     ij = np.rint((points[:, :2] - first) / step).astype(np.int64)
     inside = (ij >= 0).all(axis=1) & (ij[:, 0] < width) & (ij[:, 1] < height)

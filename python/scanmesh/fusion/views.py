@@ -22,6 +22,7 @@ import numpy as np
 
 from scanmesh.errors import ParameterError, ScanmeshWarning
 from scanmesh.formats import read
+from scanmesh.formats._source import InputFile, input_file
 from scanmesh.formats.points import ScanPoints
 from scanmesh.fusion.conf import conf_poses
 from scanmesh.fusion.depth import view_spacing
@@ -53,6 +54,8 @@ class View:
     pose: np.ndarray
     #: where the points came from (a file, or a description)
     source: str = "array"
+    #: the file read for it, as it was when read (writers refuse to replace it), or None
+    file: InputFile | None = None
 
     @property
     def world(self) -> np.ndarray:
@@ -65,7 +68,7 @@ def check_pose(pose: Any, where: str) -> np.ndarray:
     wrong (shape, non-finite entry, last row, scale, shear or reflection) otherwise."""
     try:
         m = np.asarray(pose, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParameterError(f"{where}: a pose must be a 4 x 4 matrix of numbers") from None
     if m.shape != (4, 4):
         raise ParameterError(f"{where}: a pose must be a 4 x 4 matrix, got shape {m.shape}")
@@ -92,17 +95,21 @@ def toward_frame(toward: AxisSpec) -> np.ndarray:
     return scan_frame(up, "y" if abs(up[0]) > 0.9 else "x")
 
 
-def _from_scan(scan: ScanPoints, pose: np.ndarray | None, turn: np.ndarray, where: str) -> View:
+def _from_scan(
+    scan: ScanPoints, pose: np.ndarray | None, turn: np.ndarray, where: str, file: InputFile | None
+) -> View:
     if pose is None and scan.up is not None:
         # a scan that records its ray direction is in world coordinates already
         frame = scan_frame(scan.up, "y" if abs(scan.up[0]) > 0.9 else "x")
         motion = np.eye(4)
         motion[:3, :3] = frame.T
-        return View(scan.points @ frame.T, motion, where)
-    return _from_array(scan.points, np.eye(4) if pose is None else pose, turn, where)
+        return View(scan.points @ frame.T, motion, where, file)
+    return _from_array(scan.points, np.eye(4) if pose is None else pose, turn, where, file)
 
 
-def _from_array(points: Any, pose: Any, turn: np.ndarray, where: str) -> View:
+def _from_array(
+    points: Any, pose: Any, turn: np.ndarray, where: str, file: InputFile | None = None
+) -> View:
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise ParameterError(f"{where}: points must be an (N, 3) array, got shape {pts.shape}")
@@ -115,7 +122,7 @@ def _from_array(points: Any, pose: Any, turn: np.ndarray, where: str) -> View:
     # turn the scanner's direction onto +z: p' = T p, and the pose follows (world = M T⁻¹ p')
     back = np.eye(4)
     back[:3, :3] = turn.T
-    return View(np.ascontiguousarray(pts @ turn.T), m @ back, where)
+    return View(np.ascontiguousarray(pts @ turn.T), m @ back, where, file)
 
 
 def as_views(
@@ -143,11 +150,14 @@ def as_views(
         pose = None if poses is None else poses[k]
         where = f"view {k}"
         if isinstance(item, View):
-            out.append(_from_array(item.points, item.pose if pose is None else pose, turn, where))
+            chosen = item.pose if pose is None else pose
+            out.append(_from_array(item.points, chosen, turn, where, item.file))
         elif isinstance(item, (str, os.PathLike)):
-            out.append(_from_scan(read(item), pose, turn, str(Path(item))))
+            file = input_file(item)  # recorded before the read: a later os.chdir cannot move it
+            out.append(_from_scan(read(item), pose, turn, str(Path(item)), file))
         elif isinstance(item, ScanPoints):
-            out.append(_from_scan(item, pose, turn, f"{where} ({item.source})"))
+            file = input_file(item.source) if item.source is not None else None
+            out.append(_from_scan(item, pose, turn, f"{where} ({item.source})", file))
         elif isinstance(item, tuple) and len(item) == 2:
             if pose is not None:
                 raise ParameterError(f"{where}: has its own pose; give poses for paths only")
@@ -167,7 +177,7 @@ def read_conf(path: str | os.PathLike, *, inverse_rotation: bool = True) -> list
     :data:`MIN_OVERLAP` of its points near another view's: a wrong convention or a wrong
     pose) is warned about by name with its figure (:func:`overlaps`)."""
     views = [
-        _from_array(read(scan).points, pose, np.eye(3), str(scan))
+        _from_array(read(scan).points, pose, np.eye(3), str(scan), input_file(scan))
         for scan, pose in conf_poses(path, inverse_rotation=inverse_rotation)
     ]
     if len(views) > 1:

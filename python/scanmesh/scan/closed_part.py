@@ -67,6 +67,8 @@ def scan_closed_part(points: ScanPoints, plane: PlaneSpec = None) -> ScanPoints 
     if not points.extra.get("faces_ignored") or points.source is None:
         return None
     part = load_mesh(points.source)
+    if part.is_watertight and part.is_winding_consistent and part.volume < 0:
+        part.invert()  # every face turned inwards: the same solid, its faces the other way
     if not part.is_volume:
         return None
     up = _scan_direction(part, plane)

@@ -118,6 +118,12 @@ def build_grid(scan: PlanarScan, params: dict[str, Any], context: Context = QUIE
     """:func:`grid_surface` of ``scan`` without its option checks: ``params`` checked
     (:data:`OPTIONS`), the progress the call's (``context``), as the registry
     (``scanmesh.methods``) has them. Same result, warnings and errors otherwise."""
+    if scan.grid is not None and not is_gridded(scan):
+        shape = " x ".join(map(str, scan.grid.shape))
+        raise DegenerateInputError(
+            f"the scan's range grid is {shape} (lines x positions): the grid triangulation"
+            " needs at least 2 x 2 to make a triangle; use another method"
+        )
     if not is_gridded(scan):
         raise ParameterError(
             "the grid triangulation needs a scan with a range grid (a range_grid PLY, a"

@@ -128,7 +128,9 @@ impl AnnealParams {
 /// The incremental tac state of `faces` over 3-D `points` with planar `uv`, both normalized
 /// (scale-free), checked to be a valid planar triangulation, with the (3,) line of sight
 /// `sight` when given and the (K, 2) point index pairs `fixed`, edges no flip may remove.
+/// Built without the GIL (0.4 s on 200,000 points: Ctrl-C waited).
 pub(crate) fn tac_state(
+    py: Python<'_>,
     points: &PyReadonlyArray2<'_, f64>,
     uv: &PyReadonlyArray2<'_, f64>,
     faces_: &PyReadonlyArray2<'_, i64>,
@@ -142,7 +144,9 @@ pub(crate) fn tac_state(
     let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
     let fixed = fixed.map(|f| edges("fixed", &f, xyz.len())).transpose()?;
-    let (state, relabel) = TacState::from_input(&xyz, &plane, t, p).map_err(to_py)?;
+    let (state, relabel) = py
+        .detach(|| TacState::from_input(&xyz, &plane, t, p))
+        .map_err(to_py)?;
     let fixed = fixed
         .map(|f| FixedEdges::new(xyz.len(), &f)?.renamed(&relabel.to_local))
         .transpose()
@@ -194,7 +198,7 @@ pub(crate) fn lop<'py>(
             )))
         }
     };
-    let (state, relabel) = tac_state(&points, &uv, &faces_, p, sight, fixed)?;
+    let (state, relabel) = tac_state(py, &points, &uv, &faces_, p, sight, fixed)?;
     let (faces, flips) = py
         .detach(|| {
             let (mesh, flips) = run_lop(state, criterion)?;
@@ -240,7 +244,7 @@ impl Annealer {
         fixed: Option<PyReadonlyArray2<'_, i64>>,
     ) -> PyResult<Self> {
         let params = params.0.clone();
-        let (state, relabel) = tac_state(&points, &uv, &faces, params.p, sight, fixed)?;
+        let (state, relabel) = tac_state(py, &points, &uv, &faces, params.p, sight, fixed)?;
         let inner = py.detach(|| Ensemble::new(state, params)).map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),
