@@ -6,8 +6,9 @@ from the command's own parser, so the page says what the command accepts)::
 
     python -m scanmesh.cli.reference > docs/options.md
 
-Reads only ``TABLE``, each method's ``name``, ``doc`` and ``options`` and the ``Option``
-fields, so the page follows the registry wherever the rest of it moves.
+Reads only ``TABLE``, each method's ``name``, ``doc`` and ``options``, merge's option table
+(:data:`scanmesh.fusion.grid.OPTIONS`) and the ``Option`` fields, so the page follows the
+registry wherever the rest of it moves.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import math
 from typing import Any
 
 from scanmesh.cli import build_parser
+from scanmesh.fusion.grid import OPTIONS as MERGE_OPTIONS
 from scanmesh.methods import TABLE
 
 #: The page's opening: what it is and how it is made.
@@ -127,6 +129,15 @@ def reference() -> str:
             lines += _options_table(method.options, actions)
         else:
             lines.append("No options of its own.")
+    lines += [
+        "",
+        "## merge",
+        "",
+        "Options of `scanmesh.merge` and `scanmesh merge` (besides the views, their poses and"
+        " `toward`): the fusion grid. The guide: [merge](guide/merge.md).",
+        "",
+    ]
+    lines += _options_table(MERGE_OPTIONS, _flags(build_parser(), "merge"))
     return "\n".join(lines) + "\n"
 
 

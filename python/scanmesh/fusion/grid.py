@@ -97,10 +97,12 @@ def node_counts(extent: np.ndarray, voxel: float, truncation: float) -> list[flo
 
 
 def _count(counts: Sequence[float]) -> float:
-    """Their product, exact while finite (Python integers), inf otherwise."""
+    """Nodes of the whole blocks of 8³ covering a grid of ``counts`` nodes along each axis
+    (what the fusion allocates at most), exact while finite (Python integers), inf
+    otherwise."""
     if not all(math.isfinite(c) for c in counts):
         return math.inf
-    total = math.prod(int(c) for c in counts)
+    total = math.prod(-(-int(c) // BLOCK) * BLOCK for c in counts)
     return float(total) if total.bit_length() < 1000 else math.inf
 
 
@@ -156,9 +158,11 @@ def grid_for(
 ) -> Grid:
     """The grid over the box ``lo``, ``lo + extent`` (world units), or ParameterError.
 
-    ``voxel`` None: the views' ray ``spacing``, made larger until the grid allocates at
-    most ``max_voxels`` nodes (its whole box, or with ``samples`` (N, 3) the blocks near
-    them). A given ``voxel`` whose grid exceeds ``max_voxels`` is refused,
+    ``voxel`` None: the views' ray ``spacing``, made larger until the grid's whole box has
+    at most ``max_voxels`` nodes (so whatever blocks the views allocate fit). A given
+    ``voxel`` whose grid surely exceeds ``max_voxels`` (the box, or with ``samples``
+    (N, 3) the blocks near them, a lower bound of what the fusion allocates: beyond it the
+    core refuses as it allocates) is refused,
     naming both; so is any voxel of at least ``view_size`` (the largest extent of a single
     view), which leaves no node inside the part. ``unit`` turns world units back into the
     caller's for messages (merge works on the views scaled by a power of two), ``shown``
@@ -170,16 +174,16 @@ def grid_for(
         " (the part's box and a margin of truncation + 2 voxels on every side)"
     )
     if voxel is None:
-        if side**3 > max_voxels:
+        if _count([side] * 3) > max_voxels:
             raise ParameterError(f"max_voxels={max_voxels:,} is too small: {smallest}")
         size = spacing
         nodes = _count(node_counts(extent, size, truncation))
         if math.isinf(nodes):  # views of very different scales: start from the longest side
             size = max(size, float(np.max(extent)) / max_voxels ** (1 / 3))
-        nodes = _needed(lo, extent, size, truncation, max_voxels, samples)
+            nodes = _count(node_counts(extent, size, truncation))
         while nodes > max_voxels:  # each step at least 1 % coarser: the count falls to `side`³
             size *= max((nodes / max_voxels) ** (1 / 3), 1.0) * 1.01
-            nodes = _needed(lo, extent, size, truncation, max_voxels, samples)
+            nodes = _count(node_counts(extent, size, truncation))
         if size >= view_size:
             raise ParameterError(
                 f"the views span {_shown(extent * unit)}, but a grid of at most"
@@ -199,7 +203,8 @@ def grid_for(
         nodes = _needed(lo, extent, size, truncation, max_voxels, samples)
         if nodes > max_voxels:
             need = float(np.max(extent)) / (max_voxels ** (1 / 3))
-            hint = f"use voxel={need * unit:.3g} or more" if side**3 <= max_voxels else smallest
+            fits = _count([side] * 3) <= max_voxels
+            hint = f"use voxel={need * unit:.3g} or more" if fits else smallest
             sizes = " x ".join(f"{c:.0f}" if c < 1e15 else f"{c:.3g}" for c in counts)
             raise ParameterError(
                 f"voxel={float(shown)!r} at truncation={truncation:g} makes a grid of {sizes}"
