@@ -44,6 +44,7 @@ import numpy as np
 
 import api_fuzz_merge
 from fuzz_core import degenerate_faces
+from fuzz_outcome import crash, refusal
 from scanmesh import ScanmeshError, _core, reconstruct
 from scanmesh._checks import Option
 from scanmesh.methods import INITIALS, METHODS, SHARED, TABLE
@@ -455,25 +456,12 @@ def run_case(seed: int) -> dict[str, Any]:
             warnings.simplefilter("ignore")
             surface = reconstruct(case["points"], method, **case["kwargs"])
     except ScanmeshError as exc:
-        message = str(exc)
-        outcome = f"refused: {type(exc).__name__}"
-        if not message:
-            return {"outcome": outcome, "finding": f"{method}: empty message", "detail": ""}
-        if bad and not any(_names(message, name) for name in bad + suspects):
-            return {
-                "outcome": outcome,
-                "finding": f"{method}: refusal names none of the bad inputs",
-                "detail": f"bad {bad}: {message[:300]}",
-            }
-        return {"outcome": outcome, "finding": None, "detail": message[:300]}
+        named = any(_names(str(exc), name) for name in bad + suspects)
+        return refusal(method, exc, bad, named)
     except KeyboardInterrupt:
         raise
     except BaseException as exc:  # noqa: BLE001 - a panic is a BaseException; the point of the fuzz
-        return {
-            "outcome": "exception",
-            "finding": f"{method}: {type(exc).__name__} instead of a ScanmeshError",
-            "detail": str(exc)[:300],
-        }
+        return crash(method, exc)
     if bad:
         return {
             "outcome": "surface",

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 import scanmesh
+from fuzz_outcome import crash, refusal
 from scanmesh import ScanmeshError, shape
 from scanmesh.fusion.grid import OPTIONS
 
@@ -303,25 +304,12 @@ def run_case(seed: int) -> dict[str, Any]:
                     else:
                         fault = _points_fault(scanmesh.read(first))
     except ScanmeshError as exc:
-        message = str(exc)
-        outcome = f"refused: {type(exc).__name__}"
-        if not message:
-            return {"outcome": outcome, "finding": f"{kind}: empty message", "detail": ""}
-        if kind == "merge" and bad and not _names(message, bad):
-            return {
-                "outcome": outcome,
-                "finding": f"{kind}: refusal names none of the bad inputs",
-                "detail": f"bad {bad}: {message[:300]}",
-            }
-        return {"outcome": outcome, "finding": None, "detail": message[:300]}
+        named = kind != "merge" or _names(str(exc), bad)
+        return refusal(kind, exc, bad if kind == "merge" else None, named)
     except KeyboardInterrupt:
         raise
     except BaseException as exc:  # noqa: BLE001 - a panic is a BaseException; the point of the fuzz
-        return {
-            "outcome": "exception",
-            "finding": f"{kind}: {type(exc).__name__} instead of a ScanmeshError",
-            "detail": str(exc)[:300],
-        }
+        return crash(kind, exc)
     if fault is not None:
         return {"outcome": "result", "finding": f"{kind}: {fault}", "detail": fault}
     if bad:

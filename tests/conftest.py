@@ -26,6 +26,26 @@ def bumpy_patch(n: int, seed: int) -> np.ndarray:
     return np.column_stack([xy, z])
 
 
+def write_views(views: list, folder: Path) -> tuple[list[str], Path]:
+    """Each scanned view (``evaluate.digitizer`` scans) written as ``v{k}.xyz`` in its own
+    frame (looking along its ``up``) and the poses back to the world as ``poses.json``:
+    the files of ``scanmesh merge v0.xyz ... --poses poses.json``."""
+    import json
+
+    from scanmesh.fusion.views import toward_frame
+
+    names, poses = [], []
+    for k, scan in enumerate(views):
+        turn = toward_frame(scan.up)
+        np.savetxt(folder / f"v{k}.xyz", scan.points @ turn.T)
+        pose = np.eye(4)
+        pose[:3, :3] = turn.T
+        names.append(str(folder / f"v{k}.xyz"))
+        poses.append(pose.tolist())
+    (folder / "poses.json").write_text(json.dumps(poses))
+    return names, folder / "poses.json"
+
+
 @pytest.fixture(scope="session")
 def rod_scan() -> tuple[np.ndarray, np.ndarray]:
     """The embedded connecting-rod scan (`scanmesh.load_rod`): (points, line_ids)."""

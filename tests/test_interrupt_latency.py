@@ -4,7 +4,6 @@ default's choice of method. Each case runs the command in a child whose progress
 
 from __future__ import annotations
 
-import json
 import signal
 import subprocess
 import sys
@@ -14,8 +13,8 @@ import time
 import numpy as np
 import trimesh
 
+from conftest import write_views
 from scanmesh.evaluate.digitizer import axis_views
-from scanmesh.fusion.views import toward_frame
 
 CHILD = textwrap.dedent(
     """
@@ -62,15 +61,7 @@ def seconds_to_exit(args: list[str], stage: str) -> tuple[float, subprocess.Comp
 def test_ctrl_c_in_merge_ends_the_command_within_half_a_second(tmp_path):
     """929 ms before: the interpreter's shutdown waited beside the abandoned native call."""
     box = trimesh.creation.box((2.0, 1.0, 0.6))
-    names, poses = [], []
-    for k, scan in enumerate(axis_views(box, 0.008, noise=0.0002, seed=1)):
-        turn = toward_frame(scan.up)
-        np.savetxt(tmp_path / f"v{k}.xyz", scan.points @ turn.T)
-        pose = np.eye(4)
-        pose[:3, :3] = turn.T
-        names.append(str(tmp_path / f"v{k}.xyz"))
-        poses.append(pose.tolist())
-    (tmp_path / "poses.json").write_text(json.dumps(poses))
+    names, _ = write_views(axis_views(box, 0.008, noise=0.0002, seed=1), tmp_path)
     out = tmp_path / "part.ply"
     args = ["merge", *names, "--poses", str(tmp_path / "poses.json"), "-o", str(out)]
     # the blocks make integration quick: the extraction is the stage that lasts

@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 import scanmesh
+from conftest import write_views
 from scanmesh import shape
 from scanmesh.cli import main
 from scanmesh.creases import chain, crease_edges
@@ -512,15 +513,7 @@ def test_ply_output_carries_the_face_labels(tmp_path, merged_box):
 def test_the_command_merges_scans_with_a_poses_file(tmp_path, capsys):
     box = trimesh.creation.box((2.0, 1.0, 0.6))
     views = six_views(box, 0.05)
-    names, poses = [], []
-    for k, scan in enumerate(views):
-        turn = toward_frame(scan.up)
-        np.savetxt(tmp_path / f"v{k}.xyz", scan.points @ turn.T)
-        pose = np.eye(4)
-        pose[:3, :3] = turn.T
-        names.append(str(tmp_path / f"v{k}.xyz"))
-        poses.append(pose.tolist())
-    (tmp_path / "poses.json").write_text(json.dumps(poses))
+    names, _ = write_views(views, tmp_path)
     out = tmp_path / "part.ply"
     args = ["merge", *names, "--poses", str(tmp_path / "poses.json"), "-o", str(out), "--json"]
     assert main(args) == 0
@@ -531,6 +524,7 @@ def test_the_command_merges_scans_with_a_poses_file(tmp_path, capsys):
     assert row["area"]["measured"] == pytest.approx(2 * (2 + 1.2 + 0.6), rel=0.02)
     assert out.exists()
     # the flags are named in the errors
+    poses = json.loads((tmp_path / "poses.json").read_text())
     (tmp_path / "short.json").write_text(json.dumps(poses[:2]))
     bad = ["merge", *names, "--poses", str(tmp_path / "short.json"), "-o", str(out)]
     assert main(bad) == 1
