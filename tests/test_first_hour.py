@@ -25,9 +25,9 @@ from scanmesh.formats.write import FORMATS
 
 @pytest.fixture(scope="module")
 def swapped(tmp_path_factory) -> Path:
-    """The demo rod written as a user's file with the columns line, z, x, y and no header:
+    """The embedded rod scan written as a user's file with the columns line, z, x, y and no header:
     read as x, y, z its line ids are x, whole numbers a unit apart."""
-    points, lines = scanmesh.load_demo()
+    points, lines = scanmesh.load_rod()
     path = tmp_path_factory.mktemp("swapped") / "rod.xyz"
     table = np.column_stack([lines, points[:, 2], points[:, 0], points[:, 1]])
     np.savetxt(path, table, fmt="%.6f")
@@ -43,7 +43,7 @@ def test_a_mesh_of_slivers_from_swapped_columns_is_said_with_its_likely_cause(sw
     assert "x: 116 whole numbers from 0 to 115" in text and "columns='line,z,x,y'" in text
     assert "plane=" in text
     # the same file in the right order: no such warning
-    rod = scanmesh.load_demo()[0]
+    rod = scanmesh.load_rod()[0]
     with warnings.catch_warnings():
         warnings.simplefilter("error", scanmesh.SliversWarning)
         scanmesh.reconstruct(rod, "shortest-path")
@@ -64,7 +64,7 @@ def test_the_command_says_the_slivers_and_the_columns_in_its_flags(swapped, tmp_
 
 
 def test_quiet_silences_warnings_and_the_report_keeps_them(tmp_path, capsys):
-    np.save(tmp_path / "rod.npy", scanmesh.load_demo()[0])
+    np.save(tmp_path / "rod.npy", scanmesh.load_rod()[0])
     report = tmp_path / "r.json"
     args = ["reconstruct", str(tmp_path / "rod.npy"), "-o", str(tmp_path / "m.stl")]
     args += ["--method", "delaunay", "--plane", "1,0,1", "--report", str(report)]
@@ -100,7 +100,7 @@ def test_compare_prints_its_table_whatever_happens_to_the_picture(monkeypatch, t
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr("scanmesh.cli.compare.render_compare", broken)
-    points, _ = scanmesh.load_demo()
+    points, _ = scanmesh.load_rod()
     np.save(tmp_path / "rod.npy", points[:3000])
     code = main(
         ["compare", str(tmp_path / "rod.npy"), "--methods", "delaunay", "--holdout", "0",
@@ -113,7 +113,7 @@ def test_compare_prints_its_table_whatever_happens_to_the_picture(monkeypatch, t
 
 
 def test_render_color_says_no_bar_needs_no_extra(no_matplotlib, tmp_path, capsys):
-    points, _ = scanmesh.load_demo()
+    points, _ = scanmesh.load_rod()
     mesh = tmp_path / "rod.stl"
     scanmesh.reconstruct(points[:2000], "delaunay").save(mesh)
     picture = tmp_path / "rod.png"
@@ -158,7 +158,7 @@ def test_the_command_names_its_flags_where_the_user_typed_them(tmp_path, capsys)
 
 
 def test_surface_save_lists_every_ending_it_writes(tmp_path):
-    surface = scanmesh.reconstruct(scanmesh.load_demo()[0][:500], "delaunay")
+    surface = scanmesh.reconstruct(scanmesh.load_rod()[0][:500], "delaunay")
     with pytest.raises(scanmesh.ParameterError) as caught:
         surface.save(tmp_path / "m.xyz")
     listed = set(re.findall(r"\.\w+", str(caught.value).split("use one of", 1)[1]))
