@@ -14,7 +14,7 @@ import scanmesh
 from scanmesh.errors import FileFormatError, ScanmeshError
 from scanmesh.stages.strips import CrossingLinesWarning
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+GUIDE = Path(__file__).resolve().parent.parent / "docs" / "guide" / "methods.md"
 
 
 @pytest.mark.parametrize("spacing", ["0", "-2", "nan", "inf"])
@@ -67,6 +67,6 @@ def test_crossing_lines_drop_overlaps_and_stay_planar_valid_as_documented():
     assert any(w.category is CrossingLinesWarning for w in caught)
     assert surface.options["planar_valid"] is True
     assert surface.options["dropped_overlaps"] > 0
-    text = " ".join(README.read_text().split())
+    text = " ".join(GUIDE.read_text().split())
     assert re.search(r"CrossingLinesWarning[^.]*planar_valid\"\]` is True", text)
     assert 'planar_valid"]` is False' not in text
