@@ -378,10 +378,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         run: Callable[[argparse.Namespace, _Console], int] = args.func
         _refuse_remote_outputs(args)  # every command's outputs are files
         _refuse_outputs_over_inputs(args)  # ... and none of them is an input
-        with warnings.catch_warnings():
-            warnings.simplefilter("always")  # every warning reaches the report
-            warnings.showwarning = con.warn
-            return run(args, con)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("always")  # every warning reaches the report
+                warnings.showwarning = con.warn
+                return run(args, con)
+        finally:
+            con.close()
     except KeyboardInterrupt:
         print("scanmesh: interrupted", file=sys.stderr, flush=True)
         if argv is None:

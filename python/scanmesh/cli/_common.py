@@ -156,6 +156,11 @@ class _Console:
             self._log = LogProgress(lambda line: print(line, file=sys.stderr, flush=True))
         return self._log
 
+    def close(self) -> None:
+        """Stop the log's watcher thread, if a log was made (the run is over)."""
+        if self._log is not None:
+            self._log.close()
+
     def out(self, text: str = "") -> None:
         """Human output: the results asked for (nothing with --json)."""
         if not self.json:
