@@ -233,9 +233,14 @@ impl DepthView {
         &self.depth
     }
 
-    /// The ray-to-normal cosines row by row, in [[`MIN_COS`], 1].
-    pub fn cosines(&self) -> &[f64] {
-        &self.cos
+    /// Each pixel's weight where a return is added to a node: its cosine times its trust
+    /// ([`DepthView::with_weight`]), row by row, in [0, 1]. O(pixels).
+    pub fn return_weights(&self) -> Vec<f64> {
+        self.cos
+            .iter()
+            .zip(&self.weight)
+            .map(|(c, t)| c * t)
+            .collect()
     }
 
     /// True when pixel `index` has no return.

@@ -404,7 +404,10 @@ impl Volume {
             });
         }
         let (w, h) = view.size();
-        let foot = Footprint::new(w, h, view.depths(), Some(view.cosines()))?;
+        // the returns' weights, not their cosines alone: a block where some return is not
+        // trusted (weight 0: it neither averages nor votes) is decided node by node
+        let weights = view.return_weights();
+        let foot = Footprint::new(w, h, view.depths(), Some(&weights))?;
         let actions = self.actions(|b| self.returns_action(b, view, &foot))?;
         drop(foot);
         self.allocate_for(&actions, true)?;

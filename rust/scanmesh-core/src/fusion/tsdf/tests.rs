@@ -351,3 +351,21 @@ fn a_return_of_weight_zero_neither_averages_nor_votes() {
         .with_weight(vec![1.0; 3])
         .is_err());
 }
+
+#[test]
+fn an_untrusted_return_does_not_vote_in_a_block_decided_whole() {
+    // the untrusted return lies far behind the grid (z = -10): every node of the first
+    // blocks is more than the truncation in front of it, so each block is decided whole
+    // from the footprint, not node by node; it must still not vote the plane's nodes empty
+    let mut vol = Volume::new([0.0; 3], 1.0, [16, 16, 16], 2.0).unwrap();
+    let ghost = looking_down(vec![-10.0; 400], 20, 20, 1.0)
+        .with_weight(vec![0.0; 400])
+        .unwrap();
+    vol.integrate(&ghost).unwrap();
+    // the plane seen after it, in the blocks the untrusted view left whole
+    vol.integrate(&looking_down(vec![4.0; 400], 20, 20, 1.0))
+        .unwrap();
+    let n = vol.index(2, 2, 3);
+    assert_eq!(vol.evidence(n), Evidence::Measured);
+    assert!((vol.value(n) + 1.0).abs() < 1e-6, "{}", vol.value(n));
+}
