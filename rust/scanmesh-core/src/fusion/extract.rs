@@ -25,6 +25,7 @@ use super::tsdf::{Evidence, Volume};
 use super::walls::{flatten_unsampled, Placed};
 use crate::budget;
 use crate::error::{Error, Result};
+use crate::progress::Progress;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -116,6 +117,19 @@ pub fn extract(
     normals: &[DVec3],
     views: &[&DepthView],
 ) -> Result<Fused> {
+    extract_counted(volume, samples, normals, views, &Progress::new())
+}
+
+/// [`extract`], counting in `progress` [`EXTRACT_PASSES`] × nz slices of the grid: a slice
+/// at a time through the repair's first pass and the walk along each axis, a pass at a time
+/// after.
+pub fn extract_counted(
+    volume: &Volume,
+    samples: &[DVec3],
+    normals: &[DVec3],
+    views: &[&DepthView],
+    progress: &Progress,
+) -> Result<Fused> {
     volume.check_views(views)?;
     if samples.len() != normals.len() {
         return Err(Error::InvalidParameter {
@@ -124,19 +138,28 @@ pub fn extract(
             expected: "one normal per sample",
         });
     }
-    extract_from(volume, Sides::new(volume)?, samples, normals, views)
+    let slices = volume.dims()[2] as u64;
+    progress.plan(EXTRACT_PASSES * slices);
+    let side = Sides::new(volume)?;
+    extract_from(volume, side, samples, normals, views, (progress, slices))
 }
 
-/// [`extract`] from the nodes' sides `side` (the blocks it walks), inputs checked.
+/// Passes over the grid's slices [`extract_counted`] counts: the repair's first, the walk
+/// along each axis, the vertices placed, the samples followed.
+pub const EXTRACT_PASSES: u64 = 6;
+
+/// [`extract`] from the nodes' sides `side` (the blocks it walks), inputs checked, counting
+/// `slices` per pass in `progress`.
 fn extract_from(
     volume: &Volume,
     mut side: Sides,
     samples: &[DVec3],
     normals: &[DVec3],
     views: &[&DepthView],
+    (progress, slices): (&Progress, u64),
 ) -> Result<Fused> {
     let grid = Grid::new(volume);
-    let repaired = grid.repair(&mut side)?;
+    let repaired = grid.repair(&mut side, progress)?;
     let near = SampleIndex::new(volume, samples)?;
     let mut out = Fused {
         repaired,
@@ -153,6 +176,7 @@ fn extract_from(
         // the two axes across the edge, in right-handed order
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
         for k in 0..nz {
+            progress.add(1);
             for j in 0..ny {
                 if !side.row_active(j, k) {
                     continue;
@@ -211,6 +235,7 @@ fn extract_from(
             .par_iter()
             .map(|&c| grid.place(c, &side, &near, samples, normals, views)),
     )?;
+    progress.add(slices);
     out.vertices = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.0))?;
     let placed = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.1))?;
     let vertex_cells = budget::try_collect(
@@ -235,6 +260,7 @@ fn extract_from(
         normals,
     )?;
     flatten_unsampled(&mut out.vertices, &out.faces, &placed, grid.volume.voxel())?;
+    progress.add(slices);
     Ok(out)
 }
 
@@ -294,14 +320,19 @@ impl<'a> Grid<'a> {
     /// Makes the inside well-composed (see the module comment); returns the nodes moved.
     /// Visits the cells in the order of the whole grid (x fastest), skipping those of
     /// blocks where the sides cannot differ (which a move makes active as it happens).
+    /// Counts the first pass's slices in `progress` (nz: the last has no cell).
     ///
     /// Errors: `OutOfMemory`.
-    fn repair(&self, side: &mut Sides) -> Result<usize> {
+    fn repair(&self, side: &mut Sides, progress: &Progress) -> Result<usize> {
         let [nx, ny, nz] = self.dims;
         let mut moved = 0;
+        let mut first = true;
         loop {
             let before = moved;
             for k in 0..nz - 1 {
+                if first {
+                    progress.add(1);
+                }
                 for j in 0..ny - 1 {
                     if !side.row_active(j, k) {
                         continue;
@@ -320,6 +351,10 @@ impl<'a> Grid<'a> {
                         i += 1;
                     }
                 }
+            }
+            if first {
+                progress.add(1);
+                first = false;
             }
             if moved == before {
                 return Ok(moved);
@@ -687,7 +722,15 @@ mod tests {
         let sparse = extract(&vol, &samples, &normals, &[&view]).unwrap();
         let mut all = Sides::new(&vol).unwrap();
         all.activate_all();
-        let dense = extract_from(&vol, all, &samples, &normals, &[&view]).unwrap();
+        let dense = extract_from(
+            &vol,
+            all,
+            &samples,
+            &normals,
+            &[&view],
+            (&Progress::new(), 0),
+        )
+        .unwrap();
         assert!(sparse.faces.len() > 1000);
         assert_eq!(sparse.repaired, dense.repaired);
         assert_eq!(sparse.faces, dense.faces);
