@@ -101,6 +101,18 @@ def test_a_blocking_stage_is_reported_while_it_runs():
     assert last.endswith("points/s")
 
 
+def test_a_stage_of_nothing_is_not_reported_after_it_ends():
+    """A stage of 0 items (trimming that kept no face) stayed the running stage once closed:
+    the watcher wrote "trim: 0 faces in one native call" until the next stage began."""
+    clock, lines = FakeClock(), []
+    log = LogProgress(lines.append, interval=10.0, clock=clock, start=False)
+    with Stage(log, "trim", 0, blocking=True):
+        pass
+    clock.now = 30.0
+    log.tick()
+    assert lines == []
+
+
 def test_a_bar_is_drawn_in_a_terminal_without_a_size():
     """A pseudo-terminal that reports 0 columns (``script`` without a terminal around it):
     tqdm drew nothing there; the bar now gets a width of its own."""

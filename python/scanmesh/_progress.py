@@ -287,7 +287,7 @@ class LogProgress:
                     "said": False,
                 }
             s.update(done=done, total=total, left=seconds_left, blocking=blocking)
-            finished = total > 0 and done >= total
+            finished = done >= total  # (a stage of nothing is done as it starts)
             if finished:
                 self._state = None
         if finished:

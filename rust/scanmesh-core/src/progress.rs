@@ -5,7 +5,9 @@
 //! report until they return. Each such call takes a [`Progress`], plans the items its
 //! passes will handle ([`Progress::plan`]) and counts them as they are done
 //! ([`Progress::add`]), in batches of thousands, so that the count costs a relaxed atomic
-//! add per batch; a watcher reads [`Progress::done`] of [`Progress::total`] at any time.
+//! add per batch; a watcher reads [`Progress::done`] of [`Progress::total`] at any time. A
+//! pass whose number of items is known only when it starts counts them as a [`Share`] of
+//! what was planned for it.
 
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
@@ -45,6 +47,52 @@ impl Progress {
     }
 }
 
+/// One pass of a call counted as `weight` of its planned items whatever number of `items`
+/// it turns out to have (known only once it starts: the cells a mesh crosses): each item
+/// adds its share, the shares summing to `weight` exactly.
+#[derive(Debug)]
+pub struct Share<'a> {
+    progress: &'a Progress,
+    weight: u64,
+    items: u64,
+    seen: AtomicU64,
+}
+
+impl<'a> Share<'a> {
+    /// A pass of `items` items worth `weight` planned items of `progress`. O(1).
+    pub fn new(progress: &'a Progress, weight: u64, items: u64) -> Self {
+        Self {
+            progress,
+            weight,
+            items,
+            seen: AtomicU64::new(0),
+        }
+    }
+
+    /// Counts `items` more of the pass done (from any thread). O(1).
+    pub fn add(&self, items: u64) {
+        let before = self.seen.fetch_add(items, Relaxed);
+        self.progress
+            .add(self.part(before.saturating_add(items)) - self.part(before));
+    }
+
+    /// Counts the rest of the pass (a pass that ended early, or one of no items). O(1).
+    pub fn finish(self) {
+        let seen = self.seen.load(Relaxed);
+        if self.items == 0 {
+            self.progress.add(self.weight);
+        } else if seen < self.items {
+            self.add(self.items - seen);
+        }
+    }
+
+    /// The planned items `seen` items of the pass are worth.
+    fn part(&self, seen: u64) -> u64 {
+        let share = u128::from(seen.min(self.items)) * u128::from(self.weight);
+        (share / u128::from(self.items.max(1))) as u64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -56,5 +104,22 @@ mod tests {
         p.plan(1_000_000);
         (0..1_000u64).into_par_iter().for_each(|_| p.add(1_000));
         assert_eq!((p.done(), p.total()), (1_000_000, 1_000_000));
+    }
+
+    #[test]
+    fn a_share_adds_its_weight_whatever_its_items() {
+        for (weight, items, step) in [(10, 3, 1), (7, 1_000, 3), (1_000, 7, 2), (5, 0, 1)] {
+            let p = Progress::new();
+            p.plan(weight);
+            let share = Share::new(&p, weight, items);
+            let mut last = 0;
+            for _ in 0..items / step {
+                share.add(step);
+                assert!(p.done() >= last && p.done() <= weight);
+                last = p.done();
+            }
+            share.finish();
+            assert_eq!(p.done(), weight, "{weight} {items} {step}");
+        }
     }
 }
