@@ -12,8 +12,10 @@ import trimesh
 import scanmesh
 from conftest import DATA, bumpy_patch
 from scanmesh import methods
+from scanmesh._context import QUIET
 from scanmesh.methods import DEFAULT_METHOD
 from scanmesh.scan.planar import as_scan
+from scanmesh.stages import anneal as anneal_stage
 from scanmesh.stages import choice
 
 
@@ -75,6 +77,78 @@ def test_the_lowest_holdout_wins_and_the_earlier_candidate_an_exact_tie(monkeypa
     assert made.chosen == "good"  # "same" ties with it exactly: the earlier wins
     assert made.holdout["good"] == made.holdout["same"] < made.holdout["bad"]
     assert built == {name: made.folds for name in ("bad", "good", "same")}
+
+
+def test_the_judge_builds_each_triangulation_once_a_part(monkeypatch):
+    """LOP starts from the part's Delaunay mesh and annealing from LOP's optimum: one
+    Delaunay triangulation per judged part (three before: Delaunay, LOP's start and
+    annealing's), and one more for the winner when it starts from Delaunay."""
+    monkeypatch.setattr(choice, "MEASURED", 3_000)
+    monkeypatch.setattr(choice, "CLEAR", float("inf"), raising=False)  # every tenth judged
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    calls = []
+    real = methods.delaunay
+
+    def counted(scan, **kwargs):
+        calls.append(len(scan.points))
+        return real(scan, **kwargs)
+
+    monkeypatch.setattr(methods, "delaunay", counted)
+    surface = scanmesh.reconstruct(bumpy_patch(400, 3), plane="z", seed=1)
+    made = surface.options["method_choice"]
+    assert made["folds"] == 10  # 40 withheld a tenth, every point once
+    final = surface.method in ("anneal", "lop", "delaunay")
+    assert calls == [360] * made["folds"] + [400] * final
+
+
+def test_the_judge_anneals_the_short_schedule_and_the_winner_the_full_one(monkeypatch):
+    monkeypatch.setattr(choice, "MEASURED", 1)
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    runs = []
+    real = anneal_stage.build_anneal
+
+    def recorded(initial, params, context=QUIET, fixed=None):
+        out = real(initial, params, context, fixed)
+        runs.append((len(initial.scan.points), initial.method, out.options["sweeps"]))
+        return out
+
+    monkeypatch.setattr(anneal_stage, "build_anneal", recorded)
+    surface = scanmesh.reconstruct(bumpy_patch(400, 3), plane="z", seed=1, method="auto")
+    judged = [r for r in runs if r[0] == 360]
+    assert sorted(r[1] for r in judged) == ["lop", "shortest-path"]
+    assert {r[2] for r in judged} == {methods.JUDGE_SCHEDULE["sweeps"]}
+    final = [r for r in runs if r[0] == 400]
+    if surface.method in ("anneal", "strips-anneal"):
+        assert len(final) == 1 and final[0][2] > methods.JUDGE_SCHEDULE["sweeps"]
+    else:
+        assert final == []
+
+
+def _offset_builds(offsets: dict[str, float]):
+    """A judge's ``build``: the part's Delaunay mesh raised by ``offsets[name]``."""
+
+    def build(name, part):
+        surface = scanmesh.reconstruct(part, "delaunay")
+        return dataclasses.replace(surface, vertices=surface.vertices + [0.0, 0.0, offsets[name]])
+
+    return build
+
+
+def test_a_clear_verdict_stops_early_with_the_full_judges_choice(monkeypatch):
+    """6,000 points: tenths of 600, five until 3,000 are measured. A candidate 0.01 higher
+    than the surface is clear after the first tenth, and the early verdict is the full
+    judge's; an exact tie is never clear, so every tenth is judged."""
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(6_000, 4), plane="z")
+    build = _offset_builds({"high": 0.01, "exact": 0.0, "same": 0.0})
+    early = choice.choose(scan, build, candidates=("high", "exact"))
+    assert early.chosen == "exact" and early.folds == 1 and early.measured >= choice.CLEAR_MEASURED
+    monkeypatch.setattr(choice, "CLEAR", float("inf"))
+    full = choice.choose(scan, build, candidates=("high", "exact"))
+    assert full.folds == 5 and full.chosen == early.chosen
+    monkeypatch.setattr(choice, "CLEAR", 0.03)
+    tie = choice.choose(scan, build, candidates=("high", "exact", "same"))
+    assert tie.folds == 5 and tie.chosen == "exact"
 
 
 def test_the_window_is_whole_lines_around_the_middle_and_the_folds_disjoint():

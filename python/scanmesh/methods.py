@@ -225,16 +225,46 @@ def _run_strips_anneal(scan: PlanarScan, params: dict[str, Any], kw: Keywords) -
     return strips_anneal.build_strips_anneal(scan, params, kw.context)
 
 
+#: In the default's judge a candidate starts from another's mesh of the same part, so each
+#: triangulation is made once per part: LOP from the part's Delaunay mesh, annealing from
+#: LOP's optimum (the state its own descent reaches from Delaunay).
+JUDGE_STARTS: dict[str, str] = {"lop": "delaunay", "anneal": "lop"}
+
+#: The annealing schedule of the candidates that anneal, in the judge: one chain of the
+#: fewest automatic sweeps (``AnnealParams.auto_sweeps``' least, 8), not the small scans'
+#: floor of two million proposals; the winner is built on all points with the full
+#: schedule. Measured on the panel (docs/benchmarks/panel.md): the same verdicts but one.
+JUDGE_SCHEDULE: dict[str, Any] = {"sweeps": 8, "chains": 1}
+
+
+def judge_builder(quiet: Keywords) -> Callable[[str, PlanarScan], Surface]:
+    """``build(name, part)`` for :func:`scanmesh.stages.choice.choose`: candidate ``name``
+    built on ``part`` with its default options, annealers on :data:`JUDGE_SCHEDULE`, each
+    mesh of a part made once and reused as another's start (:data:`JUDGE_STARTS`); the
+    meshes of the previous part are dropped when a new part comes."""
+    made: dict[str, Surface] = {}
+    current: list[PlanarScan] = []
+
+    def build(name: str, part: PlanarScan) -> Surface:
+        if not current or current[0] is not part:
+            current[:] = [part]
+            made.clear()
+        if name not in made:
+            spec = TABLE[name]
+            options: dict[str, Any] = dict(JUDGE_SCHEDULE) if spec.anneals else {}
+            if name in JUDGE_STARTS:
+                options["initial"] = build(JUDGE_STARTS[name], part)
+            made[name] = spec.run(part, spec.check(options, {}), quiet)
+        return made[name]
+
+    return build
+
+
 def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
     """The candidate a holdout on a window of the scan prefers (``stages.choice``), built on
     all points with the call's keywords; ``options["method_choice"]`` says what each
     candidate measured."""
-    quiet = Keywords(max_edge=kw.max_edge, context=kw.context.quiet())
-
-    def build(name: str, part: PlanarScan) -> Surface:
-        spec = TABLE[name]
-        return spec.run(part, spec.check({}, {}), quiet)
-
+    build = judge_builder(Keywords(max_edge=kw.max_edge, context=kw.context.quiet()))
     gridded = default_initial(scan, kw.max_edge) == "grid"
     candidates = GRID_CANDIDATES if gridded else CANDIDATES
     made = choice.choose(scan, build, candidates=candidates, context=kw.context)

@@ -79,6 +79,12 @@ STEP_TILT: float = 45.0
 #: cylindrical scan seen flat: 54 %), not stepped, and every covered point is judged.
 STEP_SHARE: float = 0.25
 
+#: The tenths are judged in turn, and no more once at least this many withheld points are
+#: measured and the verdict is clear: the chosen candidate more than ``CLEAR`` lower than
+#: every other one eligible (measured on the panel: benches/method_choice.py).
+CLEAR_MEASURED: int = 500
+CLEAR: float = 0.03
+
 #: The method built when nothing was judged (a window under ``MIN_POINTS``): annealing,
 #: which needs no scan lines (the strips on a few points in no scan order would follow
 #: lines detected from noise).
@@ -178,6 +184,48 @@ def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
     return as_scan(scan.points[index], plane=plane, lines=lines[index], up=scan.up)
 
 
+def _verdict(
+    candidates: tuple[str, ...],
+    dist: dict[str, list[np.ndarray]],
+    steps: list[np.ndarray],
+    slivers: dict[str, float],
+) -> tuple[str, dict[str, float], dict[str, int], int, dict[str, float]]:
+    """The judge's verdict on the tenths measured so far: the chosen candidate, each
+    candidate's holdout RMS (nan: not judged), its withheld points outside its mesh, the
+    points measured and the RMS of the candidates eligible to win (slivers within
+    ``SLIVERS``; ``slivers`` the sum of the tenths' shares). O(candidates x points)."""
+    joined = {name: np.concatenate(d) if d else np.empty(0) for name, d in dist.items()}
+    outside = {name: int(np.isnan(d).sum()) for name, d in joined.items()}
+    n_out = len(next(iter(joined.values()))) if joined else 0
+    # a candidate leaving many more points outside its outline than the fewest is not judged
+    fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
+    covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
+    flat = ~np.concatenate(steps) if steps else np.ones(0, dtype=bool)
+    if covered.any() and (covered & ~flat).sum() <= STEP_SHARE * covered.sum():
+        covered &= flat
+    holdout = {
+        name: rms(d[covered]) if name in fair and covered.any() else math.nan
+        for name, d in joined.items()
+    }
+    measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
+    share = max(len(steps), 1)
+    few = {k: v for k, v in measured.items() if slivers[k] / share <= SLIVERS} or measured
+    fallback = FALLBACK if FALLBACK in candidates else candidates[0]
+    chosen = min(few, key=few.__getitem__) if few else fallback
+    first = candidates[0]
+    if chosen != first and first in few and few[first] <= few[chosen] * (1.0 + PREFER):
+        chosen = first
+    return chosen, holdout, outside, int(covered.sum()), few
+
+
+def _clear(chosen: str, measured: int, few: dict[str, float]) -> bool:
+    """Whether the verdict so far is clear: at least ``CLEAR_MEASURED`` points measured and
+    the chosen candidate more than ``CLEAR`` lower than every other one eligible."""
+    if measured < CLEAR_MEASURED or chosen not in few:
+        return False
+    return all(v > few[chosen] * (1.0 + CLEAR) for k, v in few.items() if k != chosen)
+
+
 def choose(
     scan: PlanarScan,
     build: Callable[[str, PlanarScan], Surface],
@@ -186,20 +234,22 @@ def choose(
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
-    ``build(name, part)`` builds candidate ``name`` on a part of the scan. The window is
-    :func:`window` of the scan's line ids (given, else detected), the withheld tenths
-    :func:`folds` of it, seeded by the call's seed; reports the stage "choose" (builds) to
-    the call's progress (``context``). A
-    candidate whose build fails on a part is not judged; a window under ``MIN_POINTS``
-    points is not judged at all (``FALLBACK``). O(folds x candidates x a build of
-    WINDOW points)."""
+    ``build(name, part)`` builds candidate ``name`` on a part of the scan (the candidates
+    in turn on one part, then the next part: a builder may reuse one candidate's mesh of
+    the part for another). The window is :func:`window` of the scan's line ids (given,
+    else detected), the withheld tenths :func:`folds` of it, seeded by the call's seed,
+    judged in turn until the verdict is clear (:func:`_clear`) or all are measured;
+    reports the stage "choose" (builds) to the call's progress (``context``). A candidate
+    whose build fails on a part is not judged; a window under ``MIN_POINTS`` points is not
+    judged at all (``FALLBACK``). O(folds x candidates x a build of WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
     parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
     dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
     steps: list[np.ndarray] = []  # per tenth: withheld points on a step in some mesh
-    slivers = dict.fromkeys(candidates, 0.0)
+    slivers = dict.fromkeys(candidates, 0.0)  # summed over the tenths
     seconds = dict.fromkeys(candidates, 0.0)
+    verdict = _verdict(candidates, dist, steps, slivers)
     with context.stage("choose", len(parts) * len(candidates)) as stage:
         for out in parts:
             kept = np.setdiff1d(np.arange(len(win)), out)
@@ -220,37 +270,21 @@ def choose(
                     got, face = normal_distances(held, seen)
                     dist[name].append(got)
                     steps[-1] |= _on_steps(seen, face)
-                    slivers[name] += surface.quality.sliver_fraction / len(parts)
+                    slivers[name] += surface.quality.sliver_fraction
                 seconds[name] += time.perf_counter() - t0
                 stage.update(stage.done + 1)
-    joined = {name: np.concatenate(d) if d else np.empty(0) for name, d in dist.items()}
-    outside = {name: int(np.isnan(d).sum()) for name, d in joined.items()}
-    n_out = sum(len(p) for p in parts)
-    # a candidate leaving many more points outside its outline than the fewest is not judged
-    fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
-    covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
-    flat = ~np.concatenate(steps) if steps else np.ones(0, dtype=bool)
-    if covered.any() and (covered & ~flat).sum() <= STEP_SHARE * covered.sum():
-        covered &= flat
-    holdout = {
-        name: rms(d[covered]) if name in fair and covered.any() else math.nan
-        for name, d in joined.items()
-    }
-    measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
-    few = {k: v for k, v in measured.items() if slivers[k] <= SLIVERS} or measured
-    fallback = FALLBACK if FALLBACK in candidates else candidates[0]
-    chosen = min(few, key=few.__getitem__) if few else fallback
-    first = candidates[0]
-    if chosen != first and first in few and few[first] <= few[chosen] * (1.0 + PREFER):
-        chosen = first
+            verdict = _verdict(candidates, dist, steps, slivers)
+            if _clear(verdict[0], verdict[3], verdict[4]):
+                break
+    chosen, holdout, outside, measured, _ = verdict
     return MethodChoice(
         chosen=chosen,
         holdout=holdout,
         outside=outside,
-        slivers=slivers,
+        slivers={k: v / max(len(steps), 1) for k, v in slivers.items()},
         window=len(win),
-        measured=int(covered.sum()),
-        folds=len(parts),
+        measured=measured,
+        folds=len(steps),
         seconds=seconds,
     )
 
