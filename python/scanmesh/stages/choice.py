@@ -12,10 +12,13 @@ covers and that lie on no step: a withheld point whose holding face is tilted mo
 ``STEP_SHARE`` of them are: a steep surface, not a step), since a point beside a wall is
 exactly where the strips must bridge and the holdout would rank them last there (the
 pocket, the rod along its thickness). Disjoint tenths are withheld in turn until at least
-``MEASURED`` points are measured (at most ten: every point once). The lowest RMS wins
+``MEASURED`` points are measured (at most ten: every point once), or fewer once the
+verdict is clear (``CLEAR``). The lowest RMS wins
 among the candidates whose meshes have at most ``SLIVERS`` slivers, except that the first
 candidate stays unless the winner is more than ``PREFER`` lower.
-The winner is then built on all points (``methods``: on a gridded scan the grid
+The candidates are built on the parts as ``methods.judge_builder`` builds them (each
+triangulation once a part, annealing on a short schedule); the winner is then built on all
+points (``methods``: on a gridded scan the grid
 triangulation where Delaunay wins, since the parts carry no grid). The candidates are the
 registry's (``methods.CANDIDATES``); on a gridded scan the strips are none
 (``methods.GRID_CANDIDATES``): the default stays inside the grid's domain.
@@ -59,10 +62,8 @@ SLIVERS: float = 0.05
 OUTSIDE: float = 0.10
 
 #: A window of fewer points is not judged: annealing, the first candidate, is taken. Under
-#: it every point is withheld once (ten tenths of at most 100 points), which costs ten
-#: annealing runs of at least two million proposals each (about 0.9 s apiece, 10 x the
-#: default's own time for a scan that anneals in a second), and the panel, whose smallest
-#: scan has 2,205 points, says nothing of which method wins there.
+#: it every point is withheld once (ten tenths of at most 100 points), and the panel, whose
+#: smallest scan has 2,205 points, says nothing of which method wins there.
 MIN_POINTS: int = 1_000
 
 #: The first candidate is kept unless another measures more than this share lower: on the
@@ -81,7 +82,7 @@ STEP_SHARE: float = 0.25
 
 #: The tenths are judged in turn, and no more once at least this many withheld points are
 #: measured and the verdict is clear: the chosen candidate more than ``CLEAR`` lower than
-#: every other one eligible (measured on the panel: benches/method_choice.py).
+#: every other one eligible (on the panel the verdicts of the full judge: docs/benchmarks/panel.md).
 CLEAR_MEASURED: int = 500
 CLEAR: float = 0.03
 
