@@ -124,10 +124,13 @@ def test_the_judge_anneals_the_short_schedule_and_the_winner_the_full_one(monkey
         assert final == []
 
 
-def _offset_builds(offsets: dict[str, float]):
-    """A judge's ``build``: the part's Delaunay mesh raised by ``offsets[name]``."""
+def _offset_builds(offsets: dict[str, float], built: dict[str, int] | None = None):
+    """A judge's ``build``: the part's Delaunay mesh raised by ``offsets[name]`` (builds
+    counted in ``built``)."""
 
     def build(name, part):
+        if built is not None:
+            built[name] = built.get(name, 0) + 1
         surface = scanmesh.reconstruct(part, "delaunay")
         return dataclasses.replace(surface, vertices=surface.vertices + [0.0, 0.0, offsets[name]])
 
@@ -149,6 +152,23 @@ def test_a_clear_verdict_stops_early_with_the_full_judges_choice(monkeypatch):
     monkeypatch.setattr(choice, "CLEAR", 0.03)
     tie = choice.choose(scan, build, candidates=("high", "exact", "same"))
     assert tie.folds == 5 and tie.chosen == "exact"
+
+
+def test_a_candidate_behind_is_built_no_more_and_the_verdict_is_the_full_judges(monkeypatch):
+    """Two candidates tie exactly (never clear: every tenth judged), a third is 0.01 above
+    the surface: behind after the first tenth, it is not built again, and the verdict and
+    the others' figures are the full judge's."""
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(6_000, 4), plane="z")
+    built: dict[str, int] = {}
+    build = _offset_builds({"high": 0.01, "exact": 0.0, "same": 0.0}, built)
+    raced = choice.choose(scan, build, candidates=("high", "exact", "same"))
+    assert built == {"high": 1, "exact": 5, "same": 5} and raced.folds == 5
+    monkeypatch.setattr(choice, "CLEAR", float("inf"))
+    full = choice.choose(scan, build, candidates=("high", "exact", "same"))
+    assert raced.chosen == full.chosen == "exact"
+    assert raced.holdout["exact"] == full.holdout["exact"] == full.holdout["same"]
+    assert raced.holdout["high"] > 1.03 * raced.holdout["exact"]
 
 
 def test_the_window_is_whole_lines_around_the_middle_and_the_folds_disjoint():

@@ -191,10 +191,11 @@ def _verdict(
     steps: list[np.ndarray],
     slivers: dict[str, float],
 ) -> tuple[str, dict[str, float], dict[str, int], int, dict[str, float]]:
-    """The judge's verdict on the tenths measured so far: the chosen candidate, each
-    candidate's holdout RMS (nan: not judged), its withheld points outside its mesh, the
-    points measured and the RMS of the candidates eligible to win (slivers within
-    ``SLIVERS``; ``slivers`` the sum of the tenths' shares). O(candidates x points)."""
+    """The judge's verdict on the tenths measured so far among the candidates in ``dist``
+    (those still judged, in the order of ``candidates``): the chosen one, each one's
+    holdout RMS (nan: not judged), its withheld points outside its mesh, the points
+    measured and the RMS of those eligible to win (``slivers``, the mean share over the
+    tenths, within ``SLIVERS``). O(candidates x points)."""
     joined = {name: np.concatenate(d) if d else np.empty(0) for name, d in dist.items()}
     outside = {name: int(np.isnan(d).sum()) for name, d in joined.items()}
     n_out = len(next(iter(joined.values()))) if joined else 0
@@ -209,22 +210,22 @@ def _verdict(
         for name, d in joined.items()
     }
     measured = {k: v for k, v in holdout.items() if not math.isnan(v)}
-    share = max(len(steps), 1)
-    few = {k: v for k, v in measured.items() if slivers[k] / share <= SLIVERS} or measured
+    few = {k: v for k, v in measured.items() if slivers[k] <= SLIVERS} or measured
     fallback = FALLBACK if FALLBACK in candidates else candidates[0]
     chosen = min(few, key=few.__getitem__) if few else fallback
-    first = candidates[0]
+    first = candidates[0]  # the first of all: once dropped (behind) it is in none of few
     if chosen != first and first in few and few[first] <= few[chosen] * (1.0 + PREFER):
         chosen = first
     return chosen, holdout, outside, int(covered.sum()), few
 
 
-def _clear(chosen: str, measured: int, few: dict[str, float]) -> bool:
-    """Whether the verdict so far is clear: at least ``CLEAR_MEASURED`` points measured and
-    the chosen candidate more than ``CLEAR`` lower than every other one eligible."""
+def _behind(chosen: str, measured: int, few: dict[str, float]) -> set[str]:
+    """The candidates eligible to win whose RMS is more than ``CLEAR`` above the chosen
+    one's once at least ``CLEAR_MEASURED`` points are measured: no more tenths are built
+    for them. The verdict is clear when every other eligible one is behind."""
     if measured < CLEAR_MEASURED or chosen not in few:
-        return False
-    return all(v > few[chosen] * (1.0 + CLEAR) for k, v in few.items() if k != chosen)
+        return set()
+    return {k for k, v in few.items() if k != chosen and v > few[chosen] * (1.0 + CLEAR)}
 
 
 def choose(
@@ -239,7 +240,8 @@ def choose(
     in turn on one part, then the next part: a builder may reuse one candidate's mesh of
     the part for another). The window is :func:`window` of the scan's line ids (given,
     else detected), the withheld tenths :func:`folds` of it, seeded by the call's seed,
-    judged in turn until the verdict is clear (:func:`_clear`) or all are measured;
+    judged in turn, a candidate no more once it is behind (:func:`_behind`), until the
+    verdict is clear (every other one behind) or all tenths are measured;
     reports the stage "choose" (builds) to the call's progress (``context``). A candidate
     whose build fails on a part is not judged; a window under ``MIN_POINTS`` points is not
     judged at all (``FALLBACK``). O(folds x candidates x a build of WINDOW points)."""
@@ -248,15 +250,18 @@ def choose(
     parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
     dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
     steps: list[np.ndarray] = []  # per tenth: withheld points on a step in some mesh
-    slivers = dict.fromkeys(candidates, 0.0)  # summed over the tenths
+    slivers = dict.fromkeys(candidates, 0.0)  # summed over the tenths built
     seconds = dict.fromkeys(candidates, 0.0)
-    verdict = _verdict(candidates, dist, steps, slivers)
+    judged = list(candidates)  # those still built; the others' figures are kept as dropped
+    holdout: dict[str, float] = {}
+    outside: dict[str, int] = {}
+    chosen, measured = (FALLBACK if FALLBACK in candidates else candidates[0]), 0
     with context.stage("choose", len(parts) * len(candidates)) as stage:
         for out in parts:
             kept = np.setdiff1d(np.arange(len(win)), out)
             part = _part(scan, lines, win[kept])
             steps.append(np.zeros(len(out), dtype=bool))
-            for name in candidates:
+            for name in judged:
                 t0 = time.perf_counter()
                 try:
                     with warnings.catch_warnings():  # the parts' warnings are not the scan's
@@ -274,15 +279,21 @@ def choose(
                     slivers[name] += surface.quality.sliver_fraction
                 seconds[name] += time.perf_counter() - t0
                 stage.update(stage.done + 1)
-            verdict = _verdict(candidates, dist, steps, slivers)
-            if _clear(verdict[0], verdict[3], verdict[4]):
-                break
-    chosen, holdout, outside, measured, _ = verdict
+            share = {k: slivers[k] / len(dist[k]) for k in judged}
+            chosen, now, gone, measured, few = _verdict(
+                candidates, {k: dist[k] for k in judged}, steps, share
+            )
+            holdout.update(now)
+            outside.update(gone)
+            behind = _behind(chosen, measured, few)
+            if behind and behind == set(few) - {chosen}:
+                break  # clear: every other eligible candidate is behind
+            judged = [k for k in judged if k not in behind]
     return MethodChoice(
         chosen=chosen,
-        holdout=holdout,
-        outside=outside,
-        slivers={k: v / max(len(steps), 1) for k, v in slivers.items()},
+        holdout={k: holdout.get(k, math.nan) for k in candidates},
+        outside={k: outside.get(k, 0) for k in candidates},
+        slivers={k: v / max(len(dist[k]), 1) for k, v in slivers.items()},
         window=len(win),
         measured=measured,
         folds=len(steps),
