@@ -171,6 +171,27 @@ def test_a_candidate_behind_is_built_no_more_and_the_verdict_is_the_full_judges(
     assert raced.holdout["high"] > 1.03 * raced.holdout["exact"]
 
 
+def test_a_candidate_not_judged_is_built_no_more(monkeypatch):
+    """A mesh covering half the plane leaves half the withheld points outside (as the strips
+    do on points without scan lines): not judged after the first tenth, it is not built
+    again, while two tied candidates are judged on every tenth."""
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(6_000, 4), plane="z")
+    built: dict[str, int] = {}
+
+    def build(name, part):
+        built[name] = built.get(name, 0) + 1
+        surface = scanmesh.reconstruct(part, "delaunay")
+        if name == "half":
+            west = surface.vertices[surface.faces][:, :, 0].mean(axis=1) < 0.5
+            return dataclasses.replace(surface, faces=surface.faces[west])
+        return surface
+
+    made = choice.choose(scan, build, candidates=("exact", "same", "half"))
+    assert built == {"exact": 5, "same": 5, "half": 1}
+    assert np.isnan(made.holdout["half"]) and made.outside["half"] > 250
+
+
 def test_a_lead_carried_by_a_few_points_does_not_put_a_candidate_behind(monkeypatch):
     """A candidate far off at a few points only (a spike: the vertices within 0.03 of one
     spot raised by 1) has a far larger RMS after the first tenth, but its paired

@@ -304,6 +304,8 @@ def choose(
             behind = _behind(chosen, squared)
             if behind and behind == set(squared) - {chosen}:
                 break  # clear: every other eligible candidate is behind
+            if measured >= CLEAR_MEASURED:  # one not judged (OUTSIDE) cannot win: no more
+                behind |= {k for k in judged if math.isnan(now[k])}
             judged = [k for k in judged if k not in behind]
     return MethodChoice(
         chosen=chosen,
