@@ -4,6 +4,7 @@ on a window of the scan chooses the method, seeded; what each candidate measured
 from __future__ import annotations
 
 import dataclasses
+import threading
 
 import numpy as np
 import pytest
@@ -169,6 +170,31 @@ def test_a_candidate_behind_is_built_no_more_and_the_verdict_is_the_full_judges(
     assert raced.chosen == full.chosen == "exact"
     assert raced.holdout["exact"] == full.holdout["exact"] == full.holdout["same"]
     assert raced.holdout["high"] > 1.03 * raced.holdout["exact"]
+
+
+def test_lanes_build_side_by_side_with_the_figures_of_one_lane(monkeypatch):
+    """The registry's lanes: strips-anneal beside annealing with the LOP and Delaunay it
+    starts from. Lanes after the first are built in another thread; the figures are the
+    ones of all candidates built in turn."""
+    assert methods.judge_lanes(methods.CANDIDATES) == (
+        ("strips-anneal",),
+        ("anneal", "lop", "delaunay"),
+    )
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(3_000, 4), plane="z")
+    where: dict[str, set[str]] = {}
+    offsets = {"a": 0.0, "b": 0.001, "c": -0.002}
+    plain = _offset_builds(offsets)
+
+    def build(name, part):
+        where.setdefault(name, set()).add(threading.current_thread().name)
+        return plain(name, part)
+
+    beside = choice.choose(scan, build, ("a", "b", "c"), lanes=(("a",), ("b", "c")))
+    assert where == {"a": {"MainThread"}, "b": {"scanmesh-judge"}, "c": {"scanmesh-judge"}}
+    in_turn = choice.choose(scan, build, ("a", "b", "c"))
+    assert where["b"] == {"scanmesh-judge", "MainThread"}
+    assert beside == dataclasses.replace(in_turn, seconds=beside.seconds)
 
 
 def test_a_candidate_not_judged_is_built_no_more(monkeypatch):

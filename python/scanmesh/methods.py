@@ -11,6 +11,7 @@ Dask path (:data:`STRIP_METHODS`, :data:`TILE_METHODS`): no other module lists m
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
@@ -245,20 +246,38 @@ def judge_builder(quiet: Keywords) -> Callable[[str, PlanarScan], Surface]:
     meshes of the previous part are dropped when a new part comes."""
     made: dict[str, Surface] = {}
     current: list[PlanarScan] = []
+    lock = threading.Lock()  # the judge's lanes call it side by side on one part
 
     def build(name: str, part: PlanarScan) -> Surface:
-        if not current or current[0] is not part:
-            current[:] = [part]
-            made.clear()
-        if name not in made:
+        with lock:
+            if not current or current[0] is not part:
+                current[:] = [part]
+                made.clear()
+            surface = made.get(name)
+        if surface is None:
             spec = TABLE[name]
             options: dict[str, Any] = dict(JUDGE_SCHEDULE) if spec.anneals else {}
             if name in JUDGE_STARTS:
                 options["initial"] = build(JUDGE_STARTS[name], part)
-            made[name] = spec.run(part, spec.check(options, {}), quiet)
-        return made[name]
+            surface = made[name] = spec.run(part, spec.check(options, {}), quiet)
+        return surface
 
     return build
+
+
+def judge_lanes(candidates: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
+    """``candidates`` in lanes the judge builds side by side: each with the candidates it
+    starts from (:data:`JUDGE_STARTS`), in the order given; e.g. strips-anneal alone and
+    annealing, LOP, Delaunay together."""
+
+    def root(name: str) -> str:
+        start = JUDGE_STARTS.get(name)
+        return root(start) if start in candidates else name
+
+    lanes: dict[str, list[str]] = {}
+    for name in candidates:
+        lanes.setdefault(root(name), []).append(name)
+    return tuple(tuple(lane) for lane in lanes.values())
 
 
 def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
@@ -268,7 +287,7 @@ def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surfac
     build = judge_builder(Keywords(max_edge=kw.max_edge, context=kw.context.quiet()))
     gridded = default_initial(scan, kw.max_edge) == "grid"
     candidates = GRID_CANDIDATES if gridded else CANDIDATES
-    made = choice.choose(scan, build, candidates=candidates, context=kw.context)
+    made = choice.choose(scan, build, candidates, kw.context, judge_lanes(candidates))
     # The parts have no range grid, so Delaunay stands in for the grid triangulation in the
     # judge; on a gridded scan the grid is built, as LOP and annealing start from it there
     # (Delaunay keeps the curtains the grid drops).

@@ -30,6 +30,7 @@ panel's holdout; measurements in docs/benchmarks/panel.md.
 from __future__ import annotations
 
 import math
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -39,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh._context import QUIET, Context
+from scanmesh._interrupt import POLL_SECONDS
 from scanmesh.errors import ScanmeshError
 from scanmesh.judge import Seen, rms
 from scanmesh.judge import distances as normal_distances
@@ -244,11 +246,58 @@ def _behind(chosen: str, squared: dict[str, np.ndarray]) -> set[str]:
     return out
 
 
+def _side_by_side(
+    lanes: list[list[str]], build: Callable[[str, PlanarScan], Surface], part: PlanarScan
+) -> dict[str, tuple[Surface | ScanmeshError, float]]:
+    """Candidate -> (its mesh of ``part``, or the ScanmeshError its build raised; seconds):
+    each lane's candidates built in turn, the lanes side by side in daemon threads (the
+    core's long calls release the GIL) waited for in ``POLL_SECONDS`` slices, so that Ctrl-C
+    reaches the caller (an abandoned build finishes in the background, as
+    ``scanmesh._interrupt`` leaves its calls). A lane whose thread cannot start (no room
+    for its stack) is built here after the others."""
+    results: dict[str, tuple[Surface | ScanmeshError, float]] = {}
+    failed: list[BaseException] = []
+
+    def run(lane: list[str]) -> None:
+        for name in lane:
+            t0 = time.perf_counter()
+            try:
+                got: Surface | ScanmeshError = build(name, part)
+            except ScanmeshError as exc:  # a method that fails on a part is not judged
+                got = exc
+            results[name] = (got, time.perf_counter() - t0)
+
+    def beside(lane: list[str]) -> None:
+        try:
+            run(lane)
+        except BaseException as exc:  # noqa: BLE001 - raised in the caller's thread below
+            failed.append(exc)
+
+    threads, here = [], []
+    for lane in lanes[1:]:
+        thread = threading.Thread(target=beside, args=(lane,), name="scanmesh-judge", daemon=True)
+        try:
+            thread.start()
+        except RuntimeError:  # "can't start new thread"
+            here.append(lane)
+        else:
+            threads.append(thread)
+    for lane in lanes[:1] + here:
+        run(lane)
+    for thread in threads:
+        while thread.is_alive():
+            thread.join(POLL_SECONDS)
+    if failed:
+        raise failed[0]
+    return results
+
+
 def choose(
     scan: PlanarScan,
     build: Callable[[str, PlanarScan], Surface],
     candidates: tuple[str, ...],
     context: Context = QUIET,
+    lanes: tuple[tuple[str, ...], ...] | None = None,
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
@@ -260,7 +309,10 @@ def choose(
     verdict is clear (every other one behind) or all tenths are measured;
     reports the stage "choose" (builds) to the call's progress (``context``). A candidate
     whose build fails on a part is not judged; a window under ``MIN_POINTS`` points is not
-    judged at all (``FALLBACK``). O(folds x candidates x a build of WINDOW points)."""
+    judged at all (``FALLBACK``). ``lanes`` (None: all candidates in one): groups of
+    the candidates built in turn, the groups side by side on the cores (a candidate in
+    the lane of the one it starts from); the figures do not depend on them. O(folds x
+    candidates x a build of WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
     parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
@@ -277,13 +329,13 @@ def choose(
             kept = np.setdiff1d(np.arange(len(win)), out)
             part = _part(scan, lines, win[kept])
             steps.append(np.zeros(len(out), dtype=bool))
+            ways = [[k for k in lane if k in judged] for lane in (lanes or (candidates,))]
+            with warnings.catch_warnings():  # the parts' warnings are not the scan's
+                warnings.simplefilter("ignore")
+                results = _side_by_side([w for w in ways if w], build, part)
             for name in judged:
-                t0 = time.perf_counter()
-                try:
-                    with warnings.catch_warnings():  # the parts' warnings are not the scan's
-                        warnings.simplefilter("ignore")
-                        surface = build(name, part)
-                except ScanmeshError:  # a method that fails on a part is not judged
+                surface, took = results[name]
+                if isinstance(surface, ScanmeshError):
                     dist[name].append(np.full(len(out), np.nan))
                     slivers[name] = math.inf
                 else:
@@ -293,8 +345,8 @@ def choose(
                     dist[name].append(got)
                     steps[-1] |= _on_steps(seen, face)
                     slivers[name] += surface.quality.sliver_fraction
-                seconds[name] += time.perf_counter() - t0
-                stage.update(stage.done + 1)
+                seconds[name] += took
+            stage.update(stage.done + len(judged))
             share = {k: slivers[k] / len(dist[k]) for k in judged}
             chosen, now, gone, measured, squared = _verdict(
                 candidates, {k: dist[k] for k in judged}, steps, share
