@@ -8,8 +8,8 @@ Each round times ``reconstruct(scan, "lop")`` and ``reconstruct(scan)`` (the def
 same scan, read once; the figure to read is the ratio within a round (the goal: the default
 within 3 x LOP's time on scans of 20,000 points or more). Where the default's time goes:
 the judge's builds per candidate on the withheld tenths (``method_choice["seconds"]``,
-a candidate's time including the meshes it starts from when it needs them first), the
-tenths judged, and the rest (the winner's build on all points, the window, the measures).
+a candidate's time including the meshes it starts from when it needs them first; their sum
+can exceed the judge's wall time, as its two lanes run side by side) and the tenths judged.
 Prints the load average before and after.
 """
 
@@ -39,7 +39,7 @@ def main() -> None:
     plane = {} if args.plane is None else {"plane": args.plane}
     print(f"{args.scan}: {len(scan.points):,} points; load {os.getloadavg()}")
     print(
-        "| round | LOP (s) | default (s) | default / LOP | judge (s): per candidate | tenths"
+        "| round | LOP (s) | default (s) | default / LOP | judge builds (s): per candidate | tenths"
         " | built | tac_1 LOP | tac_1 default |"
     )
     print("|---:|---:|---:|---:|---|---:|---|---:|---:|")

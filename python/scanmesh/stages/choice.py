@@ -129,7 +129,8 @@ class MethodChoice:
     window: int
     measured: int
     folds: int
-    #: candidate -> seconds building it on the folds
+    #: candidate -> seconds building it on the tenths (with the meshes it starts from, when
+    #: it needs them first; in its lane, and the lanes run side by side)
     seconds: dict[str, float]
 
     def as_dict(self) -> dict[str, Any]:
