@@ -274,6 +274,32 @@ def test_on_the_noisy_oblique_conrod_the_default_takes_delaunay():
     assert made["holdout"]["delaunay"] < made["holdout"]["anneal"]
 
 
+@pytest.mark.slow
+def test_on_the_noisy_oblique_conrod_the_judge_stops_early_with_the_full_verdict(monkeypatch):
+    """The same scan judged with candidates dropped once behind, and on every tenth with
+    none dropped: the same choice, in fewer builds."""
+    pts, lines = _turned_scan("conrod_slevin48_onshape.stl", "y", 1 / 30)
+    scan = as_scan(pts, plane="y", lines=lines)
+    quiet = methods.Keywords()
+
+    def judged(lanes):
+        builds = []
+        build = methods.judge_builder(quiet)
+
+        def counted(name, part):
+            builds.append(name)
+            return build(name, part)
+
+        return choice.choose(scan, counted, methods.CANDIDATES, lanes=lanes), len(builds)
+
+    (early, n_early) = judged(methods.judge_lanes(methods.CANDIDATES))
+    monkeypatch.setattr(choice, "CLEAR", float("inf"))
+    monkeypatch.setattr(choice, "OUTSIDE_FAR", float("inf"))
+    (full, n_full) = judged(None)
+    assert early.chosen == full.chosen == "delaunay"
+    assert n_early < n_full == full.folds * len(methods.CANDIDATES)
+
+
 def test_on_the_oblique_pocket_the_holdout_ties_and_the_first_candidate_stays():
     """The pocket of test_anneal_start's oblique crease test, noise-free: away from its
     steps every candidate's mesh holds the withheld points exactly alike, so the first
