@@ -102,6 +102,26 @@ def test_the_judge_builds_each_triangulation_once_a_part(monkeypatch):
     assert calls == [360] * made["folds"] + [400] * final
 
 
+def test_the_judge_estimates_the_noise_once(monkeypatch):
+    """strips-anneal's tie tolerance follows the noise: estimated on the first part and
+    kept for the others (one estimate a part before), and once more for the winner when
+    it is strips-anneal."""
+    monkeypatch.setattr(choice, "CLEAR", float("inf"), raising=False)
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    estimated = []
+    real = anneal_stage.noise_tolerance
+
+    def counted(initial, p, given, floor):
+        if given is None:
+            estimated.append(len(initial.scan.points))
+        return real(initial, p, given, floor)
+
+    monkeypatch.setattr(anneal_stage, "noise_tolerance", counted)
+    surface = scanmesh.reconstruct(bumpy_patch(400, 3), plane="z", seed=1)
+    assert surface.options["method_choice"]["folds"] == 10
+    assert estimated == [360] + [400] * (surface.method == "strips-anneal")
+
+
 def test_the_judge_anneals_the_short_schedule_and_the_winner_the_full_one(monkeypatch):
     monkeypatch.setattr(choice, "MEASURED", 1)
     monkeypatch.setattr(choice, "MIN_POINTS", 30)

@@ -243,9 +243,13 @@ def judge_builder(quiet: Keywords) -> Callable[[str, PlanarScan], Surface]:
     """``build(name, part)`` for :func:`scanmesh.stages.choice.choose`: candidate ``name``
     built on ``part`` with its default options, annealers on :data:`JUDGE_SCHEDULE`, each
     mesh of a part made once and reused as another's start (:data:`JUDGE_STARTS`); the
-    meshes of the previous part are dropped when a new part comes."""
+    meshes of the previous part are dropped when a new part comes. An annealer whose tie
+    tolerance follows the noise (strips-anneal) estimates it on the first part and keeps
+    it for the others (the parts are 90 % of one window: the estimate was a fifth of the
+    judge's strips-anneal build)."""
     made: dict[str, Surface] = {}
     current: list[PlanarScan] = []
+    tolerance: dict[str, float] = {}  # annealer -> the tie tolerance of its first part
     lock = threading.Lock()  # the judge's lanes call it side by side on one part
 
     def build(name: str, part: PlanarScan) -> Surface:
@@ -259,7 +263,12 @@ def judge_builder(quiet: Keywords) -> Callable[[str, PlanarScan], Surface]:
             options: dict[str, Any] = dict(JUDGE_SCHEDULE) if spec.anneals else {}
             if name in JUDGE_STARTS:
                 options["initial"] = build(JUDGE_STARTS[name], part)
-            surface = made[name] = spec.run(part, spec.check(options, {}), quiet)
+            if name in tolerance:
+                options["tie_tolerance"] = tolerance[name]
+            params = spec.check(options, {})
+            surface = made[name] = spec.run(part, params, quiet)
+            if spec.anneals and params["tie_tolerance"] is None:  # from the part's noise
+                tolerance[name] = surface.options["tie_tolerance"]
         return surface
 
     return build
