@@ -122,7 +122,7 @@ pub fn extract(
 
 /// [`extract`], counting in `progress` the passes of [`EXTRACT_WEIGHTS`] as they go: the
 /// repair's first pass and the walk a slice of the grid at a time, the vertices placed a
-/// cell at a time, the samples followed by faces of each pass.
+/// cell at a time, the samples followed a pass at a time.
 pub fn extract_counted(
     volume: &Volume,
     samples: &[DVec3],
@@ -257,8 +257,8 @@ fn extract_from(
             out.labels.push(label);
         }
     }
-    let passes = (MAX_PASSES * out.faces.len()) as u64; // those not needed counted at the end
-    let following = Share::new(progress, follow, passes);
+    // by passes (those not needed counted at the end)
+    let following = Share::new(progress, follow, MAX_PASSES as u64);
     follow_samples(
         &out.vertices,
         &vertex_cells,

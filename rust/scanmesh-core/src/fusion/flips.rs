@@ -30,13 +30,10 @@ const MIN_SAMPLES: usize = 1;
 /// A triangle of a flip must face within this cosine of the quad's mean normal (80°).
 const MIN_FACING: f64 = 0.17;
 
-/// Faces of a pass counted at a time in its progress.
-const COUNTED: usize = 4096;
-
 /// Flips the edges of the closed mesh (`vertices`, `faces`) towards the samples; `cells`
 /// holds each vertex's cell (grid coordinates), `labels` the faces' labels. Returns the
-/// flips made; counts each pass's faces in `passes` (of `MAX_PASSES` × faces). O(passes ·
-/// faces · samples per cell neighbourhood).
+/// flips made; counts each pass in `passes` (of `MAX_PASSES`). O(passes · faces · samples
+/// per cell neighbourhood).
 ///
 /// Errors: `OutOfMemory` when the edges' map does not fit.
 #[allow(clippy::too_many_arguments)] // the mesh, the samples and the progress: no struct holds them
@@ -62,11 +59,9 @@ pub(super) fn follow_samples(
     let mut gathered = Vec::new();
     let mut flips = 0;
     for _ in 0..MAX_PASSES {
+        passes.add(1); // counted as it starts: one hook, wherever the pass's work is done
         let before = flips;
         for f in 0..faces.len() {
-            if f % COUNTED == COUNTED - 1 {
-                passes.add(COUNTED as u64);
-            }
             for e in 0..3 {
                 let t = faces[f];
                 let (a, b, c) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
