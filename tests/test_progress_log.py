@@ -231,9 +231,12 @@ def test_merge_extraction_counts_in_the_log_while_it_runs(tmp_path, monkeypatch,
     assert len(closing) == 1 and " nodes done in " in closing[0]
 
 
+@pytest.mark.slow
 def test_annealing_start_and_polish_count_in_the_log_while_they_run(tmp_path, monkeypatch, capsys):
     """Annealing's "calibrate" (the state, the descent to LOP's optimum, the chains' set-up)
-    and "polish" were one silent native call each: 44 s and 7 s at 2M points."""
+    and "polish" were one silent native call each: 44 s and 7 s at 2M points. Here the
+    start takes about two seconds and the polish a tenth, a few polls: the polish's counts
+    are checked for order only (their reaching the total: the core's own tests)."""
     from scanmesh.cli import main
 
     rng = np.random.default_rng(2)
@@ -253,5 +256,6 @@ def test_annealing_start_and_polish_count_in_the_log_while_they_run(tmp_path, mo
         assert "one native call" not in " ".join(
             line for line in err.splitlines() if f": {stage}: " in line
         )
-        assert counts == sorted(counts) and len(set(counts)) >= 3, (stage, counts)
+        assert counts == sorted(counts) and counts, (stage, counts)
         assert len(closing) == 1, (stage, closing)
+    assert len(set(_counts(err, "calibrate")[0])) >= 3
