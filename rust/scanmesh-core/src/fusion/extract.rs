@@ -146,7 +146,8 @@ fn extract_from(
     // the order first met; placed afterwards on every core
     let mut cell_vertex: HashMap<usize, u32> = HashMap::new();
     let mut cells: Vec<usize> = Vec::new();
-    let mut quads: Vec<([u32; 4], u8)> = Vec::new();
+    // per quad: its cells' vertices, its label and the grid edge it crosses
+    let mut quads: Vec<([u32; 4], u8, [usize; 2])> = Vec::new();
     let [nx, ny, nz] = grid.dims;
     let steps = [1, nx, nx * ny];
     for axis in 0..3 {
@@ -199,18 +200,37 @@ fn extract_from(
                         })
                     });
                     budget::try_grow("the fused mesh's quads", &mut quads, 1)?;
-                    quads.push((ids, grid.label(a, b, &side)));
+                    quads.push((ids, grid.label(a, b, &side), [a, b]));
                 }
             }
         }
     }
     drop(cell_vertex);
+    // each crossed edge's crossing once (its four cells share it), then each cell's mass
+    // point: the mean of its edges' crossings
+    let crossings: Vec<DVec3> = budget::try_par_collect(
+        "the fused mesh's crossings",
+        quads
+            .par_iter()
+            .map(|&(_, _, [a, b])| grid.edge_crossing(a, b, &side, views)),
+    )?;
+    let mut mass: Vec<(DVec3, f64)> =
+        budget::try_filled("the fused mesh's vertices", (DVec3::ZERO, 0.0), cells.len())?;
+    for ((ids, _, _), p) in quads.iter().zip(&crossings) {
+        for &id in ids {
+            mass[id as usize].0 += *p;
+            mass[id as usize].1 += 1.0;
+        }
+    }
+    drop(crossings);
     let placed: Vec<(DVec3, Placed)> = budget::try_par_collect(
         "the fused mesh's vertices",
         cells
             .par_iter()
-            .map(|&c| grid.place(c, &side, &near, samples, normals, views)),
+            .zip(&mass)
+            .map(|(&c, &(sum, n))| grid.place(c, sum / n, &side, &near, samples, normals)),
     )?;
+    drop(mass);
     out.vertices = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.0))?;
     let placed = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.1))?;
     let vertex_cells = budget::try_collect(
@@ -219,7 +239,7 @@ fn extract_from(
     )?;
     budget::try_grow("the fused mesh's faces", &mut out.faces, 2 * quads.len())?;
     budget::try_grow("the fused mesh's faces", &mut out.labels, 2 * quads.len())?;
-    for (ids, label) in quads {
+    for (ids, label, _) in quads {
         for t in split(&out.vertices, ids) {
             out.faces.push(t);
             out.labels.push(label);
@@ -466,15 +486,28 @@ impl<'a> Grid<'a> {
         (sum / found).clamp(-1.0, 2.0)
     }
 
-    /// The vertex of cell `cell` (its lowest node's index), and how samples placed it.
+    /// The point where the surface crosses the grid edge from node `a` to node `b` (one
+    /// step up an axis; their sides differ).
+    fn edge_crossing(&self, a: usize, b: usize, side: &Sides, views: &[&DepthView]) -> DVec3 {
+        let [i, j, k] = self.coords(a);
+        let [p, q] = [self.volume.node(i, j, k), {
+            let [i, j, k] = self.coords(b);
+            self.volume.node(i, j, k)
+        }];
+        let (fa, fb) = (self.value(a, side), self.value(b, side));
+        p.lerp(q, self.crossing([a, b], p, q, fa, fb, views))
+    }
+
+    /// The vertex of cell `cell` (its lowest node's index) whose edges' crossings have the
+    /// mean `mass`, and how samples placed it.
     fn place(
         &self,
         cell: usize,
+        mass: DVec3,
         side: &Sides,
         near: &SampleIndex,
         samples: &[DVec3],
         normals: &[DVec3],
-        views: &[&DepthView],
     ) -> (DVec3, Placed) {
         let c = self.corners(cell);
         let f = c.map(|n| self.value(n, side));
@@ -488,23 +521,6 @@ impl<'a> Grid<'a> {
             (0..8).map(|q| if q & 2 != 0 { f[q] } else { -f[q] }).sum(),
             (0..8).map(|q| if q & 4 != 0 { f[q] } else { -f[q] }).sum(),
         );
-        // the mass point: the mean of the crossings on the cell's 12 edges
-        let (mut sum, mut crossings) = (DVec3::ZERO, 0.0);
-        let corner = |m: usize| {
-            lo + DVec3::new((m & 1) as f64, ((m >> 1) & 1) as f64, ((m >> 2) & 1) as f64) * voxel
-        };
-        for q in 0..8 {
-            for bit in [1, 2, 4] {
-                let r = q | bit;
-                if r == q || (side.get(c[q]) & INSIDE) == (side.get(c[r]) & INSIDE) {
-                    continue;
-                }
-                let t = self.crossing([c[q], c[r]], corner(q), corner(r), f[q], f[r], views);
-                sum += corner(q).lerp(corner(r), t);
-                crossings += 1.0;
-            }
-        }
-        let mass = sum / crossings;
         // the samples' tangent planes fix the vertex across the surface (and at creases
         // along it), nearer samples more; the mass point fixes it where they leave it free,
         // as in dual contouring
