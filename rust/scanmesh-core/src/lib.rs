@@ -50,6 +50,7 @@ pub mod io;
 pub mod mesh;
 pub mod optimize;
 pub mod projection;
+pub mod simplify;
 pub mod strips;
 #[cfg(test)]
 mod testing;

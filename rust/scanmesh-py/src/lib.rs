@@ -19,6 +19,7 @@ mod fusion;
 mod io;
 mod optimize;
 mod results;
+mod simplify;
 mod strips;
 mod triangulate;
 
@@ -167,6 +168,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(optimize::lop, m)?)?;
     m.add_function(wrap_pyfunction!(io::parse_text_table, m)?)?;
     m.add_function(wrap_pyfunction!(io::stl_records, m)?)?;
+    m.add_function(wrap_pyfunction!(simplify::simplify, m)?)?;
     m.add_class::<optimize::AnnealParams>()?;
     m.add_class::<optimize::Annealer>()?;
     m.add_class::<fusion::DepthView>()?;
