@@ -29,7 +29,7 @@ def turned_box_views():
 @pytest.fixture(scope="module")
 def box_full_and_simplified():
     box, turn, views = turned_box_views()
-    full = scanmesh.merge(views)
+    full = scanmesh.merge(views, simplify=0.0)
     return box, turn, full, scanmesh.merge(views, simplify=0.1)
 
 
@@ -90,7 +90,7 @@ def test_simplified_labels_keep_their_areas():
     label's area within 2 % of the full mesh's (their borders do not move)."""
     box = trimesh.creation.box((2.0, 1.0, 0.6))
     top = scanmesh.simulate_range_scan(box, up="z", spacing=0.04, noise=0.04 / 30, seed=0)
-    full = scanmesh.merge([top])
+    full = scanmesh.merge([top], simplify=0.0)
     simple = scanmesh.merge([top], simplify=0.1)
     assert shape.is_watertight(simple.faces)
     assert shape.euler_characteristic(simple.faces) == 2
