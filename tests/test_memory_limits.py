@@ -168,7 +168,7 @@ MERGE_CHILD = textwrap.dedent(
     from scanmesh.evaluate.digitizer import axis_views
     from scanmesh.fusion.views import toward_frame
 
-    what, room = sys.argv[1], int(sys.argv[2])
+    what, room, pool = sys.argv[1], int(sys.argv[2]), sys.argv[3]
     box = trimesh.creation.box((2.0, 1.0, 0.6))
     views = axis_views(box, 0.02, noise=0.0004, seed=1)
     if what == "command":
@@ -176,25 +176,27 @@ MERGE_CHILD = textwrap.dedent(
         names, poses = [], []
         for k, scan in enumerate(views):
             turn = toward_frame(scan.up)
-            np.savetxt(f"{sys.argv[3]}/v{k}.xyz", scan.points @ turn.T)
+            np.savetxt(f"{sys.argv[4]}/v{k}.xyz", scan.points @ turn.T)
             pose = np.eye(4)
             pose[:3, :3] = turn.T
-            names.append(f"{sys.argv[3]}/v{k}.xyz")
+            names.append(f"{sys.argv[4]}/v{k}.xyz")
             poses.append(pose.tolist())
-        with open(f"{sys.argv[3]}/poses.json", "w") as f:
+        with open(f"{sys.argv[4]}/poses.json", "w") as f:
             json.dump(poses, f)
     np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
-    # the core's thread pool starts at its first parallel call: a pool that cannot start
-    # (no room for its threads' stacks) panics, and the panic's own allocation fails (a hang)
-    scanmesh.quality(np.eye(3), [[0, 1, 2]])
+    if pool == "started":  # the core's thread pool starts at its first parallel call
+        scanmesh.quality(np.eye(3), [[0, 1, 2]])
     size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
                 if l.startswith("VmSize:"))
     resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
     if what == "command":
-        sys.exit(main(["merge", *names, "--poses", f"{sys.argv[3]}/poses.json",
-                       "-o", f"{sys.argv[3]}/part.ply", "--voxel", "0.01", "--quiet"]))
+        sys.exit(main(["merge", *names, "--poses", f"{sys.argv[4]}/poses.json",
+                       "-o", f"{sys.argv[4]}/part.ply", "--voxel", "0.01", "--quiet"]))
     try:
-        scanmesh.merge(views, voxel=0.01)
+        if what == "quality":
+            scanmesh.quality(np.eye(3), [[0, 1, 2]])
+        else:
+            scanmesh.merge(views, voxel=0.01)
         print("built")
     except scanmesh.MemoryLimitError as e:
         assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
@@ -202,12 +204,18 @@ MERGE_CHILD = textwrap.dedent(
     """
 )
 
-def run_merge_child(*args: object) -> subprocess.CompletedProcess[str]:
+
+def run_merge_child(
+    what: str, room: int, *args: object, pool: str = "started", timeout: float = 300
+) -> subprocess.CompletedProcess[str]:
+    """The merge child: `what` ("api", "command" with its folder in `args`, "quality"), its
+    `room`, the core's thread pool "started" before the limit or "unstarted"; a child still
+    running after `timeout` seconds is killed (subprocess.TimeoutExpired)."""
     return subprocess.run(
-        [sys.executable, "-c", MERGE_CHILD, *map(str, args)],
+        [sys.executable, "-c", MERGE_CHILD, what, str(room), pool, *map(str, args)],
         capture_output=True,
         text=True,
-        timeout=300,
+        timeout=timeout,
     )
 
 
@@ -239,6 +247,30 @@ def test_merge_under_any_limit_builds_or_refuses_never_aborts():
 def test_the_merge_command_under_ulimit_v_ends_in_a_mesh_or_one_line(tmp_path):
     for room in (10_000_000, 40_000_000, 120_000_000):
         r = run_merge_child("command", room, tmp_path)
+        assert r.returncode in (0, 1), (room, r.returncode, r.stderr[-800:])
+        if r.returncode == 1:
+            lines = r.stderr.strip().splitlines()
+            assert len(lines) == 1 and lines[0].startswith("scanmesh: error: "), (room, lines)
+
+
+def test_the_thread_pool_started_under_the_limit_is_smaller_or_refused_never_a_hang(tmp_path):
+    """The core's thread pool starts at the first parallel call. Started under the limit,
+    rayon's own start panicked when a worker's stack did not fit, and the panic's own
+    allocations failed: the process hung (merge with 12-15 MB of room, killed by the
+    timeout). Now the pool starts with the workers that fit, and with none a
+    MemoryLimitError names the pool's threads, their stack and the limit; the next call
+    tries again."""
+    r = run_merge_child("quality", 1_000_000, pool="unstarted", timeout=60)
+    assert r.returncode == 0, (r.returncode, r.stderr[-800:])
+    assert r.stdout.startswith("refused: the core's thread pool ("), r.stdout
+    assert "worker threads, none could start" in r.stdout, r.stdout
+    assert "needs about 2.0 MiB" in r.stdout and "RLIMIT_AS (ulimit -v)" in r.stdout, r.stdout
+    for room in (3_000_000, 12_000_000, 15_000_000, 30_000_000, 120_000_000):
+        r = run_merge_child("api", room, pool="unstarted", timeout=60)
+        assert r.returncode == 0, (room, r.returncode, r.stderr[-800:])
+        assert r.stdout.startswith(("built", "refused: ")), (room, r.stdout)
+    for room in (12_000_000, 40_000_000):
+        r = run_merge_child("command", room, tmp_path, pool="unstarted", timeout=60)
         assert r.returncode in (0, 1), (room, r.returncode, r.stderr[-800:])
         if r.returncode == 1:
             lines = r.stderr.strip().splitlines()
