@@ -284,7 +284,9 @@ def _merge(
             np.ascontiguousarray(np.concatenate(normals)),
             native,
         )
-    vertices, faces, labels, specks = drop_specks(vertices, faces, labels)
+    vertices, faces, labels, specks = interruptible(
+        len(faces), drop_specks, vertices, faces, labels
+    )
     timings["extract"] = time.perf_counter() - t0
     if len(faces) == 0:
         raise DegenerateInputError(
