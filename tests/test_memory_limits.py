@@ -13,57 +13,95 @@ import textwrap
 from pathlib import Path
 
 import pytest
+import trimesh
+
+from conftest import write_views
+from scanmesh.evaluate.digitizer import axis_views
 
 pytestmark = pytest.mark.skipif(
     not Path("/proc/self/status").exists(), reason="the limits are read from /proc (Linux)"
 )
 
+
+def limited_child(make: str, command: str, call: str) -> str:
+    """The script of a child process that makes its inputs (``make``, from its arguments),
+    then limits its address space to ``room`` bytes above what it holds, then runs the
+    command (``command``, when ``what`` is "command": its exit status is the child's) or
+    the API call ``call``, printing "built", or "refused: " and the MemoryLimitError."""
+    head = """
+        import resource, sys
+        import numpy as np
+        import scanmesh
+        from scanmesh.cli import main
+        """
+    limit = """
+        np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
+        size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
+                    if l.startswith("VmSize:"))
+        resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
+        if what == "command":
+        """
+    outcome = """
+            print("built")
+        except scanmesh.MemoryLimitError as e:
+            assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
+            print("refused:", e)
+        """
+    body = textwrap.dedent
+    return "".join(
+        [
+            body(head),
+            body(make),
+            body(limit),
+            textwrap.indent(body(command), "    "),
+            "try:\n",
+            textwrap.indent(body(call), "    "),
+            body(outcome),
+        ]
+    )
+
+
+def run(script: str, args: tuple[object, ...], timeout: float) -> subprocess.CompletedProcess[str]:
+    """``script`` in a child with ``args``; a child still running after ``timeout`` seconds
+    is killed (subprocess.TimeoutExpired)."""
+    return subprocess.run(
+        [sys.executable, "-c", script, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
 # A wavy grid of points in scan order; `room` is what the limit leaves above the process's
 # address space once they exist, far below what any stage needs for them.
-CHILD = textwrap.dedent(
+CHILD = limited_child(
     """
-    import resource, sys
-    import numpy as np
-    import scanmesh
-    from scanmesh.cli import main
-
     what, n, room = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     side = int(n ** 0.5)
     g = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2) * 1.0
     X = np.c_[g, np.sin(g[:, 0] / 7)]
     scan = scanmesh.planar_scan(X, plane="z")
-    np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
     faces = np.zeros((n, 3), dtype=np.int64)  # n faces on point 0: 50 n bytes of STL
     if what == "command":
         np.savetxt(sys.argv[4], X, fmt="%.6g")
-    size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
-                if l.startswith("VmSize:"))
-    resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
-    if what == "command":
-        sys.exit(main(["reconstruct", sys.argv[4], "-o", sys.argv[5], "--method", sys.argv[6],
-                       "--plane", "z", "--quiet"]))
-    try:
-        if what == "stl":
-            scanmesh._core.stl_records(X, faces)
-        elif what == "merge":  # the scan as one view from above, a voxel of half a spacing
-            scanmesh.merge([(X, np.eye(4))], voxel=0.5, max_voxels=10**12)
-        else:
-            scanmesh.reconstruct(scan, what, **({"sweeps": 1} if what == "anneal" else {}))
-        print("built")
-    except scanmesh.MemoryLimitError as e:
-        assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
-        print("refused:", e)
+    """,
     """
+    sys.exit(main(["reconstruct", sys.argv[4], "-o", sys.argv[5], "--method", sys.argv[6],
+                   "--plane", "z", "--quiet"]))
+    """,
+    """
+    if what == "stl":
+        scanmesh._core.stl_records(X, faces)
+    elif what == "merge":  # the scan as one view from above, a voxel of half a spacing
+        scanmesh.merge([(X, np.eye(4))], voxel=0.5, max_voxels=10**12)
+    else:
+        scanmesh.reconstruct(scan, what, **({"sweeps": 1} if what == "anneal" else {}))
+    """,
 )
 
 
 def run_child(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-c", CHILD, *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run(CHILD, args, timeout=120)
 
 
 @pytest.mark.slow
@@ -158,65 +196,43 @@ def test_merge_beyond_the_address_space_limit_is_refused_naming_what_did_not_fit
 
 # merge: the views made first, then the limit; every room ends in a mesh or a refusal
 
-MERGE_CHILD = textwrap.dedent(
+MERGE_CHILD = limited_child(
     """
-    import resource, sys
-    import numpy as np
     import trimesh
-    import scanmesh
-    from scanmesh.cli import main
     from scanmesh.evaluate.digitizer import axis_views
-    from scanmesh.fusion.views import toward_frame
 
     what, room, pool = sys.argv[1], int(sys.argv[2]), sys.argv[3]
     box = trimesh.creation.box((2.0, 1.0, 0.6))
     views = axis_views(box, 0.02, noise=0.0004, seed=1)
-    if what == "command":
-        import json
-        names, poses = [], []
-        for k, scan in enumerate(views):
-            turn = toward_frame(scan.up)
-            np.savetxt(f"{sys.argv[4]}/v{k}.xyz", scan.points @ turn.T)
-            pose = np.eye(4)
-            pose[:3, :3] = turn.T
-            names.append(f"{sys.argv[4]}/v{k}.xyz")
-            poses.append(pose.tolist())
-        with open(f"{sys.argv[4]}/poses.json", "w") as f:
-            json.dump(poses, f)
-    np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
     if pool == "started":  # the core's thread pool starts at its first parallel call
         scanmesh.quality(np.eye(3), [[0, 1, 2]])
-    size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
-                if l.startswith("VmSize:"))
-    resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
-    if what == "command":
-        sys.exit(main(["merge", *names, "--poses", f"{sys.argv[4]}/poses.json",
-                       "-o", f"{sys.argv[4]}/part.ply", "--voxel", "0.01", "--quiet"]))
-    try:
-        if what == "quality":
-            scanmesh.quality(np.eye(3), [[0, 1, 2]])
-        else:
-            scanmesh.merge(views, voxel=0.01)
-        print("built")
-    except scanmesh.MemoryLimitError as e:
-        assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
-        print("refused:", e)
+    """,
     """
+    names = [f"{sys.argv[4]}/v{k}.xyz" for k in range(len(views))]  # written by the parent
+    sys.exit(main(["merge", *names, "--poses", f"{sys.argv[4]}/poses.json",
+                   "-o", f"{sys.argv[4]}/part.ply", "--voxel", "0.01", "--quiet"]))
+    """,
+    """
+    if what == "quality":
+        scanmesh.quality(np.eye(3), [[0, 1, 2]])
+    else:
+        scanmesh.merge(views, voxel=0.01)
+    """,
 )
 
 
 def run_merge_child(
-    what: str, room: int, *args: object, pool: str = "started", timeout: float = 300
+    what: str, room: int, folder: Path | None = None, pool: str = "started", timeout: float = 300
 ) -> subprocess.CompletedProcess[str]:
-    """The merge child: `what` ("api", "command" with its folder in `args`, "quality"), its
-    `room`, the core's thread pool "started" before the limit or "unstarted"; a child still
-    running after `timeout` seconds is killed (subprocess.TimeoutExpired)."""
-    return subprocess.run(
-        [sys.executable, "-c", MERGE_CHILD, what, str(room), pool, *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
+    """The merge child: ``what`` ("api", "quality", or "command" on the views written into
+    ``folder``), its ``room``, the core's thread pool "started" before the limit or
+    "unstarted"; killed after ``timeout`` seconds."""
+    args: tuple[object, ...] = (what, room, pool)
+    if folder is not None:
+        box = trimesh.creation.box((2.0, 1.0, 0.6))
+        write_views(axis_views(box, 0.02, noise=0.0004, seed=1), folder)
+        args += (folder,)
+    return run(MERGE_CHILD, args, timeout)
 
 
 def test_merge_refuses_what_it_can_foresee_and_names_what_it_could_not():
