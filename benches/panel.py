@@ -25,6 +25,9 @@ measures run after it and are not counted). Wall time is the main ``reconstruct`
 "x LOP" is it over LOP's on the same scan in the same run.
 A run still going after ``--cap`` seconds is stopped and its cells read "timed out"
 (figures already measured are kept: the reconstruction may finish and the holdout not).
+With the default among the methods, a summary comes first: per scan the default's error
+over the best other method's and strips-anneal's, its slivers and tac_1, and its wall time
+over LOP's (``summary``).
 
     python benches/panel.py --quick                       # a few minutes on 2 cores
     python benches/panel.py --out panel.md                # the full panel
@@ -316,6 +319,52 @@ def table(rows: list[tuple[dict, dict, str, dict]]) -> str:
     return head + "\n".join(lines) + "\n"
 
 
+#: The methods the default is compared with ("best other method"): all but the default and
+#: the hybrid it usually builds (shown alone in its own column).
+OTHERS = ("delaunay", "lop", "lookahead", "shortest-path", "anneal")
+
+
+def summary(rows: list[tuple[dict, dict, str, dict]]) -> str:
+    """Per scan: the default's error against the best other method's (:data:`OTHERS`) and
+    strips-anneal's, its slivers and tac_1 (beside the strips' and LOP's) and its wall time
+    over LOP's in the same run. Empty without the default's rows."""
+    key = {"real": "holdout", "sim": "h_rms"}
+    by: dict[str, dict] = {}
+    for scan, info, method, got in rows:
+        by.setdefault(scan["name"], {"scan": scan, "info": info})[method] = got
+    head = (
+        "| scan | points | the default's error | best other method | ratio | strips-anneal"
+        " alone (ratio) | slivers | tac_1 (strips' / LOP's) | time / LOP |\n"
+        "|---|---:|---:|---|---:|---:|---:|---:|---:|\n"
+    )
+    lines = []
+    for name, got in by.items():
+        k = key[got["scan"]["kind"]]
+        auto = got.get("auto", {})
+        if k not in auto:
+            continue
+        others = {m: got[m][k] for m in OTHERS if k in got.get(m, {})}
+        best = min(others, key=others.__getitem__) if others else None
+        ratio = f"**{auto[k] / others[best]:.3f}**" if best else ""
+        alone = got.get("strips-anneal", {}).get(k)
+        alone = f"{alone / others[best]:.3f}" if best and alone is not None else ""
+        lop = got.get("lop", {})
+        strips = got.get("shortest-path", {})
+        tac = (
+            f"{auto['tac_1']:.5g} ({strips.get('tac_1', math.nan):.5g} /"
+            f" {lop.get('tac_1', math.nan):.5g})"
+        )
+        time_ratio = f"{auto['wall'] / lop['wall']:.2f}" if "wall" in lop else ""
+        lines.append(
+            f"| {name} | {got['info']['n']:,} | {auto[k]:.4g} |"
+            f" {best} {others[best]:.4g} | {ratio} | {alone} | {100 * auto['slivers']:.2f} %"
+            f" | {tac} | {time_ratio} |"
+            if best
+            else f"| {name} | {got['info']['n']:,} | {auto[k]:.4g} | | | | | | |"
+        )
+    return head + "\n".join(lines) + "\n" if lines else ""
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=SHARED, help="the shared data folder")
@@ -345,6 +394,8 @@ def main() -> None:
                 rows.append((scan, info, method, got))
                 print(table(rows).splitlines()[-1], file=sys.stderr, flush=True)
     text = table(rows)
+    if "auto" in methods:
+        text = summary(rows) + "\n" + text
     if args.out:
         args.out.write_text(text)
     else:
