@@ -98,6 +98,7 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
+    """The public names with what is already imported (for ``dir`` and completion)."""
     return sorted({*globals(), *_HOMES, "__version__"})
 
 
