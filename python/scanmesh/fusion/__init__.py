@@ -276,13 +276,15 @@ def _merge(
                 stage.update(k + 1)
         timings[name] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    with Stage(progress, "extract", int(cost), blocking=True):
+    with Stage(progress, "extract", int(cost)) as stage:
         vertices, faces, labels, repaired = interruptible(
             cost,
             volume.extract,
             np.ascontiguousarray(np.concatenate(samples)),
             np.ascontiguousarray(np.concatenate(normals)),
             native,
+            stage.counter,
+            watch=stage.follow,
         )
     vertices, faces, labels, specks = interruptible(
         len(faces), drop_specks, vertices, faces, labels

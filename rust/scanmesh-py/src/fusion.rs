@@ -2,6 +2,7 @@
 //! grid that views are integrated and carved into, the labelled closed mesh it gives.
 
 use crate::convert::{faces_out, points3_view, shape_error, Floats2, Ints2};
+use crate::progress::{counter, ProgressCounter};
 use crate::{detached, to_py};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
@@ -139,21 +140,25 @@ impl FusionVolume {
     /// filled), nodes moved by the manifold repair). Vertices are placed on `samples`
     /// (S, 3) with outward unit `normals` (S, 3); `views`, the list integrated and carved
     /// in the order carved, place the surface between nodes where their rays' evidence
-    /// jumps. O(nodes + S log S), GIL released.
+    /// jumps. `progress`, a `ProgressCounter`, counts the grid's slices pass by pass.
+    /// O(nodes + S log S), GIL released.
     #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (samples, normals, views, progress=None))]
     fn extract<'py>(
         &self,
         py: Python<'py>,
         samples: PyReadonlyArray2<'py, f64>,
         normals: PyReadonlyArray2<'py, f64>,
         views: Vec<PyRef<'py, DepthView>>,
+        progress: Option<PyRef<'py, ProgressCounter>>,
     ) -> PyResult<(Floats2<'py>, Ints2<'py>, Bound<'py, PyArray1<u8>>, usize)> {
         let s = points3_view(&samples)?;
         let n = points3_view(&normals)?;
         let inner: Vec<&scanmesh_core::fusion::DepthView> =
             views.iter().map(|v| &v.inner).collect();
+        let progress = counter(progress);
         let fused = detached(py, || {
-            scanmesh_core::fusion::extract(&self.inner, &s, &n, &inner)
+            scanmesh_core::fusion::extract_counted(&self.inner, &s, &n, &inner, &progress)
         })?
         .map_err(to_py)?;
         let flat: Vec<f64> = fused.vertices.iter().flat_map(|v| v.to_array()).collect();

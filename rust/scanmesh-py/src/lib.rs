@@ -1,7 +1,7 @@
 //! Thin PyO3 bindings of `scanmesh-core`: check shapes, convert numpy, release the GIL for
 //! the work, map `scanmesh_core::Error` to the exception classes declared here. One file
 //! per topic of the core (`triangulate`, `criteria`, `strips`, `optimize`, `exact`, `io`,
-//! `fusion`), numpy conversions in `convert`, the result classes in `results`.
+//! `fusion`, `progress`), numpy conversions in `convert`, the result classes in `results`.
 #![deny(rustdoc::broken_intra_doc_links)]
 
 use numpy::PyArray1;
@@ -18,6 +18,7 @@ mod exact;
 mod fusion;
 mod io;
 mod optimize;
+mod progress;
 mod results;
 mod strips;
 mod triangulate;
@@ -181,6 +182,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<optimize::Annealer>()?;
     m.add_class::<fusion::DepthView>()?;
     m.add_class::<fusion::FusionVolume>()?;
+    m.add_class::<progress::ProgressCounter>()?;
     m.add_class::<strips::StripParams>()?;
     m.add_class::<strips::ScanContext>()?;
     m.add_class::<results::ScanSegments>()?;

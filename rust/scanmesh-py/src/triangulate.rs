@@ -5,6 +5,7 @@ use crate::convert::{
     duplicates_out, faces, faces_out, indices_out, points2, points2_view, points3_view, uv_into,
     vector3, Floats2, Ints1, Ints2,
 };
+use crate::progress::{counter, ProgressCounter};
 use crate::results::{GridTriangles, TrimmedDelaunay};
 use crate::{detached, to_py, ParameterError};
 use numpy::ndarray::Array2;
@@ -78,21 +79,24 @@ pub(crate) fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> PyResult<()
 /// the core): at `max_edge`, or None for DEFAULT_MAX_EDGE_FACTOR x the median spacing, and
 /// when that is finite, depth jumps on the (N, 3) `points` at `jump_factor`. Returns a
 /// `TrimmedDelaunay`: faces, duplicate_of as in `delaunay`, trimmed (K,) int64, the
-/// max_edge used, (triangulate, trim) seconds.
+/// max_edge used, (triangulate, trim) seconds. `progress`, a `ProgressCounter`, counts its
+/// passes over the points while it runs.
 #[pyfunction]
-#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR))]
+#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR, progress=None))]
 pub(crate) fn delaunay_trimmed<'py>(
     py: Python<'py>,
     uv: PyReadonlyArray2<'py, f64>,
     points: PyReadonlyArray2<'py, f64>,
     max_edge: Option<f64>,
     jump_factor: f64,
+    progress: Option<PyRef<'py, ProgressCounter>>,
 ) -> PyResult<TrimmedDelaunay> {
     check_trim_lengths(max_edge.unwrap_or(1.0), jump_factor)?;
     let pts = points2_view(&uv)?;
     let xyz = matching_points(&points, pts.len())?;
+    let progress = counter(progress);
     let t = detached(py, || {
-        scanmesh_core::triangulate::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor)
+        scanmesh_core::triangulate::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor, &progress)
     })?
     .map_err(to_py)?;
     Ok(TrimmedDelaunay {

@@ -13,11 +13,12 @@
 use super::samples::SampleIndex;
 use crate::budget;
 use crate::error::Result;
+use crate::progress::Share;
 use glam::DVec3;
 use std::collections::HashMap;
 
 /// Passes over the edges at most (a pass that flips nothing ends the loop sooner).
-const MAX_PASSES: usize = 4;
+pub(super) const MAX_PASSES: usize = 4;
 
 /// A flip must lower the samples' squared distances by this share at least: flat parts,
 /// where both splits fit equally up to the noise, keep the first.
@@ -31,9 +32,11 @@ const MIN_FACING: f64 = 0.17;
 
 /// Flips the edges of the closed mesh (`vertices`, `faces`) towards the samples; `cells`
 /// holds each vertex's cell (grid coordinates), `labels` the faces' labels. Returns the
-/// flips made. O(passes · faces · samples per cell neighbourhood).
+/// flips made; counts each pass in `passes` (of `MAX_PASSES`). O(passes · faces · samples
+/// per cell neighbourhood).
 ///
 /// Errors: `OutOfMemory` when the edges' map does not fit.
+#[allow(clippy::too_many_arguments)] // the mesh, the samples and the progress: no struct holds them
 pub(super) fn follow_samples(
     vertices: &[DVec3],
     cells: &[[usize; 3]],
@@ -42,6 +45,7 @@ pub(super) fn follow_samples(
     near: &SampleIndex,
     samples: &[DVec3],
     normals: &[DVec3],
+    passes: &Share<'_>,
 ) -> Result<usize> {
     let mut owner: HashMap<(u32, u32), u32> = HashMap::new();
     owner.try_reserve(faces.len() * 3).map_err(|_| {
@@ -55,6 +59,7 @@ pub(super) fn follow_samples(
     let mut gathered = Vec::new();
     let mut flips = 0;
     for _ in 0..MAX_PASSES {
+        passes.add(1); // counted as it starts: one hook, wherever the pass's work is done
         let before = flips;
         for f in 0..faces.len() {
             for e in 0..3 {

@@ -19,5 +19,5 @@ pub(crate) mod tsdf;
 pub(crate) mod walls;
 
 pub use depth::{DepthView, Lookup, JUMP_STEPS, MIN_COS, RIGID_TOL};
-pub use extract::{extract, Fused, FILLED, INFERRED, MEASURED};
+pub use extract::{extract, extract_counted, Fused, EXTRACT_WEIGHTS, FILLED, INFERRED, MEASURED};
 pub use tsdf::{Evidence, Volume, BEHIND_VOXELS};
