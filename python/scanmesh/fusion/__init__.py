@@ -306,7 +306,9 @@ def _merge(
             stage.counter,
             watch=stage.follow,
         )
-    vertices, faces, labels, specks = drop_specks(vertices, faces, labels)
+    vertices, faces, labels, specks = interruptible(
+        len(faces), drop_specks, vertices, faces, labels
+    )
     timings["extract"] = time.perf_counter() - t0
     simplified = None
     if params["simplify"] > 0 and len(faces):

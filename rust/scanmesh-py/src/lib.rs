@@ -96,6 +96,16 @@ pub(crate) fn to_py(e: Error) -> PyErr {
     }
 }
 
+/// `f()` with the GIL released, once the core's thread pool runs: it starts at the first
+/// such call, with fewer workers where their stacks do not all fit, and a
+/// `MemoryLimitError` naming the threads and the limit where none does (rayon's own start
+/// panicked there, and the process hung). Every call into parallel work of the core goes
+/// through here. O(1) after the first call.
+pub(crate) fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    scanmesh_core::pool::start_pool().map_err(to_py)?;
+    Ok(py.detach(f))
+}
+
 /// The native core of scanmesh.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -619,6 +619,7 @@ impl<'a> Grid<'a> {
 #[cfg(test)]
 mod tests {
     use super::super::depth::DepthView;
+    use super::super::testing::{fused_volume, view_from_above};
     use super::*;
     use std::collections::HashMap as Map;
 
@@ -641,26 +642,14 @@ mod tests {
     /// returns at z = 5 for 3 <= i, j <= 8 and none elsewhere, integrated and carved into a
     /// 14 × 14 × 10 grid of unit voxels from (−1, −1, −1).
     fn plateau_from_above(shift: f64) -> (DepthView, Volume) {
-        let (w, h) = (12, 12);
-        let depth: Vec<f64> = (0..w * h)
-            .map(|p| {
-                let (i, j) = (p % w, p / w);
-                if (3..9).contains(&i) && (3..9).contains(&j) {
-                    5.0
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect();
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        (pose[3], pose[7]) = (shift, shift);
-        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
-        let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
-        vol.integrate(&view).unwrap();
-        vol.carve(&view).unwrap();
+        let view = view_from_above([shift; 2], 1.0, [12, 12], |i, j| {
+            if (3..9).contains(&i) && (3..9).contains(&j) {
+                5.0
+            } else {
+                f64::NAN
+            }
+        });
+        let vol = fused_volume(&view, [-1.0, -1.0, -1.0], [14, 14, 10], 2.0);
         (view, vol)
     }
 
@@ -724,25 +713,14 @@ mod tests {
     /// may differ gives the mesh the walk over every node gives, vertex for vertex.
     #[test]
     fn walking_the_active_blocks_gives_the_mesh_of_walking_every_node() {
-        let (w, h) = (44, 44);
-        let depth: Vec<f64> = (0..w * h)
-            .map(|p| {
-                let (i, j) = (p % w, p / w);
-                if (10..25).contains(&i) && (10..25).contains(&j) && p % 13 != 5 {
-                    12.0 + 0.01 * (i as f64 - 0.3 * j as f64)
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect();
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
-        let mut vol = Volume::new([-1.7, -2.2, -1.4], 1.0, [46, 45, 27], 3.0).unwrap();
-        vol.integrate(&view).unwrap();
-        vol.carve(&view).unwrap();
+        let view = view_from_above([0.0; 2], 1.0, [44, 44], |i, j| {
+            if (10..25).contains(&i) && (10..25).contains(&j) && (j * 44 + i) % 13 != 5 {
+                12.0 + 0.01 * (i as f64 - 0.3 * j as f64)
+            } else {
+                f64::NAN
+            }
+        });
+        let vol = fused_volume(&view, [-1.7, -2.2, -1.4], [46, 45, 27], 3.0);
         let samples: Vec<DVec3> = (10..25)
             .flat_map(|i| (10..25).map(move |j| DVec3::new(i as f64, j as f64, 12.0)))
             .collect();
@@ -772,14 +750,13 @@ mod tests {
     fn two_columns_touching_along_an_edge_are_repaired_into_one_manifold() {
         // rays through pixels (2, 2) and (3, 3) meet a surface above the grid (so the grid
         // is behind it: unseen); every other ray has no return and carves
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        let depth: Vec<f64> = (0..36)
-            .map(|p| if p == 14 || p == 21 { 100.0 } else { f64::NAN })
-            .collect();
-        let view = DepthView::new(pose, [0.0; 2], 1.0, 6, 6, depth, vec![1.0; 36]).unwrap();
+        let view = view_from_above([0.0; 2], 1.0, [6, 6], |i, j| {
+            if [(2, 2), (3, 3)].contains(&(i, j)) {
+                100.0
+            } else {
+                f64::NAN
+            }
+        });
         let mut vol = Volume::new([0.0; 3], 1.0, [6, 6, 6], 1.0).unwrap();
         vol.carve(&view).unwrap();
         assert_eq!(vol.evidence(vol.index(2, 2, 3)), Evidence::Unseen);
