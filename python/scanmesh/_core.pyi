@@ -50,6 +50,7 @@ __all__ = [
     "lop",
     "parse_text_table",
     "stl_records",
+    "simplify",
     "AnnealParams",
     "Annealer",
     "StripResult",
@@ -376,6 +377,12 @@ class TextProblem:
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.uint8]: ...
+def simplify(
+    vertices: npt.NDArray[np.float64],
+    faces_: npt.NDArray[np.int64],
+    labels: npt.NDArray[np.uint8],
+    tolerance: float,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8]]: ...
 
 @final
 class TrimmedDelaunay:

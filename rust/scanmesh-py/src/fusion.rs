@@ -3,7 +3,7 @@
 
 use crate::convert::{faces_out, points3_view, shape_error, Floats2, Ints2};
 use crate::progress::{counter, ProgressCounter};
-use crate::to_py;
+use crate::{detached, to_py};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -107,15 +107,14 @@ impl FusionVolume {
     /// O(blocks + pixels + nodes of the blocks its surfaces cross), GIL released. Raises
     /// ParameterError beyond `max_voxels`, MemoryLimitError when the blocks do not fit.
     fn integrate(&mut self, py: Python<'_>, view: &DepthView) -> PyResult<()> {
-        py.detach(|| self.inner.integrate(&view.inner))
-            .map_err(to_py)
+        detached(py, || self.inner.integrate(&view.inner))?.map_err(to_py)
     }
 
     /// Marks empty the space along the view's rays without return that crossed no measured
     /// surface; call after every `integrate`. O(rays · blocks per ray + blocks + nodes of
     /// the blocks the carving's edge crosses), GIL released. Raises as `integrate`.
     fn carve(&mut self, py: Python<'_>, view: &DepthView) -> PyResult<()> {
-        py.detach(|| self.inner.carve(&view.inner)).map_err(to_py)
+        detached(py, || self.inner.carve(&view.inner))?.map_err(to_py)
     }
 
     /// (nx, ny, nz) uint8 per node: 0 measured, 1 seen empty, 2 unseen (a byte per node of
@@ -158,11 +157,10 @@ impl FusionVolume {
         let inner: Vec<&scanmesh_core::fusion::DepthView> =
             views.iter().map(|v| &v.inner).collect();
         let progress = counter(progress);
-        let fused = py
-            .detach(|| {
-                scanmesh_core::fusion::extract_counted(&self.inner, &s, &n, &inner, &progress)
-            })
-            .map_err(to_py)?;
+        let fused = detached(py, || {
+            scanmesh_core::fusion::extract_counted(&self.inner, &s, &n, &inner, &progress)
+        })?
+        .map_err(to_py)?;
         let flat: Vec<f64> = fused.vertices.iter().flat_map(|v| v.to_array()).collect();
         let vertices = Array2::from_shape_vec((fused.vertices.len(), 3), flat)
             .expect("3 per vertex")

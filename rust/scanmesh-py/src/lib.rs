@@ -20,6 +20,7 @@ mod io;
 mod optimize;
 mod progress;
 mod results;
+mod simplify;
 mod strips;
 mod triangulate;
 
@@ -95,6 +96,16 @@ pub(crate) fn to_py(e: Error) -> PyErr {
     }
 }
 
+/// `f()` with the GIL released, once the core's thread pool runs: it starts at the first
+/// such call, with fewer workers where their stacks do not all fit, and a
+/// `MemoryLimitError` naming the threads and the limit where none does (rayon's own start
+/// panicked there, and the process hung). Every call into parallel work of the core goes
+/// through here. O(1) after the first call.
+pub(crate) fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    scanmesh_core::pool::start_pool().map_err(to_py)?;
+    Ok(py.detach(f))
+}
+
 /// The native core of scanmesh.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -168,6 +179,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(optimize::lop, m)?)?;
     m.add_function(wrap_pyfunction!(io::parse_text_table, m)?)?;
     m.add_function(wrap_pyfunction!(io::stl_records, m)?)?;
+    m.add_function(wrap_pyfunction!(simplify::simplify, m)?)?;
     m.add_class::<optimize::AnnealParams>()?;
     m.add_class::<optimize::Annealer>()?;
     m.add_class::<fusion::DepthView>()?;

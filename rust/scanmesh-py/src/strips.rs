@@ -6,7 +6,7 @@ use crate::convert::{
 };
 use crate::progress::{counter, ProgressCounter};
 use crate::results::{ScanSegments, StripResult};
-use crate::{to_py, ParameterError};
+use crate::{detached, to_py, ParameterError};
 use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -25,9 +25,8 @@ pub(crate) fn detect_lines<'py>(
     gap_factor: f64,
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let pts = points2(&uv)?;
-    let ids = py
-        .detach(|| scanmesh_core::strips::detect_lines(&pts, gap_factor))
-        .map_err(to_py)?;
+    let ids =
+        detached(py, || scanmesh_core::strips::detect_lines(&pts, gap_factor))?.map_err(to_py)?;
     Ok(Array1::from_iter(ids.into_iter().map(i64::from)).into_pyarray(py))
 }
 
@@ -43,9 +42,7 @@ pub(crate) fn scan_segments<'py>(
 ) -> PyResult<ScanSegments> {
     let pts = points2(&uv)?;
     let ids = line_ids_in(&line_ids, pts.len())?;
-    let scan = py
-        .detach(|| segment_lines(&pts, &ids, gap_factor))
-        .map_err(to_py)?;
+    let scan = detached(py, || segment_lines(&pts, &ids, gap_factor))?.map_err(to_py)?;
     let lines = scan
         .lines
         .iter()
@@ -239,12 +236,11 @@ pub(crate) fn strip_mesh<'py>(
     };
     // Copies (a few words each): a PyRef may not cross into the GIL-free closure.
     let (params, context, progress) = (params.0, context.map(|c| c.0), counter(progress));
-    let (mut mesh, duplicates) = py
-        .detach(|| {
-            let context = context.as_ref();
-            stitch_part(&pts, &plane, &ids, gap_factor, &params, context, &progress)
-        })
-        .map_err(to_py)?;
+    let (mut mesh, duplicates) = detached(py, || {
+        let context = context.as_ref();
+        stitch_part(&pts, &plane, &ids, gap_factor, &params, context, &progress)
+    })?
+    .map_err(to_py)?;
     Ok(StripResult {
         faces: faces_out(py, &std::mem::take(&mut mesh.triangles))?.unbind(),
         unused: indices_out(py, &mesh.unused).unbind(),

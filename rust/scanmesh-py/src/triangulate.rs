@@ -7,7 +7,7 @@ use crate::convert::{
 };
 use crate::progress::{counter, ProgressCounter};
 use crate::results::{GridTriangles, TrimmedDelaunay};
-use crate::{to_py, ParameterError};
+use crate::{detached, to_py, ParameterError};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -40,9 +40,7 @@ pub(crate) fn project<'py>(
             )))
         }
     };
-    let p = py
-        .detach(|| scanmesh_core::projection::project(&pts, plane))
-        .map_err(to_py)?;
+    let p = detached(py, || scanmesh_core::projection::project(&pts, plane))?.map_err(to_py)?;
     let f = p.frame;
     let frame: Vec<f64> = [f.origin, f.u, f.v, f.normal]
         .iter()
@@ -64,9 +62,7 @@ pub(crate) fn delaunay<'py>(
     uv: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<(Ints2<'py>, Ints1<'py>)> {
     let pts = points2(&uv)?;
-    let d = py
-        .detach(|| scanmesh_core::triangulate::delaunay(&pts))
-        .map_err(to_py)?;
+    let d = detached(py, || scanmesh_core::triangulate::delaunay(&pts))?.map_err(to_py)?;
     Ok((
         faces_out(py, &d.triangles)?,
         duplicates_out(py, &d.duplicate_of),
@@ -99,17 +95,10 @@ pub(crate) fn delaunay_trimmed<'py>(
     let pts = points2_view(&uv)?;
     let xyz = matching_points(&points, pts.len())?;
     let progress = counter(progress);
-    let t = py
-        .detach(|| {
-            scanmesh_core::triangulate::delaunay_trimmed(
-                &pts,
-                &xyz,
-                max_edge,
-                jump_factor,
-                &progress,
-            )
-        })
-        .map_err(to_py)?;
+    let t = detached(py, || {
+        scanmesh_core::triangulate::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor, &progress)
+    })?
+    .map_err(to_py)?;
     Ok(TrimmedDelaunay {
         faces: faces_out(py, &t.triangles)?.unbind(),
         duplicate_of: duplicates_out(py, &t.duplicate_of).unbind(),
@@ -153,11 +142,10 @@ pub(crate) fn grid_triangulate<'py>(
         max_turn_deg,
         edge_factor,
     };
-    let t = py
-        .detach(|| {
-            scanmesh_core::triangulate::grid_triangulate(&cells, rows, cols, &pts, &xyz, params)
-        })
-        .map_err(to_py)?;
+    let t = detached(py, || {
+        scanmesh_core::triangulate::grid_triangulate(&cells, rows, cols, &pts, &xyz, params)
+    })?
+    .map_err(to_py)?;
     Ok(GridTriangles {
         faces: faces_out(py, &t.triangles)?.unbind(),
         candidates: t.candidates,
@@ -179,8 +167,7 @@ pub(crate) fn median_spacing(
 ) -> PyResult<f64> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    py.detach(|| scanmesh_core::triangulate::median_spacing(&pts, &t))
-        .map_err(to_py)
+    detached(py, || scanmesh_core::triangulate::median_spacing(&pts, &t))?.map_err(to_py)
 }
 
 /// Drops faces whose longest planar edge exceeds `max_edge` and, given the (N, 3) `points`,
@@ -211,9 +198,10 @@ pub(crate) fn trim_long_edges<'py>(
             factor: jump_factor,
             gaps: true,
         });
-    let kept = py
-        .detach(|| scanmesh_core::triangulate::trim_long_edges(&pts, &t, max_edge, jumps))
-        .map_err(to_py)?;
+    let kept = detached(py, || {
+        scanmesh_core::triangulate::trim_long_edges(&pts, &t, max_edge, jumps)
+    })?
+    .map_err(to_py)?;
     faces_out(py, &kept)
 }
 
@@ -227,8 +215,10 @@ pub(crate) fn validate(
 ) -> PyResult<()> {
     let pts = scanmesh_core::geometry::unit_square(&points2(&uv)?);
     let t = faces(&faces_, pts.len())?;
-    py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts)))
-        .map_err(to_py)
+    detached(py, || {
+        HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts))
+    })?
+    .map_err(to_py)
 }
 
 /// (N, 3) `points` borrowed as `DVec3`s, checked to be as many as the `planar` points a

@@ -173,7 +173,8 @@ fn extract_from(
     // the order first met; placed afterwards on every core
     let mut cell_vertex: HashMap<usize, u32> = HashMap::new();
     let mut cells: Vec<usize> = Vec::new();
-    let mut quads: Vec<([u32; 4], u8)> = Vec::new();
+    // per quad: its cells' vertices, its label and the grid edge it crosses
+    let mut quads: Vec<([u32; 4], u8, [usize; 2])> = Vec::new();
     let [nx, ny, nz] = grid.dims;
     let steps = [1, nx, nx * ny];
     for axis in 0..3 {
@@ -227,21 +228,42 @@ fn extract_from(
                         })
                     });
                     budget::try_grow("the fused mesh's quads", &mut quads, 1)?;
-                    quads.push((ids, grid.label(a, b, &side)));
+                    quads.push((ids, grid.label(a, b, &side), [a, b]));
                 }
             }
         }
     }
     drop(cell_vertex);
     walked.finish();
-    let placing = Share::new(progress, place, cells.len() as u64);
-    let placed: Vec<(DVec3, Placed)> = budget::try_par_collect(
-        "the fused mesh's vertices",
-        cells.par_iter().map(|&c| {
-            placing.add(1); // a cell takes thousands of operations: one add is nothing
-            grid.place(c, &side, &near, samples, normals, views)
+    // the crossings and the vertices placed: one share of the progress (a crossing or a
+    // cell takes thousands of operations: one add each is nothing)
+    let placing = Share::new(progress, place, (quads.len() + cells.len()) as u64);
+    // each crossed edge's crossing once (its four cells share it), then each cell's mass
+    // point: the mean of its edges' crossings
+    let crossings: Vec<DVec3> = budget::try_par_collect(
+        "the fused mesh's crossings",
+        quads.par_iter().map(|&(_, _, [a, b])| {
+            placing.add(1);
+            grid.edge_crossing(a, b, &side, views)
         }),
     )?;
+    let mut mass: Vec<(DVec3, f64)> =
+        budget::try_filled("the fused mesh's vertices", (DVec3::ZERO, 0.0), cells.len())?;
+    for ((ids, _, _), p) in quads.iter().zip(&crossings) {
+        for &id in ids {
+            mass[id as usize].0 += *p;
+            mass[id as usize].1 += 1.0;
+        }
+    }
+    drop(crossings);
+    let placed: Vec<(DVec3, Placed)> = budget::try_par_collect(
+        "the fused mesh's vertices",
+        cells.par_iter().zip(&mass).map(|(&c, &(sum, n))| {
+            placing.add(1);
+            grid.place(c, sum / n, &side, &near, samples, normals)
+        }),
+    )?;
+    drop(mass);
     placing.finish();
     out.vertices = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.0))?;
     let placed = budget::try_collect("the fused mesh's vertices", placed.iter().map(|v| v.1))?;
@@ -251,7 +273,7 @@ fn extract_from(
     )?;
     budget::try_grow("the fused mesh's faces", &mut out.faces, 2 * quads.len())?;
     budget::try_grow("the fused mesh's faces", &mut out.labels, 2 * quads.len())?;
-    for (ids, label) in quads {
+    for (ids, label, _) in quads {
         for t in split(&out.vertices, ids) {
             out.faces.push(t);
             out.labels.push(label);
@@ -511,15 +533,28 @@ impl<'a> Grid<'a> {
         (sum / found).clamp(-1.0, 2.0)
     }
 
-    /// The vertex of cell `cell` (its lowest node's index), and how samples placed it.
+    /// The point where the surface crosses the grid edge from node `a` to node `b` (one
+    /// step up an axis; their sides differ).
+    fn edge_crossing(&self, a: usize, b: usize, side: &Sides, views: &[&DepthView]) -> DVec3 {
+        let [i, j, k] = self.coords(a);
+        let [p, q] = [self.volume.node(i, j, k), {
+            let [i, j, k] = self.coords(b);
+            self.volume.node(i, j, k)
+        }];
+        let (fa, fb) = (self.value(a, side), self.value(b, side));
+        p.lerp(q, self.crossing([a, b], p, q, fa, fb, views))
+    }
+
+    /// The vertex of cell `cell` (its lowest node's index) whose edges' crossings have the
+    /// mean `mass`, and how samples placed it.
     fn place(
         &self,
         cell: usize,
+        mass: DVec3,
         side: &Sides,
         near: &SampleIndex,
         samples: &[DVec3],
         normals: &[DVec3],
-        views: &[&DepthView],
     ) -> (DVec3, Placed) {
         let c = self.corners(cell);
         let f = c.map(|n| self.value(n, side));
@@ -533,23 +568,6 @@ impl<'a> Grid<'a> {
             (0..8).map(|q| if q & 2 != 0 { f[q] } else { -f[q] }).sum(),
             (0..8).map(|q| if q & 4 != 0 { f[q] } else { -f[q] }).sum(),
         );
-        // the mass point: the mean of the crossings on the cell's 12 edges
-        let (mut sum, mut crossings) = (DVec3::ZERO, 0.0);
-        let corner = |m: usize| {
-            lo + DVec3::new((m & 1) as f64, ((m >> 1) & 1) as f64, ((m >> 2) & 1) as f64) * voxel
-        };
-        for q in 0..8 {
-            for bit in [1, 2, 4] {
-                let r = q | bit;
-                if r == q || (side.get(c[q]) & INSIDE) == (side.get(c[r]) & INSIDE) {
-                    continue;
-                }
-                let t = self.crossing([c[q], c[r]], corner(q), corner(r), f[q], f[r], views);
-                sum += corner(q).lerp(corner(r), t);
-                crossings += 1.0;
-            }
-        }
-        let mass = sum / crossings;
         // the samples' tangent planes fix the vertex across the surface (and at creases
         // along it), nearer samples more; the mass point fixes it where they leave it free,
         // as in dual contouring
@@ -601,6 +619,7 @@ impl<'a> Grid<'a> {
 #[cfg(test)]
 mod tests {
     use super::super::depth::DepthView;
+    use super::super::testing::{fused_volume, view_from_above};
     use super::*;
     use std::collections::HashMap as Map;
 
@@ -623,26 +642,14 @@ mod tests {
     /// returns at z = 5 for 3 <= i, j <= 8 and none elsewhere, integrated and carved into a
     /// 14 × 14 × 10 grid of unit voxels from (−1, −1, −1).
     fn plateau_from_above(shift: f64) -> (DepthView, Volume) {
-        let (w, h) = (12, 12);
-        let depth: Vec<f64> = (0..w * h)
-            .map(|p| {
-                let (i, j) = (p % w, p / w);
-                if (3..9).contains(&i) && (3..9).contains(&j) {
-                    5.0
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect();
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        (pose[3], pose[7]) = (shift, shift);
-        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
-        let mut vol = Volume::new([-1.0, -1.0, -1.0], 1.0, [14, 14, 10], 2.0).unwrap();
-        vol.integrate(&view).unwrap();
-        vol.carve(&view).unwrap();
+        let view = view_from_above([shift; 2], 1.0, [12, 12], |i, j| {
+            if (3..9).contains(&i) && (3..9).contains(&j) {
+                5.0
+            } else {
+                f64::NAN
+            }
+        });
+        let vol = fused_volume(&view, [-1.0, -1.0, -1.0], [14, 14, 10], 2.0);
         (view, vol)
     }
 
@@ -706,25 +713,14 @@ mod tests {
     /// may differ gives the mesh the walk over every node gives, vertex for vertex.
     #[test]
     fn walking_the_active_blocks_gives_the_mesh_of_walking_every_node() {
-        let (w, h) = (44, 44);
-        let depth: Vec<f64> = (0..w * h)
-            .map(|p| {
-                let (i, j) = (p % w, p / w);
-                if (10..25).contains(&i) && (10..25).contains(&j) && p % 13 != 5 {
-                    12.0 + 0.01 * (i as f64 - 0.3 * j as f64)
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect();
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        let view = DepthView::new(pose, [0.0; 2], 1.0, w, h, depth, vec![1.0; w * h]).unwrap();
-        let mut vol = Volume::new([-1.7, -2.2, -1.4], 1.0, [46, 45, 27], 3.0).unwrap();
-        vol.integrate(&view).unwrap();
-        vol.carve(&view).unwrap();
+        let view = view_from_above([0.0; 2], 1.0, [44, 44], |i, j| {
+            if (10..25).contains(&i) && (10..25).contains(&j) && (j * 44 + i) % 13 != 5 {
+                12.0 + 0.01 * (i as f64 - 0.3 * j as f64)
+            } else {
+                f64::NAN
+            }
+        });
+        let vol = fused_volume(&view, [-1.7, -2.2, -1.4], [46, 45, 27], 3.0);
         let samples: Vec<DVec3> = (10..25)
             .flat_map(|i| (10..25).map(move |j| DVec3::new(i as f64, j as f64, 12.0)))
             .collect();
@@ -754,14 +750,13 @@ mod tests {
     fn two_columns_touching_along_an_edge_are_repaired_into_one_manifold() {
         // rays through pixels (2, 2) and (3, 3) meet a surface above the grid (so the grid
         // is behind it: unseen); every other ray has no return and carves
-        let mut pose = [0.0; 16];
-        for k in 0..4 {
-            pose[k * 5] = 1.0;
-        }
-        let depth: Vec<f64> = (0..36)
-            .map(|p| if p == 14 || p == 21 { 100.0 } else { f64::NAN })
-            .collect();
-        let view = DepthView::new(pose, [0.0; 2], 1.0, 6, 6, depth, vec![1.0; 36]).unwrap();
+        let view = view_from_above([0.0; 2], 1.0, [6, 6], |i, j| {
+            if [(2, 2), (3, 3)].contains(&(i, j)) {
+                100.0
+            } else {
+                f64::NAN
+            }
+        });
         let mut vol = Volume::new([0.0; 3], 1.0, [6, 6, 6], 1.0).unwrap();
         vol.carve(&view).unwrap();
         assert_eq!(vol.evidence(vol.index(2, 2, 3)), Evidence::Unseen);

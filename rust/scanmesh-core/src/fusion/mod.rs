@@ -13,6 +13,8 @@ pub(crate) mod flips;
 pub(crate) mod footprint;
 pub(crate) mod samples;
 pub(crate) mod sides;
+#[cfg(test)]
+mod testing;
 pub(crate) mod tsdf;
 pub(crate) mod walls;
 
