@@ -12,6 +12,7 @@ use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple, PyType};
 use scanmesh_core::Error;
 
+mod arena;
 mod convert;
 mod criteria;
 mod exact;
@@ -102,6 +103,7 @@ pub(crate) fn to_py(e: Error) -> PyErr {
 /// panicked there, and the process hung). Every call into parallel work of the core goes
 /// through here. O(1) after the first call.
 pub(crate) fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    arena::share_arena_under_address_limit();
     scanmesh_core::pool::start_pool().map_err(to_py)?;
     Ok(py.detach(f))
 }
