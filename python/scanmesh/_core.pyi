@@ -184,7 +184,9 @@ class FusionVolume:
         samples: npt.NDArray[np.float64],
         normals: npt.NDArray[np.float64],
         views: list[DepthView],
-    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int]: ...
+    ) -> tuple[
+        npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int, dict[str, int]
+    ]: ...
 
 @final
 class AnnealParams:

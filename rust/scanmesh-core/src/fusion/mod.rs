@@ -13,6 +13,7 @@ pub(crate) mod flips;
 pub(crate) mod footprint;
 pub(crate) mod samples;
 pub(crate) mod sides;
+pub(crate) mod topology;
 pub(crate) mod tsdf;
 pub(crate) mod walls;
 
