@@ -141,7 +141,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
     if thin["handles"]:
         shape_text += (
             f" ({thin['handles']} thin handles taken off: {thin['closed']:,} nodes filled,"
-            f" {thin['opened']:,} cut, at most {thin['largest']} at once)"
+            f" at most {thin['largest']} at once)"
         )
     if row["refine_residual"]:
         res = row["refine_residual"]

@@ -147,10 +147,10 @@ def merge(
         ``face_labels`` (M,) uint8 codes into ``Surface.LABELS``; the pieces under 1 % of
         the largest one's area are taken off (:mod:`scanmesh.fusion.pieces`), what went
         is ``options["specks_removed"]`` (pieces, faces, area, largest speck's faces);
-        before the extraction, thin bridges and tunnels of nodes the views measured poorly
-        are taken off where that takes a handle off: ``options["thin_handles"]`` (the
-        Euler characteristic gained, "handles"; the nodes moved inside, "closed", and
-        outside, "opened"; the "largest" group moved at once).
+        before the extraction, thin tunnels of nodes the views measured poorly are filled
+        where that takes a handle off: ``options["thin_handles"]`` (the Euler
+        characteristic gained, "handles"; the nodes filled, "closed"; the "largest" group
+        filled at once).
     """
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(

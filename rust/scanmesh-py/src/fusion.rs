@@ -139,7 +139,7 @@ impl FusionVolume {
     /// The closed mesh of the zero set: (vertices (V, 3) float64, faces (M, 3) int64
     /// counter-clockwise from outside, labels (M,) uint8 (0 measured, 1 inferred, 2
     /// filled), nodes moved by the manifold repair, and the thin handles taken off before
-    /// it: a dict of "handles", "closed" and "opened" nodes, "largest" group of nodes).
+    /// it: a dict of "handles", "closed" nodes, "largest" group of nodes).
     /// Vertices are placed on `samples`
     /// (S, 3) with outward unit `normals` (S, 3); `views`, the list integrated and carved
     /// in the order carved, place the surface between nodes where their rays' evidence
@@ -177,7 +177,6 @@ impl FusionVolume {
             HashMap::from([
                 ("handles", fused.settled.handles),
                 ("closed", fused.settled.closed),
-                ("opened", fused.settled.opened),
                 ("largest", fused.settled.largest),
             ]),
         ))
