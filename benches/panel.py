@@ -22,9 +22,14 @@ scan from a temporary .npz, so the memory column is that process's peak resident
 (``resource.getrusage(RUSAGE_SELF).ru_maxrss``) right after ``reconstruct``: the
 interpreter, numpy, the scan and the method together, the figure a user sees (the error
 measures run after it and are not counted). Wall time is the main ``reconstruct`` call only;
-"x LOP" is it over LOP's on the same scan in the same run.
+"x LOP" is it over LOP's on the same scan in the same run; CPU seconds are the same call's
+``time.process_time`` (every thread of the process), which other processes' load does not
+inflate: on an idle machine the wall time is at most about the CPU time.
 A run still going after ``--cap`` seconds is stopped and its cells read "timed out"
 (figures already measured are kept: the reconstruction may finish and the holdout not).
+With the default among the methods, a summary comes first: per scan the default's error
+over the best other method's and strips-anneal's, its slivers and tac_1, and its wall time
+over LOP's and its CPU seconds (``summary``).
 
     python benches/panel.py --quick                       # a few minutes on 2 cores
     python benches/panel.py --out panel.md                # the full panel
@@ -233,12 +238,13 @@ def child(kind: str, info: dict, method: str, out: mp.Queue) -> None:
         kw["lines"] = lines
     if method in SEEDED:
         kw["seed"] = 0
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     surface = scanmesh.reconstruct(pts, method, **kw)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     q = surface.quality
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB -> MiB (Linux)
-    out.put({"wall": wall, "tac_1": q.tac_1, "slivers": q.sliver_fraction, "peak_mb": peak})
+    figures = {"wall": wall, "cpu": cpu, "tac_1": q.tac_1, "slivers": q.sliver_fraction}
+    out.put({**figures, "peak_mb": peak})
     if kind == "sim":
         truth = TrueSurface(info["truth"])
         mesh = (surface.vertices, surface.faces)
@@ -291,7 +297,8 @@ def cell(got: dict, key: str, fmt: str) -> str:
 def table(rows: list[tuple[dict, dict, str, dict]]) -> str:
     head = (
         "| scan | points | method | error | normal err (deg) | tac_1 | slivers | wall (s)"
-        " | x LOP | peak RSS (MiB) |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n"
+        " | x LOP | CPU (s) | peak RSS (MiB) |\n"
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     )
     lop_wall = {s["name"]: g["wall"] for s, _, m, g in rows if m == "lop" and "wall" in g}
     lines = []
@@ -311,9 +318,57 @@ def table(rows: list[tuple[dict, dict, str, dict]]) -> str:
         lines.append(
             f"| {scan['name']} | {info['n']:,} | {method} | {err} | {normal}"
             f" | {cell(got, 'tac_1', '.5g')} | {slivers} | {cell(got, 'wall', '.2f')}"
-            f" | {ratio} | {cell(got, 'peak_mb', '.0f')} |"
+            f" | {ratio} | {cell(got, 'cpu', '.2f')} | {cell(got, 'peak_mb', '.0f')} |"
         )
     return head + "\n".join(lines) + "\n"
+
+
+#: The methods the default is compared with ("best other method"): all but the default and
+#: the hybrid it usually builds (shown alone in its own column).
+OTHERS = ("delaunay", "lop", "lookahead", "shortest-path", "anneal")
+
+
+def summary(rows: list[tuple[dict, dict, str, dict]]) -> str:
+    """Per scan: the default's error against the best other method's (:data:`OTHERS`) and
+    strips-anneal's, its slivers and tac_1 (beside the strips' and LOP's) and its wall time
+    over LOP's in the same run, and its CPU seconds (every thread of its process: unlike
+    wall seconds they do not grow with other processes' load, and on an idle machine the
+    wall time is at most about them). Empty without the default's rows."""
+    key = {"real": "holdout", "sim": "h_rms"}
+    by: dict[str, dict] = {}
+    for scan, info, method, got in rows:
+        by.setdefault(scan["name"], {"scan": scan, "info": info})[method] = got
+    head = (
+        "| scan | points | the default's error | best other method | ratio | strips-anneal"
+        " alone (ratio) | slivers | tac_1 (strips' / LOP's) | time / LOP | CPU (s) |\n"
+        "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|\n"
+    )
+    lines = []
+    for name, got in by.items():
+        k = key[got["scan"]["kind"]]
+        auto = got.get("auto", {})
+        if k not in auto:
+            continue
+        others = {m: got[m][k] for m in OTHERS if k in got.get(m, {})}
+        best = min(others, key=others.__getitem__) if others else None
+        ratio = f"**{auto[k] / others[best]:.3f}**" if best else ""
+        alone = got.get("strips-anneal", {}).get(k)
+        alone = f"{alone / others[best]:.3f}" if best and alone is not None else ""
+        lop = got.get("lop", {})
+        strips = got.get("shortest-path", {})
+        tac = (
+            f"{auto['tac_1']:.5g} ({strips.get('tac_1', math.nan):.5g} /"
+            f" {lop.get('tac_1', math.nan):.5g})"
+        )
+        time_ratio = f"{auto['wall'] / lop['wall']:.2f}" if "wall" in lop else ""
+        lines.append(
+            f"| {name} | {got['info']['n']:,} | {auto[k]:.4g} |"
+            f" {best} {others[best]:.4g} | {ratio} | {alone} | {100 * auto['slivers']:.2f} %"
+            f" | {tac} | {time_ratio} | {cell(auto, 'cpu', '.2f')} |"
+            if best
+            else f"| {name} | {got['info']['n']:,} | {auto[k]:.4g} | | | | | | | |"
+        )
+    return head + "\n".join(lines) + "\n" if lines else ""
 
 
 def main() -> None:
@@ -345,6 +400,8 @@ def main() -> None:
                 rows.append((scan, info, method, got))
                 print(table(rows).splitlines()[-1], file=sys.stderr, flush=True)
     text = table(rows)
+    if "auto" in methods:
+        text = summary(rows) + "\n" + text
     if args.out:
         args.out.write_text(text)
     else:

@@ -52,6 +52,66 @@ def test_the_test_file_is_what_its_generator_writes():
     assert STEPS.read_text() == steps_range_grid()
 
 
+LEDGE = DATA / "scans" / "ledge_range_grid.ply"
+
+
+def ledge_range_grid() -> str:
+    """The text of tests/data/scans/ledge_range_grid.ply: a Cyberware-style range grid (16
+    frames of 20 samples, 0.5 apart, seen along z) of a floor and a ledge 3.5 above it whose
+    face the scanner grazes: the two samples either side of it are 0.2 apart across, so a
+    face between them stands 3.3 degrees off the rays. Seen along z it is a curtain; over
+    the plane the points choose (tilted from z) it is not steep."""
+    cols, rows, step = 16, 20, 0.5
+    cells, pts = [], []
+    for r in range(rows):
+        for c in range(cols):
+            y = r * step if r < 10 else 4.7 + (r - 10) * step
+            cells.append(f"1 {len(pts)}")
+            pts.append((c * step, y, 0.0 if r < 10 else 3.5))
+    vertices = [f"{x:g} {y:g} {z:g}" for x, y, z in pts]
+    comment = "synthetic range grid: a ledge grazed by the rays, seen along z"
+    return cyberware_range_grid(rows, cols, step, vertices, cells, comment)
+
+
+def test_the_ledge_file_is_what_its_generator_writes():
+    assert LEDGE.read_text() == ledge_range_grid()
+
+
+def _long_curtains(points: np.ndarray, faces: np.ndarray, sight) -> int:
+    """Faces within 5 degrees of ``sight`` whose longest edge exceeds 4 x the median edge
+    (the real-scan curtain), counted face by face."""
+    edges = np.linalg.norm(points[faces] - points[np.roll(faces, 1, axis=1)], axis=2)
+    long = edges.max(axis=1) > 4.0 * np.median(edges)
+    return int((long & (_angles_to_sight(points, faces, sight) <= 5.0)).sum())
+
+
+def test_a_range_grid_is_seen_along_its_z_axis(tmp_path):
+    np.testing.assert_array_equal(scanmesh.read(LEDGE).up, [0.0, 0.0, 1.0])
+    # a recorded up wins over the range image's axis
+    up_y = tmp_path / "up_y.ply"
+    head = "format ascii 1.0\n"
+    up_y.write_text(ledge_range_grid().replace(head, head + "comment scanmesh up 0 1 0\n"))
+    np.testing.assert_array_equal(scanmesh.read(up_y).up, [0.0, 1.0, 0.0])
+
+
+@pytest.mark.parametrize("method", ["auto", "grid", "lop", "anneal"])
+def test_no_curtain_along_the_scanners_rays_whatever_the_plane(method):
+    # the plane the points choose (best-fit, 7 degrees off z) and one tilted 40 degrees:
+    # the rule judges faces against the rays (z), not the plane's normal, so the face across
+    # the ledge goes and the report counts along z (it kept 30 and reported 0)
+    tilted = (0.0, -math.sin(math.radians(40.0)), math.cos(math.radians(40.0)))
+    for plane in (None, tilted):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            s = scanmesh.reconstruct(LEDGE, method, plane=plane)
+        assert _long_curtains(s.vertices, s.faces, (0.0, 0.0, 1.0)) == 0
+        at_5 = _angles_to_sight(s.vertices, s.faces, (0.0, 0.0, 1.0)) <= CURTAIN_ANGLE_DEG
+        assert s.options["curtains"]["count"] == int(at_5.sum())
+        # both levels are kept: only the faces across the ledge went
+        assert np.isin(np.flatnonzero(s.vertices[:, 2] > 1.0), s.faces).all()
+        assert np.isin(np.flatnonzero(s.vertices[:, 2] < 1.0), s.faces).all()
+
+
 def _angles_to_sight(points: np.ndarray, faces: np.ndarray, sight) -> np.ndarray:
     """Degrees between each face's plane and the line of sight, face by face (brute force)."""
     s = np.asarray(sight, dtype=float) / np.linalg.norm(sight)
@@ -71,7 +131,7 @@ def test_grid_drops_the_curtains_of_a_range_grid_ply_and_keeps_both_levels():
         s = scanmesh.reconstruct(sp, "grid")
     pts = sp.points
     # every face is seen by the scanner: its normal within max_turn of the line of sight
-    # (no recorded up: the normal of the plane chosen), its edges short
+    # (the range image's z, recorded as up), its edges short
     normal_tilt = 90 - _angles_to_sight(pts, s.faces, s.scan.sight)
     assert normal_tilt.max() <= s.options["max_turn"]
     edges = np.linalg.norm(pts[s.faces] - pts[np.roll(s.faces, 1, axis=1)], axis=2)
@@ -248,7 +308,7 @@ def test_the_command_reports_curtains(tmp_path):
     assert main([*args, "--method", "grid", "-q"]) == 0
     data = json.loads(report.read_text())
     assert data["options"]["curtains"]["count"] == 0
-    assert data["options"]["curtains"]["sight"] == "projection normal"
+    assert data["options"]["curtains"]["sight"] == "recorded up"  # the range image's z
     assert main([*args, "--method", "delaunay", "--max-edge", "inf", "-q"]) == 0
     data = json.loads(report.read_text())
     assert data["options"]["curtains"]["count"] > 0

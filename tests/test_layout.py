@@ -1,5 +1,6 @@
 """The package's layout: no import circle among scanmesh's modules, no function-local import
-of a scanmesh module (such an import only hides a circle), no file over 800 lines, and no
+of a scanmesh module (such an import only hides a circle; the command's entry point alone
+defers its import of the command, which is its purpose), no file over 800 lines, and no
 module named after a public attribute of ``scanmesh`` (the function would hide the module)."""
 
 from __future__ import annotations
@@ -12,6 +13,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "python" / "scanmesh"
 MAX_LINES = 800
+
+#: The module that imports scanmesh inside a function on purpose: the command's entry point
+#: imports the command once its Ctrl-C handler is in place.
+DEFERRED_IMPORT = "scanmesh._entry_point"
 
 
 def module_name(path: Path) -> str:
@@ -130,6 +135,8 @@ def test_no_function_local_import_of_scanmesh():
     modules = all_modules()
     found = []
     for name, path in modules.items():
+        if name == DEFERRED_IMPORT:
+            continue
         tree = ast.parse(path.read_text(), str(path))
         for node in local_imports(tree):
             if imported(name, path, node, modules) or (

@@ -13,57 +13,95 @@ import textwrap
 from pathlib import Path
 
 import pytest
+import trimesh
+
+from conftest import write_views
+from scanmesh.evaluate.digitizer import axis_views
 
 pytestmark = pytest.mark.skipif(
     not Path("/proc/self/status").exists(), reason="the limits are read from /proc (Linux)"
 )
 
+
+def limited_child(make: str, command: str, call: str) -> str:
+    """The script of a child process that makes its inputs (``make``, from its arguments),
+    then limits its address space to ``room`` bytes above what it holds, then runs the
+    command (``command``, when ``what`` is "command": its exit status is the child's) or
+    the API call ``call``, printing "built", or "refused: " and the MemoryLimitError."""
+    head = """
+        import resource, sys
+        import numpy as np
+        import scanmesh
+        from scanmesh.cli import main
+        """
+    limit = """
+        np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
+        size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
+                    if l.startswith("VmSize:"))
+        resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
+        if what == "command":
+        """
+    outcome = """
+            print("built")
+        except scanmesh.MemoryLimitError as e:
+            assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
+            print("refused:", e)
+        """
+    body = textwrap.dedent
+    return "".join(
+        [
+            body(head),
+            body(make),
+            body(limit),
+            textwrap.indent(body(command), "    "),
+            "try:\n",
+            textwrap.indent(body(call), "    "),
+            body(outcome),
+        ]
+    )
+
+
+def run(script: str, args: tuple[object, ...], timeout: float) -> subprocess.CompletedProcess[str]:
+    """``script`` in a child with ``args``; a child still running after ``timeout`` seconds
+    is killed (subprocess.TimeoutExpired)."""
+    return subprocess.run(
+        [sys.executable, "-c", script, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
 # A wavy grid of points in scan order; `room` is what the limit leaves above the process's
 # address space once they exist, far below what any stage needs for them.
-CHILD = textwrap.dedent(
+CHILD = limited_child(
     """
-    import resource, sys
-    import numpy as np
-    import scanmesh
-    from scanmesh.cli import main
-
     what, n, room = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     side = int(n ** 0.5)
     g = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2) * 1.0
     X = np.c_[g, np.sin(g[:, 0] / 7)]
     scan = scanmesh.planar_scan(X, plane="z")
-    np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
     faces = np.zeros((n, 3), dtype=np.int64)  # n faces on point 0: 50 n bytes of STL
     if what == "command":
         np.savetxt(sys.argv[4], X, fmt="%.6g")
-    size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
-                if l.startswith("VmSize:"))
-    resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
-    if what == "command":
-        sys.exit(main(["reconstruct", sys.argv[4], "-o", sys.argv[5], "--method", sys.argv[6],
-                       "--plane", "z", "--quiet"]))
-    try:
-        if what == "stl":
-            scanmesh._core.stl_records(X, faces)
-        elif what == "merge":  # the scan as one view from above, a voxel of half a spacing
-            scanmesh.merge([(X, np.eye(4))], voxel=0.5, max_voxels=10**12)
-        else:
-            scanmesh.reconstruct(scan, what, **({"sweeps": 1} if what == "anneal" else {}))
-        print("built")
-    except scanmesh.MemoryLimitError as e:
-        assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
-        print("refused:", e)
+    """,
     """
+    sys.exit(main(["reconstruct", sys.argv[4], "-o", sys.argv[5], "--method", sys.argv[6],
+                   "--plane", "z", "--quiet"]))
+    """,
+    """
+    if what == "stl":
+        scanmesh._core.stl_records(X, faces)
+    elif what == "merge":  # the scan as one view from above, a voxel of half a spacing
+        scanmesh.merge([(X, np.eye(4))], voxel=0.5, max_voxels=10**12)
+    else:
+        scanmesh.reconstruct(scan, what, **({"sweeps": 1} if what == "anneal" else {}))
+    """,
 )
 
 
 def run_child(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-c", CHILD, *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run(CHILD, args, timeout=120)
 
 
 @pytest.mark.slow
@@ -158,57 +196,43 @@ def test_merge_beyond_the_address_space_limit_is_refused_naming_what_did_not_fit
 
 # merge: the views made first, then the limit; every room ends in a mesh or a refusal
 
-MERGE_CHILD = textwrap.dedent(
+MERGE_CHILD = limited_child(
     """
-    import resource, sys
-    import numpy as np
     import trimesh
-    import scanmesh
-    from scanmesh.cli import main
     from scanmesh.evaluate.digitizer import axis_views
-    from scanmesh.fusion.views import toward_frame
 
-    what, room = sys.argv[1], int(sys.argv[2])
+    what, room, pool = sys.argv[1], int(sys.argv[2]), sys.argv[3]
     box = trimesh.creation.box((2.0, 1.0, 0.6))
     views = axis_views(box, 0.02, noise=0.0004, seed=1)
-    if what == "command":
-        import json
-        names, poses = [], []
-        for k, scan in enumerate(views):
-            turn = toward_frame(scan.up)
-            np.savetxt(f"{sys.argv[3]}/v{k}.xyz", scan.points @ turn.T)
-            pose = np.eye(4)
-            pose[:3, :3] = turn.T
-            names.append(f"{sys.argv[3]}/v{k}.xyz")
-            poses.append(pose.tolist())
-        with open(f"{sys.argv[3]}/poses.json", "w") as f:
-            json.dump(poses, f)
-    np.ones((512, 512)) @ np.ones((512, 512))  # OpenBLAS takes its buffers at its first product
-    # the core's thread pool starts at its first parallel call: a pool that cannot start
-    # (no room for its threads' stacks) panics, and the panic's own allocation fails (a hang)
-    scanmesh.quality(np.eye(3), [[0, 1, 2]])
-    size = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
-                if l.startswith("VmSize:"))
-    resource.setrlimit(resource.RLIMIT_AS, (size + room, resource.RLIM_INFINITY))
-    if what == "command":
-        sys.exit(main(["merge", *names, "--poses", f"{sys.argv[3]}/poses.json",
-                       "-o", f"{sys.argv[3]}/part.ply", "--voxel", "0.01", "--quiet"]))
-    try:
-        scanmesh.merge(views, voxel=0.01)
-        print("built")
-    except scanmesh.MemoryLimitError as e:
-        assert isinstance(e, scanmesh.ScanmeshError) and isinstance(e, MemoryError)
-        print("refused:", e)
+    if pool == "started":  # the core's thread pool starts at its first parallel call
+        scanmesh.quality(np.eye(3), [[0, 1, 2]])
+    """,
     """
+    names = [f"{sys.argv[4]}/v{k}.xyz" for k in range(len(views))]  # written by the parent
+    sys.exit(main(["merge", *names, "--poses", f"{sys.argv[4]}/poses.json",
+                   "-o", f"{sys.argv[4]}/part.ply", "--voxel", "0.01", "--quiet"]))
+    """,
+    """
+    if what == "quality":
+        scanmesh.quality(np.eye(3), [[0, 1, 2]])
+    else:
+        scanmesh.merge(views, voxel=0.01)
+    """,
 )
 
-def run_merge_child(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-c", MERGE_CHILD, *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+
+def run_merge_child(
+    what: str, room: int, folder: Path | None = None, pool: str = "started", timeout: float = 300
+) -> subprocess.CompletedProcess[str]:
+    """The merge child: ``what`` ("api", "quality", or "command" on the views written into
+    ``folder``), its ``room``, the core's thread pool "started" before the limit or
+    "unstarted"; killed after ``timeout`` seconds."""
+    args: tuple[object, ...] = (what, room, pool)
+    if folder is not None:
+        box = trimesh.creation.box((2.0, 1.0, 0.6))
+        write_views(axis_views(box, 0.02, noise=0.0004, seed=1), folder)
+        args += (folder,)
+    return run(MERGE_CHILD, args, timeout)
 
 
 def test_merge_refuses_what_it_can_foresee_and_names_what_it_could_not():
@@ -239,6 +263,30 @@ def test_merge_under_any_limit_builds_or_refuses_never_aborts():
 def test_the_merge_command_under_ulimit_v_ends_in_a_mesh_or_one_line(tmp_path):
     for room in (10_000_000, 40_000_000, 120_000_000):
         r = run_merge_child("command", room, tmp_path)
+        assert r.returncode in (0, 1), (room, r.returncode, r.stderr[-800:])
+        if r.returncode == 1:
+            lines = r.stderr.strip().splitlines()
+            assert len(lines) == 1 and lines[0].startswith("scanmesh: error: "), (room, lines)
+
+
+def test_the_thread_pool_started_under_the_limit_is_smaller_or_refused_never_a_hang(tmp_path):
+    """The core's thread pool starts at the first parallel call. Started under the limit,
+    rayon's own start panicked when a worker's stack did not fit, and the panic's own
+    allocations failed: the process hung (merge with 12-15 MB of room, killed by the
+    timeout). Now the pool starts with the workers that fit, and with none a
+    MemoryLimitError names the pool's threads, their stack and the limit; the next call
+    tries again."""
+    r = run_merge_child("quality", 1_000_000, pool="unstarted", timeout=60)
+    assert r.returncode == 0, (r.returncode, r.stderr[-800:])
+    assert r.stdout.startswith("refused: the core's thread pool ("), r.stdout
+    assert "worker threads, none could start" in r.stdout, r.stdout
+    assert "needs about 2.0 MiB" in r.stdout and "RLIMIT_AS (ulimit -v)" in r.stdout, r.stdout
+    for room in (3_000_000, 12_000_000, 15_000_000, 30_000_000, 120_000_000):
+        r = run_merge_child("api", room, pool="unstarted", timeout=60)
+        assert r.returncode == 0, (room, r.returncode, r.stderr[-800:])
+        assert r.stdout.startswith(("built", "refused: ")), (room, r.stdout)
+    for room in (12_000_000, 40_000_000):
+        r = run_merge_child("command", room, tmp_path, pool="unstarted", timeout=60)
         assert r.returncode in (0, 1), (room, r.returncode, r.stderr[-800:])
         if r.returncode == 1:
             lines = r.stderr.strip().splitlines()

@@ -4,6 +4,7 @@ on a window of the scan chooses the method, seeded; what each candidate measured
 from __future__ import annotations
 
 import dataclasses
+import threading
 
 import numpy as np
 import pytest
@@ -12,8 +13,10 @@ import trimesh
 import scanmesh
 from conftest import DATA, bumpy_patch
 from scanmesh import methods
+from scanmesh._context import QUIET
 from scanmesh.methods import DEFAULT_METHOD
 from scanmesh.scan.planar import as_scan
+from scanmesh.stages import anneal as anneal_stage
 from scanmesh.stages import choice
 
 
@@ -77,6 +80,193 @@ def test_the_lowest_holdout_wins_and_the_earlier_candidate_an_exact_tie(monkeypa
     assert built == {name: made.folds for name in ("bad", "good", "same")}
 
 
+def test_the_judge_builds_each_triangulation_once_a_part(monkeypatch):
+    """LOP starts from the part's Delaunay mesh and annealing from LOP's optimum: one
+    Delaunay triangulation per judged part (three before: Delaunay, LOP's start and
+    annealing's), and one more for the winner when it starts from Delaunay."""
+    monkeypatch.setattr(choice, "MEASURED", 3_000)
+    monkeypatch.setattr(choice, "CLEAR", float("inf"), raising=False)  # every tenth judged
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    calls = []
+    real = methods.delaunay
+
+    def counted(scan, **kwargs):
+        calls.append(len(scan.points))
+        return real(scan, **kwargs)
+
+    monkeypatch.setattr(methods, "delaunay", counted)
+    surface = scanmesh.reconstruct(bumpy_patch(400, 3), plane="z", seed=1)
+    made = surface.options["method_choice"]
+    assert made["folds"] == 10  # 40 withheld a tenth, every point once
+    final = surface.method in ("anneal", "lop", "delaunay")
+    assert calls == [360] * made["folds"] + [400] * final
+
+
+def test_the_judge_estimates_the_noise_once(monkeypatch):
+    """strips-anneal's tie tolerance follows the noise: estimated on the first part and
+    kept for the others (one estimate a part before), and once more for the winner when
+    it is strips-anneal."""
+    monkeypatch.setattr(choice, "CLEAR", float("inf"), raising=False)
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    estimated = []
+    real = anneal_stage.noise_tolerance
+
+    def counted(initial, p, given, floor):
+        if given is None:
+            estimated.append(len(initial.scan.points))
+        return real(initial, p, given, floor)
+
+    monkeypatch.setattr(anneal_stage, "noise_tolerance", counted)
+    surface = scanmesh.reconstruct(bumpy_patch(400, 3), plane="z", seed=1)
+    assert surface.options["method_choice"]["folds"] == 10
+    assert estimated == [360] + [400] * (surface.method == "strips-anneal")
+
+
+def test_the_judge_anneals_the_short_schedule_and_the_winner_the_full_one(monkeypatch):
+    monkeypatch.setattr(choice, "MEASURED", 1)
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    runs = []
+    real = anneal_stage.build_anneal
+
+    def recorded(initial, params, context=QUIET, fixed=None):
+        out = real(initial, params, context, fixed)
+        runs.append((len(initial.scan.points), initial.method, out.options["sweeps"]))
+        return out
+
+    monkeypatch.setattr(anneal_stage, "build_anneal", recorded)
+    surface = scanmesh.reconstruct(bumpy_patch(400, 3), plane="z", seed=1, method="auto")
+    judged = [r for r in runs if r[0] == 360]
+    assert sorted(r[1] for r in judged) == ["lop", "shortest-path"]
+    assert {r[2] for r in judged} == {methods.JUDGE_SCHEDULE["sweeps"]}
+    final = [r for r in runs if r[0] == 400]
+    if surface.method in ("anneal", "strips-anneal"):
+        assert len(final) == 1 and final[0][2] > methods.JUDGE_SCHEDULE["sweeps"]
+    else:
+        assert final == []
+
+
+def _offset_builds(offsets: dict[str, float], built: dict[str, int] | None = None):
+    """A judge's ``build``: the part's Delaunay mesh raised by ``offsets[name]`` (builds
+    counted in ``built``)."""
+
+    def build(name, part):
+        if built is not None:
+            built[name] = built.get(name, 0) + 1
+        surface = scanmesh.reconstruct(part, "delaunay")
+        return dataclasses.replace(surface, vertices=surface.vertices + [0.0, 0.0, offsets[name]])
+
+    return build
+
+
+def test_a_clear_verdict_stops_early_with_the_full_judges_choice(monkeypatch):
+    """6,000 points: tenths of 600, five until 3,000 are measured. A candidate 0.01 higher
+    than the surface is clear after the first tenth, and the early verdict is the full
+    judge's; an exact tie is never clear, so every tenth is judged."""
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(6_000, 4), plane="z")
+    build = _offset_builds({"high": 0.01, "exact": 0.0, "same": 0.0})
+    early = choice.choose(scan, build, candidates=("high", "exact"))
+    assert early.chosen == "exact" and early.folds == 1 and early.measured >= choice.CLEAR_MEASURED
+    monkeypatch.setattr(choice, "CLEAR", float("inf"))
+    full = choice.choose(scan, build, candidates=("high", "exact"))
+    assert full.folds == 5 and full.chosen == early.chosen
+    monkeypatch.setattr(choice, "CLEAR", 0.03)
+    tie = choice.choose(scan, build, candidates=("high", "exact", "same"))
+    assert tie.folds == 5 and tie.chosen == "exact"
+
+
+def test_a_candidate_behind_is_built_no_more_and_the_verdict_is_the_full_judges(monkeypatch):
+    """Two candidates tie exactly (never clear: every tenth judged), a third is 0.01 above
+    the surface: behind after the first tenth, it is not built again, and the verdict and
+    the others' figures are the full judge's."""
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(6_000, 4), plane="z")
+    built: dict[str, int] = {}
+    build = _offset_builds({"high": 0.01, "exact": 0.0, "same": 0.0}, built)
+    raced = choice.choose(scan, build, candidates=("high", "exact", "same"))
+    assert built == {"high": 1, "exact": 5, "same": 5} and raced.folds == 5
+    monkeypatch.setattr(choice, "CLEAR", float("inf"))
+    full = choice.choose(scan, build, candidates=("high", "exact", "same"))
+    assert raced.chosen == full.chosen == "exact"
+    assert raced.holdout["exact"] == full.holdout["exact"] == full.holdout["same"]
+    assert raced.holdout["high"] > 1.03 * raced.holdout["exact"]
+
+
+def test_lanes_build_side_by_side_with_the_figures_of_one_lane(monkeypatch):
+    """The registry's lanes: strips-anneal beside annealing with the LOP and Delaunay it
+    starts from. Lanes after the first are built in another thread; the figures are the
+    ones of all candidates built in turn."""
+    assert methods.judge_lanes(methods.CANDIDATES) == (
+        ("strips-anneal",),
+        ("anneal", "lop", "delaunay"),
+    )
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(3_000, 4), plane="z")
+    where: dict[str, set[str]] = {}
+    offsets = {"a": 0.0, "b": 0.001, "c": -0.002}
+    plain = _offset_builds(offsets)
+
+    def build(name, part):
+        where.setdefault(name, set()).add(threading.current_thread().name)
+        return plain(name, part)
+
+    beside = choice.choose(scan, build, ("a", "b", "c"), lanes=(("a",), ("b", "c")))
+    assert where == {"a": {"MainThread"}, "b": {"scanmesh-judge"}, "c": {"scanmesh-judge"}}
+    in_turn = choice.choose(scan, build, ("a", "b", "c"))
+    assert where["b"] == {"scanmesh-judge", "MainThread"}
+    assert beside == dataclasses.replace(in_turn, seconds=beside.seconds)
+
+
+def test_a_candidate_not_judged_is_built_no_more(monkeypatch):
+    """A mesh covering half the plane leaves half the withheld points outside (as the strips
+    do on the Autzen ground): not judged after the first tenth, it is not built again,
+    while two tied candidates are judged on every tenth; one leaving 16 % outside is not
+    judged either, but built on (the rod along its thickness: 10 %, judged on some tenths)."""
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(8_000, 4), plane="z")  # 4 tenths of 800
+    built: dict[str, int] = {}
+
+    def build(name, part):
+        built[name] = built.get(name, 0) + 1
+        surface = scanmesh.reconstruct(part, "delaunay")
+        if name in ("half", "most"):  # faces west of x = 0.5 (0.84): 50 % (16 %) outside
+            west = surface.vertices[surface.faces][:, :, 0].mean(axis=1) < 0.5 + 0.34 * (
+                name == "most"
+            )
+            return dataclasses.replace(surface, faces=surface.faces[west])
+        return surface
+
+    made = choice.choose(scan, build, candidates=("exact", "same", "half", "most"))
+    # "most" is not judged either (over OUTSIDE more outside) but might be on other
+    # tenths (under OUTSIDE_FAR): built on every one
+    assert built == {"exact": 4, "same": 4, "half": 1, "most": 4}
+    assert np.isnan(made.holdout["half"]) and made.outside["half"] > 350
+    assert np.isnan(made.holdout["most"])
+
+
+def test_a_lead_carried_by_a_few_points_does_not_put_a_candidate_behind(monkeypatch):
+    """A candidate far off at a few points only (a spike: the vertices within 0.03 of one
+    spot raised by 1) has a far larger RMS after the first tenth, but its paired
+    differences are a few points' (under CLEAR_Z standard errors): it is judged on more
+    tenths than one, as a heavy tail needs (the fandisk's creases)."""
+    monkeypatch.setattr(choice, "MIN_POINTS", 30)
+    scan = as_scan(bumpy_patch(6_000, 4), plane="z")
+    built: dict[str, int] = {}
+
+    def build(name, part):
+        built[name] = built.get(name, 0) + 1
+        surface = scanmesh.reconstruct(part, "delaunay")
+        if name == "spike":
+            near = np.linalg.norm(surface.vertices[:, :2] - 0.5, axis=1) < 0.03
+            raised = surface.vertices + near[:, None] * [0.0, 0.0, 1.0]
+            return dataclasses.replace(surface, vertices=raised)
+        return surface
+
+    made = choice.choose(scan, build, candidates=("exact", "spike"))
+    assert made.holdout["spike"] > 10 * made.holdout["exact"]
+    assert built["spike"] > 1 and made.chosen == "exact"
+
+
 def test_the_window_is_whole_lines_around_the_middle_and_the_folds_disjoint():
     lines = np.repeat(np.arange(100), 300)  # 30,000 points, 300 a line
     win = choice.window(lines, size=20_000)
@@ -102,6 +292,32 @@ def test_on_the_noisy_oblique_conrod_the_default_takes_delaunay():
     assert default.method == "delaunay"
     made = default.options["method_choice"]
     assert made["holdout"]["delaunay"] < made["holdout"]["anneal"]
+
+
+@pytest.mark.slow
+def test_on_the_noisy_oblique_conrod_the_judge_stops_early_with_the_full_verdict(monkeypatch):
+    """The same scan judged with candidates dropped once behind, and on every tenth with
+    none dropped: the same choice, in fewer builds."""
+    pts, lines = _turned_scan("conrod_slevin48_onshape.stl", "y", 1 / 30)
+    scan = as_scan(pts, plane="y", lines=lines)
+    quiet = methods.Keywords()
+
+    def judged(lanes):
+        builds = []
+        build = methods.judge_builder(quiet)
+
+        def counted(name, part):
+            builds.append(name)
+            return build(name, part)
+
+        return choice.choose(scan, counted, methods.CANDIDATES, lanes=lanes), len(builds)
+
+    (early, n_early) = judged(methods.judge_lanes(methods.CANDIDATES))
+    monkeypatch.setattr(choice, "CLEAR", float("inf"))
+    monkeypatch.setattr(choice, "OUTSIDE_FAR", float("inf"))
+    (full, n_full) = judged(None)
+    assert early.chosen == full.chosen == "delaunay"
+    assert n_early < n_full == full.folds * len(methods.CANDIDATES)
 
 
 def test_on_the_oblique_pocket_the_holdout_ties_and_the_first_candidate_stays():

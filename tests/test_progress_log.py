@@ -7,6 +7,7 @@ import threading
 import time
 
 import numpy as np
+import pytest
 
 import scanmesh._progress as progress_module
 from scanmesh._progress import LogProgress, Stage
@@ -100,6 +101,18 @@ def test_a_blocking_stage_is_reported_while_it_runs():
     assert last.endswith("points/s")
 
 
+def test_a_stage_of_nothing_is_not_reported_after_it_ends():
+    """A stage of 0 items (trimming that kept no face) stayed the running stage once closed:
+    the watcher wrote "trim: 0 faces in one native call" until the next stage began."""
+    clock, lines = FakeClock(), []
+    log = LogProgress(lines.append, interval=10.0, clock=clock, start=False)
+    with Stage(log, "trim", 0, blocking=True):
+        pass
+    clock.now = 30.0
+    log.tick()
+    assert lines == []
+
+
 def test_a_bar_is_drawn_in_a_terminal_without_a_size():
     """A pseudo-terminal that reports 0 columns (``script`` without a terminal around it):
     tqdm drew nothing there; the bar now gets a width of its own."""
@@ -158,3 +171,61 @@ def test_the_command_writes_progress_lines_to_a_log(tmp_path, monkeypatch, capsy
     for thread in started:
         thread.join(timeout=5)
     assert not [t.name for t in started if t.is_alive()]
+
+
+def _counts(err: str, stage: str) -> tuple[list[int], list[str]]:
+    """The done counts of ``stage``'s running lines in a log, and its closing lines."""
+    running = [line for line in err.splitlines() if line.startswith(f"scanmesh: {stage}: ")]
+    counts = [
+        int(line.split(": ")[2].split(" / ")[0].replace(",", ""))
+        for line in running
+        if " / " in line
+    ]
+    return counts, [line for line in running if " done in " in line]
+
+
+@pytest.mark.parametrize("method", ["delaunay", "shortest-path"])
+def test_a_native_stage_counts_in_the_log_while_it_runs(method, tmp_path, monkeypatch, capsys):
+    """Delaunay and the strips are one native call each: their lines said "in one native
+    call" until it returned; the core now counts its passes and the log's lines advance."""
+    from scanmesh.cli import main
+
+    rng = np.random.default_rng(1)
+    lines, per = 150, 800  # 120,000 points: a native call in a worker, about a second
+    x = np.repeat(np.arange(lines) * 0.25, per)
+    y = np.tile(np.linspace(0, 200, per), lines) + rng.normal(0, 0.01, lines * per)
+    scan = tmp_path / "scan.xyz"
+    np.savetxt(scan, np.column_stack([x, y, np.sin(x / 5) + np.cos(y / 30), x * 4]), fmt="%.4f")
+    monkeypatch.setattr(progress_module, "LOG_INTERVAL_SECONDS", 0.0)  # a line per count
+    out = tmp_path / "out.ply"
+    args = ["reconstruct", str(scan), "-o", str(out), "--method", method, "--columns", "x y z line"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    stage = "delaunay" if method == "delaunay" else "strips"
+    counts, closing = _counts(err, stage)
+    assert f"{stage}: 120,000 points in one native call" not in err
+    # the watcher repeats a count between two polls: never back, and forward at least twice
+    assert counts == sorted(counts) and len(set(counts)) >= 3, counts
+    assert counts[-1] <= lines * per
+    assert closing == [closing[0]] and closing[0].startswith(
+        f"scanmesh: {stage}: 120,000 points done"
+    )
+
+
+@pytest.mark.slow
+def test_merge_extraction_counts_in_the_log_while_it_runs(tmp_path, monkeypatch, capsys):
+    """merge's extraction said "0 %" (then "in one native call") for the whole stage."""
+    import trimesh
+
+    from conftest import write_views
+    from scanmesh.cli import main
+    from scanmesh.evaluate.digitizer import axis_views
+
+    box = trimesh.creation.box((2.0, 1.0, 0.6))
+    names, poses = write_views(axis_views(box, 0.012, noise=0.0002, seed=1), tmp_path)
+    monkeypatch.setattr(progress_module, "LOG_INTERVAL_SECONDS", 0.0)
+    out = tmp_path / "part.ply"
+    assert main(["merge", *names, "--poses", str(poses), "-o", str(out)]) == 0
+    counts, closing = _counts(capsys.readouterr().err, "extract")
+    assert counts == sorted(counts) and len(set(counts)) >= 3, counts
+    assert len(closing) == 1 and " nodes done in " in closing[0]

@@ -22,87 +22,121 @@ The public API:
 - :class:`ScanmeshError` - base of every input error (a ``ValueError``).
 """
 
-from importlib import metadata as _metadata
+from __future__ import annotations
 
-from scanmesh.demo import load_demo, load_rod
-from scanmesh.errors import (
-    ClosedPartWarning,
-    CoincidentPointsWarning,
-    CrossingLinesWarning,
-    CurtainsWarning,
-    DegenerateInputError,
-    FileFormatError,
-    InvalidMeshError,
-    MemoryLimitError,
-    MissingExtraError,
-    MissingFileError,
-    NotAHeightFieldWarning,
-    ParameterError,
-    ScanmeshError,
-    ScanmeshWarning,
-    SliversWarning,
-    UnusedPointsWarning,
-    WireZoomWarning,
-)
-from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
-from scanmesh.formats import ScanPoints, read
-from scanmesh.fusion import merge
-from scanmesh.fusion.views import View, read_conf
-from scanmesh.measures import Quality, quality
-from scanmesh.methods import METHODS
-from scanmesh.reconstruction import reconstruct
-from scanmesh.scan.lines import detect_lines
-from scanmesh.scan.noise import noise
-from scanmesh.scan.planar import PlanarScan, planar_scan
-from scanmesh.scan.projection import Frame, project
-from scanmesh.stages.brute_force import brute_force_surface
-from scanmesh.stages.delaunay import delaunay
-from scanmesh.stages.optimal import optimal_surface
-from scanmesh.surface import Surface
+import importlib
+import importlib.util
+from typing import TYPE_CHECKING, Any
 
-#: The one version, written in Cargo.toml ([workspace.package]) and read back from the
-#: installed package metadata.
-__version__ = _metadata.version("scanmesh")
+#: Where each public name lives. A name is imported at its first use (``scanmesh.merge``,
+#: ``from scanmesh import merge``), not by ``import scanmesh``: the package itself imports
+#: nothing, so that the ``scanmesh`` command handles Ctrl-C quietly from its first instant
+#: (see :mod:`scanmesh._entry_point`), and a script pays only for what it uses (all of it:
+#: 1.3-1.5 s, scipy's spatial module the most).
+_HOMES: dict[str, str] = {
+    "reconstruct": "scanmesh.reconstruction",
+    "METHODS": "scanmesh.methods",
+    "planar_scan": "scanmesh.scan.planar",
+    "PlanarScan": "scanmesh.scan.planar",
+    "delaunay": "scanmesh.stages.delaunay",
+    "simulate_scan": "scanmesh.evaluate.digitizer",
+    "simulate_range_scan": "scanmesh.evaluate.digitizer",
+    "load_demo": "scanmesh.demo",
+    "load_rod": "scanmesh.demo",
+    "quality": "scanmesh.measures",
+    "detect_lines": "scanmesh.scan.lines",
+    "noise": "scanmesh.scan.noise",
+    "optimal_surface": "scanmesh.stages.optimal",
+    "brute_force_surface": "scanmesh.stages.brute_force",
+    "read": "scanmesh.formats",
+    "ScanPoints": "scanmesh.formats",
+    "merge": "scanmesh.fusion",
+    "read_conf": "scanmesh.fusion.views",
+    "View": "scanmesh.fusion.views",
+    "project": "scanmesh.scan.projection",
+    "Surface": "scanmesh.surface",
+    "Quality": "scanmesh.measures",
+    "Frame": "scanmesh.scan.projection",
+    "ScanmeshError": "scanmesh.errors",
+    "DegenerateInputError": "scanmesh.errors",
+    "ParameterError": "scanmesh.errors",
+    "InvalidMeshError": "scanmesh.errors",
+    "MemoryLimitError": "scanmesh.errors",
+    "FileFormatError": "scanmesh.errors",
+    "MissingFileError": "scanmesh.errors",
+    "MissingExtraError": "scanmesh.errors",
+    "ScanmeshWarning": "scanmesh.errors",
+    "CoincidentPointsWarning": "scanmesh.errors",
+    "NotAHeightFieldWarning": "scanmesh.errors",
+    "CurtainsWarning": "scanmesh.errors",
+    "ClosedPartWarning": "scanmesh.errors",
+    "WireZoomWarning": "scanmesh.errors",
+    "CrossingLinesWarning": "scanmesh.errors",
+    "UnusedPointsWarning": "scanmesh.errors",
+    "SliversWarning": "scanmesh.errors",
+}
 
-__all__ = [
-    "reconstruct",
-    "METHODS",
-    "planar_scan",
-    "PlanarScan",
-    "delaunay",
-    "simulate_scan",
-    "simulate_range_scan",
-    "load_demo",
-    "load_rod",
-    "quality",
-    "detect_lines",
-    "noise",
-    "optimal_surface",
-    "brute_force_surface",
-    "read",
-    "ScanPoints",
-    "merge",
-    "read_conf",
-    "View",
-    "project",
-    "Surface",
-    "Quality",
-    "Frame",
-    "ScanmeshError",
-    "DegenerateInputError",
-    "ParameterError",
-    "InvalidMeshError",
-    "MemoryLimitError",
-    "FileFormatError",
-    "MissingFileError",
-    "MissingExtraError",
-    "ScanmeshWarning",
-    "CoincidentPointsWarning",
-    "NotAHeightFieldWarning",
-    "CurtainsWarning",
-    "ClosedPartWarning",
-    "WireZoomWarning",
-    "CrossingLinesWarning",
-    "UnusedPointsWarning",
-    "SliversWarning",
-]
+__all__ = list(_HOMES)
+
+
+def __getattr__(name: str) -> Any:
+    """The public name ``name`` (imported from its home the first time), ``__version__``
+    (the one version, written in Cargo.toml's [workspace.package] and read back from the
+    installed package metadata) or a submodule (``scanmesh.fusion``)."""
+    if name in _HOMES:
+        value = getattr(importlib.import_module(_HOMES[name]), name)
+    elif name == "__version__":
+        from importlib import metadata
+
+        value = metadata.version("scanmesh")
+    elif not name.startswith("__") and importlib.util.find_spec(f"{__name__}.{name}"):
+        value = importlib.import_module(f"{__name__}.{name}")
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    """The public names with what is already imported (for ``dir`` and completion)."""
+    return sorted({*globals(), *_HOMES, "__version__"})
+
+
+if TYPE_CHECKING:  # the same names, for type checkers and editors
+    from scanmesh.demo import load_demo, load_rod
+    from scanmesh.errors import (
+        ClosedPartWarning,
+        CoincidentPointsWarning,
+        CrossingLinesWarning,
+        CurtainsWarning,
+        DegenerateInputError,
+        FileFormatError,
+        InvalidMeshError,
+        MemoryLimitError,
+        MissingExtraError,
+        MissingFileError,
+        NotAHeightFieldWarning,
+        ParameterError,
+        ScanmeshError,
+        ScanmeshWarning,
+        SliversWarning,
+        UnusedPointsWarning,
+        WireZoomWarning,
+    )
+    from scanmesh.evaluate.digitizer import simulate_range_scan, simulate_scan
+    from scanmesh.formats import ScanPoints, read
+    from scanmesh.fusion import merge
+    from scanmesh.fusion.views import View, read_conf
+    from scanmesh.measures import Quality, quality
+    from scanmesh.methods import METHODS
+    from scanmesh.reconstruction import reconstruct
+    from scanmesh.scan.lines import detect_lines
+    from scanmesh.scan.noise import noise
+    from scanmesh.scan.planar import PlanarScan, planar_scan
+    from scanmesh.scan.projection import Frame, project
+    from scanmesh.stages.brute_force import brute_force_surface
+    from scanmesh.stages.delaunay import delaunay
+    from scanmesh.stages.optimal import optimal_surface
+    from scanmesh.surface import Surface
+
+    __version__: str

@@ -2,6 +2,6 @@
 
 import sys
 
-from scanmesh.cli import main
+from scanmesh._entry_point import main
 
 sys.exit(main())

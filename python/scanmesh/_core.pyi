@@ -50,6 +50,7 @@ __all__ = [
     "lop",
     "parse_text_table",
     "stl_records",
+    "simplify",
     "AnnealParams",
     "Annealer",
     "StripResult",
@@ -62,6 +63,7 @@ __all__ = [
     "JUMP_STEPS",
     "DepthView",
     "FusionVolume",
+    "ProgressCounter",
 ]
 
 class ScanmeshError(ValueError): ...
@@ -94,6 +96,7 @@ def delaunay_trimmed(
     points: npt.NDArray[np.float64],
     max_edge: float | None = None,
     jump_factor: float = ...,
+    progress: ProgressCounter | None = None,
 ) -> TrimmedDelaunay: ...
 def grid_triangulate(
     grid: npt.NDArray[np.int64],
@@ -163,6 +166,16 @@ class DepthView:
     ) -> DepthView: ...
 
 @final
+class ProgressCounter:
+    """Items done of items planned by the long native call it is passed to."""
+
+    def __new__(cls) -> ProgressCounter: ...
+    @property
+    def done(self) -> int: ...
+    @property
+    def total(self) -> int: ...
+
+@final
 class FusionVolume:
     """The voxel grid range views are integrated and carved into."""
 
@@ -184,6 +197,7 @@ class FusionVolume:
         samples: npt.NDArray[np.float64],
         normals: npt.NDArray[np.float64],
         views: list[DepthView],
+        progress: ProgressCounter | None = None,
     ) -> tuple[
         npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int, dict[str, int]
     ]: ...
@@ -307,6 +321,7 @@ def strip_mesh(
     params: StripParams,
     gap_factor: float,
     context: ScanContext | None = None,
+    progress: ProgressCounter | None = None,
 ) -> StripResult: ...
 
 @final
@@ -363,6 +378,12 @@ class TextProblem:
 def stl_records(
     points: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.uint8]: ...
+def simplify(
+    vertices: npt.NDArray[np.float64],
+    faces_: npt.NDArray[np.int64],
+    labels: npt.NDArray[np.uint8],
+    tolerance: float,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8]]: ...
 
 @final
 class TrimmedDelaunay:

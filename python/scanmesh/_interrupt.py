@@ -40,15 +40,18 @@ UNBOUNDED: float = math.inf
 POLL_SECONDS: float = 0.02
 
 
-def interruptible(cost: float, fn: Callable[..., T], *args: Any) -> T:
+def interruptible(
+    cost: float, fn: Callable[..., T], *args: Any, watch: Callable[[], None] | None = None
+) -> T:
     """``fn(*args)``, run in a worker thread when its expected ``cost`` (see
     :data:`THREAD_MIN_COST`; the number of points for a linear-time call) is large, so that
     Ctrl-C raises ``KeyboardInterrupt`` here within about ``POLL_SECONDS``; exceptions of
-    ``fn`` are re-raised unchanged."""
+    ``fn`` are re-raised unchanged. ``watch`` is called every ``POLL_SECONDS`` while the
+    worker runs (the progress of a call that counts: ``Stage.follow``)."""
     if cost < THREAD_MIN_COST or threading.current_thread() is not threading.main_thread():
         # Signals are delivered to the main thread only: elsewhere a worker gains nothing.
         return fn(*args)
-    return _in_worker(fn, *args)
+    return _in_worker(fn, *args, watch=watch)
 
 
 def import_interruptibly(name: str) -> ModuleType:
@@ -65,8 +68,9 @@ def import_interruptibly(name: str) -> ModuleType:
     return _in_worker(importlib.import_module, name)
 
 
-def _in_worker(fn: Callable[..., T], *args: Any) -> T:
-    """``fn(*args)`` in a daemon thread, waited for in ``POLL_SECONDS`` slices."""
+def _in_worker(fn: Callable[..., T], *args: Any, watch: Callable[[], None] | None = None) -> T:
+    """``fn(*args)`` in a daemon thread, waited for in ``POLL_SECONDS`` slices, ``watch``
+    called after each."""
     box: dict[str, Any] = {}
 
     def work() -> None:
@@ -84,6 +88,8 @@ def _in_worker(fn: Callable[..., T], *args: Any) -> T:
         ) from None
     while worker.is_alive():
         worker.join(POLL_SECONDS)
+        if watch is not None:
+            watch()
     if "error" in box:
         raise box["error"]
     return box["result"]

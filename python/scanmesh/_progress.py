@@ -13,7 +13,10 @@ estimated time left: the sweeps still planned at the rate so far, at most what
 ``time_limit`` leaves) to a callable that accepts that keyword (or ``**kwargs``). The
 command's log (:class:`LogProgress`) is also told which stages are one native call
 (``blocking=True``: they count nothing until they return), so that it says so instead of
-"0 %"; other callables are called as above.
+"0 %"; other callables are called as above. The long native calls that count as they run
+(Delaunay, the strips, merge's extraction) are given :attr:`Stage.counter` and followed by
+:meth:`Stage.follow` while they run (``interruptible(..., watch=stage.follow)``): their
+``done`` is the share of the call's passes done, in the stage's unit.
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ import sys
 import threading
 from collections.abc import Callable
 from typing import Any
+
+from scanmesh import _core
 
 #: progress= of the public functions: a bool, or a callable(done, total, value[, stage=]).
 Progress = bool | Callable[..., None] | None
@@ -88,6 +93,7 @@ class Stage:
         self._extra: dict[str, Any] = {}
         self._bar: Any = None
         self._ticker: threading.Event | None = None
+        self._counter: Any = None
         if progress is True:
             from tqdm import tqdm  # loaded only when a bar is drawn: `import scanmesh` stays light
 
@@ -110,6 +116,26 @@ class Stage:
             if blocking and isinstance(progress, LogProgress):
                 self._extra = {"blocking": True}
         self.update(0)
+
+    @property
+    def counter(self) -> Any:
+        """A ``_core.ProgressCounter`` for the one native call of this stage (its
+        ``progress=``), read by :meth:`follow` while the call runs."""
+        if self._counter is None:
+            self._counter = _core.ProgressCounter()
+        return self._counter
+
+    def follow(self) -> None:
+        """Report the share of its work the native call given :attr:`counter` has done, in
+        this stage's unit (called from the waiting thread while the call runs)."""
+        counter = self._counter
+        if counter is None:
+            return
+        planned = counter.total
+        if planned > 0:
+            done = self.total * min(counter.done, planned) // planned
+            if done > self.done:
+                self.update(done)
 
     def _tick(self) -> None:
         assert self._ticker is not None
@@ -261,7 +287,7 @@ class LogProgress:
                     "said": False,
                 }
             s.update(done=done, total=total, left=seconds_left, blocking=blocking)
-            finished = total > 0 and done >= total
+            finished = done >= total  # (a stage of nothing is done as it starts)
             if finished:
                 self._state = None
         if finished:

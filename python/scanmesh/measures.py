@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 
 from scanmesh import _core
 from scanmesh._checks import as_faces, as_points
+from scanmesh._interrupt import interruptible
 from scanmesh.scan.planar import PlanarScan
 
 #: A triangle whose smallest 3-D angle is below this (degrees) counts as a sliver.
@@ -112,7 +113,8 @@ def quality(vertices: ArrayLike | PlanarScan, faces: ArrayLike) -> Quality:
     """
     pts = vertices.points if isinstance(vertices, PlanarScan) else as_points(vertices, "vertices")
     tri = as_faces(faces, len(pts))
-    tac, min_angle = _core.mesh_quality(pts, tri)
+    # in a worker for a large mesh: Ctrl-C answers during the native call (2 s at 5M faces)
+    tac, min_angle = interruptible(len(tri), _core.mesh_quality, pts, tri)
     # Scalars from the radians (the per-face degrees are converted only if asked for): at
     # 20M faces the conversion and the comparison on it take 0.5 s.
     smallest = float(np.degrees(min_angle.min())) if len(min_angle) else math.nan

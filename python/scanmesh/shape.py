@@ -44,10 +44,8 @@ def boundary_loops(faces: np.ndarray) -> list[np.ndarray]:
     if len(f) == 0:
         return []
     edges = f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    _, inverse, counts = np.unique(
-        np.sort(edges, axis=1), axis=0, return_inverse=True, return_counts=True
-    )
-    boundary = edges[counts[inverse.ravel()] == 1]
+    _, inverse, counts = np.unique(_edge_keys(edges), return_inverse=True, return_counts=True)
+    boundary = edges[counts[inverse] == 1]
     following: dict[int, list[int]] = {}
     for a, b in boundary.tolist():
         following.setdefault(a, []).append(b)
@@ -69,8 +67,7 @@ def is_watertight(faces: np.ndarray) -> bool:
     f = np.asarray(faces, dtype=np.int64)
     if len(f) == 0:
         return False
-    edges = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
+    _, counts = np.unique(_edge_keys(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)), return_counts=True)
     return bool((counts == 2).all())
 
 
@@ -78,5 +75,24 @@ def euler_characteristic(faces: np.ndarray) -> int:
     """V - E + F over the vertices the faces use (2 - 2 genus for one closed orientable
     piece, summed over pieces). O(M log M)."""
     f = np.asarray(faces, dtype=np.int64)
-    edges = np.unique(np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
-    return int(len(np.unique(f)) - len(edges) + len(f))
+    edges = _distinct(_edge_keys(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)))
+    return int(len(_distinct(f)) - len(edges) + len(f))
+
+
+def _edge_keys(edges: np.ndarray) -> np.ndarray:
+    """(E,) uint64 one key per undirected edge of (E, 2) vertex indices (below 2³², more
+    vertices than any mesh in memory has): the smaller end in the high half. Why: np.unique
+    of the (E, 2) rows (``axis=0``) sorts them as opaque records, about 80 times slower than
+    the keys (8 s for a fused dragon's 4.4 million edge uses under load, in one call that
+    Ctrl-C cannot interrupt). O(E)."""
+    a, b = edges[:, 0].astype(np.uint64), edges[:, 1].astype(np.uint64)
+    return (np.minimum(a, b) << np.uint64(32)) | np.maximum(a, b)
+
+
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """The distinct values of an integer array, sorted (``np.unique(values)``), by one sort.
+    Why: numpy 2.3 and later find the distinct values of a plain ``np.unique`` by hashing,
+    which took 5-14 s for 4.4 million integers here (most of them distinct) where the sort
+    takes 0.1 s, in one call that Ctrl-C cannot interrupt. O(n log n)."""
+    s = np.sort(values, axis=None)
+    return s[np.concatenate(([True], s[1:] != s[:-1]))] if len(s) else s

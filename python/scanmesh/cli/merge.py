@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh import shape
+from scanmesh._interrupt import interruptible
 from scanmesh.cli._common import _check_outputs, _Console, _dumps
 from scanmesh.errors import FileFormatError, ParameterError
 from scanmesh.formats._source import read_bytes
@@ -103,9 +104,10 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
     surface = merge(views, poses=poses, toward=args.toward, progress=con.progress, **options)
     surface.save(out, progress=con.progress)
     elapsed = time.perf_counter() - t0
-    parts = pieces(surface.vertices, surface.faces)
+    # in a worker, which numpy's long calls leave the GIL to: Ctrl-C within the wait's slice
+    parts = interruptible(len(surface.faces), pieces, surface.vertices, surface.faces)
     closed = bool(parts) and all(p.closed for p in parts)
-    euler = shape.euler_characteristic(surface.faces)
+    euler = interruptible(len(surface.faces), shape.euler_characteristic, surface.faces)
     areas = surface.label_areas or {}
     row = {
         "inputs": [str(p) for p in inputs],

@@ -9,7 +9,13 @@ or 1 vertex index per cell, row by row) gives the scan lines and is kept as
 ``obj_info is_cyberware_data 1`` or ``echo_*`` fields, as in the Stanford range scans) x
 steps by ``echo_lgincr`` along a row and is constant down a column: a frame is a column.
 Other range grids are taken row by row, the PLY convention; ``lines="rows"`` or
-``"columns"`` says so explicitly.
+``"columns"`` says so explicitly. A range grid is a range image in its scanner's frame: the
+rays run along z and the scanner looks down from +z (the Stanford scans: a scan's points
+hidden from its neighbour's scanner lie below that neighbour's samples in z, 4 to 38 times
+as many as above, docs/benchmarks/curtains.md), so its ``up`` is +z unless a ``comment
+scanmesh up`` line says otherwise. That is the line of sight the grid triangulation and
+the curtain rules judge faces against; without it they judged against the projection
+plane's normal, up to 71 degrees off the rays on the Stanford scans, and kept curtains.
 
 Writing: binary little-endian PLY, double coordinates (exact), optional vertex normals,
 per-vertex values and header comments (a georeference, read back as ``ScanPoints.georef``),
@@ -266,6 +272,11 @@ def _ascii_lists(path: Path, data: bytes, a: int, b: int, el: _PlyElement) -> li
     return np.split(rest, np.cumsum(counts - 1)[:-1])
 
 
+#: (3,) direction towards the scanner of a range grid without a ``scanmesh up`` comment:
+#: +z of the range image's frame (the module doc).
+RANGE_IMAGE_UP = np.array([0.0, 0.0, 1.0])
+
+
 def _is_cyberware(info: dict[str, str]) -> bool:
     """True for a Cyberware range image (frames are grid columns)."""
     return info.get("is_cyberware_data") == "1" or any(k.startswith("echo_") for k in info)
@@ -292,7 +303,8 @@ def read_ply(
     ScanPoints
         ``points`` (N, 3) float64 from the vertex ``x``, ``y``, ``z`` properties;
         ``line_ids`` (N,) int64 frame index and ``grid`` (frames, positions) for a range
-        grid, else None; ``up`` from a ``comment scanmesh up x y z`` header line;
+        grid, else None; ``up`` from a ``comment scanmesh up x y z`` header line, else
+        (0, 0, 1) for a range grid (the module doc), else None;
         ``extra["faces_ignored"]`` the file's face count (faces are not read here).
     """
     if lines not in ("auto", "rows", "columns"):
@@ -360,7 +372,10 @@ def read_ply(
         "faces_ignored": faces,
     }
     line_ids, cells = None, None
+    up = parse_up(path, head.comments)
     if grid is not None:
+        if up is None:
+            up = RANGE_IMAGE_UP
         by_columns = lines == "columns" or (lines == "auto" and _is_cyberware(head.info))
         line_ids, cells = _range_grid_lines(path, grid, head.info, len(points), by_columns)
         extra["line_ids_from"] = (
@@ -374,7 +389,7 @@ def read_ply(
         source=path,
         extra=extra,
         grid=cells,
-        up=parse_up(path, head.comments),
+        up=up,
         georef=from_comments(head.comments),
         point_data={k: v for k, v in data_of.items() if k not in ("x", "y", "z")},
     )

@@ -34,7 +34,13 @@ from scanmesh._memory import memory_room
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import DegenerateInputError, MemoryLimitError, ParameterError, ScanmeshWarning
 from scanmesh.fusion.depth import depth_image, view_spacing
-from scanmesh.fusion.grid import MAX_VOXELS, OPTIONS, TRUNCATION_VOXELS, grid_for
+from scanmesh.fusion.grid import (
+    MAX_VOXELS,
+    OPTIONS,
+    SIMPLIFY_VOXELS,
+    TRUNCATION_VOXELS,
+    grid_for,
+)
 from scanmesh.fusion.pieces import drop_specks
 from scanmesh.fusion.register import refine_poses
 from scanmesh.fusion.views import View, as_views
@@ -103,6 +109,7 @@ def merge(
     truncation: float = TRUNCATION_VOXELS,
     max_voxels: int = MAX_VOXELS,
     refine: bool = False,
+    simplify: float = SIMPLIFY_VOXELS,
     progress: Progress = False,
 ) -> Surface:
     """One closed mesh from aligned range views, with a label per face.
@@ -136,6 +143,13 @@ def merge(
         First refine the poses by point-to-plane ICP between overlapping views
         (:func:`scanmesh.fusion.register.refine_poses`; the first view fixes the world); the
         residual before and after is ``Surface.options["refine_residual"]``.
+    simplify : float
+        Tolerance in voxels (>= 0) of the extracted mesh's simplification (quadric-error
+        edge collapse, ``simplify.rs``): edges are collapsed while every vertex of the
+        extracted mesh stays within ``simplify`` voxels of the result, so flat and gently
+        curved parts get larger faces; the mesh stays closed and 2-manifold, with its
+        genus, and the labels' borders stay. 0: none (a face pair per voxel crossing).
+        ``Surface.options["simplified"]`` holds the faces before and after.
     progress : bool or callable
         As in :func:`scanmesh.reconstruct`: stages "refine", "integrate", "carve" (views)
         and "extract".
@@ -155,7 +169,13 @@ def merge(
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(
         OPTIONS,
-        {"voxel": voxel, "truncation": truncation, "max_voxels": max_voxels, "refine": refine},
+        {
+            "voxel": voxel,
+            "truncation": truncation,
+            "max_voxels": max_voxels,
+            "refine": refine,
+            "simplify": simplify,
+        },
         "merge",
     )
     try:
@@ -280,16 +300,34 @@ def _merge(
                 stage.update(k + 1)
         timings[name] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    with Stage(progress, "extract", int(cost), blocking=True):
+    with Stage(progress, "extract", int(cost)) as stage:
         vertices, faces, labels, repaired, thin = interruptible(
             cost,
             volume.extract,
             np.ascontiguousarray(np.concatenate(samples)),
             np.ascontiguousarray(np.concatenate(normals)),
             native,
+            stage.counter,
+            watch=stage.follow,
         )
-    vertices, faces, labels, specks = drop_specks(vertices, faces, labels)
+    vertices, faces, labels, specks = interruptible(
+        len(faces), drop_specks, vertices, faces, labels
+    )
     timings["extract"] = time.perf_counter() - t0
+    simplified = None
+    if params["simplify"] > 0 and len(faces):
+        t0 = time.perf_counter()
+        before = len(faces)
+        vertices, faces, labels = interruptible(
+            float(before),
+            _core.simplify,
+            np.ascontiguousarray(vertices),
+            np.ascontiguousarray(faces, dtype=np.int64),
+            np.ascontiguousarray(labels, dtype=np.uint8),
+            params["simplify"] * size,
+        )
+        simplified = {"faces_before": before, "faces_after": len(faces)}
+        timings["simplify"] = time.perf_counter() - t0
     if len(faces) == 0:
         raise DegenerateInputError(
             f"merge: no surface at voxel {size * unit:g}: no node of the"
@@ -310,6 +348,7 @@ def _merge(
             "repaired_nodes": int(repaired),
             "thin_handles": thin,
             "specks_removed": specks,
+            "simplified": simplified,
             "refine_residual": residual,
             "poses": [_unscaled(v.pose, exponent) for v in checked],
         },

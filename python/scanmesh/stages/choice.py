@@ -12,10 +12,13 @@ covers and that lie on no step: a withheld point whose holding face is tilted mo
 ``STEP_SHARE`` of them are: a steep surface, not a step), since a point beside a wall is
 exactly where the strips must bridge and the holdout would rank them last there (the
 pocket, the rod along its thickness). Disjoint tenths are withheld in turn until at least
-``MEASURED`` points are measured (at most ten: every point once). The lowest RMS wins
+``MEASURED`` points are measured (at most ten: every point once), or fewer once the
+verdict is clear (``CLEAR``). The lowest RMS wins
 among the candidates whose meshes have at most ``SLIVERS`` slivers, except that the first
 candidate stays unless the winner is more than ``PREFER`` lower.
-The winner is then built on all points (``methods``: on a gridded scan the grid
+The candidates are built on the parts as ``methods.judge_builder`` builds them (each
+triangulation once a part, annealing on a short schedule); the winner is then built on all
+points (``methods``: on a gridded scan the grid
 triangulation where Delaunay wins, since the parts carry no grid). The candidates are the
 registry's (``methods.CANDIDATES``); on a gridded scan the strips are none
 (``methods.GRID_CANDIDATES``): the default stays inside the grid's domain.
@@ -27,6 +30,7 @@ panel's holdout; measurements in docs/benchmarks/panel.md.
 from __future__ import annotations
 
 import math
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -36,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from scanmesh._context import QUIET, Context
+from scanmesh._interrupt import POLL_SECONDS
 from scanmesh.errors import ScanmeshError
 from scanmesh.judge import Seen, rms
 from scanmesh.judge import distances as normal_distances
@@ -58,11 +63,14 @@ SLIVERS: float = 0.05
 #: of them is not judged (strips on points without scan lines): its figure is None.
 OUTSIDE: float = 0.10
 
+#: ... and one leaving more than the fewest by this share is built on no further tenth: it
+#: cannot come back (the strips on the Autzen ground: 39 % more; on the rod
+#: along its thickness they leave 10 % more, judged on some tenths and not on others).
+OUTSIDE_FAR: float = 0.20
+
 #: A window of fewer points is not judged: annealing, the first candidate, is taken. Under
-#: it every point is withheld once (ten tenths of at most 100 points), which costs ten
-#: annealing runs of at least two million proposals each (about 0.9 s apiece, 10 x the
-#: default's own time for a scan that anneals in a second), and the panel, whose smallest
-#: scan has 2,205 points, says nothing of which method wins there.
+#: it every point is withheld once (ten tenths of at most 100 points), and the panel, whose
+#: smallest scan has 2,205 points, says nothing of which method wins there.
 MIN_POINTS: int = 1_000
 
 #: The first candidate is kept unless another measures more than this share lower: on the
@@ -78,6 +86,17 @@ STEP_TILT: float = 45.0
 #: withheld points than this share lie on steep faces, the surface is steep (fran_cut, a
 #: cylindrical scan seen flat: 54 %), not stepped, and every covered point is judged.
 STEP_SHARE: float = 0.25
+
+#: The tenths are judged in turn; a candidate behind the leader is built on no more of them
+#: and the judge stops when every other one is (:func:`_behind`): at least
+#: ``CLEAR_MEASURED`` points measured, an RMS more than ``CLEAR`` above the leader's, and
+#: the paired differences of squared distances ``CLEAR_Z`` standard errors above zero (a
+#: share alone is not enough: on the fandisk turned 30 degrees without noise a few points
+#: at the creases carry the RMS, and the first tenth put strips-anneal 45 % behind the
+#: candidate that all ten put 15 % behind it).
+CLEAR_MEASURED: int = 500
+CLEAR: float = 0.03
+CLEAR_Z: float = 2.5
 
 #: The method built when nothing was judged (a window under ``MIN_POINTS``): annealing,
 #: which needs no scan lines (the strips on a few points in no scan order would follow
@@ -110,7 +129,8 @@ class MethodChoice:
     window: int
     measured: int
     folds: int
-    #: candidate -> seconds building it on the folds
+    #: candidate -> seconds building it on the tenths (with the meshes it starts from, when
+    #: it needs them first; in its lane, and the lanes run side by side)
     seconds: dict[str, float]
 
     def as_dict(self) -> dict[str, Any]:
@@ -178,54 +198,21 @@ def _part(scan: PlanarScan, lines: np.ndarray, index: np.ndarray) -> PlanarScan:
     return as_scan(scan.points[index], plane=plane, lines=lines[index], up=scan.up)
 
 
-def choose(
-    scan: PlanarScan,
-    build: Callable[[str, PlanarScan], Surface],
+def _verdict(
     candidates: tuple[str, ...],
-    context: Context = QUIET,
-) -> MethodChoice:
-    """The candidate whose meshes lie closest to withheld points of ``scan``.
-
-    ``build(name, part)`` builds candidate ``name`` on a part of the scan. The window is
-    :func:`window` of the scan's line ids (given, else detected), the withheld tenths
-    :func:`folds` of it, seeded by the call's seed; reports the stage "choose" (builds) to
-    the call's progress (``context``). A
-    candidate whose build fails on a part is not judged; a window under ``MIN_POINTS``
-    points is not judged at all (``FALLBACK``). O(folds x candidates x a build of
-    WINDOW points)."""
-    lines = scan.line_ids_for(GAP_FACTOR)
-    win = window(lines)
-    parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
-    dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
-    steps: list[np.ndarray] = []  # per tenth: withheld points on a step in some mesh
-    slivers = dict.fromkeys(candidates, 0.0)
-    seconds = dict.fromkeys(candidates, 0.0)
-    with context.stage("choose", len(parts) * len(candidates)) as stage:
-        for out in parts:
-            kept = np.setdiff1d(np.arange(len(win)), out)
-            part = _part(scan, lines, win[kept])
-            steps.append(np.zeros(len(out), dtype=bool))
-            for name in candidates:
-                t0 = time.perf_counter()
-                try:
-                    with warnings.catch_warnings():  # the parts' warnings are not the scan's
-                        warnings.simplefilter("ignore")
-                        surface = build(name, part)
-                except ScanmeshError:  # a method that fails on a part is not judged
-                    dist[name].append(np.full(len(out), np.nan))
-                    slivers[name] = math.inf
-                else:
-                    held = scan.points[win][out]
-                    seen = Seen.of(surface)
-                    got, face = normal_distances(held, seen)
-                    dist[name].append(got)
-                    steps[-1] |= _on_steps(seen, face)
-                    slivers[name] += surface.quality.sliver_fraction / len(parts)
-                seconds[name] += time.perf_counter() - t0
-                stage.update(stage.done + 1)
+    dist: dict[str, list[np.ndarray]],
+    steps: list[np.ndarray],
+    slivers: dict[str, float],
+) -> tuple[str, dict[str, float], dict[str, int], int, dict[str, np.ndarray]]:
+    """The judge's verdict on the tenths measured so far among the candidates in ``dist``
+    (those still judged, in the order of ``candidates``): the chosen one, each one's
+    holdout RMS (nan: not judged), its withheld points outside its mesh, the points
+    measured and the squared distances of those eligible to win (``slivers``, the mean
+    share over the tenths, within ``SLIVERS``) on the points measured. O(candidates x
+    points)."""
     joined = {name: np.concatenate(d) if d else np.empty(0) for name, d in dist.items()}
     outside = {name: int(np.isnan(d).sum()) for name, d in joined.items()}
-    n_out = sum(len(p) for p in parts)
+    n_out = len(next(iter(joined.values()))) if joined else 0
     # a candidate leaving many more points outside its outline than the fewest is not judged
     fair = [k for k, v in outside.items() if v <= min(outside.values()) + OUTSIDE * n_out]
     covered = np.logical_and.reduce([np.isfinite(joined[k]) for k in fair], axis=0)
@@ -240,17 +227,154 @@ def choose(
     few = {k: v for k, v in measured.items() if slivers[k] <= SLIVERS} or measured
     fallback = FALLBACK if FALLBACK in candidates else candidates[0]
     chosen = min(few, key=few.__getitem__) if few else fallback
-    first = candidates[0]
+    first = candidates[0]  # the first of all: once dropped (behind) it is in none of few
     if chosen != first and first in few and few[first] <= few[chosen] * (1.0 + PREFER):
         chosen = first
+    return chosen, holdout, outside, int(covered.sum()), {k: joined[k][covered] ** 2 for k in few}
+
+
+def _behind(chosen: str, squared: dict[str, np.ndarray]) -> set[str]:
+    """The candidates eligible to win (``squared``: their squared distances on the same
+    points) that are behind the chosen one: RMS more than ``CLEAR`` above its, and the
+    mean of the paired differences of squares more than ``CLEAR_Z`` standard errors above
+    zero, on at least ``CLEAR_MEASURED`` points. No more tenths are built for them; the
+    verdict is clear when every other eligible one is behind. O(candidates x points)."""
+    best = squared.get(chosen)
+    if best is None or len(best) < CLEAR_MEASURED:
+        return set()
+    out = set()
+    for name, sq in squared.items():
+        diff = sq - best
+        error = float(np.std(diff)) / math.sqrt(len(diff))
+        lead = float(np.mean(sq)) > (1.0 + CLEAR) ** 2 * float(np.mean(best))
+        if name != chosen and lead and float(np.mean(diff)) > CLEAR_Z * error:
+            out.add(name)
+    return out
+
+
+def _side_by_side(
+    lanes: list[list[str]], build: Callable[[str, PlanarScan], Surface], part: PlanarScan
+) -> dict[str, tuple[Surface | ScanmeshError, float]]:
+    """Candidate -> (its mesh of ``part``, or the ScanmeshError its build raised; seconds):
+    each lane's candidates built in turn, the lanes side by side in daemon threads (the
+    core's long calls release the GIL) waited for in ``POLL_SECONDS`` slices, so that Ctrl-C
+    reaches the caller (an abandoned build finishes in the background, as
+    ``scanmesh._interrupt`` leaves its calls). A lane whose thread cannot start (no room
+    for its stack) is built here after the others."""
+    results: dict[str, tuple[Surface | ScanmeshError, float]] = {}
+    failed: list[BaseException] = []
+
+    def run(lane: list[str]) -> None:
+        for name in lane:
+            t0 = time.perf_counter()
+            try:
+                got: Surface | ScanmeshError = build(name, part)
+            except ScanmeshError as exc:  # a method that fails on a part is not judged
+                got = exc
+            results[name] = (got, time.perf_counter() - t0)
+
+    def beside(lane: list[str]) -> None:
+        try:
+            run(lane)
+        except BaseException as exc:  # noqa: BLE001 - raised in the caller's thread below
+            failed.append(exc)
+
+    threads, here = [], []
+    for lane in lanes[1:]:
+        thread = threading.Thread(target=beside, args=(lane,), name="scanmesh-judge", daemon=True)
+        try:
+            thread.start()
+        except RuntimeError:  # "can't start new thread"
+            here.append(lane)
+        else:
+            threads.append(thread)
+    for lane in lanes[:1] + here:
+        run(lane)
+    for thread in threads:
+        while thread.is_alive():
+            thread.join(POLL_SECONDS)
+    if failed:
+        raise failed[0]
+    return results
+
+
+def choose(
+    scan: PlanarScan,
+    build: Callable[[str, PlanarScan], Surface],
+    candidates: tuple[str, ...],
+    context: Context = QUIET,
+    lanes: tuple[tuple[str, ...], ...] | None = None,
+) -> MethodChoice:
+    """The candidate whose meshes lie closest to withheld points of ``scan``.
+
+    ``build(name, part)`` builds candidate ``name`` on a part of the scan (the candidates
+    in turn on one part, then the next part: a builder may reuse one candidate's mesh of
+    the part for another). The window is :func:`window` of the scan's line ids (given,
+    else detected), the withheld tenths :func:`folds` of it, seeded by the call's seed,
+    judged in turn, a candidate no more once it is behind (:func:`_behind`), until the
+    verdict is clear (every other one behind) or all tenths are measured;
+    reports the stage "choose" (builds) to the call's progress (``context``). A candidate
+    whose build fails on a part is not judged; a window under ``MIN_POINTS`` points is not
+    judged at all (``FALLBACK``). ``lanes`` (None: all candidates in one): groups of
+    the candidates built in turn, the groups side by side on the cores (a candidate in
+    the lane of the one it starts from); the figures do not depend on them. O(folds x
+    candidates x a build of WINDOW points)."""
+    lines = scan.line_ids_for(GAP_FACTOR)
+    win = window(lines)
+    parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
+    dist: dict[str, list[np.ndarray]] = {name: [] for name in candidates}
+    steps: list[np.ndarray] = []  # per tenth: withheld points on a step in some mesh
+    slivers = dict.fromkeys(candidates, 0.0)  # summed over the tenths built
+    seconds = dict.fromkeys(candidates, 0.0)
+    judged = list(candidates)  # those still built; the others' figures are kept as dropped
+    holdout: dict[str, float] = {}
+    outside: dict[str, int] = {}
+    chosen, measured = (FALLBACK if FALLBACK in candidates else candidates[0]), 0
+    with context.stage("choose", len(parts) * len(candidates)) as stage:
+        for out in parts:
+            kept = np.setdiff1d(np.arange(len(win)), out)
+            part = _part(scan, lines, win[kept])
+            steps.append(np.zeros(len(out), dtype=bool))
+            ways = [[k for k in lane if k in judged] for lane in (lanes or (candidates,))]
+            with warnings.catch_warnings():  # the parts' warnings are not the scan's
+                warnings.simplefilter("ignore")
+                results = _side_by_side([w for w in ways if w], build, part)
+            for name in judged:
+                surface, took = results[name]
+                if isinstance(surface, ScanmeshError):
+                    dist[name].append(np.full(len(out), np.nan))
+                    slivers[name] = math.inf
+                else:
+                    held = scan.points[win][out]
+                    seen = Seen.of(surface)
+                    got, face = normal_distances(held, seen)
+                    dist[name].append(got)
+                    steps[-1] |= _on_steps(seen, face)
+                    slivers[name] += surface.quality.sliver_fraction
+                seconds[name] += took
+            stage.update(stage.done + len(judged))
+            share = {k: slivers[k] / len(dist[k]) for k in judged}
+            chosen, now, gone, measured, squared = _verdict(
+                candidates, {k: dist[k] for k in judged}, steps, share
+            )
+            holdout.update(now)
+            outside.update(gone)
+            behind = _behind(chosen, squared)
+            if behind and behind == set(squared) - {chosen}:
+                break  # clear: every other eligible candidate is behind
+            withheld = sum(len(d) for d in dist[judged[0]])
+            far = min(gone.values()) + OUTSIDE_FAR * withheld
+            if measured >= CLEAR_MEASURED:  # one far outside cannot win: built no more
+                behind |= {k for k in judged if gone[k] > far}
+            judged = [k for k in judged if k not in behind]
     return MethodChoice(
         chosen=chosen,
-        holdout=holdout,
-        outside=outside,
-        slivers=slivers,
+        holdout={k: holdout.get(k, math.nan) for k in candidates},
+        outside={k: outside.get(k, 0) for k in candidates},
+        slivers={k: v / max(len(dist[k]), 1) for k, v in slivers.items()},
         window=len(win),
-        measured=int(covered.sum()),
-        folds=len(parts),
+        measured=measured,
+        folds=len(steps),
         seconds=seconds,
     )
 

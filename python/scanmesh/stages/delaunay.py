@@ -57,8 +57,9 @@ def delaunay(
         (less the zero-area slivers that close straight stretches of it).
     progress : bool or callable
         True shows progress bars; a callable taking ``stage=`` is called for the stages
-        "delaunay" (points) and "trim" (faces): one native call does both, reported at its
-        start and end as "delaunay", then "trim" as done (see :func:`scanmesh.reconstruct`).
+        "delaunay" (points) and "trim" (faces): one native call does both, reported as
+        "delaunay" while it runs (the share of its passes over the points done), then
+        "trim" as done (see :func:`scanmesh.reconstruct`).
 
     Returns
     -------
@@ -82,8 +83,11 @@ def delaunay(
     # the trimming and no face array crosses in between; "trim" is reported once it is done.
     # Trimmed at max_edge=inf too: trimming also peels the numerically collinear slivers
     # that close straight stretches of the hull.
-    with Stage(progress, "delaunay", len(pts), blocking=True):
-        result = interruptible(len(pts), _core.delaunay_trimmed, uv, pts, max_edge, JUMP_FACTOR)
+    with Stage(progress, "delaunay", len(pts)) as stage:
+        call = _core.delaunay_trimmed
+        result = interruptible(
+            len(pts), call, uv, pts, max_edge, JUMP_FACTOR, stage.counter, watch=stage.follow
+        )
         faces, duplicate_of, trimmed = result.faces, result.duplicate_of, result.trimmed
         limit, (triangulate, trim) = result.max_edge, result.seconds
     with Stage(progress, "trim", len(faces), blocking=True):

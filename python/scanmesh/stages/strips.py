@@ -206,11 +206,13 @@ def solve_strips(
     params: Mapping[str, Any],
     gap_factor: float,
     context: _core.ScanContext | None = None,
+    counter: _core.ProgressCounter | None = None,
 ) -> SolvedStrips:
     """The strips between consecutive lines of ``points`` (N, 3) with planar positions
     ``uv`` (N, 2) and ``line_ids`` (N,), by ``method`` with checked ``params``
     (:data:`OPTIONS`); ``context`` solves them as part of a larger scan
-    (``_core.strip_mesh``). Time: that of the method, see :func:`strip_surface`."""
+    (``_core.strip_mesh``); ``counter`` counts the strips' triangles as they are solved.
+    Time: that of the method, see :func:`strip_surface`."""
     n = max(len(points), 1)
     # The method's own options (OPTIONS): the core refuses one it would not use. Depths
     # and widths beyond the longest strip change nothing (each strip has fewer than
@@ -227,7 +229,7 @@ def solve_strips(
         jump_factor=params["jump_factor"],
         **own,
     )
-    return _core.strip_mesh(points, uv, line_ids, core, gap_factor, context)
+    return _core.strip_mesh(points, uv, line_ids, core, gap_factor, context, counter)
 
 
 def strip_surface(
@@ -348,9 +350,10 @@ def build_strips(
         ids = scan.line_ids_for(k)  # detected once per gap factor, kept with the scan
         n_lines = count_lines(ids)
     t2 = time.perf_counter()
-    with context.stage("strips", len(pts), blocking=True):
+    with context.stage("strips", len(pts)) as stage:
         work = _expected_cost(len(pts), n_lines, params)
-        solved = interruptible(work, solve_strips, pts, uv, ids, method, params, k)
+        solve = (solve_strips, pts, uv, ids, method, params, k, None, stage.counter)
+        solved = interruptible(work, *solve, watch=stage.follow)
     faces, unused, duplicates = solved.faces, solved.unused, solved.duplicates
     n_strips, cost, planar_error = solved.n_strips, solved.cost, solved.planar_error
     dropped_jumps, dropped_overlaps = solved.dropped_jumps, solved.dropped_overlaps

@@ -5,7 +5,9 @@
 //! binding, the benches, the integration tests and the fuzz targets use), so a path reads
 //! `scanmesh_core::strips::stitch`, and the strips' solvers `scanmesh_core::strips::fuchs::*`.
 //! The modules, grouped by job; a folder imports only from the rows above it (or its own row):
-//! - `error`, `budget`: the one error type; what options may cost in work and memory;
+//! - `error`, `budget`, `progress`, `pool`: the one error type; what options may cost in
+//!   work and memory; how far a long call has got (a count another thread reads while it
+//!   runs); the thread pool started with the workers that fit;
 //! - `geometry`: corner angles (atan2 form), areas, exact orientation, normalization, the
 //!   power-of-two unit square;
 //! - `projection`: points to a plane (least squares, an axis, a normal);
@@ -49,7 +51,10 @@ pub mod geometry;
 pub mod io;
 pub mod mesh;
 pub mod optimize;
+pub mod pool;
+pub mod progress;
 pub mod projection;
+pub mod simplify;
 pub mod strips;
 #[cfg(test)]
 mod testing;

@@ -1,7 +1,7 @@
 //! numpy in and out: shape checks, zero-copy row views of C-contiguous arrays, and the
 //! output arrays (faces widened to int64 on every core without the GIL).
 
-use crate::{to_py, InvalidMeshError, ParameterError, ScanmeshError};
+use crate::{detached, to_py, InvalidMeshError, ParameterError, ScanmeshError};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -145,7 +145,7 @@ pub(crate) fn faces(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResul
 /// (M, 3) int64 faces for numpy, widened on every core without the GIL: 24 bytes a face to
 /// write. Allocated fallibly: memory refused is a `MemoryLimitError`, not an abort.
 pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Ints2<'py>> {
-    let flat = py.detach(|| {
+    let flat = detached(py, || {
         let mut flat = try_filled("the faces for numpy", 0i64, 3 * t.len())?;
         flat.par_chunks_mut(3 * 4096)
             .zip(t.par_chunks(4096))
@@ -155,7 +155,7 @@ pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Ints2<
                 }
             });
         Ok(flat)
-    });
+    })?;
     Ok(Array2::from_shape_vec((t.len(), 3), flat.map_err(to_py)?)
         .expect("3 per face")
         .into_pyarray(py))

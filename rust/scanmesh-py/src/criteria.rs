@@ -1,7 +1,7 @@
 //! Mesh quality: tac and smallest angles, steep faces, p-norms (`scanmesh_core` criteria).
 
 use crate::convert::{face_rows, faces, points3_view, shape_error, Floats1};
-use crate::to_py;
+use crate::{detached, to_py};
 use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -21,7 +21,7 @@ pub(crate) fn mesh_quality<'py>(
     let t = faces(&faces_, pts.len())?;
     check_finite(&pts).map_err(to_py)?;
     // tac and angles only: Python takes the norms it reports from the tac vector.
-    let (tac, min_angle) = py.detach(|| tac_and_min_angles(&pts, &t)).map_err(to_py)?;
+    let (tac, min_angle) = detached(py, || tac_and_min_angles(&pts, &t))?.map_err(to_py)?;
     Ok((
         Array1::from_vec(tac).into_pyarray(py),
         Array1::from_vec(min_angle).into_pyarray(py),
@@ -46,8 +46,10 @@ pub(crate) fn steep_count(
         return Err(shape_error("normal", "(3,)", n.shape()));
     }
     let n = DVec3::new(n[0], n[1], n[2]);
-    py.detach(|| scanmesh_core::criteria::steep_count(&pts, &t, n, max_tilt))
-        .map_err(to_py)
+    detached(py, || {
+        scanmesh_core::criteria::steep_count(&pts, &t, n, max_tilt)
+    })?
+    .map_err(to_py)
 }
 
 /// p-norm (p ≥ 1, or inf for the maximum) of the non-NaN entries of a vector.

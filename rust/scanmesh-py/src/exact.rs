@@ -3,7 +3,7 @@
 
 use crate::convert::{faces, faces_out, points2, shape_error, Ints2};
 use crate::results::CheapestFans;
-use crate::{to_py, ParameterError};
+use crate::{detached, to_py, ParameterError};
 use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -16,9 +16,7 @@ pub(crate) fn empty_triangles<'py>(
     uv: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Ints2<'py>> {
     let pts = points2(&uv)?;
-    let t = py
-        .detach(|| scanmesh_core::exact::empty_triangles(&pts))
-        .map_err(to_py)?;
+    let t = detached(py, || scanmesh_core::exact::empty_triangles(&pts))?.map_err(to_py)?;
     faces_out(py, &t)
 }
 
@@ -34,9 +32,10 @@ pub(crate) fn triangulations<'py>(
 ) -> PyResult<Bound<'py, numpy::PyArray3<i64>>> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    let all = py
-        .detach(|| scanmesh_core::exact::triangulations(&pts, &t, max_count))
-        .map_err(to_py)?;
+    let all = detached(py, || {
+        scanmesh_core::exact::triangulations(&pts, &t, max_count)
+    })?
+    .map_err(to_py)?;
     let flat: Vec<i64> = all
         .iter()
         .flatten()
@@ -81,9 +80,10 @@ pub(crate) fn cheapest_fans<'py>(
         vs.push(v as u32);
     }
     let w = w.as_array().to_vec();
-    let fans = py
-        .detach(|| scanmesh_core::exact::cheapest_fans(&pts, &t, &d, &c, &vs, &w))
-        .map_err(to_py)?;
+    let fans = detached(py, || {
+        scanmesh_core::exact::cheapest_fans(&pts, &t, &d, &c, &vs, &w)
+    })?
+    .map_err(to_py)?;
     let bounds: Vec<f64> = fans.iter().map(|f| f.lower_bound).collect();
     let (mut owner, mut values, mut flat, mut offsets) =
         (Vec::new(), Vec::new(), Vec::new(), vec![0i64]);

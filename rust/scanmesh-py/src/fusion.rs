@@ -2,7 +2,8 @@
 //! grid that views are integrated and carved into, the labelled closed mesh it gives.
 
 use crate::convert::{faces_out, points3_view, shape_error, Floats2, Ints2};
-use crate::to_py;
+use crate::progress::{counter, ProgressCounter};
+use crate::{detached, to_py};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -107,15 +108,14 @@ impl FusionVolume {
     /// O(blocks + pixels + nodes of the blocks its surfaces cross), GIL released. Raises
     /// ParameterError beyond `max_voxels`, MemoryLimitError when the blocks do not fit.
     fn integrate(&mut self, py: Python<'_>, view: &DepthView) -> PyResult<()> {
-        py.detach(|| self.inner.integrate(&view.inner))
-            .map_err(to_py)
+        detached(py, || self.inner.integrate(&view.inner))?.map_err(to_py)
     }
 
     /// Marks empty the space along the view's rays without return that crossed no measured
     /// surface; call after every `integrate`. O(rays · blocks per ray + blocks + nodes of
     /// the blocks the carving's edge crosses), GIL released. Raises as `integrate`.
     fn carve(&mut self, py: Python<'_>, view: &DepthView) -> PyResult<()> {
-        py.detach(|| self.inner.carve(&view.inner)).map_err(to_py)
+        detached(py, || self.inner.carve(&view.inner))?.map_err(to_py)
     }
 
     /// (nx, ny, nz) uint8 per node: 0 measured, 1 seen empty, 2 unseen (a byte per node of
@@ -143,14 +143,17 @@ impl FusionVolume {
     /// Vertices are placed on `samples`
     /// (S, 3) with outward unit `normals` (S, 3); `views`, the list integrated and carved
     /// in the order carved, place the surface between nodes where their rays' evidence
-    /// jumps. O(nodes + S log S), GIL released.
+    /// jumps. `progress`, a `ProgressCounter`, counts the grid's slices pass by pass.
+    /// O(nodes + S log S), GIL released.
     #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (samples, normals, views, progress=None))]
     fn extract<'py>(
         &self,
         py: Python<'py>,
         samples: PyReadonlyArray2<'py, f64>,
         normals: PyReadonlyArray2<'py, f64>,
         views: Vec<PyRef<'py, DepthView>>,
+        progress: Option<PyRef<'py, ProgressCounter>>,
     ) -> PyResult<(
         Floats2<'py>,
         Ints2<'py>,
@@ -162,9 +165,11 @@ impl FusionVolume {
         let n = points3_view(&normals)?;
         let inner: Vec<&scanmesh_core::fusion::DepthView> =
             views.iter().map(|v| &v.inner).collect();
-        let fused = py
-            .detach(|| scanmesh_core::fusion::extract(&self.inner, &s, &n, &inner))
-            .map_err(to_py)?;
+        let progress = counter(progress);
+        let fused = detached(py, || {
+            scanmesh_core::fusion::extract_counted(&self.inner, &s, &n, &inner, &progress)
+        })?
+        .map_err(to_py)?;
         let flat: Vec<f64> = fused.vertices.iter().flat_map(|v| v.to_array()).collect();
         let vertices = Array2::from_shape_vec((fused.vertices.len(), 3), flat)
             .expect("3 per vertex")

@@ -2,7 +2,7 @@
 
 use crate::convert::{face_rows, points3_view};
 use crate::results::{TextProblem, TextTable};
-use crate::{to_py, ParameterError};
+use crate::{detached, to_py, ParameterError};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -19,9 +19,7 @@ pub(crate) fn stl_records<'py>(
 ) -> PyResult<Bound<'py, PyArray1<u8>>> {
     let pts = points3_view(&points)?;
     let t = face_rows(&faces_)?;
-    let bytes = py
-        .detach(|| scanmesh_core::io::stl_records(&pts, &t))
-        .map_err(to_py)?;
+    let bytes = detached(py, || scanmesh_core::io::stl_records(&pts, &t))?.map_err(to_py)?;
     Ok(Array1::from_vec(bytes).into_pyarray(py))
 }
 
@@ -62,7 +60,7 @@ pub(crate) fn parse_text_table<'py>(
     };
     let chunk = &data[start..stop];
     let width = ncols.max(1);
-    let (table, problem) = match py.detach(|| parse_table(chunk, ncols, delimiter)) {
+    let (table, problem) = match detached(py, || parse_table(chunk, ncols, delimiter))? {
         Ok(table) => (table, None),
         Err(e) => {
             let kind = match e.kind {

@@ -1,7 +1,7 @@
 //! Thin PyO3 bindings of `scanmesh-core`: check shapes, convert numpy, release the GIL for
 //! the work, map `scanmesh_core::Error` to the exception classes declared here. One file
 //! per topic of the core (`triangulate`, `criteria`, `strips`, `optimize`, `exact`, `io`,
-//! `fusion`), numpy conversions in `convert`, the result classes in `results`.
+//! `fusion`, `progress`), numpy conversions in `convert`, the result classes in `results`.
 #![deny(rustdoc::broken_intra_doc_links)]
 
 use numpy::PyArray1;
@@ -18,7 +18,9 @@ mod exact;
 mod fusion;
 mod io;
 mod optimize;
+mod progress;
 mod results;
+mod simplify;
 mod strips;
 mod triangulate;
 
@@ -94,6 +96,16 @@ pub(crate) fn to_py(e: Error) -> PyErr {
     }
 }
 
+/// `f()` with the GIL released, once the core's thread pool runs: it starts at the first
+/// such call, with fewer workers where their stacks do not all fit, and a
+/// `MemoryLimitError` naming the threads and the limit where none does (rayon's own start
+/// panicked there, and the process hung). Every call into parallel work of the core goes
+/// through here. O(1) after the first call.
+pub(crate) fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    scanmesh_core::pool::start_pool().map_err(to_py)?;
+    Ok(py.detach(f))
+}
+
 /// The native core of scanmesh.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -167,10 +179,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(optimize::lop, m)?)?;
     m.add_function(wrap_pyfunction!(io::parse_text_table, m)?)?;
     m.add_function(wrap_pyfunction!(io::stl_records, m)?)?;
+    m.add_function(wrap_pyfunction!(simplify::simplify, m)?)?;
     m.add_class::<optimize::AnnealParams>()?;
     m.add_class::<optimize::Annealer>()?;
     m.add_class::<fusion::DepthView>()?;
     m.add_class::<fusion::FusionVolume>()?;
+    m.add_class::<progress::ProgressCounter>()?;
     m.add_class::<strips::StripParams>()?;
     m.add_class::<strips::ScanContext>()?;
     m.add_class::<results::ScanSegments>()?;

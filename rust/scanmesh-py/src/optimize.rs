@@ -5,7 +5,7 @@ use crate::convert::{
     edges, faces, faces_out, points2_view, points3_view, trace_out, vector3, Ints2,
 };
 use crate::results::AnnealOutcome;
-use crate::{to_py, ParameterError, ScanmeshError};
+use crate::{detached, to_py, ParameterError, ScanmeshError};
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
@@ -144,9 +144,8 @@ pub(crate) fn tac_state(
     let plane = points2_view(uv)?;
     let t = faces(faces_, xyz.len())?;
     let fixed = fixed.map(|f| edges("fixed", &f, xyz.len())).transpose()?;
-    let (state, relabel) = py
-        .detach(|| TacState::from_input(&xyz, &plane, t, p))
-        .map_err(to_py)?;
+    let (state, relabel) =
+        detached(py, || TacState::from_input(&xyz, &plane, t, p))?.map_err(to_py)?;
     let fixed = fixed
         .map(|f| FixedEdges::new(xyz.len(), &f)?.renamed(&relabel.to_local))
         .transpose()
@@ -199,12 +198,11 @@ pub(crate) fn lop<'py>(
         }
     };
     let (state, relabel) = tac_state(py, &points, &uv, &faces_, p, sight, fixed)?;
-    let (faces, flips) = py
-        .detach(|| {
-            let (mesh, flips) = run_lop(state, criterion)?;
-            Ok((relabel.triangles_to_input(&mesh.triangles()?)?, flips))
-        })
-        .map_err(to_py)?;
+    let (faces, flips) = detached(py, || {
+        let (mesh, flips) = run_lop(state, criterion)?;
+        Ok((relabel.triangles_to_input(&mesh.triangles()?)?, flips))
+    })?
+    .map_err(to_py)?;
     Ok((faces_out(py, &faces)?, flips))
 }
 
@@ -245,7 +243,7 @@ impl Annealer {
     ) -> PyResult<Self> {
         let params = params.0.clone();
         let (state, relabel) = tac_state(py, &points, &uv, &faces, params.p, sight, fixed)?;
-        let inner = py.detach(|| Ensemble::new(state, params)).map_err(to_py)?;
+        let inner = detached(py, || Ensemble::new(state, params))?.map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),
             relabel,
@@ -267,8 +265,7 @@ impl Annealer {
         let budget = std::time::Duration::try_from_secs_f64(max_seconds.max(0.0))
             .unwrap_or(std::time::Duration::MAX);
         let deadline = std::time::Instant::now().checked_add(budget);
-        py.detach(|| inner.advance_until(max_proposals, deadline))
-            .map_err(to_py)
+        detached(py, || inner.advance_until(max_proposals, deadline))?.map_err(to_py)
     }
 
     /// True when every chain ran all its sweeps or froze and stopped early.
@@ -309,13 +306,12 @@ impl Annealer {
             .take()
             .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
         let relabel = &self.relabel;
-        let (r, chains, faces) = py
-            .detach(|| {
-                let (r, chains) = inner.finish()?;
-                let faces = relabel.triangles_to_input(&r.mesh.triangles()?)?;
-                Ok((r, chains, faces))
-            })
-            .map_err(to_py)?;
+        let (r, chains, faces) = detached(py, || {
+            let (r, chains) = inner.finish()?;
+            let faces = relabel.triangles_to_input(&r.mesh.triangles()?)?;
+            Ok((r, chains, faces))
+        })?
+        .map_err(to_py)?;
         Ok(AnnealOutcome {
             faces: faces_out(py, &faces)?.unbind(),
             trace: trace_out(py, &r.trace).unbind(),

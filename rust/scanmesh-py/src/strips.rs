@@ -4,8 +4,9 @@ use crate::convert::{
     faces_out, indices_out, line_ids_in, pairs_out, points2, points2_view, points3_view,
     shape_error,
 };
+use crate::progress::{counter, ProgressCounter};
 use crate::results::{ScanSegments, StripResult};
-use crate::{to_py, ParameterError};
+use crate::{detached, to_py, ParameterError};
 use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -24,9 +25,8 @@ pub(crate) fn detect_lines<'py>(
     gap_factor: f64,
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let pts = points2(&uv)?;
-    let ids = py
-        .detach(|| scanmesh_core::strips::detect_lines(&pts, gap_factor))
-        .map_err(to_py)?;
+    let ids =
+        detached(py, || scanmesh_core::strips::detect_lines(&pts, gap_factor))?.map_err(to_py)?;
     Ok(Array1::from_iter(ids.into_iter().map(i64::from)).into_pyarray(py))
 }
 
@@ -42,9 +42,7 @@ pub(crate) fn scan_segments<'py>(
 ) -> PyResult<ScanSegments> {
     let pts = points2(&uv)?;
     let ids = line_ids_in(&line_ids, pts.len())?;
-    let scan = py
-        .detach(|| segment_lines(&pts, &ids, gap_factor))
-        .map_err(to_py)?;
+    let scan = detached(py, || segment_lines(&pts, &ids, gap_factor))?.map_err(to_py)?;
     let lines = scan
         .lines
         .iter()
@@ -205,9 +203,11 @@ impl ScanContext {
 /// gaps of `gap_factor` median steps. `context`: these points are some consecutive lines of
 /// a larger scan, to be solved as that scan solves them. Returns a `StripResult` (faces
 /// counter-clockwise in the plane, unused and trimmed points, duplicates, the strips' count
-/// and cost, the planar error, the triangles dropped, the signed area).
+/// and cost, the planar error, the triangles dropped, the signed area). `progress`, a
+/// `ProgressCounter`, counts the strips' triangles as they are solved.
 #[pyfunction]
-#[pyo3(signature = (points, uv, line_ids, params, gap_factor, context=None))]
+#[pyo3(signature = (points, uv, line_ids, params, gap_factor, context=None, progress=None))]
+#[allow(clippy::too_many_arguments)] // the Python signature: arrays, options, context, progress
 pub(crate) fn strip_mesh<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
@@ -216,6 +216,7 @@ pub(crate) fn strip_mesh<'py>(
     params: PyRef<'py, StripParams>,
     gap_factor: f64,
     context: Option<PyRef<'py, ScanContext>>,
+    progress: Option<PyRef<'py, ProgressCounter>>,
 ) -> PyResult<StripResult> {
     let (points, uv, line_ids) = (&points, &uv, &line_ids);
     // Borrowed, not copied, when numpy holds them contiguous (as `strip_surface` passes
@@ -234,10 +235,12 @@ pub(crate) fn strip_mesh<'py>(
         _ => Cow::Owned(line_ids_in(line_ids, pts.len())?),
     };
     // Copies (a few words each): a PyRef may not cross into the GIL-free closure.
-    let (params, context) = (params.0, context.map(|c| c.0));
-    let (mut mesh, duplicates) = py
-        .detach(|| stitch_part(&pts, &plane, &ids, gap_factor, &params, context.as_ref()))
-        .map_err(to_py)?;
+    let (params, context, progress) = (params.0, context.map(|c| c.0), counter(progress));
+    let (mut mesh, duplicates) = detached(py, || {
+        let context = context.as_ref();
+        stitch_part(&pts, &plane, &ids, gap_factor, &params, context, &progress)
+    })?
+    .map_err(to_py)?;
     Ok(StripResult {
         faces: faces_out(py, &std::mem::take(&mut mesh.triangles))?.unbind(),
         unused: indices_out(py, &mesh.unused).unbind(),

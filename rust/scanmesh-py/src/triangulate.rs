@@ -5,8 +5,9 @@ use crate::convert::{
     duplicates_out, faces, faces_out, indices_out, points2, points2_view, points3_view, uv_into,
     vector3, Floats2, Ints1, Ints2,
 };
+use crate::progress::{counter, ProgressCounter};
 use crate::results::{GridTriangles, TrimmedDelaunay};
-use crate::{to_py, ParameterError};
+use crate::{detached, to_py, ParameterError};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -39,9 +40,7 @@ pub(crate) fn project<'py>(
             )))
         }
     };
-    let p = py
-        .detach(|| scanmesh_core::projection::project(&pts, plane))
-        .map_err(to_py)?;
+    let p = detached(py, || scanmesh_core::projection::project(&pts, plane))?.map_err(to_py)?;
     let f = p.frame;
     let frame: Vec<f64> = [f.origin, f.u, f.v, f.normal]
         .iter()
@@ -63,9 +62,7 @@ pub(crate) fn delaunay<'py>(
     uv: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<(Ints2<'py>, Ints1<'py>)> {
     let pts = points2(&uv)?;
-    let d = py
-        .detach(|| scanmesh_core::triangulate::delaunay(&pts))
-        .map_err(to_py)?;
+    let d = detached(py, || scanmesh_core::triangulate::delaunay(&pts))?.map_err(to_py)?;
     Ok((
         faces_out(py, &d.triangles)?,
         duplicates_out(py, &d.duplicate_of),
@@ -82,22 +79,26 @@ pub(crate) fn check_trim_lengths(max_edge: f64, jump_factor: f64) -> PyResult<()
 /// the core): at `max_edge`, or None for DEFAULT_MAX_EDGE_FACTOR x the median spacing, and
 /// when that is finite, depth jumps on the (N, 3) `points` at `jump_factor`. Returns a
 /// `TrimmedDelaunay`: faces, duplicate_of as in `delaunay`, trimmed (K,) int64, the
-/// max_edge used, (triangulate, trim) seconds.
+/// max_edge used, (triangulate, trim) seconds. `progress`, a `ProgressCounter`, counts its
+/// passes over the points while it runs.
 #[pyfunction]
-#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR))]
+#[pyo3(signature = (uv, points, max_edge=None, jump_factor=scanmesh_core::triangulate::DEFAULT_JUMP_FACTOR, progress=None))]
 pub(crate) fn delaunay_trimmed<'py>(
     py: Python<'py>,
     uv: PyReadonlyArray2<'py, f64>,
     points: PyReadonlyArray2<'py, f64>,
     max_edge: Option<f64>,
     jump_factor: f64,
+    progress: Option<PyRef<'py, ProgressCounter>>,
 ) -> PyResult<TrimmedDelaunay> {
     check_trim_lengths(max_edge.unwrap_or(1.0), jump_factor)?;
     let pts = points2_view(&uv)?;
     let xyz = matching_points(&points, pts.len())?;
-    let t = py
-        .detach(|| scanmesh_core::triangulate::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor))
-        .map_err(to_py)?;
+    let progress = counter(progress);
+    let t = detached(py, || {
+        scanmesh_core::triangulate::delaunay_trimmed(&pts, &xyz, max_edge, jump_factor, &progress)
+    })?
+    .map_err(to_py)?;
     Ok(TrimmedDelaunay {
         faces: faces_out(py, &t.triangles)?.unbind(),
         duplicate_of: duplicates_out(py, &t.duplicate_of).unbind(),
@@ -141,11 +142,10 @@ pub(crate) fn grid_triangulate<'py>(
         max_turn_deg,
         edge_factor,
     };
-    let t = py
-        .detach(|| {
-            scanmesh_core::triangulate::grid_triangulate(&cells, rows, cols, &pts, &xyz, params)
-        })
-        .map_err(to_py)?;
+    let t = detached(py, || {
+        scanmesh_core::triangulate::grid_triangulate(&cells, rows, cols, &pts, &xyz, params)
+    })?
+    .map_err(to_py)?;
     Ok(GridTriangles {
         faces: faces_out(py, &t.triangles)?.unbind(),
         candidates: t.candidates,
@@ -167,8 +167,7 @@ pub(crate) fn median_spacing(
 ) -> PyResult<f64> {
     let pts = points2(&uv)?;
     let t = faces(&faces_, pts.len())?;
-    py.detach(|| scanmesh_core::triangulate::median_spacing(&pts, &t))
-        .map_err(to_py)
+    detached(py, || scanmesh_core::triangulate::median_spacing(&pts, &t))?.map_err(to_py)
 }
 
 /// Drops faces whose longest planar edge exceeds `max_edge` and, given the (N, 3) `points`,
@@ -199,9 +198,10 @@ pub(crate) fn trim_long_edges<'py>(
             factor: jump_factor,
             gaps: true,
         });
-    let kept = py
-        .detach(|| scanmesh_core::triangulate::trim_long_edges(&pts, &t, max_edge, jumps))
-        .map_err(to_py)?;
+    let kept = detached(py, || {
+        scanmesh_core::triangulate::trim_long_edges(&pts, &t, max_edge, jumps)
+    })?
+    .map_err(to_py)?;
     faces_out(py, &kept)
 }
 
@@ -215,8 +215,10 @@ pub(crate) fn validate(
 ) -> PyResult<()> {
     let pts = scanmesh_core::geometry::unit_square(&points2(&uv)?);
     let t = faces(&faces_, pts.len())?;
-    py.detach(|| HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts)))
-        .map_err(to_py)
+    detached(py, || {
+        HalfEdgeMesh::from_triangles(pts.len(), &t).and_then(|m| m.validate(&pts))
+    })?
+    .map_err(to_py)
 }
 
 /// (N, 3) `points` borrowed as `DVec3`s, checked to be as many as the `planar` points a

@@ -344,6 +344,7 @@ pub(super) fn block_nodes([lo, hi]: [[usize; 3]; 2]) -> impl Iterator<Item = ([u
 
 #[cfg(test)]
 mod tests {
+    use super::super::testing::assert_beyond_max_voxels;
     use super::*;
 
     #[test]
@@ -403,17 +404,7 @@ mod tests {
             blocks.allocate_flags(b).unwrap();
         }
         for err in [blocks.allocate(10), blocks.allocate_flags(10)] {
-            let err = err.unwrap_err();
-            assert!(
-                matches!(
-                    err,
-                    Error::TooCostly {
-                        name: "max_voxels",
-                        ..
-                    }
-                ),
-                "{err}"
-            );
+            assert_beyond_max_voxels(&err.unwrap_err());
         }
         assert_eq!(blocks.allocated(), [BLOCK_NODES, 9 * BLOCK_NODES]);
     }

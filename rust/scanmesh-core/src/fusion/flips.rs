@@ -13,11 +13,13 @@
 use super::samples::SampleIndex;
 use crate::budget;
 use crate::error::Result;
+use crate::progress::Share;
 use glam::DVec3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Passes over the edges at most (a pass that flips nothing ends the loop sooner).
-const MAX_PASSES: usize = 4;
+pub(super) const MAX_PASSES: usize = 4;
 
 /// A flip must lower the samples' squared distances by this share at least: flat parts,
 /// where both splits fit equally up to the noise, keep the first.
@@ -31,9 +33,11 @@ const MIN_FACING: f64 = 0.17;
 
 /// Flips the edges of the closed mesh (`vertices`, `faces`) towards the samples; `cells`
 /// holds each vertex's cell (grid coordinates), `labels` the faces' labels. Returns the
-/// flips made. O(passes · faces · samples per cell neighbourhood).
+/// flips made; counts each pass in `passes` (of `MAX_PASSES`). O(passes · faces · samples
+/// per cell neighbourhood).
 ///
 /// Errors: `OutOfMemory` when the edges' map does not fit.
+#[allow(clippy::too_many_arguments)] // the mesh, the samples and the progress: no struct holds them
 pub(super) fn follow_samples(
     vertices: &[DVec3],
     cells: &[[usize; 3]],
@@ -42,6 +46,7 @@ pub(super) fn follow_samples(
     near: &SampleIndex,
     samples: &[DVec3],
     normals: &[DVec3],
+    passes: &Share<'_>,
 ) -> Result<usize> {
     let mut owner: HashMap<(u32, u32), u32> = HashMap::new();
     owner.try_reserve(faces.len() * 3).map_err(|_| {
@@ -52,67 +57,116 @@ pub(super) fn follow_samples(
             owner.insert((t[e], t[(e + 1) % 3]), f as u32);
         }
     }
-    let mut gathered = Vec::new();
     let mut flips = 0;
+    let mut touched: Vec<bool> = budget::try_filled("the fused mesh's faces", false, faces.len())?;
+    // the faces whose edges a pass judges: all at first, then those a flip changed and their
+    // neighbours (an edge whose two faces stayed keeps its quad, and so its verdict)
+    let mut judge: Vec<bool> = budget::try_filled("the fused mesh's faces", true, faces.len())?;
     for _ in 0..MAX_PASSES {
+        passes.add(1); // counted as it starts: one hook, wherever the pass's work is done
+                       // judged on every core against the mesh as the pass found it, then made one by one;
+                       // a flip whose faces an earlier flip of the pass changed waits for the next pass
+        let judged: Vec<bool> = budget::try_par_collect(
+            "the fused mesh's flips",
+            (0..3 * faces.len()).into_par_iter().map_init(
+                Vec::new,
+                |gathered: &mut Vec<usize>, k| {
+                    if !judge[k / 3] {
+                        return false;
+                    }
+                    let Some((_, [a, b, c, d])) = quad(faces, &owner, labels, cells, k / 3, k % 3)
+                    else {
+                        return false;
+                    };
+                    gathered.clear();
+                    for v in [a, b] {
+                        gathered.extend(near.around(cells[v as usize]));
+                    }
+                    gathered.sort_unstable();
+                    gathered.dedup();
+                    let p = [a, b, c, d].map(|v| vertices[v as usize]);
+                    better(p, gathered, samples, normals)
+                },
+            ),
+        )?;
+        touched.iter_mut().for_each(|t| *t = false);
         let before = flips;
-        for f in 0..faces.len() {
-            for e in 0..3 {
-                let t = faces[f];
-                let (a, b, c) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
-                if a > b {
-                    continue; // each edge once, from the face where it runs upwards
-                }
-                let Some(&g) = owner.get(&(b, a)) else {
-                    continue;
-                };
-                let g = g as usize;
-                let u = faces[g];
-                let d = u[0] ^ u[1] ^ u[2] ^ a ^ b;
-                if labels[f] != labels[g]
-                    || c == d
-                    || owner.contains_key(&(c, d))
-                    || owner.contains_key(&(d, c))
-                {
-                    continue;
-                }
-                let (cc, cd) = (cells[c as usize], cells[d as usize]);
-                if (0..3).any(|k| cc[k].abs_diff(cd[k]) > 1) {
-                    continue;
-                }
-                gathered.clear();
-                for v in [a, b] {
-                    gathered.extend(near.around(cells[v as usize]));
-                }
-                gathered.sort_unstable();
-                gathered.dedup();
-                let p = [a, b, c, d].map(|v| vertices[v as usize]);
-                if !better(p, &gathered, samples, normals) {
-                    continue;
-                }
-                for (x, y) in [(a, b), (b, c), (c, a), (b, a), (a, d), (d, b)] {
-                    owner.remove(&(x, y));
-                }
-                faces[f] = [a, d, c];
-                faces[g] = [b, c, d];
-                for (x, y, h) in [
-                    (a, d, f),
-                    (d, c, f),
-                    (c, a, f),
-                    (b, c, g),
-                    (c, d, g),
-                    (d, b, g),
-                ] {
-                    owner.insert((x, y), h as u32);
-                }
-                flips += 1;
+        for k in (0..judged.len()).filter(|&k| judged[k]) {
+            let (f, e) = (k / 3, k % 3);
+            if touched[f] {
+                continue;
             }
+            let Some((g, [a, b, c, d])) = quad(faces, &owner, labels, cells, f, e) else {
+                continue;
+            };
+            if touched[g] {
+                continue;
+            }
+            for (x, y) in [(a, b), (b, c), (c, a), (b, a), (a, d), (d, b)] {
+                owner.remove(&(x, y));
+            }
+            faces[f] = [a, d, c];
+            faces[g] = [b, c, d];
+            for (x, y, h) in [
+                (a, d, f),
+                (d, c, f),
+                (c, a, f),
+                (b, c, g),
+                (c, d, g),
+                (d, b, g),
+            ] {
+                owner.insert((x, y), h as u32);
+            }
+            (touched[f], touched[g]) = (true, true);
+            flips += 1;
         }
         if flips == before {
             break;
         }
+        judge.copy_from_slice(&touched);
+        for f in (0..faces.len()).filter(|&f| touched[f]) {
+            let t = faces[f];
+            for e in 0..3 {
+                if let Some(&g) = owner.get(&(t[(e + 1) % 3], t[e])) {
+                    judge[g as usize] = true;
+                }
+            }
+        }
     }
     Ok(flips)
+}
+
+/// The quad of edge `e` of face `f` that a flip may turn: the other face `g` and the
+/// vertices (a, b) of the edge, c of `f` and d of `g` across it; `None` where the edge is
+/// judged from its other face, or a flip would break the mesh (see the module comment).
+fn quad(
+    faces: &[[u32; 3]],
+    owner: &HashMap<(u32, u32), u32>,
+    labels: &[u8],
+    cells: &[[usize; 3]],
+    f: usize,
+    e: usize,
+) -> Option<(usize, [u32; 4])> {
+    let t = faces[f];
+    let (a, b, c) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
+    if a > b {
+        return None; // each edge once, from the face where it runs upwards
+    }
+    let g = *owner.get(&(b, a))? as usize;
+    let u = faces[g];
+    let d = u[0] ^ u[1] ^ u[2] ^ a ^ b;
+    if labels[f] != labels[g]
+        || c == d
+        || owner.contains_key(&(c, d))
+        || owner.contains_key(&(d, c))
+    {
+        return None;
+    }
+    let (cc, cd) = (cells[c as usize], cells[d as usize]);
+    if (0..3).any(|k| cc[k].abs_diff(cd[k]) > 1) {
+        return None;
+    }
+    Some((g, [a, b, c, d]))
 }
 
 /// Whether triangles (a, d, c), (b, c, d) fit the samples better than (a, b, c), (b, a, d);

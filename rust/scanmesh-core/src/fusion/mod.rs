@@ -13,10 +13,12 @@ pub(crate) mod flips;
 pub(crate) mod footprint;
 pub(crate) mod samples;
 pub(crate) mod sides;
+#[cfg(test)]
+mod testing;
 pub(crate) mod topology;
 pub(crate) mod tsdf;
 pub(crate) mod walls;
 
 pub use depth::{DepthView, Lookup, JUMP_STEPS, MIN_COS, RIGID_TOL};
-pub use extract::{extract, Fused, FILLED, INFERRED, MEASURED};
+pub use extract::{extract, extract_counted, Fused, EXTRACT_WEIGHTS, FILLED, INFERRED, MEASURED};
 pub use tsdf::{Evidence, Volume, BEHIND_VOXELS};

@@ -33,6 +33,7 @@ use crate::budget::{try_filled, try_indices, try_par_collect, try_vec};
 use crate::geometry::{check_finite, orient2d, Normalizer};
 use crate::geometry::{unit_square_scaled, unit_square_scaled_by};
 use crate::mesh::HalfEdgeMesh;
+use crate::progress::Progress;
 use crate::strips::fuchs::{lookahead, path_triangles_into, shortest_path, Weight};
 use crate::strips::lines::ScanLines;
 use crate::triangulate::jumps::{check_jump_factor, DepthJumps};
@@ -309,7 +310,7 @@ pub fn stitch(
     scan: &ScanLines,
     params: &StripParams,
 ) -> Result<StripMesh> {
-    stitch_with(points, uv, scan, params, true, None).map(|(mesh, _, _)| mesh)
+    stitch_with(points, uv, scan, params, true, None, &Progress::new()).map(|(mesh, _, _)| mesh)
 }
 
 /// The whole strip method from a line id per point, over some consecutive lines of a
@@ -332,6 +333,7 @@ pub fn stitch_part(
     gap_factor: f64,
     params: &StripParams,
     context: Option<&ScanContext>,
+    progress: &Progress,
 ) -> Result<(StripMesh, Vec<(u32, u32)>)> {
     crate::budget::check_stage(
         || format!("strips on {} points", uv.len()),
@@ -343,7 +345,7 @@ pub fn stitch_part(
     if points.len() == uv.len() {
         crate::strips::lines::split_at_jumps(&mut scan, points, uv, params.jump_factor)?;
     }
-    let (mesh, _, _) = stitch_with(points, uv, &scan, params, true, context)?;
+    let (mesh, _, _) = stitch_with(points, uv, &scan, params, true, context, progress)?;
     Ok((mesh, scan.duplicates))
 }
 
@@ -368,6 +370,7 @@ fn stitch_with(
     params: &StripParams,
     local: bool,
     context: Option<&ScanContext>,
+    progress: &Progress,
 ) -> Result<(StripMesh, Option<bool>, Option<Error>)> {
     check_inputs(points, uv, scan, params)?;
     let caller_uv = uv;
@@ -391,7 +394,7 @@ fn stitch_with(
         mut triangles,
         ranges,
         solved,
-    } = solve_strips(points, &unit, &tasks, params, plan.as_ref())?;
+    } = solve_strips(points, &unit, &tasks, params, plan.as_ref(), progress)?;
     let summaries: Vec<check::Summary> = solved.iter().filter_map(|s| s.summary).collect();
     let own = Own(context.and_then(|c| c.own_rows));
     // Sums in task order, over the strips returned.
@@ -668,6 +671,7 @@ fn solve_strips(
     tasks: &[Task],
     params: &StripParams,
     plan: Option<&check::Plan>,
+    progress: &Progress,
 ) -> Result<Strips> {
     const WHAT: &str = "the strips' triangles";
     let mut ranges = try_vec(WHAT, tasks.len())?;
@@ -677,6 +681,7 @@ fn solve_strips(
         ranges.push(total..total + count);
         total += count;
     }
+    progress.plan(total as u64);
     let mut triangles = try_filled(WHAT, [0u32; 3], total)?;
     let mut parts = try_vec(WHAT, tasks.len())?;
     let mut rest = &mut triangles[..];
@@ -693,7 +698,8 @@ fn solve_strips(
         .enumerate()
         .map(|(k, (task, out))| {
             let interior = plan.map(|p| p.interior(k));
-            solve(
+            let count = out.len() as u64;
+            let solved = solve(
                 points,
                 &unit.normalizer,
                 &unit.uv,
@@ -702,7 +708,9 @@ fn solve_strips(
                 unit.weight,
                 interior,
                 out,
-            )
+            );
+            progress.add(count); // a strip is hundreds of points: an add apiece is cheap
+            solved
         })
         .collect::<Result<_>>()?;
     Ok(Strips {

@@ -6,6 +6,7 @@ use crate::geometry::{check_planar, orient2d, unit_square};
 use crate::mesh::locality::sweep_order;
 use crate::mesh::NONE;
 use crate::mesh::{next, prev, HalfEdgeMesh};
+use crate::progress::Progress;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
@@ -67,7 +68,7 @@ impl HasPosition for IndexedPoint {
 /// hull stretches closed by flat triangles) falls back to spade, which is exact throughout.
 /// So the faces are the same whichever answers.
 pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
-    let (mut d, order) = delaunay_ordered(uv)?;
+    let (mut d, order) = delaunay_ordered(uv, &Progress::new())?;
     if let Some(to_input) = order {
         relabel(&mut d.triangles, &to_input);
     }
@@ -79,23 +80,33 @@ pub fn delaunay(uv: &[[f64; 2]]) -> Result<Delaunay> {
 /// input point `to_input[v]`), None when spade answered in input labels. `duplicate_of` is
 /// in input labels either way. Passes over the triangles are cache-friendly in local labels
 /// (consecutive triangles share nearby vertices), which is why the trimming stays in them.
-/// O(n log n).
-pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<u32>>)> {
+/// `progress` gets [`DELAUNAY_PASSES`] × n points planned and counted, a pass at a time
+/// (the sweep's insertions run inside delaunator, which counts nothing). O(n log n).
+pub(crate) fn delaunay_ordered(
+    uv: &[[f64; 2]],
+    progress: &Progress,
+) -> Result<(Delaunay, Option<Vec<u32>>)> {
     check_planar(uv)?;
     crate::budget::check_stage(
         || format!("Delaunay of {} points", uv.len()),
         PEAK_BYTES_PER_POINT.saturating_mul(uv.len() as u64),
     )?;
+    let n = uv.len() as u64;
+    progress.plan(DELAUNAY_PASSES * n);
+    let before = progress.done();
+    // what the passes not run (a sweep refused, spade answering) leave to count
+    let rest = || progress.add((DELAUNAY_PASSES * n).saturating_sub(progress.done() - before));
     if uv.len() < (NONE / 8) as usize {
         let swept = {
             let unit = unit_square(uv);
             let order = sweep_order(&unit)?;
+            progress.add(n);
             let local = try_collect(
                 "Delaunay's points",
                 order.iter().map(|&i| point(unit[i as usize])),
             )?;
             drop(unit);
-            sweep_points(local)?.map(|d| (d, order))
+            sweep_points(local, progress)?.map(|d| (d, order))
         };
         if let Some((mut d, to_input)) = swept {
             // Copies of a point keep their input order in the sweep order, so the lowest
@@ -107,11 +118,18 @@ pub(crate) fn delaunay_ordered(uv: &[[f64; 2]]) -> Result<(Delaunay, Option<Vec<
                 }
             }
             d.duplicate_of = duplicate_of;
+            rest();
             return Ok((d, Some(to_input)));
         }
     }
-    spade_delaunay(&unit_square(uv)).map(|d| (d, None))
+    let d = spade_delaunay(&unit_square(uv))?;
+    rest();
+    Ok((d, None))
 }
+
+/// Passes over the points [`delaunay_ordered`] counts in its `progress`: the sweep order,
+/// the sweep, its proof.
+pub(crate) const DELAUNAY_PASSES: u64 = 3;
 
 /// Maps every vertex label `v` of `triangles` to `to_input[v]`, in parallel. O(m).
 pub(crate) fn relabel(triangles: &mut [[u32; 3]], to_input: &[u32]) {
@@ -125,7 +143,7 @@ pub(crate) fn relabel(triangles: &mut [[u32; 3]], to_input: &[u32]) {
 /// O(n log n).
 #[cfg(test)]
 fn sweep(unit: &[[f64; 2]]) -> Option<Delaunay> {
-    sweep_points(unit.iter().map(|&p| point(p)).collect()).unwrap()
+    sweep_points(unit.iter().map(|&p| point(p)).collect(), &Progress::new()).unwrap()
 }
 
 /// delaunator's point type. O(1).
@@ -136,13 +154,16 @@ fn point(p: [f64; 2]) -> delaunator::Point {
 /// `sweep` on the points already in delaunator's type: the only copy of the coordinates
 /// while it runs (its peak is the call's). Ok(None) when the result is not proven; the
 /// input-sized buffers after delaunator's own may fail to allocate (an
-/// [`Error::OutOfMemory`]). O(n log n).
-fn sweep_points(points: Vec<delaunator::Point>) -> Result<Option<Delaunay>> {
+/// [`Error::OutOfMemory`]). Counts the points in `progress` once swept, again once proven.
+/// O(n log n).
+fn sweep_points(points: Vec<delaunator::Point>, progress: &Progress) -> Result<Option<Delaunay>> {
+    let n = points.len() as u64;
     let delaunator::Triangulation {
         triangles: corners,
         halfedges,
         ..
     } = delaunator::triangulate(&points);
+    progress.add(n);
     let unit = try_collect("Delaunay's unit points", points.iter().map(|p| [p.x, p.y]))?;
     drop(points);
     let unit = unit.as_slice();
@@ -177,6 +198,9 @@ fn sweep_points(points: Vec<delaunator::Point>) -> Result<Option<Delaunay>> {
         return Ok(None);
     };
     let exact = proven(unit, &triangles, &twins)?;
+    if exact {
+        progress.add(n);
+    }
     Ok(exact.then_some(Delaunay {
         triangles,
         twins,

@@ -7,7 +7,8 @@ use crate::geometry::planar_distance;
 use crate::geometry::UnitSquare;
 use crate::mesh::NONE;
 use crate::mesh::{prev, HalfEdgeMesh, COLLINEAR_SINE};
-use crate::triangulate::delaunay::relabel;
+use crate::progress::Progress;
+use crate::triangulate::delaunay::{relabel, DELAUNAY_PASSES};
 use crate::triangulate::holes::{covering_holes, DEFAULT_HOLE_FACTOR};
 use crate::triangulate::jumps::{
     bridging_in_box, check_jump_factor, check_points_match, infinities, lower, DepthJumps,
@@ -176,7 +177,15 @@ pub fn trim_long_edges(
     }
     let twins = twins_of(uv.len(), triangles)?;
     let jumps = UnitJumps::when_finite(jumps)?;
-    trim(uv, triangles, &twins, max_edge, jumps, None)
+    trim(
+        uv,
+        triangles,
+        &twins,
+        max_edge,
+        jumps,
+        None,
+        (&Progress::new(), 0),
+    )
 }
 
 /// Refuses a planar trimming length that is NaN or not positive (`∞` keeps every length);
@@ -223,19 +232,24 @@ pub struct Trimmed {
 /// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
 /// serve the trimming and no face array crosses to the caller in between. Errors: those of
 /// [`check_trim_lengths`], with a finite `jump_factor` `points` not one per planar point,
-/// and those of the triangulation. O(n log n).
+/// and those of the triangulation. `progress` gets [`TRIMMED_PASSES`] × n points planned
+/// at the start and counted a pass at a time. O(n log n).
 pub fn delaunay_trimmed(
     uv: &[[f64; 2]],
     points: &[DVec3],
     max_edge: Option<f64>,
     jump_factor: f64,
+    progress: &Progress,
 ) -> Result<Trimmed> {
     check_trim_lengths(max_edge.unwrap_or(1.0), jump_factor)?;
     if jump_factor.is_finite() {
         check_points_match(points, uv.len())?;
     }
+    let n = uv.len() as u64;
+    // the triangulation plans its own passes as it starts: the trimming's come first
+    progress.plan((TRIMMED_PASSES - DELAUNAY_PASSES) * n);
     let clock = std::time::Instant::now();
-    let (d, order) = crate::triangulate::delaunay::delaunay_ordered(uv)?;
+    let (d, order) = crate::triangulate::delaunay::delaunay_ordered(uv, progress)?;
     let triangulated = clock.elapsed().as_secs_f64();
     // The trimming runs in the triangulation's own labels, on the points gathered into
     // them: its passes then read memory in order (see `delaunay_ordered`).
@@ -251,6 +265,7 @@ pub fn delaunay_trimmed(
         Some(limit) => limit,
         None => DEFAULT_MAX_EDGE_FACTOR * triangulation_spacing(local_uv, &d.triangles, &d.twins)?,
     };
+    progress.add(n);
     let jumps = (limit.is_finite() && jump_factor.is_finite()).then(|| {
         let jumps = DepthJumps {
             points,
@@ -267,6 +282,7 @@ pub fn delaunay_trimmed(
         limit,
         jumps,
         order.as_deref(),
+        (progress, n),
     )?;
     drop(gathered);
     let mut vertex = try_filled(TRIMMED, false, uv.len())?;
@@ -284,6 +300,7 @@ pub fn delaunay_trimmed(
         trimmed.iter_mut().for_each(|v| *v = to_input[*v as usize]);
         trimmed.sort_unstable();
     }
+    progress.add(n);
     Ok(Trimmed {
         triangles,
         duplicate_of: d.duplicate_of,
@@ -299,7 +316,8 @@ pub fn delaunay_trimmed(
 /// labels are not the caller's) maps them back for the pinch tie-break. `jumps` is taken
 /// by value and dropped once the jump and gap rounds are done: its unit-box copy of the
 /// 3-D points (24 bytes a point) is not held through the hole rule and the peeling, where
-/// the call peaks. O(m) per round.
+/// the call peaks. `(progress, n)`: counts the n points once the tests are done and once
+/// the peeling is. O(m) per round.
 fn trim(
     uv: &[[f64; 2]],
     triangles: &[[u32; 3]],
@@ -307,6 +325,7 @@ fn trim(
     max_edge: f64,
     jumps: Option<UnitJumps>,
     to_input: Option<&[u32]>,
+    (progress, n): (&Progress, u64),
 ) -> Result<Vec<[u32; 3]>> {
     let short = ShortEnough::new(max_edge);
     let longest_within =
@@ -326,8 +345,15 @@ fn trim(
         .map(|(k, t)| longest_within(t) && !bridges.get(k).copied().unwrap_or(false));
     let keep = try_par_collect(KEEP, keep)?;
     drop(bridges);
-    peel_flags(uv, triangles, twins, keep, to_input)
+    progress.add(n);
+    let kept = peel_flags(uv, triangles, twins, keep, to_input)?;
+    progress.add(n);
+    Ok(kept)
 }
+
+/// Passes over the points [`delaunay_trimmed`] counts in its `progress`: those of the
+/// triangulation, the spacing, the trimming's tests, its peeling, the points left out.
+pub(crate) const TRIMMED_PASSES: u64 = DELAUNAY_PASSES + 4;
 
 /// What the keep flags and the triangles kept are called in memory errors.
 const KEEP: &str = "the triangles trimming keeps";

@@ -1,13 +1,9 @@
+use super::super::testing::{assert_beyond_max_voxels, fused_volume, view_from_above};
 use super::*;
 use glam::DMat3;
 
 fn looking_down(depth: Vec<f64>, width: usize, height: usize, step: f64) -> DepthView {
-    let mut pose = [0.0; 16];
-    for k in 0..4 {
-        pose[k * 5] = 1.0;
-    }
-    let cos = vec![1.0; depth.len()];
-    DepthView::new(pose, [0.0, 0.0], step, width, height, depth, cos).unwrap()
+    view_from_above([0.0; 2], step, [width, height], |i, j| depth[j * width + i])
 }
 
 #[test]
@@ -102,18 +98,19 @@ fn a_view_that_saw_a_node_in_front_outvotes_one_behind_a_surface() {
 fn between_nodes_the_carving_ends_where_the_rays_footprints_meet() {
     // rays at x = 0.3 + i: a plane at z = 4 for i < 3 (x <= 2.3), no return beyond
     // (x >= 3.3): the carved space begins halfway, at x = 2.8, between nodes x = 2, 3
-    let depth: Vec<f64> = (0..25)
-        .map(|k| if k % 5 < 3 { 4.0 } else { f64::NAN })
-        .collect();
-    let mut pose = [0.0; 16];
-    for k in 0..4 {
-        pose[k * 5] = 1.0;
-    }
-    pose[3] = 0.3;
-    let view = DepthView::new(pose, [0.0, 0.0], 1.0, 5, 5, depth, vec![1.0; 25]).unwrap();
-    let mut vol = Volume::new([0.0; 3], 1.0, [5, 5, 9], 2.0).unwrap();
-    vol.integrate(&view).unwrap();
-    vol.carve(&view).unwrap();
+    let view = view_from_above(
+        [0.3, 0.0],
+        1.0,
+        [5, 5],
+        |i, _| {
+            if i < 3 {
+                4.0
+            } else {
+                f64::NAN
+            }
+        },
+    );
+    let vol = fused_volume(&view, [0.0; 3], [5, 5, 9], 2.0);
     assert!(vol.value_at(DVec3::ZERO, &[]).is_err());
     for n in 0..5 * 5 * 9 {
         let p = vol.node(n % 5, (n / 5) % 5, n / 25);
@@ -293,17 +290,7 @@ fn a_volume_refuses_to_allocate_beyond_max_voxels() {
     let mut vol = Volume::new([-20.0; 3], 1.0, [41, 41, 41], 3.0)
         .unwrap()
         .with_max_voxels(4 * 512);
-    let err = vol.integrate(&view).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            Error::TooCostly {
-                name: "max_voxels",
-                ..
-            }
-        ),
-        "{err}"
-    );
+    assert_beyond_max_voxels(&vol.integrate(&view).unwrap_err());
     assert!(vol.allocated().iter().sum::<usize>() <= 4 * 512);
     // the same view in a volume allowed enough
     let mut roomy = Volume::new([-20.0; 3], 1.0, [41, 41, 41], 3.0).unwrap();

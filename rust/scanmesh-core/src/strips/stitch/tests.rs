@@ -60,6 +60,14 @@ fn methods() -> Vec<StripParams> {
     out
 }
 
+/// The strips of a whole scan (no context), as [`stitch_part`] gives them.
+fn whole_scan(pts: &[DVec3], uv: &[[f64; 2]], ids: &[i64], params: &StripParams) -> StripMesh {
+    let progress = Progress::new();
+    stitch_part(pts, uv, ids, DEFAULT_GAP_FACTOR, params, None, &progress)
+        .unwrap()
+        .0
+}
+
 #[test]
 fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
     // Zig-zag lines (every other one turned round) with a hole across a part border.
@@ -75,7 +83,7 @@ fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
         .flat_map(|p| [p[0].abs(), p[1].abs()])
         .fold(0.0, f64::max);
     for params in methods() {
-        let (whole, _) = stitch_part(&pts, &uv, &ids, DEFAULT_GAP_FACTOR, &params, None).unwrap();
+        let whole = whole_scan(&pts, &uv, &ids, &params);
         let median = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR)
             .unwrap()
             .median_step;
@@ -98,6 +106,7 @@ fn parts_with_the_scan_context_give_the_whole_scans_triangles() {
                 DEFAULT_GAP_FACTOR,
                 &params,
                 Some(&context),
+                &Progress::new(),
             )
             .unwrap();
             assert!(part.signed_area > 0.0);
@@ -129,7 +138,7 @@ fn parts_solved_with_their_overlap_drop_at_border_jumps_what_the_whole_scan_drop
         jump_factor: crate::triangulate::jumps::DEFAULT_JUMP_FACTOR,
         ..StripParams::default()
     };
-    let (whole, _) = stitch_part(&pts, &uv, &ids, DEFAULT_GAP_FACTOR, &params, None).unwrap();
+    let whole = whole_scan(&pts, &uv, &ids, &params);
     assert!(whole.dropped_jumps > 0);
     let (mut joined, mut dropped, mut strips, mut cost) = (Vec::new(), 0, 0, 0.0);
     for (first, last) in [(0, 4), (4, 7), (7, 10)] {
@@ -155,6 +164,7 @@ fn parts_solved_with_their_overlap_drop_at_border_jumps_what_the_whole_scan_drop
             DEFAULT_GAP_FACTOR,
             &params,
             Some(&context),
+            &Progress::new(),
         )
         .unwrap();
         joined.extend(part.triangles.iter().map(|t| t.map(|k| k + start as u32)));
@@ -259,7 +269,8 @@ fn crossing_lines_give_a_valid_mesh_and_count_what_was_dropped() {
     let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
     let scan = segment_lines(&uv, &ids, DEFAULT_GAP_FACTOR).unwrap();
     for params in methods() {
-        let (mesh, _, first) = stitch_with(&pts, &uv, &scan, &params, true, None).unwrap();
+        let (mesh, _, first) =
+            stitch_with(&pts, &uv, &scan, &params, true, None, &Progress::new()).unwrap();
         assert!(first.is_some(), "the strips overlap before the repair");
         assert!(mesh.planar_error.is_none(), "{:?}", mesh.planar_error);
         assert!(mesh.dropped_overlaps > 0);
@@ -381,8 +392,10 @@ fn local_against_global(
     scan: &ScanLines,
     params: &StripParams,
 ) -> (bool, bool) {
-    let (local, verdict, local_first) = stitch_with(pts, uv, scan, params, true, None).unwrap();
-    let (global, none, first) = stitch_with(pts, uv, scan, params, false, None).unwrap();
+    let (local, verdict, local_first) =
+        stitch_with(pts, uv, scan, params, true, None, &Progress::new()).unwrap();
+    let (global, none, first) =
+        stitch_with(pts, uv, scan, params, false, None, &Progress::new()).unwrap();
     assert_eq!(none, None);
     assert_eq!(local.triangles, global.triangles);
     assert_eq!(local.unused, global.unused);
@@ -628,4 +641,32 @@ fn bad_input_is_an_error() {
     let mut nan = pts.clone();
     nan[3].z = f64::NAN;
     assert!(stitch(&nan, &uv, &scan, &StripParams::default()).is_err());
+}
+
+#[test]
+fn the_progress_of_the_strips_reaches_the_triangles_planned() {
+    // A hole splits some lines into segments: several strips per line pair.
+    let hole = |x: f64, y: f64| (x - 6.0).powi(2) + (y - 2.8).powi(2) < 1.6f64.powi(2);
+    let (pts, ids) = grid(11, 25, true, hole);
+    let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+    for params in methods() {
+        let progress = Progress::new();
+        stitch_part(
+            &pts,
+            &uv,
+            &ids,
+            DEFAULT_GAP_FACTOR,
+            &params,
+            None,
+            &progress,
+        )
+        .unwrap();
+        // 10 line pairs of about 2 x 25 - 2 triangles each, less the hole's
+        assert!(
+            (400..=480).contains(&progress.total()),
+            "{}",
+            progress.total()
+        );
+        assert_eq!(progress.done(), progress.total());
+    }
 }

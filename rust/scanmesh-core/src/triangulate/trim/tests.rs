@@ -214,7 +214,7 @@ fn one_call_trims_as_the_two_steps_do() {
         gaps: true,
     };
     let two_steps = trim_long_edges(&uv, &d.triangles, limit, Some(jumps)).unwrap();
-    let one = delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR).unwrap();
+    let one = delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR, &Progress::new()).unwrap();
     assert_eq!(one.max_edge, limit);
     assert_eq!(one.triangles, two_steps);
     assert!(one.triangles.len() < d.triangles.len());
@@ -225,8 +225,35 @@ fn one_call_trims_as_the_two_steps_do() {
         .collect();
     assert_eq!(one.trimmed, lost);
     // max_edge = inf turns the depth jumps off too.
-    let all = delaunay_trimmed(&uv, &p, Some(f64::INFINITY), DEFAULT_JUMP_FACTOR).unwrap();
+    let all = delaunay_trimmed(
+        &uv,
+        &p,
+        Some(f64::INFINITY),
+        DEFAULT_JUMP_FACTOR,
+        &Progress::new(),
+    )
+    .unwrap();
     assert_eq!(all.triangles.len(), d.triangles.len());
+}
+
+#[test]
+fn the_progress_of_a_trimmed_delaunay_reaches_the_passes_it_planned() {
+    // The sweep (a jittered terrain) and spade (an exact grid, refused by the proof) both
+    // count every point of every pass, and plan them all before the first is done.
+    let jittered = terrain(40, 30, 1.5, |x, y| x * y);
+    let grid: Vec<DVec3> = (0..40 * 30)
+        .map(|k| DVec3::new((k % 40) as f64, (k / 40) as f64, 0.0))
+        .collect();
+    for p in [jittered, grid] {
+        let (uv, n) = (planar(&p), p.len() as u64);
+        let progress = Progress::new();
+        delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR, &progress).unwrap();
+        assert_eq!(progress.total(), TRIMMED_PASSES * n);
+        assert_eq!(progress.done(), progress.total());
+        let alone = Progress::new();
+        crate::triangulate::delaunay::delaunay_ordered(&uv, &alone).unwrap();
+        assert_eq!((alone.done(), alone.total()), (3 * n, 3 * n));
+    }
 }
 
 #[test]
@@ -244,7 +271,8 @@ fn the_spacing_of_a_triangulation_is_median_spacing_bit_for_bit() {
     for uv in [base, copies, grid] {
         for scale in [1.0, 1e-300, 1e300] {
             let uv: Vec<[f64; 2]> = uv.iter().map(|p| [p[0] * scale, p[1] * scale]).collect();
-            let (d, order) = crate::triangulate::delaunay::delaunay_ordered(&uv).unwrap();
+            let (d, order) =
+                crate::triangulate::delaunay::delaunay_ordered(&uv, &Progress::new()).unwrap();
             let local: Vec<[f64; 2]> = match &order {
                 Some(to_input) => to_input.iter().map(|&i| uv[i as usize]).collect(),
                 None => uv.clone(),
@@ -289,7 +317,9 @@ fn the_sweep_ordered_trimming_is_that_of_input_labels_on_any_thread_count() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR).unwrap())
+            .install(|| {
+                delaunay_trimmed(&uv, &p, None, DEFAULT_JUMP_FACTOR, &Progress::new()).unwrap()
+            })
     };
     let (one, two) = (run(1), run(2));
     assert_eq!(one.triangles, two.triangles);
@@ -450,9 +480,9 @@ fn trimming_refuses_lengths_and_factors_out_of_range() {
         };
         let r = trim_long_edges(&uv, &triangles, 1.0, Some(jumps));
         assert_eq!(named(r), "jump_factor");
-        let err = delaunay_trimmed(&uv, &points, Some(bad), 3.0).unwrap_err();
+        let err = delaunay_trimmed(&uv, &points, Some(bad), 3.0, &Progress::new()).unwrap_err();
         assert!(err.to_string().contains("max_edge"), "{err}");
-        let err = delaunay_trimmed(&uv, &points, None, bad).unwrap_err();
+        let err = delaunay_trimmed(&uv, &points, None, bad, &Progress::new()).unwrap_err();
         assert!(err.to_string().contains("jump_factor"), "{err}");
     }
     let short = DepthJumps {
@@ -464,10 +494,17 @@ fn trimming_refuses_lengths_and_factors_out_of_range() {
         named(trim_long_edges(&uv, &triangles, 1.0, Some(short))),
         "points"
     );
-    assert!(delaunay_trimmed(&uv, &points[..3], None, 3.0).is_err());
+    assert!(delaunay_trimmed(&uv, &points[..3], None, 3.0, &Progress::new()).is_err());
     // Infinite values turn the rules off; jumps off need no 3-D points.
     assert!(trim_long_edges(&uv, &triangles, f64::INFINITY, None).is_ok());
-    assert!(delaunay_trimmed(&uv, &[], Some(f64::INFINITY), f64::INFINITY).is_ok());
+    assert!(delaunay_trimmed(
+        &uv,
+        &[],
+        Some(f64::INFINITY),
+        f64::INFINITY,
+        &Progress::new()
+    )
+    .is_ok());
 }
 
 /// Twice the area of `t` over `uv`, summed (floating point; the exact check is Python's).
@@ -494,7 +531,14 @@ fn near_duplicate_corners_are_not_peeled_as_slivers() {
     assert!(d.duplicates().is_empty());
     let kept = trim_long_edges(&uv, &d.triangles, f64::INFINITY, None).unwrap();
     assert_eq!(kept, d.triangles);
-    let t = delaunay_trimmed(&uv, &[], Some(f64::INFINITY), f64::INFINITY).unwrap();
+    let t = delaunay_trimmed(
+        &uv,
+        &[],
+        Some(f64::INFINITY),
+        f64::INFINITY,
+        &Progress::new(),
+    )
+    .unwrap();
     assert_eq!(t.triangles.len(), 3);
     assert!(t.trimmed.is_empty());
     assert_eq!(area2_sum(&uv, &t.triangles), area2_sum(&uv, &d.triangles));
