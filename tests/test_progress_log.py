@@ -229,3 +229,33 @@ def test_merge_extraction_counts_in_the_log_while_it_runs(tmp_path, monkeypatch,
     counts, closing = _counts(capsys.readouterr().err, "extract")
     assert counts == sorted(counts) and len(set(counts)) >= 3, counts
     assert len(closing) == 1 and " nodes done in " in closing[0]
+
+
+@pytest.mark.slow
+def test_annealing_start_and_polish_count_in_the_log_while_they_run(tmp_path, monkeypatch, capsys):
+    """Annealing's "calibrate" (the state, the descent to LOP's optimum, the chains' set-up)
+    and "polish" were one silent native call each: 44 s and 7 s at 2M points. Here the
+    start takes about two seconds and the polish a tenth, a few polls: the polish's counts
+    are checked for order only (their reaching the total: the core's own tests)."""
+    from scanmesh.cli import main
+
+    rng = np.random.default_rng(2)
+    lines, per = 150, 600  # 90,000 points: a start of about two seconds
+    x = np.repeat(np.arange(lines) * 0.25, per)
+    y = np.tile(np.linspace(0, 150, per), lines) + rng.normal(0, 0.01, lines * per)
+    z = np.sin(x / 3) * np.cos(y / 20) + rng.normal(0, 0.002, lines * per)
+    scan = tmp_path / "scan.xyz"
+    np.savetxt(scan, np.column_stack([x, y, z]), fmt="%.4f")
+    monkeypatch.setattr(progress_module, "LOG_INTERVAL_SECONDS", 0.0)  # a line per count
+    out = tmp_path / "out.ply"
+    args = ["reconstruct", str(scan), "-o", str(out), "--method", "anneal", "--sweeps", "1"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    for stage in ("calibrate", "polish"):
+        counts, closing = _counts(err, stage)
+        assert "one native call" not in " ".join(
+            line for line in err.splitlines() if f": {stage}: " in line
+        )
+        assert counts == sorted(counts) and counts, (stage, counts)
+        assert len(closing) == 1, (stage, closing)
+    assert len(set(_counts(err, "calibrate")[0])) >= 3

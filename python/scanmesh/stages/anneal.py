@@ -414,7 +414,7 @@ def build_anneal(
     local = np.full(n, -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
     params = planned(params, len(keep), start.faces)
-    with context.stage("calibrate", len(start.faces), blocking=True):
+    with context.stage("calibrate", len(start.faces)) as stage:
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
             CALIBRATE_COST * len(keep),
@@ -425,12 +425,14 @@ def build_anneal(
                 _core.AnnealParams(seed=seed_value, **params),
                 curtain_sight(scan),
                 None if fixed is None else local[np.asarray(fixed, dtype=np.int64)],
+                stage.counter,
             ),
+            watch=stage.follow,
         )
     total = runner.chains * params["sweeps"]
     stopped = drive(runner, total, anneal_progress(context.progress), time_limit)
-    with context.stage("polish", len(start.faces), blocking=True):
-        outcome = interruptible(len(keep), runner.finish)
+    with context.stage("polish", len(start.faces)) as stage:
+        outcome = interruptible(len(keep), runner.finish, stage.counter, watch=stage.follow)
     if stopped is None:
         stopped = outcome.stopped
     summary = {name: getattr(outcome, name) for name in SUMMARY}

@@ -4,6 +4,7 @@
 use crate::convert::{
     edges, faces, faces_out, points2_view, points3_view, trace_out, vector3, Ints2,
 };
+use crate::progress::{counter, ProgressCounter};
 use crate::results::AnnealOutcome;
 use crate::{detached, to_py, ParameterError, ScanmeshError};
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
@@ -229,9 +230,11 @@ impl Annealer {
     /// A run from `faces` over 3-D `points` with planar `uv`, with `params` (the core
     /// checks them against this triangulation and refuses runs that would cost too much)
     /// and the (3,) line of sight `sight` its curtain rule judges by (None: no rule); no
-    /// flip removes an edge of the (K, 2) point index pairs `fixed` (None: none kept).
+    /// flip removes an edge of the (K, 2) point index pairs `fixed` (None: none kept). The
+    /// descent and the chains' set-up are counted on `progress` (None: not counted).
     #[new]
-    #[pyo3(signature = (points, uv, faces, params, sight=None, fixed=None))]
+    #[pyo3(signature = (points, uv, faces, params, sight=None, fixed=None, progress=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
@@ -240,10 +243,13 @@ impl Annealer {
         params: PyRef<'_, AnnealParams>,
         sight: Option<PyReadonlyArray1<'_, f64>>,
         fixed: Option<PyReadonlyArray2<'_, i64>>,
+        progress: Option<PyRef<'_, ProgressCounter>>,
     ) -> PyResult<Self> {
         let params = params.0.clone();
+        let progress = counter(progress);
         let (state, relabel) = tac_state(py, &points, &uv, &faces, params.p, sight, fixed)?;
-        let inner = detached(py, || Ensemble::new(state, params))?.map_err(to_py)?;
+        let inner =
+            detached(py, || Ensemble::new_counted(state, params, &progress))?.map_err(to_py)?;
         Ok(Annealer {
             inner: Some(inner),
             relabel,
@@ -299,15 +305,22 @@ impl Annealer {
         Ok(self.running()?.energy())
     }
 
-    /// Ends the run: every chain's best state, polished; the lowest energy wins.
-    fn finish(&mut self, py: Python<'_>) -> PyResult<AnnealOutcome> {
+    /// Ends the run: every chain's best state, polished; the lowest energy wins. The
+    /// polish is counted on `progress` (None: not counted).
+    #[pyo3(signature = (progress=None))]
+    fn finish(
+        &mut self,
+        py: Python<'_>,
+        progress: Option<PyRef<'_, ProgressCounter>>,
+    ) -> PyResult<AnnealOutcome> {
+        let progress = counter(progress);
         let inner = self
             .inner
             .take()
             .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
         let relabel = &self.relabel;
         let (r, chains, faces) = detached(py, || {
-            let (r, chains) = inner.finish()?;
+            let (r, chains) = inner.finish_counted(&progress)?;
             let faces = relabel.triangles_to_input(&r.mesh.triangles()?)?;
             Ok((r, chains, faces))
         })?

@@ -6,7 +6,7 @@ use scanmesh_core::progress::Progress;
 use std::sync::Arc;
 
 /// Items done of items planned by the long call it is passed to (`progress=`): Delaunay,
-/// the strips, fusion's integration and extraction. Read `done` and `total` from another
+/// the strips, fusion's integration and extraction, annealing's start and polish. Read `done` and `total` from another
 /// thread while the call runs; both only grow. O(1) each.
 #[pyclass(frozen, module = "scanmesh._core")]
 #[derive(Default)]

@@ -11,8 +11,9 @@
 use crate::budget;
 use crate::mesh::HalfEdgeMesh;
 use crate::optimize::active::LiveEdges;
-use crate::optimize::lop::{curtain_facing, planar_flip_improves, tac_lop, TacOrder};
+use crate::optimize::lop::{curtain_facing, planar_flip_improves, tac_lop_counted, TacOrder};
 use crate::optimize::tac_state::{Detail, Proposal, TacState};
+use crate::progress::Progress;
 use crate::triangulate::grid::DEFAULT_GRID_TURN_DEG;
 use crate::{Error, Result};
 use rand_core::{RngCore, SeedableRng};
@@ -760,7 +761,13 @@ impl Annealer {
 
     /// Ends the run: takes the best state, polishes it with LOP under the tac-then-angle
     /// order when asked, and returns it. O(m + polish flips).
-    pub fn finish(mut self) -> Result<AnnealResult> {
+    pub fn finish(self) -> Result<AnnealResult> {
+        self.finish_counted(None)
+    }
+
+    /// [`Annealer::finish`], its polish counted as `weight` items of `progress` when `counted` is
+    /// `(progress, weight)`.
+    pub fn finish_counted(mut self, counted: Option<(&Progress, u64)>) -> Result<AnnealResult> {
         self.sync_best();
         // The polish's state is the run's, moved onto the best mesh: the run's mesh,
         // live list and log are freed first, so two states never share the memory.
@@ -776,7 +783,7 @@ impl Annealer {
             ..
         } = self;
         let stopped = Stop::of(trace.len(), params.sweeps, stopped_early, sweep_len == 0);
-        let (mesh, energy, polish_flips) = polish(state.with_mesh(best)?, &params)?;
+        let (mesh, energy, polish_flips) = polish(state.with_mesh(best)?, &params, counted)?;
         Ok(AnnealResult {
             mesh,
             initial_energy,
@@ -840,14 +847,19 @@ pub(crate) fn cooling(final_ratio: f64, sweeps: usize) -> f64 {
 /// The end of every run: the state of the best mesh, polished by LOP under the
 /// tac-then-angle order when `params.polish`; returns the mesh, its energy (recomputed
 /// from the sums) and the polish's flips; an [`Error::OutOfMemory`] when LOP's stack cannot
-/// be had. O(m + polish flips).
+/// be had. The polish is counted as in [`crate::optimize::lop::lop_counted`].
+/// O(m + polish flips).
 pub(crate) fn polish(
     mut best: TacState,
     params: &AnnealParams,
+    counted: Option<(&Progress, u64)>,
 ) -> Result<(HalfEdgeMesh, f64, usize)> {
     let polish_flips = if params.polish {
-        tac_lop(&mut best, params.order())?
+        tac_lop_counted(&mut best, params.order(), counted)?
     } else {
+        if let Some((progress, weight)) = counted {
+            progress.add(weight);
+        }
         0
     };
     let energy = best.resync_energy();

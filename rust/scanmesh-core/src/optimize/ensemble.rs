@@ -12,9 +12,10 @@
 use crate::budget;
 use crate::mesh::HalfEdgeMesh;
 use crate::optimize::anneal::{AnnealParams, AnnealResult, Annealer, SweepRecord};
-use crate::optimize::lop::{tac_lop, TacOrder};
+use crate::optimize::lop::{tac_lop_counted, TacOrder};
 use crate::optimize::tac_state::TacState;
 use crate::optimize::tiles::TiledAnnealer;
+use crate::progress::{Progress, Share};
 use crate::Result;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -80,10 +81,10 @@ impl Chain {
         }
     }
 
-    fn finish(self) -> Result<AnnealResult> {
+    fn finish(self, counted: (&Progress, u64)) -> Result<AnnealResult> {
         match self {
-            Chain::Plain(a) => a.finish(),
-            Chain::Tiled(a) => a.finish(),
+            Chain::Plain(a) => a.finish_counted(Some(counted)),
+            Chain::Tiled(a) => a.finish_counted(Some(counted)),
         }
     }
 }
@@ -104,12 +105,26 @@ impl Ensemble {
     /// ([`AnnealParams::check_cost`]); the copies are fallible, so memory that runs out
     /// ends in an error naming `chains`. O(chains × (calibration_samples + m)) work, in
     /// parallel; memory O(chains × m).
-    pub fn new(mut state: TacState, params: AnnealParams) -> Result<Self> {
+    pub fn new(state: TacState, params: AnnealParams) -> Result<Self> {
+        Self::new_counted(state, params, &Progress::new())
+    }
+
+    /// [`Ensemble::new`], counting its work on `progress`: it plans three passes of
+    /// [`pass_weight`] items each (the descent's two LOPs, then the chains' set-up, a
+    /// chain at a time). Same result.
+    pub fn new_counted(
+        mut state: TacState,
+        params: AnnealParams,
+        progress: &Progress,
+    ) -> Result<Self> {
         params.check_for(&state)?;
         let count = params.check_cost(&state)?;
+        let weight = pass_weight(state.mesh());
+        progress.plan(3 * weight);
         let start = state.mesh().clone();
         let start_energy = state.resync_energy();
-        descend(&mut state, &params)?;
+        descend(&mut state, &params, progress, weight)?;
+        let set_up = Share::new(progress, weight, count as u64);
         let out_of_memory =
             || budget::allocation_failed("chains", count, count as u64 * state.heap_bytes());
         let mut chains = Vec::new();
@@ -119,9 +134,12 @@ impl Ensemble {
         // The last chain takes `state` itself: one chain (every large input) holds no copy.
         chains.par_extend((0..count - 1).into_par_iter().map(|chain| {
             let copy = state.try_clone().map_err(|_| out_of_memory())?;
-            Chain::new(copy, params.for_chain(chain))
+            let chain = Chain::new(copy, params.for_chain(chain));
+            set_up.add(1);
+            chain
         }));
         chains.push(Chain::new(state, params.for_chain(count - 1)));
+        set_up.finish();
         let chains = chains.into_iter().collect::<Result<Vec<_>>>()?;
         Ok(Ensemble {
             chains,
@@ -191,14 +209,22 @@ impl Ensemble {
     /// Ends every chain (best state, polish) and returns the winner with the chain summary.
     /// O(chains × (m + polish flips)), in parallel.
     pub fn finish(self) -> Result<(AnnealResult, EnsembleSummary)> {
+        self.finish_counted(&Progress::new())
+    }
+
+    /// [`Ensemble::finish`], counting its work on `progress`: it plans one pass of
+    /// [`pass_weight`] items per chain, its polish. Same result.
+    pub fn finish_counted(self, progress: &Progress) -> Result<(AnnealResult, EnsembleSummary)> {
         let Ensemble {
             chains,
             start,
             start_energy,
         } = self;
+        let weight = pass_weight(&start);
+        progress.plan(chains.len() as u64 * weight);
         let results = chains
             .into_par_iter()
-            .map(Chain::finish)
+            .map(|chain| chain.finish((progress, weight)))
             .collect::<Result<Vec<_>>>()?;
         let energies: Vec<f64> = results.iter().map(|r| r.energy).collect();
         // `min_by` keeps the first of equal minima: ties go to the lower chain.
@@ -242,23 +268,30 @@ pub(crate) const SLIVER_BUDGET: f64 = 0.01;
 /// the walk still refuses new slivers from there. The copy is skipped when memory for it
 /// cannot be had; LOP's own stack may fail too (an
 /// [`Error::OutOfMemory`](crate::Error::OutOfMemory)). O(flips + m), twice.
-pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) -> Result<()> {
+pub(crate) fn descend(
+    state: &mut TacState,
+    params: &AnnealParams,
+    progress: &Progress,
+    weight: u64,
+) -> Result<()> {
     if !params.descend {
+        progress.add(2 * weight);
         return Ok(());
     }
     let order = params.order();
     let free = (order.sliver_angle > 0.0)
         .then(|| state.try_clone().ok())
         .flatten();
-    tac_lop(state, order)?;
+    tac_lop_counted(state, order, Some((progress, weight)))?;
     let ruled = state.resync_energy();
     if let Some(mut free) = free {
-        tac_lop(
+        tac_lop_counted(
             &mut free,
             TacOrder {
                 sliver_angle: 0.0,
                 ..order
             },
+            Some((progress, weight)),
         )?;
         let budget = SLIVER_BUDGET * free.mesh().n_triangles() as f64;
         if free.resync_energy() < SLIVER_COST * ruled
@@ -266,8 +299,16 @@ pub(crate) fn descend(state: &mut TacState, params: &AnnealParams) -> Result<()>
         {
             *state = free;
         }
+    } else {
+        progress.add(weight);
     }
     Ok(())
+}
+
+/// Items one counted pass of a run on `mesh` is worth: its edges (every pass is O(m)).
+/// O(1).
+fn pass_weight(mesh: &HalfEdgeMesh) -> u64 {
+    (mesh.n_half_edges() as u64 / 2).max(1)
 }
 
 #[cfg(test)]
@@ -287,7 +328,7 @@ mod tests {
     /// One plain chain from `state`, descended first as the ensemble does.
     fn single(state: &TacState, params: AnnealParams) -> AnnealResult {
         let mut start = state.clone();
-        descend(&mut start, &params).unwrap();
+        descend(&mut start, &params, &Progress::new(), 1).unwrap();
         let mut one = Annealer::new(start, params).unwrap();
         while !one.is_done() {
             one.advance(usize::MAX);
@@ -357,6 +398,39 @@ mod tests {
             r.mesh.triangles().unwrap(),
             single(&st, params(1, 8)).mesh.triangles().unwrap()
         );
+    }
+
+    #[test]
+    fn a_counted_run_reaches_what_it_planned_and_is_the_same_run() {
+        let st = bumpy_state(150, 30, 1.0);
+        let variants = [
+            params(3, 2),
+            AnnealParams {
+                descend: false,
+                polish: false,
+                ..params(1, 3)
+            },
+            AnnealParams {
+                tiles: 2,
+                ..params(1, 4)
+            },
+        ];
+        for p in variants {
+            let (plain, _) = Ensemble::new(st.clone(), p.clone()).unwrap().run().unwrap();
+            let progress = Progress::new();
+            let mut run = Ensemble::new_counted(st.clone(), p.clone(), &progress).unwrap();
+            let planned = progress.total();
+            assert!(planned > 0 && progress.done() == planned, "{p:?}");
+            while !run.is_done() {
+                run.advance_until(usize::MAX, None).unwrap();
+            }
+            let (counted, _) = run.finish_counted(&progress).unwrap();
+            assert!(progress.total() > planned && progress.done() == progress.total());
+            assert_eq!(
+                counted.mesh.triangles().unwrap(),
+                plain.mesh.triangles().unwrap()
+            );
+        }
     }
 
     #[test]

@@ -8,6 +8,7 @@ use crate::geometry::planar_smallest_angle;
 use crate::mesh::NONE;
 use crate::mesh::{next, prev, HalfEdgeMesh};
 use crate::optimize::tac_state::{Detail, FlipMove, TacState};
+use crate::progress::{Progress, Share};
 use crate::{Error, Result};
 
 /// Smallest improvement in a smallest angle (radians) that counts: below it, rounding could
@@ -206,8 +207,18 @@ pub fn run_lop(mut state: TacState, criterion: LopCriterion) -> Result<(HalfEdge
 /// LOP of `state`'s tac energy under `order` within the flip budget `max_flips`;
 /// returns the flips made, or an [`Error::OutOfMemory`] (see `lop`). O(flips + m).
 pub fn tac_lop(state: &mut TacState, order: TacOrder) -> Result<usize> {
+    tac_lop_counted(state, order, None)
+}
+
+/// [`tac_lop`], counted as `weight` items of `progress` (see [`lop_counted`]).
+/// O(flips + m).
+pub fn tac_lop_counted(
+    state: &mut TacState,
+    order: TacOrder,
+    counted: Option<(&Progress, u64)>,
+) -> Result<usize> {
     let budget = max_flips(state.mesh().n_half_edges());
-    lop(&mut TacLop { state, order }, budget)
+    lop_counted(&mut TacLop { state, order }, budget, counted)
 }
 
 /// Runs LOP to a local optimum: every interior edge is examined; after a flip the edges
@@ -226,6 +237,21 @@ pub fn tac_lop(state: &mut TacState, order: TacOrder) -> Result<usize> {
 /// are allocated fallibly: an allocation refused is an [`Error::OutOfMemory`], not an
 /// abort. O(flips + m) time, O(m) memory.
 pub fn lop<S: FlipSearch>(search: &mut S, max_flips: usize) -> Result<usize> {
+    lop_counted(search, max_flips, None)
+}
+
+/// Edges [`lop_counted`] examines between two counts: a relaxed atomic add per batch.
+const COUNT_BATCH: usize = 4096;
+
+/// [`lop`], counted as `weight` items of `progress` when `counted` is `(progress, weight)`:
+/// the share of the interior edges whose first examination has come (the stack's bottom,
+/// below every edge a flip pushed, is the edges not yet reached), in batches of
+/// [`COUNT_BATCH`] examinations. The weight is all counted when it returns. O(flips + m).
+pub fn lop_counted<S: FlipSearch>(
+    search: &mut S,
+    max_flips: usize,
+    counted: Option<(&Progress, u64)>,
+) -> Result<usize> {
     let n_half_edges = search.mesh().n_half_edges();
     let mut stack: Vec<u32> = try_vec(EDGE_STACK, n_half_edges / 2)?;
     stack.extend(search.mesh().interior_edge_slots().rev());
@@ -237,7 +263,19 @@ pub fn lop<S: FlipSearch>(search: &mut S, max_flips: usize) -> Result<usize> {
     let mut next_check = check_every;
     let mut checkpoint = search.progress();
     let mut flips = 0;
+    let share = counted.map(|(progress, weight)| Share::new(progress, weight, stack.len() as u64));
+    // The stack's lowest length so far (the edges never reached) and the last one counted.
+    let (mut unreached, mut counted_at, mut examined) = (stack.len(), stack.len(), 0);
     while let Some(h) = stack.pop() {
+        unreached = unreached.min(stack.len());
+        examined += 1;
+        if examined == COUNT_BATCH {
+            examined = 0;
+            if let Some(share) = &share {
+                share.add((counted_at - unreached) as u64);
+                counted_at = unreached;
+            }
+        }
         if flips >= max_flips {
             break;
         }
@@ -262,6 +300,9 @@ pub fn lop<S: FlipSearch>(search: &mut S, max_flips: usize) -> Result<usize> {
         if stack.len() > compact_above {
             keep_topmost(&mut stack, n_half_edges)?;
         }
+    }
+    if let Some(share) = share {
+        share.finish();
     }
     Ok(flips)
 }

@@ -28,6 +28,7 @@ use crate::optimize::anneal::{
     cooling, initial_temperature, polish, AnnealParams, AnnealResult, Annealer, Stop,
 };
 use crate::optimize::tac_state::{vertex_energy, TacState};
+use crate::progress::Progress;
 use crate::Result;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -425,13 +426,19 @@ impl TiledAnnealer {
 
     /// Ends the run: the best state, polished as [`Annealer::finish`] polishes. A phase
     /// still running (an interrupted run) is ended first. O(m + polish flips).
-    pub fn finish(mut self) -> Result<AnnealResult> {
+    pub fn finish(self) -> Result<AnnealResult> {
+        self.finish_counted(None)
+    }
+
+    /// [`TiledAnnealer::finish`], its polish counted as `weight` items of `progress` when `counted` is
+    /// `(progress, weight)`.
+    pub fn finish_counted(mut self, counted: Option<(&Progress, u64)>) -> Result<AnnealResult> {
         if self.running.is_some() {
             self.end_phase()?;
         }
         let best = HalfEdgeMesh::from_triangles(self.uv.len(), &self.best)?;
         let best = TacState::new(best, self.uv, self.xyz, self.params.p)?.with_sight(self.sight)?;
-        let (mesh, energy, polish_flips) = polish(best, &self.params)?;
+        let (mesh, energy, polish_flips) = polish(best, &self.params, counted)?;
         Ok(AnnealResult {
             mesh,
             initial_energy: self.initial_energy,

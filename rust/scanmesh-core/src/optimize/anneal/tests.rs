@@ -1,5 +1,5 @@
 use super::*;
-use crate::optimize::lop::{lop, TacLop};
+use crate::optimize::lop::{lop, tac_lop, TacLop};
 use crate::optimize::tac_state::tests::{bumpy_state, plateau_state};
 use glam::DVec3;
 
