@@ -198,7 +198,9 @@ class FusionVolume:
         normals: npt.NDArray[np.float64],
         views: list[DepthView],
         progress: ProgressCounter | None = None,
-    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int]: ...
+    ) -> tuple[
+        npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.uint8], int, dict[str, int]
+    ]: ...
 
 @final
 class AnnealParams:

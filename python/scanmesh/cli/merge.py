@@ -121,6 +121,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         "pieces": [dataclasses.asdict(p) for p in parts],
         "holes": sum(p.holes for p in parts),
         "specks_removed": surface.options["specks_removed"],
+        "thin_handles": surface.options["thin_handles"],
         "area": areas,
         "creases": len(surface.creases),
         "refine_residual": surface.options["refine_residual"],
@@ -137,6 +138,12 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         shape_text += (
             f" ({gone['pieces']} specks taken off: {gone['faces']:,} faces, area"
             f" {gone['area']:.3g}, the largest {gone['largest']} faces)"
+        )
+    thin = surface.options["thin_handles"]
+    if thin["handles"]:
+        shape_text += (
+            f" ({thin['handles']} thin handles taken off: {thin['closed']:,} nodes filled,"
+            f" at most {thin['largest']} at once)"
         )
     if row["refine_residual"]:
         res = row["refine_residual"]

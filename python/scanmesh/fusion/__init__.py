@@ -160,7 +160,11 @@ def merge(
         New vertices (not the input points), faces counter-clockwise from outside,
         ``face_labels`` (M,) uint8 codes into ``Surface.LABELS``; the pieces under 1 % of
         the largest one's area are taken off (:mod:`scanmesh.fusion.pieces`), what went
-        is ``options["specks_removed"]`` (pieces, faces, area, largest speck's faces).
+        is ``options["specks_removed"]`` (pieces, faces, area, largest speck's faces);
+        before the extraction, thin tunnels of nodes the views measured poorly are filled
+        where that takes a handle off: ``options["thin_handles"]`` (the Euler
+        characteristic gained, "handles"; the nodes filled, "closed"; the "largest" group
+        filled at once).
     """
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(
@@ -297,7 +301,7 @@ def _merge(
         timings[name] = time.perf_counter() - t0
     t0 = time.perf_counter()
     with Stage(progress, "extract", int(cost)) as stage:
-        vertices, faces, labels, repaired = interruptible(
+        vertices, faces, labels, repaired, thin = interruptible(
             cost,
             volume.extract,
             np.ascontiguousarray(np.concatenate(samples)),
@@ -342,6 +346,7 @@ def _merge(
             "grid": grid.dims,
             "allocated_voxels": volume.allocated,  # (with distances, with flags alone)
             "repaired_nodes": int(repaired),
+            "thin_handles": thin,
             "specks_removed": specks,
             "simplified": simplified,
             "refine_residual": residual,

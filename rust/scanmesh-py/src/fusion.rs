@@ -7,6 +7,7 @@ use crate::{detached, to_py};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
+use std::collections::HashMap;
 
 /// One range view: a depth image seen along the scanner's -z, with its scanner-to-world
 /// pose. `pose` (4, 4) rigid; `depth` and `cos` (H, W) float64, row j and column i being
@@ -137,7 +138,9 @@ impl FusionVolume {
 
     /// The closed mesh of the zero set: (vertices (V, 3) float64, faces (M, 3) int64
     /// counter-clockwise from outside, labels (M,) uint8 (0 measured, 1 inferred, 2
-    /// filled), nodes moved by the manifold repair). Vertices are placed on `samples`
+    /// filled), nodes moved by the manifold repair, and the thin handles taken off before
+    /// it: a dict of "handles", "closed" nodes, "largest" group of nodes).
+    /// Vertices are placed on `samples`
     /// (S, 3) with outward unit `normals` (S, 3); `views`, the list integrated and carved
     /// in the order carved, place the surface between nodes where their rays' evidence
     /// jumps. `progress`, a `ProgressCounter`, counts the grid's slices pass by pass.
@@ -151,7 +154,13 @@ impl FusionVolume {
         normals: PyReadonlyArray2<'py, f64>,
         views: Vec<PyRef<'py, DepthView>>,
         progress: Option<PyRef<'py, ProgressCounter>>,
-    ) -> PyResult<(Floats2<'py>, Ints2<'py>, Bound<'py, PyArray1<u8>>, usize)> {
+    ) -> PyResult<(
+        Floats2<'py>,
+        Ints2<'py>,
+        Bound<'py, PyArray1<u8>>,
+        usize,
+        HashMap<&'static str, usize>,
+    )> {
         let s = points3_view(&samples)?;
         let n = points3_view(&normals)?;
         let inner: Vec<&scanmesh_core::fusion::DepthView> =
@@ -170,6 +179,11 @@ impl FusionVolume {
             faces_out(py, &fused.faces)?,
             Array1::from_vec(fused.labels).into_pyarray(py),
             fused.repaired,
+            HashMap::from([
+                ("handles", fused.settled.handles),
+                ("closed", fused.settled.closed),
+                ("largest", fused.settled.largest),
+            ]),
         ))
     }
 }

@@ -21,6 +21,7 @@ use super::depth::DepthView;
 use super::flips::{follow_samples, MAX_PASSES};
 use super::samples::SampleIndex;
 use super::sides::{Sides, INSIDE, MOVED};
+use super::topology::{settle, Settled};
 use super::tsdf::{Evidence, Volume};
 use super::walls::{flatten_unsampled, Placed};
 use crate::budget;
@@ -90,6 +91,8 @@ pub struct Fused {
     pub labels: Vec<u8>,
     /// Nodes the manifold repair moved inside.
     pub repaired: usize,
+    /// Nodes whose side the evidence did not decide, moved to take off thin handles.
+    pub settled: Settled,
 }
 
 /// Corners of a cell's six faces in cyclic order (corner bit 1: +x, 2: +y, 4: +z).
@@ -102,7 +105,8 @@ const CELL_FACES: [[usize; 4]; 6] = [
     [4, 5, 7, 6],
 ];
 
-/// The closed mesh of `volume`'s zero set, vertices placed on `samples` (world points) with
+/// The closed mesh of `volume`'s zero set (its thin handles of weakly measured nodes first
+/// taken off: [`super::topology`]), vertices placed on `samples` (world points) with
 /// their outward unit `normals`; `views` (those integrated and carved, in the order carved)
 /// place the crossings on edges across a jump of the evidence; a vertex with no sample near
 /// is then laid on the plane of its wall, and a face's last vertex beside such a wall taken
@@ -140,8 +144,12 @@ pub fn extract_counted(
     }
     let slices = volume.dims()[2] as u64;
     progress.plan(EXTRACT_WEIGHTS.iter().sum::<u64>() * slices);
-    let side = Sides::new(volume)?;
-    extract_from(volume, side, samples, normals, views, (progress, slices))
+    let mut side = Sides::new(volume)?;
+    let settled = settle(volume, &mut side)?;
+    Ok(Fused {
+        settled,
+        ..extract_from(volume, side, samples, normals, views, (progress, slices))?
+    })
 }
 
 /// What the passes [`extract_counted`] counts are worth in its progress, in slices of the

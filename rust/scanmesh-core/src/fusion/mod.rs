@@ -15,6 +15,7 @@ pub(crate) mod samples;
 pub(crate) mod sides;
 #[cfg(test)]
 mod testing;
+pub(crate) mod topology;
 pub(crate) mod tsdf;
 pub(crate) mod walls;
 

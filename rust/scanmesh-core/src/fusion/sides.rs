@@ -152,6 +152,24 @@ impl Sides {
     ///
     /// Errors: `OutOfMemory`.
     pub(super) fn add(&mut self, n: usize, marks: u8) -> Result<()> {
+        let at = self.writable(n)?;
+        self.marks[at] |= marks;
+        Ok(())
+    }
+
+    /// Takes `marks` off node `n`, as [`Sides::add`] puts them on. O(1), O(512) when it
+    /// allocates.
+    ///
+    /// Errors: `OutOfMemory`.
+    pub(super) fn clear(&mut self, n: usize, marks: u8) -> Result<()> {
+        let at = self.writable(n)?;
+        self.marks[at] &= !marks;
+        Ok(())
+    }
+
+    /// Where node `n`'s marks are stored, its block allocated if uniform; the blocks whose
+    /// cells hold the node become active.
+    fn writable(&mut self, n: usize) -> Result<usize> {
         let node = self.coords(n);
         let (b, local) = self.layout.locate(node);
         let e = self.index[b];
@@ -164,7 +182,6 @@ impl Sides {
         } else {
             e as usize
         };
-        self.marks[slot * BLOCK_NODES + local] |= marks;
         let c = self.layout.coords(b);
         let by = self.layout.counts()[1];
         for d in 0..8 {
@@ -176,7 +193,47 @@ impl Sides {
             self.active[self.layout.at(m)] = true;
             self.rows[m[2] * by + m[1]] = true;
         }
-        Ok(())
+        Ok(slot * BLOCK_NODES + local)
+    }
+
+    /// The blocks where a node may have a neighbour (along an axis) on the other side:
+    /// those whose nodes differ, or whose marks differ from a neighbouring block's.
+    /// O(blocks).
+    ///
+    /// Errors: `OutOfMemory`.
+    pub(super) fn near_sides(&self) -> Result<Vec<usize>> {
+        let counts = self.layout.counts();
+        budget::try_indices(
+            "the blocks near the sides of the fusion grid",
+            0..self.index.len(),
+            |b| {
+                let e = self.index[b];
+                if e & UNIFORM == 0 {
+                    return true;
+                }
+                let c = self.layout.coords(b);
+                (0..3).any(|a| {
+                    [-1i64, 1].iter().any(|&s| {
+                        let mut m = c.map(|v| v as i64);
+                        m[a] += s;
+                        if m[a] < 0 || m[a] >= counts[a] as i64 {
+                            return false;
+                        }
+                        self.index[self.layout.at(m.map(|v| v as usize))] != e
+                    })
+                })
+            },
+        )
+    }
+
+    /// The nodes of block `b` inside the grid: lowest and highest (inclusive) coordinates.
+    pub(super) fn block_span(&self, b: usize) -> [[usize; 3]; 2] {
+        self.layout.nodes(b)
+    }
+
+    /// The grid's nodes along x, y, z.
+    pub(super) fn dims(&self) -> [usize; 3] {
+        self.dims
     }
 
     /// Whether some block of node row (j, k) is active (read live: a block made active

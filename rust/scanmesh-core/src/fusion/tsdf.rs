@@ -258,6 +258,19 @@ impl Volume {
         distance(sum, weight, flags, self.truncation)
     }
 
+    /// Whether the evidence at node `n` decides its side firmly: measured by returns whose
+    /// weights (cosine times trust) sum to at least `min_weight`, or seen more than the
+    /// truncation in front of some view's surface. Not so: unseen nodes, nodes only a ray
+    /// without a return crossed, and nodes few or grazing returns measured. O(1).
+    pub(super) fn is_firm(&self, n: usize, min_weight: f32) -> bool {
+        let (sum, weight, flags) = self.blocks.state(self.coords(n));
+        match classify(sum, weight, flags) {
+            Evidence::Measured => weight >= min_weight,
+            Evidence::Empty => flags / VOTE > 0,
+            Evidence::Unseen => false,
+        }
+    }
+
     /// The blocks, for the extraction's walk over those where the surface may be.
     pub(super) fn blocks(&self) -> &Blocks {
         &self.blocks
