@@ -161,6 +161,16 @@ pub(crate) fn faces_out<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Ints2<
         .into_pyarray(py))
 }
 
+/// (N, 3) float64 points for numpy (a fused or simplified mesh's vertices: the only
+/// points the core makes). Allocated fallibly: memory refused is a `MemoryLimitError`. O(N).
+pub(crate) fn points3_out<'py>(py: Python<'py>, points: &[DVec3]) -> PyResult<Floats2<'py>> {
+    let mut flat = try_vec("the vertices for numpy", 3 * points.len()).map_err(to_py)?;
+    flat.extend(points.iter().flat_map(|p| p.to_array()));
+    Ok(Array2::from_shape_vec((points.len(), 3), flat)
+        .expect("3 per point")
+        .into_pyarray(py))
+}
+
 /// (N, 2) float64 planar points for numpy, taking over `uv`'s buffer (no copy).
 pub(crate) fn uv_into<'py>(py: Python<'py>, uv: Vec<[f64; 2]>) -> Floats2<'py> {
     let n = uv.len();

@@ -1,10 +1,10 @@
 //! Fusion of aligned range views (`scanmesh_core` fusion/): a view's depth image, the voxel
 //! grid that views are integrated and carved into, the labelled closed mesh it gives.
 
-use crate::convert::{faces_out, points3_view, shape_error, Floats2, Ints2};
+use crate::convert::{faces_out, points3_out, points3_view, shape_error, Floats2, Ints2};
 use crate::progress::{counter, ProgressCounter};
 use crate::{detached, to_py};
-use numpy::ndarray::{Array1, Array2};
+use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use std::collections::HashMap;
@@ -170,12 +170,8 @@ impl FusionVolume {
             scanmesh_core::fusion::extract_counted(&self.inner, &s, &n, &inner, &progress)
         })?
         .map_err(to_py)?;
-        let flat: Vec<f64> = fused.vertices.iter().flat_map(|v| v.to_array()).collect();
-        let vertices = Array2::from_shape_vec((fused.vertices.len(), 3), flat)
-            .expect("3 per vertex")
-            .into_pyarray(py);
         Ok((
-            vertices,
+            points3_out(py, &fused.vertices)?,
             faces_out(py, &fused.faces)?,
             Array1::from_vec(fused.labels).into_pyarray(py),
             fused.repaired,

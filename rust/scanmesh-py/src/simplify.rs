@@ -1,8 +1,8 @@
 //! Binding of the core's `simplify`: fewer faces within a distance of the mesh.
 
-use crate::convert::{faces, faces_out, points3_view, Floats2, Ints2};
-use crate::to_py;
-use numpy::ndarray::{Array1, Array2};
+use crate::convert::{faces, faces_out, points3_out, points3_view, Floats2, Ints2};
+use crate::{detached, to_py};
+use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 
@@ -21,15 +21,12 @@ pub(crate) fn simplify<'py>(
     let v = points3_view(&vertices)?;
     let t = faces(&faces_, v.len())?;
     let l = labels.as_array().to_vec();
-    let out = py
-        .detach(|| scanmesh_core::simplify::simplify(&v, &t, &l, tolerance))
-        .map_err(to_py)?;
-    let flat: Vec<f64> = out.vertices.iter().flat_map(|p| p.to_array()).collect();
-    let vertices = Array2::from_shape_vec((out.vertices.len(), 3), flat)
-        .expect("3 per vertex")
-        .into_pyarray(py);
+    let out = detached(py, || {
+        scanmesh_core::simplify::simplify(&v, &t, &l, tolerance)
+    })?
+    .map_err(to_py)?;
     Ok((
-        vertices,
+        points3_out(py, &out.vertices)?,
         faces_out(py, &out.faces)?,
         Array1::from_vec(out.labels).into_pyarray(py),
     ))
