@@ -7,7 +7,7 @@
 //! was and near where it was:
 //! - a closed 2-manifold stays one: the ends' common neighbours are exactly the two
 //!   vertices across the edge (the link condition), no face turns over (its normal moves
-//!   less than [`MAX_TURN`]) and none gets an angle under [`MIN_SINE`]'s (unless it had one);
+//!   less than `MAX_TURN`) and none gets an angle under `MIN_SINE`'s (unless it had one);
 //! - every input vertex lies within `tolerance` of the new faces: each is kept with the
 //!   face nearest it, and the vertices kept by the faces a collapse changes must each find
 //!   a new face within `tolerance` (a one-sided Hausdorff bound on the input vertices);

@@ -106,7 +106,7 @@ const CELL_FACES: [[usize; 4]; 6] = [
 ];
 
 /// The closed mesh of `volume`'s zero set (its thin handles of weakly measured nodes first
-/// taken off: [`super::topology`]), vertices placed on `samples` (world points) with
+/// taken off: `topology`), vertices placed on `samples` (world points) with
 /// their outward unit `normals`; `views` (those integrated and carved, in the order carved)
 /// place the crossings on edges across a jump of the evidence; a vertex with no sample near
 /// is then laid on the plane of its wall, and a face's last vertex beside such a wall taken

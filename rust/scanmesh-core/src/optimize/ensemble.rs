@@ -110,7 +110,7 @@ impl Ensemble {
     }
 
     /// [`Ensemble::new`], counting its work on `progress`: it plans three passes of
-    /// [`pass_weight`] items each (the descent's two LOPs, then the chains' set-up, a
+    /// `pass_weight` items each (the descent's two LOPs, then the chains' set-up, a
     /// chain at a time). Same result.
     pub fn new_counted(
         mut state: TacState,
@@ -213,7 +213,7 @@ impl Ensemble {
     }
 
     /// [`Ensemble::finish`], counting its work on `progress`: it plans one pass of
-    /// [`pass_weight`] items per chain, its polish. Same result.
+    /// `pass_weight` items per chain, its polish. Same result.
     pub fn finish_counted(self, progress: &Progress) -> Result<(AnnealResult, EnsembleSummary)> {
         let Ensemble {
             chains,

@@ -232,7 +232,7 @@ pub struct Trimmed {
 /// on the 3-D `points` at `jump_factor` (∞: off). One call, so the triangulation's twins
 /// serve the trimming and no face array crosses to the caller in between. Errors: those of
 /// [`check_trim_lengths`], with a finite `jump_factor` `points` not one per planar point,
-/// and those of the triangulation. `progress` gets [`TRIMMED_PASSES`] × n points planned
+/// and those of the triangulation. `progress` gets `TRIMMED_PASSES` × n points planned
 /// at the start and counted a pass at a time. O(n log n).
 pub fn delaunay_trimmed(
     uv: &[[f64; 2]],
