@@ -16,6 +16,9 @@ use crate::budget;
 use crate::error::Result;
 use std::collections::HashSet;
 
+/// What the buffers of this module are called in a refusal.
+const THIN: &str = "the thin parts of the fusion grid";
+
 /// Returns' weights (cosine times trust, summed over the views) that decide a measured
 /// node's side: one trusted return seen head-on. On the dragon's stand series at a 1 mm
 /// voxel (docs/benchmarks/merge.md; with the opening then tried after the closing): genus
@@ -106,43 +109,43 @@ fn thin(
                 .all(|a| c[a] <= hi[a])
                 .then(|| (c[2] * ny + c[1]) * nx + c[0])
         };
-        let ring = budget::try_indices(
-            "the thin parts of the fusion grid",
-            0..blocks.len() * BLOCK_NODES,
-            |k| {
-                node_of(k).is_some_and(|n| {
-                    is(side, n)
-                        && !border(n)
-                        && !volume.is_firm(n, FIRM_WEIGHT)
-                        && neighbours(n)
-                            .iter()
-                            .any(|&m| m != usize::MAX && !is(side, m))
-                })
-            },
-        )?;
+        let ring = budget::try_indices(THIN, 0..blocks.len() * BLOCK_NODES, |k| {
+            node_of(k).is_some_and(|n| {
+                is(side, n)
+                    && !border(n)
+                    && !volume.is_firm(n, FIRM_WEIGHT)
+                    && neighbours(n)
+                        .iter()
+                        .any(|&m| m != usize::MAX && !is(side, m))
+            })
+        })?;
         let ring: Vec<usize> = ring.into_iter().filter_map(node_of).collect();
         for &n in &ring {
             set(side, n, !inside)?;
         }
-        budget::try_grow("the thin parts of the fusion grid", &mut eroded, ring.len())?;
+        budget::try_grow(THIN, &mut eroded, ring.len())?;
         eroded.extend(ring);
     }
     // dilation as often over the eroded nodes: back where a neighbour is on the side
     let mut back: HashSet<usize> = HashSet::new();
     for _ in 0..radius {
-        let ring: Vec<usize> = eroded
-            .iter()
-            .copied()
-            .filter(|n| !back.contains(n))
-            .filter(|&n| {
-                neighbours(n)
-                    .iter()
-                    .any(|&m| m != usize::MAX && is(side, m))
-            })
-            .collect();
+        // at most every eroded node: the buffer never grows
+        let mut ring: Vec<usize> = budget::try_vec(THIN, eroded.len())?;
+        ring.extend(
+            eroded
+                .iter()
+                .copied()
+                .filter(|n| !back.contains(n))
+                .filter(|&n| {
+                    neighbours(n)
+                        .iter()
+                        .any(|&m| m != usize::MAX && is(side, m))
+                }),
+        );
         for &n in &ring {
             set(side, n, inside)?;
         }
+        reserve(&mut back, ring.len())?;
         back.extend(ring);
     }
     // every node back where it was; then each group of moved nodes that touch (26-neighbours)
@@ -152,9 +155,10 @@ fn thin(
             set(side, n, inside)?;
         }
     }
-    let moved: Vec<usize> = eroded.into_iter().filter(|n| !back.contains(n)).collect();
-    for group in groups(&moved, dims) {
-        let gain = euler_change(side, &group, dims);
+    let mut moved: Vec<usize> = budget::try_vec(THIN, eroded.len())?;
+    moved.extend(eroded.into_iter().filter(|n| !back.contains(n)));
+    for group in groups(&moved, dims)? {
+        let gain = euler_change(side, &group, dims)?;
         if gain > 0 {
             for &n in &group {
                 set(side, n, !inside)?;
@@ -169,15 +173,18 @@ fn thin(
 
 /// The groups of `nodes` connected through their 6-neighbours (finer groups than through
 /// 26: on the dragon's stand series genus 10 against 12, holdout RMS 0.6 % lower).
-fn groups(nodes: &[usize], dims: [usize; 3]) -> Vec<Vec<usize>> {
+fn groups(nodes: &[usize], dims: [usize; 3]) -> Result<Vec<Vec<usize>>> {
     let [nx, ny, _] = dims;
-    let mut left: HashSet<usize> = nodes.iter().copied().collect();
+    let mut left: HashSet<usize> = HashSet::new();
+    reserve(&mut left, nodes.len())?;
+    left.extend(nodes.iter().copied());
     let mut out = Vec::new();
     for &start in nodes {
         if !left.remove(&start) {
             continue;
         }
-        let mut group = vec![start];
+        let mut group = budget::try_vec(THIN, 1)?;
+        group.push(start);
         let mut k = 0;
         while k < group.len() {
             let n = group[k];
@@ -192,22 +199,26 @@ fn groups(nodes: &[usize], dims: [usize; 3]) -> Vec<Vec<usize>> {
                 }
                 let m = ((c[2] + o[2] - 1) * ny + c[1] + o[1] - 1) * nx + c[0] + o[0] - 1;
                 if left.remove(&m) {
+                    budget::try_grow(THIN, &mut group, 1)?;
                     group.push(m);
                 }
             }
         }
+        budget::try_grow(THIN, &mut out, 1)?;
         out.push(group);
     }
-    out
+    Ok(out)
 }
 
 /// How the Euler characteristic of the inside (the union of the closed unit cubes around
 /// the inside nodes, whose boundary the extraction gives) changes when the nodes of
 /// `group` change side: +1 for a handle taken off or a piece split off, −1 for one made.
 /// Counted over the cubes, faces, edges and corners the group's cubes hold. O(group).
-fn euler_change(side: &Sides, group: &[usize], dims: [usize; 3]) -> i64 {
+fn euler_change(side: &Sides, group: &[usize], dims: [usize; 3]) -> Result<i64> {
     let [nx, ny, _] = dims;
-    let flipped: HashSet<usize> = group.iter().copied().collect();
+    let mut flipped: HashSet<usize> = HashSet::new();
+    reserve(&mut flipped, group.len())?;
+    flipped.extend(group.iter().copied());
     let inside_now = |c: [i64; 3]| {
         if (0..3).any(|a| c[a] < 0 || c[a] >= dims[a] as i64) {
             return false;
@@ -222,6 +233,7 @@ fn euler_change(side: &Sides, group: &[usize], dims: [usize; 3]) -> i64 {
     };
     // cells in doubled coordinates: a coordinate is odd where the cell lies between nodes
     let mut cells: HashSet<[i64; 3]> = HashSet::new();
+    reserve(&mut cells, 27 * group.len())?;
     for &n in group {
         let c = [
             (n % nx) as i64,
@@ -245,7 +257,7 @@ fn euler_change(side: &Sides, group: &[usize], dims: [usize; 3]) -> i64 {
         a.iter()
             .any(|&i| b.iter().any(|&j| c.iter().any(|&k| inside([i, j, k]))))
     };
-    cells
+    Ok(cells
         .iter()
         .map(|cell| {
             let sign = if cell.iter().filter(|v| *v % 2 != 0).count() % 2 == 0 {
@@ -255,7 +267,15 @@ fn euler_change(side: &Sides, group: &[usize], dims: [usize; 3]) -> i64 {
             };
             sign * (i64::from(present(cell, &inside_after)) - i64::from(present(cell, &inside_now)))
         })
-        .sum()
+        .sum())
+}
+
+/// Room in `set` for `additional` more items, an allocation that may fail (an
+/// [`crate::Error::OutOfMemory`]) instead of aborting: the sets here grow with the thin
+/// parts, which a real scan makes by the hundred thousand. O(len) when it grows.
+fn reserve<T: std::hash::Hash + Eq>(set: &mut HashSet<T>, additional: usize) -> Result<()> {
+    set.try_reserve(additional)
+        .map_err(|_| budget::not_allocated::<T>(THIN, set.len().saturating_add(additional)))
 }
 
 #[cfg(test)]
@@ -279,15 +299,15 @@ mod tests {
         let at = |i: usize, j: usize, k: usize| (k * 10 + j) * 10 + i;
         // a tunnel from border to border: boring it makes a handle, filling it takes it off
         let tunnel: Vec<usize> = (1..9).map(|i| at(i, 5, 5)).collect();
-        assert_eq!(euler_change(&side, &tunnel, dims), -1);
+        assert_eq!(euler_change(&side, &tunnel, dims).unwrap(), -1);
         for &n in &tunnel {
             side.clear(n, INSIDE).unwrap();
         }
-        assert_eq!(euler_change(&side, &tunnel, dims), 1);
+        assert_eq!(euler_change(&side, &tunnel, dims).unwrap(), 1);
         // a pit (open at one end only) changes nothing; a cavity is a piece of its own
         let pit: Vec<usize> = (1..4).map(|j| at(3, j, 3)).collect();
-        assert_eq!(euler_change(&side, &pit, dims), 0);
-        assert_eq!(euler_change(&side, &[at(3, 3, 7)], dims), 1);
+        assert_eq!(euler_change(&side, &pit, dims).unwrap(), 0);
+        assert_eq!(euler_change(&side, &[at(3, 3, 7)], dims).unwrap(), 1);
     }
 
     /// A slab seen from above (returns at z = 5), bored through where its rays had no
