@@ -50,6 +50,11 @@ impl Layout {
         self.counts
     }
 
+    /// Nodes along x, y, z.
+    pub(super) fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
     /// Block `b`'s coordinates (in blocks).
     pub(super) fn coords(&self, b: usize) -> [usize; 3] {
         let [bx, by, _] = self.counts;
@@ -138,11 +143,6 @@ impl Blocks {
         self.layout
     }
 
-    /// Blocks along x, y, z.
-    pub(super) fn counts(&self) -> [usize; 3] {
-        self.layout.counts
-    }
-
     /// Blocks in all.
     pub(super) fn len(&self) -> usize {
         self.index.len()
@@ -152,16 +152,6 @@ impl Blocks {
     /// (1 byte each; those given up or made uniform again included: their room is kept).
     pub(super) fn allocated(&self) -> [usize; 2] {
         [self.owner.len(), self.marks_owner.len()].map(|s| s * BLOCK_NODES)
-    }
-
-    /// Block `b`'s coordinates (in blocks).
-    pub(super) fn coords(&self, b: usize) -> [usize; 3] {
-        self.layout.coords(b)
-    }
-
-    /// The block at block coordinates `c`.
-    pub(super) fn at(&self, c: [usize; 3]) -> usize {
-        self.layout.at(c)
     }
 
     /// The nodes of block `b` inside the grid: lowest and highest (inclusive) coordinates.
@@ -350,11 +340,11 @@ mod tests {
     #[test]
     fn blocks_are_allocated_on_demand_and_nodes_found_in_them() {
         let mut blocks = Blocks::new([20, 9, 8]).unwrap();
-        assert_eq!(blocks.counts(), [3, 2, 1]);
+        assert_eq!(blocks.layout().counts(), [3, 2, 1]);
         assert_eq!(blocks.allocated(), [0, 0]);
-        blocks.set_uniform(blocks.at([2, 1, 0]), 5);
+        blocks.set_uniform(blocks.layout().at([2, 1, 0]), 5);
         assert_eq!(blocks.state([19, 8, 7]), (0.0, 0.0, 5));
-        let b = blocks.at([2, 1, 0]);
+        let b = blocks.layout().at([2, 1, 0]);
         blocks.allocate(b).unwrap();
         assert_eq!(blocks.entry(b), Entry::Slot(0));
         assert_eq!(blocks.allocated(), [BLOCK_NODES, 0]);
@@ -375,7 +365,7 @@ mod tests {
         blocks.allocate(b).unwrap();
         assert_eq!(blocks.allocated(), [BLOCK_NODES, 0]);
         // a block of flags alone keeps them when it gets distances
-        let c = blocks.at([0, 1, 0]);
+        let c = blocks.layout().at([0, 1, 0]);
         blocks.set_uniform(c, 3);
         blocks.allocate_flags(c).unwrap();
         assert_eq!(blocks.entry(c), Entry::Flags(0));

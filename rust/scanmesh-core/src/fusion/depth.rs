@@ -210,6 +210,17 @@ impl DepthView {
         self.rotation * q + self.translation
     }
 
+    /// The columns of the rotation (scanner to world): where the scanner's x, y and z axes
+    /// point in the world, so that a ray's points are found as [`DepthView::to_world`]
+    /// finds them, a multiply and two adds each.
+    pub fn rotation_axes(&self) -> [DVec3; 3] {
+        [
+            self.rotation.x_axis,
+            self.rotation.y_axis,
+            self.rotation.z_axis,
+        ]
+    }
+
     /// Scanner (x, y) of pixel `index`'s ray.
     pub fn ray_xy(&self, index: usize) -> [f64; 2] {
         let (i, j) = (index % self.width, index / self.width);

@@ -404,8 +404,13 @@ impl<'a> Grid<'a> {
 
     /// An outside node whose move inside removes a critical configuration of cell `c`.
     fn critical(&self, c: &[usize; 8], side: &Sides) -> Option<usize> {
-        let inside = |k: usize| side.get(c[k]) & INSIDE != 0;
-        let mask: u8 = (0..8).map(|k| u8::from(inside(k)) << k).sum();
+        let mask: u8 = (0..8)
+            .map(|k| u8::from(side.get(c[k]) & INSIDE != 0) << k)
+            .sum();
+        if mask == 0 || mask == u8::MAX {
+            return None; // one side (most cells a pass visits): nothing to pinch
+        }
+        let inside = |k: usize| (mask >> k) & 1 != 0;
         let candidates: Vec<usize> = if let Some(f) = CELL_FACES.iter().find(|f| {
             inside(f[0]) == inside(f[2])
                 && inside(f[1]) == inside(f[3])

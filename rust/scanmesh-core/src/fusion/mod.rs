@@ -11,6 +11,7 @@ pub(crate) mod depth;
 pub(crate) mod extract;
 pub(crate) mod flips;
 pub(crate) mod footprint;
+pub(crate) mod reach;
 pub(crate) mod samples;
 pub(crate) mod sides;
 #[cfg(test)]

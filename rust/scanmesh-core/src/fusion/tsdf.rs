@@ -18,9 +18,10 @@
 //! front of its surface is empty: it lies behind a thin wedge (an edge seen along the
 //! rays) in another view, outside the part (a view's vote, `EMPTY_VOTES`).
 
-use super::blocks::{block_nodes, Blocks, Entry, BLOCK, BLOCK_NODES};
+use super::blocks::{block_nodes, Blocks, Entry};
 use super::depth::{DepthView, Lookup};
 use super::footprint::Footprint;
+use super::reach::{self, Reach};
 use crate::budget;
 use crate::error::{Error, Result};
 use glam::DVec3;
@@ -67,6 +68,9 @@ pub struct Volume {
     /// Per carved view, in the order carved: [`Volume::ray_stops`] (8 bytes per ray), for
     /// the evidence between nodes ([`Volume::value_at`]).
     stops: Vec<Vec<f64>>,
+    /// The measured nodes, for the rays' stops: made at the first carve (carving changes
+    /// no node's measure).
+    reach: Option<Reach>,
 }
 
 /// What the fusion knows of a node.
@@ -179,6 +183,7 @@ impl Volume {
             behind: truncation.min(BEHIND_VOXELS * voxel),
             blocks: Blocks::new(dims)?,
             stops: Vec::new(),
+            reach: None,
         })
     }
 
@@ -478,7 +483,17 @@ impl Volume {
             // every view integrated: the votes of a node without distance count no more
             self.blocks.settle_flags(EMPTY);
         }
-        let stop = self.ray_stops(view)?;
+        let reach = match self.reach.take() {
+            Some(reach) => reach,
+            None => {
+                let blocks = &self.blocks;
+                Reach::new(blocks, |n| {
+                    classify(blocks.sum[n], blocks.weight[n], blocks.flags[n]) == Evidence::Measured
+                })?
+            }
+        };
+        let stop = self.ray_stops(view, &reach)?;
+        self.reach = Some(reach);
         let (w, h) = view.size();
         let foot = Footprint::new(w, h, &stop, None)?;
         let actions = self.actions(|b| self.carve_action(b, view, &foot))?;
@@ -486,12 +501,17 @@ impl Volume {
         self.allocate_for(&actions, false)?;
         let (origin, voxel) = (self.origin, self.voxel);
         let layout = self.blocks.layout();
+        let (wf, hf) = (w as f64, h as f64);
         let each = |b: usize, flags: &mut [u8]| {
             for ([i, j, k], n) in block_nodes(layout.nodes(b)) {
                 let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
                 let q = view.to_scanner(p);
-                if let Lookup::Miss(pixel) = view.lookup(q.x, q.y) {
-                    if q.z > stop[pixel] {
+                // `view.lookup`'s miss (its nearest ray, inside the image, had no return)
+                // without the interpolation a return would need
+                let [u, v] = view.pixel(q.x, q.y);
+                if u > -0.5 && v > -0.5 && u < wf - 0.5 && v < hf - 0.5 {
+                    let pixel = reach::round(v) as usize * w + reach::round(u) as usize;
+                    if view.is_miss(pixel) && q.z > stop[pixel] {
                         flags[n] |= EMPTY;
                     }
                 }
@@ -562,37 +582,12 @@ impl Volume {
         distance(sum, weight, flags, trunc)
     }
 
-    /// Per block: whether it or one of its 26 neighbours holds a measured node, so that
-    /// a ray's nearest nodes within half a block of a point in a block without are not
-    /// measured. O(blocks + allocated nodes).
-    fn near_measured(&self) -> Result<Vec<bool>> {
-        let blocks = &self.blocks;
-        let mut measured = budget::try_filled("the measured blocks", false, blocks.len())?;
-        for (s, &b) in blocks.owner.iter().enumerate() {
-            let at = s * BLOCK_NODES;
-            measured[b as usize] = (at..at + BLOCK_NODES).any(|n| {
-                classify(blocks.sum[n], blocks.weight[n], blocks.flags[n]) == Evidence::Measured
-            });
-        }
-        let [bx, by, bz] = blocks.counts();
-        let near = |b: usize| {
-            let c = blocks.coords(b);
-            let range = |v: usize, n: usize| v.saturating_sub(1)..(v + 2).min(n);
-            range(c[2], bz).any(|z| {
-                range(c[1], by).any(|y| range(c[0], bx).any(|x| measured[blocks.at([x, y, z])]))
-            })
-        };
-        budget::try_par_collect(
-            "the measured blocks",
-            (0..blocks.len()).into_par_iter().map(near),
-        )
-    }
-
     /// Per pixel of `view`: the scanner z where a ray without return met the first measured
-    /// node, coming from the scanner, or its lost return's depth if nearer (−∞: neither;
-    /// +∞: the ray returned). A ray's steps (half a voxel) are taken [`SKIP`] at a time
-    /// through blocks with no measured node near.
-    fn ray_stops(&self, view: &DepthView) -> Result<Vec<f64>> {
+    /// node (`reach`'s), coming from the scanner, or its lost return's depth if nearer (−∞: neither;
+    /// +∞: the ray returned). A ray's steps (half a voxel) are taken many at once
+    /// ([`reach::skip`]) where no measured node is near. O(rays · steps near the measured
+    /// nodes + rays · log of the grid's size).
+    fn ray_stops(&self, view: &DepthView, reach: &Reach) -> Result<Vec<f64>> {
         let (w, h) = view.size();
         // the ray's stretch through the grid: scanner z over the grid's 8 corners
         let hi = self.node(self.dims[0] - 1, self.dims[1] - 1, self.dims[2] - 1);
@@ -607,17 +602,13 @@ impl Volume {
             z_lo = z_lo.min(z);
             z_hi = z_hi.max(z);
         }
-        let near = self.near_measured()?;
         let dz = 0.5 * self.voxel;
         let steps = ((z_hi - z_lo) / dz).ceil() as usize + 1;
         let top = self.dims.map(|d| (d - 1) as f64);
-        let far_from_measured = |p: DVec3| {
-            // the nearest node, clamped into the grid: the next SKIP steps' nearest nodes
-            // lie within half a block of it (or of the grid), so in its block's neighbours
-            let g = ((p - self.origin) / self.voxel).round();
-            let c: [usize; 3] = std::array::from_fn(|a| g[a].clamp(0.0, top[a]) as usize / BLOCK);
-            !near[self.blocks.at(c)]
-        };
+        let dims = self.dims.map(|d| d as f64);
+        let (origin, voxel) = (self.origin, self.voxel);
+        let [along_x, along_y, along_z] = view.rotation_axes();
+        let shift = view.to_world(DVec3::ZERO);
         budget::try_par_collect(
             "the rays' stops",
             (0..w * h).into_par_iter().map(|pixel| {
@@ -626,18 +617,25 @@ impl Volume {
                 }
                 let lost = view.lost_return_depth(pixel).unwrap_or(f64::NEG_INFINITY);
                 let [x, y] = view.ray_xy(pixel);
+                // `view.to_world` of the ray's points, the same operations in the same order
+                let across = along_x * x + along_y * y;
                 let mut s = 0;
                 let mut measured = f64::NEG_INFINITY;
                 while s < steps {
                     let z = z_hi - s as f64 * dz;
-                    let p = view.to_world(DVec3::new(x, y, z));
-                    if s % SKIP == 0 && far_from_measured(p) {
-                        s += SKIP;
+                    let p = across + along_z * z + shift;
+                    // the nearest node (`Volume::nearest_coords`)
+                    let g = ((p - origin) / voxel).to_array().map(reach::round);
+                    // the nearest node clamped into the grid: the next steps' nearest
+                    // nodes lie near it (or near the grid)
+                    let d =
+                        reach.distance(std::array::from_fn(|a| g[a].clamp(0.0, top[a]) as usize));
+                    if d >= 2 {
+                        s += reach::skip(d);
                         continue;
                     }
-                    if self
-                        .nearest_coords(p)
-                        .is_some_and(|n| self.evidence_at(n) == Evidence::Measured)
+                    if (0..3).all(|a| g[a] >= 0.0 && g[a] < dims[a])
+                        && reach.measured(g.map(|v| v as usize))
                     {
                         measured = z;
                         break;
@@ -649,10 +647,6 @@ impl Volume {
         )
     }
 }
-
-/// Half-voxel steps along a ray skipped at once where no node is measured near: their
-/// nearest nodes lie within 4.5 voxels of the first one's, inside its block's neighbours.
-const SKIP: usize = 8;
 
 /// Adds one view's return to a node's state (`sum`, `weight` of distances, `flags`): `d`,
 /// the distance along the view's normal from its surface to the node (positive in
