@@ -33,7 +33,8 @@ import math
 import threading
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -252,6 +253,54 @@ def _behind(chosen: str, squared: dict[str, np.ndarray]) -> set[str]:
     return out
 
 
+#: The logs of :func:`recorded` open now (the main thread's: the judge runs there).
+_RECORDING: list[list[tuple[int, warnings.WarningMessage]]] = []
+
+
+@contextmanager
+def recorded() -> Iterator[list[tuple[int, warnings.WarningMessage]]]:
+    """While open, every thread's warnings are recorded, none shown: a list of (the ident
+    of the thread that raised it, the warning), for :func:`replay`. Python's warning
+    filters are the process's, not a thread's, so one log tells the judge's builds from
+    a build beside them (``methods``: the first candidate on all points) by the thread;
+    :func:`choose` inside it adds no filter of its own."""
+    log: list[tuple[int, warnings.WarningMessage]] = []
+
+    def keep(message, category, filename, lineno, file=None, line=None):  # type: ignore[no-untyped-def]
+        got = warnings.WarningMessage(message, category, filename, lineno, file, line)
+        log.append((threading.get_ident(), got))
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = keep
+        _RECORDING.append(log)
+        try:
+            yield log
+        finally:
+            _RECORDING.remove(log)
+
+
+def replay(log: list[tuple[int, warnings.WarningMessage]], thread: int | None) -> None:
+    """The warnings of ``log`` (:func:`recorded`) that thread ``thread`` raised, issued
+    again here, in order, through the caller's filters."""
+    for ident, got in log:
+        if ident == thread:
+            warnings.warn_explicit(got.message, got.category, got.filename, got.lineno)
+
+
+@contextmanager
+def _quiet_parts() -> Iterator[None]:
+    """The judge's builds show no warning (the parts' are not the scan's): ignored, or,
+    inside :func:`recorded`, left to its log (a filter here would hide the warnings of a
+    build beside the judge too)."""
+    if _RECORDING:
+        yield
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
 def _side_by_side(
     lanes: list[list[str]], build: Callable[[str, PlanarScan], Surface], part: PlanarScan
 ) -> dict[str, tuple[Surface | ScanmeshError, float]]:
@@ -304,6 +353,7 @@ def choose(
     candidates: tuple[str, ...],
     context: Context = QUIET,
     lanes: tuple[tuple[str, ...], ...] | None = None,
+    watch: Callable[[tuple[str, ...]], None] | None = None,
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
@@ -317,8 +367,11 @@ def choose(
     whose build fails on a part is not judged; a window under ``MIN_POINTS`` points is not
     judged at all (``FALLBACK``). ``lanes`` (None: all candidates in one): groups of
     the candidates built in turn, the groups side by side on the cores (a candidate in
-    the lane of the one it starts from); the figures do not depend on them. O(folds x
-    candidates x a build of WINDOW points)."""
+    the lane of the one it starts from); the figures do not depend on them. ``watch``
+    (optional) hears the candidates still judged after each tenth that does not end the
+    judging clear (a build of the first candidate beside the judge stops once it is out). The parts'
+    warnings are not the scan's: none is shown (inside :func:`recorded`, they are recorded
+    there). O(folds x candidates x a build of WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
     parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
@@ -336,8 +389,7 @@ def choose(
             part = _part(scan, lines, win[kept])
             steps.append(np.zeros(len(out), dtype=bool))
             ways = [[k for k in lane if k in judged] for lane in (lanes or (candidates,))]
-            with warnings.catch_warnings():  # the parts' warnings are not the scan's
-                warnings.simplefilter("ignore")
+            with _quiet_parts():
                 results = _side_by_side([w for w in ways if w], build, part)
             for name in judged:
                 surface, took = results[name]
@@ -367,6 +419,8 @@ def choose(
             if measured >= CLEAR_MEASURED:  # one far outside cannot win: built no more
                 behind |= {k for k in judged if gone[k] > far}
             judged = [k for k in judged if k not in behind]
+            if watch is not None:
+                watch(tuple(judged))
     return MethodChoice(
         chosen=chosen,
         holdout={k: holdout.get(k, math.nan) for k in candidates},
@@ -382,6 +436,8 @@ def choose(
 __all__ = [
     "MethodChoice",
     "choose",
+    "recorded",
+    "replay",
     "window",
     "folds",
     "WINDOW",
