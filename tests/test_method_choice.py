@@ -135,18 +135,21 @@ def test_the_judge_anneals_the_short_schedule_and_the_winner_the_full_one(monkey
 
     def recorded(initial, params, context=QUIET, fixed=None):
         out = real(initial, params, context, fixed)
-        runs.append((len(initial.scan.points), initial.method, out.options["sweeps"]))
+        runs.append(
+            (len(initial.scan.points), initial.method, out.options["sweeps"], params["polish"])
+        )
         return out
 
     monkeypatch.setattr(anneal_stage, "build_anneal", recorded)
     surface = scanmesh.reconstruct(bumpy_patch(400, 3), plane="z", seed=1, method="auto")
     judged = [r for r in runs if r[0] == 360]
     assert sorted(r[1] for r in judged) == ["lop", "shortest-path"]
-    assert {r[2] for r in judged} == {methods.JUDGE_SCHEDULE["sweeps"]}
+    assert {r[2:] for r in judged} == {(methods.JUDGE_SCHEDULE["sweeps"], False)}
     # the first candidate's build beside the judge may finish and be left: not the winner's
     final = [r for r in runs if r[0] == 400 and r[1] == surface.options.get("initial")]
     if surface.method in ("anneal", "strips-anneal"):
         assert len(final) == 1 and final[0][2] > methods.JUDGE_SCHEDULE["sweeps"]
+        assert final[0][3]  # the winner polished
     else:
         assert final == []
 
