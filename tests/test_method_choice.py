@@ -205,8 +205,8 @@ def test_a_candidate_behind_is_built_no_more_and_the_verdict_is_the_full_judges(
 
 def test_lanes_build_side_by_side_with_the_figures_of_one_lane(monkeypatch):
     """The registry's lanes: strips-anneal beside annealing with the LOP and Delaunay it
-    starts from. Lanes after the first are built in another thread; the figures are the
-    ones of all candidates built in turn."""
+    starts from. Lanes after the first are built (and their meshes measured) in another
+    thread; the figures are the ones of all candidates built in turn."""
     assert methods.judge_lanes(methods.CANDIDATES) == (
         ("strips-anneal",),
         ("anneal", "lop", "delaunay"),
@@ -221,8 +221,19 @@ def test_lanes_build_side_by_side_with_the_figures_of_one_lane(monkeypatch):
         where.setdefault(name, set()).add(threading.current_thread().name)
         return plain(name, part)
 
+    measured_in = []
+    real = choice.normal_distances
+
+    def counted(held, seen):
+        measured_in.append(threading.current_thread().name)
+        return real(held, seen)
+
+    monkeypatch.setattr(choice, "normal_distances", counted)
     beside = choice.choose(scan, build, ("a", "b", "c"), lanes=(("a",), ("b", "c")))
     assert where == {"a": {"MainThread"}, "b": {"scanmesh-judge"}, "c": {"scanmesh-judge"}}
+    # each lane measures its own meshes, beside the other lane's builds
+    assert sorted(set(measured_in)) == ["MainThread", "scanmesh-judge"]
+    assert measured_in.count("scanmesh-judge") == 2 * measured_in.count("MainThread")
     in_turn = choice.choose(scan, build, ("a", "b", "c"))
     assert where["b"] == {"scanmesh-judge", "MainThread"}
     assert beside == dataclasses.replace(in_turn, seconds=beside.seconds)

@@ -29,6 +29,7 @@ panel's holdout; measurements in docs/benchmarks/panel.md.
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import time
@@ -302,26 +303,44 @@ def _quiet_parts() -> Iterator[None]:
         yield
 
 
+#: A candidate's figures on one part: the withheld points' distances to its mesh (nan:
+#: outside it), which of them lie on a step of it (:func:`_on_steps`), its sliver share.
+Figures = tuple[np.ndarray, np.ndarray, float]
+
+
+def _measure(held: np.ndarray, surface: Surface) -> Figures:
+    """:data:`Figures` of ``surface`` for the withheld points ``held`` (K, 3).
+    O((F + K) log F)."""
+    seen = Seen.of(surface)
+    got, face = normal_distances(held, seen)
+    return got, _on_steps(seen, face), surface.quality.sliver_fraction
+
+
 def _side_by_side(
-    lanes: list[list[str]], build: Callable[[str, PlanarScan], Surface], part: PlanarScan
-) -> dict[str, tuple[Surface | ScanmeshError, float]]:
-    """Candidate -> (its mesh of ``part``, or the ScanmeshError its build raised; seconds):
-    each lane's candidates built in turn, the lanes side by side in daemon threads (the
-    core's long calls release the GIL) waited for in ``POLL_SECONDS`` slices, so that Ctrl-C
-    reaches the caller (an abandoned build finishes in the background, as
-    ``scanmesh._interrupt`` leaves its calls). A lane whose thread cannot start (no room
-    for its stack) is built here after the others."""
-    results: dict[str, tuple[Surface | ScanmeshError, float]] = {}
+    lanes: list[list[str]],
+    build: Callable[[str, PlanarScan], Surface],
+    part: PlanarScan,
+    measure: Callable[[Surface], Figures],
+) -> dict[str, tuple[Figures | None, float]]:
+    """Candidate -> (its mesh of ``part`` measured, None if its build raised a
+    ScanmeshError; seconds of the build): each lane's candidates built and measured in
+    turn (the measuring beside the other lanes' builds, not after them all), the lanes
+    side by side in daemon threads (the core's long calls release the GIL) waited for in
+    ``POLL_SECONDS`` slices, so that Ctrl-C reaches the caller (an abandoned build
+    finishes in the background, as ``scanmesh._interrupt`` leaves its calls). A lane
+    whose thread cannot start (no room for its stack) is built here after the others."""
+    results: dict[str, tuple[Figures | None, float]] = {}
     failed: list[BaseException] = []
 
     def run(lane: list[str]) -> None:
         for name in lane:
             t0 = time.perf_counter()
             try:
-                got: Surface | ScanmeshError = build(name, part)
-            except ScanmeshError as exc:  # a method that fails on a part is not judged
-                got = exc
-            results[name] = (got, time.perf_counter() - t0)
+                got: Surface | None = build(name, part)
+            except ScanmeshError:  # a method that fails on a part is not judged
+                got = None
+            took = time.perf_counter() - t0
+            results[name] = (None if got is None else measure(got), took)
 
     def beside(lane: list[str]) -> None:
         try:
@@ -390,20 +409,20 @@ def choose(
             part = _part(scan, lines, win[kept])
             steps.append(np.zeros(len(out), dtype=bool))
             ways = [[k for k in lane if k in judged] for lane in (lanes or (candidates,))]
+            held = scan.points[win][out]
             with _quiet_parts():
-                results = _side_by_side([w for w in ways if w], build, part)
+                results = _side_by_side(
+                    [w for w in ways if w], build, part, functools.partial(_measure, held)
+                )
             for name in judged:
-                surface, took = results[name]
-                if isinstance(surface, ScanmeshError):
+                figures, took = results[name]
+                if figures is None:
                     dist[name].append(np.full(len(out), np.nan))
                     slivers[name] = math.inf
                 else:
-                    held = scan.points[win][out]
-                    seen = Seen.of(surface)
-                    got, face = normal_distances(held, seen)
-                    dist[name].append(got)
-                    steps[-1] |= _on_steps(seen, face)
-                    slivers[name] += surface.quality.sliver_fraction
+                    dist[name].append(figures[0])
+                    steps[-1] |= figures[1]
+                    slivers[name] += figures[2]
                 seconds[name] += took
             stage.update(stage.done + len(judged))
             share = {k: slivers[k] / len(dist[k]) for k in judged}
