@@ -443,25 +443,42 @@ def _slow_method(monkeypatch, run):
 
 def test_a_build_beside_the_judge_reports_once_taken_and_ends_when_stopped(monkeypatch):
     """Its progress is the call's from the moment it is taken (the stage running, not the
-    reports before); stopped, it ends at its next report and keeps no mesh."""
+    reports before; a callable of annealing's own convention hears annealing only);
+    stopped, it ends at its next report and keeps no mesh."""
     scan = as_scan(bumpy_patch(100, 1), plane="z")
-    reached, gate = threading.Event(), threading.Event()
+    reached, first, second = threading.Event(), [], []
+
+    def taken(box):  # the build goes on once the caller took it (its progress is shown)
+        while not box or not box[0]._shown:
+            time.sleep(0.001)
 
     def run(scan, params, kw):
         with kw.context.stage("anneal", 3) as stage:
             stage.update(1)
             reached.set()
-            gate.wait(30)
+            taken(first)
             stage.update(2)
         return "mesh"
 
     _slow_method(monkeypatch, run)
-    ahead = methods._Ahead("slow", scan, methods.Keywords())
+    first.append(methods._Ahead("slow", scan, methods.Keywords()))
     assert reached.wait(30)
     heard = []
-    threading.Timer(0.05, gate.set).start()
-    assert ahead.take(lambda done, total, value, stage: heard.append((stage, done))) == "mesh"
+    assert first[0].take(lambda done, total, value, stage: heard.append((stage, done))) == "mesh"
     assert heard == [("anneal", 2), ("anneal", 3)]
+
+    def stages(scan, params, kw):
+        taken(second)
+        for name in ("strips", "anneal"):
+            with kw.context.stage(name, 2) as stage:
+                stage.update(1)
+        return "mesh"
+
+    _slow_method(monkeypatch, stages)
+    second.append(methods._Ahead("slow", scan, methods.Keywords()))
+    sweeps = []
+    assert second[0].take(lambda done, total, energy: sweeps.append((done, total))) == "mesh"
+    assert sweeps == [(0, 2), (1, 2), (2, 2)]
 
     def endless(scan, params, kw):
         with kw.context.stage("anneal", 10**9) as stage:

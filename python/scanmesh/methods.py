@@ -351,11 +351,12 @@ class _Ahead:
                 self._close()
                 self._stage = Stage(True, name, total)
             self._stage.update(done, value)
-        elif takes_stage(shown):
-            keep = {k: v for k, v in extra.items() if accepts(shown, k) or k == "stage"}
-            shown(done, total, value, **keep)  # type: ignore[operator]
-        elif callable(shown) and name == "anneal":  # annealing's (done, total, energy)
-            shown(done, total, value)
+        elif callable(shown):
+            if takes_stage(shown):
+                keep = {k: v for k, v in extra.items() if accepts(shown, k) or k == "stage"}
+                shown(done, total, value, **keep)
+            elif name == "anneal":  # annealing's (done, total, energy) only
+                shown(done, total, value)
 
     def _close(self) -> None:
         if self._stage is not None:
