@@ -504,6 +504,9 @@ impl Volume {
         let (wf, hf) = (w as f64, h as f64);
         let each = |b: usize, flags: &mut [u8]| {
             for ([i, j, k], n) in block_nodes(layout.nodes(b)) {
+                if flags[n] & EMPTY != 0 {
+                    continue; // an earlier view emptied it: nothing to add
+                }
                 let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
                 let q = view.to_scanner(p);
                 // `view.lookup`'s miss (its nearest ray, inside the image, had no return)
