@@ -18,6 +18,7 @@ mod criteria;
 mod exact;
 mod fusion;
 mod io;
+mod neighbours;
 mod optimize;
 mod progress;
 mod results;
@@ -158,6 +159,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::median_spacing, m)?)?;
+    m.add_function(wrap_pyfunction!(neighbours::k_nearest, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::trim_long_edges, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay_trimmed, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::grid_triangulate, m)?)?;
