@@ -11,7 +11,10 @@ them keep the strips, curved and creased parts are annealed. Flips keep the stri
 outline and holes, so the depth jumps the strips cut stay open. Edges of the strips' step
 triangles (tilted more than ``step_angle`` from the projection plane) can also be kept
 fixed: no flip of the walk, the descent or the polish removes them (the core's
-``FixedEdges``). Measurements: docs/benchmarks/panel.md.
+``FixedEdges``). The automatic schedule spends annealing's budget of proposals on the
+edges the noise's ties leave live (a third of them on a noisy part), from a hotter start:
+the strips' fans across steps are left only by a long, hot walk. Measurements:
+docs/benchmarks/panel.md.
 """
 
 from __future__ import annotations
