@@ -177,7 +177,10 @@ def merge(
         before the extraction, thin tunnels of nodes the views measured poorly are filled
         where that takes a handle off: ``options["thin_handles"]`` (the Euler
         characteristic gained, "handles"; the nodes filled, "closed"; the "largest" group
-        filled at once).
+        filled at once); ``options["vote_margins"]``: per view, the rays around its returns
+        within which a nearer surface keeps them from showing space empty (4 times the
+        view's alignment residual against the others, in its rays: 0 for views that agree,
+        so that a misaligned view's returns beside a silhouette do not cut a thin part off).
     """
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(

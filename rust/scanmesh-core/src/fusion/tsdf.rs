@@ -16,7 +16,9 @@
 //!
 //! A node averaging to a negative distance that a view saw more than the truncation in
 //! front of its surface is empty: it lies behind a thin wedge (an edge seen along the
-//! rays) in another view, outside the part (a view's vote, `EMPTY_VOTES`).
+//! rays) in another view, outside the part (a view's vote, `EMPTY_VOTES`). Neither a vote
+//! nor empty within the view's margin of a nearer surface's silhouette
+//! ([`DepthView::with_margin`]): a misaligned view's rays there may pass through a thin part.
 
 use super::blocks::{block_nodes, Blocks, Entry, BLOCK, BLOCK_NODES};
 use super::depth::{DepthView, Lookup};
