@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_GRID_TURN_DEG",
     "DEFAULT_GRID_EDGE_FACTOR",
     "BEHIND_VOXELS",
+    "MAX_MARGIN",
     "MAX_TILES",
     "project",
     "delaunay",
@@ -81,6 +82,7 @@ DEFAULT_GRID_EDGE_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 JUMP_STEPS: float
 BEHIND_VOXELS: float
+MAX_MARGIN: int
 MAX_TILES: int
 
 def project(
@@ -166,6 +168,7 @@ class DepthView:
         depth: npt.NDArray[np.float64],
         cos: npt.NDArray[np.float64],
         weight: npt.NDArray[np.float64] | None = None,
+        margin: int = 0,
     ) -> DepthView: ...
 
 @final

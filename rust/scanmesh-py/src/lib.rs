@@ -155,6 +155,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("JUMP_STEPS", scanmesh_core::fusion::JUMP_STEPS)?;
     m.add("BEHIND_VOXELS", scanmesh_core::fusion::BEHIND_VOXELS)?;
+    m.add("MAX_MARGIN", scanmesh_core::fusion::MAX_MARGIN)?;
     m.add("MAX_TILES", scanmesh_core::optimize::MAX_TILES)?;
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
