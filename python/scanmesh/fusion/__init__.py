@@ -41,6 +41,7 @@ from scanmesh.fusion.grid import (
     TRUNCATION_VOXELS,
     grid_for,
 )
+from scanmesh.fusion.handles import HANDLE_LOOP, UNLINED_LOOP, cut_short_handles
 from scanmesh.fusion.pieces import drop_specks
 from scanmesh.fusion.register import refine_poses
 from scanmesh.fusion.views import View, as_views
@@ -164,7 +165,10 @@ def merge(
         before the extraction, thin tunnels of nodes the views measured poorly are filled
         where that takes a handle off: ``options["thin_handles"]`` (the Euler
         characteristic gained, "handles"; the nodes filled, "closed"; the "largest" group
-        filled at once).
+        filled at once); after the simplification, every handle whose shortest
+        non-separating loop is at most ``fusion.handles.HANDLE_LOOP`` voxels long is cut
+        along that loop and both sides capped (faces ``filled``):
+        ``options["short_handles"]`` lists the loops' lengths in voxels.
     """
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(
@@ -328,6 +332,19 @@ def _merge(
         )
         simplified = {"faces_before": before, "faces_after": len(faces)}
         timings["simplify"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    vertices, faces, labels, loops = interruptible(
+        float(len(faces)),
+        cut_short_handles,
+        vertices,
+        faces,
+        labels,
+        HANDLE_LOOP * size,
+        Surface.LABELS.index("filled"),
+        np.concatenate(samples),
+        UNLINED_LOOP * size,
+    )
+    timings["short handles"] = time.perf_counter() - t0
     if len(faces) == 0:
         raise DegenerateInputError(
             f"merge: no surface at voxel {size * unit:g}: no node of the"
@@ -347,6 +364,7 @@ def _merge(
             "allocated_voxels": volume.allocated,  # (with distances, with flags alone)
             "repaired_nodes": int(repaired),
             "thin_handles": thin,
+            "short_handles": [round(loop.length / size, 2) for loop in loops],
             "specks_removed": specks,
             "simplified": simplified,
             "refine_residual": residual,
