@@ -110,6 +110,22 @@ class _Mesh:
         key = np.minimum(a, b) * self.n + np.maximum(a, b)
         return np.searchsorted(self.keys, key)
 
+    def class_of(self, loop: Loop) -> np.ndarray | None:
+        """The homology class of `loop` (bits over the cohomology basis), None when it is
+        not a loop of this mesh or separates."""
+        ring = np.array(loop.vertices)
+        if ring.max() >= self.n:
+            return None
+        nxt = np.roll(ring, -1)
+        key = np.minimum(ring, nxt) * self.n + np.maximum(ring, nxt)
+        at = np.searchsorted(self.keys, key)
+        if (at >= len(self.keys)).any() or (
+            self.keys[np.minimum(at, len(self.keys) - 1)] != key
+        ).any():
+            return None
+        bits = np.bitwise_xor.reduce(self.bits[at], axis=0)
+        return bits if bits.any() else None
+
     def face_of(self, a: int, b: int) -> int:
         """The face holding the directed edge a → b."""
         k = np.searchsorted(self.half_keys, a * self.n + b, sorter=self.half_order)
@@ -257,22 +273,25 @@ def _search(
     mesh: _Mesh, longest: float, shift: float, among: np.ndarray | None = None
 ) -> list[tuple[Loop, np.ndarray]]:
     """A loop at most `longest` long from each root: one vertex per cell (`COVER · longest`
-    across, the grid shifted by `shift` cells) among the vertices where the surface is thin
-    (a vertex within `longest / 3` whose normal is more than 120° from theirs: both sides
-    of a bridge, or of a tunnel, that a loop this short rings), each loop then shortened
-    from roots on it; roots only among the vertices `among` (a mask) when given.
+    across, the grid shifted by `shift` cells) among the vertices `among` (a mask) or, by
+    default, where the surface is thin (a vertex within `longest / 3` whose normal is more
+    than 120° from theirs: both sides of a bridge, or of a tunnel, that a loop this short
+    rings), each loop then shortened from roots on it.
     O(pairs within `longest / 3` + roots · vertices within `longest`)."""
     used = np.zeros(mesh.n, dtype=bool)
     used[mesh.f.ravel()] = True
-    normal = vertex_normals(mesh.v, mesh.f)
     tree = cKDTree(mesh.v)
-    pairs = tree.query_pairs(longest / 3, output_type="ndarray")
-    facing = (normal[pairs[:, 0]] * normal[pairs[:, 1]]).sum(axis=1) < THIN_COSINE
-    thin = np.zeros(mesh.n, dtype=bool)
-    thin[pairs[facing].ravel()] = True
-    thin &= used if among is None else used & among
+    if among is None:
+        normal = vertex_normals(mesh.v, mesh.f)
+        pairs = tree.query_pairs(longest / 3, output_type="ndarray")
+        facing = (normal[pairs[:, 0]] * normal[pairs[:, 1]]).sum(axis=1) < THIN_COSINE
+        thin = np.zeros(mesh.n, dtype=bool)
+        thin[pairs[facing].ravel()] = True
+        thin &= used
+    else:
+        thin = used & among
     cover = longest * COVER
-    reach = cover * np.sqrt(3) + longest / 2
+    reach = cover + longest / 2
     # a non-separating loop crosses a dual cycle of the basis: roots within reach of one
     crossing = np.unique(mesh.edges[mesh.live].ravel())
     thin[thin] = np.isfinite(
@@ -335,6 +354,8 @@ def cut_short_handles(
     lined = None if samples is None or unlined <= longest else cKDTree(samples)
     lining = longest / HANDLE_LOOP
     cut: list[Loop] = []
+    left: list[Loop] = []  # found and not cut: checked again in the next round
+    around: np.ndarray | None = None  # near the last round's cuts: where unlined loops are sought
     for round_ in range(ROUNDS):
         mesh = _Mesh(v, f)
         if not mesh.closed or not mesh.bits.any():
@@ -344,19 +365,23 @@ def cut_short_handles(
             bare = lined.query(v, distance_upper_bound=lining)[0] > lining
             found += [
                 (loop, bits)
-                for loop, bits in _search(mesh, unlined, 0.5 * round_, among=bare)
+                for loop, bits in _search(
+                    mesh, unlined, 0.5 * round_, among=bare if around is None else bare & around
+                )
                 if loop.length > longest and bare[list(loop.vertices)].mean() > 0.5
             ]
-            found.sort(key=lambda lc: lc[0].length)
+        # a loop away from the cuts is still a loop of the mesh; its class is read again
+        found += [(loop, bits) for loop in left if (bits := mesh.class_of(loop)) is not None]
+        found.sort(key=lambda lc: lc[0].length)
         taken = np.zeros(len(v), dtype=bool)
         basis: list[int] = []
         now: list[Loop] = []
+        left = []
         for loop, bits in found:
             ring = np.array(loop.vertices)
-            if taken[ring].any():
-                continue
-            grown = _independent(basis, bits)
+            grown = None if taken[ring].any() else _independent(basis, bits)
             if grown is None:
+                left.append(loop)
                 continue
             basis = grown
             taken[ring] = True
@@ -366,6 +391,10 @@ def cut_short_handles(
         for loop in now:
             v, f, lab = _cut(mesh, v, f, lab, loop, filled)
         cut.extend(now)
+        rings = v[np.concatenate([list(loop.vertices) for loop in now])]
+        reach = max(longest, unlined if lined is not None else 0.0)
+        around = np.isfinite(cKDTree(rings).query(v, distance_upper_bound=reach)[0])
+        left = [loop for loop in left if not taken[list(loop.vertices)].any()]
     out_faces = f.astype(np.asarray(faces).dtype)
     out_labels = None if lab is None else lab.astype(np.asarray(labels).dtype)
     return v, out_faces, out_labels, cut
