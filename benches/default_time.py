@@ -16,7 +16,11 @@ less it is the judge's). An ``.npz`` with ``points`` and ``lines`` (as ``benches
 writes its scans) passes the line ids to the default and to a winner that takes them.
 The CPU seconds (``time.process_time``: every thread of the process) do not grow with
 other processes' load as wall seconds do; on an idle machine the wall time is at most
-about the CPU time (less where the judge's two lanes overlap).
+about the CPU time (less where the judge's two lanes overlap, and on a scan of at most
+``methods.AHEAD_POINTS`` points, where the first candidate is built beside the judge, as
+little as half of it on two cores). ``--beside`` also times the default with no build
+beside the judge (``AHEAD_POINTS`` 0) in each round: the same mesh, the CPU and wall
+seconds the build beside the judge costs or saves.
 Prints the load average before and after.
 """
 
@@ -32,6 +36,7 @@ import numpy as np
 from panel import LINES
 
 import scanmesh
+from scanmesh import methods
 
 #: ../shared/data beside the repository, as the other benches find it.
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -43,6 +48,11 @@ def main() -> None:
     parser.add_argument("--scan", default="terrain/SainteHelens.dem", help="file under --data")
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--plane", default=None, help="projection plane for both (default: chosen)")
+    parser.add_argument(
+        "--beside",
+        action="store_true",
+        help="also the default with no build beside the judge, in each round",
+    )
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     path = args.data / args.scan  # an absolute --scan is taken as it is
@@ -54,12 +64,13 @@ def main() -> None:
             if "lines" in saved and len(saved["lines"]):
                 lines = saved["lines"]
     print(f"{args.scan}: {len(scan.points):,} points; load {os.getloadavg()}")
+    beside = " no build beside: wall / CPU (s) |" if args.beside else ""
     print(
         "| round | LOP (s) | default (s) | default / LOP | judge builds (s): per candidate | tenths"
         " | built | built alone (s) | judge (s) | CPU default / built alone (s)"
-        " | tac_1 LOP | tac_1 default |"
+        f" | tac_1 LOP | tac_1 default |{beside}"
     )
-    print("|---:|---:|---:|---:|---|---:|---|---:|---:|---:|---:|---:|")
+    print("|---:|---:|---:|---:|---|---:|---|---:|---:|---:|---:|---:|" + "---|" * args.beside)
     for k in range(args.rounds):
         t = time.perf_counter()
         lop = scanmesh.reconstruct(scan, "lop", **plane)
@@ -71,13 +82,22 @@ def main() -> None:
         t, cpu = time.perf_counter(), time.process_time()
         scanmesh.reconstruct(scan, made["built"], **plane, **_lines(made["built"], lines))
         t_built, cpu_built = time.perf_counter() - t, time.process_time() - cpu
+        alone = ""
+        if args.beside:
+            ahead, methods.AHEAD_POINTS = methods.AHEAD_POINTS, 0
+            t, cpu = time.perf_counter(), time.process_time()
+            after = scanmesh.reconstruct(scan, **plane, **_lines("auto", lines))
+            wall, cpu = time.perf_counter() - t, time.process_time() - cpu
+            methods.AHEAD_POINTS = ahead
+            same = "same" if np.array_equal(after.faces, default.faces) else "OTHER"
+            alone = f" {wall:.2f} / {cpu:.2f} ({same} faces) |"
         judge = sum(made["seconds"].values())
         each = ", ".join(f"{name} {sec:.2f}" for name, sec in made["seconds"].items())
         print(
             f"| {k} | {t_lop:.2f} | {t_default:.2f} | {t_default / t_lop:.2f} |"
             f" {judge:.2f}: {each} | {made['folds']} | {made['built']} | {t_built:.2f} |"
             f" {t_default - t_built:.2f} | {cpu_default:.2f} / {cpu_built:.2f} |"
-            f" {lop.quality.tac_1:.1f} | {default.quality.tac_1:.1f} |",
+            f" {lop.quality.tac_1:.1f} | {default.quality.tac_1:.1f} |{alone}",
             flush=True,
         )
     print(f"load {os.getloadavg()}")

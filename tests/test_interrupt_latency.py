@@ -92,6 +92,24 @@ def test_ctrl_c_while_the_default_chooses_ends_the_command_within_half_a_second(
     assert not out.exists()
 
 
+def test_ctrl_c_while_the_default_chooses_beside_its_first_candidate(tmp_path):
+    """Under 20,000 points the first candidate is built on all points in a thread beside
+    the judge: Ctrl-C still ends the command within half a second, writing nothing."""
+    side = 120
+    rng = np.random.default_rng(1)
+    g = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2) * 1.0
+    g += 0.01 * rng.random(g.shape)
+    z = np.sin(g[:, 0] / 7) + 0.01 * rng.random(len(g))
+    np.savetxt(tmp_path / "scan.xyz", np.c_[g, z, np.repeat(np.arange(side), side)], fmt="%.5f")
+    out = tmp_path / "mesh.ply"
+    took, done = seconds_to_exit(
+        ["reconstruct", str(tmp_path / "scan.xyz"), "-o", str(out)], "choose"
+    )
+    assert done.returncode == 130, done.stderr
+    assert took < 0.5, took
+    assert not out.exists()
+
+
 def test_ctrl_c_while_the_command_starts_exits_130_with_one_line(tmp_path):
     """The command imports numpy, scipy, trimesh and the core before it runs (1.3-1.8 s on
     a busy machine): a Ctrl-C then printed a KeyboardInterrupt traceback from inside some

@@ -11,6 +11,7 @@ Dask path (:data:`STRIP_METHODS`, :data:`TILE_METHODS`): no other module lists m
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -19,6 +20,8 @@ from typing import Any
 
 from scanmesh._checks import Option, check_options
 from scanmesh._context import QUIET, Context
+from scanmesh._interrupt import POLL_SECONDS
+from scanmesh._progress import Progress, Stage, accepts, takes_stage
 from scanmesh.errors import ParameterError
 from scanmesh.scan.planar import PlanarScan
 from scanmesh.stages import anneal, choice, grid, lop, optimal, strips, strips_anneal
@@ -233,10 +236,12 @@ JUDGE_STARTS: dict[str, str] = {"lop": "delaunay", "anneal": "lop"}
 
 #: The annealing schedule of the candidates that anneal, in the judge: one chain of the
 #: fewest automatic sweeps (``AnnealParams.auto_sweeps``' least, 8), not the small scans'
-#: floor of two million proposals; the winner is built on all points with the full
-#: schedule. Measured on the 16 panel scans (docs/benchmarks/panel.md): the same verdicts
-#: as the full schedule; alone it cut the judge's time 1.2-7 x (the pocket, fran_cut).
-JUDGE_SCHEDULE: dict[str, Any] = {"sweeps": 8, "chains": 1}
+#: floor of two million proposals, and no polish (the greedy descent after the sweeps);
+#: the winner is built on all points with the full schedule. Measured on the 16 panel
+#: scans (docs/benchmarks/panel.md): the same verdicts as the full schedule; the short
+#: schedule alone cut the judge's time 1.2-7 x (the pocket, fran_cut), the polish left
+#: out another 4-40 % of its CPU (on the 14 scans under 20,000 points).
+JUDGE_SCHEDULE: dict[str, Any] = {"sweeps": 8, "chains": 1, "polish": False}
 
 
 def judge_builder(quiet: Keywords) -> Callable[[str, PlanarScan], Surface]:
@@ -289,21 +294,142 @@ def judge_lanes(candidates: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
     return tuple(tuple(lane) for lane in lanes.values())
 
 
+#: On a scan of at most this many points (the judge's window is then all of it, and the
+#: first candidate won 11 of the panel's 14 such scans) the first candidate is built on all
+#: points beside the judge (:class:`_Ahead`): the winner's build overlaps the judge's on
+#: the two cores instead of following it. Larger scans are not: there the first candidate
+#: won none of the panel's, and the build would take the judge's cores for longer.
+AHEAD_POINTS: int = choice.WINDOW
+
+
+class _Stopped(Exception):
+    """Raised in a build beside the judge by its own progress once it is no longer wanted."""
+
+
+class _Ahead:
+    """Candidate ``name`` built on all of ``scan`` with the call's keywords in a daemon
+    thread while the judge runs (the same seed: the very mesh built after the judge).
+    Its progress is the call's only once it is taken (:meth:`take`: the stages still to
+    come and the one running); :meth:`stop` ends it at its next progress report (a chunk
+    of annealing or one native call). Its warnings are replayed when it is taken
+    (:func:`scanmesh.stages.choice.recorded`)."""
+
+    def __init__(self, name: str, scan: PlanarScan, kw: Keywords) -> None:
+        self.name = name
+        self.result: Surface | None = None
+        self.error: BaseException | None = None
+        self._stop = threading.Event()
+        self._shown: Progress = False  # the call's progress, once taken
+        self._stage: Stage | None = None  # the bar or log line of the stage shown
+        own = Keywords(kw.max_edge, dataclasses.replace(kw.context, progress=self._report))
+        self._thread = threading.Thread(
+            target=self._run, args=(scan, own), name="scanmesh-ahead", daemon=True
+        )
+        self._thread.start()  # RuntimeError when no thread can start: the caller's to skip
+
+    @property
+    def ident(self) -> int | None:
+        """The build's thread (whose warnings are its)."""
+        return self._thread.ident
+
+    def _run(self, scan: PlanarScan, own: Keywords) -> None:
+        spec = TABLE[self.name]
+        try:
+            self.result = spec.run(scan, spec.check({}, {}), own)
+        except _Stopped:
+            pass
+        except BaseException as exc:  # noqa: BLE001 - the caller builds again and sees it
+            self.error = exc
+
+    def _report(self, done: int, total: int, value: float | None = None, **extra: Any) -> None:
+        if self._stop.is_set():
+            raise _Stopped
+        shown = self._shown
+        name = extra.get("stage", "anneal")
+        if shown is True:  # bars: one at a time, the stage running
+            if self._stage is None or self._stage.name != name:
+                self._close()
+                self._stage = Stage(True, name, total)
+            self._stage.update(done, value)
+        elif callable(shown):
+            if takes_stage(shown):
+                keep = {k: v for k, v in extra.items() if accepts(shown, k) or k == "stage"}
+                shown(done, total, value, **keep)
+            elif name == "anneal":  # annealing's (done, total, energy) only
+                shown(done, total, value)
+
+    def _close(self) -> None:
+        if self._stage is not None:
+            self._stage.close()
+            self._stage = None
+
+    def take(self, progress: Progress) -> Surface | None:
+        """The mesh, waited for in ``POLL_SECONDS`` slices (Ctrl-C reaches the caller),
+        its progress from now on ``progress``'s; None if its build failed (the caller
+        builds again, and raises)."""
+        self._shown = progress
+        while self._thread.is_alive():
+            self._thread.join(POLL_SECONDS)
+        self._close()
+        return self.result if self.error is None else None
+
+    def stop(self, wait: bool = True) -> None:
+        """Ends the build at its next progress report (``wait``: waited for, in slices)."""
+        self._stop.set()
+        while wait and self._thread.is_alive():
+            self._thread.join(POLL_SECONDS)
+
+
+def _ahead(scan: PlanarScan, name: str, kw: Keywords) -> _Ahead | None:
+    """Candidate ``name`` built beside the judge (:class:`_Ahead`) on a scan of
+    ``choice.MIN_POINTS`` to :data:`AHEAD_POINTS` points, else None (none either when no
+    thread can start)."""
+    if not choice.MIN_POINTS <= len(scan.points) <= AHEAD_POINTS:
+        return None
+    try:
+        return _Ahead(name, scan, kw)
+    except RuntimeError:  # "can't start new thread": the winner is built after the judge
+        return None
+
+
 def _run_auto(scan: PlanarScan, _params: dict[str, Any], kw: Keywords) -> Surface:
     """The candidate a holdout on a window of the scan prefers (``stages.choice``), built on
     all points with the call's keywords; ``options["method_choice"]`` says what each
-    candidate measured."""
+    candidate measured. On a small scan the first candidate is built beside the judge
+    (:data:`AHEAD_POINTS`) and stopped once the judge puts it out."""
     build = judge_builder(Keywords(max_edge=kw.max_edge, context=kw.context.quiet()))
     gridded = default_initial(scan, kw.max_edge) == "grid"
     candidates = GRID_CANDIDATES if gridded else CANDIDATES
-    made = choice.choose(scan, build, candidates, kw.context, judge_lanes(candidates))
-    # The parts have no range grid, so Delaunay stands in for the grid triangulation in the
-    # judge; on a gridded scan the grid is built, as LOP and annealing start from it there
-    # (Delaunay keeps the curtains the grid drops).
-    planar = "grid" if gridded else "delaunay"
-    built = planar if made.chosen == "delaunay" else made.chosen
-    spec = TABLE[built]
-    surface = spec.run(scan, spec.check({}, {}), kw)
+    lanes = judge_lanes(candidates)
+    surface = None
+    with choice.recorded() as log:
+        ahead = _ahead(scan, candidates[0], kw)
+
+        def watch(judged: tuple[str, ...]) -> None:
+            if ahead is not None and ahead.name not in judged:
+                ahead.stop(wait=False)
+
+        try:
+            made = choice.choose(scan, build, candidates, kw.context, lanes, watch)
+            if ahead is not None and made.chosen == ahead.name:
+                surface = ahead.take(kw.context.progress)
+        except BaseException:
+            if ahead is not None:
+                ahead.stop(wait=False)  # Ctrl-C: not waited for
+            raise
+        if ahead is not None and surface is None:
+            ahead.stop()  # waited for: its last warnings go to the log, not to the caller
+    if surface is not None and ahead is not None:
+        choice.replay(log, ahead.ident)
+        built = ahead.name
+    else:
+        # The parts have no range grid, so Delaunay stands in for the grid triangulation in
+        # the judge; on a gridded scan the grid is built, as LOP and annealing start from it
+        # there (Delaunay keeps the curtains the grid drops).
+        planar = "grid" if gridded else "delaunay"
+        built = planar if made.chosen == "delaunay" else made.chosen
+        spec = TABLE[built]
+        surface = spec.run(scan, spec.check({}, {}), kw)
     surface.options = {**surface.options, "method_choice": {**made.as_dict(), "built": built}}
     return surface
 

@@ -29,11 +29,13 @@ panel's holdout; measurements in docs/benchmarks/panel.md.
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -181,13 +183,14 @@ def folds(n: int, seed: int, measured: int = MEASURED) -> list[np.ndarray]:
 
 def _on_steps(seen: Seen, face: np.ndarray) -> np.ndarray:
     """(K,) bool: the triangle ``face`` (-1: none) of ``seen`` holding each withheld point
-    is tilted more than ``STEP_TILT`` from the plane (a step). O(F + K)."""
-    tri = seen.tri
+    is tilted more than ``STEP_TILT`` from the plane (a step): only the holding faces
+    are measured. O(K)."""
+    held = face >= 0
+    tri = seen.tri[face[held]]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     tilt = np.arctan2(np.linalg.norm(np.cross(n, seen.normal), axis=1), np.abs(n @ seen.normal))
     steep = np.zeros(len(face), dtype=bool)
-    held = face >= 0
-    steep[held] = tilt[face[held]] > math.radians(STEP_TILT)
+    steep[held] = tilt > math.radians(STEP_TILT)
     return steep
 
 
@@ -252,26 +255,92 @@ def _behind(chosen: str, squared: dict[str, np.ndarray]) -> set[str]:
     return out
 
 
+#: The logs of :func:`recorded` open now (the main thread's: the judge runs there).
+_RECORDING: list[list[tuple[int, warnings.WarningMessage]]] = []
+
+
+@contextmanager
+def recorded() -> Iterator[list[tuple[int, warnings.WarningMessage]]]:
+    """While open, every thread's warnings are recorded, none shown: a list of (the ident
+    of the thread that raised it, the warning), for :func:`replay`. Python's warning
+    filters are the process's, not a thread's, so one log tells the judge's builds from
+    a build beside them (``methods``: the first candidate on all points) by the thread;
+    :func:`choose` inside it adds no filter of its own."""
+    log: list[tuple[int, warnings.WarningMessage]] = []
+
+    def keep(message, category, filename, lineno, file=None, line=None):  # type: ignore[no-untyped-def]
+        got = warnings.WarningMessage(message, category, filename, lineno, file, line)
+        log.append((threading.get_ident(), got))
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = keep
+        _RECORDING.append(log)
+        try:
+            yield log
+        finally:
+            _RECORDING.remove(log)
+
+
+def replay(log: list[tuple[int, warnings.WarningMessage]], thread: int | None) -> None:
+    """The warnings of ``log`` (:func:`recorded`) that thread ``thread`` raised, issued
+    again here, in order, through the caller's filters."""
+    for ident, got in log:
+        if ident == thread:
+            warnings.warn_explicit(got.message, got.category, got.filename, got.lineno)
+
+
+@contextmanager
+def _quiet_parts() -> Iterator[None]:
+    """The judge's builds show no warning (the parts' are not the scan's): ignored, or,
+    inside :func:`recorded`, left to its log (a filter here would hide the warnings of a
+    build beside the judge too)."""
+    if _RECORDING:
+        yield
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
+#: A candidate's figures on one part: the withheld points' distances to its mesh (nan:
+#: outside it), which of them lie on a step of it (:func:`_on_steps`), its sliver share.
+Figures = tuple[np.ndarray, np.ndarray, float]
+
+
+def _measure(held: np.ndarray, surface: Surface) -> Figures:
+    """:data:`Figures` of ``surface`` for the withheld points ``held`` (K, 3).
+    O((F + K) log F)."""
+    seen = Seen.of(surface)
+    got, face = normal_distances(held, seen)
+    return got, _on_steps(seen, face), surface.quality.sliver_fraction
+
+
 def _side_by_side(
-    lanes: list[list[str]], build: Callable[[str, PlanarScan], Surface], part: PlanarScan
-) -> dict[str, tuple[Surface | ScanmeshError, float]]:
-    """Candidate -> (its mesh of ``part``, or the ScanmeshError its build raised; seconds):
-    each lane's candidates built in turn, the lanes side by side in daemon threads (the
-    core's long calls release the GIL) waited for in ``POLL_SECONDS`` slices, so that Ctrl-C
-    reaches the caller (an abandoned build finishes in the background, as
-    ``scanmesh._interrupt`` leaves its calls). A lane whose thread cannot start (no room
-    for its stack) is built here after the others."""
-    results: dict[str, tuple[Surface | ScanmeshError, float]] = {}
+    lanes: list[list[str]],
+    build: Callable[[str, PlanarScan], Surface],
+    part: PlanarScan,
+    measure: Callable[[Surface], Figures],
+) -> dict[str, tuple[Figures | None, float]]:
+    """Candidate -> (its mesh of ``part`` measured, None if its build raised a
+    ScanmeshError; seconds of the build): each lane's candidates built and measured in
+    turn (the measuring beside the other lanes' builds, not after them all), the lanes
+    side by side in daemon threads (the core's long calls release the GIL) waited for in
+    ``POLL_SECONDS`` slices, so that Ctrl-C reaches the caller (an abandoned build
+    finishes in the background, as ``scanmesh._interrupt`` leaves its calls). A lane
+    whose thread cannot start (no room for its stack) is built here after the others."""
+    results: dict[str, tuple[Figures | None, float]] = {}
     failed: list[BaseException] = []
 
     def run(lane: list[str]) -> None:
         for name in lane:
             t0 = time.perf_counter()
             try:
-                got: Surface | ScanmeshError = build(name, part)
-            except ScanmeshError as exc:  # a method that fails on a part is not judged
-                got = exc
-            results[name] = (got, time.perf_counter() - t0)
+                got: Surface | None = build(name, part)
+            except ScanmeshError:  # a method that fails on a part is not judged
+                got = None
+            took = time.perf_counter() - t0
+            results[name] = (None if got is None else measure(got), took)
 
     def beside(lane: list[str]) -> None:
         try:
@@ -304,6 +373,7 @@ def choose(
     candidates: tuple[str, ...],
     context: Context = QUIET,
     lanes: tuple[tuple[str, ...], ...] | None = None,
+    watch: Callable[[tuple[str, ...]], None] | None = None,
 ) -> MethodChoice:
     """The candidate whose meshes lie closest to withheld points of ``scan``.
 
@@ -317,8 +387,11 @@ def choose(
     whose build fails on a part is not judged; a window under ``MIN_POINTS`` points is not
     judged at all (``FALLBACK``). ``lanes`` (None: all candidates in one): groups of
     the candidates built in turn, the groups side by side on the cores (a candidate in
-    the lane of the one it starts from); the figures do not depend on them. O(folds x
-    candidates x a build of WINDOW points)."""
+    the lane of the one it starts from); the figures do not depend on them. ``watch``
+    (optional) hears the candidates still judged after each tenth that does not end the
+    judging clear (a build of the first candidate beside the judge stops once it is out). The parts'
+    warnings are not the scan's: none is shown (inside :func:`recorded`, they are recorded
+    there). O(folds x candidates x a build of WINDOW points)."""
     lines = scan.line_ids_for(GAP_FACTOR)
     win = window(lines)
     parts = folds(len(win), context.seed, MEASURED) if len(win) >= MIN_POINTS else []
@@ -336,21 +409,20 @@ def choose(
             part = _part(scan, lines, win[kept])
             steps.append(np.zeros(len(out), dtype=bool))
             ways = [[k for k in lane if k in judged] for lane in (lanes or (candidates,))]
-            with warnings.catch_warnings():  # the parts' warnings are not the scan's
-                warnings.simplefilter("ignore")
-                results = _side_by_side([w for w in ways if w], build, part)
+            held = scan.points[win][out]
+            with _quiet_parts():
+                results = _side_by_side(
+                    [w for w in ways if w], build, part, functools.partial(_measure, held)
+                )
             for name in judged:
-                surface, took = results[name]
-                if isinstance(surface, ScanmeshError):
+                figures, took = results[name]
+                if figures is None:
                     dist[name].append(np.full(len(out), np.nan))
                     slivers[name] = math.inf
                 else:
-                    held = scan.points[win][out]
-                    seen = Seen.of(surface)
-                    got, face = normal_distances(held, seen)
-                    dist[name].append(got)
-                    steps[-1] |= _on_steps(seen, face)
-                    slivers[name] += surface.quality.sliver_fraction
+                    dist[name].append(figures[0])
+                    steps[-1] |= figures[1]
+                    slivers[name] += figures[2]
                 seconds[name] += took
             stage.update(stage.done + len(judged))
             share = {k: slivers[k] / len(dist[k]) for k in judged}
@@ -367,6 +439,8 @@ def choose(
             if measured >= CLEAR_MEASURED:  # one far outside cannot win: built no more
                 behind |= {k for k in judged if gone[k] > far}
             judged = [k for k in judged if k not in behind]
+            if watch is not None:
+                watch(tuple(judged))
     return MethodChoice(
         chosen=chosen,
         holdout={k: holdout.get(k, math.nan) for k in candidates},
@@ -382,6 +456,8 @@ def choose(
 __all__ = [
     "MethodChoice",
     "choose",
+    "recorded",
+    "replay",
     "window",
     "folds",
     "WINDOW",
