@@ -41,6 +41,7 @@ from scanmesh.fusion.grid import (
     TRUNCATION_VOXELS,
     grid_for,
 )
+from scanmesh.fusion.handles import HANDLE_LOOP, UNLINED_LOOP, cut_short_handles
 from scanmesh.fusion.pieces import drop_specks
 from scanmesh.fusion.register import refine_poses, view_residuals
 from scanmesh.fusion.views import View, as_views
@@ -180,7 +181,11 @@ def merge(
         filled at once); ``options["vote_margins"]``: per view, the rays around its returns
         within which a nearer surface keeps them from showing space empty (4 times the
         view's alignment residual against the others, in its rays: 0 for views that agree,
-        so that a misaligned view's returns beside a silhouette do not cut a thin part off).
+        so that a misaligned view's returns beside a silhouette do not cut a thin part off);
+        after the simplification, every handle whose shortest non-separating loop is at
+        most ``fusion.handles.HANDLE_LOOP`` voxels long is cut along that loop and both
+        sides capped (faces ``filled``): ``options["short_handles"]`` lists the loops'
+        lengths in voxels.
     """
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(
@@ -355,6 +360,19 @@ def _merge(
         )
         simplified = {"faces_before": before, "faces_after": len(faces)}
         timings["simplify"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    vertices, faces, labels, loops = interruptible(
+        float(len(faces)),
+        cut_short_handles,
+        vertices,
+        faces,
+        labels,
+        HANDLE_LOOP * size,
+        Surface.LABELS.index("filled"),
+        np.concatenate(samples),
+        UNLINED_LOOP * size,
+    )
+    timings["short handles"] = time.perf_counter() - t0
     if len(faces) == 0:
         raise DegenerateInputError(
             f"merge: no surface at voxel {size * unit:g}: no node of the"
@@ -375,6 +393,7 @@ def _merge(
             "repaired_nodes": int(repaired),
             "thin_handles": thin,
             "vote_margins": margins,
+            "short_handles": [round(loop.length / size, 2) for loop in loops],
             "specks_removed": specks,
             "simplified": simplified,
             "refine_residual": residual,
