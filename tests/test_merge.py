@@ -554,11 +554,9 @@ def blob() -> trimesh.Trimesh:
     return mesh
 
 
-def test_refine_brings_the_residual_down_to_that_of_the_true_poses():
-    """Views knocked off by 1 degree and a third of a spacing: the point-to-plane residual
-    falls to about its value at the true poses, the first view stays where it is. (The
-    rotations do not come back: on this smooth surface they stay about 1 degree off, a
-    slide along the surface that point-to-plane pairs barely see.)"""
+def knocked_blob_views(degrees: float, shift: float):
+    """The blob's six views at their true poses and knocked off by ``degrees`` and up to
+    ``shift`` spacings (all but the first)."""
     rng = np.random.default_rng(5)
     posed, truth = [], []
     for k, scan in enumerate(six_views(blob(), 0.04)):
@@ -569,10 +567,19 @@ def test_refine_brings_the_residual_down_to_that_of_the_true_poses():
         knock = np.eye(4)
         if k:
             axis = rng.normal(size=3)
-            rotvec = np.radians(1.0) * axis / np.linalg.norm(axis)
+            rotvec = np.radians(degrees) * axis / np.linalg.norm(axis)
             knock[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
-            knock[:3, 3] = rng.uniform(-1, 1, 3) * 0.04 / 3
+            knock[:3, 3] = rng.uniform(-1, 1, 3) * 0.04 * shift
         posed.append((scan.points @ turn.T, knock @ pose))
+    return posed, truth
+
+
+def test_refine_brings_the_residual_down_to_that_of_the_true_poses():
+    """Views knocked off by 1 degree and a third of a spacing: the point-to-plane residual
+    falls to about its value at the true poses, the first view stays where it is. (The
+    rotations do not come back: on this smooth surface they stay about 1 degree off, a
+    slide along the surface that point-to-plane pairs barely see.)"""
+    posed, truth = knocked_blob_views(1.0, 1 / 3)
     plain = scanmesh.merge(posed)
     fixed = scanmesh.merge(posed, refine=True)
     exact = scanmesh.merge(truth, refine=True)
@@ -584,6 +591,20 @@ def test_refine_brings_the_residual_down_to_that_of_the_true_poses():
     np.testing.assert_array_equal(fixed.options["poses"][0], truth[0][1])
     with pytest.raises(scanmesh.ParameterError, match="refine"):
         scanmesh.merge(posed, refine="yes")  # type: ignore[arg-type]
+
+
+def test_misaligned_views_get_a_margin_around_their_silhouettes():
+    """A view's returns show no space empty within its margin of a nearer surface's
+    silhouette: 0 rays at the true poses (nothing changes there), a ray or more where the
+    views are knocked off by a spacing or two, growing with the misalignment."""
+    small, truth = knocked_blob_views(1.0, 0.5)
+    large, _ = knocked_blob_views(3.0, 1.5)
+    exact = scanmesh.merge(truth).options["vote_margins"]
+    some = scanmesh.merge(small).options["vote_margins"]
+    more = scanmesh.merge(large).options["vote_margins"]
+    assert exact == [0] * 6
+    assert min(some) >= 1 and sum(more) > sum(some)
+    assert all(0 <= m <= scanmesh._core.MAX_MARGIN for m in more)
 
 
 @pytest.mark.parametrize("radius_voxels", [6, 12])

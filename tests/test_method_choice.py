@@ -133,8 +133,8 @@ def test_the_judge_anneals_the_short_schedule_and_the_winner_the_full_one(monkey
     runs = []
     real = anneal_stage.build_anneal
 
-    def recorded(initial, params, context=QUIET, fixed=None):
-        out = real(initial, params, context, fixed)
+    def recorded(initial, params, context=QUIET, fixed=None, **keywords):
+        out = real(initial, params, context, fixed, **keywords)
         runs.append(
             (len(initial.scan.points), initial.method, out.options["sweeps"], params["polish"])
         )

@@ -8,10 +8,10 @@ import trimesh
 
 import scanmesh
 from scanmesh import _core
-from scanmesh.errors import ParameterError
+from scanmesh.errors import ParameterError, ScanmeshError
 from scanmesh.evaluate.truth import TrueSurface, height_error
-from scanmesh.stages.anneal import anneal_surface
-from scanmesh.stages.strips_anneal import step_edges
+from scanmesh.stages.anneal import ANNEAL_DEFAULTS, anneal_surface, interior_edges, live_sweeps
+from scanmesh.stages.strips_anneal import HOT_ACCEPTANCE, step_edges
 
 #: The stepped part: spacing, step height (2.5 spacings: a wall the strips bridge, below
 #: the depth-jump factor) and the wall's line x = WALL0 + WALL_SLOPE y (oblique to the lines).
@@ -107,6 +107,54 @@ def test_the_steps_stay_and_the_rest_is_smoother(stepped):
     h = {m: height_error(s, truth, n_samples=50_000, seed=0)["h_rms"] for m, s in got.items()}
     assert h["strips-anneal"] < h["anneal"]
     assert got["strips-anneal"].quality.tac_1 < got["shortest-path"].quality.tac_1
+
+
+def test_automatic_sweeps_spend_the_plans_budget_on_the_live_edges(stepped):
+    # The noise's ties leave part of the edges live; sweeps planned on every interior edge
+    # ran a fraction of the plan's proposals (the hybrid's walk was cut short).
+    pts, ids, _ = stepped
+    s = scanmesh.reconstruct(pts, "strips-anneal", lines=ids, plane="z", seed=0)
+    strips = scanmesh.reconstruct(pts, "shortest-path", lines=ids, plane="z")
+    interior = interior_edges(strips.faces)
+    rule = _core.AnnealParams(**ANNEAL_DEFAULTS)
+    planned = rule.auto_sweeps(len(pts), interior)
+    budget = s.options["chains"] * planned * interior
+    assert s.options["sweeps"] > planned
+    # The budget is spent unless the walk froze first (or hit the ceiling of sweeps).
+    spent = s.options["proposals"] >= 0.8 * budget
+    assert spent or s.options["stopped"] == "patience" or s.options["sweeps"] == 1000
+    assert s.options["initial_acceptance"] == HOT_ACCEPTANCE
+    # Exact ties: the dead edges are the flat parts', the plan stays.
+    exact = scanmesh.reconstruct(
+        pts, "strips-anneal", lines=ids, plane="z", seed=0, tie_tolerance=1e-10
+    )
+    assert exact.options["sweeps"] == planned
+    # Sweeps given (the judge's short schedule): as asked, from annealing's start.
+    given = scanmesh.reconstruct(pts, "strips-anneal", lines=ids, plane="z", seed=0, sweeps=8)
+    assert given.options["sweeps"] == 8
+    assert given.options["initial_acceptance"] == ANNEAL_DEFAULTS["initial_acceptance"]
+
+
+def test_live_sweeps_keep_the_budget_within_the_plan_and_the_ceiling():
+    assert live_sweeps(56, 35_793, 13_097) == 154  # ceil(56 x 35,793 / 13,097)
+    assert live_sweeps(56, 35_793, 40_000) == 56  # never fewer than planned
+    assert live_sweeps(123, 16_300, 44) == ANNEAL_DEFAULTS["sweeps"]
+    assert live_sweeps(56, 35_793, 0) == 56  # nothing live: the run ends at once
+
+
+def test_a_run_is_replanned_only_before_it_proposes():
+    pts = np.random.default_rng(1).random((300, 3))
+    start = scanmesh.delaunay(pts, plane="z")
+    scan = start.scan
+    runner = _core.Annealer(
+        scan.points, scan.uv, start.faces, _core.AnnealParams(sweeps=10, chains=1)
+    )
+    with pytest.raises(ParameterError, match="sweeps"):
+        runner.replan(0)
+    runner.replan(12)
+    runner.advance(1, 1.0)
+    with pytest.raises(ScanmeshError, match="sweeps"):
+        runner.replan(20)
 
 
 @pytest.mark.parametrize(

@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_GRID_TURN_DEG",
     "DEFAULT_GRID_EDGE_FACTOR",
     "BEHIND_VOXELS",
+    "MAX_MARGIN",
     "MAX_TILES",
     "project",
     "delaunay",
@@ -81,6 +82,7 @@ DEFAULT_GRID_EDGE_FACTOR: float
 DEFAULT_MAX_EDGE_FACTOR: float
 JUMP_STEPS: float
 BEHIND_VOXELS: float
+MAX_MARGIN: int
 MAX_TILES: int
 
 def project(
@@ -107,6 +109,9 @@ def grid_triangulate(
     edge_factor: float = ...,
 ) -> GridTriangles: ...
 def median_spacing(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> float: ...
+def k_nearest(
+    uv: npt.NDArray[np.float64], queries: npt.NDArray[np.int64], k: int
+) -> npt.NDArray[np.int64]: ...
 def trim_long_edges(
     uv: npt.NDArray[np.float64],
     faces_: npt.NDArray[np.int64],
@@ -163,6 +168,7 @@ class DepthView:
         depth: npt.NDArray[np.float64],
         cos: npt.NDArray[np.float64],
         weight: npt.NDArray[np.float64] | None = None,
+        margin: int = 0,
     ) -> DepthView: ...
 
 @final
@@ -223,6 +229,7 @@ class Annealer:
         progress: ProgressCounter | None = None,
     ) -> Annealer: ...
     def advance(self, max_proposals: int, max_seconds: float) -> int: ...
+    def replan(self, sweeps: int) -> None: ...
     @property
     def done(self) -> bool: ...
     @property

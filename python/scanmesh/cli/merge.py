@@ -122,6 +122,7 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         "holes": sum(p.holes for p in parts),
         "specks_removed": surface.options["specks_removed"],
         "thin_handles": surface.options["thin_handles"],
+        "short_handles": surface.options["short_handles"],
         "area": areas,
         "creases": len(surface.creases),
         "refine_residual": surface.options["refine_residual"],
@@ -144,6 +145,12 @@ def cmd_merge(args: argparse.Namespace, con: _Console) -> int:
         shape_text += (
             f" ({thin['handles']} thin handles taken off: {thin['closed']:,} nodes filled,"
             f" at most {thin['largest']} at once)"
+        )
+    loops = surface.options["short_handles"]
+    if loops:
+        shape_text += (
+            f" ({len(loops)} short handles cut: loops {min(loops):.3g}-{max(loops):.3g}"
+            " voxels long)"
         )
     if row["refine_residual"]:
         res = row["refine_residual"]

@@ -33,7 +33,7 @@ from scanmesh._interrupt import interruptible
 from scanmesh._memory import memory_room
 from scanmesh._progress import Progress, Stage
 from scanmesh.errors import DegenerateInputError, MemoryLimitError, ParameterError, ScanmeshWarning
-from scanmesh.fusion.depth import depth_image, view_spacing
+from scanmesh.fusion.depth import DepthImage, depth_image, view_spacing
 from scanmesh.fusion.grid import (
     MAX_VOXELS,
     OPTIONS,
@@ -41,8 +41,9 @@ from scanmesh.fusion.grid import (
     TRUNCATION_VOXELS,
     grid_for,
 )
+from scanmesh.fusion.handles import HANDLE_LOOP, UNLINED_LOOP, cut_short_handles
 from scanmesh.fusion.pieces import drop_specks
-from scanmesh.fusion.register import refine_poses
+from scanmesh.fusion.register import refine_poses, view_residuals
 from scanmesh.fusion.views import View, as_views
 from scanmesh.scan.axes import AxisSpec
 from scanmesh.surface import Surface
@@ -54,6 +55,19 @@ REFINE_REACH = 3.0
 #: grid's edge or a depth jump, at grazing angles) count in the fused distance by their
 #: weight but place no vertex.
 SAMPLE_TRUST = 1e-9
+
+#: A view's margin around its returns (``_margins``), in its alignment residuals: the
+#: residual is an RMS over the view's samples (its noise included), and the view's frame
+#: is off by up to several times it where it matters, at the silhouettes (the dragon's views:
+#: RMS residuals 0.20-0.30 mm, moved by up to 0.9 mm by ``refine_poses``). Measured on the
+#: dragon's two series together (docs/benchmarks/merge.md): margins of 2 rays took the
+#: holdout RMS from 0.355 to 0.235 mm; on the simulated parts (noise s / 30) the margins
+#: round to 0 and nothing changes, where a margin of 2 rays on every view gave the fandisk
+#: genus 57 (0 without).
+MARGIN_RESIDUALS = 4.0
+
+#: Samples of a view its alignment residual is measured on (a fixed-seed subset).
+MARGIN_SAMPLES = 1000
 
 #: A ``voxel`` below this share of the views' ray spacing is warned about: the nodes
 #: around a ray then all look up that ray, and a run of rays whose returns were lost on a
@@ -164,7 +178,14 @@ def merge(
         before the extraction, thin tunnels of nodes the views measured poorly are filled
         where that takes a handle off: ``options["thin_handles"]`` (the Euler
         characteristic gained, "handles"; the nodes filled, "closed"; the "largest" group
-        filled at once).
+        filled at once); ``options["vote_margins"]``: per view, the rays around its returns
+        within which a nearer surface keeps them from showing space empty (4 times the
+        view's alignment residual against the others, in its rays: 0 for views that agree,
+        so that a misaligned view's returns beside a silhouette do not cut a thin part off);
+        after the simplification, every handle whose shortest non-separating loop is at
+        most ``fusion.handles.HANDLE_LOOP`` voxels long is cut along that loop and both
+        sides capped (faces ``filled``): ``options["short_handles"]`` lists the loops'
+        lengths in voxels.
     """
     # every option checked (and max_voxels honoured) before a file is read or a byte allocated
     params = check_options(
@@ -275,21 +296,32 @@ def _merge(
     corners = grid.origin + np.array(
         [[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
     ) * ((dims - 1) * size)
-    native, samples, normals = [], [], []
+    images = []
     for view, spacing in zip(checked, spacings, strict=True):
         rot, shift = view.pose[:3, :3], view.pose[:3, 3]
         in_view = (corners - shift) @ rot  # the grid's corners in scanner coordinates
         window = np.array([in_view[:, :2].min(axis=0), in_view[:, :2].max(axis=0)])
-        image = depth_image(view.points, max(spacing, 0.5 * size), window)
+        images.append(depth_image(view.points, max(spacing, 0.5 * size), window))
+    margins = _margins(checked, images, REFINE_REACH * ray_spacing)
+    native, samples, normals = [], [], []
+    for view, image, margin in zip(checked, images, margins, strict=True):
+        rot, shift = view.pose[:3, :3], view.pose[:3, 3]
         native.append(
             _core.DepthView(
-                view.pose, image.origin, image.step, image.depth, image.cos, image.weight
+                view.pose,
+                image.origin,
+                image.step,
+                image.depth,
+                image.cos,
+                image.weight,
+                margin=margin,
             )
         )
         # the samples that place the vertices: the trusted returns only
         good = image.weight.reshape(-1)[image.pixels] >= SAMPLE_TRUST
         samples.append(view.points[image.kept[good]] @ rot.T + shift)
         normals.append(image.normals[good] @ rot.T)
+    del images
     timings["depth images"] = time.perf_counter() - start
     cost = float(grid.nodes)
     for name, call in (("integrate", volume.integrate), ("carve", volume.carve)):
@@ -328,6 +360,19 @@ def _merge(
         )
         simplified = {"faces_before": before, "faces_after": len(faces)}
         timings["simplify"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    vertices, faces, labels, loops = interruptible(
+        float(len(faces)),
+        cut_short_handles,
+        vertices,
+        faces,
+        labels,
+        HANDLE_LOOP * size,
+        Surface.LABELS.index("filled"),
+        np.concatenate(samples),
+        UNLINED_LOOP * size,
+    )
+    timings["short handles"] = time.perf_counter() - t0
     if len(faces) == 0:
         raise DegenerateInputError(
             f"merge: no surface at voxel {size * unit:g}: no node of the"
@@ -347,6 +392,8 @@ def _merge(
             "allocated_voxels": volume.allocated,  # (with distances, with flags alone)
             "repaired_nodes": int(repaired),
             "thin_handles": thin,
+            "vote_margins": margins,
+            "short_handles": [round(loop.length / size, 2) for loop in loops],
             "specks_removed": specks,
             "simplified": simplified,
             "refine_residual": residual,
@@ -356,6 +403,28 @@ def _merge(
         face_labels=labels,
         inputs=[v.file for v in given if v.file is not None],
     )
+
+
+def _margins(views: list[View], images: list[DepthImage], reach: float) -> list[int]:
+    """Per view, the rays around a return within which a nearer surface keeps that return
+    from showing space empty (``_core.DepthView``'s ``margin``): :data:`MARGIN_RESIDUALS`
+    times the view's alignment residual against the others
+    (:func:`scanmesh.fusion.register.view_residuals`, on :data:`MARGIN_SAMPLES` of its
+    samples), in its rays, rounded; 0 for a lone view or one that shares no surface."""
+    if len(views) < 2:
+        return [0] * len(views)
+    residual = view_residuals(
+        views,
+        [image.normals for image in images],
+        [image.kept for image in images],
+        reach=reach,
+        most=MARGIN_SAMPLES,
+    )
+    out = []
+    for r, image in zip(residual, images, strict=True):
+        rays = MARGIN_RESIDUALS * r / image.step if math.isfinite(r) else 0.0
+        out.append(int(min(round(rays), _core.MAX_MARGIN)))
+    return out
 
 
 def _unscaled(pose: np.ndarray, exponent: int) -> np.ndarray:

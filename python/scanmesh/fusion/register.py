@@ -52,6 +52,40 @@ def _pairs(
     return p[keep], q[keep], n[keep]
 
 
+def view_residuals(
+    views: list[View],
+    normals: list[np.ndarray],
+    kept: list[np.ndarray],
+    reach: float,
+    most: int = MAX_PAIRS,
+    seed: int = 0,
+) -> np.ndarray:
+    """(V,) each view's RMS point-to-plane distance (world units) to the others' samples
+    within ``reach`` whose normals agree, the pairs far off trimmed as in
+    :func:`refine_poses` (NaN: a view paired with none): its alignment residual, the
+    scanner's noise included. At most ``most`` samples of a view (a fixed-seed subset).
+    O(views · N log N)."""
+    samples = _samples(views, normals, kept, most, np.random.default_rng(seed))
+    poses = [v.pose for v in views]
+    out = np.full(len(views), np.nan)
+    for k in range(len(views)):
+        p, q, n = _pairs(k, poses, samples, reach)
+        if len(p):
+            out[k] = float(np.sqrt(np.mean(np.einsum("ij,ij->i", p - q, n) ** 2)))
+    return out
+
+
+def _samples(views, normals, kept, most: int, rng) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per view, at most ``most`` of its kept points (scanner coordinates) and normals."""
+    samples = []
+    for view, n, keep in zip(views, normals, kept, strict=True):
+        at = np.arange(len(keep))
+        if len(keep) > most:
+            at = rng.choice(len(keep), most, replace=False)
+        samples.append((view.points[keep[at]], n[at]))
+    return samples
+
+
 def _residual(poses, samples, reach: float) -> float:
     sq, count = 0.0, 0
     for k in range(len(samples)):
@@ -73,13 +107,7 @@ def refine_poses(
 
     ``normals[k]`` (K, 3) are unit normals in view k's scanner coordinates of its points
     ``kept[k]``; ``reach`` is the largest distance between paired samples."""
-    rng = np.random.default_rng(seed)
-    samples = []
-    for view, n, keep in zip(views, normals, kept, strict=True):
-        at = np.arange(len(keep))
-        if len(keep) > MAX_PAIRS:
-            at = rng.choice(len(keep), MAX_PAIRS, replace=False)
-        samples.append((view.points[keep[at]], n[at]))
+    samples = _samples(views, normals, kept, MAX_PAIRS, np.random.default_rng(seed))
     poses = [v.pose.copy() for v in views]
     before = _residual(poses, samples, reach)
     for _ in range(passes):

@@ -11,7 +11,10 @@ them keep the strips, curved and creased parts are annealed. Flips keep the stri
 outline and holes, so the depth jumps the strips cut stay open. Edges of the strips' step
 triangles (tilted more than ``step_angle`` from the projection plane) can also be kept
 fixed: no flip of the walk, the descent or the polish removes them (the core's
-``FixedEdges``). Measurements: docs/benchmarks/panel.md.
+``FixedEdges``). The automatic schedule spends annealing's budget of proposals on the
+edges the noise's ties leave live (a third of them on a noisy part), from a hotter start:
+the strips' fans across steps are left only by a long, hot walk. Measurements:
+docs/benchmarks/panel.md.
 """
 
 from __future__ import annotations
@@ -47,15 +50,37 @@ STEP_ANGLE_OPTION = Option(
     low_open=True,
 )
 
+#: The automatic schedule's ``initial_acceptance``: a hotter start than annealing's 0.8.
+#: The descent from the strips leaves a fan across a step where tac alone finds no way down
+#: (the fandisk along its axis at s/30: one triangle from the upper level over the lower
+#: one, 6 % of the squared height error); at 0.95 and the full budget of proposals
+#: (:func:`scanmesh.stages.anneal.live_sweeps`) the walk leaves it (height error 0.985 x
+#: annealing's, seeds 0 and 1; tac_1 50 against 54). Only with that budget: at 0.95 and the
+#: plan's shorter walk the fandisk turned at s/10 and the oblique pocket at s/10 rose 8-9 %.
+HOT_ACCEPTANCE = 0.95
+
+
+def _schedule_option(option: Option) -> Option:
+    """Annealing's ``option`` as this method takes it: the tie tolerance and the initial
+    acceptance automatic (None: from the noise; :data:`HOT_ACCEPTANCE` with automatic
+    sweeps)."""
+    if option.name == "tie_tolerance":
+        return dataclasses.replace(option, default=None)
+    if option.name == "initial_acceptance":
+        doc = option.doc + f" (automatic: {HOT_ACCEPTANCE} with automatic sweeps)"
+        return dataclasses.replace(option, default=None, automatic=True, doc=doc)
+    return option
+
+
 #: The annealing schedule's options this method passes on: all but ``tiles`` (the tiled
 #: annealer rebuilds its pieces' states and knows no fixed edges), the tie tolerance taken
 #: from the scan's noise by default: flips that change tac by less than the noise's share
 #: are ties, so noisy flat parts keep the strips (the pocket at s/10: the strips' height
 #: error, where tac-driven flips raised it 3 %) and curved or creased parts are annealed.
+#: Automatic sweeps spend the plan's budget of proposals on the live edges (the noise's ties
+#: leave a third of them) from a hotter start (:data:`HOT_ACCEPTANCE`).
 SCHEDULE: tuple[Option, ...] = tuple(
-    dataclasses.replace(o, default=None) if o.name == "tie_tolerance" else o
-    for o in anneal.OPTIONS
-    if o.name != "tiles"
+    _schedule_option(o) for o in anneal.OPTIONS if o.name != "tiles"
 )
 
 #: The method's options: the step angle, then the annealing schedule.
@@ -89,7 +114,10 @@ def strips_anneal_surface(
 
     ``options``: ``step_angle`` (degrees, 90: none kept) and the annealing schedule of
     :func:`scanmesh.stages.anneal.anneal_surface` (all but ``tiles``; ``tie_tolerance``
-    None by default: from the scan's noise); checked against :data:`OPTIONS`. ``seed``
+    None by default: from the scan's noise; automatic ``sweeps`` spend the plan's budget
+    of proposals on the live edges, :func:`scanmesh.stages.anneal.live_sweeps`, and
+    ``initial_acceptance`` None is then :data:`HOT_ACCEPTANCE`, otherwise annealing's);
+    checked against :data:`OPTIONS`. ``seed``
     fixes every random choice; ``progress`` reports the strips' and annealing's stages;
     Ctrl-C ends the run within annealing's chunk. O(strips + annealing's proposals).
 
@@ -115,7 +143,12 @@ def build_strips_anneal(
     defaults = check_options(strips.OPTIONS["shortest-path"], {}, "the strips")
     start = strips.build_strips(scan, "shortest-path", defaults, context)
     fixed = step_edges(start, step_angle)
-    out = anneal.build_anneal(start, {**params, "tiles": 1}, context, fixed)
+    if params["initial_acceptance"] is None:
+        automatic = params["sweeps"] is None
+        params["initial_acceptance"] = (
+            HOT_ACCEPTANCE if automatic else anneal.ANNEAL_DEFAULTS["initial_acceptance"]
+        )
+    out = anneal.build_anneal(start, {**params, "tiles": 1}, context, fixed, live_budget=True)
     out.method = "strips-anneal"
     out.options = {**out.options, "step_angle": step_angle, "step_edges": len(fixed)}
     return out
@@ -127,4 +160,5 @@ __all__ = [
     "step_edges",
     "OPTIONS",
     "STEP_ANGLE_OPTION",
+    "HOT_ACCEPTANCE",
 ]

@@ -13,8 +13,11 @@ use std::collections::HashMap;
 /// pose. `pose` (4, 4) rigid; `depth` and `cos` (H, W) float64, row j and column i being
 /// the ray through scanner (x, y) = `origin + (i, j) * step`; depth NaN where the ray had
 /// no return; `cos` the |cosine| between ray and surface normal; `weight` (H, W), optional,
-/// the trust in each return in [0, 1] (default 1). Raises ParameterError for a pose that is
-/// not rigid and finite, a bad step, a weight outside [0, 1] or mismatched shapes. O(H · W).
+/// the trust in each return in [0, 1] (default 1); `margin`, the rays around a return
+/// within which a nearer surface keeps it from showing space empty (the view's alignment
+/// residual, default 0). Raises ParameterError for a pose that is not rigid and finite, a
+/// bad step, a weight outside [0, 1], a margin over 16 or mismatched shapes.
+/// O(H · W · (1 + margin)).
 #[pyclass(frozen, module = "scanmesh._core")]
 pub(crate) struct DepthView {
     inner: scanmesh_core::fusion::DepthView,
@@ -23,7 +26,7 @@ pub(crate) struct DepthView {
 #[pymethods]
 impl DepthView {
     #[new]
-    #[pyo3(signature = (pose, origin, step, depth, cos, weight=None))]
+    #[pyo3(signature = (pose, origin, step, depth, cos, weight=None, margin=0))]
     fn new(
         pose: PyReadonlyArray2<'_, f64>,
         origin: (f64, f64),
@@ -31,6 +34,7 @@ impl DepthView {
         depth: PyReadonlyArray2<'_, f64>,
         cos: PyReadonlyArray2<'_, f64>,
         weight: Option<PyReadonlyArray2<'_, f64>>,
+        margin: usize,
     ) -> PyResult<Self> {
         let pose = pose.as_array();
         if pose.shape() != [4, 4] {
@@ -60,6 +64,9 @@ impl DepthView {
             inner = inner
                 .with_weight(w.iter().copied().collect())
                 .map_err(to_py)?;
+        }
+        if margin > 0 {
+            inner = inner.with_margin(margin).map_err(to_py)?;
         }
         Ok(Self { inner })
     }

@@ -274,6 +274,17 @@ impl Annealer {
         detached(py, || inner.advance_until(max_proposals, deadline))?.map_err(to_py)
     }
 
+    /// Plans `sweeps` sweeps per chain instead of the parameters' (the cooling follows),
+    /// before the first `advance`: a budget of proposals spread over the live edges
+    /// (`sweep_len`). Refused for 0, for tiled chains and once a chain has proposed.
+    fn replan(&mut self, sweeps: usize) -> PyResult<()> {
+        let inner = self
+            .inner
+            .as_mut()
+            .ok_or_else(|| ScanmeshError::new_err("this annealing run has finished"))?;
+        inner.replan(sweeps).map_err(to_py)
+    }
+
     /// True when every chain ran all its sweeps or froze and stopped early.
     #[getter]
     fn done(&self) -> PyResult<bool> {

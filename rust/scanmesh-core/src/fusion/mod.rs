@@ -20,6 +20,6 @@ pub(crate) mod topology;
 pub(crate) mod tsdf;
 pub(crate) mod walls;
 
-pub use depth::{DepthView, Lookup, JUMP_STEPS, MIN_COS, RIGID_TOL};
+pub use depth::{DepthView, Lookup, JUMP_STEPS, MAX_MARGIN, MIN_COS, RIGID_TOL};
 pub use extract::{extract, extract_counted, Fused, EXTRACT_WEIGHTS, FILLED, INFERRED, MEASURED};
 pub use tsdf::{Evidence, Volume, BEHIND_VOXELS};

@@ -28,8 +28,11 @@ pub const FIRM_WEIGHT: f32 = 1.0;
 /// Tunnels up to twice this many nodes across are filled where that takes a handle off.
 /// On the dragon's stand series (with the opening then tried): genus 164 unfilled, 19 at 1,
 /// 12 at 2, 16 at 3 (its groups grow into whole grooves whose filling makes handles as it
-/// takes them off).
-pub const CLOSE_RADIUS: usize = 2;
+/// takes them off). With the short handles cut on the mesh after the extraction
+/// (`python/scanmesh/fusion/handles.py`), 1 fills less of what the views measured: holdout
+/// RMS 0.1522 against 0.1577 mm on the happy Buddha, 0.1664 against 0.1668 on the dragon's
+/// stand series, genus 3 and 1 either way (docs/benchmarks/merge-handles.md).
+pub const CLOSE_RADIUS: usize = 1;
 
 /// Nodes moved by [`settle`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

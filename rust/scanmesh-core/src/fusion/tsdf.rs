@@ -16,7 +16,9 @@
 //!
 //! A node averaging to a negative distance that a view saw more than the truncation in
 //! front of its surface is empty: it lies behind a thin wedge (an edge seen along the
-//! rays) in another view, outside the part (a view's vote, `EMPTY_VOTES`).
+//! rays) in another view, outside the part (a view's vote, `EMPTY_VOTES`). Neither a vote
+//! nor empty within the view's margin of a nearer surface's silhouette
+//! ([`DepthView::with_margin`]): a misaligned view's rays there may pass through a thin part.
 
 use super::blocks::{block_nodes, Blocks, Entry};
 use super::depth::{DepthView, Lookup};
@@ -341,7 +343,13 @@ impl Volume {
             return Action::Nothing;
         }
         if s.z[0] > hi && (s.z[0] - hi) * cos > self.truncation * (1.0 + 1e-9) {
-            if s.inside(size) && seen.missing == 0 {
+            // every node also clear of the returns within the vote's margin (`front`)
+            let m = view.margin();
+            let widen = |[a, b]: [usize; 2], n: usize| [a.saturating_sub(m), (b + m).min(n - 1)];
+            let around = foot.query(widen(across, size.0), widen(down, size.1));
+            let front = around.hi + s.margin;
+            let clear = (s.z[0] - front) * cos > self.truncation * (1.0 + 1e-9);
+            if clear && s.inside(size) && seen.missing == 0 {
                 return Action::All;
             }
             return Action::Votes;
@@ -434,7 +442,7 @@ impl Volume {
         let layout = self.blocks.layout();
         // each node of block `b` on a return: its place in the block, distance and weight
         // (the cosine times the return's trust)
-        let each = |b: usize, add: &mut dyn FnMut(usize, f64, f64)| {
+        let each = |b: usize, add: &mut dyn FnMut(usize, [f64; 2], f64)| {
             for ([i, j, k], n) in block_nodes(layout.nodes(b)) {
                 let p = origin + DVec3::new(i as f64, j as f64, k as f64) * voxel;
                 let q = view.to_scanner(p);
@@ -442,9 +450,10 @@ impl Volume {
                     depth,
                     cos,
                     weight: trust,
+                    front,
                 } = view.lookup(q.x, q.y)
                 {
-                    add(n, (q.z - depth) * cos, cos * trust);
+                    add(n, [(q.z - depth) * cos, (q.z - front) * cos], cos * trust);
                 }
             }
         };
@@ -569,8 +578,9 @@ impl Volume {
                     depth,
                     cos,
                     weight: trust,
+                    front,
                 } => {
-                    let d = (q.z - depth) * cos;
+                    let d = [(q.z - depth) * cos, (q.z - front) * cos];
                     let w = cos * trust;
                     add_return(d, w, [trunc, behind], (&mut sum, &mut weight, &mut flags));
                 }
@@ -653,23 +663,33 @@ impl Volume {
 
 /// Adds one view's return to a node's state (`sum`, `weight` of distances, `flags`): `d`,
 /// the distance along the view's normal from its surface to the node (positive in
-/// front), and the return's weight `cos` (the ray-to-normal cosine times the return's
-/// trust, [`DepthView::with_weight`]). More than `trunc` in front is a vote for empty; from
+/// front), `clear`, the same from the surface nearest the scanner within the view's margin
+/// ([`DepthView::with_margin`]; at most `d`), and the return's weight `cos` (the ray-to-normal cosine times the return's
+/// trust, [`DepthView::with_weight`]). More than `trunc` in front is a vote for empty
+/// (nothing, unless `clear` is too: a misaligned view's ray beside a silhouette); from
 /// `trunc` in front to `behind` behind, a weighted distance; a return of weight 0 (not
 /// trusted: a mixed pixel on a silhouette may lie anywhere between the surfaces) neither
 /// averages nor votes, it only shows the space beyond the truncation in front of it
 /// empty; farther behind, nothing. The
 /// one rule of [`Volume::integrate`] at the nodes and of [`Volume::value_at`] between
 /// them. O(1).
-fn add_return(d: f64, cos: f64, [trunc, behind]: [f64; 2], node: (&mut f32, &mut f32, &mut u8)) {
+fn add_return(
+    [d, clear]: [f64; 2],
+    cos: f64,
+    [trunc, behind]: [f64; 2],
+    node: (&mut f32, &mut f32, &mut u8),
+) {
     let (sum, weight, flags) = node;
-    if cos <= 0.0 {
-        if d > trunc {
-            *flags |= EMPTY;
+    if d > trunc {
+        // beside a nearer surface's silhouette the node may lie inside it: no evidence
+        if clear > trunc {
+            *flags = if cos <= 0.0 {
+                *flags | EMPTY
+            } else {
+                flags.saturating_add(VOTE) | EMPTY
+            };
         }
-    } else if d > trunc {
-        *flags = flags.saturating_add(VOTE) | EMPTY;
-    } else if d >= -behind {
+    } else if cos > 0.0 && d >= -behind {
         *sum += (cos * d) as f32;
         *weight += cos as f32;
     }

@@ -545,6 +545,17 @@ impl Annealer {
         (self.best, self.best_energy, self.state, self.trace)
     }
 
+    /// Plans `sweeps` sweeps instead of `params.sweeps` (the cooling follows) before the
+    /// first proposal; false, with nothing changed, once one ran. O(1).
+    pub(crate) fn replan(&mut self, sweeps: usize) -> bool {
+        let fresh = self.proposed == 0 && self.trace.is_empty();
+        if fresh {
+            self.params.sweeps = sweeps;
+            self.cooling = cooling(self.params.final_temperature_ratio, sweeps);
+        }
+        fresh
+    }
+
     /// True when every sweep has run or the run stopped early.
     pub fn is_done(&self) -> bool {
         self.sweep_len == 0 || self.stopped_early || self.trace.len() >= self.params.sweeps

@@ -16,7 +16,7 @@ use crate::optimize::lop::{tac_lop_counted, TacOrder};
 use crate::optimize::tac_state::TacState;
 use crate::optimize::tiles::TiledAnnealer;
 use crate::progress::{Progress, Share};
-use crate::Result;
+use crate::{Error, Result};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -146,6 +146,33 @@ impl Ensemble {
             start,
             start_energy,
         })
+    }
+
+    /// Plans `sweeps` sweeps per chain instead of `params.sweeps` (each chain's cooling
+    /// follows), before any proposal: for a budget of proposals spread over the live edges,
+    /// known only after the descent ([`Ensemble::sweep_len`]). Errors:
+    /// [`Error::InvalidParameter`] naming "sweeps" for 0, for tiled chains (their phases
+    /// are planned at the start) or once a chain has proposed. O(chains).
+    pub fn replan(&mut self, sweeps: usize) -> Result<()> {
+        let refused = |expected| Error::InvalidParameter {
+            name: "sweeps",
+            value: sweeps.to_string(),
+            expected,
+        };
+        if sweeps == 0 {
+            return Err(refused("at least one sweep"));
+        }
+        for chain in &mut self.chains {
+            match chain {
+                Chain::Plain(a) => {
+                    if !a.replan(sweeps) {
+                        return Err(refused("a plan made before the first proposal"));
+                    }
+                }
+                Chain::Tiled(_) => return Err(refused("a plan of untiled chains")),
+            }
+        }
+        Ok(())
     }
 
     /// Number of chains. O(1).
@@ -431,6 +458,41 @@ mod tests {
                 plain.mesh.triangles().unwrap()
             );
         }
+    }
+
+    #[test]
+    fn a_replanned_run_is_the_run_planned_so_from_the_start() {
+        let st = bumpy_state(150, 31, 1.0);
+        let longer = AnnealParams {
+            sweeps: 33,
+            patience: 0,
+            ..params(2, 5)
+        };
+        let (planned, _) = Ensemble::new(st.clone(), longer.clone())
+            .unwrap()
+            .run()
+            .unwrap();
+        let shorter = AnnealParams {
+            sweeps: 20,
+            ..longer
+        };
+        let mut run = Ensemble::new(st.clone(), shorter).unwrap();
+        run.replan(33).unwrap();
+        let (replanned, _) = run.run().unwrap();
+        assert_eq!(replanned.trace.len(), planned.trace.len());
+        assert_eq!(
+            replanned.mesh.triangles().unwrap(),
+            planned.mesh.triangles().unwrap()
+        );
+        let mut started = Ensemble::new(st.clone(), params(1, 20)).unwrap();
+        assert!(started.replan(0).is_err());
+        started.advance_until(1, None).unwrap();
+        assert!(started.replan(40).is_err());
+        let tiled = AnnealParams {
+            tiles: 2,
+            ..params(1, 20)
+        };
+        assert!(Ensemble::new(st, tiled).unwrap().replan(40).is_err());
     }
 
     #[test]

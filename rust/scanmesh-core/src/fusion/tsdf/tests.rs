@@ -1,5 +1,6 @@
 use super::super::testing::{assert_beyond_max_voxels, fused_volume, view_from_above};
 use super::*;
+use crate::fusion::MAX_MARGIN;
 use glam::DMat3;
 
 fn looking_down(depth: Vec<f64>, width: usize, height: usize, step: f64) -> DepthView {
@@ -175,9 +176,10 @@ fn dense_reference(vol: &Volume, views: &[DepthView]) -> Vec<(f32, f32, u8)> {
                 depth,
                 cos,
                 weight: trust,
+                front,
             } = view.lookup(q.x, q.y)
             {
-                let d = (q.z - depth) * cos;
+                let d = [(q.z - depth) * cos, (q.z - front) * cos];
                 add_return(
                     d,
                     cos * trust,
@@ -355,4 +357,44 @@ fn an_untrusted_return_does_not_vote_in_a_block_decided_whole() {
     let n = vol.index(2, 2, 3);
     assert_eq!(vol.evidence(n), Evidence::Measured);
     assert!((vol.value(n) + 1.0).abs() < 1e-6, "{}", vol.value(n));
+}
+
+#[test]
+fn a_return_beside_a_nearer_silhouette_shows_no_space_empty() {
+    // a floor at z = 1 for x < 6 and a plateau at z = 10 from x = 6 (a depth jump): a
+    // node at z = 6 is 5 in front of the floor (more than the truncation, 2), but within
+    // the view's margin (2 rays) of the plateau's silhouette it may lie inside the plateau
+    // once the view is misaligned by a ray or two: neither a vote nor empty, so unseen
+    // (solid); with no margin, every such node is empty
+    let depth: Vec<f64> = (0..60)
+        .map(|k| if k % 12 < 6 { 1.0 } else { 10.0 })
+        .collect();
+    let sharp = looking_down(depth, 12, 5, 1.0);
+    let mut exact = Volume::new([0.0; 3], 1.0, [12, 5, 12], 2.0).unwrap();
+    exact.integrate(&sharp).unwrap();
+    for i in 0..6 {
+        assert_eq!(
+            exact.evidence(exact.index(i, 2, 6)),
+            Evidence::Empty,
+            "x = {i}"
+        );
+    }
+    let view = sharp.with_margin(2).unwrap();
+    assert!(looking_down(vec![1.0], 1, 1, 1.0)
+        .with_margin(MAX_MARGIN + 1)
+        .is_err());
+    let mut vol = Volume::new([0.0; 3], 1.0, [12, 5, 12], 2.0).unwrap();
+    vol.integrate(&view).unwrap();
+    vol.carve(&view).unwrap();
+    for i in 0..6 {
+        let n = vol.index(i, 2, 6);
+        let expected = if i + 2 >= 6 {
+            Evidence::Unseen
+        } else {
+            Evidence::Empty
+        };
+        assert_eq!(vol.evidence(n), expected, "x = {i}");
+        let p = vol.node(i, 2, 6);
+        assert_eq!(vol.value_at(p, &[&view]).unwrap(), vol.value(n), "x = {i}");
+    }
 }
