@@ -205,3 +205,27 @@ def test_ctrl_c_while_the_quality_of_a_large_mesh_is_measured_returns_within_hal
     print("finished", flush=True)
     """
     assert seconds_to_interrupt(script, 0.3) < 0.5
+
+
+def test_ctrl_c_while_annealing_calibrates_long_on_few_points_returns_within_half_a_second():
+    """Annealing's calibration ran on the main thread when its points were few, however
+    many proposals ``calibration_samples`` asked of each chain: 60 points and 256,578
+    samples (63 automatic chains, 16 million proposals) held Ctrl-C for 1.4-3.6 s (a
+    fuzz case that needed 4.4 s). SIGINT 0.5 s into that calibration."""
+    script = """
+    import sys, time
+    import numpy as np
+    import scanmesh
+
+    rng = np.random.default_rng(5)
+    points = np.c_[rng.random((60, 2)), rng.random(60) * 0.1]
+    scanmesh.reconstruct(points, "anneal", sweeps=1)  # the core's pool and numpy loaded
+    print("started", flush=True)
+    try:
+        while True:
+            scanmesh.reconstruct(points, "anneal", calibration_samples=256_578, sweeps=1)
+    except KeyboardInterrupt:
+        print(f"interrupted {time.monotonic()!r}", flush=True)
+        sys.exit(0)
+    """
+    assert seconds_to_interrupt(script, 0.5) < 0.5

@@ -47,9 +47,10 @@ CHUNK_SECONDS = 0.02
 #: ... and at most this many proposals per call.
 CHUNK_PROPOSALS = 1_000_000
 
-#: The run's start (its state, the descent to LOP's optimum, the calibration) per point, in
-#: the units of :data:`scanmesh._interrupt.THREAD_MIN_COST`: 0.4 s for the default's
-#: 18,000-point parts under load, which held Ctrl-C up when run on the main thread.
+#: The run's start (its state, the descent to LOP's optimum) per point, in the units of
+#: :data:`scanmesh._interrupt.THREAD_MIN_COST`: 0.4 s for the default's 18,000-point parts
+#: under load, which held Ctrl-C up when run on the main thread; each calibration proposal
+#: counts one more unit.
 CALIBRATE_COST = 20
 
 #: Trace columns, in the order the core returns them.
@@ -419,10 +420,15 @@ def build_anneal(
     local = np.full(n, -1, dtype=np.int64)
     local[keep] = np.arange(len(keep))
     params = planned(params, len(keep), start.faces)
+    # Every chain calibrates on its own proposals before its first sweep: 20 million of
+    # them (the core's cap) took 4.4 s on 60 points, on the main thread when counted by
+    # the points alone, where Ctrl-C waited for them (1.4-3.6 s). An automatic `chains`
+    # (0) is counted at its ceiling: the count only decides whether a thread waits.
+    proposals = params["calibration_samples"] * (params["chains"] or MAX_CHAINS)
     with context.stage("calibrate", len(start.faces)) as stage:
         # The very planar coordinates the initial triangulation was built and trimmed on.
         runner = interruptible(
-            CALIBRATE_COST * len(keep),
+            CALIBRATE_COST * len(keep) + proposals,
             lambda: _core.Annealer(
                 scan.points[keep],
                 scan.uv[keep],
