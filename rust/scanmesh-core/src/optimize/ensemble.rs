@@ -211,7 +211,7 @@ impl Ensemble {
     /// Advances every unfinished chain by at most `max_proposals` proposals, in parallel,
     /// each returning soon after `deadline` (see [`Annealer::advance_until`]). Returns the
     /// proposals run in all. Where chunks end never changes a chain's result. Errors: an
-    /// [`Error::OutOfMemory`](crate::Error::OutOfMemory) when a tiled chain cannot allocate a
+    /// [`Error::OutOfMemory`] when a tiled chain cannot allocate a
     /// phase's tiles.
     pub fn advance_until(
         &mut self,
@@ -294,7 +294,7 @@ pub(crate) const SLIVER_BUDGET: f64 = 0.01;
 /// is below [`SLIVER_COST`] × the other's energy with at most [`SLIVER_BUDGET`] slivers;
 /// the walk still refuses new slivers from there. The copy is skipped when memory for it
 /// cannot be had; LOP's own stack may fail too (an
-/// [`Error::OutOfMemory`](crate::Error::OutOfMemory)). O(flips + m), twice.
+/// [`Error::OutOfMemory`]). O(flips + m), twice.
 pub(crate) fn descend(
     state: &mut TacState,
     params: &AnnealParams,
