@@ -232,8 +232,11 @@ def test_stale_temporaries_of_the_output_are_removed(tmp_path):
     assert all(p.exists() for p in kept) and fresh.exists()
 
 
+# A child started under nohup inherits SIGHUP ignored, and write_atomic leaves an ignored
+# signal ignored (as it should): the writer puts the default back first, as a terminal has it.
 _WRITER = """
-import sys, time
+import signal, sys, time
+signal.signal(signal.SIGHUP, signal.SIG_DFL)
 from scanmesh.formats.write import write_atomic
 
 def chunks():
