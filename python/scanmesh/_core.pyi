@@ -30,7 +30,6 @@ __all__ = [
     "delaunay_trimmed",
     "grid_triangulate",
     "median_spacing",
-    "k_nearest",
     "trim_long_edges",
     "validate",
     "mesh_quality",
