@@ -141,42 +141,6 @@ def test_shuffled_points_use_neighbourhoods(part):
             assert abs(estimate / sigma - 1) < 0.2, (part, fraction, estimate / sigma)
 
 
-@pytest.mark.parametrize("layout", ["scattered", "clusters", "line", "lattice"])
-def test_native_neighbours_match_scipys_kd_tree(layout):
-    """The neighbour search the fits use (the core's grid of buckets) finds the same
-    distances as scipy's k-d tree, on scattered, clustered, collinear and tied points."""
-    from scipy.spatial import cKDTree
-
-    from scanmesh import _core
-
-    rng = np.random.default_rng(3)
-    uv = {
-        "scattered": rng.random((3000, 2)) * [40.0, 1.0],
-        "clusters": np.concatenate([rng.random((900, 2)) * 1e-4, 1e5 + rng.random((900, 2))]),
-        "line": np.stack([np.linspace(0, 7, 700), np.full(700, 2.0)], axis=1),
-        "lattice": np.stack(np.meshgrid(np.arange(30.0), np.arange(25.0)), -1).reshape(-1, 2),
-    }[layout]
-    queries = np.sort(rng.choice(len(uv), 400, replace=False))
-    for k in (1, 13, 41):
-        near = _core.k_nearest(uv, queries, k)
-        want, _ = cKDTree(uv).query(uv[queries], k=k)
-        got = np.linalg.norm(uv[near] - uv[queries, None, :], axis=2)
-        np.testing.assert_allclose(got, np.reshape(want, got.shape), rtol=0, atol=1e-12)
-        assert (near[:, 0] == queries).all()  # itself first: the points are distinct
-
-
-def test_native_neighbours_refuse_bad_input():
-    from scanmesh import _core
-
-    uv = np.array([[0.0, 0.0], [1.0, np.nan], [2.0, 0.0]])
-    with pytest.raises(DegenerateInputError, match="non-finite"):
-        _core.k_nearest(uv, np.array([0]), 2)
-    with pytest.raises(scanmesh.ScanmeshError, match="k"):
-        _core.k_nearest(uv[[0, 2]], np.array([0]), 3)
-    with pytest.raises(scanmesh.ScanmeshError, match="queries"):
-        _core.k_nearest(uv[[0, 2]], np.array([-1]), 1)
-
-
 def default_and_exact_ties(points, lines, seed, plane="z"):
     """Annealing with the noise-aware tie tolerance (``tie_tolerance=None``) and with exact
     ties only (the default)."""

@@ -109,9 +109,6 @@ def grid_triangulate(
     edge_factor: float = ...,
 ) -> GridTriangles: ...
 def median_spacing(uv: npt.NDArray[np.float64], faces_: npt.NDArray[np.int64]) -> float: ...
-def k_nearest(
-    uv: npt.NDArray[np.float64], queries: npt.NDArray[np.int64], k: int
-) -> npt.NDArray[np.int64]: ...
 def trim_long_edges(
     uv: npt.NDArray[np.float64],
     faces_: npt.NDArray[np.int64],

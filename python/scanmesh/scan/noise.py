@@ -44,7 +44,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from scanmesh import _core
 from scanmesh._checks import power_of_two_exponent
 from scanmesh.errors import DegenerateInputError
 from scanmesh.scan.lines import scan_lines
@@ -185,6 +184,8 @@ def neighbourhood_residuals(points: ArrayLike | PlanarScan, plane: PlaneSpec = N
 
 def _neighbourhood_residuals(uv: np.ndarray, height: np.ndarray) -> np.ndarray:
     """:func:`neighbourhood_residuals` of points at planar ``uv`` with ``height`` (one unit)."""
+    from scipy.spatial import cKDTree  # scipy loads only when needed: `import scanmesh` stays light
+
     if len(uv) <= NEIGHBOURS or not np.isfinite(uv).all():
         return np.zeros(0)
     # Distinct planar positions only (the first of each, as Delaunay keeps them): a copy
@@ -198,7 +199,7 @@ def _neighbourhood_residuals(uv: np.ndarray, height: np.ndarray) -> np.ndarray:
     centres = np.arange(len(uv))
     if len(uv) > MAX_FITS:
         centres = np.sort(np.random.default_rng(0).choice(len(uv), MAX_FITS, replace=False))
-    near = _core.k_nearest(np.ascontiguousarray(uv, dtype=np.float64), centres, NEIGHBOURS + 1)
+    _, near = cKDTree(uv).query(uv[centres], k=NEIGHBOURS + 1)
     out = []
     for first in range(0, len(centres), CHUNK):
         own = centres[first : first + CHUNK]

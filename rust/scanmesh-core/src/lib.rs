@@ -11,7 +11,6 @@
 //! - `geometry`: corner angles (atan2 form), areas, exact orientation, normalization, the
 //!   power-of-two unit square;
 //! - `projection`: points to a plane (least squares, an axis, a normal);
-//! - `neighbours`: the k nearest planar neighbours of points, by a grid of buckets;
 //! - `mesh/`: the flat half-edge triangulation with flips (`halfedge`, `NONE`, `next`,
 //!   `prev`), its invariants checked (`validate`), the faces around each vertex (`fans`),
 //!   the Z-order relabelling that keeps memory accesses close (`locality`);
@@ -51,7 +50,6 @@ pub mod fusion;
 pub mod geometry;
 pub mod io;
 pub mod mesh;
-pub mod neighbours;
 pub mod optimize;
 pub mod pool;
 pub mod progress;

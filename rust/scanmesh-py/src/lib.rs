@@ -18,7 +18,6 @@ mod criteria;
 mod exact;
 mod fusion;
 mod io;
-mod neighbours;
 mod optimize;
 mod progress;
 mod results;
@@ -160,7 +159,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(triangulate::project, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::median_spacing, m)?)?;
-    m.add_function(wrap_pyfunction!(neighbours::k_nearest, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::trim_long_edges, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::delaunay_trimmed, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate::grid_triangulate, m)?)?;
